@@ -1,0 +1,87 @@
+//! The preflight test command (SPEC §5): a chirp of the user-shaft position.
+//!
+//! `θ_cmd(t) = A · sin(2π · f_end · t² / (2T))` for `t ∈ [0, T]`: frequency rising linearly
+//! from 0 to `f_end` in `T` seconds. Units: rad (user side), s, Hz. O(1) per call; time is
+//! passed in, never read.
+
+use crate::math::{frac, sin, TAU};
+
+/// A linear chirp from 0 Hz to `end_frequency` over `duration`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ChirpCommand {
+    /// Amplitude at the user shaft [rad].
+    pub amplitude: f32,
+    /// Frequency reached at `duration` [Hz].
+    pub end_frequency: f32,
+    /// Length of the test [s].
+    pub duration: f32,
+}
+
+impl ChirpCommand {
+    /// The test of the paper (§III.2): 5e-3 rad, 0 → 15 Hz in 0.5 s.
+    pub const PREFLIGHT: Self = Self { amplitude: 5.0e-3, end_frequency: 15.0, duration: 0.5 };
+
+    /// Commanded user-shaft angle [rad] at time `t` [s]. Zero before the start; after
+    /// `duration` the chirp simply continues (callers stop at `duration`).
+    pub fn position(&self, t: f32) -> f32 {
+        if t <= 0.0 || self.duration <= 0.0 {
+            return 0.0;
+        }
+        // Phase in cycles, reduced to [0, 1) before the sine so that the approximation
+        // works on a small argument at every t.
+        let cycles = self.end_frequency * t * t / (2.0 * self.duration);
+        self.amplitude * sin(TAU * frac(cycles))
+    }
+
+    /// Instantaneous frequency [Hz] at time `t`.
+    pub fn frequency(&self, t: f32) -> f32 {
+        if self.duration <= 0.0 {
+            return 0.0;
+        }
+        self.end_frequency * t.clamp(0.0, self.duration) / self.duration
+    }
+}
+
+impl Default for ChirpCommand {
+    fn default() -> Self {
+        Self::PREFLIGHT
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn starts_at_rest_and_stays_within_amplitude() {
+        let c = ChirpCommand::PREFLIGHT;
+        assert_eq!(c.position(0.0), 0.0);
+        let mut peak = 0.0f32;
+        for i in 0..5000 {
+            let p = c.position(i as f32 * 1e-4);
+            assert!(p.abs() <= c.amplitude * 1.001);
+            peak = peak.max(p.abs());
+        }
+        assert!(peak > 0.99 * c.amplitude);
+    }
+
+    #[test]
+    fn matches_closed_form() {
+        let c = ChirpCommand::PREFLIGHT;
+        for i in 0..500 {
+            let t = i as f64 * 1e-3;
+            let exact = 5e-3 * (std::f64::consts::PI * 15.0 * t * t / 0.5).sin();
+            let ours = c.position(t as f32) as f64;
+            assert!((exact - ours).abs() < 2e-5, "t={t}: {exact} vs {ours}");
+        }
+    }
+
+    #[test]
+    fn frequency_ramps_linearly() {
+        let c = ChirpCommand::PREFLIGHT;
+        assert_eq!(c.frequency(0.0), 0.0);
+        assert_eq!(c.frequency(0.25), 7.5);
+        assert_eq!(c.frequency(0.5), 15.0);
+    }
+}

@@ -1,0 +1,341 @@
+//! Signal conditioning: three phase currents + rotor angle → one filtered equivalent current.
+//!
+//! Units: amperes, radians (motor shaft; electrical angle θ_e = P·θ_m), hertz. One sample per
+//! control period (10 kHz). Every call here is O(1) per sample; [`MeasuredCurrent::finish`] is
+//! one O(N) pass.
+//!
+//! **Commutation convention** (shared by the monitor model and any model of the real drive):
+//! 120° trapezoidal commutation in six 60° sectors, sector `j` covering
+//! `θ_e ∈ ((2j−1)·30°, (2j+1)·30°)` modulo 360°. In each sector one phase floats and the other
+//! two carry the same current in opposite directions; [`COMMUTATION_SIGNS`] gives, per sector,
+//! the sign with which each phase (A, B, C) carries a positive-torque current. The floating
+//! phase in sectors 0 and 3 is A, in 1 and 4 it is B, in 2 and 5 it is C — the sector layout of
+//! the paper's short-circuit shape function, eq. (1).
+//!
+//! **Equivalent current**: `i_eq = ½ · Σ_x s_x(θ_e) · i_x`, the current of the two conducting
+//! phases, signed so that positive means motoring torque in the positive direction. It is
+//! continuous in sign through motion reversals (unlike |i| envelopes) and ignores the floating
+//! phase (counting a commutating phase doubled the model mismatch in prototyping).
+
+use fixed::types::I16F16;
+use heapless::Vec;
+
+use crate::math::{floor, sqrt, tan};
+
+/// Positive-torque current sign of phases A, B, C in each 60° commutation sector.
+pub const COMMUTATION_SIGNS: [[i8; 3]; 6] =
+    [[0, 1, -1], [1, 0, -1], [1, -1, 0], [0, -1, 1], [-1, 0, 1], [-1, 1, 0]];
+
+/// Commutation sector `0..6` of an electrical angle [rad] (any value; NaN maps to sector 0).
+#[inline]
+pub fn commutation_sector(theta_e: f32) -> usize {
+    // Sector boundaries sit at odd multiples of 30°: shift by half a sector, then divide.
+    let x = theta_e * (3.0 / core::f32::consts::PI) + 0.5;
+    // `as i32` saturates and maps NaN to 0: no panic for any input.
+    (floor(x) as i32).rem_euclid(6) as usize
+}
+
+/// Signs of the three phases in the sector of `theta_e`.
+#[inline]
+pub fn commutation_signs(theta_e: f32) -> [i8; 3] {
+    match COMMUTATION_SIGNS.get(commutation_sector(theta_e)) {
+        Some(s) => *s,
+        None => [0; 3], // unreachable: the sector is reduced modulo 6
+    }
+}
+
+/// One ADC acquisition, in fixed point as the controller holds it: the three phase currents
+/// [A] and the motor-shaft angle [rad], each `I16F16` (±32 768, resolution 15 µA / 15 µrad).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct AdcFrame {
+    pub phase_currents: [I16F16; 3],
+    pub motor_angle: I16F16,
+}
+
+impl AdcFrame {
+    /// Builds a frame from floating-point values, saturating at the fixed-point range.
+    pub fn from_f32(phase_currents: [f32; 3], motor_angle: f32) -> Self {
+        Self {
+            phase_currents: phase_currents.map(I16F16::saturating_from_num),
+            motor_angle: I16F16::saturating_from_num(motor_angle),
+        }
+    }
+}
+
+/// Sign-preserving equivalent current [A] of one sample (module docs).
+#[inline]
+pub fn equivalent_current(phase_currents: [f32; 3], theta_e: f32) -> f32 {
+    let s = commutation_signs(theta_e);
+    0.5 * (f32::from(s[0]) * phase_currents[0]
+        + f32::from(s[1]) * phase_currents[1]
+        + f32::from(s[2]) * phase_currents[2])
+}
+
+/// Why conditioning refused its input.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ConditioningError {
+    /// Cutoff not inside `(0, sample_rate / 2)`, or a rate that is not finite and positive.
+    InvalidCutoff,
+    /// Fewer samples than the fitness needs.
+    TooFewSamples { have: u32, need: u32 },
+    /// A sample that is NaN or infinite (at this index).
+    NotFinite { index: u32 },
+    /// The buffer was used before [`MeasuredCurrent::finish`].
+    NotFinished,
+}
+
+/// Second-order Butterworth low-pass (bilinear transform), the settings half.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LowPass {
+    b0: f32,
+    b1: f32,
+    b2: f32,
+    a1: f32,
+    a2: f32,
+}
+
+/// Running state of a [`LowPass`] (transposed direct form II).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LowPassState {
+    z1: f32,
+    z2: f32,
+}
+
+impl LowPass {
+    /// Default cutoff of the equivalent-current filter [Hz]: well above the chirp and the
+    /// electrical-angle signatures of the faults (≤ ~300 Hz during the test), well below the
+    /// switching ripple.
+    pub const DEFAULT_CUTOFF_HZ: f32 = 1000.0;
+
+    /// Butterworth low-pass with the given cutoff and sample rate.
+    pub fn butterworth(cutoff_hz: f32, sample_rate_hz: f32) -> Result<Self, ConditioningError> {
+        let valid = sample_rate_hz.is_finite()
+            && sample_rate_hz > 0.0
+            && cutoff_hz.is_finite()
+            && cutoff_hz > 0.0
+            && cutoff_hz < 0.5 * sample_rate_hz;
+        if !valid {
+            return Err(ConditioningError::InvalidCutoff);
+        }
+        let k = tan(core::f32::consts::PI * cutoff_hz / sample_rate_hz);
+        let sqrt2 = sqrt(2.0);
+        let norm = 1.0 / (1.0 + sqrt2 * k + k * k);
+        let b0 = k * k * norm;
+        Ok(Self {
+            b0,
+            b1: 2.0 * b0,
+            b2: b0,
+            a1: 2.0 * (k * k - 1.0) * norm,
+            a2: (1.0 - sqrt2 * k + k * k) * norm,
+        })
+    }
+
+    /// The default filter at the control rate of `control_period` seconds.
+    pub fn for_control_period(control_period: f32) -> Result<Self, ConditioningError> {
+        Self::butterworth(Self::DEFAULT_CUTOFF_HZ, 1.0 / control_period)
+    }
+
+    /// Filters one sample (O(1)).
+    #[inline]
+    pub fn apply(&self, state: &mut LowPassState, x: f32) -> f32 {
+        let y = self.b0 * x + state.z1;
+        state.z1 = self.b1 * x - self.a1 * y + state.z2;
+        state.z2 = self.b2 * x - self.a2 * y;
+        y
+    }
+}
+
+/// The conditioned measured current of one test, ready for the fitness: at most `N` filtered
+/// equivalent-current samples [A] plus the derivative normalisation of eq. (3).
+///
+/// Filled sample by sample (`push_*` hands the sample back when full), then sealed with
+/// [`finish`](Self::finish). Memory: `4·N` bytes plus a few words; no allocation.
+#[derive(Clone, Debug)]
+pub struct MeasuredCurrent<const N: usize> {
+    filter: LowPass,
+    filter_state: LowPassState,
+    samples: Vec<f32, N>,
+    /// `1 / κ`, κ = mean of the squared sample-to-sample difference; `None` until finished.
+    inv_kappa: Option<f32>,
+}
+
+impl<const N: usize> MeasuredCurrent<N> {
+    /// Shortest trace the fitness accepts: 0.1 s at 10 kHz.
+    pub const MIN_SAMPLES: usize = 1000;
+
+    /// An empty buffer that conditions with `filter`.
+    pub const fn new(filter: LowPass) -> Self {
+        Self { filter, filter_state: LowPassState { z1: 0.0, z2: 0.0 }, samples: Vec::new(), inv_kappa: None }
+    }
+
+    /// Conditions and stores one ADC frame; hands it back when the buffer is full.
+    pub fn push_frame(&mut self, frame: AdcFrame, pole_pairs: f32) -> Result<(), AdcFrame> {
+        let [a, b, c] = frame.phase_currents.map(|x| x.to_num::<f32>());
+        let theta_e = pole_pairs * frame.motor_angle.to_num::<f32>();
+        match self.push_equivalent(equivalent_current([a, b, c], theta_e)) {
+            Ok(()) => Ok(()),
+            Err(_) => Err(frame),
+        }
+    }
+
+    /// Filters and stores one equivalent-current sample [A]; hands it back when full.
+    pub fn push_equivalent(&mut self, current: f32) -> Result<(), f32> {
+        if self.samples.is_full() {
+            return Err(current);
+        }
+        let y = self.filter.apply(&mut self.filter_state, current);
+        self.inv_kappa = None;
+        self.samples.push(y)
+    }
+
+    /// Seals the buffer: checks it and computes the eq. (3) normalisation. O(N).
+    pub fn finish(&mut self) -> Result<(), ConditioningError> {
+        let need = Self::MIN_SAMPLES.min(N);
+        if self.samples.len() < need {
+            return Err(ConditioningError::TooFewSamples { have: self.samples.len() as u32, need: need as u32 });
+        }
+        if let Some(index) = self.samples.iter().position(|x| !x.is_finite()) {
+            return Err(ConditioningError::NotFinite { index: index as u32 });
+        }
+        let mut sum_sq = 0.0f32;
+        let mut previous = 0.0f32;
+        for &x in &self.samples {
+            let d = x - previous;
+            sum_sq += d * d;
+            previous = x;
+        }
+        let kappa = sum_sq / self.samples.len() as f32;
+        // A flat trace has no derivative to normalise: every weight is then 1.
+        self.inv_kappa = Some(if kappa > f32::MIN_POSITIVE { 1.0 / kappa } else { 0.0 });
+        Ok(())
+    }
+
+    /// The filtered samples [A].
+    pub fn samples(&self) -> &[f32] {
+        &self.samples
+    }
+
+    /// `1/κ` of eq. (3) in units of 1/A² per sample step, once finished.
+    pub fn inv_kappa(&self) -> Result<f32, ConditioningError> {
+        self.inv_kappa.ok_or(ConditioningError::NotFinished)
+    }
+
+    /// The filter this buffer conditions with (the monitor model's output must go through the
+    /// same one).
+    pub fn filter(&self) -> &LowPass {
+        &self.filter
+    }
+
+    /// Empties the buffer for a new test, keeping the filter.
+    pub fn clear(&mut self) {
+        self.samples.clear();
+        self.filter_state = LowPassState::default();
+        self.inv_kappa = None;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sectors_follow_the_table() {
+        let deg = core::f32::consts::PI / 180.0;
+        assert_eq!(commutation_sector(0.0), 0);
+        assert_eq!(commutation_sector(29.0 * deg), 0);
+        assert_eq!(commutation_sector(31.0 * deg), 1);
+        assert_eq!(commutation_sector(100.0 * deg), 2);
+        assert_eq!(commutation_sector(180.0 * deg), 3);
+        assert_eq!(commutation_sector(-29.0 * deg), 0);
+        assert_eq!(commutation_sector(-31.0 * deg), 5);
+        assert_eq!(commutation_sector(720.0 * deg + 100.0 * deg), 2);
+        assert_eq!(commutation_sector(f32::NAN), 0);
+        assert!(commutation_sector(f32::INFINITY) < 6);
+        assert!(commutation_sector(-1e30) < 6);
+    }
+
+    #[test]
+    fn each_sector_has_one_floating_phase_and_balanced_currents() {
+        for s in COMMUTATION_SIGNS {
+            assert_eq!(s.iter().filter(|&&x| x == 0).count(), 1);
+            assert_eq!(s.iter().map(|&x| x as i32).sum::<i32>(), 0);
+        }
+        // Paper eq. (1): floating phase A, B, C in sectors (0,3), (1,4), (2,5).
+        for (j, s) in COMMUTATION_SIGNS.iter().enumerate() {
+            assert_eq!(s[j % 3], 0, "sector {j}");
+        }
+    }
+
+    #[test]
+    fn equivalent_current_recovers_the_conducting_current_with_its_sign() {
+        for j in 0..36 {
+            let theta_e = (j as f32 + 0.5) * 10.0 * core::f32::consts::PI / 180.0;
+            let s = commutation_signs(theta_e);
+            for current in [3.5f32, -2.0] {
+                let phases = s.map(|x| f32::from(x) * current);
+                assert_eq!(equivalent_current(phases, theta_e), current);
+            }
+        }
+    }
+
+    #[test]
+    fn low_pass_has_unit_dc_gain_and_attenuates_above_cutoff() {
+        let lp = LowPass::butterworth(1000.0, 10_000.0).unwrap();
+        let mut st = LowPassState::default();
+        let mut y = 0.0;
+        for _ in 0..2000 {
+            y = lp.apply(&mut st, 1.0);
+        }
+        assert!((y - 1.0).abs() < 1e-5);
+        // A 4 kHz tone is attenuated by more than 20 dB.
+        let mut st = LowPassState::default();
+        let mut peak = 0.0f32;
+        for i in 0..4000 {
+            let x = (core::f32::consts::TAU * 4000.0 * i as f32 / 10_000.0).sin();
+            let y = lp.apply(&mut st, x);
+            if i > 2000 {
+                peak = peak.max(y.abs());
+            }
+        }
+        assert!(peak < 0.1, "peak {peak}");
+        assert_eq!(LowPass::butterworth(5000.0, 10_000.0), Err(ConditioningError::InvalidCutoff));
+        assert_eq!(LowPass::butterworth(0.0, 10_000.0), Err(ConditioningError::InvalidCutoff));
+        assert_eq!(LowPass::butterworth(f32::NAN, 10_000.0), Err(ConditioningError::InvalidCutoff));
+    }
+
+    #[test]
+    fn measured_buffer_hands_back_when_full_and_checks_length() {
+        let lp = LowPass::butterworth(1000.0, 10_000.0).unwrap();
+        let mut m = MeasuredCurrent::<1200>::new(lp);
+        assert_eq!(m.inv_kappa(), Err(ConditioningError::NotFinished));
+        for i in 0..999 {
+            m.push_equivalent(i as f32).unwrap();
+        }
+        assert_eq!(m.finish(), Err(ConditioningError::TooFewSamples { have: 999, need: 1000 }));
+        for i in 999..1200 {
+            m.push_equivalent(i as f32).unwrap();
+        }
+        assert_eq!(m.push_equivalent(7.0), Err(7.0));
+        let frame = AdcFrame::from_f32([1.0, -1.0, 0.0], 0.3);
+        assert_eq!(m.push_frame(frame, 4.0), Err(frame));
+        m.finish().unwrap();
+        assert!(m.inv_kappa().unwrap() > 0.0);
+        m.clear();
+        assert!(m.samples().is_empty());
+    }
+
+    #[test]
+    fn measured_buffer_rejects_non_finite_samples() {
+        let lp = LowPass::butterworth(1000.0, 10_000.0).unwrap();
+        let mut m = MeasuredCurrent::<1000>::new(lp);
+        for i in 0..1000 {
+            m.push_equivalent(if i == 10 { f32::INFINITY } else { 0.0 }).unwrap();
+        }
+        // The filter spreads the infinity (as NaN/inf) from index 10 on.
+        assert_eq!(m.finish(), Err(ConditioningError::NotFinite { index: 10 }));
+    }
+}

@@ -1,0 +1,130 @@
+//! The onboard FDI wired together: sizes, settings and the executor-free identification loop.
+//!
+//! Memory (checked by `host-sim footprint`): [`OnboardMeasured`] `4·TEST_SAMPLES` bytes +
+//! [`OnboardGa`] `≈ 36·POPULATION` bytes + one [`MonitorModel`]; no heap. The firmware drives
+//! [`Identification`] a bounded number of evaluations at a time; the host calls
+//! [`Identification::run`].
+
+use crate::conditioning::{commutation_signs, AdcFrame, MeasuredCurrent};
+use crate::fault::FaultVector;
+use crate::fitness::{Calibration, FitnessError, FitnessProblem};
+use crate::ga::{GaError, GaSettings, Status, SteadyStateGa, StopReason};
+use crate::monitor::MonitorModel;
+use crate::params::ActuatorParams;
+
+/// Samples in one preflight test: 0.5 s at 10 kHz.
+pub const TEST_SAMPLES: usize = 5000;
+
+/// Individuals in the onboard GA population.
+pub const POPULATION: usize = 32;
+
+/// The measured-current buffer the controller fills during the test.
+pub type OnboardMeasured = MeasuredCurrent<TEST_SAMPLES>;
+
+/// The onboard GA.
+pub type OnboardGa = SteadyStateGa<POPULATION>;
+
+/// Result of an identification.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct IdentificationResult {
+    pub faults: FaultVector,
+    /// Eq. (3) of the best vector, residual subtracted [A²·s].
+    pub fitness: f32,
+    pub evaluations: u32,
+    pub stop_reason: StopReason,
+}
+
+/// Why an identification could not start.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FdiError {
+    Fitness(FitnessError),
+    Ga(GaError),
+}
+
+impl From<FitnessError> for FdiError {
+    fn from(e: FitnessError) -> Self {
+        Self::Fitness(e)
+    }
+}
+impl From<GaError> for FdiError {
+    fn from(e: GaError) -> Self {
+        Self::Ga(e)
+    }
+}
+
+/// One identification in progress: the problem (fitness against one measured test) and the
+/// solver state. Both the firmware task and the host loop drive this same value.
+#[derive(Clone, Debug)]
+pub struct Identification<'a, const N: usize, const P: usize> {
+    problem: FitnessProblem<'a, N>,
+    ga: SteadyStateGa<P>,
+}
+
+impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
+    pub fn new(
+        measured: &'a MeasuredCurrent<N>,
+        params: ActuatorParams,
+        calibration: &Calibration,
+        settings: GaSettings,
+        seed: u64,
+    ) -> Result<Self, FdiError> {
+        Ok(Self { problem: FitnessProblem::new(measured, params, calibration)?, ga: SteadyStateGa::new(settings, seed)? })
+    }
+
+    /// At most `budget` monitor-model evaluations, then returns.
+    pub fn step(&mut self, budget: u32) -> Status {
+        self.ga.step(&mut self.problem, budget)
+    }
+
+    /// Runs to the end (bounded by the GA settings).
+    pub fn run(&mut self) -> IdentificationResult {
+        self.ga.run(&mut self.problem);
+        self.result_so_far()
+    }
+
+    pub fn ga(&self) -> &SteadyStateGa<P> {
+        &self.ga
+    }
+
+    pub fn problem(&self) -> &FitnessProblem<'a, N> {
+        &self.problem
+    }
+
+    /// The best vector found so far (the stop reason says `EvaluationBudget` while running).
+    pub fn result_so_far(&self) -> IdentificationResult {
+        let best = self.ga.best();
+        IdentificationResult {
+            faults: FaultVector::saturating(best.genes),
+            fitness: best.fitness,
+            evaluations: self.ga.evaluations(),
+            stop_reason: match self.ga.status() {
+                Status::Done(reason) => reason,
+                Status::Running => StopReason::EvaluationBudget,
+            },
+        }
+    }
+}
+
+/// Records what the controller would measure if the actuator behaved exactly like the monitor
+/// model with faults `k`: three phase currents from the equivalent current and the commutation
+/// table, quantised into [`AdcFrame`]s and conditioned into `measured` (cleared first). Used
+/// by the inverse check, which proves fitness and optimiser before any reference model.
+pub fn record_monitor_trace<const N: usize>(
+    model: &MonitorModel,
+    k: &FaultVector,
+    measured: &mut MeasuredCurrent<N>,
+) -> Result<(), FitnessError> {
+    measured.clear();
+    let pole_pairs = model.params().pole_pairs;
+    let samples = model.test_samples().min(N);
+    model.run(k, samples, |s| {
+        let signs = commutation_signs(pole_pairs * s.motor_angle);
+        let phases = signs.map(|x| f32::from(x) * s.current);
+        // Cannot be full: at most N samples are produced.
+        let _ = measured.push_frame(AdcFrame::from_f32(phases, s.motor_angle), pole_pairs);
+    });
+    measured.finish()?;
+    Ok(())
+}

@@ -1,0 +1,123 @@
+//! The fitness of a candidate fault vector, paper eq. (3), and the calibration it relies on.
+//!
+//! `err(k) = dt · Σ_i (I_r,i − I_m,i(k))² / ((ΔI_r,i)²/κ + 1) − residual`, with `I_r` the
+//! filtered measured equivalent current, `I_m` the monitor model's current through the same
+//! filter, `ΔI_r,i` the sample-to-sample change of `I_r` and κ its mean square (the
+//! derivative normalisation; using differences instead of derivatives is the same ratio).
+//! Units: A²·s. One evaluation = one monitor-model run over the measured samples: O(N), no
+//! allocation, never panics; a non-finite result cannot occur for finite inputs and is
+//! reported as `+∞` by [`FitnessProblem::error`] if it ever did.
+
+use crate::conditioning::{ConditioningError, LowPassState, MeasuredCurrent};
+use crate::fault::{FaultVector, FAULT_COUNT};
+use crate::ga::Problem;
+use crate::monitor::MonitorModel;
+use crate::params::ActuatorParams;
+
+/// How the monitor model is fitted to one actuator: electrical scale factors found on a
+/// healthy trace, and the nominal residual error subtracted so that a healthy actuator scores
+/// 0 (paper §III.2). Plain data: the firmware carries it as a constant or a flash record.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Calibration {
+    /// Multiplier of the monitor model's equivalent resistance.
+    pub resistance_scale: f32,
+    /// Multiplier of the monitor model's equivalent inductance.
+    pub inductance_scale: f32,
+    /// Multiplier of the monitor model's back-EMF / torque constant.
+    pub back_emf_scale: f32,
+    /// Fitness of the nominal fault vector against the healthy trace [A²·s].
+    pub nominal_residual: f32,
+}
+
+impl Calibration {
+    /// No correction: the monitor model as the parameters describe it.
+    pub const IDENTITY: Self =
+        Self { resistance_scale: 1.0, inductance_scale: 1.0, back_emf_scale: 1.0, nominal_residual: 0.0 };
+}
+
+impl Default for Calibration {
+    fn default() -> Self {
+        Self::IDENTITY
+    }
+}
+
+/// Why a fitness problem could not be set up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FitnessError {
+    /// The measured current is not usable (not finished, too short, …).
+    Measured(ConditioningError),
+}
+
+impl From<ConditioningError> for FitnessError {
+    fn from(e: ConditioningError) -> Self {
+        Self::Measured(e)
+    }
+}
+
+/// Eq. (3) over one measured test: the problem the GA minimises.
+#[derive(Clone, Debug)]
+pub struct FitnessProblem<'a, const N: usize> {
+    measured: &'a MeasuredCurrent<N>,
+    model: MonitorModel,
+    inv_kappa: f32,
+    nominal_residual: f32,
+}
+
+impl<'a, const N: usize> FitnessProblem<'a, N> {
+    /// The fitness of the monitor model of `params`, calibrated by `calibration`, against a
+    /// finished measured current.
+    pub fn new(
+        measured: &'a MeasuredCurrent<N>,
+        params: ActuatorParams,
+        calibration: &Calibration,
+    ) -> Result<Self, FitnessError> {
+        Ok(Self {
+            measured,
+            model: MonitorModel::new(params, calibration),
+            inv_kappa: measured.inv_kappa()?,
+            nominal_residual: calibration.nominal_residual,
+        })
+    }
+
+    pub fn model(&self) -> &MonitorModel {
+        &self.model
+    }
+
+    /// Eq. (3) without the residual subtracted [A²·s]. `+∞` if the sum is not finite.
+    pub fn raw_error(&self, k: &FaultVector) -> f32 {
+        let reference = self.measured.samples();
+        let filter = self.measured.filter();
+        let mut filter_state = LowPassState::default();
+        let mut previous = 0.0f32;
+        let mut sum = 0.0f32;
+        let mut reference_iter = reference.iter();
+        self.model.run(k, reference.len(), |s| {
+            let modelled = filter.apply(&mut filter_state, s.current);
+            if let Some(&r) = reference_iter.next() {
+                let d = r - previous;
+                previous = r;
+                let e = r - modelled;
+                sum += e * e / (d * d * self.inv_kappa + 1.0);
+            }
+        });
+        let err = sum * self.model.params().control_period;
+        if err.is_finite() {
+            err
+        } else {
+            f32::INFINITY
+        }
+    }
+
+    /// Eq. (3) with the calibrated nominal residual subtracted [A²·s].
+    pub fn error(&self, k: &FaultVector) -> f32 {
+        self.raw_error(k) - self.nominal_residual
+    }
+}
+
+impl<const N: usize> Problem for FitnessProblem<'_, N> {
+    fn fitness(&mut self, genes: &[f32; FAULT_COUNT]) -> f32 {
+        self.error(&FaultVector::saturating(*genes))
+    }
+}

@@ -1,0 +1,561 @@
+//! Memory-bounded steady-state genetic algorithm (SPEC §6), solver half of the FDI.
+//!
+//! * Population of `P` individuals in a const-generic array; no heap. State size is
+//!   `size_of::<SteadyStateGa<P>>()` ≈ `36·P + 160` bytes.
+//! * Genes are the [`FAULT_COUNT`] fault components in `[0, 1]`; genes flagged circular (the
+//!   eccentricity phase) wrap, the others reflect at the bounds. Every operator keeps every
+//!   gene in bounds.
+//! * One offspring per step: two parents by tournament, BLX-α blend crossover, then Gaussian
+//!   mutation whose width follows the population's spread around the best individual (so the
+//!   search narrows as the population converges) plus a floor. The offspring replaces the
+//!   worst individual if it is better. The best individual is therefore never lost.
+//! * Seeded [`Xoshiro128PlusPlus`]; no transcendental functions, only `+ − × ÷` on f32, so
+//!   the same seed and fitness give the same bits on every IEEE-754 target.
+//! * Interface: [`ask`](SteadyStateGa::ask) / [`tell`](SteadyStateGa::tell) at the core;
+//!   [`step`](SteadyStateGa::step) runs at most `budget` evaluations of a [`Problem`] and
+//!   returns. Stopping anywhere and resuming gives bit-identical results: the GA is plain data.
+//! * A "generation" is `P` offspring. Stops ([`StopReason`]): evaluation budget, generation
+//!   limit, or stall — best fitness improved by no more than `tolerance` over
+//!   `stall_generations` generations.
+
+use rand_core::{RngCore, SeedableRng};
+use rand_xoshiro::Xoshiro128PlusPlus;
+
+use crate::fault::{CIRCULAR, FAULT_COUNT};
+
+/// Number of genes of an individual.
+pub const GENES: usize = FAULT_COUNT;
+
+/// A candidate solution: one value per gene, each in `[0, 1]`.
+pub type Genes = [f32; GENES];
+
+/// The objective the GA minimises. Lower is better; a non-finite value counts as `+∞`.
+pub trait Problem {
+    fn fitness(&mut self, genes: &Genes) -> f32;
+}
+
+impl<F: FnMut(&Genes) -> f32> Problem for F {
+    fn fitness(&mut self, genes: &Genes) -> f32 {
+        self(genes)
+    }
+}
+
+/// GA settings, split from the running state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct GaSettings {
+    /// Stop after this many fitness evaluations (including the initial population).
+    pub max_evaluations: u32,
+    /// Stop after this many generations of `P` offspring.
+    pub max_generations: u32,
+    /// Stop when the best fitness improved by ≤ `tolerance` over this many generations.
+    pub stall_generations: u32,
+    /// Improvement that counts as progress for the stall test (fitness units).
+    pub tolerance: f32,
+    /// Individuals drawn per tournament (≥ 1).
+    pub tournament_size: u8,
+    /// BLX-α extension of the parents' interval on each side.
+    pub crossover_alpha: f32,
+    /// Probability that each gene of an offspring is mutated.
+    pub mutation_probability: f32,
+    /// Mutation standard deviation as a multiple of the population's spread in that gene.
+    pub mutation_scale: f32,
+    /// Mutation standard deviation added regardless of spread.
+    pub mutation_floor: f32,
+    /// Genes that wrap around (0 ≡ 1) instead of reflecting at the bounds.
+    pub circular: [bool; GENES],
+    /// An individual placed in the initial population (e.g. the nominal fault vector).
+    pub initial_guess: Option<Genes>,
+}
+
+impl GaSettings {
+    /// Settings of the onboard FDI (the firmware's budget).
+    pub const FDI: Self = Self {
+        max_evaluations: 6000,
+        max_generations: 300,
+        stall_generations: 40,
+        tolerance: 0.0,
+        tournament_size: 3,
+        crossover_alpha: 0.3,
+        mutation_probability: 0.3,
+        mutation_scale: 0.5,
+        mutation_floor: 2.0e-4,
+        circular: CIRCULAR,
+        initial_guess: Some([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]),
+    };
+
+    fn validate(&self, population: usize) -> Result<(), GaError> {
+        let probability_ok = (0.0..=1.0).contains(&self.mutation_probability);
+        let finite = self.crossover_alpha.is_finite()
+            && self.mutation_scale.is_finite()
+            && self.mutation_floor.is_finite()
+            && self.tolerance.is_finite();
+        let guess_ok = match &self.initial_guess {
+            Some(g) => g.iter().all(|x| (0.0..=1.0).contains(x)),
+            None => true,
+        };
+        if population < 2 {
+            Err(GaError::InvalidSettings("population must hold at least 2 individuals"))
+        } else if population > u16::MAX as usize {
+            Err(GaError::InvalidSettings("population larger than 65535"))
+        } else if self.tournament_size == 0 {
+            Err(GaError::InvalidSettings("tournament size must be at least 1"))
+        } else if !probability_ok || !finite || self.crossover_alpha < 0.0 || self.mutation_scale < 0.0 || self.mutation_floor < 0.0 || self.tolerance < 0.0 {
+            Err(GaError::InvalidSettings("rates and widths must be finite and non-negative, probability in [0, 1]"))
+        } else if !guess_ok {
+            Err(GaError::InvalidSettings("initial guess outside [0, 1]"))
+        } else {
+            Ok(())
+        }
+    }
+}
+
+impl Default for GaSettings {
+    fn default() -> Self {
+        Self::FDI
+    }
+}
+
+/// Why a run stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum StopReason {
+    /// `max_evaluations` reached.
+    EvaluationBudget,
+    /// `max_generations` reached.
+    GenerationLimit,
+    /// No improvement beyond `tolerance` for `stall_generations` generations.
+    Stalled,
+}
+
+/// Where a run stands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Status {
+    Running,
+    Done(StopReason),
+}
+
+/// Misuse of the ask/tell interface or bad settings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum GaError {
+    InvalidSettings(&'static str),
+    /// The run is over; nothing more to ask.
+    Finished(StopReason),
+    /// `tell` without a candidate from `ask`.
+    NothingPending,
+}
+
+/// One member of the population.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Individual {
+    pub genes: Genes,
+    /// Fitness (lower is better); `+∞` for not yet evaluated.
+    pub fitness: f32,
+}
+
+impl Individual {
+    const UNEVALUATED: Self = Self { genes: [0.0; GENES], fitness: f32::INFINITY };
+}
+
+/// The steady-state GA (module docs). Plain data: clone it to checkpoint.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SteadyStateGa<const P: usize> {
+    settings: GaSettings,
+    rng: Xoshiro128PlusPlus,
+    population: [Individual; P],
+    /// Members of the initial population evaluated so far (`P` once it is complete).
+    filled: u16,
+    pending: Option<Genes>,
+    evaluations: u32,
+    generations: u32,
+    best: Individual,
+    stall_reference: f32,
+    stall_count: u32,
+    status: Status,
+}
+
+impl<const P: usize> SteadyStateGa<P> {
+    /// A fresh run with the given settings and seed.
+    pub fn new(settings: GaSettings, seed: u64) -> Result<Self, GaError> {
+        settings.validate(P)?;
+        Ok(Self {
+            settings,
+            rng: Xoshiro128PlusPlus::seed_from_u64(seed),
+            population: [Individual::UNEVALUATED; P],
+            filled: 0,
+            pending: None,
+            evaluations: 0,
+            generations: 0,
+            best: Individual::UNEVALUATED,
+            stall_reference: f32::INFINITY,
+            stall_count: 0,
+            status: Status::Running,
+        })
+    }
+
+    pub fn settings(&self) -> &GaSettings {
+        &self.settings
+    }
+    pub fn status(&self) -> Status {
+        self.status
+    }
+    /// Fitness evaluations told so far.
+    pub fn evaluations(&self) -> u32 {
+        self.evaluations
+    }
+    /// Completed generations (of `P` offspring after the initial population).
+    pub fn generations(&self) -> u32 {
+        self.generations
+    }
+    /// Best individual ever evaluated (`fitness = +∞` before the first `tell`).
+    pub fn best(&self) -> &Individual {
+        &self.best
+    }
+    /// The population (members not yet evaluated have `fitness = +∞`).
+    pub fn population(&self) -> &[Individual; P] {
+        &self.population
+    }
+
+    /// The next candidate to evaluate. Asking again before `tell` returns the same candidate,
+    /// so an interrupted evaluation is simply asked for again.
+    pub fn ask(&mut self) -> Result<Genes, GaError> {
+        if let Status::Done(reason) = self.status {
+            return Err(GaError::Finished(reason));
+        }
+        if let Some(genes) = self.pending {
+            return Ok(genes);
+        }
+        let genes = if usize::from(self.filled) < P {
+            match (self.filled, self.settings.initial_guess) {
+                (0, Some(guess)) => guess,
+                _ => core::array::from_fn(|_| self.uniform()),
+            }
+        } else {
+            self.offspring()
+        };
+        self.pending = Some(genes);
+        Ok(genes)
+    }
+
+    /// Reports the fitness of the pending candidate. Returns the run's status afterwards.
+    pub fn tell(&mut self, fitness: f32) -> Result<Status, GaError> {
+        if let Status::Done(reason) = self.status {
+            return Err(GaError::Finished(reason));
+        }
+        let genes = self.pending.take().ok_or(GaError::NothingPending)?;
+        let fitness = if fitness.is_nan() { f32::INFINITY } else { fitness };
+        let child = Individual { genes, fitness };
+        self.evaluations = self.evaluations.saturating_add(1);
+
+        if usize::from(self.filled) < P {
+            if let Some(slot) = self.population.get_mut(usize::from(self.filled)) {
+                *slot = child;
+            }
+            self.filled += 1;
+        } else if let Some(worst) = self.worst_mut() {
+            if child.fitness < worst.fitness {
+                *worst = child;
+            }
+        }
+        if child.fitness < self.best.fitness {
+            self.best = child;
+        }
+
+        self.update_status();
+        Ok(self.status)
+    }
+
+    /// Runs at most `budget` evaluations of `problem`, then returns the status. Bounded work:
+    /// `budget` fitness calls plus O(`budget · P`) bookkeeping.
+    pub fn step(&mut self, problem: &mut impl Problem, budget: u32) -> Status {
+        for _ in 0..budget {
+            let genes = match self.ask() {
+                Ok(g) => g,
+                Err(_) => break,
+            };
+            let fitness = problem.fitness(&genes);
+            if let Ok(Status::Done(_)) | Err(_) = self.tell(fitness) {
+                break;
+            }
+        }
+        self.status
+    }
+
+    /// Runs until the GA stops (the settings bound the work).
+    pub fn run(&mut self, problem: &mut impl Problem) -> StopReason {
+        loop {
+            if let Status::Done(reason) = self.step(problem, u32::MAX) {
+                return reason;
+            }
+        }
+    }
+
+    fn update_status(&mut self) {
+        let s = &self.settings;
+        let offspring = self.evaluations.saturating_sub(P as u32);
+        if usize::from(self.filled) == P && offspring % (P as u32) == 0 {
+            // A generation boundary (the completed initial population counts as one).
+            if offspring > 0 {
+                self.generations += 1;
+            }
+            if self.stall_reference - self.best.fitness > s.tolerance {
+                self.stall_reference = self.best.fitness;
+                self.stall_count = 0;
+            } else {
+                self.stall_count += 1;
+            }
+        }
+        self.status = if self.evaluations >= s.max_evaluations {
+            Status::Done(StopReason::EvaluationBudget)
+        } else if self.generations >= s.max_generations {
+            Status::Done(StopReason::GenerationLimit)
+        } else if self.stall_count >= s.stall_generations {
+            Status::Done(StopReason::Stalled)
+        } else {
+            Status::Running
+        };
+    }
+
+    fn worst_mut(&mut self) -> Option<&mut Individual> {
+        let mut worst: Option<&mut Individual> = None;
+        for ind in self.population.iter_mut() {
+            match &worst {
+                Some(w) if !(ind.fitness > w.fitness) => {}
+                _ => worst = Some(ind),
+            }
+        }
+        worst
+    }
+
+    /// Uniform in `[0, 1)` with 24 random bits.
+    fn uniform(&mut self) -> f32 {
+        (self.rng.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0)
+    }
+
+    /// Index uniform in `0..n` (n ≤ 65535), by multiply-shift.
+    fn index(&mut self, n: usize) -> usize {
+        ((u64::from(self.rng.next_u32()) * n as u64) >> 32) as usize
+    }
+
+    /// Approximately standard normal: Irwin–Hall sum of four uniforms, rescaled.
+    fn normal(&mut self) -> f32 {
+        let sum = self.uniform() + self.uniform() + self.uniform() + self.uniform();
+        (sum - 2.0) * 1.732_050_8
+    }
+
+    fn tournament(&mut self) -> Individual {
+        let mut winner = Individual::UNEVALUATED;
+        for _ in 0..self.settings.tournament_size {
+            let i = self.index(P);
+            if let Some(candidate) = self.population.get(i) {
+                if candidate.fitness < winner.fitness || winner.fitness == f32::INFINITY {
+                    winner = *candidate;
+                }
+            }
+        }
+        winner
+    }
+
+    fn offspring(&mut self) -> Genes {
+        let a = self.tournament();
+        let b = self.tournament();
+        let spread = self.spread();
+        let s = self.settings;
+        let mut child = [0.0f32; GENES];
+        for g in 0..GENES {
+            let (Some(&x), Some(&y), Some(slot), Some(&sigma), Some(&circular)) =
+                (a.genes.get(g), b.genes.get(g), child.get_mut(g), spread.get(g), s.circular.get(g))
+            else {
+                continue;
+            };
+            // BLX-α between the parents (the shorter arc for circular genes).
+            let delta = if circular { wrap_difference(y - x) } else { y - x };
+            let u = (self.rng.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0);
+            let mut v = x + delta * (u * (1.0 + 2.0 * s.crossover_alpha) - s.crossover_alpha);
+            let mutate = (self.rng.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0) < s.mutation_probability;
+            if mutate {
+                v += (s.mutation_scale * sigma + s.mutation_floor) * self.normal();
+            }
+            *slot = if circular { wrap_unit(v) } else { reflect_unit(v) };
+        }
+        child
+    }
+
+    /// Mean absolute distance of the population from the best individual, per gene
+    /// (shortest arc for circular genes).
+    fn spread(&self) -> Genes {
+        let mut spread = [0.0f32; GENES];
+        for ind in &self.population {
+            for (g, out) in spread.iter_mut().enumerate() {
+                let (Some(&x), Some(&b), Some(&circular)) =
+                    (ind.genes.get(g), self.best.genes.get(g), self.settings.circular.get(g))
+                else {
+                    continue;
+                };
+                let d = if circular { wrap_difference(x - b) } else { x - b };
+                *out += if d < 0.0 { -d } else { d };
+            }
+        }
+        spread.map(|s| s * (1.0 / P as f32))
+    }
+}
+
+/// Difference on the unit circle, reduced to `[-0.5, 0.5)`.
+fn wrap_difference(d: f32) -> f32 {
+    wrap_unit(d + 0.5) - 0.5
+}
+
+/// Reduces to `[0, 1)`. Non-finite input maps to 0.5.
+fn wrap_unit(v: f32) -> f32 {
+    if !v.is_finite() {
+        return 0.5;
+    }
+    let w = v - crate::math::floor(v);
+    // `v − ⌊v⌋` can round up to exactly 1.0 for tiny negative v.
+    if w >= 1.0 {
+        0.0
+    } else {
+        w
+    }
+}
+
+/// Reflects into `[0, 1]` at the bounds (then clamps, for far excursions). Non-finite → 0.5.
+fn reflect_unit(v: f32) -> f32 {
+    if !v.is_finite() {
+        return 0.5;
+    }
+    let r = if v < 0.0 {
+        -v
+    } else if v > 1.0 {
+        2.0 - v
+    } else {
+        v
+    };
+    r.clamp(0.0, 1.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sphere(target: Genes) -> impl FnMut(&Genes) -> f32 {
+        move |g: &Genes| g.iter().zip(target).map(|(a, b)| (a - b) * (a - b)).sum()
+    }
+
+    #[test]
+    fn rejects_bad_settings() {
+        let mut s = GaSettings::FDI;
+        s.tournament_size = 0;
+        assert!(matches!(SteadyStateGa::<8>::new(s, 1), Err(GaError::InvalidSettings(_))));
+        assert!(matches!(SteadyStateGa::<1>::new(GaSettings::FDI, 1), Err(GaError::InvalidSettings(_))));
+        let mut s = GaSettings::FDI;
+        s.mutation_probability = 1.5;
+        assert!(matches!(SteadyStateGa::<8>::new(s, 1), Err(GaError::InvalidSettings(_))));
+        let mut s = GaSettings::FDI;
+        s.initial_guess = Some([2.0; GENES]);
+        assert!(matches!(SteadyStateGa::<8>::new(s, 1), Err(GaError::InvalidSettings(_))));
+    }
+
+    #[test]
+    fn tell_without_ask_is_an_error_and_ask_is_idempotent() {
+        let mut ga = SteadyStateGa::<8>::new(GaSettings::FDI, 3).unwrap();
+        assert_eq!(ga.tell(1.0), Err(GaError::NothingPending));
+        let a = ga.ask().unwrap();
+        assert_eq!(ga.ask().unwrap(), a);
+        ga.tell(1.0).unwrap();
+        assert_ne!(ga.ask().unwrap(), a);
+    }
+
+    #[test]
+    fn first_candidate_is_the_initial_guess() {
+        let mut ga = SteadyStateGa::<8>::new(GaSettings::FDI, 3).unwrap();
+        assert_eq!(Some(ga.ask().unwrap()), GaSettings::FDI.initial_guess);
+    }
+
+    #[test]
+    fn converges_on_a_sphere_and_stops_for_a_reason() {
+        let target = [0.1, 0.9, 0.3, 0.0, 1.0, 0.25, 0.02, 0.6];
+        let mut settings = GaSettings::FDI;
+        settings.max_evaluations = 4000;
+        let mut ga = SteadyStateGa::<24>::new(settings, 11).unwrap();
+        let reason = ga.run(&mut sphere(target));
+        assert!(ga.best().fitness < 1e-6, "best {}", ga.best().fitness);
+        assert!(ga.evaluations() <= 4000);
+        assert!(matches!(reason, StopReason::EvaluationBudget | StopReason::Stalled));
+        assert_eq!(ga.ask(), Err(GaError::Finished(reason)));
+        assert_eq!(ga.tell(0.0), Err(GaError::Finished(reason)));
+    }
+
+    #[test]
+    fn circular_gene_is_found_across_the_wrap() {
+        // Optimum at 0.99 on a circular gene: the distance wraps, 0.01 is as close as 0.97.
+        let mut problem = |g: &Genes| {
+            let d = wrap_difference(g[6] - 0.99);
+            d * d + g[0] * g[0]
+        };
+        let mut ga = SteadyStateGa::<16>::new(GaSettings::FDI, 5).unwrap();
+        ga.run(&mut problem);
+        assert!(wrap_difference(ga.best().genes[6] - 0.99).abs() < 1e-3);
+    }
+
+    #[test]
+    fn stalls_on_a_flat_problem() {
+        let mut settings = GaSettings::FDI;
+        settings.stall_generations = 5;
+        let mut ga = SteadyStateGa::<8>::new(settings, 1).unwrap();
+        let reason = ga.run(&mut |_: &Genes| 1.0);
+        assert_eq!(reason, StopReason::Stalled);
+        // initial population (first boundary sets the reference) + 5 stalled generations
+        assert_eq!(ga.evaluations(), 8 + 5 * 8);
+    }
+
+    #[test]
+    fn generation_limit_stops() {
+        let mut settings = GaSettings::FDI;
+        settings.max_generations = 3;
+        let mut ga = SteadyStateGa::<8>::new(settings, 1).unwrap();
+        let mut n = 0.0f32;
+        // Always improving, so it never stalls.
+        let reason = ga.run(&mut |_: &Genes| {
+            n -= 1.0;
+            n
+        });
+        assert_eq!(reason, StopReason::GenerationLimit);
+        assert_eq!(ga.generations(), 3);
+        assert_eq!(ga.evaluations(), 8 + 3 * 8);
+    }
+
+    #[test]
+    fn nan_fitness_counts_as_worst() {
+        let mut ga = SteadyStateGa::<4>::new(GaSettings::FDI, 1).unwrap();
+        let mut calls = 0;
+        ga.step(
+            &mut |_: &Genes| {
+                calls += 1;
+                if calls % 2 == 0 {
+                    f32::NAN
+                } else {
+                    1.0
+                }
+            },
+            50,
+        );
+        assert_eq!(ga.best().fitness, 1.0);
+    }
+
+    #[test]
+    fn wrapping_and_reflection_stay_in_bounds() {
+        for v in [-3.7f32, -1e-9, -0.0, 0.0, 0.5, 1.0, 1.0 + 1e-7, 2.9, 1e30, -1e30] {
+            let w = wrap_unit(v);
+            assert!((0.0..1.0).contains(&w), "wrap {v} -> {w}");
+            let r = reflect_unit(v);
+            assert!((0.0..=1.0).contains(&r), "reflect {v} -> {r}");
+        }
+        assert_eq!(wrap_unit(f32::NAN), 0.5);
+        assert_eq!(reflect_unit(f32::INFINITY), 0.5);
+        assert!((wrap_difference(0.95 - 0.05) + 0.1).abs() < 1e-6);
+    }
+}

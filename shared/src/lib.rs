@@ -1,0 +1,34 @@
+//! ema-fdi's flight core: everything the actuator controller runs for the preflight fault
+//! detection and identification (FDI), and that the ground tools run bit for bit the same.
+//!
+//! `no_std`, no heap, no panics on flight paths; capacity in types; time passed in.
+//!
+//! * [`params`] — the actuator's physical parameters, in one documented struct.
+//! * [`fault`] — the 8-component fault vector and its physical mapping.
+//! * [`command`] — the preflight chirp.
+//! * [`conditioning`] — ADC frames → equivalent current → low-pass; the measured buffer.
+//! * [`monitor`] — the monitor model (single-phase equivalent, fixed step).
+//! * [`fitness`] — eq. (3) and the calibration (problem).
+//! * [`ga`] — the memory-bounded steady-state GA (solver, ask/tell, `step(budget)`).
+//! * [`metrics`] — e_i and e_tot, eq. (4).
+//! * [`fdi`] — the pieces wired together with the onboard sizes and settings.
+#![cfg_attr(not(test), no_std)]
+
+pub mod command;
+pub mod conditioning;
+pub mod fault;
+pub mod fdi;
+pub mod fitness;
+pub mod ga;
+pub mod math;
+pub mod metrics;
+pub mod monitor;
+pub mod params;
+
+pub use command::ChirpCommand;
+pub use conditioning::{AdcFrame, LowPass, MeasuredCurrent};
+pub use fault::{FaultVector, FAULT_COUNT};
+pub use fitness::{Calibration, FitnessProblem};
+pub use ga::{GaSettings, Problem, Status, SteadyStateGa, StopReason};
+pub use monitor::MonitorModel;
+pub use params::ActuatorParams;
