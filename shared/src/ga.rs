@@ -5,10 +5,12 @@
 //! * Genes are the [`FAULT_COUNT`] fault components in `[0, 1]`; genes flagged circular (the
 //!   eccentricity phase) wrap, the others reflect at the bounds. Every operator keeps every
 //!   gene in bounds.
-//! * One offspring per step: two parents by tournament, BLX-α blend crossover, then Gaussian
-//!   mutation whose width follows the population's spread around the best individual (so the
-//!   search narrows as the population converges) plus a floor. The offspring replaces the
-//!   worst individual if it is better. The best individual is therefore never lost.
+//! * One offspring per step: two parents by tournament, BLX-α blend crossover; with some
+//!   probability a differential step `F·(x_r1 − x_r2)` between two random members (it follows
+//!   the correlated valleys of the fault space, e.g. friction against gain drift); then
+//!   per-gene Gaussian mutation whose width follows the population's spread around the best
+//!   individual (so the search narrows as the population converges) plus a floor. The
+//!   offspring replaces the worst individual if it is better, so the best is never lost.
 //! * Seeded [`Xoshiro128PlusPlus`]; no transcendental functions, only `+ − × ÷` on f32, so
 //!   the same seed and fitness give the same bits on every IEEE-754 target.
 //! * Interface: [`ask`](SteadyStateGa::ask) / [`tell`](SteadyStateGa::tell) at the core;
@@ -62,6 +64,11 @@ pub struct GaSettings {
     pub mutation_scale: f32,
     /// Mutation standard deviation added regardless of spread.
     pub mutation_floor: f32,
+    /// Probability that an offspring also takes a differential step `F·(x_r1 − x_r2)` between
+    /// two random members (follows correlated valleys the per-gene mutation cannot).
+    pub differential_probability: f32,
+    /// Scale `F` of the differential step.
+    pub differential_scale: f32,
     /// Genes that wrap around (0 ≡ 1) instead of reflecting at the bounds.
     pub circular: [bool; GENES],
     /// An individual placed in the initial population (e.g. the nominal fault vector).
@@ -80,13 +87,18 @@ impl GaSettings {
         mutation_probability: 0.3,
         mutation_scale: 0.5,
         mutation_floor: 2.0e-4,
+        differential_probability: 0.5,
+        differential_scale: 0.7,
         circular: CIRCULAR,
         initial_guess: Some([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]),
     };
 
     fn validate(&self, population: usize) -> Result<(), GaError> {
-        let probability_ok = (0.0..=1.0).contains(&self.mutation_probability);
+        let probability_ok = (0.0..=1.0).contains(&self.mutation_probability)
+            && (0.0..=1.0).contains(&self.differential_probability);
         let finite = self.crossover_alpha.is_finite()
+            && self.differential_scale.is_finite()
+            && self.differential_scale >= 0.0
             && self.mutation_scale.is_finite()
             && self.mutation_floor.is_finite()
             && self.tolerance.is_finite();
@@ -364,17 +376,31 @@ impl<const P: usize> SteadyStateGa<P> {
         let b = self.tournament();
         let spread = self.spread();
         let s = self.settings;
+        let differential = self.uniform() < s.differential_probability;
+        let (r1, r2) = (self.index(P), self.index(P));
+        let (x1, x2) = match (self.population.get(r1), self.population.get(r2)) {
+            (Some(x1), Some(x2)) if differential => (x1.genes, x2.genes),
+            _ => ([0.0; GENES], [0.0; GENES]),
+        };
         let mut child = [0.0f32; GENES];
         for g in 0..GENES {
-            let (Some(&x), Some(&y), Some(slot), Some(&sigma), Some(&circular)) =
-                (a.genes.get(g), b.genes.get(g), child.get_mut(g), spread.get(g), s.circular.get(g))
-            else {
+            let (Some(&x), Some(&y), Some(slot), Some(&sigma), Some(&circular), Some(&d1), Some(&d2)) = (
+                a.genes.get(g),
+                b.genes.get(g),
+                child.get_mut(g),
+                spread.get(g),
+                s.circular.get(g),
+                x1.get(g),
+                x2.get(g),
+            ) else {
                 continue;
             };
             // BLX-α between the parents (the shorter arc for circular genes).
             let delta = if circular { wrap_difference(y - x) } else { y - x };
             let u = (self.rng.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0);
             let mut v = x + delta * (u * (1.0 + 2.0 * s.crossover_alpha) - s.crossover_alpha);
+            let step = if circular { wrap_difference(d1 - d2) } else { d1 - d2 };
+            v += s.differential_scale * step;
             let mutate = (self.rng.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0) < s.mutation_probability;
             if mutate {
                 v += (s.mutation_scale * sigma + s.mutation_floor) * self.normal();

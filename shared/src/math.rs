@@ -45,3 +45,16 @@ pub fn abs(x: f32) -> f32 {
 pub fn frac(x: f32) -> f32 {
     x - floor(x)
 }
+
+/// Limits `x` to `[lo, hi]` without the assertion of `f32::clamp` (never panics; a NaN `x`
+/// stays NaN, inverted limits give `lo`). Two compares and selects.
+#[inline]
+pub fn clamp(x: f32, lo: f32, hi: f32) -> f32 {
+    if x < lo {
+        lo
+    } else if x > hi {
+        hi
+    } else {
+        x
+    }
+}

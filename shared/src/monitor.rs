@@ -28,7 +28,7 @@ use crate::command::ChirpCommand;
 use crate::conditioning::commutation_sector;
 use crate::fault::FaultVector;
 use crate::fitness::Calibration;
-use crate::math::{abs, cos, frac, sin, TAU};
+use crate::math::{abs, clamp, cos, frac, sin, TAU};
 use crate::params::ActuatorParams;
 
 /// What the monitor model exposes at each sample: the state at `time`, before the step's
@@ -55,6 +55,8 @@ pub struct MonitorSample {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct MonitorState {
     pub motor_angle: f32,
+    /// Motor angle one period earlier (what the shape functions see).
+    pub previous_motor_angle: f32,
     pub motor_speed: f32,
     pub user_angle: f32,
     pub user_speed: f32,
@@ -190,19 +192,23 @@ impl MonitorModel {
         let error_rate = (error - s.previous_error) * self.inv_dt;
         s.previous_error = error;
         let speed_ref = (f.kp * error + p.position_ki * s.position_integral + p.position_kd * error_rate)
-            .clamp(-p.max_speed, p.max_speed);
+            ;
+        let speed_ref = clamp(speed_ref, -p.max_speed, p.max_speed);
         let speed_error = speed_ref - s.motor_speed;
         let integral = s.speed_integral + speed_error * dt;
         let unsaturated = p.speed_kp * speed_error + p.speed_ki * integral;
-        let current_ref = unsaturated.clamp(-p.max_current, p.max_current);
+        let current_ref = clamp(unsaturated, -p.max_current, p.max_current);
         // Conditional integration: hold the integrator while it would push further into
         // saturation.
         if unsaturated == current_ref || (unsaturated > current_ref) != (speed_error > 0.0) {
             s.speed_integral = integral;
         }
 
-        // 2. Single-phase equivalent drive with the electrical shape functions.
-        let theta_e = p.pole_pairs * s.motor_angle;
+        // 2. Single-phase equivalent drive with the electrical shape functions, evaluated at
+        //    the rotor angle of the previous sample (the drive commutates from the last
+        //    position it sampled; this also keeps the shape functions off the step's
+        //    critical dependency chain).
+        let theta_e = p.pole_pairs * s.previous_motor_angle;
         let short_gain = match commutation_sector(theta_e) % 3 {
             0 => f.sector_gain[0],
             1 => f.sector_gain[1],
@@ -220,13 +226,14 @@ impl MonitorModel {
         let back_emf = kt * s.motor_speed;
         let sampled = (s.current, s.motor_angle, s.user_angle);
         let voltage = (r * s.current + back_emf + self.l_over_dt * (current_ref - s.current))
-            .clamp(-p.dc_bus_voltage, p.dc_bus_voltage);
+            ;
+        let voltage = clamp(voltage, -p.dc_bus_voltage, p.dc_bus_voltage);
         s.current += self.dt_over_l * (voltage - r * s.current - back_emf);
         let motor_torque = kt * s.current;
 
         // 3. Mechanics: dead-zone compliant gear train, stick-slip friction, aero load.
         let deflection = s.motor_angle * self.inv_gear_ratio - s.user_angle;
-        let engaged = deflection - deflection.clamp(-f.half_backlash, f.half_backlash);
+        let engaged = deflection - clamp(deflection, -f.half_backlash, f.half_backlash);
         let gear_torque = if engaged != 0.0 {
             p.gear_stiffness * engaged + p.gear_damping * (s.motor_speed * self.inv_gear_ratio - s.user_speed)
         } else {
@@ -245,6 +252,7 @@ impl MonitorModel {
         } else {
             free_speed + friction_impulse
         };
+        s.previous_motor_angle = s.motor_angle;
         s.motor_angle += s.motor_speed * dt;
         s.user_speed += self.dt_over_user_inertia * (gear_torque - p.aero_stiffness * s.user_angle);
         s.user_angle += s.user_speed * dt;

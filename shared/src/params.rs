@@ -91,9 +91,11 @@ impl ActuatorParams {
         stick_speed: 0.5,
         aero_stiffness: 5.0e4,
 
-        // Position bandwidth ≈ kp / gear_ratio ≈ 600 rad/s (≈ 95 Hz), below the gear-train
-        // resonance (≈ 2 300 rad/s) and a third of the speed loop's bandwidth.
-        position_kp: 3.0e5,
+        // Position bandwidth ≈ kp / gear_ratio ≈ 200 rad/s (≈ 32 Hz): the chirp is tracked
+        // with a growing lag, and the loop stays free of backlash limit cycles over the whole
+        // fault range (at 3e5 it tracks better but chatters once k2 > 0.1, which makes the
+        // fitness landscape chaotic).
+        position_kp: 1.0e5,
         position_ki: 0.0,
         position_kd: 0.0,
         max_speed: 600.0,
