@@ -20,7 +20,11 @@ pub struct ChirpCommand {
 
 impl ChirpCommand {
     /// The test of the paper (§III.2): 5e-3 rad, 0 → 15 Hz in 0.5 s.
-    pub const PREFLIGHT: Self = Self { amplitude: 5.0e-3, end_frequency: 15.0, duration: 0.5 };
+    pub const PREFLIGHT: Self = Self {
+        amplitude: 5.0e-3,
+        end_frequency: 15.0,
+        duration: 0.5,
+    };
 
     /// Commanded user-shaft angle [rad] at time `t` [s]. Zero before the start; after
     /// `duration` the chirp simply continues (callers stop at `duration`).

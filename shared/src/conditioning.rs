@@ -20,11 +20,17 @@
 use fixed::types::I16F16;
 use heapless::Vec;
 
-use crate::math::{floor, sqrt, tan};
+use crate::math::{floor, tan};
 
 /// Positive-torque current sign of phases A, B, C in each 60° commutation sector.
-pub const COMMUTATION_SIGNS: [[i8; 3]; 6] =
-    [[0, 1, -1], [1, 0, -1], [1, -1, 0], [0, -1, 1], [-1, 0, 1], [-1, 1, 0]];
+pub const COMMUTATION_SIGNS: [[i8; 3]; 6] = [
+    [0, 1, -1],
+    [1, 0, -1],
+    [1, -1, 0],
+    [0, -1, 1],
+    [-1, 0, 1],
+    [-1, 1, 0],
+];
 
 /// Commutation sector `0..6` of an electrical angle [rad] (any value; NaN maps to sector 0).
 #[inline]
@@ -122,7 +128,7 @@ impl LowPass {
             return Err(ConditioningError::InvalidCutoff);
         }
         let k = tan(core::f32::consts::PI * cutoff_hz / sample_rate_hz);
-        let sqrt2 = sqrt(2.0);
+        let sqrt2 = core::f32::consts::SQRT_2;
         let norm = 1.0 / (1.0 + sqrt2 * k + k * k);
         let b0 = k * k * norm;
         Ok(Self {
@@ -169,7 +175,12 @@ impl<const N: usize> MeasuredCurrent<N> {
 
     /// An empty buffer that conditions with `filter`.
     pub const fn new(filter: LowPass) -> Self {
-        Self { filter, filter_state: LowPassState { z1: 0.0, z2: 0.0 }, samples: Vec::new(), inv_kappa: None }
+        Self {
+            filter,
+            filter_state: LowPassState { z1: 0.0, z2: 0.0 },
+            samples: Vec::new(),
+            inv_kappa: None,
+        }
     }
 
     /// Conditions and stores one ADC frame; hands it back when the buffer is full.
@@ -196,10 +207,15 @@ impl<const N: usize> MeasuredCurrent<N> {
     pub fn finish(&mut self) -> Result<(), ConditioningError> {
         let need = Self::MIN_SAMPLES.min(N);
         if self.samples.len() < need {
-            return Err(ConditioningError::TooFewSamples { have: self.samples.len() as u32, need: need as u32 });
+            return Err(ConditioningError::TooFewSamples {
+                have: self.samples.len() as u32,
+                need: need as u32,
+            });
         }
         if let Some(index) = self.samples.iter().position(|x| !x.is_finite()) {
-            return Err(ConditioningError::NotFinite { index: index as u32 });
+            return Err(ConditioningError::NotFinite {
+                index: index as u32,
+            });
         }
         let mut sum_sq = 0.0f32;
         let mut previous = 0.0f32;
@@ -210,7 +226,11 @@ impl<const N: usize> MeasuredCurrent<N> {
         }
         let kappa = sum_sq / self.samples.len() as f32;
         // A flat trace has no derivative to normalise: every weight is then 1.
-        self.inv_kappa = Some(if kappa > f32::MIN_POSITIVE { 1.0 / kappa } else { 0.0 });
+        self.inv_kappa = Some(if kappa > f32::MIN_POSITIVE {
+            1.0 / kappa
+        } else {
+            0.0
+        });
         Ok(())
     }
 
@@ -302,9 +322,18 @@ mod tests {
             }
         }
         assert!(peak < 0.1, "peak {peak}");
-        assert_eq!(LowPass::butterworth(5000.0, 10_000.0), Err(ConditioningError::InvalidCutoff));
-        assert_eq!(LowPass::butterworth(0.0, 10_000.0), Err(ConditioningError::InvalidCutoff));
-        assert_eq!(LowPass::butterworth(f32::NAN, 10_000.0), Err(ConditioningError::InvalidCutoff));
+        assert_eq!(
+            LowPass::butterworth(5000.0, 10_000.0),
+            Err(ConditioningError::InvalidCutoff)
+        );
+        assert_eq!(
+            LowPass::butterworth(0.0, 10_000.0),
+            Err(ConditioningError::InvalidCutoff)
+        );
+        assert_eq!(
+            LowPass::butterworth(f32::NAN, 10_000.0),
+            Err(ConditioningError::InvalidCutoff)
+        );
     }
 
     #[test]
@@ -315,7 +344,13 @@ mod tests {
         for i in 0..999 {
             m.push_equivalent(i as f32).unwrap();
         }
-        assert_eq!(m.finish(), Err(ConditioningError::TooFewSamples { have: 999, need: 1000 }));
+        assert_eq!(
+            m.finish(),
+            Err(ConditioningError::TooFewSamples {
+                have: 999,
+                need: 1000
+            })
+        );
         for i in 999..1200 {
             m.push_equivalent(i as f32).unwrap();
         }
@@ -333,7 +368,8 @@ mod tests {
         let lp = LowPass::butterworth(1000.0, 10_000.0).unwrap();
         let mut m = MeasuredCurrent::<1000>::new(lp);
         for i in 0..1000 {
-            m.push_equivalent(if i == 10 { f32::INFINITY } else { 0.0 }).unwrap();
+            m.push_equivalent(if i == 10 { f32::INFINITY } else { 0.0 })
+                .unwrap();
         }
         // The filter spreads the infinity (as NaN/inf) from index 10 on.
         assert_eq!(m.finish(), Err(ConditioningError::NotFinite { index: 10 }));

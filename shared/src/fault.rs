@@ -163,9 +163,15 @@ mod tests {
         let mut k = FaultVector::NOMINAL.0;
         assert!(FaultVector::new(k).is_ok());
         k[3] = 1.01;
-        assert_eq!(FaultVector::new(k), Err(FaultVectorError::OutOfRange { index: 3 }));
+        assert_eq!(
+            FaultVector::new(k),
+            Err(FaultVectorError::OutOfRange { index: 3 })
+        );
         k[3] = f32::NAN;
-        assert_eq!(FaultVector::new(k), Err(FaultVectorError::NotFinite { index: 3 }));
+        assert_eq!(
+            FaultVector::new(k),
+            Err(FaultVectorError::NotFinite { index: 3 })
+        );
         k[3] = -0.0;
         assert!(FaultVector::new(k).is_ok());
     }
@@ -186,7 +192,9 @@ mod tests {
         assert_eq!(healthy.eccentricity_phase, 0.0);
         assert_eq!(healthy.kp_scale, 1.0);
 
-        let worst = FaultVector::new([1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0]).unwrap().effects();
+        let worst = FaultVector::new([1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0])
+            .unwrap()
+            .effects();
         assert_eq!(worst.friction_scale, 3.0);
         assert_eq!(worst.backlash_scale, 100.0);
         assert_eq!(worst.healthy_turns, [MIN_HEALTHY_TURNS; 3]);

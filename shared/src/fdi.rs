@@ -70,7 +70,10 @@ impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
         settings: GaSettings,
         seed: u64,
     ) -> Result<Self, FdiError> {
-        Ok(Self { problem: FitnessProblem::new(measured, params, calibration)?, ga: SteadyStateGa::new(settings, seed)? })
+        Ok(Self {
+            problem: FitnessProblem::new(measured, params, calibration)?,
+            ga: SteadyStateGa::new(settings, seed)?,
+        })
     }
 
     /// At most `budget` monitor-model evaluations, then returns.

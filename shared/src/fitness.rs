@@ -32,8 +32,12 @@ pub struct Calibration {
 
 impl Calibration {
     /// No correction: the monitor model as the parameters describe it.
-    pub const IDENTITY: Self =
-        Self { resistance_scale: 1.0, inductance_scale: 1.0, back_emf_scale: 1.0, nominal_residual: 0.0 };
+    pub const IDENTITY: Self = Self {
+        resistance_scale: 1.0,
+        inductance_scale: 1.0,
+        back_emf_scale: 1.0,
+        nominal_residual: 0.0,
+    };
 }
 
 impl Default for Calibration {

@@ -107,13 +107,25 @@ impl GaSettings {
             None => true,
         };
         if population < 2 {
-            Err(GaError::InvalidSettings("population must hold at least 2 individuals"))
+            Err(GaError::InvalidSettings(
+                "population must hold at least 2 individuals",
+            ))
         } else if population > u16::MAX as usize {
             Err(GaError::InvalidSettings("population larger than 65535"))
         } else if self.tournament_size == 0 {
-            Err(GaError::InvalidSettings("tournament size must be at least 1"))
-        } else if !probability_ok || !finite || self.crossover_alpha < 0.0 || self.mutation_scale < 0.0 || self.mutation_floor < 0.0 || self.tolerance < 0.0 {
-            Err(GaError::InvalidSettings("rates and widths must be finite and non-negative, probability in [0, 1]"))
+            Err(GaError::InvalidSettings(
+                "tournament size must be at least 1",
+            ))
+        } else if !probability_ok
+            || !finite
+            || self.crossover_alpha < 0.0
+            || self.mutation_scale < 0.0
+            || self.mutation_floor < 0.0
+            || self.tolerance < 0.0
+        {
+            Err(GaError::InvalidSettings(
+                "rates and widths must be finite and non-negative, probability in [0, 1]",
+            ))
         } else if !guess_ok {
             Err(GaError::InvalidSettings("initial guess outside [0, 1]"))
         } else {
@@ -169,7 +181,10 @@ pub struct Individual {
 }
 
 impl Individual {
-    const UNEVALUATED: Self = Self { genes: [0.0; GENES], fitness: f32::INFINITY };
+    const UNEVALUATED: Self = Self {
+        genes: [0.0; GENES],
+        fitness: f32::INFINITY,
+    };
 }
 
 /// The steady-state GA (module docs). Plain data: clone it to checkpoint.
@@ -258,7 +273,11 @@ impl<const P: usize> SteadyStateGa<P> {
             return Err(GaError::Finished(reason));
         }
         let genes = self.pending.take().ok_or(GaError::NothingPending)?;
-        let fitness = if fitness.is_nan() { f32::INFINITY } else { fitness };
+        let fitness = if fitness.is_nan() {
+            f32::INFINITY
+        } else {
+            fitness
+        };
         let child = Individual { genes, fitness };
         self.evaluations = self.evaluations.saturating_add(1);
 
@@ -335,7 +354,8 @@ impl<const P: usize> SteadyStateGa<P> {
         let mut worst: Option<&mut Individual> = None;
         for ind in self.population.iter_mut() {
             match &worst {
-                Some(w) if !(ind.fitness > w.fitness) => {}
+                // Fitness is never NaN (`tell` maps NaN to +∞).
+                Some(w) if ind.fitness <= w.fitness => {}
                 _ => worst = Some(ind),
             }
         }
@@ -384,7 +404,15 @@ impl<const P: usize> SteadyStateGa<P> {
         };
         let mut child = [0.0f32; GENES];
         for g in 0..GENES {
-            let (Some(&x), Some(&y), Some(slot), Some(&sigma), Some(&circular), Some(&d1), Some(&d2)) = (
+            let (
+                Some(&x),
+                Some(&y),
+                Some(slot),
+                Some(&sigma),
+                Some(&circular),
+                Some(&d1),
+                Some(&d2),
+            ) = (
                 a.genes.get(g),
                 b.genes.get(g),
                 child.get_mut(g),
@@ -392,20 +420,34 @@ impl<const P: usize> SteadyStateGa<P> {
                 s.circular.get(g),
                 x1.get(g),
                 x2.get(g),
-            ) else {
+            )
+            else {
                 continue;
             };
             // BLX-α between the parents (the shorter arc for circular genes).
-            let delta = if circular { wrap_difference(y - x) } else { y - x };
+            let delta = if circular {
+                wrap_difference(y - x)
+            } else {
+                y - x
+            };
             let u = (self.rng.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0);
             let mut v = x + delta * (u * (1.0 + 2.0 * s.crossover_alpha) - s.crossover_alpha);
-            let step = if circular { wrap_difference(d1 - d2) } else { d1 - d2 };
+            let step = if circular {
+                wrap_difference(d1 - d2)
+            } else {
+                d1 - d2
+            };
             v += s.differential_scale * step;
-            let mutate = (self.rng.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0) < s.mutation_probability;
+            let mutate =
+                (self.rng.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0) < s.mutation_probability;
             if mutate {
                 v += (s.mutation_scale * sigma + s.mutation_floor) * self.normal();
             }
-            *slot = if circular { wrap_unit(v) } else { reflect_unit(v) };
+            *slot = if circular {
+                wrap_unit(v)
+            } else {
+                reflect_unit(v)
+            };
         }
         child
     }
@@ -416,12 +458,18 @@ impl<const P: usize> SteadyStateGa<P> {
         let mut spread = [0.0f32; GENES];
         for ind in &self.population {
             for (g, out) in spread.iter_mut().enumerate() {
-                let (Some(&x), Some(&b), Some(&circular)) =
-                    (ind.genes.get(g), self.best.genes.get(g), self.settings.circular.get(g))
-                else {
+                let (Some(&x), Some(&b), Some(&circular)) = (
+                    ind.genes.get(g),
+                    self.best.genes.get(g),
+                    self.settings.circular.get(g),
+                ) else {
                     continue;
                 };
-                let d = if circular { wrap_difference(x - b) } else { x - b };
+                let d = if circular {
+                    wrap_difference(x - b)
+                } else {
+                    x - b
+                };
                 *out += if d < 0.0 { -d } else { d };
             }
         }
@@ -475,14 +523,26 @@ mod tests {
     fn rejects_bad_settings() {
         let mut s = GaSettings::FDI;
         s.tournament_size = 0;
-        assert!(matches!(SteadyStateGa::<8>::new(s, 1), Err(GaError::InvalidSettings(_))));
-        assert!(matches!(SteadyStateGa::<1>::new(GaSettings::FDI, 1), Err(GaError::InvalidSettings(_))));
+        assert!(matches!(
+            SteadyStateGa::<8>::new(s, 1),
+            Err(GaError::InvalidSettings(_))
+        ));
+        assert!(matches!(
+            SteadyStateGa::<1>::new(GaSettings::FDI, 1),
+            Err(GaError::InvalidSettings(_))
+        ));
         let mut s = GaSettings::FDI;
         s.mutation_probability = 1.5;
-        assert!(matches!(SteadyStateGa::<8>::new(s, 1), Err(GaError::InvalidSettings(_))));
+        assert!(matches!(
+            SteadyStateGa::<8>::new(s, 1),
+            Err(GaError::InvalidSettings(_))
+        ));
         let mut s = GaSettings::FDI;
         s.initial_guess = Some([2.0; GENES]);
-        assert!(matches!(SteadyStateGa::<8>::new(s, 1), Err(GaError::InvalidSettings(_))));
+        assert!(matches!(
+            SteadyStateGa::<8>::new(s, 1),
+            Err(GaError::InvalidSettings(_))
+        ));
     }
 
     #[test]
@@ -510,7 +570,10 @@ mod tests {
         let reason = ga.run(&mut sphere(target));
         assert!(ga.best().fitness < 1e-6, "best {}", ga.best().fitness);
         assert!(ga.evaluations() <= 4000);
-        assert!(matches!(reason, StopReason::EvaluationBudget | StopReason::Stalled));
+        assert!(matches!(
+            reason,
+            StopReason::EvaluationBudget | StopReason::Stalled
+        ));
         assert_eq!(ga.ask(), Err(GaError::Finished(reason)));
         assert_eq!(ga.tell(0.0), Err(GaError::Finished(reason)));
     }
@@ -574,7 +637,18 @@ mod tests {
 
     #[test]
     fn wrapping_and_reflection_stay_in_bounds() {
-        for v in [-3.7f32, -1e-9, -0.0, 0.0, 0.5, 1.0, 1.0 + 1e-7, 2.9, 1e30, -1e30] {
+        for v in [
+            -3.7f32,
+            -1e-9,
+            -0.0,
+            0.0,
+            0.5,
+            1.0,
+            1.0 + 1e-7,
+            2.9,
+            1e30,
+            -1e30,
+        ] {
             let w = wrap_unit(v);
             assert!((0.0..1.0).contains(&w), "wrap {v} -> {w}");
             let r = reflect_unit(v);

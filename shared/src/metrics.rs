@@ -26,7 +26,13 @@ pub fn total_error(identified: &FaultVector, truth: &FaultVector) -> f32 {
     let sum: f32 = e
         .iter()
         .zip(CIRCULAR)
-        .map(|(&ei, circular)| if circular { weight_phase * ei * ei } else { ei * ei })
+        .map(|(&ei, circular)| {
+            if circular {
+                weight_phase * ei * ei
+            } else {
+                ei * ei
+            }
+        })
         .sum();
     sqrt(sum / FAULT_COUNT as f32)
 }

@@ -148,8 +148,12 @@ impl MonitorModel {
         let [na, nb, nc] = fx.healthy_turns;
         FaultedConstants {
             kp: p.position_kp * fx.kp_scale,
-            static_friction_impulse: self.dt_over_motor_inertia * p.static_friction * fx.friction_scale,
-            dynamic_friction_impulse: self.dt_over_motor_inertia * p.dynamic_friction * fx.friction_scale,
+            static_friction_impulse: self.dt_over_motor_inertia
+                * p.static_friction
+                * fx.friction_scale,
+            dynamic_friction_impulse: self.dt_over_motor_inertia
+                * p.dynamic_friction
+                * fx.friction_scale,
             half_backlash: 0.5 * p.nominal_backlash * fx.backlash_scale,
             // Sector j (mod 3) has phase j floating: the other two conduct.
             sector_gain: [0.5 * (nb + nc), 0.5 * (nc + na), 0.5 * (na + nb)],
@@ -191,8 +195,8 @@ impl MonitorModel {
         s.position_integral += error * dt;
         let error_rate = (error - s.previous_error) * self.inv_dt;
         s.previous_error = error;
-        let speed_ref = (f.kp * error + p.position_ki * s.position_integral + p.position_kd * error_rate)
-            ;
+        let speed_ref =
+            f.kp * error + p.position_ki * s.position_integral + p.position_kd * error_rate;
         let speed_ref = clamp(speed_ref, -p.max_speed, p.max_speed);
         let speed_error = speed_ref - s.motor_speed;
         let integral = s.speed_integral + speed_error * dt;
@@ -225,8 +229,7 @@ impl MonitorModel {
         let r = self.resistance * short_gain;
         let back_emf = kt * s.motor_speed;
         let sampled = (s.current, s.motor_angle, s.user_angle);
-        let voltage = (r * s.current + back_emf + self.l_over_dt * (current_ref - s.current))
-            ;
+        let voltage = r * s.current + back_emf + self.l_over_dt * (current_ref - s.current);
         let voltage = clamp(voltage, -p.dc_bus_voltage, p.dc_bus_voltage);
         s.current += self.dt_over_l * (voltage - r * s.current - back_emf);
         let motor_torque = kt * s.current;
@@ -235,11 +238,13 @@ impl MonitorModel {
         let deflection = s.motor_angle * self.inv_gear_ratio - s.user_angle;
         let engaged = deflection - clamp(deflection, -f.half_backlash, f.half_backlash);
         let gear_torque = if engaged != 0.0 {
-            p.gear_stiffness * engaged + p.gear_damping * (s.motor_speed * self.inv_gear_ratio - s.user_speed)
+            p.gear_stiffness * engaged
+                + p.gear_damping * (s.motor_speed * self.inv_gear_ratio - s.user_speed)
         } else {
             0.0
         };
-        let free_speed = s.motor_speed + self.dt_over_motor_inertia * (motor_torque - gear_torque * self.inv_gear_ratio);
+        let free_speed = s.motor_speed
+            + self.dt_over_motor_inertia * (motor_torque - gear_torque * self.inv_gear_ratio);
         let friction_impulse = if abs(s.motor_speed) < p.stick_speed {
             f.static_friction_impulse
         } else {

@@ -1,0 +1,20 @@
+//! Link setup for the Cortex-M4F build only: `memory.x` (at the workspace root) on the linker
+//! search path and cortex-m-rt's `link.x` for the binaries. The host stub links normally.
+
+use std::env;
+use std::path::PathBuf;
+
+fn main() {
+    println!("cargo:rerun-if-changed=build.rs");
+    if env::var("CARGO_CFG_TARGET_OS").as_deref() != Ok("none") {
+        return;
+    }
+    let manifest =
+        PathBuf::from(env::var("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
+    let root = manifest
+        .parent()
+        .expect("firmware/ sits in the workspace root");
+    println!("cargo:rerun-if-changed={}", root.join("memory.x").display());
+    println!("cargo:rustc-link-search={}", root.display());
+    println!("cargo:rustc-link-arg-bins=-Tlink.x");
+}

@@ -1,0 +1,187 @@
+//! The monitor model behaves the way physics says, for each fault alone, and never blows up.
+
+use proptest::prelude::*;
+use shared::conditioning::commutation_sector;
+use shared::monitor::MonitorSample;
+use shared::{ActuatorParams, Calibration, FaultVector, MonitorModel};
+
+const N: usize = 5000;
+
+fn model() -> MonitorModel {
+    MonitorModel::new(ActuatorParams::REFERENCE, &Calibration::IDENTITY)
+}
+
+fn run(k: [f32; 8]) -> Vec<MonitorSample> {
+    let mut out = Vec::with_capacity(N);
+    model().run(&FaultVector::new(k).unwrap(), N, |s| out.push(*s));
+    out
+}
+
+fn with(index: usize, value: f32) -> [f32; 8] {
+    let mut k = *FaultVector::NOMINAL.as_array();
+    k[index] = value;
+    k
+}
+
+fn current_rms(trace: &[MonitorSample]) -> f32 {
+    (trace.iter().map(|s| s.current * s.current).sum::<f32>() / trace.len() as f32).sqrt()
+}
+
+/// RMS tracking error relative to the RMS command, over samples `range`.
+fn tracking_error(trace: &[MonitorSample], range: std::ops::Range<usize>) -> f32 {
+    let t = &trace[range];
+    let e: f32 = t.iter().map(|s| (s.command - s.user_angle).powi(2)).sum();
+    let c: f32 = t.iter().map(|s| s.command.powi(2)).sum();
+    (e / c).sqrt()
+}
+
+#[test]
+fn nominal_run_tracks_the_chirp() {
+    let t = run(*FaultVector::NOMINAL.as_array());
+    // First half (0 → 7.5 Hz, 4 × below the position bandwidth): close tracking.
+    let low = tracking_error(&t, 0..N / 2);
+    // Whole chirp (up to 15 Hz): the lag grows but the actuator follows.
+    let all = tracking_error(&t, 0..N);
+    assert!(low < 0.15, "low-frequency tracking error {low}");
+    assert!(all < 0.35, "whole-chirp tracking error {all}");
+    let peak = t.iter().map(|s| s.user_angle.abs()).fold(0.0, f32::max);
+    assert!(
+        (0.8 * 5e-3..1.2 * 5e-3).contains(&peak),
+        "peak user angle {peak}"
+    );
+    // Currents well above ripple and noise, yet below the drive's limit.
+    let rms = current_rms(&t);
+    assert!((0.5..10.0).contains(&rms), "current rms {rms}");
+    assert!(t
+        .iter()
+        .all(|s| s.current.abs() < ActuatorParams::REFERENCE.max_current));
+}
+
+#[test]
+fn more_friction_draws_more_current() {
+    let r: Vec<f32> = [0.0, 0.5, 1.0]
+        .iter()
+        .map(|&k| current_rms(&run(with(0, k))))
+        .collect();
+    assert!(r[0] < r[1] && r[1] < r[2], "{r:?}");
+}
+
+#[test]
+fn lower_proportional_gain_tracks_worse() {
+    let e: Vec<f32> = [0.0, 0.5, 1.0]
+        .iter()
+        .map(|&k| tracking_error(&run(with(7, k)), 0..N))
+        .collect();
+    assert!(e[0] > e[1] && e[1] > e[2], "{e:?}");
+}
+
+#[test]
+fn more_backlash_lets_the_surface_lag_and_draws_more_current() {
+    let traces: Vec<_> = [0.0, 0.5, 1.0].iter().map(|&k| run(with(1, k))).collect();
+    let e: Vec<f32> = traces.iter().map(|t| tracking_error(t, 0..N)).collect();
+    let r: Vec<f32> = traces.iter().map(|t| current_rms(t)).collect();
+    assert!(e[0] < e[2], "{e:?}");
+    assert!(r[0] < r[1] && r[1] < r[2], "{r:?}");
+}
+
+/// Mean |current| in the sectors where phase A conducts divided by the mean where it floats.
+fn phase_a_current_ratio(trace: &[MonitorSample]) -> f32 {
+    let p = ActuatorParams::REFERENCE.pole_pairs;
+    let (mut on, mut n_on, mut off, mut n_off) = (0.0, 0, 0.0, 0);
+    for s in &trace[N / 5..] {
+        if commutation_sector(p * s.motor_angle) % 3 == 0 {
+            off += s.current.abs();
+            n_off += 1;
+        } else {
+            on += s.current.abs();
+            n_on += 1;
+        }
+    }
+    (on / n_on as f32) / (off / n_off as f32)
+}
+
+#[test]
+fn short_circuit_of_a_phase_needs_more_current_while_that_phase_conducts() {
+    // Fewer healthy turns → less torque per ampere while phase A conducts → the speed loop
+    // asks for more current in exactly those sectors.
+    let healthy = phase_a_current_ratio(&run(with(2, 0.0)));
+    let shorted = phase_a_current_ratio(&run(with(2, 0.5)));
+    assert!(
+        shorted > healthy * 1.1,
+        "healthy {healthy}, shorted {shorted}"
+    );
+}
+
+#[test]
+fn eccentricity_raises_current_where_the_gap_weakens_the_coupling() {
+    // Eq. (2): the torque constant drops where cos(θ_e + φ) > 0; the current must rise there.
+    let p = ActuatorParams::REFERENCE.pole_pairs;
+    let nominal = run(with(5, 0.0));
+    let faulty = run(with(5, 0.5));
+    let phi = FaultVector::new(with(5, 0.5))
+        .unwrap()
+        .effects()
+        .eccentricity_phase;
+    let (mut weak, mut n_weak, mut strong, mut n_strong) = (0.0, 0, 0.0, 0);
+    for (a, b) in nominal.iter().zip(&faulty).skip(N / 5) {
+        if a.current.abs() < 0.3 {
+            continue;
+        }
+        let ratio = b.current.abs() / a.current.abs();
+        if (p * b.motor_angle + phi).cos() > 0.5 {
+            weak += ratio;
+            n_weak += 1;
+        } else if (p * b.motor_angle + phi).cos() < -0.5 {
+            strong += ratio;
+            n_strong += 1;
+        }
+    }
+    let (weak, strong) = (weak / n_weak as f32, strong / n_strong as f32);
+    assert!(
+        weak > strong * 1.1,
+        "weak-gap ratio {weak}, strong-gap ratio {strong}"
+    );
+}
+
+#[test]
+fn same_fault_vector_same_bits() {
+    let k = [0.3, 0.2, 0.1, 0.0, 0.4, 0.6, 0.9, 0.2];
+    let a: Vec<u32> = run(k).iter().map(|s| s.current.to_bits()).collect();
+    let b: Vec<u32> = run(k).iter().map(|s| s.current.to_bits()).collect();
+    assert_eq!(a, b);
+}
+
+#[test]
+fn simulate_matches_run() {
+    let k = FaultVector::new([0.3, 0.2, 0.1, 0.0, 0.4, 0.6, 0.9, 0.2]).unwrap();
+    let mut out = [0.0f32; 1234];
+    model().simulate(&k, &mut out);
+    let mut via_run = Vec::new();
+    model().run(&k, out.len(), |s| via_run.push(s.current));
+    assert_eq!(out.to_vec(), via_run);
+    assert_eq!(model().test_samples(), N);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+    #[test]
+    fn every_fault_vector_simulates_finitely(k in prop::array::uniform8(0.0f32..=1.0)) {
+        let trace = run(k);
+        for s in &trace {
+            prop_assert!(s.current.is_finite() && s.motor_angle.is_finite() && s.user_angle.is_finite());
+            prop_assert!(s.current.abs() <= 100.0, "current {}", s.current);
+            prop_assert!(s.user_angle.abs() < 0.1, "user angle {}", s.user_angle);
+        }
+    }
+}
+
+#[test]
+fn corner_fault_vectors_simulate_finitely() {
+    for bits in 0u32..256 {
+        let k: [f32; 8] = std::array::from_fn(|i| if bits >> i & 1 == 1 { 1.0 } else { 0.0 });
+        for s in run(k) {
+            assert!(s.current.is_finite() && s.motor_angle.is_finite(), "{k:?}");
+        }
+    }
+}
