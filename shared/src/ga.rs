@@ -87,7 +87,7 @@ impl GaSettings {
         mutation_probability: 0.3,
         mutation_scale: 0.5,
         mutation_floor: 2.0e-4,
-        differential_probability: 0.5,
+        differential_probability: 0.9,
         differential_scale: 0.7,
         circular: CIRCULAR,
         initial_guess: Some([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]),
