@@ -430,7 +430,7 @@ impl<const P: usize> SteadyStateGa<P> {
             } else {
                 y - x
             };
-            let u = (self.rng.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0);
+            let u = self.uniform();
             let mut v = x + delta * (u * (1.0 + 2.0 * s.crossover_alpha) - s.crossover_alpha);
             let step = if circular {
                 wrap_difference(d1 - d2)
@@ -438,8 +438,7 @@ impl<const P: usize> SteadyStateGa<P> {
                 d1 - d2
             };
             v += s.differential_scale * step;
-            let mutate =
-                (self.rng.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0) < s.mutation_probability;
+            let mutate = self.uniform() < s.mutation_probability;
             if mutate {
                 v += (s.mutation_scale * sigma + s.mutation_floor) * self.normal();
             }

@@ -209,9 +209,8 @@ impl MonitorModel {
         }
 
         // 2. Single-phase equivalent drive with the electrical shape functions, evaluated at
-        //    the rotor angle of the previous sample (the drive commutates from the last
-        //    position it sampled; this also keeps the shape functions off the step's
-        //    critical dependency chain).
+        //    the rotor angle of the previous sample: the drive commutates from the last
+        //    position it sampled.
         let theta_e = p.pole_pairs * s.previous_motor_angle;
         let short_gain = match commutation_sector(theta_e) % 3 {
             0 => f.sector_gain[0],
