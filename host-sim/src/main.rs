@@ -1,16 +1,23 @@
 //! `host-sim`: the ground tools of ema-fdi.
 //!
-//! For now: the inverse-identification demo (a trace made by the monitor model itself at a
-//! known fault vector, identified by the onboard FDI), the memory footprint of the onboard
-//! FDI state, and a benchmark of one monitor-model evaluation. The reference model, trace
-//! files and calibration come next.
+//! `preflight` simulates a (faulty) actuator with the reference model and identifies it with
+//! the onboard FDI; `simulate`, `calibrate`, `identify` and `plot` do the same step by step
+//! with trace files; `inverse`, `footprint` and `bench` check the FDI core on its own.
 
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
-use shared::fault::FAULT_NAMES;
+use host_sim::calibration::{calibrate, CalibrationFile};
+use host_sim::faults;
+use host_sim::identify::{identify, Identified};
+use host_sim::reference::{ReferenceModel, ReferenceSettings, Scenario};
+use host_sim::trace_file::{Trace, TraceFormat};
+use serde_json::json;
+use shared::fault::{Verdict, FAULT_COUNT, FAULT_NAMES};
 use shared::fdi::{
     record_monitor_trace, Identification, OnboardGa, OnboardMeasured, POPULATION, TEST_SAMPLES,
 };
@@ -19,8 +26,6 @@ use shared::monitor::MonitorState;
 use shared::{
     ActuatorParams, Calibration, FaultVector, FitnessProblem, GaSettings, LowPass, MonitorModel,
 };
-
-mod faults;
 
 #[derive(Parser)]
 #[command(
@@ -33,14 +38,97 @@ struct Cli {
     command: Command,
 }
 
+const FAULTS_HELP: &str = "eight comma-separated values in [0, 1]: friction, backlash, \
+short A, short B, short C, eccentricity, eccentricity phase, gain drift (nominal \
+0,0,0,0,0,0,0.5,0.5)";
+
 #[derive(Subcommand)]
 enum Command {
+    /// Preflight self-test on the ground: the reference model plays an actuator with the given
+    /// faults, the onboard FDI identifies them from its currents.
+    Preflight {
+        /// True fault vector of the simulated actuator.
+        #[arg(long, value_parser = faults::parse_fault_vector, allow_hyphen_values = true, long_help = FAULTS_HELP)]
+        faults: FaultVector,
+        /// Band-limited noise on I_ref, RMS as a fraction of the nominal I_ref RMS.
+        #[arg(long, default_value_t = 0.0, value_parser = parse_noise)]
+        noise: f64,
+        /// Seed of the reference model's noise.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Seed of the GA.
+        #[arg(long, default_value_t = 1)]
+        ga_seed: u64,
+        /// Also write the simulated trace (format from the extension: .bin or .csv).
+        #[arg(long)]
+        trace_out: Option<PathBuf>,
+        /// Print one JSON object instead of the table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Simulate the 0.5 s preflight test with the reference model and write the trace.
+    Simulate {
+        /// True fault vector of the simulated actuator.
+        #[arg(long, value_parser = faults::parse_fault_vector, allow_hyphen_values = true, long_help = FAULTS_HELP)]
+        faults: FaultVector,
+        /// Band-limited noise on I_ref, RMS as a fraction of the nominal I_ref RMS.
+        #[arg(long, default_value_t = 0.0, value_parser = parse_noise)]
+        noise: f64,
+        /// Seed of every random draw (sensor noise, process noise).
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Trace format.
+        #[arg(long, value_enum, default_value_t = TraceFormat::Csv)]
+        format: TraceFormat,
+        /// Output file.
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Fit the monitor model's electrical parameters and nominal residual to a healthy trace.
+    Calibrate {
+        /// Trace of the healthy actuator (CSV or binary).
+        nominal_trace: PathBuf,
+        /// Output calibration file (JSON).
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Identify the faults behind a trace with the onboard FDI (firmware code and settings).
+    Identify {
+        /// Trace (CSV or binary).
+        trace: PathBuf,
+        /// Calibration file from `calibrate` (default: the built-in calibration against this
+        /// project's reference model).
+        #[arg(long)]
+        calibration: Option<PathBuf>,
+        /// GA seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// The true fault vector, if known: prints e_i and e_tot.
+        #[arg(long, value_parser = faults::parse_fault_vector, allow_hyphen_values = true)]
+        truth: Option<FaultVector>,
+        /// Print one JSON object instead of the table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Identify a trace and draw measured vs best-fit current and the fitness history (SVG).
+    Plot {
+        /// Trace (CSV or binary).
+        trace: PathBuf,
+        /// Calibration file (default: built-in).
+        #[arg(long)]
+        calibration: Option<PathBuf>,
+        /// GA seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Output SVG file.
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Inverse check: simulate the monitor model at known faults, then identify them with the
     /// onboard FDI (same code, settings and sizes as the firmware).
     Inverse {
-        /// True fault vector: eight comma-separated values in [0, 1]
-        /// (friction, backlash, short A, short B, short C, eccentricity, ecc. phase, gain drift).
-        #[arg(long, value_parser = faults::parse_fault_vector, allow_hyphen_values = true)]
+        /// True fault vector.
+        #[arg(long, value_parser = faults::parse_fault_vector, allow_hyphen_values = true, long_help = FAULTS_HELP)]
         faults: FaultVector,
         /// GA seed.
         #[arg(long, default_value_t = 1)]
@@ -51,7 +139,8 @@ enum Command {
     },
     /// Bytes of the onboard FDI state (GA, measured-current buffer, monitor model).
     Footprint,
-    /// Time one monitor-model evaluation and one fitness evaluation (0.5 s test) on one core.
+    /// Time one monitor-model evaluation, one fitness evaluation and one reference-model test
+    /// on one core.
     Bench {
         /// Evaluations to time.
         #[arg(long, default_value_t = 2000, value_parser = clap::value_parser!(u32).range(1..))]
@@ -59,9 +148,52 @@ enum Command {
     },
 }
 
+fn parse_noise(text: &str) -> Result<f64, String> {
+    let x: f64 = text
+        .trim()
+        .parse()
+        .map_err(|_| format!("{text:?} is not a number"))?;
+    if x.is_finite() && (0.0..=10.0).contains(&x) {
+        Ok(x)
+    } else {
+        Err(format!(
+            "{text} is outside [0, 10] (a fraction of the nominal I_ref RMS)"
+        ))
+    }
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let outcome = match cli.command {
+        Command::Preflight {
+            faults,
+            noise,
+            seed,
+            ga_seed,
+            trace_out,
+            json,
+        } => preflight(faults, noise, seed, ga_seed, trace_out.as_deref(), json),
+        Command::Simulate {
+            faults,
+            noise,
+            seed,
+            format,
+            out,
+        } => simulate(faults, noise, seed, format, &out),
+        Command::Calibrate { nominal_trace, out } => calibrate_command(&nominal_trace, &out),
+        Command::Identify {
+            trace,
+            calibration,
+            seed,
+            truth,
+            json,
+        } => identify_command(&trace, calibration.as_deref(), seed, truth, json),
+        Command::Plot {
+            trace,
+            calibration,
+            seed,
+            out,
+        } => plot_command(&trace, calibration.as_deref(), seed, &out),
         Command::Inverse { faults, seed, json } => inverse(faults, seed, json),
         Command::Footprint => {
             footprint();
@@ -76,6 +208,231 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+fn progress_wanted(json: bool) -> bool {
+    !json && std::io::stderr().is_terminal()
+}
+
+fn load_calibration(path: Option<&Path>) -> Result<(Calibration, String)> {
+    match path {
+        Some(p) => Ok((
+            CalibrationFile::read(p)?.calibration(),
+            p.display().to_string(),
+        )),
+        None => Ok((Calibration::REFERENCE_ACTUATOR, "built-in".into())),
+    }
+}
+
+fn simulate_scenario(faults: FaultVector, noise: f64, seed: u64) -> (Trace, f64) {
+    let rm = ReferenceModel::new(ReferenceSettings::REFERENCE);
+    let start = Instant::now();
+    let sim = rm.simulate(&Scenario {
+        faults,
+        current_ref_noise: noise,
+        seed,
+    });
+    (sim.trace, start.elapsed().as_secs_f64())
+}
+
+fn format_from_extension(path: &Path) -> TraceFormat {
+    match path.extension().and_then(|e| e.to_str()) {
+        Some(e) if e.eq_ignore_ascii_case("bin") => TraceFormat::Bin,
+        _ => TraceFormat::Csv,
+    }
+}
+
+fn simulate(
+    faults: FaultVector,
+    noise: f64,
+    seed: u64,
+    format: TraceFormat,
+    out: &Path,
+) -> Result<()> {
+    let (trace, seconds) = simulate_scenario(faults, noise, seed);
+    trace.write(out, format)?;
+    println!(
+        "wrote {} ({format}, {} samples at 10 kHz; reference model {seconds:.3} s)",
+        out.display(),
+        trace.samples().len()
+    );
+    Ok(())
+}
+
+fn calibrate_command(trace_path: &Path, out: &Path) -> Result<()> {
+    let trace = Trace::read(trace_path)?;
+    let measured = trace.measured(&ActuatorParams::REFERENCE)?;
+    let file = calibrate(&measured, ActuatorParams::REFERENCE)?;
+    file.write(out)?;
+    println!(
+        "calibration of the monitor model against {}",
+        trace_path.display()
+    );
+    println!("resistance scale    {:.5}", file.resistance_scale);
+    println!("inductance scale    {:.5}", file.inductance_scale);
+    println!("back-EMF scale      {:.5}", file.back_emf_scale);
+    println!("nominal residual    {:.4e} A²·s", file.nominal_residual);
+    println!(
+        "mismatch (relative RMS of the filtered equivalent current): {:.2} % before, {:.2} % after",
+        100.0 * file.mismatch_before,
+        100.0 * file.mismatch_after
+    );
+    println!(
+        "({} monitor-model runs) wrote {}",
+        file.evaluations,
+        out.display()
+    );
+    Ok(())
+}
+
+fn verdict_text(v: Verdict) -> &'static str {
+    match v {
+        Verdict::Healthy => "healthy",
+        Verdict::Faulty => "FAULT",
+        Verdict::NotApplicable => "-",
+    }
+}
+
+fn report(id: &Identified, truth: Option<&FaultVector>, heading: &[(String, String)], json: bool) {
+    let found = id.result.faults;
+    let verdicts = found.verdicts();
+    if json {
+        let mut obj = json!({
+            "faults": found.as_array(),
+            "fitness": id.result.fitness,
+            "evaluations": id.result.evaluations,
+            "seconds": id.seconds,
+            "stop_reason": format!("{:?}", id.result.stop_reason),
+            "verdicts": verdicts.iter().map(|&v| verdict_text(v)).collect::<Vec<_>>(),
+        });
+        if let Some(t) = truth {
+            obj["truth"] = json!(t.as_array());
+            obj["errors"] = json!(component_errors(&found, t));
+            obj["e_tot"] = json!(total_error(&found, t));
+        }
+        for (k, v) in heading {
+            obj[k.as_str()] = json!(v);
+        }
+        println!("{obj}");
+        return;
+    }
+    for (k, v) in heading {
+        println!("{k:<13} {v}");
+    }
+    println!();
+    let errors = truth.map(|t| component_errors(&found, t));
+    match truth {
+        Some(_) => println!(
+            "{:<13} {:>8} {:>9} {:>8} {:>8}",
+            "fault", "found", "reading", "true", "e_i [%]"
+        ),
+        None => println!("{:<13} {:>8} {:>9}", "fault", "found", "reading"),
+    }
+    for i in 0..FAULT_COUNT {
+        let k = found.as_array()[i];
+        let mut line = format!(
+            "{:<13} {k:>8.4} {:>9}",
+            FAULT_NAMES[i],
+            verdict_text(verdicts[i])
+        );
+        if let (Some(t), Some(e)) = (truth, errors.as_ref()) {
+            line += &format!(" {:>8.4} {:>8.3}", t.as_array()[i], e[i]);
+        }
+        println!("{line}");
+    }
+    let phase_deg = -180.0 + 360.0 * f64::from(found.eccentricity_phase());
+    println!("(eccentricity phase {phase_deg:.0}° from phase A; a location, read only with an eccentricity fault)");
+    if let Some(t) = truth {
+        println!("e_tot         {:.3} %", total_error(&found, t));
+    }
+    println!(
+        "fitness       {:.4e} A²·s (nominal residual subtracted)",
+        id.result.fitness
+    );
+    println!(
+        "evaluations   {} (stopped: {:?})",
+        id.result.evaluations, id.result.stop_reason
+    );
+    println!("seconds       {:.3}", id.seconds);
+}
+
+fn identify_command(
+    trace_path: &Path,
+    calibration: Option<&Path>,
+    seed: u64,
+    truth: Option<FaultVector>,
+    json: bool,
+) -> Result<()> {
+    let trace = Trace::read(trace_path)?;
+    let measured = trace.measured(&ActuatorParams::REFERENCE)?;
+    let (calibration, cal_name) = load_calibration(calibration)?;
+    let id = identify(&measured, &calibration, seed, progress_wanted(json))?;
+    let heading = vec![
+        ("trace".to_string(), trace_path.display().to_string()),
+        ("calibration".to_string(), cal_name),
+        ("ga_seed".to_string(), seed.to_string()),
+    ];
+    report(&id, truth.as_ref(), &heading, json);
+    Ok(())
+}
+
+fn preflight(
+    faults: FaultVector,
+    noise: f64,
+    seed: u64,
+    ga_seed: u64,
+    trace_out: Option<&Path>,
+    json: bool,
+) -> Result<()> {
+    let (trace, rm_seconds) = simulate_scenario(faults, noise, seed);
+    if let Some(path) = trace_out {
+        trace.write(path, format_from_extension(path))?;
+    }
+    let measured = trace.measured(&ActuatorParams::REFERENCE)?;
+    let id = identify(
+        &measured,
+        &Calibration::REFERENCE_ACTUATOR,
+        ga_seed,
+        progress_wanted(json),
+    )?;
+    let heading = vec![
+        (
+            "actuator".to_string(),
+            format!("reference model, noise {noise}, seed {seed} ({rm_seconds:.3} s)"),
+        ),
+        ("calibration".to_string(), "built-in".to_string()),
+        ("ga_seed".to_string(), ga_seed.to_string()),
+    ];
+    report(&id, Some(&faults), &heading, json);
+    Ok(())
+}
+
+fn plot_command(
+    trace_path: &Path,
+    calibration: Option<&Path>,
+    seed: u64,
+    out: &Path,
+) -> Result<()> {
+    let trace = Trace::read(trace_path)?;
+    let measured = trace.measured(&ActuatorParams::REFERENCE)?;
+    let (calibration, _) = load_calibration(calibration)?;
+    let id = identify(&measured, &calibration, seed, progress_wanted(false))?;
+    let k = id.result.faults;
+    let title = format!(
+        "{}: found k = [{}]",
+        trace_path
+            .file_name()
+            .map_or_else(|| "trace".into(), |n| n.to_string_lossy()),
+        k.as_array()
+            .iter()
+            .map(|x| format!("{x:.3}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    host_sim::plot::identification_svg(out, &measured, &calibration, &k, &id.history, &title)
+        .with_context(|| format!("plotting into {}", out.display()))?;
+    println!("wrote {}", out.display());
+    Ok(())
 }
 
 fn measured_from_monitor(
@@ -214,5 +571,23 @@ fn bench(evaluations: u32) -> Result<()> {
         fit * 1e9 / steps as f64
     );
     println!("({evaluations} evaluations, one core; target ≤ 100 µs/evaluation)");
+    let rm = ReferenceModel::new(ReferenceSettings::REFERENCE);
+    let runs = 5;
+    let start = Instant::now();
+    for seed in 0..runs {
+        let sim = rm.simulate(&Scenario {
+            faults: truth,
+            current_ref_noise: 0.0,
+            seed,
+        });
+        std::hint::black_box(&sim);
+    }
+    let rm_seconds = start.elapsed().as_secs_f64() / runs as f64;
+    println!(
+        "reference model, 0.5 s test ({} steps of {} µs): {rm_seconds:.3} s/run (mean of {runs}; target ≤ 1 s)",
+        (f64::from(rm.settings().params.control_period) / rm.settings().step).round() as usize
+            * rm.test_samples(),
+        rm.settings().step * 1e6
+    );
     Ok(())
 }

@@ -60,11 +60,13 @@ pub struct AdcFrame {
 }
 
 impl AdcFrame {
-    /// Builds a frame from floating-point values, saturating at the fixed-point range.
+    /// Builds a frame from floating-point values, saturating at the fixed-point range
+    /// (NaN becomes 0 rather than a panic).
     pub fn from_f32(phase_currents: [f32; 3], motor_angle: f32) -> Self {
+        let convert = |x: f32| I16F16::saturating_from_num(if x.is_nan() { 0.0 } else { x });
         Self {
-            phase_currents: phase_currents.map(I16F16::saturating_from_num),
-            motor_angle: I16F16::saturating_from_num(motor_angle),
+            phase_currents: phase_currents.map(convert),
+            motor_angle: convert(motor_angle),
         }
     }
 }

@@ -11,7 +11,7 @@
 //! | 6 | [`FaultVector::eccentricity_phase`] | eccentricity phase | φ = −π + 2π·k7 (circular) |
 //! | 7 | [`FaultVector::gain_drift`] | proportional-gain drift | K_p × (0.5 + k8) |
 
-use crate::math::TAU;
+use crate::math::{abs, TAU};
 
 /// Number of components of the fault vector.
 pub const FAULT_COUNT: usize = 8;
@@ -130,6 +130,43 @@ impl FaultVector {
     }
 }
 
+/// Deviation from the nominal value above which a component is read as a fault (5 % of the
+/// normalised range). The eccentricity phase k7 is a location, not a fault: it has no verdict.
+pub const DETECTION_THRESHOLD: f32 = 0.05;
+
+/// The reading of one component of an identified fault vector.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Verdict {
+    /// Within [`DETECTION_THRESHOLD`] of nominal.
+    Healthy,
+    /// Beyond [`DETECTION_THRESHOLD`] from nominal.
+    Faulty,
+    /// Not a fault on its own (the eccentricity phase).
+    NotApplicable,
+}
+
+impl FaultVector {
+    /// Per-component verdicts against [`DETECTION_THRESHOLD`].
+    pub fn verdicts(&self) -> [Verdict; FAULT_COUNT] {
+        let mut out = [Verdict::Healthy; FAULT_COUNT];
+        for ((v, &k), (&nominal, &circular)) in out
+            .iter_mut()
+            .zip(self.0.iter())
+            .zip(Self::NOMINAL.0.iter().zip(CIRCULAR.iter()))
+        {
+            *v = if circular {
+                Verdict::NotApplicable
+            } else if abs(k - nominal) > DETECTION_THRESHOLD {
+                Verdict::Faulty
+            } else {
+                Verdict::Healthy
+            };
+        }
+        out
+    }
+}
+
 impl Default for FaultVector {
     fn default() -> Self {
         Self::NOMINAL
@@ -217,5 +254,37 @@ mod tests {
         assert_eq!(k.eccentricity_phase(), 0.7);
         assert_eq!(k.gain_drift(), 0.8);
         assert_eq!(FAULT_NAMES.len(), FAULT_COUNT);
+    }
+
+    #[test]
+    fn verdicts_flag_components_beyond_the_threshold() {
+        use Verdict::*;
+        assert_eq!(
+            FaultVector::NOMINAL.verdicts(),
+            [
+                Healthy,
+                Healthy,
+                Healthy,
+                Healthy,
+                Healthy,
+                Healthy,
+                NotApplicable,
+                Healthy
+            ]
+        );
+        let k = FaultVector::new([0.06, 0.04, 0.0, 0.3, 0.0, 0.2, 0.0, 0.44]).unwrap();
+        assert_eq!(
+            k.verdicts(),
+            [
+                Faulty,
+                Healthy,
+                Healthy,
+                Faulty,
+                Healthy,
+                Faulty,
+                NotApplicable,
+                Faulty
+            ]
+        );
     }
 }

@@ -40,6 +40,18 @@ impl Calibration {
     };
 }
 
+impl Calibration {
+    /// The monitor model calibrated against this project's reference model: what
+    /// `host-sim calibrate` fits on the healthy, noise-free reference trace (seed 0). The
+    /// firmware carries it as data; `host-sim` checks it is still what the fit gives.
+    pub const REFERENCE_ACTUATOR: Self = Self {
+        resistance_scale: 0.979_994_06,
+        inductance_scale: 1.149_118_1,
+        back_emf_scale: 1.000_193_4,
+        nominal_residual: 0.001_508_720_6,
+    };
+}
+
 impl Default for Calibration {
     fn default() -> Self {
         Self::IDENTITY

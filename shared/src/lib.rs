@@ -12,6 +12,7 @@
 //! * [`ga`] — the memory-bounded steady-state GA (solver, ask/tell, `step(budget)`).
 //! * [`metrics`] — e_i and e_tot, eq. (4).
 //! * [`fdi`] — the pieces wired together with the onboard sizes and settings.
+//! * [`trace`] — the binary preflight trace format (header, fixed-point rows, CRC-32).
 #![cfg_attr(not(test), no_std)]
 
 pub mod command;
@@ -24,10 +25,11 @@ pub mod math;
 pub mod metrics;
 pub mod monitor;
 pub mod params;
+pub mod trace;
 
 pub use command::ChirpCommand;
 pub use conditioning::{AdcFrame, LowPass, MeasuredCurrent};
-pub use fault::{FaultVector, FAULT_COUNT};
+pub use fault::{FaultVector, Verdict, FAULT_COUNT};
 pub use fitness::{Calibration, FitnessProblem};
 pub use ga::{GaSettings, Problem, Status, SteadyStateGa, StopReason};
 pub use monitor::MonitorModel;

@@ -1,0 +1,122 @@
+//! The identification picture: measured vs best-fit monitor-model current, and the fitness
+//! history of the GA. SVG through `plotters`.
+
+use std::path::Path;
+
+use anyhow::{anyhow, Result};
+use plotters::prelude::*;
+use shared::conditioning::LowPassState;
+use shared::fdi::OnboardMeasured;
+use shared::{ActuatorParams, Calibration, FaultVector, MonitorModel};
+
+/// Draws the two panels into `out`.
+pub fn identification_svg(
+    out: &Path,
+    measured: &OnboardMeasured,
+    calibration: &Calibration,
+    found: &FaultVector,
+    history: &[(u32, f32)],
+    title: &str,
+) -> Result<()> {
+    let params = ActuatorParams::REFERENCE;
+    let dt = f64::from(params.control_period);
+    let model = MonitorModel::new(params, calibration);
+    let filter = measured.filter();
+    let mut state = LowPassState::default();
+    let mut fitted = Vec::with_capacity(measured.samples().len());
+    model.run(found, measured.samples().len(), |s| {
+        fitted.push(filter.apply(&mut state, s.current));
+    });
+    let series = |v: &[f32]| -> Vec<(f64, f64)> {
+        v.iter()
+            .enumerate()
+            .map(|(i, &x)| (i as f64 * dt, f64::from(x)))
+            .collect()
+    };
+    let measured_pts = series(measured.samples());
+    let fitted_pts = series(&fitted);
+    let (lo, hi) = measured_pts
+        .iter()
+        .chain(&fitted_pts)
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p.1), hi.max(p.1))
+        });
+    let pad = 0.05 * (hi - lo).max(1e-3);
+    let t_end = measured_pts.len() as f64 * dt;
+
+    let root = SVGBackend::new(out, (1100, 800)).into_drawing_area();
+    let e = |e: DrawingAreaErrorKind<_>| anyhow!("drawing {}: {e:?}", out.display());
+    root.fill(&WHITE).map_err(e)?;
+    let (upper, lower) = root.split_vertically(480);
+
+    let mut chart = ChartBuilder::on(&upper)
+        .caption(title, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..t_end, (lo - pad)..(hi + pad))
+        .map_err(e)?;
+    chart
+        .configure_mesh()
+        .x_desc("t [s]")
+        .y_desc("filtered equivalent current [A]")
+        .draw()
+        .map_err(e)?;
+    chart
+        .draw_series(LineSeries::new(measured_pts, &BLUE))
+        .map_err(e)?
+        .label("measured (reference model / actuator)")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE));
+    chart
+        .draw_series(LineSeries::new(fitted_pts, &RED))
+        .map_err(e)?
+        .label("monitor model at the identified faults")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED));
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperLeft)
+        .draw()
+        .map_err(e)?;
+
+    // Fitness history: eq. (3) error plus the residual (the raw, positive error) on a log axis.
+    let residual = f64::from(calibration.nominal_residual);
+    let hist: Vec<(f64, f64)> = history
+        .iter()
+        .map(|&(n, f)| (f64::from(n), (f64::from(f) + residual).max(1e-12)))
+        .collect();
+    let max_n = hist.last().map_or(1.0, |p| p.0.max(1.0));
+    let (flo, fhi) = hist
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p.1), hi.max(p.1))
+        });
+    let (flo, fhi) = if flo.is_finite() && fhi.is_finite() {
+        (flo / 1.5, fhi * 1.5)
+    } else {
+        (1e-6, 1.0)
+    };
+    let mut chart = ChartBuilder::on(&lower)
+        .caption(
+            "GA: best eq. (3) error (residual not subtracted)",
+            ("sans-serif", 16),
+        )
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..max_n, (flo..fhi).log_scale())
+        .map_err(e)?;
+    chart
+        .configure_mesh()
+        .x_desc("monitor-model evaluations")
+        .y_desc("error [A²·s]")
+        .y_label_formatter(&|v| format!("{v:.1e}"))
+        .draw()
+        .map_err(e)?;
+    chart
+        .draw_series(LineSeries::new(hist, &BLACK))
+        .map_err(e)?;
+    root.present().map_err(e)?;
+    Ok(())
+}

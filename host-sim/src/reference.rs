@@ -1,0 +1,692 @@
+//! The reference model (RM): the high-fidelity "real actuator" every test and campaign
+//! identifies (SPEC §4, paper Fig. 3). It is deliberately a different and richer model than
+//! the monitor model in `shared`.
+//!
+//! f64; fixed step [`ReferenceSettings::step`] = 1 µs (100 steps per 100 µs control period);
+//! O(1) work per step, one 0.5 s test = 500 000 steps. Time is the step index times the step,
+//! never read from a clock; every random number comes from generators seeded by the caller.
+//!
+//! What it models:
+//! * **ACE controller** at 10 kHz, on *sensed* signals: PID position loop on the user-shaft
+//!   transducer (its K_p carries the gain-drift fault) → saturated speed reference → PI speed
+//!   loop on the speed estimated from encoder differences, with anti-windup → saturated I_ref,
+//!   plus optional band-limited process noise on I_ref.
+//! * **Inverter**: three legs on a DC bus, 120° trapezoidal commutation from the rotor angle
+//!   at every step, per-phase hysteresis current control of the two conducting phases, the
+//!   third leg open with its current freewheeling through the diodes until it reaches zero;
+//!   floating neutral (the three currents always sum to zero).
+//! * **BLDC motor**: per-phase R, L and trapezoidal back-EMF from a permeance model: P = 4
+//!   pole pairs with trapezoidal magnetisation (60° electrical fringing), each phase wound as
+//!   two full-pitch coils side by side in its own third of the stator (a modular,
+//!   fault-tolerant winding). A partial short circuit of `N` healthy turns scales that phase's
+//!   R by `N`, L by `N²` and coupling by `N`. Static eccentricity makes the air gap at stator
+//!   angle ψ `g(ψ) = g₀·(1 − Z·cos(ψ − ψ_min))`; each coil's flux linkage is integrated over
+//!   the gap permeance, so each phase's coupling changes with rotor angle as the magnet edges
+//!   cross its coils. `ψ_min` is φ away from the centre of phase A's coils (mechanical angle).
+//! * **Mechanics**: two degrees of freedom. Motor inertia with Karnopp stick-slip dry friction
+//!   and a Stribeck drop from static to dynamic level; a compliant gear train with backlash
+//!   (dead zone), contact damping and no sticking contact; user inertia with the aerodynamic
+//!   hinge moment (spring + damping) and end-of-travel stops.
+//! * **Sensors**: phase currents through a 12-bit ADC (±20 A) with white electrical noise;
+//!   a 20-bit absolute motor encoder; a 20-bit user-shaft transducer over ±0.5 rad with an
+//!   offset and noise. The trace holds what these sensors read at each control period.
+
+use rand_core::{RngCore, SeedableRng};
+use rand_xoshiro::Xoshiro256PlusPlus;
+use shared::conditioning::COMMUTATION_SIGNS;
+use shared::{ActuatorParams, ChirpCommand, FaultVector};
+
+use crate::trace_file::{Trace, TraceSample};
+
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
+
+/// Mechanical angle of the centre of each phase's coil group (A, B, C) [rad]. The groups sit
+/// 120° apart in the order A, C, B, which for P = 4 puts phase B 120° electrical behind A.
+const GROUP_CENTRE: [f64; 3] = [67.5 * PI / 180.0, 307.5 * PI / 180.0, 187.5 * PI / 180.0];
+/// Mechanical angle between the two coils of one group: one pole pitch (P = 4).
+const COIL_PITCH: f64 = PI / 4.0;
+/// Points per mechanical revolution of the back-EMF shape tables.
+const SHAPE_POINTS: usize = 8192;
+
+/// Everything about the RM that is not in [`ActuatorParams`]: drive, sensors, extra physics.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ReferenceSettings {
+    /// Physical parameters shared with the monitor model (the actuator's data sheet).
+    pub params: ActuatorParams,
+    /// Integration step [s].
+    pub step: f64,
+    /// Half-width of the hysteresis current band [A].
+    pub hysteresis_band: f64,
+    /// Width of the magnet-edge transition (fringing) [rad electrical].
+    pub magnet_fringe: f64,
+    /// Aerodynamic damping on the user shaft [N·m·s/rad].
+    pub aero_damping: f64,
+    /// End-of-travel stop angle of the user shaft [rad] (symmetric).
+    pub end_stop_angle: f64,
+    /// Stiffness and damping of the end stops [N·m/rad], [N·m·s/rad].
+    pub end_stop_stiffness: f64,
+    pub end_stop_damping: f64,
+    /// Motor speed below which the Karnopp model treats the motor as stuck [rad/s].
+    pub stick_band: f64,
+    /// Full scale (±) and bits of the current ADC [A], [-].
+    pub current_full_scale: f64,
+    pub current_bits: u32,
+    /// RMS of the white electrical noise on each current line [A].
+    pub current_noise: f64,
+    /// Bits per revolution of the motor encoder.
+    pub encoder_bits: u32,
+    /// Full scale (±) [rad] and bits of the user-shaft transducer.
+    pub user_full_scale: f64,
+    pub user_bits: u32,
+    /// Offset and RMS noise of the user-shaft transducer [rad].
+    pub user_offset: f64,
+    pub user_noise: f64,
+    /// Cutoff of the band-limited process noise on I_ref [Hz].
+    pub current_ref_noise_cutoff: f64,
+    /// Closed-loop hold at zero command before the chirp starts [s]: the test begins from
+    /// a regulated actuator (which sits at minus the transducer offset), as on the aircraft.
+    pub pre_roll: f64,
+}
+
+impl ReferenceSettings {
+    /// The reference actuator of this project.
+    pub const REFERENCE: Self = Self {
+        params: ActuatorParams::REFERENCE,
+        step: 1.0e-6,
+        hysteresis_band: 0.1,
+        magnet_fringe: 60.0 * PI / 180.0,
+        aero_damping: 10.0,
+        end_stop_angle: 0.35,
+        end_stop_stiffness: 1.0e8,
+        end_stop_damping: 1.0e5,
+        stick_band: 0.02,
+        current_full_scale: 20.0,
+        current_bits: 12,
+        current_noise: 0.01,
+        encoder_bits: 20,
+        user_full_scale: 0.5,
+        user_bits: 20,
+        user_offset: 2.0e-5,
+        user_noise: 5.0e-7,
+        current_ref_noise_cutoff: 1000.0,
+        pre_roll: 0.01,
+    };
+}
+
+impl Default for ReferenceSettings {
+    fn default() -> Self {
+        Self::REFERENCE
+    }
+}
+
+/// What one simulation is asked to do.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Scenario {
+    pub faults: FaultVector,
+    /// RMS of the band-limited noise on I_ref, as a fraction of the nominal I_ref RMS.
+    pub current_ref_noise: f64,
+    /// Seed of every random draw of the run.
+    pub seed: u64,
+}
+
+impl Scenario {
+    pub fn new(faults: FaultVector) -> Self {
+        Self {
+            faults,
+            current_ref_noise: 0.0,
+            seed: 0,
+        }
+    }
+}
+
+/// What the RM knows at the start of each control period and the sensors do not show (with
+/// the I_ref the controller computed for that period): for tests and plots.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct TruthSample {
+    pub current_ref: f64,
+    pub phase_currents: [f64; 3],
+    pub motor_angle: f64,
+    pub motor_speed: f64,
+    pub user_angle: f64,
+    pub motor_torque: f64,
+}
+
+/// Energy bookkeeping over a run [J]: what the inverter delivered and where it went.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct EnergyLedger {
+    /// Σ v·i into the three phases.
+    pub electrical_input: f64,
+    /// Σ R·i² in the windings.
+    pub copper_loss: f64,
+    /// Magnetic energy Σ ½·L·i² at the end.
+    pub magnetic: f64,
+    /// ∫ Σ e·i: electrical power converted by the back-EMF.
+    pub converted: f64,
+    /// ∫ T_m·ω_m: the work the motor torque does on the rotor, as the mechanics sees it.
+    pub shaft_work: f64,
+    /// Dry friction, gear contact damping, aero damping and end-stop damping losses.
+    pub mechanical_loss: f64,
+    /// Kinetic + gear spring + aero spring + end-stop spring energy at the end.
+    pub mechanical_stored: f64,
+    /// Spring energy dropped when a gear contact opens while compressed (no sticking contact).
+    pub contact_release: f64,
+}
+
+/// One RM run: the sensed trace and the hidden truth, one entry per control period.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Simulation {
+    pub trace: Trace,
+    pub truth: Vec<TruthSample>,
+    pub energy: EnergyLedger,
+}
+
+/// Per-phase electrical constants of one run.
+#[derive(Clone, Copy, Debug)]
+struct Phase {
+    resistance: f64,
+    inductance: f64,
+    coupling: f64,
+}
+
+/// The reference model: settings plus the command.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ReferenceModel {
+    settings: ReferenceSettings,
+    command: ChirpCommand,
+}
+
+impl ReferenceModel {
+    pub fn new(settings: ReferenceSettings) -> Self {
+        Self {
+            settings,
+            command: ChirpCommand::PREFLIGHT,
+        }
+    }
+
+    pub fn with_command(mut self, command: ChirpCommand) -> Self {
+        self.command = command;
+        self
+    }
+
+    pub fn settings(&self) -> &ReferenceSettings {
+        &self.settings
+    }
+
+    /// Control periods in the test.
+    pub fn test_samples(&self) -> usize {
+        let ts = f64::from(self.settings.params.control_period);
+        (f64::from(self.command.duration) / ts).round().max(0.0) as usize
+    }
+
+    /// RMS of I_ref of the healthy actuator without process noise [A]: the reference level of
+    /// [`Scenario::current_ref_noise`].
+    pub fn nominal_current_ref_rms(&self) -> f64 {
+        let sim = self.simulate(&Scenario::new(FaultVector::NOMINAL));
+        rms(sim.truth.iter().map(|t| t.current_ref))
+    }
+
+    /// Back-EMF shape of each phase over one mechanical revolution: the coupling of phase x
+    /// at rotor angle θ_m is `k_e · N_x · shape[x][θ_m]` [V·s/rad = N·m/A]. Healthy flat top
+    /// = 1. Exposed for tests and plots.
+    pub fn coupling_shapes(&self, faults: &FaultVector) -> Box<[[f64; SHAPE_POINTS]; 3]> {
+        let fx = faults.effects();
+        let z = f64::from(fx.eccentricity_z);
+        let psi_min = GROUP_CENTRE[0] + f64::from(fx.eccentricity_phase);
+        let p = f64::from(self.settings.params.pole_pairs);
+        let w = self.settings.magnet_fringe;
+        let permeance = |psi: f64| 1.0 / (1.0 - z * (psi - psi_min).cos());
+        let mut shapes = Box::new([[0.0; SHAPE_POINTS]; 3]);
+        for (phase, table) in shapes.iter_mut().enumerate() {
+            let coils = [
+                (GROUP_CENTRE[phase] - 0.5 * COIL_PITCH, 1.0),
+                (GROUP_CENTRE[phase] + 0.5 * COIL_PITCH, -1.0),
+            ];
+            for (j, slot) in table.iter_mut().enumerate() {
+                let theta = TAU * j as f64 / SHAPE_POINTS as f64;
+                let mut sum = 0.0;
+                for (axis, polarity) in coils {
+                    // dλ/dθ_m of a full-pitch coil = −polarity · ∫ M'(u) h(θ + u/P) du over
+                    // the coil's electrical window u = P(ψ − θ), M' = ∓2/w on the two
+                    // magnet-edge ramps (module docs).
+                    let u0 = p * (axis - 0.5 * PI / p - theta);
+                    sum -= polarity * edge_integral(u0, w, |u| permeance(theta + u / p));
+                }
+                *slot = sum / 4.0;
+            }
+        }
+        shapes
+    }
+
+    /// Simulates the whole test command. O(test duration / step).
+    pub fn simulate(&self, scenario: &Scenario) -> Simulation {
+        let s = &self.settings;
+        let p = &s.params;
+        let fx = scenario.faults.effects();
+        let dt = s.step;
+        let ts = f64::from(p.control_period);
+        let steps_per_tick = (ts / dt).round().max(1.0) as usize;
+        let samples = self.test_samples();
+        let pre_roll = (s.pre_roll / ts).round().max(0.0) as usize;
+
+        // Faulted constants.
+        let phases: [Phase; 3] = core::array::from_fn(|x| {
+            let n = f64::from(fx.healthy_turns[x]);
+            Phase {
+                resistance: f64::from(p.phase_resistance) * n,
+                inductance: f64::from(p.phase_inductance) * n * n,
+                coupling: f64::from(p.back_emf_constant) * n,
+            }
+        });
+        let shapes = self.coupling_shapes(&scenario.faults);
+        let kp = f64::from(p.position_kp) * f64::from(fx.kp_scale);
+        let static_friction = f64::from(p.static_friction) * f64::from(fx.friction_scale);
+        let dynamic_friction = f64::from(p.dynamic_friction) * f64::from(fx.friction_scale);
+        let stribeck = f64::from(p.stick_speed);
+        let half_backlash = 0.5 * f64::from(p.nominal_backlash) * f64::from(fx.backlash_scale);
+        let gear = f64::from(p.gear_ratio);
+        let stiffness = f64::from(p.gear_stiffness);
+        let damping = f64::from(p.gear_damping);
+        let jm = f64::from(p.motor_inertia);
+        let ju = f64::from(p.user_inertia);
+        let aero = f64::from(p.aero_stiffness);
+        let vdc = f64::from(p.dc_bus_voltage);
+        let pole_pairs = f64::from(p.pole_pairs);
+
+        // Random streams: sensors and process noise, independent, both from the seed.
+        let mut sensor_rng = Gaussian::new(scenario.seed ^ 0x5E45_0125_u64);
+        let current_ref_noise = if scenario.current_ref_noise > 0.0 {
+            let level = scenario.current_ref_noise * self.nominal_current_ref_rms();
+            band_limited_noise(
+                pre_roll + samples,
+                s.current_ref_noise_cutoff,
+                1.0 / ts,
+                level,
+                scenario.seed ^ 0x0000_1F5E_u64,
+            )
+        } else {
+            vec![0.0; pre_roll + samples]
+        };
+
+        let current_lsb = 2.0 * s.current_full_scale / f64::from(1u32 << s.current_bits);
+        let encoder_lsb = TAU / f64::from(1u32 << s.encoder_bits);
+        let user_lsb = 2.0 * s.user_full_scale / f64::from(1u32 << s.user_bits);
+
+        // State.
+        let mut i = [0.0f64; 3];
+        let mut legs = [0i8; 3];
+        let (mut theta_m, mut omega_m, mut theta_u, mut omega_u) = (0.0f64, 0.0, 0.0, 0.0);
+        let (mut position_integral, mut previous_error, mut speed_integral) = (0.0f64, 0.0, 0.0);
+        let mut previous_encoder: Option<f64> = None;
+        let mut ledger = EnergyLedger::default();
+
+        let mut trace = Trace::with_capacity(samples);
+        let mut truth = Vec::with_capacity(samples);
+
+        for (n, &process_noise) in current_ref_noise.iter().enumerate() {
+            // Negative ticks are the pre-roll: zero command, nothing recorded.
+            let tick = n.checked_sub(pre_roll);
+
+            // ---- sensors (what the ADC latches at this instant) ----
+            let sensed_currents = i.map(|x| {
+                quantise(
+                    x + s.current_noise * sensor_rng.next(),
+                    current_lsb,
+                    s.current_full_scale,
+                )
+            });
+            let encoder = quantise_angle(theta_m, encoder_lsb);
+            let user_sensed = quantise(
+                theta_u + s.user_offset + s.user_noise * sensor_rng.next(),
+                user_lsb,
+                s.user_full_scale,
+            );
+            // The command samples are the monitor model's, bit for bit (same f32 time).
+            let command = tick.map_or(0.0, |k| {
+                f64::from(self.command.position(k as f32 * p.control_period))
+            });
+            if let Some(k) = tick {
+                trace.push(TraceSample {
+                    time: k as f64 / f64::from(crate::trace_file::SAMPLE_RATE_HZ),
+                    command,
+                    phase_currents: sensed_currents,
+                    motor_angle: encoder,
+                    user_angle: user_sensed,
+                });
+            }
+
+            // ---- ACE controller ----
+            let error = command - user_sensed;
+            position_integral += error * ts;
+            let error_rate = (error - previous_error) / ts;
+            previous_error = error;
+            let speed_ref = (kp * error
+                + f64::from(p.position_ki) * position_integral
+                + f64::from(p.position_kd) * error_rate)
+                .clamp(-f64::from(p.max_speed), f64::from(p.max_speed));
+            let speed_estimate = match previous_encoder {
+                Some(prev) => (encoder - prev) / ts,
+                None => 0.0,
+            };
+            previous_encoder = Some(encoder);
+            let speed_error = speed_ref - speed_estimate;
+            let integral = speed_integral + speed_error * ts;
+            let unsaturated =
+                f64::from(p.speed_kp) * speed_error + f64::from(p.speed_ki) * integral;
+            let max_current = f64::from(p.max_current);
+            let saturated = unsaturated.clamp(-max_current, max_current);
+            if unsaturated == saturated || (unsaturated > saturated) != (speed_error > 0.0) {
+                speed_integral = integral;
+            }
+            let current_ref = (saturated + process_noise).clamp(-max_current, max_current);
+
+            let shape = lookup(&shapes, theta_m);
+            if tick.is_some() {
+                truth.push(TruthSample {
+                    current_ref,
+                    phase_currents: i,
+                    motor_angle: theta_m,
+                    motor_speed: omega_m,
+                    user_angle: theta_u,
+                    motor_torque: (0..3).map(|x| phases[x].coupling * shape[x] * i[x]).sum(),
+                });
+            }
+
+            // ---- power stage, motor and mechanics, `steps_per_tick` fine steps ----
+            for _ in 0..steps_per_tick {
+                let theta_e = pole_pairs * theta_m;
+                let sector = ((theta_e * 3.0 / PI + 0.5).floor() as i64).rem_euclid(6) as usize;
+                let signs = COMMUTATION_SIGNS[sector];
+                let floating = sector % 3;
+
+                let shape = lookup(&shapes, theta_m);
+                let coupling: [f64; 3] = core::array::from_fn(|x| phases[x].coupling * shape[x]);
+                let emf = coupling.map(|k| k * omega_m);
+
+                // Leg voltages: hysteresis on the conducting phases, diodes on the open one.
+                let mut v = [0.0f64; 3];
+                for x in 0..3 {
+                    if x == floating {
+                        legs[x] = 0;
+                        v[x] = if i[x] > 0.0 {
+                            -0.5 * vdc
+                        } else if i[x] < 0.0 {
+                            0.5 * vdc
+                        } else {
+                            0.0
+                        };
+                    } else {
+                        let reference = f64::from(signs[x]) * current_ref;
+                        if i[x] < reference - s.hysteresis_band {
+                            legs[x] = 1;
+                        } else if i[x] > reference + s.hysteresis_band {
+                            legs[x] = -1;
+                        } else if legs[x] == 0 {
+                            legs[x] = if i[x] < reference { 1 } else { -1 };
+                        }
+                        v[x] = f64::from(legs[x]) * 0.5 * vdc;
+                    }
+                }
+
+                // Current derivatives with a floating neutral.
+                let mut di = [0.0f64; 3];
+                if i[floating] == 0.0 {
+                    // The open phase carries nothing: the other two are in series.
+                    let (y, z) = ((floating + 1) % 3, (floating + 2) % 3);
+                    let r = phases[y].resistance + phases[z].resistance;
+                    let l = phases[y].inductance + phases[z].inductance;
+                    let d = (v[y] - v[z] - r * i[y] - emf[y] + emf[z]) / l;
+                    di[y] = d;
+                    di[z] = -d;
+                } else {
+                    let mut num = 0.0;
+                    let mut den = 0.0;
+                    for x in 0..3 {
+                        num += (v[x] - phases[x].resistance * i[x] - emf[x]) / phases[x].inductance;
+                        den += 1.0 / phases[x].inductance;
+                    }
+                    let neutral = num / den;
+                    for x in 0..3 {
+                        di[x] = (v[x] - phases[x].resistance * i[x] - emf[x] - neutral)
+                            / phases[x].inductance;
+                    }
+                }
+
+                let motor_torque: f64 = (0..3).map(|x| coupling[x] * i[x]).sum();
+
+                let previous = i;
+                for x in 0..3 {
+                    i[x] += di[x] * dt;
+                }
+                // Energy booked at the step's mid-point current: with explicit Euler that makes
+                // Σ v·i = Σ R·i·i_mid + Δ(½Li²) + Σ e·i_mid hold step by step (booking at the
+                // old current would miss ½·L·Δi² per step of switching ripple).
+                for x in 0..3 {
+                    let mid = 0.5 * (previous[x] + i[x]);
+                    ledger.electrical_input += v[x] * mid * dt;
+                    ledger.copper_loss += phases[x].resistance * previous[x] * mid * dt;
+                    ledger.converted += emf[x] * mid * dt;
+                }
+                ledger.shaft_work += motor_torque * omega_m * dt;
+                let previous_floating = previous[floating];
+                // The diode of the open leg blocks once its current reaches zero.
+                if previous_floating != 0.0
+                    && (i[floating] == 0.0 || i[floating].signum() != previous_floating.signum())
+                {
+                    i[floating] = 0.0;
+                    let (y, z) = ((floating + 1) % 3, (floating + 2) % 3);
+                    let residual = 0.5 * (i[y] + i[z]);
+                    i[y] -= residual;
+                    i[z] -= residual;
+                }
+
+                // Gear train: dead zone, compliant contact with damping, never pulling.
+                let deflection = theta_m / gear - theta_u;
+                let engaged = deflection - deflection.clamp(-half_backlash, half_backlash);
+                let relative_speed = omega_m / gear - omega_u;
+                let mut gear_torque = 0.0;
+                if engaged != 0.0 {
+                    let t = stiffness * engaged + damping * relative_speed;
+                    if t.signum() == engaged.signum() {
+                        gear_torque = t;
+                        ledger.mechanical_loss += damping * relative_speed * relative_speed * dt;
+                    } else {
+                        // The contact opens while compressed: the spring energy it gives up
+                        // does no work.
+                        ledger.contact_release -= stiffness * engaged * relative_speed * dt;
+                    }
+                }
+
+                // Motor: Karnopp stick-slip with a Stribeck drop.
+                let drive = motor_torque - gear_torque / gear;
+                let friction = if omega_m.abs() < s.stick_band {
+                    drive.clamp(-static_friction, static_friction)
+                } else {
+                    omega_m.signum()
+                        * (dynamic_friction
+                            + (static_friction - dynamic_friction)
+                                * (-(omega_m / stribeck).powi(2)).exp())
+                };
+                let stuck = omega_m.abs() < s.stick_band && drive.abs() <= static_friction;
+                let new_omega_m = if stuck {
+                    0.0
+                } else {
+                    let w = omega_m + dt * (drive - friction) / jm;
+                    // Sliding friction stops the motor, it never reverses it.
+                    if omega_m != 0.0 && w.signum() != omega_m.signum() {
+                        0.0
+                    } else {
+                        w
+                    }
+                };
+                ledger.mechanical_loss += (friction * omega_m).abs() * dt;
+
+                // User shaft: aero hinge moment and end stops.
+                let mut load = -aero * theta_u - s.aero_damping * omega_u;
+                ledger.mechanical_loss += s.aero_damping * omega_u * omega_u * dt;
+                let beyond = theta_u - theta_u.clamp(-s.end_stop_angle, s.end_stop_angle);
+                if beyond != 0.0 {
+                    load += -s.end_stop_stiffness * beyond - s.end_stop_damping * omega_u;
+                    ledger.mechanical_loss += s.end_stop_damping * omega_u * omega_u * dt;
+                }
+                let new_omega_u = omega_u + dt * (gear_torque + load) / ju;
+
+                omega_m = new_omega_m;
+                omega_u = new_omega_u;
+                theta_m += omega_m * dt;
+                theta_u += omega_u * dt;
+            }
+        }
+
+        let deflection = theta_m / gear - theta_u;
+        let engaged = deflection - deflection.clamp(-half_backlash, half_backlash);
+        let beyond = theta_u - theta_u.clamp(-s.end_stop_angle, s.end_stop_angle);
+        ledger.magnetic = (0..3)
+            .map(|x| 0.5 * phases[x].inductance * i[x] * i[x])
+            .sum();
+        ledger.mechanical_stored = 0.5 * jm * omega_m * omega_m
+            + 0.5 * ju * omega_u * omega_u
+            + 0.5 * stiffness * engaged * engaged
+            + 0.5 * aero * theta_u * theta_u
+            + 0.5 * s.end_stop_stiffness * beyond * beyond;
+
+        Simulation {
+            trace,
+            truth,
+            energy: ledger,
+        }
+    }
+}
+
+/// ∫ M'(u)·h(u) du over the coil window `[u0, u0 + π]`, with M' = −2/w on the ramps centred
+/// at π/2 + 2πn and +2/w on those centred at −π/2 + 2πn (4-point Gauss–Legendre per piece).
+fn edge_integral(u0: f64, w: f64, h: impl Fn(f64) -> f64) -> f64 {
+    const NODES: [f64; 4] = [
+        -0.861_136_311_594_052_6,
+        -0.339_981_043_584_856_3,
+        0.339_981_043_584_856_3,
+        0.861_136_311_594_052_6,
+    ];
+    const WEIGHTS: [f64; 4] = [
+        0.347_854_845_137_453_9,
+        0.652_145_154_862_546_1,
+        0.652_145_154_862_546_1,
+        0.347_854_845_137_453_9,
+    ];
+    let lo = u0;
+    let hi = u0 + PI;
+    let mut total = 0.0;
+    let first = ((lo - w - FRAC_PI_2) / PI).floor() as i64;
+    let last = ((hi + w - FRAC_PI_2) / PI).ceil() as i64;
+    for n in first..=last {
+        // Ramps alternate: centre π/2 + nπ, slope −2/w for even n, +2/w for odd n.
+        let centre = FRAC_PI_2 + n as f64 * PI;
+        let slope = if n.rem_euclid(2) == 0 {
+            -2.0 / w
+        } else {
+            2.0 / w
+        };
+        let a = lo.max(centre - 0.5 * w);
+        let b = hi.min(centre + 0.5 * w);
+        if b <= a {
+            continue;
+        }
+        let half = 0.5 * (b - a);
+        let mid = 0.5 * (a + b);
+        let integral: f64 = NODES
+            .iter()
+            .zip(WEIGHTS)
+            .map(|(x, wt)| wt * h(mid + half * x))
+            .sum();
+        total += slope * half * integral;
+    }
+    total
+}
+
+/// Linear interpolation of the three shape tables at mechanical angle `theta_m`.
+fn lookup(shapes: &[[f64; SHAPE_POINTS]; 3], theta_m: f64) -> [f64; 3] {
+    let x = theta_m.rem_euclid(TAU) * (SHAPE_POINTS as f64 / TAU);
+    let j = (x.floor() as usize) % SHAPE_POINTS;
+    let frac = x - x.floor();
+    let next = (j + 1) % SHAPE_POINTS;
+    core::array::from_fn(|p| shapes[p][j] + frac * (shapes[p][next] - shapes[p][j]))
+}
+
+/// Quantises to the nearest ADC code within ±`full_scale`.
+fn quantise(x: f64, lsb: f64, full_scale: f64) -> f64 {
+    ((x / lsb).round() * lsb).clamp(-full_scale, full_scale - lsb)
+}
+
+/// An absolute encoder reading, unwrapped (multi-turn counter).
+fn quantise_angle(theta: f64, lsb: f64) -> f64 {
+    (theta / lsb).floor() * lsb
+}
+
+fn rms(values: impl Iterator<Item = f64>) -> f64 {
+    let (sum, n) = values.fold((0.0, 0usize), |(s, n), x| (s + x * x, n + 1));
+    if n == 0 {
+        0.0
+    } else {
+        (sum / n as f64).sqrt()
+    }
+}
+
+/// Standard normal draws (Box–Muller) from a seeded xoshiro256++.
+struct Gaussian {
+    rng: Xoshiro256PlusPlus,
+    spare: Option<f64>,
+}
+
+impl Gaussian {
+    fn new(seed: u64) -> Self {
+        Self {
+            rng: Xoshiro256PlusPlus::seed_from_u64(seed),
+            spare: None,
+        }
+    }
+
+    fn uniform(&mut self) -> f64 {
+        // 53 random bits in (0, 1].
+        ((self.rng.next_u64() >> 11) as f64 + 1.0) * (1.0 / (1u64 << 53) as f64)
+    }
+
+    fn next(&mut self) -> f64 {
+        if let Some(x) = self.spare.take() {
+            return x;
+        }
+        let r = (-2.0 * self.uniform().ln()).sqrt();
+        let a = TAU * self.uniform();
+        self.spare = Some(r * a.sin());
+        r * a.cos()
+    }
+}
+
+/// `n` samples of white Gaussian noise at `rate` Hz through a 2nd-order Butterworth low-pass
+/// at `cutoff` Hz, scaled to RMS `level` exactly.
+fn band_limited_noise(n: usize, cutoff: f64, rate: f64, level: f64, seed: u64) -> Vec<f64> {
+    let mut g = Gaussian::new(seed);
+    let k = (PI * cutoff / rate).tan();
+    let norm = 1.0 / (1.0 + std::f64::consts::SQRT_2 * k + k * k);
+    let b0 = k * k * norm;
+    let (b1, b2) = (2.0 * b0, b0);
+    let a1 = 2.0 * (k * k - 1.0) * norm;
+    let a2 = (1.0 - std::f64::consts::SQRT_2 * k + k * k) * norm;
+    let (mut z1, mut z2) = (0.0, 0.0);
+    // Let the filter settle on 200 samples that are thrown away.
+    let mut out: Vec<f64> = (0..n + 200)
+        .map(|_| {
+            let x = g.next();
+            let y = b0 * x + z1;
+            z1 = b1 * x - a1 * y + z2;
+            z2 = b2 * x - a2 * y;
+            y
+        })
+        .skip(200)
+        .collect();
+    let r = rms(out.iter().copied());
+    if r > 0.0 {
+        for y in &mut out {
+            *y *= level / r;
+        }
+    }
+    out
+}

@@ -1,0 +1,290 @@
+//! The binary preflight trace, format version 1: what `host-sim simulate --format bin` writes
+//! and what the firmware reads under emulation. Decoding is O(1) per row, no allocation.
+//!
+//! Layout, all integers little-endian:
+//!
+//! | offset | bytes | field |
+//! | --- | --- | --- |
+//! | 0 | 4 | magic `b"EMAT"` |
+//! | 4 | 2 | format version, `u16` = 1 |
+//! | 6 | 2 | columns per row, `u16` = 6 |
+//! | 8 | 4 | sample rate [Hz], `u32` (10 000) |
+//! | 12 | 4 | number of rows, `u32` |
+//! | 16 | 24 · rows | rows, 6 × `i32` each (below) |
+//! | end | 4 | CRC-32 (IEEE 802.3) of every byte before it |
+//!
+//! A row is the sample at `t = index / sample_rate`, six fixed-point numbers stored as the
+//! `i32` of their bits: commanded user angle θ_cmd [rad] as `I4F28`, phase currents i_a, i_b,
+//! i_c [A] as `I16F16`, motor-shaft angle θ_m [rad] as `I16F16`, user-shaft angle θ_u [rad] as
+//! `I4F28`. The currents and the motor angle are exactly the controller's [`AdcFrame`].
+
+use fixed::types::{I16F16, I4F28};
+
+use crate::conditioning::AdcFrame;
+
+/// First four bytes of every binary trace.
+pub const MAGIC: [u8; 4] = *b"EMAT";
+/// The format version this code reads and writes.
+pub const VERSION: u16 = 1;
+/// Columns per row.
+pub const COLUMNS: u16 = 6;
+/// Bytes of the header.
+pub const HEADER_BYTES: usize = 16;
+/// Bytes of one row.
+pub const ROW_BYTES: usize = 4 * COLUMNS as usize;
+/// Bytes of the checksum trailer.
+pub const TRAILER_BYTES: usize = 4;
+
+/// Why a binary trace was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum TraceError {
+    /// The first four bytes are not [`MAGIC`].
+    BadMagic,
+    /// A version this code does not read.
+    UnsupportedVersion { found: u16 },
+    /// A column count other than [`COLUMNS`].
+    BadColumns { found: u16 },
+    /// The file length does not match the header's row count.
+    LengthMismatch { rows: u32, bytes: u64 },
+    /// The stored checksum differs from the computed one.
+    BadChecksum { stored: u32, computed: u32 },
+}
+
+/// The header of a binary trace.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct TraceHeader {
+    /// Sample rate [Hz].
+    pub sample_rate_hz: u32,
+    /// Number of rows that follow.
+    pub rows: u32,
+}
+
+impl TraceHeader {
+    pub fn encode(&self) -> [u8; HEADER_BYTES] {
+        let mut out = [0u8; HEADER_BYTES];
+        let fields = [
+            &MAGIC[..],
+            &VERSION.to_le_bytes(),
+            &COLUMNS.to_le_bytes(),
+            &self.sample_rate_hz.to_le_bytes(),
+            &self.rows.to_le_bytes(),
+        ];
+        let mut at = 0;
+        for f in fields {
+            for (dst, src) in out.iter_mut().skip(at).zip(f) {
+                *dst = *src;
+            }
+            at += f.len();
+        }
+        out
+    }
+
+    pub fn decode(bytes: &[u8; HEADER_BYTES]) -> Result<Self, TraceError> {
+        let [m0, m1, m2, m3, v0, v1, c0, c1, r0, r1, r2, r3, n0, n1, n2, n3] = *bytes;
+        if [m0, m1, m2, m3] != MAGIC {
+            return Err(TraceError::BadMagic);
+        }
+        let version = u16::from_le_bytes([v0, v1]);
+        if version != VERSION {
+            return Err(TraceError::UnsupportedVersion { found: version });
+        }
+        let columns = u16::from_le_bytes([c0, c1]);
+        if columns != COLUMNS {
+            return Err(TraceError::BadColumns { found: columns });
+        }
+        Ok(Self {
+            sample_rate_hz: u32::from_le_bytes([r0, r1, r2, r3]),
+            rows: u32::from_le_bytes([n0, n1, n2, n3]),
+        })
+    }
+
+    /// Total file length this header announces [bytes].
+    pub fn file_bytes(&self) -> u64 {
+        (HEADER_BYTES + TRAILER_BYTES) as u64 + ROW_BYTES as u64 * u64::from(self.rows)
+    }
+
+    /// Checks a file length against the header.
+    pub fn check_length(&self, bytes: u64) -> Result<(), TraceError> {
+        if bytes == self.file_bytes() {
+            Ok(())
+        } else {
+            Err(TraceError::LengthMismatch {
+                rows: self.rows,
+                bytes,
+            })
+        }
+    }
+}
+
+/// One sample of a trace, in the stored fixed-point form.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct TraceRow {
+    /// Commanded user-shaft angle [rad].
+    pub command: I4F28,
+    /// Phase currents i_a, i_b, i_c [A].
+    pub phase_currents: [I16F16; 3],
+    /// Motor-shaft angle [rad].
+    pub motor_angle: I16F16,
+    /// User-shaft angle [rad].
+    pub user_angle: I4F28,
+}
+
+impl TraceRow {
+    /// Converts, saturating at the fixed-point range (NaN becomes 0: the conversion itself
+    /// never panics; readers reject non-finite input before they get here). Every tool that
+    /// reads a text trace goes through here, so a CSV and a binary trace of the same
+    /// simulation condition into the same bits.
+    pub fn from_f64(
+        command: f64,
+        phase_currents: [f64; 3],
+        motor_angle: f64,
+        user_angle: f64,
+    ) -> Self {
+        let nan_to_zero = |x: f64| if x.is_nan() { 0.0 } else { x };
+        Self {
+            command: I4F28::saturating_from_num(nan_to_zero(command)),
+            phase_currents: phase_currents.map(|x| I16F16::saturating_from_num(nan_to_zero(x))),
+            motor_angle: I16F16::saturating_from_num(nan_to_zero(motor_angle)),
+            user_angle: I4F28::saturating_from_num(nan_to_zero(user_angle)),
+        }
+    }
+
+    /// What the controller's ADC holds for this sample.
+    pub fn adc_frame(&self) -> AdcFrame {
+        AdcFrame {
+            phase_currents: self.phase_currents,
+            motor_angle: self.motor_angle,
+        }
+    }
+
+    pub fn encode(&self) -> [u8; ROW_BYTES] {
+        let words = [
+            self.command.to_bits(),
+            self.phase_currents[0].to_bits(),
+            self.phase_currents[1].to_bits(),
+            self.phase_currents[2].to_bits(),
+            self.motor_angle.to_bits(),
+            self.user_angle.to_bits(),
+        ];
+        let mut out = [0u8; ROW_BYTES];
+        for (chunk, w) in out.chunks_exact_mut(4).zip(words) {
+            chunk.copy_from_slice(&w.to_le_bytes());
+        }
+        out
+    }
+
+    pub fn decode(bytes: &[u8; ROW_BYTES]) -> Self {
+        let mut words = [0i32; COLUMNS as usize];
+        for (w, chunk) in words.iter_mut().zip(bytes.chunks_exact(4)) {
+            let mut b = [0u8; 4];
+            b.copy_from_slice(chunk);
+            *w = i32::from_le_bytes(b);
+        }
+        let [cmd, a, b, c, m, u] = words;
+        Self {
+            command: I4F28::from_bits(cmd),
+            phase_currents: [
+                I16F16::from_bits(a),
+                I16F16::from_bits(b),
+                I16F16::from_bits(c),
+            ],
+            motor_angle: I16F16::from_bits(m),
+            user_angle: I4F28::from_bits(u),
+        }
+    }
+}
+
+/// Streaming CRC-32 (IEEE 802.3, reflected, polynomial 0xEDB88320), bitwise: O(8) per byte,
+/// no table in flash.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Crc32(u32);
+
+impl Crc32 {
+    pub const fn new() -> Self {
+        Self(0xFFFF_FFFF)
+    }
+
+    pub fn update(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 ^= u32::from(b);
+            for _ in 0..8 {
+                let mask = (self.0 & 1).wrapping_neg();
+                self.0 = (self.0 >> 1) ^ (0xEDB8_8320 & mask);
+            }
+        }
+    }
+
+    pub fn finish(&self) -> u32 {
+        !self.0
+    }
+}
+
+impl Default for Crc32 {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn crc_matches_the_standard_check_value() {
+        let mut c = Crc32::new();
+        c.update(b"123456789");
+        assert_eq!(c.finish(), 0xCBF4_3926);
+    }
+
+    #[test]
+    fn header_round_trips_and_rejects_foreign_bytes() {
+        let h = TraceHeader {
+            sample_rate_hz: 10_000,
+            rows: 5000,
+        };
+        let bytes = h.encode();
+        assert_eq!(&bytes[..4], b"EMAT");
+        assert_eq!(TraceHeader::decode(&bytes), Ok(h));
+        assert_eq!(h.file_bytes(), 16 + 4 + 24 * 5000);
+        assert!(h.check_length(h.file_bytes()).is_ok());
+        assert_eq!(
+            h.check_length(100),
+            Err(TraceError::LengthMismatch {
+                rows: 5000,
+                bytes: 100
+            })
+        );
+        let mut bad = bytes;
+        bad[0] = b'X';
+        assert_eq!(TraceHeader::decode(&bad), Err(TraceError::BadMagic));
+        let mut bad = bytes;
+        bad[4] = 2;
+        assert_eq!(
+            TraceHeader::decode(&bad),
+            Err(TraceError::UnsupportedVersion { found: 2 })
+        );
+        let mut bad = bytes;
+        bad[6] = 7;
+        assert_eq!(
+            TraceHeader::decode(&bad),
+            Err(TraceError::BadColumns { found: 7 })
+        );
+    }
+
+    #[test]
+    fn row_round_trips_bit_for_bit() {
+        let r = TraceRow::from_f64(-0.004_321, [1.25, -3.5, 0.0078], 2.5, 0.0049);
+        assert_eq!(TraceRow::decode(&r.encode()), r);
+        assert_eq!(r.adc_frame().phase_currents[1], I16F16::from_num(-3.5));
+        // Saturation instead of wrap-around.
+        let big = TraceRow::from_f64(100.0, [1e9, -1e9, f64::NAN], 0.0, -100.0);
+        assert_eq!(big.command, I4F28::MAX);
+        assert_eq!(big.phase_currents[0], I16F16::MAX);
+        assert_eq!(big.phase_currents[1], I16F16::MIN);
+        assert_eq!(big.phase_currents[2], I16F16::ZERO);
+        assert_eq!(big.user_angle, I4F28::MIN);
+    }
+}
