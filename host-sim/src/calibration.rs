@@ -253,3 +253,27 @@ mod tests {
         );
     }
 }
+
+#[cfg(test)]
+mod reference_tests {
+    use super::*;
+    use crate::reference::{ReferenceModel, ReferenceSettings, Scenario};
+
+    /// The calibration the firmware and `identify` use by default is exactly what the fit
+    /// gives on the healthy reference trace (seed 0): a stored table, checked.
+    #[test]
+    fn built_in_calibration_is_what_the_fit_gives() {
+        let sim = ReferenceModel::new(ReferenceSettings::REFERENCE)
+            .simulate(&Scenario::new(FaultVector::NOMINAL));
+        let params = ActuatorParams::REFERENCE;
+        let measured = sim.trace.measured(&params).unwrap();
+        let fit = calibrate(&measured, params).unwrap();
+        assert_eq!(
+            fit.calibration(),
+            Calibration::REFERENCE_ACTUATOR,
+            "{fit:?}"
+        );
+        // Calibration never makes the nominal fit worse.
+        assert!(fit.mismatch_after <= fit.mismatch_before);
+    }
+}

@@ -111,6 +111,7 @@ pub fn identification_svg(
         .configure_mesh()
         .x_desc("monitor-model evaluations")
         .y_desc("error [A²·s]")
+        .y_labels(12)
         .y_label_formatter(&|v| format!("{v:.1e}"))
         .draw()
         .map_err(e)?;

@@ -199,7 +199,7 @@ impl Trace {
                 crc.finish()
             );
         }
-        let dt = 1.0 / f64::from(header.sample_rate_hz);
+        let rate = f64::from(header.sample_rate_hz);
         let samples = bytes[HEADER_BYTES..body_end]
             .chunks_exact(ROW_BYTES)
             .enumerate()
@@ -208,7 +208,7 @@ impl Trace {
                 raw.copy_from_slice(chunk);
                 let r = TraceRow::decode(&raw);
                 TraceSample {
-                    time: k as f64 * dt,
+                    time: k as f64 / rate,
                     command: r.command.to_num(),
                     phase_currents: r.phase_currents.map(|x| x.to_num()),
                     motor_angle: r.motor_angle.to_num(),
@@ -287,7 +287,7 @@ impl Trace {
 fn check_time_base(samples: &[TraceSample]) -> Result<()> {
     let dt = 1.0 / f64::from(SAMPLE_RATE_HZ);
     for (k, s) in samples.iter().enumerate() {
-        let expected = k as f64 * dt;
+        let expected = k as f64 / f64::from(SAMPLE_RATE_HZ);
         if (s.time - expected).abs() > 0.01 * dt {
             bail!(
                 "line {}: t = {} s, expected {expected} s (one row per {} µs from t = 0)",
@@ -298,4 +298,104 @@ fn check_time_base(samples: &[TraceSample]) -> Result<()> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::reference::{ReferenceModel, ReferenceSettings, Scenario};
+    use shared::FaultVector;
+
+    fn trace() -> Trace {
+        let k = FaultVector::new([0.3, 0.1, 0.2, 0.0, 0.0, 0.1, 0.4, 0.6]).unwrap();
+        ReferenceModel::new(ReferenceSettings::REFERENCE)
+            .simulate(&Scenario::new(k))
+            .trace
+    }
+
+    #[test]
+    fn csv_round_trips_exactly_and_binary_to_the_fixed_point_bits() {
+        let t = trace();
+        let csv = t.to_csv();
+        assert!(csv.starts_with(b"t,theta_cmd,i_a,i_b,i_c,theta_m,theta_u\n"));
+        assert_eq!(Trace::from_csv(&csv).unwrap(), t);
+        let bin = t.to_bin().unwrap();
+        assert_eq!(bin.len(), 16 + 24 * 5000 + 4);
+        let back = Trace::from_bin(&bin).unwrap();
+        for (a, b) in t.samples().iter().zip(back.samples()) {
+            assert_eq!(a.row(), b.row());
+            assert_eq!(a.time, b.time);
+        }
+    }
+
+    #[test]
+    fn csv_and_binary_condition_into_the_same_bits() {
+        let t = trace();
+        let p = ActuatorParams::REFERENCE;
+        let from_csv = Trace::from_csv(&t.to_csv()).unwrap().measured(&p).unwrap();
+        let from_bin = Trace::from_bin(&t.to_bin().unwrap())
+            .unwrap()
+            .measured(&p)
+            .unwrap();
+        let bits =
+            |m: &OnboardMeasured| m.samples().iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&from_csv), bits(&from_bin));
+        assert_eq!(from_csv.inv_kappa(), from_bin.inv_kappa());
+    }
+
+    #[test]
+    fn damaged_input_is_refused_with_a_reason() {
+        let t = trace();
+        let err = |r: Result<Trace>| format!("{:#}", r.unwrap_err());
+        assert!(err(Trace::from_csv(b"")).contains("empty"));
+        assert!(err(Trace::from_csv(b"a,b\n1,2\n")).contains("header"));
+        assert!(err(Trace::from_csv(
+            b"t,theta_cmd,i_a,i_b,i_c,theta_m,theta_u\n"
+        ))
+        .contains("no samples"));
+        let e = err(Trace::from_csv(
+            b"t,theta_cmd,i_a,i_b,i_c,theta_m,theta_u\n0,0,1,x,0,0,0\n",
+        ));
+        assert!(
+            e.contains("line 2") && e.contains("i_b") && e.contains("`x`"),
+            "{e}"
+        );
+        let e = err(Trace::from_csv(
+            b"t,theta_cmd,i_a,i_b,i_c,theta_m,theta_u\n0,0,1,0,0,0\n",
+        ));
+        assert!(e.contains("line 2") && e.contains("6 columns"), "{e}");
+        let e = err(Trace::from_csv(
+            b"t,theta_cmd,i_a,i_b,i_c,theta_m,theta_u\n0,0,1,0,0,0,0\n0.0002,0,1,0,0,0,0\n",
+        ));
+        assert!(e.contains("line 3") && e.contains("expected 0.0001"), "{e}");
+        let e = err(Trace::from_csv(
+            b"t,theta_cmd,i_a,i_b,i_c,theta_m,theta_u\n0,0,inf,0,0,0,0\n",
+        ));
+        assert!(e.contains("not finite"), "{e}");
+
+        let bin = t.to_bin().unwrap();
+        assert!(err(Trace::from_bin(&bin[..10])).contains("truncated"));
+        assert!(err(Trace::from_bin(&bin[..bin.len() - 24])).contains("length"));
+        let mut flipped = bin.clone();
+        flipped[1000] ^= 0x40;
+        assert!(err(Trace::from_bin(&flipped)).contains("checksum"));
+        let mut version = bin.clone();
+        version[4] = 9;
+        assert!(err(Trace::from_bin(&version)).contains("UnsupportedVersion"));
+    }
+
+    #[test]
+    fn too_long_a_trace_is_refused_not_truncated() {
+        let mut t = trace();
+        let last = *t.samples().last().unwrap();
+        t.push(TraceSample {
+            time: last.time + 1e-4,
+            ..last
+        });
+        let e = format!("{:#}", t.measured(&ActuatorParams::REFERENCE).unwrap_err());
+        assert!(
+            e.contains("5001 samples") && e.contains("holds 5000"),
+            "{e}"
+        );
+    }
 }

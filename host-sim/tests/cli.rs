@@ -40,6 +40,11 @@ fn every_command_has_help() {
         vec!["inverse", "--help"],
         vec!["footprint", "--help"],
         vec!["bench", "--help"],
+        vec!["preflight", "--help"],
+        vec!["simulate", "--help"],
+        vec!["calibrate", "--help"],
+        vec!["identify", "--help"],
+        vec!["plot", "--help"],
     ] {
         let o = host_sim(&cmd);
         assert!(o.status.success(), "{cmd:?}");
@@ -84,4 +89,162 @@ fn inverse_demo_reports_json() {
         .and_then(|v| v.parse().ok())
         .expect("e_tot in the JSON");
     assert!(e_tot <= 0.5, "{out}");
+}
+
+fn json(o: &Output) -> serde_json::Value {
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(out.lines().count(), 1, "exactly one JSON line: {out}");
+    serde_json::from_str(&out).expect("valid JSON")
+}
+
+fn path(dir: &tempfile::TempDir, name: &str) -> String {
+    dir.path().join(name).to_string_lossy().into_owned()
+}
+
+const FRICTION: &str = "0.4,0,0,0,0,0,0.5,0.5";
+
+#[test]
+fn simulate_then_identify_finds_a_clear_single_fault() {
+    let dir = tempfile::tempdir().unwrap();
+    let bin = path(&dir, "friction.bin");
+    let csv = path(&dir, "friction.csv");
+    for (file, format) in [(&bin, "bin"), (&csv, "csv")] {
+        let o = host_sim(&[
+            "simulate", "--faults", FRICTION, "--format", format, "--out", file,
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let o = host_sim(&["identify", &bin, "--truth", FRICTION, "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).is_empty(),
+        "no progress bar in JSON mode: {}",
+        stderr(&o)
+    );
+    let v = json(&o);
+    let faults: Vec<f64> = v["faults"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert_eq!(faults.len(), 8);
+    for key in ["fitness", "evaluations", "seconds", "e_tot"] {
+        assert!(v[key].is_number(), "{key} in {v}");
+    }
+    assert!((faults[0] - 0.4).abs() < 0.05, "{v}");
+    assert!(v["e_tot"].as_f64().unwrap() < 2.0, "{v}");
+    let verdicts: Vec<&str> = v["verdicts"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_str().unwrap())
+        .collect();
+    assert_eq!(
+        verdicts,
+        ["FAULT", "healthy", "healthy", "healthy", "healthy", "healthy", "-", "healthy"],
+        "{v}"
+    );
+
+    // The CSV of the same simulation identifies to the same bits.
+    let o = host_sim(&["identify", &csv, "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let w = json(&o);
+    assert_eq!(w["faults"], v["faults"]);
+    assert_eq!(w["fitness"], v["fitness"]);
+    assert!(w.get("e_tot").is_none(), "no e_tot without --truth: {w}");
+}
+
+#[test]
+fn calibrate_then_identify_and_plot() {
+    let dir = tempfile::tempdir().unwrap();
+    let healthy = path(&dir, "healthy.csv");
+    let cal = path(&dir, "cal.json");
+    let svg = path(&dir, "fit.svg");
+    let o = host_sim(&[
+        "simulate",
+        "--faults",
+        "0,0,0,0,0,0,0.5,0.5",
+        "--seed",
+        "4",
+        "--out",
+        &healthy,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = host_sim(&["calibrate", &healthy, "--out", &cal]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let c: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&cal).unwrap()).unwrap();
+    assert_eq!(c["format"], "ema-fdi calibration");
+    assert!(c["mismatch_after"].as_f64().unwrap() <= c["mismatch_before"].as_f64().unwrap());
+    // A healthy trace against its own calibration: nothing flagged.
+    let o = host_sim(&["identify", &healthy, "--calibration", &cal, "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = json(&o);
+    assert!(
+        v["verdicts"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|x| x != "FAULT"),
+        "{v}"
+    );
+    let o = host_sim(&["plot", &healthy, "--calibration", &cal, "--out", &svg]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let picture = std::fs::read_to_string(&svg).unwrap();
+    assert!(
+        picture.starts_with("<svg") && picture.contains("<polyline"),
+        "an SVG with lines"
+    );
+}
+
+#[test]
+fn missing_or_broken_files_are_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = path(&dir, "nope.csv");
+    let o = host_sim(&["identify", &missing]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("cannot open trace") && stderr(&o).contains("nope.csv"),
+        "{}",
+        stderr(&o)
+    );
+
+    let garbage = path(&dir, "garbage.csv");
+    std::fs::write(&garbage, "time,current\n0,1\n").unwrap();
+    let o = host_sim(&["calibrate", &garbage, "--out", &path(&dir, "c.json")]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("header"), "{}", stderr(&o));
+
+    let bad_cal = path(&dir, "bad.json");
+    std::fs::write(
+        &bad_cal,
+        "{\"format\":\"ema-fdi calibration\",\"version\":7}",
+    )
+    .unwrap();
+    let trace = path(&dir, "t.bin");
+    let o = host_sim(&[
+        "simulate", "--faults", FRICTION, "--format", "bin", "--out", &trace,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = host_sim(&["identify", &trace, "--calibration", &bad_cal]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("bad.json"), "{}", stderr(&o));
+
+    for args in [
+        vec![
+            "simulate", "--faults", FRICTION, "--noise", "-1", "--out", &missing,
+        ],
+        vec!["simulate", "--faults", "0,0,0", "--out", &missing],
+        vec!["preflight", "--faults", "0,0,0,0,0,0,0.5,1.5"],
+    ] {
+        let o = host_sim(&args);
+        assert!(!o.status.success(), "{args:?}");
+        let e = stderr(&o);
+        assert!(!e.contains("panicked"), "{e}");
+        assert!(
+            e.contains("-1") || e.contains("expected 8") || e.contains("value 8"),
+            "{args:?}: {e}"
+        );
+    }
 }
