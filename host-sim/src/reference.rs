@@ -307,9 +307,9 @@ impl ReferenceModel {
             vec![0.0; pre_roll + samples]
         };
 
-        let current_lsb = 2.0 * s.current_full_scale / f64::from(1u32 << s.current_bits);
-        let encoder_lsb = TAU / f64::from(1u32 << s.encoder_bits);
-        let user_lsb = 2.0 * s.user_full_scale / f64::from(1u32 << s.user_bits);
+        let current_lsb = 2.0 * s.current_full_scale / 2f64.powi(s.current_bits as i32);
+        let encoder_lsb = TAU / 2f64.powi(s.encoder_bits as i32);
+        let user_lsb = 2.0 * s.user_full_scale / 2f64.powi(s.user_bits as i32);
 
         // State.
         let mut i = [0.0f64; 3];
@@ -323,7 +323,7 @@ impl ReferenceModel {
         let mut truth = Vec::with_capacity(samples);
 
         for (n, &process_noise) in current_ref_noise.iter().enumerate() {
-            // Negative ticks are the pre-roll: zero command, nothing recorded.
+            // `tick` is `None` during the pre-roll: zero command, nothing recorded.
             let tick = n.checked_sub(pre_roll);
 
             // ---- sensors (what the ADC latches at this instant) ----
