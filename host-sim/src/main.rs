@@ -124,6 +124,23 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Accuracy campaign: the paper's fault cases simulated by the reference model and
+    /// identified by the onboard FDI, several seeds per case, in parallel.
+    Campaign {
+        /// Which cases: 1 (paper Table I, single faults), 2 (Table II, multiple faults, plus
+        /// the healthy actuator with noise), random (multi-fault vectors nobody tuned on).
+        #[arg(long, value_enum)]
+        table: CampaignTable,
+        /// Runs (seeds) per case.
+        #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..=1000))]
+        runs: u64,
+        /// Also write the table as Markdown to this file.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Also draw e_tot per case (ours vs paper) into this SVG.
+        #[arg(long)]
+        plot: Option<PathBuf>,
+    },
     /// Inverse check: simulate the monitor model at known faults, then identify them with the
     /// onboard FDI (same code, settings and sizes as the firmware).
     Inverse {
@@ -146,6 +163,15 @@ enum Command {
         #[arg(long, default_value_t = 2000, value_parser = clap::value_parser!(u32).range(1..))]
         evaluations: u32,
     },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum CampaignTable {
+    #[value(name = "1")]
+    One,
+    #[value(name = "2")]
+    Two,
+    Random,
 }
 
 fn parse_noise(text: &str) -> Result<f64, String> {
@@ -194,6 +220,12 @@ fn main() -> ExitCode {
             seed,
             out,
         } => plot_command(&trace, calibration.as_deref(), seed, &out),
+        Command::Campaign {
+            table,
+            runs,
+            out,
+            plot,
+        } => campaign_command(table, runs, out.as_deref(), plot.as_deref()),
         Command::Inverse { faults, seed, json } => inverse(faults, seed, json),
         Command::Footprint => {
             footprint();
@@ -404,6 +436,58 @@ fn preflight(
         ("ga_seed".to_string(), ga_seed.to_string()),
     ];
     report(&id, Some(&faults), &heading, json);
+    Ok(())
+}
+
+fn campaign_command(
+    table: CampaignTable,
+    runs: u64,
+    out: Option<&Path>,
+    plot: Option<&Path>,
+) -> Result<()> {
+    use host_sim::campaign::{self, HEALTHY, TABLE_1, TABLE_2};
+    let (title, cases) = match table {
+        CampaignTable::One => ("Table I: single faults", TABLE_1.to_vec()),
+        CampaignTable::Two => ("Table II: multiple faults, and the healthy actuator", {
+            let mut v = TABLE_2.to_vec();
+            v.push(HEALTHY);
+            v
+        }),
+        CampaignTable::Random => (
+            "Random multi-fault vectors (not tuned on)",
+            campaign::random_cases(6),
+        ),
+    };
+    let start = Instant::now();
+    let summaries = campaign::run_campaign(&cases, runs, std::io::stderr().is_terminal())?;
+    let mut text = campaign::markdown(title, &summaries, runs);
+    if matches!(table, CampaignTable::Random) {
+        text += "\nVectors:\n\n";
+        for c in &summaries {
+            text += &format!(
+                "- {}: [{}]\n",
+                c.case.name,
+                c.case
+                    .faults
+                    .iter()
+                    .map(|x| format!("{x:.3}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        }
+    }
+    print!("{text}");
+    println!(
+        "\n({} identifications in {:.1} s wall time)",
+        summaries.iter().map(|c| c.runs.len()).sum::<usize>(),
+        start.elapsed().as_secs_f64()
+    );
+    if let Some(path) = out {
+        std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(path) = plot {
+        campaign::plot(path, title, &summaries)?;
+    }
     Ok(())
 }
 
