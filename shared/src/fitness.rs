@@ -45,10 +45,10 @@ impl Calibration {
     /// `host-sim calibrate` fits on the healthy, noise-free reference trace (seed 0). The
     /// firmware carries it as data; `host-sim` checks it is still what the fit gives.
     pub const REFERENCE_ACTUATOR: Self = Self {
-        resistance_scale: 0.979_994_06,
-        inductance_scale: 1.149_118_1,
-        back_emf_scale: 1.000_193_4,
-        nominal_residual: 0.001_508_720_6,
+        resistance_scale: 1.0331436,
+        inductance_scale: 0.9860181,
+        back_emf_scale: 1.0013806,
+        nominal_residual: 0.0015040357,
     };
 }
 
