@@ -1,10 +1,11 @@
 //! Calibrating the monitor model against a healthy trace (paper §III.2).
 //!
-//! The MM's electrical scale factors (R, L, k_e) are fitted so that, at the nominal fault
-//! vector, its filtered equivalent current matches the measured one in the eq. (3) sense; the
-//! error left is the nominal residual the fitness subtracts. Optimiser: Nelder–Mead on the
-//! logarithms of the three scales, each bounded to [1/4, 4]; at most
-//! [`MAX_EVALUATIONS`] monitor-model runs (≈ 0.1 s).
+//! The MM's electrical scale factors (R, L, k_e), its nominal friction level and a viscous
+//! user-shaft damping are fitted so that, at the nominal fault vector, its filtered
+//! equivalent current matches the measured one in the eq. (3) sense; the error left is the
+//! nominal residual the fitness subtracts. Optimiser: Nelder–Mead on the logarithms of the
+//! four scales, each bounded to [1/4, 4], and on damping / 10 N·m·s/rad in [0, 10]; at most
+//! [`MAX_EVALUATIONS`] monitor-model runs (≈ 0.2 s).
 
 use std::path::Path;
 
@@ -15,7 +16,7 @@ use shared::fdi::OnboardMeasured;
 use shared::{ActuatorParams, Calibration, FaultVector, FitnessProblem, MonitorModel};
 
 /// Budget of the calibration fit [monitor-model evaluations].
-pub const MAX_EVALUATIONS: u32 = 600;
+pub const MAX_EVALUATIONS: u32 = 1500;
 /// Bound on each scale: [1/4, 4].
 const LOG_BOUND: f64 = 1.386_294_361_119_890_6; // ln 4
 
@@ -29,6 +30,9 @@ pub struct CalibrationFile {
     pub resistance_scale: f32,
     pub inductance_scale: f32,
     pub back_emf_scale: f32,
+    pub friction_scale: f32,
+    /// User-shaft viscous damping [N·m·s/rad].
+    pub damping: f32,
     /// Eq. (3) error of the nominal vector after calibration [A²·s].
     pub nominal_residual: f32,
     /// Relative RMS mismatch of the filtered equivalent current, nominal vector, before and
@@ -48,6 +52,8 @@ impl CalibrationFile {
             resistance_scale: self.resistance_scale,
             inductance_scale: self.inductance_scale,
             back_emf_scale: self.back_emf_scale,
+            friction_scale: self.friction_scale,
+            damping: self.damping,
             nominal_residual: self.nominal_residual,
         }
     }
@@ -79,6 +85,7 @@ impl CalibrationFile {
             ("resistance_scale", file.resistance_scale),
             ("inductance_scale", file.inductance_scale),
             ("back_emf_scale", file.back_emf_scale),
+            ("friction_scale", file.friction_scale),
         ] {
             if !(value.is_finite() && value > 0.0) {
                 bail!(
@@ -86,6 +93,13 @@ impl CalibrationFile {
                     path.display()
                 );
             }
+        }
+        if !(file.damping.is_finite() && file.damping >= 0.0) {
+            bail!(
+                "calibration {}: damping = {} must be finite and ≥ 0",
+                path.display(),
+                file.damping
+            );
         }
         if !(file.nominal_residual.is_finite() && file.nominal_residual >= 0.0) {
             bail!(
@@ -134,16 +148,21 @@ pub fn relative_mismatch(
 /// Fits the calibration to a healthy measured trace.
 pub fn calibrate(measured: &OnboardMeasured, params: ActuatorParams) -> Result<CalibrationFile> {
     let nominal = FaultVector::NOMINAL;
-    let calibration_at = |x: &[f64; 3]| Calibration {
+    const DAMPING_UNIT: f64 = 10.0;
+    let in_bounds =
+        |x: &[f64; 5]| x[..4].iter().all(|v| v.abs() <= LOG_BOUND) && (0.0..=10.0).contains(&x[4]);
+    let calibration_at = |x: &[f64; 5]| Calibration {
         resistance_scale: x[0].clamp(-LOG_BOUND, LOG_BOUND).exp() as f32,
         inductance_scale: x[1].clamp(-LOG_BOUND, LOG_BOUND).exp() as f32,
         back_emf_scale: x[2].clamp(-LOG_BOUND, LOG_BOUND).exp() as f32,
+        friction_scale: x[3].clamp(-LOG_BOUND, LOG_BOUND).exp() as f32,
+        damping: (DAMPING_UNIT * x[4].clamp(0.0, 10.0)) as f32,
         nominal_residual: 0.0,
     };
     let mut evaluations = 0u32;
-    let mut cost = |x: &[f64; 3]| -> f64 {
+    let mut cost = |x: &[f64; 5]| -> f64 {
         evaluations += 1;
-        if x.iter().any(|v| v.abs() > LOG_BOUND) {
+        if !in_bounds(x) {
             return f64::INFINITY;
         }
         match FitnessProblem::new(measured, params, &calibration_at(x)) {
@@ -151,7 +170,7 @@ pub fn calibrate(measured: &OnboardMeasured, params: ActuatorParams) -> Result<C
             Err(_) => f64::INFINITY,
         }
     };
-    let best = nelder_mead(&mut cost, [0.0; 3], 0.1, MAX_EVALUATIONS);
+    let best = nelder_mead(&mut cost, [0.0, 0.0, 0.0, 0.0, 0.1], 0.1, MAX_EVALUATIONS);
     let mut calibration = calibration_at(&best);
     let problem = FitnessProblem::new(measured, params, &calibration)
         .map_err(|e| anyhow::anyhow!("the trace cannot be used for calibration: {e:?}"))?;
@@ -165,6 +184,8 @@ pub fn calibrate(measured: &OnboardMeasured, params: ActuatorParams) -> Result<C
         resistance_scale: calibration.resistance_scale,
         inductance_scale: calibration.inductance_scale,
         back_emf_scale: calibration.back_emf_scale,
+        friction_scale: calibration.friction_scale,
+        damping: calibration.damping,
         nominal_residual: calibration.nominal_residual,
         mismatch_before: relative_mismatch(measured, params, &Calibration::IDENTITY, &nominal),
         mismatch_after: relative_mismatch(measured, params, &calibration, &nominal),
@@ -172,20 +193,20 @@ pub fn calibrate(measured: &OnboardMeasured, params: ActuatorParams) -> Result<C
     })
 }
 
-/// Nelder–Mead simplex minimisation in 3-D from `start` with initial step `step`, at most
-/// `budget` cost evaluations. Returns the best point seen.
-fn nelder_mead(
-    cost: &mut impl FnMut(&[f64; 3]) -> f64,
-    start: [f64; 3],
+/// Nelder–Mead simplex minimisation in `D` dimensions from `start` with initial step
+/// `step`, at most `budget` cost evaluations. Returns the best point seen.
+fn nelder_mead<const D: usize>(
+    cost: &mut impl FnMut(&[f64; D]) -> f64,
+    start: [f64; D],
     step: f64,
     budget: u32,
-) -> [f64; 3] {
+) -> [f64; D] {
     let mut used = 0u32;
-    let mut eval = |x: [f64; 3], used: &mut u32| {
+    let mut eval = |x: [f64; D], used: &mut u32| {
         *used += 1;
         (x, cost(&x))
     };
-    let mut simplex: Vec<([f64; 3], f64)> = (0..4)
+    let mut simplex: Vec<([f64; D], f64)> = (0..=D)
         .map(|j| {
             let mut x = start;
             if j > 0 {
@@ -194,28 +215,28 @@ fn nelder_mead(
             eval(x, &mut used)
         })
         .collect();
-    let lerp = |a: &[f64; 3], b: &[f64; 3], t: f64| -> [f64; 3] {
+    let lerp = |a: &[f64; D], b: &[f64; D], t: f64| -> [f64; D] {
         core::array::from_fn(|i| a[i] + t * (b[i] - a[i]))
     };
-    while used + 2 <= budget {
+    while used as usize + D <= budget as usize {
         simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
-        let spread = simplex[3].1 - simplex[0].1;
+        let spread = simplex[D].1 - simplex[0].1;
         if spread.abs() <= 1e-12 * simplex[0].1.abs().max(1e-30) {
             break;
         }
-        let centroid: [f64; 3] =
-            core::array::from_fn(|i| simplex[..3].iter().map(|s| s.0[i]).sum::<f64>() / 3.0);
-        let worst = simplex[3];
+        let centroid: [f64; D] =
+            core::array::from_fn(|i| simplex[..D].iter().map(|s| s.0[i]).sum::<f64>() / D as f64);
+        let worst = simplex[D];
         let reflected = eval(lerp(&centroid, &worst.0, -1.0), &mut used);
         if reflected.1 < simplex[0].1 {
             let expanded = eval(lerp(&centroid, &worst.0, -2.0), &mut used);
-            simplex[3] = if expanded.1 < reflected.1 {
+            simplex[D] = if expanded.1 < reflected.1 {
                 expanded
             } else {
                 reflected
             };
-        } else if reflected.1 < simplex[2].1 {
-            simplex[3] = reflected;
+        } else if reflected.1 < simplex[D - 1].1 {
+            simplex[D] = reflected;
         } else {
             let contracted = if reflected.1 < worst.1 {
                 eval(lerp(&centroid, &reflected.0, 0.5), &mut used)
@@ -223,7 +244,7 @@ fn nelder_mead(
                 eval(lerp(&centroid, &worst.0, 0.5), &mut used)
             };
             if contracted.1 < worst.1.min(reflected.1) {
-                simplex[3] = contracted;
+                simplex[D] = contracted;
             } else {
                 let best = simplex[0].0;
                 for s in simplex.iter_mut().skip(1) {

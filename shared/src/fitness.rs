@@ -26,6 +26,12 @@ pub struct Calibration {
     pub inductance_scale: f32,
     /// Multiplier of the monitor model's back-EMF / torque constant.
     pub back_emf_scale: f32,
+    /// Multiplier of the monitor model's nominal dry-friction torques (what the lumped
+    /// friction of the model needs to be to match the healthy actuator).
+    pub friction_scale: f32,
+    /// Viscous damping on the monitor model's user shaft [N·m·s/rad] (aerodynamic and
+    /// bearing damping the parameters do not list).
+    pub damping: f32,
     /// Fitness of the nominal fault vector against the healthy trace [A²·s].
     pub nominal_residual: f32,
 }
@@ -36,6 +42,8 @@ impl Calibration {
         resistance_scale: 1.0,
         inductance_scale: 1.0,
         back_emf_scale: 1.0,
+        friction_scale: 1.0,
+        damping: 0.0,
         nominal_residual: 0.0,
     };
 }
@@ -45,10 +53,12 @@ impl Calibration {
     /// `host-sim calibrate` fits on the healthy, noise-free reference trace (seed 0). The
     /// firmware carries it as data; `host-sim` checks it is still what the fit gives.
     pub const REFERENCE_ACTUATOR: Self = Self {
-        resistance_scale: 1.0331436,
-        inductance_scale: 0.9860181,
-        back_emf_scale: 1.0013806,
-        nominal_residual: 0.0015040357,
+        resistance_scale: 0.76349497,
+        inductance_scale: 0.790977,
+        back_emf_scale: 1.0015243,
+        friction_scale: 0.94774723,
+        damping: 12.886018,
+        nominal_residual: 0.0013407689,
     };
 }
 

@@ -104,11 +104,13 @@ pub struct MonitorModel {
     inv_gear_ratio: f32,
     dt_over_motor_inertia: f32,
     dt_over_user_inertia: f32,
+    friction_scale: f32,
+    user_damping: f32,
 }
 
 impl MonitorModel {
-    /// A monitor model of `params` with the electrical scale factors of `calibration`,
-    /// driven by the preflight chirp.
+    /// A monitor model of `params` corrected by `calibration` (electrical scales, friction
+    /// scale, user-shaft damping), driven by the preflight chirp.
     pub fn new(params: ActuatorParams, calibration: &Calibration) -> Self {
         let dt = params.control_period;
         let inductance = 2.0 * params.phase_inductance * calibration.inductance_scale;
@@ -124,6 +126,8 @@ impl MonitorModel {
             inv_gear_ratio: 1.0 / params.gear_ratio,
             dt_over_motor_inertia: dt / params.motor_inertia,
             dt_over_user_inertia: dt / params.user_inertia,
+            friction_scale: calibration.friction_scale,
+            user_damping: calibration.damping,
         }
     }
 
@@ -160,9 +164,11 @@ impl MonitorModel {
             kp: p.position_kp * fx.kp_scale,
             static_friction_impulse: self.dt_over_motor_inertia
                 * p.static_friction
+                * self.friction_scale
                 * fx.friction_scale,
             dynamic_friction_impulse: self.dt_over_motor_inertia
                 * p.dynamic_friction
+                * self.friction_scale
                 * fx.friction_scale,
             half_backlash: 0.5 * p.nominal_backlash * fx.backlash_scale,
             // Sector j (mod 3) has phase j floating: the other two conduct.
@@ -262,7 +268,8 @@ impl MonitorModel {
         };
         s.previous_motor_angle = s.motor_angle;
         s.motor_angle += s.motor_speed * dt;
-        s.user_speed += self.dt_over_user_inertia * (gear_torque - p.aero_stiffness * s.user_angle);
+        s.user_speed += self.dt_over_user_inertia
+            * (gear_torque - p.aero_stiffness * s.user_angle - self.user_damping * s.user_speed);
         s.user_angle += s.user_speed * dt;
 
         MonitorSample {
