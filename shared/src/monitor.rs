@@ -246,9 +246,11 @@ impl MonitorModel {
         // 3. Mechanics: dead-zone compliant gear train, stick-slip friction, aero load.
         let deflection = s.motor_angle * self.inv_gear_ratio - s.user_angle;
         let engaged = deflection - clamp(deflection, -f.half_backlash, f.half_backlash);
-        let gear_torque = if engaged != 0.0 {
-            p.gear_stiffness * engaged
-                + p.gear_damping * (s.motor_speed * self.inv_gear_ratio - s.user_speed)
+        // A contact pushes, never pulls: damping cannot reverse the spring's torque.
+        let contact = p.gear_stiffness * engaged
+            + p.gear_damping * (s.motor_speed * self.inv_gear_ratio - s.user_speed);
+        let gear_torque = if engaged > 0.0 && contact > 0.0 || engaged < 0.0 && contact < 0.0 {
+            contact
         } else {
             0.0
         };
