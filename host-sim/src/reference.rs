@@ -40,6 +40,9 @@ use crate::trace_file::{Trace, TraceSample};
 
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
+/// Mechanical angle of the centre of each phase's coil group (A, B, C) [rad]. The groups sit
+/// 120° apart in the order A, C, B, which for P = 4 puts phase B 120° electrical behind A.
+const GROUP_CENTRE: [f64; 3] = [67.5 * PI / 180.0, 307.5 * PI / 180.0, 187.5 * PI / 180.0];
 /// Mechanical angle between the two coils of one group: one pole pitch (P = 4).
 const COIL_PITCH: f64 = PI / 4.0;
 /// Points per mechanical revolution of the back-EMF shape tables.
@@ -228,16 +231,15 @@ impl ReferenceModel {
     pub fn coupling_shapes(&self, faults: &FaultVector) -> Box<[[f64; SHAPE_POINTS]; 3]> {
         let fx = faults.effects();
         let z = f64::from(fx.eccentricity_z);
-        let group_centre = self.settings.params.winding_group_angle.map(f64::from);
-        let psi_min = group_centre[0] + f64::from(fx.eccentricity_phase);
+        let psi_min = GROUP_CENTRE[0] + f64::from(fx.eccentricity_phase);
         let p = f64::from(self.settings.params.pole_pairs);
         let w = self.settings.magnet_fringe;
         let permeance = |psi: f64| 1.0 / (1.0 - z * (psi - psi_min).cos());
         let mut shapes = Box::new([[0.0; SHAPE_POINTS]; 3]);
         for (phase, table) in shapes.iter_mut().enumerate() {
             let coils = [
-                (group_centre[phase] - 0.5 * COIL_PITCH, 1.0),
-                (group_centre[phase] + 0.5 * COIL_PITCH, -1.0),
+                (GROUP_CENTRE[phase] - 0.5 * COIL_PITCH, 1.0),
+                (GROUP_CENTRE[phase] + 0.5 * COIL_PITCH, -1.0),
             ];
             for (j, slot) in table.iter_mut().enumerate() {
                 let theta = TAU * j as f64 / SHAPE_POINTS as f64;

@@ -53,12 +53,12 @@ impl Calibration {
     /// `host-sim calibrate` fits on the healthy, noise-free reference trace (seed 0). The
     /// firmware carries it as data; `host-sim` checks it is still what the fit gives.
     pub const REFERENCE_ACTUATOR: Self = Self {
-        resistance_scale: 0.69749504,
-        inductance_scale: 0.89658695,
-        back_emf_scale: 1.0014446,
-        friction_scale: 0.9652541,
-        damping: 10.222521,
-        nominal_residual: 0.0013383876,
+        resistance_scale: 0.68415564,
+        inductance_scale: 0.49847403,
+        back_emf_scale: 1.0002282,
+        friction_scale: 0.96336204,
+        damping: 10.234813,
+        nominal_residual: 0.0013275659,
     };
 }
 

@@ -25,12 +25,10 @@
 //! samples at `t = i·dt` before the control update.
 
 use crate::command::ChirpCommand;
-#[cfg(doc)]
 use crate::conditioning::commutation_sector;
-use crate::fault::FaultEffects;
 use crate::fault::FaultVector;
 use crate::fitness::Calibration;
-use crate::math::{abs, clamp, cos, floor, TAU};
+use crate::math::{abs, clamp, cos, frac, sin, TAU};
 use crate::params::ActuatorParams;
 
 /// What the monitor model exposes at each sample: the state at `time`, before the step's
@@ -75,18 +73,11 @@ struct FaultedConstants {
     static_friction_impulse: f32,
     dynamic_friction_impulse: f32,
     half_backlash: f32,
-    /// Resistance shape, eq. (1): mean healthy fraction of the two conducting phases, per
-    /// sector index mod 3.
+    /// Short-circuit shape function eq. (1) for sector index mod 3.
     sector_gain: [f32; 3],
-    /// Torque/back-EMF shape over one electrical turn in [`GAIN_BINS`] bins (eight per
-    /// sector, bin 0 starting at θ_e = −30°): mean over the two conducting phases of healthy
-    /// fraction × air-gap coupling factor.
-    torque_gain: [f32; GAIN_BINS],
+    eccentricity_z: f32,
+    eccentricity_phase: f32,
 }
-
-/// Bins of the torque-gain table over one electrical turn (7.5° each).
-pub const GAIN_BINS: usize = 48;
-const BINS_PER_SECTOR: usize = GAIN_BINS / 6;
 
 /// The monitor model's settings: parameters, calibration and test command, with the
 /// per-step constants derived once.
@@ -159,7 +150,6 @@ impl MonitorModel {
         let fx = k.effects();
         let p = &self.params;
         let [na, nb, nc] = fx.healthy_turns;
-        let torque_gain = torque_gain_table(p, &fx);
         FaultedConstants {
             kp: p.position_kp * fx.kp_scale,
             static_friction_impulse: self.dt_over_motor_inertia
@@ -173,7 +163,8 @@ impl MonitorModel {
             half_backlash: 0.5 * p.nominal_backlash * fx.backlash_scale,
             // Sector j (mod 3) has phase j floating: the other two conduct.
             sector_gain: [0.5 * (nb + nc), 0.5 * (nc + na), 0.5 * (na + nb)],
-            torque_gain,
+            eccentricity_z: fx.eccentricity_z,
+            eccentricity_phase: fx.eccentricity_phase,
         }
     }
 
@@ -226,16 +217,21 @@ impl MonitorModel {
         // 2. Single-phase equivalent drive with the electrical shape functions, evaluated at
         //    the rotor angle of the previous sample: the drive commutates from the last
         //    position it sampled.
-        let theta_e = p.pole_pairs * (s.motor_angle + 0.5 * dt * s.motor_speed);
-        let bin = gain_bin(theta_e);
-        let r_gain = match (bin / BINS_PER_SECTOR) % 3 {
+        let theta_e = p.pole_pairs * s.previous_motor_angle;
+        let short_gain = match commutation_sector(theta_e) % 3 {
             0 => f.sector_gain[0],
             1 => f.sector_gain[1],
             _ => f.sector_gain[2],
         };
-        let kt_gain = f.torque_gain.get(bin).copied().unwrap_or(1.0);
-        let kt = self.torque_constant * kt_gain;
-        let r = self.resistance * r_gain;
+        let eccentricity_gain = if f.eccentricity_z > 0.0 {
+            let a = theta_e + f.eccentricity_phase;
+            let sawtooth = frac((6.0 * theta_e + f.eccentricity_phase) * (1.0 / TAU));
+            1.0 - f.eccentricity_z * (cos(a) + sawtooth * sin(a))
+        } else {
+            1.0
+        };
+        let kt = self.torque_constant * short_gain * eccentricity_gain;
+        let r = self.resistance * short_gain;
         let back_emf = kt * s.motor_speed;
         let sampled = (s.current, s.motor_angle, s.user_angle);
         let voltage = r * s.current + back_emf + self.l_over_dt * (current_ref - s.current);
@@ -283,64 +279,4 @@ impl MonitorModel {
             user_angle: sampled.2,
         }
     }
-}
-
-/// Bin `0..GAIN_BINS` of an electrical angle [rad] (any value; NaN maps to bin 0). Bin `b`
-/// covers `θ_e ∈ (−30° + 7.5°·b, −30° + 7.5°·(b+1))` mod 360°, so that sector `j` is bins
-/// `8j … 8j+7`, as in [`commutation_sector`].
-#[inline]
-fn gain_bin(theta_e: f32) -> usize {
-    let x = theta_e * (GAIN_BINS as f32 / TAU) + 0.5 * BINS_PER_SECTOR as f32;
-    // `as i32` saturates and maps NaN to 0: no panic for any input.
-    (floor(x) as i32).rem_euclid(GAIN_BINS as i32) as usize
-}
-
-/// The torque/back-EMF gain of the two conducting phases over one electrical turn.
-///
-/// Short circuit: a phase's coupling scales with its healthy turns N (eq. (1) extended to
-/// the torque gain). Static eccentricity: the air gap at stator angle ψ is
-/// g₀·(1 − Z·cos(ψ − ψ_min)), ψ_min at φ from the centre of phase A's coils; a phase's
-/// coupling scales with the permeance 1/(1 − Z·cos(ψ − ψ_min)) at the two magnet edges that
-/// are under its coils (two full-pitch coils side by side per phase, edges one pole pitch
-/// apart, half a pole pitch from the rotor's pole axes), evaluated at each bin's centre.
-/// O(GAIN_BINS) work per fault vector.
-fn torque_gain_table(p: &ActuatorParams, fx: &FaultEffects) -> [f32; GAIN_BINS] {
-    let z = fx.eccentricity_z;
-    let psi_min = p.winding_group_angle[0] + fx.eccentricity_phase;
-    let pole_pairs = if p.pole_pairs >= 1.0 {
-        p.pole_pairs
-    } else {
-        1.0
-    };
-    let pitch = core::f32::consts::PI / pole_pairs;
-    let permeance = |psi: f32| {
-        let d = 1.0 - z * cos(psi - psi_min);
-        if d > 0.0 {
-            1.0 / d
-        } else {
-            1.0
-        }
-    };
-    let coupling = |phase: usize, theta_m: f32| -> f32 {
-        let turns = fx.healthy_turns.get(phase).copied().unwrap_or(1.0);
-        if z == 0.0 {
-            return turns;
-        }
-        let group = p.winding_group_angle.get(phase).copied().unwrap_or(0.0);
-        // First coil spans [group − pitch, group); the edge inside it, then the next one.
-        let start = group - pitch;
-        let offset = theta_m + 0.5 * pitch - start;
-        let u = offset - pitch * floor(offset / pitch);
-        let e1 = start + u;
-        turns * 0.5 * (permeance(e1) + permeance(e1 + pitch))
-    };
-    let mut table = [1.0f32; GAIN_BINS];
-    for (b, slot) in table.iter_mut().enumerate() {
-        let theta_e = -TAU / 12.0 + (b as f32 + 0.5) * (TAU / GAIN_BINS as f32);
-        let theta_m = theta_e / pole_pairs;
-        let floating = (b / BINS_PER_SECTOR) % 3;
-        let (y, z_phase) = ((floating + 1) % 3, (floating + 2) % 3);
-        *slot = 0.5 * (coupling(y, theta_m) + coupling(z_phase, theta_m));
-    }
-    table
 }
