@@ -10,7 +10,7 @@
 //! * **ACE controller** at 10 kHz, on *sensed* signals: PID position loop on the user-shaft
 //!   transducer (its K_p carries the gain-drift fault) → saturated speed reference → PI speed
 //!   loop on the speed estimated from encoder differences, with anti-windup → saturated I_ref,
-//!   plus optional band-limited process noise on I_ref.
+//!   plus optional band-limited white process noise on I_ref (held over each control period).
 //! * **Inverter**: three legs on a DC bus, 120° trapezoidal commutation from the rotor angle
 //!   at every step, per-phase hysteresis current control of the two conducting phases, the
 //!   third leg open with its current freewheeling through the diodes until it reaches zero;
@@ -81,8 +81,6 @@ pub struct ReferenceSettings {
     /// Offset and RMS noise of the user-shaft transducer [rad].
     pub user_offset: f64,
     pub user_noise: f64,
-    /// Cutoff of the band-limited process noise on I_ref [Hz].
-    pub current_ref_noise_cutoff: f64,
     /// Closed-loop hold at zero command before the chirp starts [s]: the test begins from
     /// a regulated actuator (which sits at minus the transducer offset), as on the aircraft.
     pub pre_roll: f64,
@@ -108,7 +106,6 @@ impl ReferenceSettings {
         user_bits: 20,
         user_offset: 2.0e-5,
         user_noise: 5.0e-7,
-        current_ref_noise_cutoff: 1000.0,
         pre_roll: 0.01,
     };
 }
@@ -296,13 +293,7 @@ impl ReferenceModel {
         let mut sensor_rng = Gaussian::new(scenario.seed ^ 0x5E45_0125_u64);
         let current_ref_noise = if scenario.current_ref_noise > 0.0 {
             let level = scenario.current_ref_noise * self.nominal_current_ref_rms();
-            band_limited_noise(
-                pre_roll + samples,
-                s.current_ref_noise_cutoff,
-                1.0 / ts,
-                level,
-                scenario.seed ^ 0x0000_1F5E_u64,
-            )
+            band_limited_noise(pre_roll + samples, level, scenario.seed ^ 0x0000_1F5E_u64)
         } else {
             vec![0.0; pre_roll + samples]
         };
@@ -660,28 +651,12 @@ impl Gaussian {
     }
 }
 
-/// `n` samples of white Gaussian noise at `rate` Hz through a 2nd-order Butterworth low-pass
-/// at `cutoff` Hz, scaled to RMS `level` exactly.
-fn band_limited_noise(n: usize, cutoff: f64, rate: f64, level: f64, seed: u64) -> Vec<f64> {
+/// `n` samples of band-limited white noise in the sense of Simulink's block of that name:
+/// independent Gaussian values held over one control period each (white up to the 5 kHz
+/// Nyquist frequency of the 10 kHz hold), scaled to RMS `level` exactly.
+fn band_limited_noise(n: usize, level: f64, seed: u64) -> Vec<f64> {
     let mut g = Gaussian::new(seed);
-    let k = (PI * cutoff / rate).tan();
-    let norm = 1.0 / (1.0 + std::f64::consts::SQRT_2 * k + k * k);
-    let b0 = k * k * norm;
-    let (b1, b2) = (2.0 * b0, b0);
-    let a1 = 2.0 * (k * k - 1.0) * norm;
-    let a2 = (1.0 - std::f64::consts::SQRT_2 * k + k * k) * norm;
-    let (mut z1, mut z2) = (0.0, 0.0);
-    // Let the filter settle on 200 samples that are thrown away.
-    let mut out: Vec<f64> = (0..n + 200)
-        .map(|_| {
-            let x = g.next();
-            let y = b0 * x + z1;
-            z1 = b1 * x - a1 * y + z2;
-            z2 = b2 * x - a2 * y;
-            y
-        })
-        .skip(200)
-        .collect();
+    let mut out: Vec<f64> = (0..n).map(|_| g.next()).collect();
     let r = rms(out.iter().copied());
     if r > 0.0 {
         for y in &mut out {
