@@ -405,7 +405,7 @@ pub fn plot(out: &Path, title: &str, summaries: &[CaseSummary]) -> Result<()> {
         .x_label_style(
             ("sans-serif", 12)
                 .into_font()
-                .transform(FontTransform::Rotate90),
+                .transform(FontTransform::Rotate270),
         )
         .y_desc("e_tot [%]")
         .draw()

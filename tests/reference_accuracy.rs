@@ -1,0 +1,42 @@
+//! CI-sized accuracy check against the reference model: a few paper Table I cases, one seed
+//! (RM seed 0, GA seed 1), each must reach e_tot ≤ 2 % (the target for low and medium
+//! damage). The full campaign is `host-sim campaign --table 1|2|random` (docs/accuracy.md).
+
+use host_sim::campaign::{run_once, TABLE_1};
+use host_sim::reference::{ReferenceModel, ReferenceSettings};
+use shared::Calibration;
+
+fn check(name: &str) {
+    let case = TABLE_1
+        .iter()
+        .find(|c| c.name == name)
+        .expect("a Table I case");
+    let rm = ReferenceModel::new(ReferenceSettings::REFERENCE);
+    let r = run_once(&rm, &Calibration::REFERENCE_ACTUATOR, case, 0).expect("identification runs");
+    println!(
+        "{name}: e_tot {:.3} %, found {:?}",
+        r.e_tot,
+        r.found.as_array()
+    );
+    assert!(r.e_tot <= 2.0, "{name}: e_tot {:.3} % > 2 %", r.e_tot);
+}
+
+#[test]
+fn friction_medium() {
+    check("friction k1 = 0.4");
+}
+
+#[test]
+fn backlash_low() {
+    check("backlash k2 = 0.1");
+}
+
+#[test]
+fn short_circuit_medium() {
+    check("short A k3 = 0.2");
+}
+
+#[test]
+fn gain_drift_low() {
+    check("gain drift k8 = 0.4");
+}
