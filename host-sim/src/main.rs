@@ -42,20 +42,27 @@ const FAULTS_HELP: &str = "eight comma-separated values in [0, 1]: friction, bac
 short A, short B, short C, eccentricity, eccentricity phase, gain drift (nominal \
 0,0,0,0,0,0,0.5,0.5)";
 
+/// The simulated actuator: its faults, process noise and seed.
+#[derive(clap::Args)]
+struct ActuatorArgs {
+    /// True fault vector of the simulated actuator.
+    #[arg(long, value_parser = faults::parse_fault_vector, allow_hyphen_values = true, long_help = FAULTS_HELP)]
+    faults: FaultVector,
+    /// Band-limited white noise on I_ref, RMS as a fraction of the nominal I_ref RMS.
+    #[arg(long, default_value_t = 0.0, value_parser = parse_noise)]
+    noise: f64,
+    /// Seed of every random draw of the reference model (sensor and process noise).
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Preflight self-test on the ground: the reference model plays an actuator with the given
     /// faults, the onboard FDI identifies them from its currents.
     Preflight {
-        /// True fault vector of the simulated actuator.
-        #[arg(long, value_parser = faults::parse_fault_vector, allow_hyphen_values = true, long_help = FAULTS_HELP)]
-        faults: FaultVector,
-        /// Band-limited noise on I_ref, RMS as a fraction of the nominal I_ref RMS.
-        #[arg(long, default_value_t = 0.0, value_parser = parse_noise)]
-        noise: f64,
-        /// Seed of the reference model's noise.
-        #[arg(long, default_value_t = 0)]
-        seed: u64,
+        #[command(flatten)]
+        actuator: ActuatorArgs,
         /// Seed of the GA.
         #[arg(long, default_value_t = 1)]
         ga_seed: u64,
@@ -68,15 +75,8 @@ enum Command {
     },
     /// Simulate the 0.5 s preflight test with the reference model and write the trace.
     Simulate {
-        /// True fault vector of the simulated actuator.
-        #[arg(long, value_parser = faults::parse_fault_vector, allow_hyphen_values = true, long_help = FAULTS_HELP)]
-        faults: FaultVector,
-        /// Band-limited noise on I_ref, RMS as a fraction of the nominal I_ref RMS.
-        #[arg(long, default_value_t = 0.0, value_parser = parse_noise)]
-        noise: f64,
-        /// Seed of every random draw (sensor noise, process noise).
-        #[arg(long, default_value_t = 0)]
-        seed: u64,
+        #[command(flatten)]
+        actuator: ActuatorArgs,
         /// Trace format.
         #[arg(long, value_enum, default_value_t = TraceFormat::Csv)]
         format: TraceFormat,
@@ -192,17 +192,23 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let outcome = match cli.command {
         Command::Preflight {
-            faults,
-            noise,
-            seed,
+            actuator:
+                ActuatorArgs {
+                    faults,
+                    noise,
+                    seed,
+                },
             ga_seed,
             trace_out,
             json,
         } => preflight(faults, noise, seed, ga_seed, trace_out.as_deref(), json),
         Command::Simulate {
-            faults,
-            noise,
-            seed,
+            actuator:
+                ActuatorArgs {
+                    faults,
+                    noise,
+                    seed,
+                },
             format,
             out,
         } => simulate(faults, noise, seed, format, &out),
