@@ -117,6 +117,24 @@ impl CalibrationFile {
     }
 }
 
+/// The monitor model's equivalent current at fault vector `k`, through the same low-pass as
+/// `measured`, one value per measured sample [A].
+pub fn filtered_model_current(
+    measured: &OnboardMeasured,
+    params: ActuatorParams,
+    calibration: &Calibration,
+    k: &FaultVector,
+) -> Vec<f32> {
+    let model = MonitorModel::new(params, calibration);
+    let filter = measured.filter();
+    let mut state = LowPassState::default();
+    let mut out = Vec::with_capacity(measured.samples().len());
+    model.run(k, measured.samples().len(), |s| {
+        out.push(filter.apply(&mut state, s.current));
+    });
+    out
+}
+
 /// Relative RMS difference between the measured filtered equivalent current and the monitor
 /// model's (same filter) at fault vector `k`: `√(Σ(I_r − I_m)² / Σ I_r²)`.
 pub fn relative_mismatch(
@@ -125,19 +143,14 @@ pub fn relative_mismatch(
     calibration: &Calibration,
     k: &FaultVector,
 ) -> f64 {
-    let model = MonitorModel::new(params, calibration);
-    let reference = measured.samples();
-    let filter = measured.filter();
-    let mut state = LowPassState::default();
-    let (mut num, mut den) = (0.0f64, 0.0f64);
-    let mut iter = reference.iter();
-    model.run(k, reference.len(), |s| {
-        let m = filter.apply(&mut state, s.current);
-        if let Some(&r) = iter.next() {
-            num += f64::from(r - m).powi(2);
-            den += f64::from(r).powi(2);
-        }
-    });
+    let modelled = filtered_model_current(measured, params, calibration, k);
+    let (num, den) = measured
+        .samples()
+        .iter()
+        .zip(&modelled)
+        .fold((0.0f64, 0.0f64), |(num, den), (&r, &m)| {
+            (num + f64::from(r - m).powi(2), den + f64::from(r).powi(2))
+        });
     if den > 0.0 {
         (num / den).sqrt()
     } else {

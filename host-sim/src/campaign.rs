@@ -10,7 +10,7 @@ use std::path::Path;
 use anyhow::{anyhow, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
-use shared::fault::{CIRCULAR, FAULT_COUNT};
+use shared::fault::FAULT_COUNT;
 use shared::metrics::total_error;
 use shared::{ActuatorParams, Calibration, FaultVector};
 
@@ -260,14 +260,7 @@ pub fn run_once(
     let problem = shared::FitnessProblem::new(&measured, params, calibration)
         .map_err(|e| anyhow!("fitness: {e:?}"))?;
     let found = id.result.faults;
-    let largest_component = found
-        .as_array()
-        .iter()
-        .zip(FaultVector::NOMINAL.as_array())
-        .zip(CIRCULAR)
-        .filter(|(_, circular)| !circular)
-        .map(|((k, n), _)| f64::from((k - n).abs()))
-        .fold(0.0, f64::max);
+    let largest_component = f64::from(found.largest_deviation());
     Ok(RunResult {
         found,
         e_tot: f64::from(total_error(&found, &truth)),

@@ -5,9 +5,10 @@ use std::path::Path;
 
 use anyhow::{anyhow, Result};
 use plotters::prelude::*;
-use shared::conditioning::LowPassState;
 use shared::fdi::OnboardMeasured;
-use shared::{ActuatorParams, Calibration, FaultVector, MonitorModel};
+use shared::{ActuatorParams, Calibration, FaultVector};
+
+use crate::calibration::filtered_model_current;
 
 /// Draws the two panels into `out`.
 pub fn identification_svg(
@@ -20,13 +21,7 @@ pub fn identification_svg(
 ) -> Result<()> {
     let params = ActuatorParams::REFERENCE;
     let dt = f64::from(params.control_period);
-    let model = MonitorModel::new(params, calibration);
-    let filter = measured.filter();
-    let mut state = LowPassState::default();
-    let mut fitted = Vec::with_capacity(measured.samples().len());
-    model.run(found, measured.samples().len(), |s| {
-        fitted.push(filter.apply(&mut state, s.current));
-    });
+    let fitted = filtered_model_current(measured, params, calibration, found);
     let series = |v: &[f32]| -> Vec<(f64, f64)> {
         v.iter()
             .enumerate()

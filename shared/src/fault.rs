@@ -147,23 +147,35 @@ pub enum Verdict {
 }
 
 impl FaultVector {
-    /// Per-component verdicts against [`DETECTION_THRESHOLD`].
-    pub fn verdicts(&self) -> [Verdict; FAULT_COUNT] {
-        let mut out = [Verdict::Healthy; FAULT_COUNT];
-        for ((v, &k), (&nominal, &circular)) in out
+    /// |k_i − nominal_i| of each fault component; `None` for the eccentricity phase, which
+    /// is a location, not a fault.
+    pub fn deviations(&self) -> [Option<f32>; FAULT_COUNT] {
+        let mut out = [None; FAULT_COUNT];
+        for ((d, &k), (&nominal, &circular)) in out
             .iter_mut()
             .zip(self.0.iter())
             .zip(Self::NOMINAL.0.iter().zip(CIRCULAR.iter()))
         {
-            *v = if circular {
-                Verdict::NotApplicable
-            } else if abs(k - nominal) > DETECTION_THRESHOLD {
-                Verdict::Faulty
-            } else {
-                Verdict::Healthy
-            };
+            *d = (!circular).then(|| abs(k - nominal));
         }
         out
+    }
+
+    /// The largest deviation from nominal over the fault components.
+    pub fn largest_deviation(&self) -> f32 {
+        self.deviations()
+            .iter()
+            .flatten()
+            .fold(0.0, |m, &d| m.max(d))
+    }
+
+    /// Per-component verdicts against [`DETECTION_THRESHOLD`].
+    pub fn verdicts(&self) -> [Verdict; FAULT_COUNT] {
+        self.deviations().map(|d| match d {
+            None => Verdict::NotApplicable,
+            Some(d) if d > DETECTION_THRESHOLD => Verdict::Faulty,
+            Some(_) => Verdict::Healthy,
+        })
     }
 }
 

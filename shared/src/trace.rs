@@ -171,7 +171,9 @@ impl TraceRow {
         ];
         let mut out = [0u8; ROW_BYTES];
         for (chunk, w) in out.chunks_exact_mut(4).zip(words) {
-            chunk.copy_from_slice(&w.to_le_bytes());
+            for (dst, src) in chunk.iter_mut().zip(w.to_le_bytes()) {
+                *dst = src;
+            }
         }
         out
     }
@@ -180,7 +182,9 @@ impl TraceRow {
         let mut words = [0i32; COLUMNS as usize];
         for (w, chunk) in words.iter_mut().zip(bytes.chunks_exact(4)) {
             let mut b = [0u8; 4];
-            b.copy_from_slice(chunk);
+            for (dst, src) in b.iter_mut().zip(chunk) {
+                *dst = *src;
+            }
             *w = i32::from_le_bytes(b);
         }
         let [cmd, a, b, c, m, u] = words;
