@@ -129,9 +129,14 @@ pub fn filtered_model_current(
     let filter = measured.filter();
     let mut state = LowPassState::default();
     let mut out = Vec::with_capacity(measured.samples().len());
-    model.run(k, measured.samples().len(), |s| {
-        out.push(filter.apply(&mut state, s.current));
-    });
+    model.run_from(
+        k,
+        measured.initial_angles(),
+        measured.samples().len(),
+        |s| {
+            out.push(filter.apply(&mut state, s.current));
+        },
+    );
     out
 }
 

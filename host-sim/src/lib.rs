@@ -15,4 +15,5 @@ pub mod faults;
 pub mod identify;
 pub mod plot;
 pub mod reference;
+pub mod separability;
 pub mod trace_file;

@@ -154,6 +154,19 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Can one test tell two fault vectors apart? Compares their reference-model currents over
+    /// many noise seeds: the deterministic signature between them against one test's scatter.
+    Separability {
+        /// Fault vector A.
+        #[arg(long, value_parser = faults::parse_fault_vector, allow_hyphen_values = true, long_help = FAULTS_HELP)]
+        faults: FaultVector,
+        /// Fault vector B (same format).
+        #[arg(long, value_parser = faults::parse_fault_vector, allow_hyphen_values = true)]
+        versus: FaultVector,
+        /// Noise seeds per vector (3 × this many reference-model runs).
+        #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u64).range(2..=1000))]
+        seeds: u64,
+    },
     /// Bytes of the onboard FDI state (GA, measured-current buffer, monitor model).
     Footprint,
     /// Time one monitor-model evaluation, one fitness evaluation and one reference-model test
@@ -233,6 +246,11 @@ fn main() -> ExitCode {
             plot,
         } => campaign_command(table, runs, out.as_deref(), plot.as_deref()),
         Command::Inverse { faults, seed, json } => inverse(faults, seed, json),
+        Command::Separability {
+            faults,
+            versus,
+            seeds,
+        } => separability_command(&faults, &versus, seeds),
         Command::Footprint => {
             footprint();
             Ok(())
@@ -535,6 +553,30 @@ fn measured_from_monitor(
     record_monitor_trace(model, truth, &mut measured)
         .map_err(|e| anyhow::anyhow!("recording the trace: {e:?}"))?;
     Ok(measured)
+}
+
+fn separability_command(a: &FaultVector, b: &FaultVector, seeds: u64) -> Result<()> {
+    let s = host_sim::separability::separability(a, b, seeds)?;
+    println!("A: {:?}", a.as_array());
+    println!("B: {:?}", b.as_array());
+    println!(
+        "signature A vs B      {:6.3} % of the signal RMS ({seeds} seeds each)",
+        s.signature
+    );
+    println!("one test's scatter    {:6.3} %", s.test_scatter);
+    println!(
+        "(mean-vs-mean noise   {:6.3} %, removed from the signature)",
+        s.mean_noise
+    );
+    let verdict = if s.signature >= 2.0 * s.test_scatter {
+        "separable in one test"
+    } else if s.signature >= 0.5 * s.test_scatter {
+        "marginal: the signature is comparable to one test's scatter"
+    } else {
+        "not separable in one test: the signature is buried in one test's scatter"
+    };
+    println!("{verdict}");
+    Ok(())
 }
 
 fn inverse(truth: FaultVector, seed: u64, json: bool) -> Result<()> {

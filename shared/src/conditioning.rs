@@ -17,7 +17,7 @@
 //! continuous in sign through motion reversals (unlike |i| envelopes) and ignores the floating
 //! phase (counting a commutating phase doubled the model mismatch in prototyping).
 
-use fixed::types::I16F16;
+use fixed::types::{I16F16, I4F28};
 use heapless::Vec;
 
 use crate::math::{floor, tan};
@@ -50,25 +50,48 @@ pub fn commutation_signs(theta_e: f32) -> [i8; 3] {
     }
 }
 
-/// One ADC acquisition, in fixed point as the controller holds it: the three phase currents
-/// [A] and the motor-shaft angle [rad], each `I16F16` (±32 768, resolution 15 µA / 15 µrad).
+/// One acquisition, in fixed point as the controller holds it: the three phase currents [A]
+/// and the motor-shaft angle [rad], each `I16F16` (±32 768, resolution 15 µA / 15 µrad), and
+/// the user-shaft angle [rad] from the position transducer, `I4F28` (±8, resolution 3.7 nrad).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct AdcFrame {
     pub phase_currents: [I16F16; 3],
     pub motor_angle: I16F16,
+    pub user_angle: I4F28,
 }
 
 impl AdcFrame {
     /// Builds a frame from floating-point values, saturating at the fixed-point range
     /// (NaN becomes 0 rather than a panic).
-    pub fn from_f32(phase_currents: [f32; 3], motor_angle: f32) -> Self {
-        let convert = |x: f32| I16F16::saturating_from_num(if x.is_nan() { 0.0 } else { x });
+    pub fn from_f32(phase_currents: [f32; 3], motor_angle: f32, user_angle: f32) -> Self {
+        let finite = |x: f32| if x.is_nan() { 0.0 } else { x };
+        let convert = |x: f32| I16F16::saturating_from_num(finite(x));
         Self {
             phase_currents: phase_currents.map(convert),
             motor_angle: convert(motor_angle),
+            user_angle: I4F28::saturating_from_num(finite(user_angle)),
         }
     }
+}
+
+/// The angles of the two shafts [rad] as the controller measures them: the motor shaft
+/// (encoder) and the user shaft (position transducer, offset included). The monitor model
+/// starts each test from the first sample's: where the rotor sits sets commutation and the
+/// shape functions, and where the gear sits inside its play sets the first backlash crossing.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ShaftAngles {
+    pub motor: f32,
+    pub user: f32,
+}
+
+impl ShaftAngles {
+    /// Both shafts at zero (the monitor model's own traces start here).
+    pub const ZERO: Self = Self {
+        motor: 0.0,
+        user: 0.0,
+    };
 }
 
 /// Sign-preserving equivalent current [A] of one sample (module docs).
@@ -167,6 +190,9 @@ pub struct MeasuredCurrent<const N: usize> {
     filter: LowPass,
     filter_state: LowPassState,
     samples: Vec<f32, N>,
+    /// Shaft angles at the first frame ([`ShaftAngles::ZERO`] when fed by
+    /// [`push_equivalent`](Self::push_equivalent) only).
+    initial_angles: ShaftAngles,
     /// `1 / κ`, κ = mean of the squared sample-to-sample difference; `None` until finished.
     inv_kappa: Option<f32>,
 }
@@ -181,16 +207,27 @@ impl<const N: usize> MeasuredCurrent<N> {
             filter,
             filter_state: LowPassState { z1: 0.0, z2: 0.0 },
             samples: Vec::new(),
+            initial_angles: ShaftAngles::ZERO,
             inv_kappa: None,
         }
     }
 
-    /// Conditions and stores one ADC frame; hands it back when the buffer is full.
+    /// Conditions and stores one ADC frame; hands it back when the buffer is full. The first
+    /// frame also sets the [`initial_angles`](Self::initial_angles).
     pub fn push_frame(&mut self, frame: AdcFrame, pole_pairs: f32) -> Result<(), AdcFrame> {
         let [a, b, c] = frame.phase_currents.map(|x| x.to_num::<f32>());
         let theta_e = pole_pairs * frame.motor_angle.to_num::<f32>();
+        let first = self.samples.is_empty();
         match self.push_equivalent(equivalent_current([a, b, c], theta_e)) {
-            Ok(()) => Ok(()),
+            Ok(()) => {
+                if first {
+                    self.initial_angles = ShaftAngles {
+                        motor: frame.motor_angle.to_num(),
+                        user: frame.user_angle.to_num(),
+                    };
+                }
+                Ok(())
+            }
             Err(_) => Err(frame),
         }
     }
@@ -241,6 +278,11 @@ impl<const N: usize> MeasuredCurrent<N> {
         &self.samples
     }
 
+    /// Shaft angles at the first sample: where the monitor model starts.
+    pub fn initial_angles(&self) -> ShaftAngles {
+        self.initial_angles
+    }
+
     /// `1/κ` of eq. (3) in units of 1/A² per sample step, once finished.
     pub fn inv_kappa(&self) -> Result<f32, ConditioningError> {
         self.inv_kappa.ok_or(ConditioningError::NotFinished)
@@ -255,6 +297,7 @@ impl<const N: usize> MeasuredCurrent<N> {
     /// Empties the buffer for a new test, keeping the filter.
     pub fn clear(&mut self) {
         self.samples.clear();
+        self.initial_angles = ShaftAngles::ZERO;
         self.filter_state = LowPassState::default();
         self.inv_kappa = None;
     }
@@ -339,6 +382,23 @@ mod tests {
     }
 
     #[test]
+    fn the_first_frame_sets_the_initial_angles_and_clear_resets_them() {
+        let lp = LowPass::butterworth(1000.0, 10_000.0).unwrap();
+        let mut m = MeasuredCurrent::<10>::new(lp);
+        assert_eq!(m.initial_angles(), ShaftAngles::ZERO);
+        m.push_frame(AdcFrame::from_f32([1.0, -1.0, 0.0], 0.25, -3.0e-5), 4.0)
+            .unwrap();
+        m.push_frame(AdcFrame::from_f32([1.0, -1.0, 0.0], 0.5, 7.0e-5), 4.0)
+            .unwrap();
+        let a = m.initial_angles();
+        assert_eq!(a.motor, 0.25);
+        // I4F28 holds the user angle to 3.7 nrad.
+        assert!((a.user + 3.0e-5).abs() < 4.0e-9, "{a:?}");
+        m.clear();
+        assert_eq!(m.initial_angles(), ShaftAngles::ZERO);
+    }
+
+    #[test]
     fn measured_buffer_hands_back_when_full_and_checks_length() {
         let lp = LowPass::butterworth(1000.0, 10_000.0).unwrap();
         let mut m = MeasuredCurrent::<1200>::new(lp);
@@ -357,7 +417,7 @@ mod tests {
             m.push_equivalent(i as f32).unwrap();
         }
         assert_eq!(m.push_equivalent(7.0), Err(7.0));
-        let frame = AdcFrame::from_f32([1.0, -1.0, 0.0], 0.3);
+        let frame = AdcFrame::from_f32([1.0, -1.0, 0.0], 0.3, 0.0);
         assert_eq!(m.push_frame(frame, 4.0), Err(frame));
         m.finish().unwrap();
         assert!(m.inv_kappa().unwrap() > 0.0);

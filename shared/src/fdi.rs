@@ -126,7 +126,10 @@ pub fn record_monitor_trace<const N: usize>(
         let signs = commutation_signs(pole_pairs * s.motor_angle);
         let phases = signs.map(|x| f32::from(x) * s.current);
         // Cannot be full: at most N samples are produced.
-        let _ = measured.push_frame(AdcFrame::from_f32(phases, s.motor_angle), pole_pairs);
+        let _ = measured.push_frame(
+            AdcFrame::from_f32(phases, s.motor_angle, s.user_angle),
+            pole_pairs,
+        );
     });
     measured.finish()?;
     Ok(())

@@ -53,12 +53,12 @@ impl Calibration {
     /// `host-sim calibrate` fits on the healthy, noise-free reference trace (seed 0). The
     /// firmware carries it as data; `host-sim` checks it is still what the fit gives.
     pub const REFERENCE_ACTUATOR: Self = Self {
-        resistance_scale: 0.68415564,
-        inductance_scale: 0.49847403,
-        back_emf_scale: 1.0002282,
-        friction_scale: 0.96336204,
-        damping: 10.234813,
-        nominal_residual: 0.0013275659,
+        resistance_scale: 0.76799506,
+        inductance_scale: 0.8571639,
+        back_emf_scale: 0.9999629,
+        friction_scale: 0.97744757,
+        damping: 8.947216,
+        nominal_residual: 0.0011609145,
     };
 }
 
@@ -119,15 +119,16 @@ impl<'a, const N: usize> FitnessProblem<'a, N> {
         let mut previous = 0.0f32;
         let mut sum = 0.0f32;
         let mut reference_iter = reference.iter();
-        self.model.run(k, reference.len(), |s| {
-            let modelled = filter.apply(&mut filter_state, s.current);
-            if let Some(&r) = reference_iter.next() {
-                let d = r - previous;
-                previous = r;
-                let e = r - modelled;
-                sum += e * e / (d * d * self.inv_kappa + 1.0);
-            }
-        });
+        self.model
+            .run_from(k, self.measured.initial_angles(), reference.len(), |s| {
+                let modelled = filter.apply(&mut filter_state, s.current);
+                if let Some(&r) = reference_iter.next() {
+                    let d = r - previous;
+                    previous = r;
+                    let e = r - modelled;
+                    sum += e * e / (d * d * self.inv_kappa + 1.0);
+                }
+            });
         let err = sum * self.model.params().control_period;
         if err.is_finite() {
             err

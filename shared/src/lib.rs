@@ -28,7 +28,7 @@ pub mod params;
 pub mod trace;
 
 pub use command::ChirpCommand;
-pub use conditioning::{AdcFrame, LowPass, MeasuredCurrent};
+pub use conditioning::{AdcFrame, LowPass, MeasuredCurrent, ShaftAngles};
 pub use fault::{FaultVector, Verdict, FAULT_COUNT};
 pub use fitness::{Calibration, FitnessProblem};
 pub use ga::{GaSettings, Problem, Status, SteadyStateGa, StopReason};

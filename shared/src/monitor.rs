@@ -23,9 +23,13 @@
 //!
 //! The recorded signal is the equivalent current at the start of each step, i.e. what the ADC
 //! samples at `t = i·dt` before the control update.
+//!
+//! A run starts at rest from the shaft angles measured at the test's first sample, the gear
+//! relaxed inside its play ([`MonitorModel::run_from`]); the model's own traces start at zero.
 
 use crate::command::ChirpCommand;
 use crate::conditioning::commutation_sector;
+use crate::conditioning::ShaftAngles;
 use crate::fault::FaultVector;
 use crate::fitness::Calibration;
 use crate::math::{abs, clamp, cos, frac, sin, TAU};
@@ -58,12 +62,39 @@ pub struct MonitorState {
     /// Motor angle one period earlier (what the shape functions see).
     pub previous_motor_angle: f32,
     pub motor_speed: f32,
+    /// True user-shaft angle [rad] (the aerodynamic load's zero is 0).
     pub user_angle: f32,
     pub user_speed: f32,
+    /// Position-transducer offset [rad], constant over a run: the controller and the
+    /// recorded samples see `user_angle + user_offset`.
+    pub user_offset: f32,
     pub current: f32,
     pub position_integral: f32,
     pub previous_error: f32,
     pub speed_integral: f32,
+}
+
+impl MonitorState {
+    /// At rest, with the shafts where the measured test began. The gear starts relaxed: the
+    /// surface as near its load's rest (0) as the play allows, which splits the measured
+    /// user angle into a true angle and the transducer's offset. O(1).
+    fn at_rest(start: ShaftAngles, f: &FaultedConstants, inv_gear_ratio: f32) -> Self {
+        let motor_at_user = start.motor * inv_gear_ratio;
+        let user_angle = clamp(
+            0.0,
+            motor_at_user - f.half_backlash,
+            motor_at_user + f.half_backlash,
+        );
+        Self {
+            motor_angle: start.motor,
+            previous_motor_angle: start.motor,
+            user_angle,
+            user_offset: start.user - user_angle,
+            // The command starts at 0: no derivative kick on the first step.
+            previous_error: -start.user,
+            ..Self::default()
+        }
+    }
 }
 
 /// Quantities that depend on the fault vector, computed once per run.
@@ -170,9 +201,21 @@ impl MonitorModel {
 
     /// Simulates `samples` steps from rest for fault vector `k`, handing each sample to `sink`.
     /// O(`samples`) work, no allocation.
-    pub fn run(&self, k: &FaultVector, samples: usize, mut sink: impl FnMut(&MonitorSample)) {
+    pub fn run(&self, k: &FaultVector, samples: usize, sink: impl FnMut(&MonitorSample)) {
+        self.run_from(k, ShaftAngles::ZERO, samples, sink);
+    }
+
+    /// As [`run`](Self::run), from rest with the shafts at `start` (the measured angles at
+    /// the first sample): the controller's integrators empty, the drive unpowered.
+    pub fn run_from(
+        &self,
+        k: &FaultVector,
+        start: ShaftAngles,
+        samples: usize,
+        mut sink: impl FnMut(&MonitorSample),
+    ) {
         let f = self.faulted(k);
-        let mut state = MonitorState::default();
+        let mut state = MonitorState::at_rest(start, &f, self.inv_gear_ratio);
         for i in 0..samples {
             let sample = self.step(&f, &mut state, i as f32 * self.dt);
             sink(&sample);
@@ -197,7 +240,7 @@ impl MonitorModel {
         let command = self.command.position(time);
 
         // 1. ACE controller.
-        let error = command - s.user_angle;
+        let error = command - (s.user_angle + s.user_offset);
         s.position_integral += error * dt;
         let error_rate = (error - s.previous_error) * self.inv_dt;
         s.previous_error = error;
@@ -233,7 +276,7 @@ impl MonitorModel {
         let kt = self.torque_constant * short_gain * eccentricity_gain;
         let r = self.resistance * short_gain;
         let back_emf = kt * s.motor_speed;
-        let sampled = (s.current, s.motor_angle, s.user_angle);
+        let sampled = (s.current, s.motor_angle, s.user_angle + s.user_offset);
         let voltage = r * s.current + back_emf + self.l_over_dt * (current_ref - s.current);
         let voltage = clamp(voltage, -p.dc_bus_voltage, p.dc_bus_voltage);
         s.current += self.dt_over_l * (voltage - r * s.current - back_emf);

@@ -16,7 +16,7 @@
 //! A row is the sample at `t = index / sample_rate`, six fixed-point numbers stored as the
 //! `i32` of their bits: commanded user angle θ_cmd [rad] as `I4F28`, phase currents i_a, i_b,
 //! i_c [A] as `I16F16`, motor-shaft angle θ_m [rad] as `I16F16`, user-shaft angle θ_u [rad] as
-//! `I4F28`. The currents and the motor angle are exactly the controller's [`AdcFrame`].
+//! `I4F28`. The currents and the two angles are exactly the controller's [`AdcFrame`].
 
 use fixed::types::{I16F16, I4F28};
 
@@ -157,6 +157,7 @@ impl TraceRow {
         AdcFrame {
             phase_currents: self.phase_currents,
             motor_angle: self.motor_angle,
+            user_angle: self.user_angle,
         }
     }
 

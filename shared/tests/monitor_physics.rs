@@ -185,3 +185,43 @@ fn corner_fault_vectors_simulate_finitely() {
         }
     }
 }
+
+#[test]
+fn a_run_starts_where_the_measured_test_began_with_the_gear_relaxed() {
+    use shared::ShaftAngles;
+    let m = model();
+    let ratio = ActuatorParams::REFERENCE.gear_ratio;
+    // Large play (k2 = 1: ±5e-4 rad): the motor at 1e-4 rad (user side) leaves the surface at
+    // its load's rest inside the play, so all of the measured 3e-5 rad is transducer offset.
+    let start = ShaftAngles {
+        motor: 1.0e-4 * ratio,
+        user: 3.0e-5,
+    };
+    let mut first = None;
+    m.run_from(&FaultVector::new(with(1, 1.0)).unwrap(), start, 1, |s| {
+        first = Some(*s)
+    });
+    let first = first.unwrap();
+    assert_eq!(first.motor_angle, start.motor);
+    assert_eq!(
+        first.user_angle, start.user,
+        "the transducer reads what was measured"
+    );
+    // With the nominal play (±5e-6 rad) the surface must sit within the play of the motor,
+    // not at the measured 3e-5 rad: taken literally, that would start the gear compressed by
+    // 6e-5 rad (600 N·m) and launch the surface by ~6e-4 rad within 2 ms. Relaxed, it only
+    // moves as the controller drives it (a few µrad).
+    let mut trace = Vec::new();
+    m.run_from(&FaultVector::NOMINAL, start, 20, |s| trace.push(*s));
+    assert!((trace[0].user_angle - start.user).abs() < 1.0e-10);
+    let jump = (trace[19].user_angle - trace[0].user_angle).abs();
+    assert!(jump < 5.0e-5, "surface moved {jump} rad in 2 ms");
+    // From zero, `run_from` is `run`.
+    let mut a = Vec::new();
+    let mut b = Vec::new();
+    m.run(&FaultVector::NOMINAL, 500, |s| a.push(s.current));
+    m.run_from(&FaultVector::NOMINAL, ShaftAngles::ZERO, 500, |s| {
+        b.push(s.current)
+    });
+    assert_eq!(a, b);
+}
