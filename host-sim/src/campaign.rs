@@ -455,13 +455,7 @@ pub fn plot(out: &Path, title: &str, summaries: &[CaseSummary]) -> Result<()> {
         .map_err(e)?
         .label("our target")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperLeft)
-        .draw()
-        .map_err(e)?;
+    crate::plot::draw_legend(&mut chart, out)?;
     root.present().map_err(e)?;
     Ok(())
 }

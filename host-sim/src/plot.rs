@@ -67,13 +67,7 @@ pub fn identification_svg(
         .map_err(e)?
         .label("monitor model at the identified faults")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED));
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperLeft)
-        .draw()
-        .map_err(e)?;
+    draw_legend(&mut chart, out)?;
 
     // Fitness history: eq. (3) error plus the residual (the raw, positive error) on a log axis.
     let residual = f64::from(calibration.nominal_residual);
@@ -115,4 +109,18 @@ pub fn identification_svg(
         .map_err(e)?;
     root.present().map_err(e)?;
     Ok(())
+}
+
+/// The series legend every plot of this crate draws: upper left, on a translucent white box.
+pub(crate) fn draw_legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    out: &Path,
+) -> Result<()> {
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperLeft)
+        .draw()
+        .map_err(|e| anyhow!("drawing {}: {e:?}", out.display()))
 }
