@@ -1,5 +1,5 @@
 //! Link setup for the Cortex-M4F build only: `memory.x` (at the workspace root) on the linker
-//! search path and cortex-m-rt's `link.x` for the binaries. The host stub links normally.
+//! search path, cortex-m-rt's `link.x` and defmt's `defmt.x` for the binaries. The host stub links normally.
 
 use std::env;
 use std::path::PathBuf;
@@ -17,4 +17,6 @@ fn main() {
     println!("cargo:rerun-if-changed={}", root.join("memory.x").display());
     println!("cargo:rustc-link-search={}", root.display());
     println!("cargo:rustc-link-arg-bins=-Tlink.x");
+    // defmt's interned-string sections; the firmware binary always logs with defmt.
+    println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
 }

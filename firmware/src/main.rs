@@ -1,40 +1,33 @@
-//! Preflight FDI firmware for the actuator controller (STM32F405, Cortex-M4F).
+//! Preflight FDI firmware for the actuator controller (STM32F405, Cortex-M4F, 168 MHz).
 //!
-//! This first version proves the target: it links `shared` into a Cortex-M4F image, runs one
-//! monitor-model evaluation of the healthy actuator and exits through semihosting (status 0
-//! if the simulated current is finite). The preflight task (acquire → condition → identify →
-//! report under embassy, defmt over semihosting) replaces it in the firmware issue. On the
-//! host the crate compiles to a stub so that `cargo test --workspace` stays runnable.
+//! Two embassy tasks share one thread-mode executor: the preflight self-test
+//! ([`firmware::Preflight`], one bounded slice of work per poll, then it yields) and a
+//! heartbeat standing in for the control loop and bus traffic, which must keep running
+//! while the GA works. Under QEMU (`cargo fw -- TRACE.bin`) the frames come from a binary
+//! trace read through semihosting; the result is printed with defmt over semihosting and the
+//! exit status says whether the self-test produced a result (0) or not (non-zero).
+//!
+//! Time: SysTick counts core clock cycles (24-bit, wraps counted in its exception). Under
+//! `qemu-run` (QEMU `-icount shift=0`: one instruction = 1 ns of virtual time) a cycle count
+//! converts to instructions as `cycles · 10⁹ / 168·10⁶`.
+//!
+//! On the host the crate compiles to a stub so that `cargo test --workspace` stays runnable.
 #![cfg_attr(target_os = "none", no_std)]
 #![cfg_attr(target_os = "none", no_main)]
 
 #[cfg(target_os = "none")]
-mod target {
-    use cortex_m_rt::entry;
-    use cortex_m_semihosting::debug::{exit, EXIT_FAILURE, EXIT_SUCCESS};
-    use shared::{ActuatorParams, Calibration, FaultVector, MonitorModel};
-
-    #[entry]
-    fn main() -> ! {
-        let model = MonitorModel::new(ActuatorParams::REFERENCE, &Calibration::IDENTITY);
-        let mut finite = true;
-        model.run(&FaultVector::NOMINAL, model.test_samples(), |s| {
-            finite &= s.current.is_finite()
-        });
-        exit(if finite { EXIT_SUCCESS } else { EXIT_FAILURE });
-        #[allow(clippy::empty_loop)]
-        loop {}
-    }
-
-    #[panic_handler]
-    fn panic(_: &core::panic::PanicInfo) -> ! {
-        exit(EXIT_FAILURE);
-        #[allow(clippy::empty_loop)]
-        loop {}
-    }
-}
+mod emulation;
+#[cfg(all(target_os = "none", feature = "hardware"))]
+#[allow(dead_code)] // A documented sketch, not wired in (see its module docs).
+mod hardware_adc;
+#[cfg(target_os = "none")]
+mod target;
 
 #[cfg(not(target_os = "none"))]
 fn main() {
-    eprintln!("firmware: this binary runs on the Cortex-M4F; build it with `cargo fw-build`.");
+    eprintln!(
+        "firmware: this binary runs on the Cortex-M4F. Build it with `cargo fw-build`, or run \
+         the preflight on a trace under QEMU with `cargo fw -- TRACE.bin`."
+    );
+    std::process::exit(2);
 }

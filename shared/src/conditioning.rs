@@ -54,7 +54,7 @@ pub fn commutation_signs(theta_e: f32) -> [i8; 3] {
 /// and the motor-shaft angle [rad], each `I16F16` (±32 768, resolution 15 µA / 15 µrad), and
 /// the user-shaft angle [rad] from the position transducer, `I4F28` (±8, resolution 3.7 nrad).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+// No defmt derive: `fixed` numbers do not implement `defmt::Format`.
 pub struct AdcFrame {
     pub phase_currents: [I16F16; 3],
     pub motor_angle: I16F16,

@@ -120,7 +120,7 @@ impl TraceHeader {
 
 /// One sample of a trace, in the stored fixed-point form.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+// No defmt derive: `fixed` numbers do not implement `defmt::Format`.
 pub struct TraceRow {
     /// Commanded user-shaft angle [rad].
     pub command: I4F28,

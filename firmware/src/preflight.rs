@@ -1,0 +1,231 @@
+//! The preflight self-test: Acquire → Condition → Identify → Report, one bounded slice of
+//! work per [`Preflight::poll`] so that the executor can run other tasks in between.
+//!
+//! Work bounds per poll: Acquire ≤ [`PreflightSettings::frames_per_poll`] frames (O(1) each);
+//! Condition one O(`TEST_SAMPLES`) pass; Identify ≤
+//! [`PreflightSettings::evaluations_per_poll`] monitor-model evaluations (each 0.5 s of model
+//! time at the control period); Report O(1). Time is never read here; the caller measures it.
+//!
+//! Memory: the measured-current buffer is lent in (`&mut OnboardMeasured`, 20 kB), the GA
+//! and the monitor model live in the state (≈ 1.5 kB). Same settings, seed and frames give the
+//! same bits as `host-sim identify`.
+
+use shared::conditioning::ConditioningError;
+use shared::fdi::TEST_SAMPLES;
+use shared::fdi::{FdiError, Identification, IdentificationResult, OnboardMeasured, POPULATION};
+use shared::{ActuatorParams, Calibration, GaSettings, Status, Verdict, FAULT_COUNT};
+
+use crate::source::{Acquired, CurrentSource};
+
+/// How the preflight runs: plain data, split from the running state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PreflightSettings {
+    pub params: ActuatorParams,
+    /// The monitor model's calibration against this actuator (a flash record on a fleet).
+    pub calibration: Calibration,
+    pub ga: GaSettings,
+    /// GA seed (`host-sim identify --seed`).
+    pub seed: u64,
+    /// Frames taken from the source per poll.
+    pub frames_per_poll: u32,
+    /// Monitor-model evaluations per poll during Identify.
+    pub evaluations_per_poll: u32,
+}
+
+impl PreflightSettings {
+    /// The onboard FDI against this project's reference actuator: the same parameters,
+    /// calibration, GA settings and default seed as `host-sim identify`.
+    pub const ONBOARD: Self = Self {
+        params: ActuatorParams::REFERENCE,
+        calibration: Calibration::REFERENCE_ACTUATOR,
+        ga: GaSettings::FDI,
+        seed: 1,
+        frames_per_poll: 500,
+        evaluations_per_poll: 1,
+    };
+}
+
+/// Where the self-test stands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Stage {
+    Acquire,
+    Condition,
+    Identify,
+    Report,
+    Done,
+}
+
+/// Why a self-test gave no result.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum PreflightError<E> {
+    /// The current source failed.
+    Source(E),
+    /// The test produced more frames than the buffer holds (refused, never truncated).
+    TooManyFrames { capacity: u32 },
+    /// The measured current cannot be used (too short, not finite).
+    Conditioning(ConditioningError),
+    /// The identification could not start.
+    Fdi(FdiError),
+    /// Polled again after a failure.
+    AlreadyFailed,
+}
+
+/// What the self-test found.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Report {
+    pub result: IdentificationResult,
+    pub verdicts: [Verdict; FAULT_COUNT],
+    /// Frames acquired.
+    pub frames: u32,
+    /// Polls spent in Identify.
+    pub identify_polls: u32,
+    /// Largest number of evaluations one poll did (≤ `evaluations_per_poll`).
+    pub max_evaluations_per_poll: u32,
+}
+
+/// The outcome of one poll.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Progress {
+    /// Work remains; `stage` is where the next poll continues.
+    Working { stage: Stage },
+    /// The self-test is over (every further poll returns the same report).
+    Finished(Report),
+}
+
+// One value lives for the whole test in the task's static storage; without a heap there is
+// nothing to box the large variant into.
+#[allow(clippy::large_enum_variant)]
+enum State<'m> {
+    Acquire {
+        measured: &'m mut OnboardMeasured,
+    },
+    Condition {
+        measured: &'m mut OnboardMeasured,
+    },
+    Identify {
+        id: Identification<'m, TEST_SAMPLES, POPULATION>,
+    },
+    Report {
+        result: IdentificationResult,
+    },
+    Done(Report),
+    Failed,
+}
+
+/// One preflight self-test in progress.
+pub struct Preflight<'m, S> {
+    settings: PreflightSettings,
+    source: S,
+    state: State<'m>,
+    frames: u32,
+    identify_polls: u32,
+    max_evaluations_per_poll: u32,
+}
+
+impl<'m, S: CurrentSource> Preflight<'m, S> {
+    /// A self-test that fills `measured` (cleared first) from `source`.
+    pub fn new(settings: PreflightSettings, source: S, measured: &'m mut OnboardMeasured) -> Self {
+        measured.clear();
+        Self {
+            settings,
+            source,
+            state: State::Acquire { measured },
+            frames: 0,
+            identify_polls: 0,
+            max_evaluations_per_poll: 0,
+        }
+    }
+
+    pub fn stage(&self) -> Stage {
+        match self.state {
+            State::Acquire { .. } => Stage::Acquire,
+            State::Condition { .. } => Stage::Condition,
+            State::Identify { .. } => Stage::Identify,
+            State::Report { .. } => Stage::Report,
+            State::Done(_) | State::Failed => Stage::Done,
+        }
+    }
+
+    /// Evaluations done so far (0 before Identify).
+    pub fn evaluations(&self) -> u32 {
+        match &self.state {
+            State::Identify { id } => id.ga().evaluations(),
+            State::Report { result } => result.evaluations,
+            State::Done(report) => report.result.evaluations,
+            _ => 0,
+        }
+    }
+
+    /// Does one bounded slice of work (see the module docs).
+    pub fn poll(&mut self) -> Result<Progress, PreflightError<S::Error>> {
+        let state = core::mem::replace(&mut self.state, State::Failed);
+        match self.advance(state) {
+            Ok(next) => {
+                self.state = next;
+                Ok(match &self.state {
+                    State::Done(report) => Progress::Finished(*report),
+                    _ => Progress::Working {
+                        stage: self.stage(),
+                    },
+                })
+            }
+            Err(e) => Err(e),
+        }
+    }
+
+    fn advance(&mut self, state: State<'m>) -> Result<State<'m>, PreflightError<S::Error>> {
+        match state {
+            State::Acquire { measured } => {
+                let pole_pairs = self.settings.params.pole_pairs;
+                for _ in 0..self.settings.frames_per_poll {
+                    match self.source.next_frame().map_err(PreflightError::Source)? {
+                        Acquired::Frame(frame) => {
+                            if measured.push_frame(frame, pole_pairs).is_err() {
+                                return Err(PreflightError::TooManyFrames {
+                                    capacity: TEST_SAMPLES as u32,
+                                });
+                            }
+                            self.frames += 1;
+                        }
+                        Acquired::NotYet => break,
+                        Acquired::EndOfTest => return Ok(State::Condition { measured }),
+                    }
+                }
+                Ok(State::Acquire { measured })
+            }
+            State::Condition { measured } => {
+                measured.finish().map_err(PreflightError::Conditioning)?;
+                let measured: &'m OnboardMeasured = measured;
+                let s = &self.settings;
+                let id = Identification::new(measured, s.params, &s.calibration, s.ga, s.seed)
+                    .map_err(PreflightError::Fdi)?;
+                Ok(State::Identify { id })
+            }
+            State::Identify { mut id } => {
+                let before = id.ga().evaluations();
+                let status = id.step(self.settings.evaluations_per_poll);
+                let done = id.ga().evaluations().saturating_sub(before);
+                self.identify_polls += 1;
+                self.max_evaluations_per_poll = self.max_evaluations_per_poll.max(done);
+                Ok(match status {
+                    Status::Running => State::Identify { id },
+                    Status::Done(_) => State::Report {
+                        result: id.result_so_far(),
+                    },
+                })
+            }
+            State::Report { result } => Ok(State::Done(Report {
+                result,
+                verdicts: result.faults.verdicts(),
+                frames: self.frames,
+                identify_polls: self.identify_polls,
+                max_evaluations_per_poll: self.max_evaluations_per_poll,
+            })),
+            State::Done(report) => Ok(State::Done(report)),
+            State::Failed => Err(PreflightError::AlreadyFailed),
+        }
+    }
+}

@@ -1,0 +1,383 @@
+//! The Cortex-M4F side: the embassy tasks, the SysTick cycle clock, the report, the panic and
+//! HardFault handlers and the footprint read from the linker symbols and the painted stack.
+//!
+//! Work per executor turn: one [`Preflight::poll`] (≤ `evaluations_per_poll` monitor-model
+//! evaluations, ≤ `frames_per_poll` frames) and one heartbeat; the SysTick exception does O(1).
+
+use core::future::Future;
+use core::pin::Pin;
+use core::sync::atomic::{AtomicU32, Ordering};
+use core::task::{Context, Poll};
+
+use cortex_m::peripheral::syst::SystClkSource;
+use cortex_m::peripheral::SYST;
+use cortex_m_rt::{exception, ExceptionFrame};
+use defmt_semihosting as _;
+use embassy_executor::Spawner;
+use semihosting::process::exit;
+use static_cell::StaticCell;
+
+use firmware::{Preflight, PreflightSettings, Progress, Report, Stage, TraceSource};
+use shared::fault::FAULT_NAMES;
+use shared::fdi::OnboardMeasured;
+use shared::LowPass;
+
+use crate::emulation::{Command, Crash, HostFile};
+
+/// Exit statuses (semihosting SYS_EXIT_EXTENDED, QEMU's own exit status).
+mod status {
+    pub const SUCCESS: i32 = 0;
+    pub const PREFLIGHT_FAILED: i32 = 1;
+    pub const USAGE: i32 = 2;
+    pub const BAD_TRACE: i32 = 3;
+    pub const START_UP: i32 = 4;
+    pub const PANIC: i32 = 101;
+    pub const HARD_FAULT: i32 = 102;
+}
+
+/// The measured-current buffer (20 kB), in `.bss`.
+static MEASURED: StaticCell<OnboardMeasured> = StaticCell::new();
+
+/// SysTick wraps of the 24-bit counter.
+static WRAPS: AtomicU32 = AtomicU32::new(0);
+/// Heartbeat task runs.
+static BEATS: AtomicU32 = AtomicU32::new(0);
+/// Longest time between two heartbeat runs [core cycles].
+static WORST_GAP: AtomicU32 = AtomicU32::new(0);
+
+const SYST_RELOAD: u32 = 0x00FF_FFFF;
+
+/// Core clock of the reference MCU [Hz].
+const CORE_HZ: u64 = 168_000_000;
+
+/// Evaluations between two progress lines.
+const PROGRESS_EVERY: u32 = 1000;
+
+fn start_cycle_clock(mut syst: SYST) {
+    syst.set_clock_source(SystClkSource::Core);
+    syst.set_reload(SYST_RELOAD);
+    syst.clear_current();
+    syst.enable_interrupt();
+    syst.enable_counter();
+}
+
+/// Core cycles since [`start_cycle_clock`].
+fn cycles() -> u64 {
+    loop {
+        let wraps = WRAPS.load(Ordering::Acquire);
+        let current = SYST::get_current();
+        if WRAPS.load(Ordering::Acquire) == wraps {
+            return (u64::from(wraps) << 24) | u64::from(SYST_RELOAD - current);
+        }
+    }
+}
+
+#[exception]
+fn SysTick() {
+    WRAPS.fetch_add(1, Ordering::AcqRel);
+}
+
+/// Gives the executor back once.
+struct YieldNow(bool);
+
+impl Future for YieldNow {
+    type Output = ();
+    fn poll(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<()> {
+        if self.0 {
+            Poll::Ready(())
+        } else {
+            self.0 = true;
+            cx.waker().wake_by_ref();
+            Poll::Pending
+        }
+    }
+}
+
+fn yield_now() -> YieldNow {
+    YieldNow(false)
+}
+
+/// Stands in for the control loop and the bus traffic: runs once per executor turn and
+/// records the longest wait it saw.
+#[embassy_executor::task]
+async fn heartbeat() {
+    let mut last = cycles();
+    loop {
+        let now = cycles();
+        let gap = u32::try_from(now.saturating_sub(last)).unwrap_or(u32::MAX);
+        WORST_GAP.fetch_max(gap, Ordering::Relaxed);
+        last = now;
+        BEATS.fetch_add(1, Ordering::Relaxed);
+        yield_now().await;
+    }
+}
+
+#[embassy_executor::main]
+async fn main(spawner: Spawner) {
+    let Some(core) = cortex_m::Peripherals::take() else {
+        defmt::error!("core peripherals already taken");
+        exit(status::START_UP)
+    };
+    start_cycle_clock(core.SYST);
+    let code = preflight(spawner).await;
+    exit(code)
+}
+
+/// What the executor saw while the preflight ran.
+#[derive(Default)]
+struct Observed {
+    identify_start_cycles: u64,
+    identify_cycles: u64,
+    beats_during_identify: u32,
+    /// Identify polls after which the heartbeat did not run before the next poll.
+    polls_without_beat: u32,
+}
+
+async fn preflight(spawner: Spawner) -> i32 {
+    let command = match Command::from_host() {
+        Ok(c) => c,
+        Err(e) => {
+            defmt::error!(
+                "usage: cargo fw -- TRACE.bin [--seed N]  (binary trace from `host-sim simulate --format bin`): {}",
+                e
+            );
+            return status::USAGE;
+        }
+    };
+    match command.crash {
+        Some(Crash::Panic) => core::panic!("crash requested on the command line"),
+        Some(Crash::HardFault) => {
+            // An unmapped address: the bus fault escalates to HardFault.
+            let word = unsafe { core::ptr::read_volatile(0xFFFF_FFF0 as *const u32) };
+            defmt::error!("read {=u32} from an unmapped address", word);
+        }
+        None => {}
+    }
+    let path = command.trace_path();
+    let path_text = path.to_str().unwrap_or("(not UTF-8)");
+    let file = match HostFile::open(path) {
+        Ok(f) => f,
+        Err(e) => {
+            defmt::error!("cannot read trace {=str}: {}", path_text, e);
+            return status::BAD_TRACE;
+        }
+    };
+    let source = match TraceSource::open(file) {
+        Ok(s) => s,
+        Err(e) => {
+            defmt::error!("trace {=str} refused: {}", path_text, e);
+            return status::BAD_TRACE;
+        }
+    };
+    let mut settings = PreflightSettings::ONBOARD;
+    if let Some(seed) = command.seed {
+        settings.seed = seed;
+    }
+    let filter = match LowPass::for_control_period(settings.params.control_period) {
+        Ok(f) => f,
+        Err(e) => {
+            defmt::error!("conditioning filter: {}", e);
+            return status::START_UP;
+        }
+    };
+    let Some(measured) = MEASURED.try_init_with(|| OnboardMeasured::new(filter)) else {
+        defmt::error!("measured-current buffer already in use");
+        return status::START_UP;
+    };
+    match heartbeat() {
+        Ok(token) => spawner.spawn(token),
+        Err(_) => {
+            defmt::error!("cannot spawn the heartbeat task");
+            return status::START_UP;
+        }
+    }
+    defmt::info!(
+        "preflight on {=str}: {=u32} rows, GA seed {=u64}, {=u32} evaluations per tick",
+        path_text,
+        source.header().rows,
+        settings.seed,
+        settings.evaluations_per_poll
+    );
+    defmt::info!("calibration {}", settings.calibration);
+
+    let started = cycles();
+    let mut preflight = Preflight::new(settings, source, measured);
+    let mut stage = preflight.stage();
+    let mut observed = Observed::default();
+    let mut next_progress = PROGRESS_EVERY;
+    let report = loop {
+        let progress = preflight.poll();
+        let beats_after_poll = BEATS.load(Ordering::Relaxed);
+        match progress {
+            Ok(Progress::Finished(report)) => break report,
+            Ok(Progress::Working { stage: next }) => {
+                if next != stage {
+                    defmt::info!("stage {}", next);
+                    let now = cycles();
+                    if next == Stage::Identify {
+                        observed.identify_start_cycles = now;
+                    } else if stage == Stage::Identify {
+                        observed.identify_cycles = now - observed.identify_start_cycles;
+                    }
+                    stage = next;
+                }
+            }
+            Err(e) => {
+                defmt::error!("preflight failed in stage {}: {}", stage, e);
+                return status::PREFLIGHT_FAILED;
+            }
+        }
+        let evaluations = preflight.evaluations();
+        if evaluations >= next_progress {
+            defmt::info!("identify: {=u32} evaluations", evaluations);
+            next_progress += PROGRESS_EVERY;
+        }
+        // Two yields: the executor's run queue alternates the order of ready tasks between
+        // rounds, so one yield can hand the CPU straight back to this task.
+        yield_now().await;
+        yield_now().await;
+        if stage == Stage::Identify {
+            let beats = BEATS.load(Ordering::Relaxed).wrapping_sub(beats_after_poll);
+            observed.beats_during_identify += beats;
+            if beats == 0 {
+                observed.polls_without_beat += 1;
+            }
+        }
+    };
+    let total_cycles = cycles() - started;
+    print_report(&report, &observed, total_cycles);
+    status::SUCCESS
+}
+
+fn instructions_under_icount(cycles: u64) -> u64 {
+    cycles * 1_000_000_000 / CORE_HZ
+}
+
+fn print_report(report: &Report, observed: &Observed, total_cycles: u64) {
+    let r = &report.result;
+    let faults = r.faults.as_array();
+    defmt::println!(
+        "result faults={} fitness={=f32} evaluations={=u32}",
+        faults,
+        r.fitness,
+        r.evaluations
+    );
+    defmt::println!(
+        "bits faults={:08x} fitness={=u32:08x}",
+        faults.map(f32::to_bits),
+        r.fitness.to_bits()
+    );
+    for (name, verdict) in FAULT_NAMES.iter().zip(report.verdicts.iter()) {
+        defmt::println!("verdict {=str} {}", name, verdict);
+    }
+    defmt::println!("stop_reason {}", r.stop_reason);
+    defmt::println!(
+        "heartbeat beats_during_identify={=u32} identify_polls={=u32} polls_without_beat={=u32} worst_gap_cycles={=u32}",
+        observed.beats_during_identify,
+        report.identify_polls,
+        observed.polls_without_beat,
+        WORST_GAP.load(Ordering::Relaxed)
+    );
+    defmt::println!(
+        "ticks max_evaluations_per_tick={=u32} frames={=u32}",
+        report.max_evaluations_per_poll,
+        report.frames
+    );
+    let fp = footprint();
+    defmt::println!(
+        "footprint flash={=u32} text={=u32} rodata={=u32} static_ram={=u32} stack_peak={=u32} stack_size={=u32}",
+        fp.flash,
+        fp.text,
+        fp.rodata,
+        fp.static_ram,
+        fp.stack_peak,
+        fp.stack_size
+    );
+    defmt::println!(
+        "cycles total={=u64} identify={=u64} instructions_icount={=u64} identify_instructions_icount={=u64}",
+        total_cycles,
+        observed.identify_cycles,
+        instructions_under_icount(total_cycles),
+        instructions_under_icount(observed.identify_cycles)
+    );
+}
+
+/// Memory use from the linker symbols and the painted stack [bytes].
+struct Footprint {
+    /// Everything the image puts in flash: vector table, .text, .rodata and .data's image.
+    flash: u32,
+    text: u32,
+    rodata: u32,
+    /// .data + .bss + .uninit.
+    static_ram: u32,
+    /// Deepest the stack went since reset (cortex-m-rt `paint-stack`).
+    stack_peak: u32,
+    stack_size: u32,
+}
+
+#[allow(non_upper_case_globals)]
+extern "C" {
+    static __stext: u8;
+    static __etext: u8;
+    static __srodata: u8;
+    static __erodata: u8;
+    static __sdata: u8;
+    static __edata: u8;
+    static __sidata: u8;
+    static __sbss: u8;
+    static __ebss: u8;
+    static __suninit: u8;
+    static __euninit: u8;
+    static _stack_start: u8;
+    static _stack_end: u8;
+}
+
+const FLASH_ORIGIN: u32 = 0x0800_0000;
+const STACK_PAINT: u32 = 0xCCCC_CCCC;
+
+fn footprint() -> Footprint {
+    let addr = |p: *const u8| p as u32;
+    let (stext, etext) = (addr(&raw const __stext), addr(&raw const __etext));
+    let (srodata, erodata) = (addr(&raw const __srodata), addr(&raw const __erodata));
+    let (sdata, edata, sidata) = (
+        addr(&raw const __sdata),
+        addr(&raw const __edata),
+        addr(&raw const __sidata),
+    );
+    let (sbss, ebss) = (addr(&raw const __sbss), addr(&raw const __ebss));
+    let (suninit, euninit) = (addr(&raw const __suninit), addr(&raw const __euninit));
+    let (stack_top, stack_bottom) = (addr(&raw const _stack_start), addr(&raw const _stack_end));
+    // The lowest word whose paint was scrubbed off is as deep as the stack went.
+    let mut word = stack_bottom;
+    while word < stack_top {
+        // In RAM, word-aligned, between the linker's stack bounds.
+        if unsafe { core::ptr::read_volatile(word as *const u32) } != STACK_PAINT {
+            break;
+        }
+        word += 4;
+    }
+    Footprint {
+        flash: (sidata + (edata - sdata)).saturating_sub(FLASH_ORIGIN),
+        text: etext - stext,
+        rodata: erodata - srodata,
+        static_ram: (edata - sdata) + (ebss - sbss) + (euninit - suninit),
+        stack_peak: stack_top - word,
+        stack_size: stack_top - stack_bottom,
+    }
+}
+
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    defmt::error!("panic: {}", defmt::Display2Format(info));
+    exit(status::PANIC)
+}
+
+#[exception]
+unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
+    defmt::error!(
+        "hard fault: pc={=u32:#010x} lr={=u32:#010x}",
+        frame.pc(),
+        frame.lr()
+    );
+    exit(status::HARD_FAULT)
+}
