@@ -1,0 +1,281 @@
+//! The preflight state machine and the trace source, on the host: stage order, work bounds
+//! per poll, refusal of bad traces, and the same bits as the shared identification loop.
+
+use firmware::source::{SliceBytes, SAMPLE_RATE_HZ};
+use firmware::{
+    Acquired, CurrentSource, Preflight, PreflightError, PreflightSettings, Progress, Stage,
+    TraceSource, TraceSourceError,
+};
+use shared::conditioning::commutation_signs;
+use shared::fdi::{Identification, OnboardMeasured, POPULATION, TEST_SAMPLES};
+use shared::trace::{Crc32, TraceError, TraceHeader, TraceRow};
+use shared::{AdcFrame, Calibration, FaultVector, GaSettings, LowPass, MonitorModel, StopReason};
+
+fn settings() -> PreflightSettings {
+    PreflightSettings {
+        ga: GaSettings {
+            max_evaluations: 96,
+            ..GaSettings::FDI
+        },
+        evaluations_per_poll: 5,
+        frames_per_poll: 700,
+        ..PreflightSettings::ONBOARD
+    }
+}
+
+fn empty_buffer() -> Box<OnboardMeasured> {
+    let filter = LowPass::for_control_period(1.0e-4).expect("the 10 kHz filter exists");
+    Box::new(OnboardMeasured::new(filter))
+}
+
+/// The rows the controller would record from an actuator that behaves like the monitor
+/// model with faults `k`.
+fn monitor_rows(k: [f32; 8], samples: usize) -> Vec<TraceRow> {
+    let s = PreflightSettings::ONBOARD;
+    let model = MonitorModel::new(s.params, &Calibration::IDENTITY);
+    let k = FaultVector::new(k).expect("a valid fault vector");
+    let mut rows = Vec::new();
+    model.run(&k, samples, |m| {
+        let signs = commutation_signs(s.params.pole_pairs * m.motor_angle);
+        rows.push(TraceRow::from_f64(
+            f64::from(m.command),
+            signs.map(|x| f64::from(x) * f64::from(m.current)),
+            f64::from(m.motor_angle),
+            f64::from(m.user_angle),
+        ));
+    });
+    rows
+}
+
+fn trace_bytes(rows: &[TraceRow], sample_rate_hz: u32) -> Vec<u8> {
+    let header = TraceHeader {
+        sample_rate_hz,
+        rows: rows.len() as u32,
+    };
+    let mut out = header.encode().to_vec();
+    for r in rows {
+        out.extend_from_slice(&r.encode());
+    }
+    let mut crc = Crc32::new();
+    crc.update(&out);
+    out.extend_from_slice(&crc.finish().to_le_bytes());
+    out
+}
+
+const FAULTS: [f32; 8] = [0.2, 0.3, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5];
+
+#[test]
+fn trace_source_gives_every_row_then_end_of_test() {
+    let rows = monitor_rows(FAULTS, 1200);
+    let bytes = trace_bytes(&rows, SAMPLE_RATE_HZ);
+    let mut source = TraceSource::open(SliceBytes::new(&bytes)).expect("a valid trace");
+    assert_eq!(source.header().rows, 1200);
+    for (i, row) in rows.iter().enumerate() {
+        assert_eq!(
+            source.next_frame(),
+            Ok(Acquired::Frame(row.adc_frame())),
+            "row {i}"
+        );
+    }
+    assert_eq!(source.next_frame(), Ok(Acquired::EndOfTest));
+    assert_eq!(source.next_frame(), Ok(Acquired::EndOfTest));
+}
+
+#[test]
+fn trace_source_refuses_bad_traces() {
+    let rows = monitor_rows(FAULTS, 1200);
+    let good = trace_bytes(&rows, SAMPLE_RATE_HZ);
+
+    let open = |b: &[u8]| TraceSource::open(SliceBytes::new(b)).map(|_| ());
+    assert_eq!(
+        open(&trace_bytes(&rows, 20_000)),
+        Err(TraceSourceError::SampleRate { found: 20_000 })
+    );
+    let truncated = &good[..good.len() - 10];
+    assert!(matches!(
+        open(truncated),
+        Err(TraceSourceError::Trace(TraceError::LengthMismatch { .. }))
+    ));
+    assert!(matches!(
+        open(&good[..7]),
+        Err(TraceSourceError::Trace(TraceError::LengthMismatch { .. }))
+    ));
+    let mut magic = good.clone();
+    magic[0] = b'X';
+    assert_eq!(
+        open(&magic),
+        Err(TraceSourceError::Trace(TraceError::BadMagic))
+    );
+
+    // One flipped bit in a row is only caught by the checksum, after the last row.
+    let mut flipped = good.clone();
+    flipped[16 + 24 * 600 + 5] ^= 0x10;
+    let mut source = TraceSource::open(SliceBytes::new(&flipped)).expect("header is fine");
+    let mut frames = 0;
+    let end = loop {
+        match source.next_frame() {
+            Ok(Acquired::Frame(_)) => frames += 1,
+            other => break other,
+        }
+    };
+    assert_eq!(frames, 1200);
+    assert!(matches!(
+        end,
+        Err(TraceSourceError::Trace(TraceError::BadChecksum { .. }))
+    ));
+}
+
+#[test]
+fn preflight_walks_the_stages_in_bounded_polls_and_matches_the_shared_loop() {
+    let rows = monitor_rows(FAULTS, TEST_SAMPLES);
+    let bytes = trace_bytes(&rows, SAMPLE_RATE_HZ);
+    let source = TraceSource::open(SliceBytes::new(&bytes)).expect("a valid trace");
+    let s = settings();
+    let mut buffer = empty_buffer();
+    let mut preflight = Preflight::new(s, source, &mut buffer);
+
+    let mut stages = vec![preflight.stage()];
+    let mut evaluations = 0;
+    let report = loop {
+        match preflight.poll().expect("the preflight runs") {
+            Progress::Working { stage } => {
+                let now = preflight.evaluations();
+                assert!(now - evaluations <= s.evaluations_per_poll);
+                evaluations = now;
+                if stages.last() != Some(&stage) {
+                    stages.push(stage);
+                }
+            }
+            Progress::Finished(report) => break report,
+        }
+    };
+    assert_eq!(
+        stages,
+        [
+            Stage::Acquire,
+            Stage::Condition,
+            Stage::Identify,
+            Stage::Report
+        ]
+    );
+    assert_eq!(preflight.stage(), Stage::Done);
+    assert_eq!(report.frames, TEST_SAMPLES as u32);
+    assert_eq!(report.result.evaluations, 96);
+    assert_eq!(report.result.stop_reason, StopReason::EvaluationBudget);
+    assert_eq!(report.max_evaluations_per_poll, s.evaluations_per_poll);
+    assert!(report.identify_polls >= 96 / s.evaluations_per_poll);
+    assert_eq!(report.verdicts, report.result.faults.verdicts());
+    // Polling a finished self-test gives the same report again.
+    assert_eq!(preflight.poll(), Ok(Progress::Finished(report)));
+
+    // The same frames through the shared loop in one go: the same bits.
+    let mut measured = empty_buffer();
+    for r in &rows {
+        measured
+            .push_frame(r.adc_frame(), s.params.pole_pairs)
+            .expect("room for the test");
+    }
+    measured.finish().expect("a usable trace");
+    let direct = Identification::<TEST_SAMPLES, POPULATION>::new(
+        &measured,
+        s.params,
+        &s.calibration,
+        s.ga,
+        s.seed,
+    )
+    .expect("identification starts")
+    .run();
+    assert_eq!(
+        report.result.faults.as_array().map(f32::to_bits),
+        direct.faults.as_array().map(f32::to_bits)
+    );
+    assert_eq!(report.result.fitness.to_bits(), direct.fitness.to_bits());
+}
+
+/// A source that makes the poll wait every other call, like an ADC between conversions.
+struct Stuttering<S> {
+    inner: S,
+    wait: bool,
+}
+
+impl<S: CurrentSource> CurrentSource for Stuttering<S> {
+    type Error = S::Error;
+    fn next_frame(&mut self) -> Result<Acquired, S::Error> {
+        self.wait = !self.wait;
+        if self.wait {
+            Ok(Acquired::NotYet)
+        } else {
+            self.inner.next_frame()
+        }
+    }
+}
+
+#[test]
+fn acquire_ends_a_poll_when_the_source_has_nothing_yet() {
+    let rows = monitor_rows(FAULTS, 1500);
+    let bytes = trace_bytes(&rows, SAMPLE_RATE_HZ);
+    let source = Stuttering {
+        inner: TraceSource::open(SliceBytes::new(&bytes)).expect("a valid trace"),
+        wait: false,
+    };
+    let mut buffer = empty_buffer();
+    let mut preflight = Preflight::new(settings(), source, &mut buffer);
+    let mut acquire_polls = 0;
+    while preflight.stage() == Stage::Acquire {
+        preflight.poll().expect("acquisition runs");
+        acquire_polls += 1;
+    }
+    // The first poll gets nothing, then one frame per poll (the next call waits), then one
+    // poll sees the end of the test.
+    assert_eq!(acquire_polls, 1 + 1500 + 1);
+}
+
+#[test]
+fn too_many_frames_are_refused_not_truncated() {
+    let rows = monitor_rows(FAULTS, TEST_SAMPLES + 1);
+    let bytes = trace_bytes(&rows, SAMPLE_RATE_HZ);
+    let source = TraceSource::open(SliceBytes::new(&bytes)).expect("a valid trace");
+    let mut buffer = empty_buffer();
+    let mut preflight = Preflight::new(settings(), source, &mut buffer);
+    let error = loop {
+        match preflight.poll() {
+            Ok(Progress::Working { .. }) => continue,
+            Ok(Progress::Finished(_)) => panic!("a too long test must not give a result"),
+            Err(e) => break e,
+        }
+    };
+    assert_eq!(
+        error,
+        PreflightError::TooManyFrames {
+            capacity: TEST_SAMPLES as u32
+        }
+    );
+    assert_eq!(preflight.poll(), Err(PreflightError::AlreadyFailed));
+}
+
+#[test]
+fn a_too_short_test_fails_in_condition() {
+    let rows = monitor_rows(FAULTS, 500);
+    let bytes = trace_bytes(&rows, SAMPLE_RATE_HZ);
+    let source = TraceSource::open(SliceBytes::new(&bytes)).expect("a valid trace");
+    let mut buffer = empty_buffer();
+    let mut preflight = Preflight::new(settings(), source, &mut buffer);
+    let error = loop {
+        match preflight.poll() {
+            Ok(Progress::Working { .. }) => continue,
+            Ok(Progress::Finished(_)) => panic!("a too short test must not give a result"),
+            Err(e) => break e,
+        }
+    };
+    assert!(
+        matches!(error, PreflightError::Conditioning(_)),
+        "{error:?}"
+    );
+}
+
+#[test]
+fn an_adc_frame_survives_the_trace_round_trip() {
+    let frame = AdcFrame::from_f32([1.5, -0.25, -1.25], 0.125, 2.0e-3);
+    let row = TraceRow::from_f64(0.0, [1.5, -0.25, -1.25], 0.125, 2.0e-3);
+    assert_eq!(row.adc_frame(), frame);
+}

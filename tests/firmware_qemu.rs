@@ -1,0 +1,246 @@
+//! The firmware ELF under QEMU (netduinoplus2, STM32F405) against the host: a faulty actuator
+//! simulated by the reference model, its binary trace identified by the firmware through
+//! `firmware/qemu-run` (semihosting + defmt-print) and by `host-sim identify`'s code, same
+//! seed and calibration: the fault vector and fitness must be the same bits. Also checks the
+//! heartbeat task kept running during identification, and that bad input, a panic and a
+//! HardFault end the run with a message and a non-zero exit status.
+//!
+//! Needs `qemu-system-arm`, `defmt-print` and the `thumbv7em-none-eabihf` target (`.ci/run`
+//! installs them). The firmware is built with `cargo fw-build`.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+
+use host_sim::identify::identify;
+use host_sim::reference::{ReferenceModel, ReferenceSettings, Scenario};
+use host_sim::trace_file::Trace;
+use shared::fdi::TEST_SAMPLES;
+use shared::{ActuatorParams, Calibration, FaultVector, FAULT_COUNT};
+
+fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("tests/ sits in the workspace root")
+        .to_path_buf()
+}
+
+/// Builds the firmware once per test binary; returns the ELF's path.
+fn firmware_elf() -> &'static Path {
+    static ELF: OnceLock<PathBuf> = OnceLock::new();
+    ELF.get_or_init(|| {
+        let out = Command::new(env!("CARGO"))
+            .args(["fw-build", "--message-format=json"])
+            .current_dir(workspace_root())
+            .output()
+            .expect("cargo runs");
+        assert!(
+            out.status.success(),
+            "cargo fw-build failed:\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        let exe = stdout
+            .lines()
+            .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+            .filter(|m| m["reason"] == "compiler-artifact" && m["target"]["name"] == "firmware")
+            .find_map(|m| m["executable"].as_str().map(PathBuf::from))
+            .expect("cargo fw-build reports the firmware executable");
+        assert!(exe.exists(), "{} missing", exe.display());
+        exe
+    })
+}
+
+struct Run {
+    status: i32,
+    output: String,
+}
+
+/// Runs the firmware under QEMU with `args` on its semihosting command line.
+fn run_firmware(args: &[&str]) -> Run {
+    let out = Command::new(workspace_root().join("firmware/qemu-run"))
+        .arg(firmware_elf())
+        .args(args)
+        .output()
+        .expect("firmware/qemu-run starts");
+    let mut output = String::from_utf8_lossy(&out.stdout).into_owned();
+    output += &String::from_utf8_lossy(&out.stderr);
+    Run {
+        status: out.status.code().unwrap_or(-1),
+        output,
+    }
+}
+
+/// The value of `key=` in the output line starting with `prefix`.
+fn field<'a>(output: &'a str, prefix: &str, key: &str) -> &'a str {
+    let line = output
+        .lines()
+        .find(|l| l.starts_with(prefix))
+        .unwrap_or_else(|| panic!("no line starting with {prefix:?} in:\n{output}"));
+    let start = line
+        .find(&format!("{key}="))
+        .unwrap_or_else(|| panic!("no {key}= in {line:?}"))
+        + key.len()
+        + 1;
+    let rest = &line[start..];
+    let end = if rest.starts_with('[') {
+        rest.find(']').expect("closing bracket") + 1
+    } else {
+        rest.find(' ').unwrap_or(rest.len())
+    };
+    &rest[..end]
+}
+
+fn number(output: &str, prefix: &str, key: &str) -> u64 {
+    let text = field(output, prefix, key);
+    text.parse()
+        .unwrap_or_else(|_| panic!("{prefix} {key}={text:?} is not a number"))
+}
+
+fn list(text: &str) -> Vec<&str> {
+    text.trim_start_matches('[')
+        .trim_end_matches(']')
+        .split(", ")
+        .collect()
+}
+
+fn temp_trace(name: &str, bytes: &[u8]) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("ema-fdi-firmware-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let path = dir.join(name);
+    std::fs::write(&path, bytes).expect("trace written");
+    path
+}
+
+fn faulty_trace() -> Trace {
+    let faults = FaultVector::new([0.2, 0.3, 0.15, 0.0, 0.0, 0.0, 0.5, 0.45]).expect("valid");
+    let rm = ReferenceModel::new(ReferenceSettings::REFERENCE);
+    let mut scenario = Scenario::new(faults);
+    scenario.seed = 3;
+    rm.simulate(&scenario).trace
+}
+
+#[test]
+fn firmware_under_qemu_gives_the_hosts_bits() {
+    let trace = faulty_trace();
+    let bytes = trace.to_bin().expect("encodable");
+    let path = temp_trace("faulty.bin", &bytes);
+
+    let run = run_firmware(&[path.to_str().expect("UTF-8 temp path")]);
+    assert_eq!(run.status, 0, "firmware failed:\n{}", run.output);
+    println!("{}", run.output);
+
+    // The host's answer: the trace as `host-sim identify` reads it, same seed (1) and the
+    // built-in calibration.
+    let measured = Trace::from_bin(&bytes)
+        .expect("readable")
+        .measured(&ActuatorParams::REFERENCE)
+        .expect("conditioned");
+    let host = identify(&measured, &Calibration::REFERENCE_ACTUATOR, 1, false)
+        .expect("host identification runs")
+        .result;
+
+    let bits = list(field(&run.output, "bits ", "faults"));
+    assert_eq!(bits.len(), FAULT_COUNT);
+    for (i, (fw, h)) in bits.iter().zip(host.faults.as_array()).enumerate() {
+        let fw = u32::from_str_radix(fw, 16).expect("hex bits");
+        assert_eq!(
+            fw,
+            h.to_bits(),
+            "k{} differs: firmware {} host {h}",
+            i + 1,
+            f32::from_bits(fw)
+        );
+    }
+    let fitness = u32::from_str_radix(field(&run.output, "bits ", "fitness"), 16).expect("hex");
+    assert_eq!(fitness, host.fitness.to_bits(), "fitness differs");
+    // The readable line says the same numbers.
+    let shown: Vec<f32> = list(field(&run.output, "result ", "faults"))
+        .iter()
+        .map(|x| x.parse().expect("a float"))
+        .collect();
+    assert_eq!(shown.as_slice(), host.faults.as_array().as_slice());
+    assert_eq!(
+        number(&run.output, "result ", "evaluations"),
+        u64::from(host.evaluations)
+    );
+    assert_eq!(
+        run.output
+            .lines()
+            .filter(|l| l.starts_with("verdict "))
+            .count(),
+        FAULT_COUNT
+    );
+
+    // The heartbeat ran between every two identification ticks, and a tick did at most the
+    // configured number of evaluations.
+    let polls = number(&run.output, "heartbeat ", "identify_polls");
+    let per_tick = u64::from(firmware::PreflightSettings::ONBOARD.evaluations_per_poll);
+    assert!(polls * per_tick >= u64::from(host.evaluations));
+    assert_eq!(
+        number(&run.output, "heartbeat ", "polls_without_beat"),
+        0,
+        "{}",
+        run.output
+    );
+    assert!(number(&run.output, "heartbeat ", "beats_during_identify") >= polls);
+    assert_eq!(
+        number(&run.output, "ticks ", "max_evaluations_per_tick"),
+        per_tick
+    );
+    assert_eq!(number(&run.output, "ticks ", "frames"), TEST_SAMPLES as u64);
+    // The stack was painted and scanned: something was used, not everything.
+    let stack = number(&run.output, "footprint ", "stack_peak");
+    assert!(stack > 0 && stack < number(&run.output, "footprint ", "stack_size"));
+}
+
+#[test]
+fn a_corrupted_trace_is_refused_with_a_non_zero_exit() {
+    let mut bytes = faulty_trace().to_bin().expect("encodable");
+    let middle = bytes.len() / 2;
+    bytes[middle] ^= 0x01;
+    let path = temp_trace("corrupted.bin", &bytes);
+    let run = run_firmware(&[path.to_str().expect("UTF-8 temp path")]);
+    assert_eq!(run.status, 1, "{}", run.output);
+    assert!(run.output.contains("BadChecksum"), "{}", run.output);
+    assert!(!run.output.contains("result "), "{}", run.output);
+}
+
+#[test]
+fn a_missing_trace_and_a_bad_command_line_are_reported() {
+    let run = run_firmware(&["/nonexistent/trace.bin"]);
+    assert_eq!(run.status, 3, "{}", run.output);
+    assert!(run.output.contains("cannot read trace"), "{}", run.output);
+
+    let run = run_firmware(&[]);
+    assert_eq!(run.status, 2, "{}", run.output);
+    assert!(run.output.contains("usage:"), "{}", run.output);
+}
+
+#[test]
+fn panic_and_hard_fault_report_and_exit_non_zero() {
+    let run = run_firmware(&["--crash", "panic"]);
+    assert_eq!(run.status, 101, "{}", run.output);
+    assert!(run.output.contains("panic:"), "{}", run.output);
+
+    let run = run_firmware(&["--crash", "hard-fault"]);
+    assert_eq!(run.status, 102, "{}", run.output);
+    assert!(run.output.contains("hard fault"), "{}", run.output);
+}
+
+#[test]
+fn a_too_long_trace_is_refused_not_truncated() {
+    let trace = faulty_trace();
+    let mut long = Trace::with_capacity(TEST_SAMPLES + 10);
+    for s in trace
+        .samples()
+        .iter()
+        .chain(trace.samples().iter().take(10))
+    {
+        long.push(*s);
+    }
+    let path = temp_trace("long.bin", &long.to_bin().expect("encodable"));
+    let run = run_firmware(&[path.to_str().expect("UTF-8 temp path")]);
+    assert_eq!(run.status, 1, "{}", run.output);
+    assert!(run.output.contains("TooManyFrames"), "{}", run.output);
+}
