@@ -127,6 +127,8 @@ async fn main(spawner: Spawner) {
 #[derive(Default)]
 struct Observed {
     identify_start_cycles: u64,
+    /// Stack peak when Identify began (start-up, semihosting, acquisition, conditioning).
+    stack_peak_before_identify: u32,
     identify_cycles: u64,
     beats_during_identify: u32,
     /// Identify polls after which the heartbeat did not run before the next poll.
@@ -216,6 +218,7 @@ async fn preflight(spawner: Spawner) -> i32 {
                     let now = cycles();
                     if next == Stage::Identify {
                         observed.identify_start_cycles = now;
+                        observed.stack_peak_before_identify = stack_peak();
                     } else if stage == Stage::Identify {
                         observed.identify_cycles = now - observed.identify_start_cycles;
                     }
@@ -285,12 +288,13 @@ fn print_report(report: &Report, observed: &Observed, total_cycles: u64) {
     );
     let fp = footprint();
     defmt::println!(
-        "footprint flash={=u32} text={=u32} rodata={=u32} static_ram={=u32} stack_peak={=u32} stack_size={=u32}",
+        "footprint flash={=u32} text={=u32} rodata={=u32} static_ram={=u32} stack_peak={=u32} stack_peak_before_identify={=u32} stack_size={=u32}",
         fp.flash,
         fp.text,
         fp.rodata,
         fp.static_ram,
         fp.stack_peak,
+        observed.stack_peak_before_identify,
         fp.stack_size
     );
     defmt::println!(
@@ -335,6 +339,29 @@ extern "C" {
 const FLASH_ORIGIN: u32 = 0x0800_0000;
 const STACK_PAINT: u32 = 0xCCCC_CCCC;
 
+/// (top, bottom) of the stack region [address].
+fn stack_bounds() -> (u32, u32) {
+    (
+        &raw const _stack_start as u32,
+        &raw const _stack_end as u32,
+    )
+}
+
+/// Deepest the stack went since reset [bytes]: the lowest word whose paint was scrubbed off.
+/// O(stack size) reads.
+fn stack_peak() -> u32 {
+    let (top, bottom) = stack_bounds();
+    let mut word = bottom;
+    while word < top {
+        // In RAM, word-aligned, between the linker's stack bounds.
+        if unsafe { core::ptr::read_volatile(word as *const u32) } != STACK_PAINT {
+            break;
+        }
+        word += 4;
+    }
+    top - word
+}
+
 fn footprint() -> Footprint {
     let addr = |p: *const u8| p as u32;
     let (stext, etext) = (addr(&raw const __stext), addr(&raw const __etext));
@@ -346,22 +373,13 @@ fn footprint() -> Footprint {
     );
     let (sbss, ebss) = (addr(&raw const __sbss), addr(&raw const __ebss));
     let (suninit, euninit) = (addr(&raw const __suninit), addr(&raw const __euninit));
-    let (stack_top, stack_bottom) = (addr(&raw const _stack_start), addr(&raw const _stack_end));
-    // The lowest word whose paint was scrubbed off is as deep as the stack went.
-    let mut word = stack_bottom;
-    while word < stack_top {
-        // In RAM, word-aligned, between the linker's stack bounds.
-        if unsafe { core::ptr::read_volatile(word as *const u32) } != STACK_PAINT {
-            break;
-        }
-        word += 4;
-    }
+    let (stack_top, stack_bottom) = stack_bounds();
     Footprint {
         flash: (sidata + (edata - sdata)).saturating_sub(FLASH_ORIGIN),
         text: etext - stext,
         rodata: erodata - srodata,
         static_ram: (edata - sdata) + (ebss - sbss) + (euninit - suninit),
-        stack_peak: stack_top - word,
+        stack_peak: stack_peak(),
         stack_size: stack_top - stack_bottom,
     }
 }
