@@ -341,10 +341,7 @@ const STACK_PAINT: u32 = 0xCCCC_CCCC;
 
 /// (top, bottom) of the stack region [address].
 fn stack_bounds() -> (u32, u32) {
-    (
-        &raw const _stack_start as u32,
-        &raw const _stack_end as u32,
-    )
+    (&raw const _stack_start as u32, &raw const _stack_end as u32)
 }
 
 /// Deepest the stack went since reset [bytes]: the lowest word whose paint was scrubbed off.
