@@ -12,10 +12,12 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use host_sim::calibration::{calibrate, CalibrationFile};
+use host_sim::campaign::{run_once, TABLE_1};
 use host_sim::faults;
 use host_sim::identify::{identify, Identified};
 use host_sim::reference::{ReferenceModel, ReferenceSettings, Scenario};
 use host_sim::trace_file::{Trace, TraceFormat};
+use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 use shared::fault::{Verdict, FAULT_COUNT, FAULT_NAMES};
 use shared::fdi::{
@@ -175,6 +177,10 @@ enum Command {
         /// Evaluations to time.
         #[arg(long, default_value_t = 2000, value_parser = clap::value_parser!(u32).range(1..))]
         evaluations: u32,
+        /// Full identifications timed per paper Table I case, one after the other on one core
+        /// (RM seeds 0…N−1); 0 skips them. The default, 10, takes about 4 minutes.
+        #[arg(long, default_value_t = 10)]
+        identifications: u64,
     },
 }
 
@@ -255,7 +261,10 @@ fn main() -> ExitCode {
             footprint();
             Ok(())
         }
-        Command::Bench { evaluations } => bench(evaluations),
+        Command::Bench {
+            evaluations,
+            identifications,
+        } => bench(evaluations, identifications),
     };
     match outcome {
         Ok(()) => ExitCode::SUCCESS,
@@ -469,7 +478,7 @@ fn campaign_command(
     out: Option<&Path>,
     plot: Option<&Path>,
 ) -> Result<()> {
-    use host_sim::campaign::{self, HEALTHY, TABLE_1, TABLE_2};
+    use host_sim::campaign::{self, HEALTHY, TABLE_2};
     let (title, cases) = match table {
         CampaignTable::One => ("Table I: single faults", TABLE_1.to_vec()),
         CampaignTable::Two => ("Table II: multiple faults, and the healthy actuator", {
@@ -653,7 +662,7 @@ fn footprint() {
     );
 }
 
-fn bench(evaluations: u32) -> Result<()> {
+fn bench(evaluations: u32, identifications: u64) -> Result<()> {
     let params = ActuatorParams::REFERENCE;
     let model = MonitorModel::new(params, &Calibration::IDENTITY);
     let truth = FaultVector::new([0.1, 0.1, 0.1, 0.05, 0.0, 0.1, 0.25, 0.4])
@@ -720,6 +729,72 @@ fn bench(evaluations: u32) -> Result<()> {
         (f64::from(rm.settings().params.control_period) / rm.settings().step).round() as usize
             * rm.test_samples(),
         rm.settings().step * 1e6
+    );
+    if identifications > 0 {
+        bench_identifications(&rm, identifications)?;
+    }
+    Ok(())
+}
+
+/// The paper's time for one identification [s] (MATLAB, 4-core i5-3340, parallel GA).
+const PAPER_IDENTIFICATION_SECONDS: f64 = 400.0;
+
+fn median(values: &mut [f64]) -> f64 {
+    values.sort_by(f64::total_cmp);
+    match values.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => values[n / 2],
+        n => 0.5 * (values[n / 2 - 1] + values[n / 2]),
+    }
+}
+
+/// Times full identifications of every Table I case, one at a time on this thread.
+fn bench_identifications(rm: &ReferenceModel, seeds: u64) -> Result<()> {
+    let total = seeds * TABLE_1.len() as u64;
+    let bar = ProgressBar::new(total);
+    bar.set_style(
+        ProgressStyle::with_template("identifications {bar:40} {pos}/{len} {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    println!();
+    println!(
+        "one full identification on one core (GA only; median of {seeds} RM seeds per Table I case)"
+    );
+    println!(
+        "{:<24} {:>10} {:>12} {:>10} {:>12}",
+        "case", "median [s]", "evaluations", "e_tot [%]", "× faster"
+    );
+    let mut all = Vec::new();
+    for case in &TABLE_1 {
+        bar.set_message(case.name);
+        let mut seconds = Vec::new();
+        let mut evaluations = Vec::new();
+        let mut errors = Vec::new();
+        for run in 0..seeds {
+            let r = run_once(rm, &Calibration::REFERENCE_ACTUATOR, case, run)?;
+            seconds.push(r.seconds);
+            evaluations.push(f64::from(r.evaluations));
+            errors.push(r.e_tot);
+            bar.inc(1);
+        }
+        all.extend_from_slice(&seconds);
+        let s = median(&mut seconds);
+        bar.suspend(|| {
+            println!(
+                "{:<24} {s:>10.3} {:>12.0} {:>10.2} {:>12.0}",
+                case.name,
+                median(&mut evaluations),
+                median(&mut errors),
+                PAPER_IDENTIFICATION_SECONDS / s
+            )
+        });
+    }
+    bar.finish_and_clear();
+    let s = median(&mut all);
+    println!(
+        "all {} identifications: median {s:.3} s, {:.0}× faster than the paper's {PAPER_IDENTIFICATION_SECONDS:.0} s (target ≤ 1 s, ≥ 400×)",
+        all.len(),
+        PAPER_IDENTIFICATION_SECONDS / s
     );
     Ok(())
 }
