@@ -31,7 +31,7 @@ pub trait CurrentSource {
     fn next_frame(&mut self) -> Result<Acquired, Self::Error>;
 }
 
-/// Random-free, sequential access to a stored trace's bytes (a host file via semihosting, a
+/// Sequential access to a stored trace's bytes (a host file via semihosting, a
 /// flash region, a slice in tests).
 pub trait TraceBytes {
     type Error;
