@@ -188,7 +188,7 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                                     capacity: TEST_SAMPLES as u32,
                                 });
                             }
-                            self.frames += 1;
+                            self.frames = self.frames.saturating_add(1);
                         }
                         Acquired::NotYet => break,
                         Acquired::EndOfTest => return Ok(State::Condition { measured }),
@@ -208,7 +208,7 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                 let before = id.ga().evaluations();
                 let status = id.step(self.settings.evaluations_per_poll);
                 let done = id.ga().evaluations().saturating_sub(before);
-                self.identify_polls += 1;
+                self.identify_polls = self.identify_polls.saturating_add(1);
                 self.max_evaluations_per_poll = self.max_evaluations_per_poll.max(done);
                 Ok(match status {
                     Status::Running => State::Identify { id },

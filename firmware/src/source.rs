@@ -127,7 +127,7 @@ impl<B: TraceBytes> CurrentSource for TraceSource<B> {
             .read_exact(&mut row)
             .map_err(TraceSourceError::Io)?;
         self.crc.update(&row);
-        self.rows_read += 1;
+        self.rows_read = self.rows_read.saturating_add(1);
         Ok(Acquired::Frame(TraceRow::decode(&row).adc_frame()))
     }
 }

@@ -67,7 +67,7 @@ fn cycles() -> u64 {
         let wraps = WRAPS.load(Ordering::Acquire);
         let current = SYST::get_current();
         if WRAPS.load(Ordering::Acquire) == wraps {
-            return (u64::from(wraps) << 24) | u64::from(SYST_RELOAD - current);
+            return (u64::from(wraps) << 24) | u64::from(SYST_RELOAD.saturating_sub(current));
         }
     }
 }
@@ -220,7 +220,8 @@ async fn preflight(spawner: Spawner) -> i32 {
                         observed.identify_start_cycles = now;
                         observed.stack_peak_before_identify = stack_peak();
                     } else if stage == Stage::Identify {
-                        observed.identify_cycles = now - observed.identify_start_cycles;
+                        observed.identify_cycles =
+                            now.saturating_sub(observed.identify_start_cycles);
                     }
                     stage = next;
                 }
@@ -233,7 +234,7 @@ async fn preflight(spawner: Spawner) -> i32 {
         let evaluations = preflight.evaluations();
         if evaluations >= next_progress {
             defmt::info!("identify: {=u32} evaluations", evaluations);
-            next_progress += PROGRESS_EVERY;
+            next_progress = next_progress.saturating_add(PROGRESS_EVERY);
         }
         // Two yields: the executor's run queue alternates the order of ready tasks between
         // rounds, so one yield can hand the CPU straight back to this task.
@@ -241,19 +242,20 @@ async fn preflight(spawner: Spawner) -> i32 {
         yield_now().await;
         if stage == Stage::Identify {
             let beats = BEATS.load(Ordering::Relaxed).wrapping_sub(beats_after_poll);
-            observed.beats_during_identify += beats;
+            observed.beats_during_identify = observed.beats_during_identify.saturating_add(beats);
             if beats == 0 {
-                observed.polls_without_beat += 1;
+                observed.polls_without_beat = observed.polls_without_beat.saturating_add(1);
             }
         }
     };
-    let total_cycles = cycles() - started;
+    let total_cycles = cycles().saturating_sub(started);
     print_report(&report, &observed, total_cycles);
     status::SUCCESS
 }
 
 fn instructions_under_icount(cycles: u64) -> u64 {
-    cycles * 1_000_000_000 / CORE_HZ
+    // u128: no overflow for any u64 cycle count.
+    u64::try_from(u128::from(cycles) * 1_000_000_000 / u128::from(CORE_HZ)).unwrap_or(u64::MAX)
 }
 
 fn print_report(report: &Report, observed: &Observed, total_cycles: u64) {
@@ -356,7 +358,7 @@ fn stack_peak() -> u32 {
         }
         word += 4;
     }
-    top - word
+    top.saturating_sub(word)
 }
 
 fn footprint() -> Footprint {
@@ -372,12 +374,17 @@ fn footprint() -> Footprint {
     let (suninit, euninit) = (addr(&raw const __suninit), addr(&raw const __euninit));
     let (stack_top, stack_bottom) = stack_bounds();
     Footprint {
-        flash: (sidata + (edata - sdata)).saturating_sub(FLASH_ORIGIN),
-        text: etext - stext,
-        rodata: erodata - srodata,
-        static_ram: (edata - sdata) + (ebss - sbss) + (euninit - suninit),
+        flash: sidata
+            .saturating_add(edata.saturating_sub(sdata))
+            .saturating_sub(FLASH_ORIGIN),
+        text: etext.saturating_sub(stext),
+        rodata: erodata.saturating_sub(srodata),
+        static_ram: edata
+            .saturating_sub(sdata)
+            .saturating_add(ebss.saturating_sub(sbss))
+            .saturating_add(euninit.saturating_sub(suninit)),
         stack_peak: stack_peak(),
-        stack_size: stack_top - stack_bottom,
+        stack_size: stack_top.saturating_sub(stack_bottom),
     }
 }
 

@@ -230,6 +230,20 @@ fn acquire_ends_a_poll_when_the_source_has_nothing_yet() {
     assert_eq!(acquire_polls, 1 + 1500 + 1);
 }
 
+/// Polls until the self-test fails; a result is a test failure.
+fn poll_until_error<S: CurrentSource>(preflight: &mut Preflight<'_, S>) -> PreflightError<S::Error>
+where
+    S::Error: core::fmt::Debug,
+{
+    loop {
+        match preflight.poll() {
+            Ok(Progress::Working { .. }) => continue,
+            Ok(Progress::Finished(r)) => panic!("this test must not give a result: {r:?}"),
+            Err(e) => break e,
+        }
+    }
+}
+
 #[test]
 fn too_many_frames_are_refused_not_truncated() {
     let rows = monitor_rows(FAULTS, TEST_SAMPLES + 1);
@@ -237,13 +251,7 @@ fn too_many_frames_are_refused_not_truncated() {
     let source = TraceSource::open(SliceBytes::new(&bytes)).expect("a valid trace");
     let mut buffer = empty_buffer();
     let mut preflight = Preflight::new(settings(), source, &mut buffer);
-    let error = loop {
-        match preflight.poll() {
-            Ok(Progress::Working { .. }) => continue,
-            Ok(Progress::Finished(_)) => panic!("a too long test must not give a result"),
-            Err(e) => break e,
-        }
-    };
+    let error = poll_until_error(&mut preflight);
     assert_eq!(
         error,
         PreflightError::TooManyFrames {
@@ -260,13 +268,7 @@ fn a_too_short_test_fails_in_condition() {
     let source = TraceSource::open(SliceBytes::new(&bytes)).expect("a valid trace");
     let mut buffer = empty_buffer();
     let mut preflight = Preflight::new(settings(), source, &mut buffer);
-    let error = loop {
-        match preflight.poll() {
-            Ok(Progress::Working { .. }) => continue,
-            Ok(Progress::Finished(_)) => panic!("a too short test must not give a result"),
-            Err(e) => break e,
-        }
-    };
+    let error = poll_until_error(&mut preflight);
     assert!(
         matches!(error, PreflightError::Conditioning(_)),
         "{error:?}"
