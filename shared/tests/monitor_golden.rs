@@ -1,0 +1,116 @@
+//! Stored tables: the exact bits the monitor model and the fitness produce for fixed inputs.
+//!
+//! The firmware and the host must agree bit for bit, and the calibration and the accuracy
+//! campaigns were measured with these bits. A speed-up of the monitor model or the fitness
+//! that changes a single bit of any sample fails here. If the model's numerics are changed on
+//! purpose, the tables are regenerated (the failure message prints the new values) and the
+//! calibration and campaigns must be measured again.
+
+use shared::conditioning::{LowPass, ShaftAngles};
+use shared::fdi::{record_monitor_trace, OnboardMeasured};
+use shared::fitness::FitnessProblem;
+use shared::monitor::MonitorSample;
+use shared::trace::Crc32;
+use shared::{ActuatorParams, Calibration, FaultVector, MonitorModel};
+
+/// Fault vectors that exercise every branch of the step: healthy, friction and gain drift,
+/// backlash, each short, eccentricity at several phases, everything at once.
+const VECTORS: [[f32; 8]; 8] = [
+    [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5],
+    [0.6, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.1],
+    [0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.9],
+    [0.0, 0.0, 0.3, 0.0, 0.0, 0.0, 0.5, 0.5],
+    [0.0, 0.0, 0.0, 0.2, 0.4, 0.0, 0.5, 0.5],
+    [0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.13, 0.5],
+    [0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.87, 0.5],
+    [0.1, 0.1, 0.1, 0.05, 0.02, 0.1, 0.25, 0.4],
+];
+
+/// A start away from zero, as a measured test's first sample gives.
+const START: ShaftAngles = ShaftAngles {
+    motor: 1.234,
+    user: 0.0021,
+};
+
+/// CRC-32 over every field of every sample of a 5 000-sample run from [`START`] with
+/// `Calibration::REFERENCE_ACTUATOR`, one per vector of [`VECTORS`].
+const RUN_CRC: [u32; 8] = [
+    0xb301753d, 0xfc480b18, 0xe1540325, 0x66bda6b8, 0x1e31e0b3, 0xbbe357bb, 0xdf45fd06, 0xb2ceb923,
+];
+
+/// Bits of `FitnessProblem::raw_error` of every vector of [`VECTORS`] against the trace the
+/// monitor model records for the last one.
+const FITNESS_BITS: [u32; 8] = [
+    0x3cf7ad93, 0x3dfd224d, 0x405784b2, 0x3ce79e52, 0x3e088a0f, 0x3df839c2, 0x3edfee11, 0x2c07b846,
+];
+
+fn model() -> MonitorModel {
+    MonitorModel::new(ActuatorParams::REFERENCE, &Calibration::REFERENCE_ACTUATOR)
+}
+
+fn sample_bytes(s: &MonitorSample) -> [u8; 24] {
+    let mut out = [0u8; 24];
+    let fields = [
+        s.time,
+        s.command,
+        s.current,
+        s.current_ref,
+        s.motor_angle,
+        s.user_angle,
+    ];
+    for (chunk, x) in out.chunks_exact_mut(4).zip(fields) {
+        chunk.copy_from_slice(&x.to_bits().to_le_bytes());
+    }
+    out
+}
+
+#[test]
+fn monitor_runs_match_the_stored_bits() {
+    let m = model();
+    let crcs: Vec<u32> = VECTORS
+        .iter()
+        .map(|k| {
+            let mut crc = Crc32::new();
+            m.run_from(&FaultVector::new(*k).unwrap(), START, 5000, |s| {
+                crc.update(&sample_bytes(s))
+            });
+            crc.finish()
+        })
+        .collect();
+    assert_eq!(
+        crcs, RUN_CRC,
+        "monitor-model bits changed; new table: {:#010x?}",
+        crcs
+    );
+}
+
+#[test]
+fn fitness_matches_the_stored_bits() {
+    let m = model();
+    let mut measured = Box::new(OnboardMeasured::new(
+        LowPass::for_control_period(ActuatorParams::REFERENCE.control_period).unwrap(),
+    ));
+    let truth = FaultVector::new(VECTORS[7]).unwrap();
+    record_monitor_trace(&m, &truth, &mut measured).unwrap();
+    let problem = FitnessProblem::new(
+        &measured,
+        ActuatorParams::REFERENCE,
+        &Calibration::REFERENCE_ACTUATOR,
+    )
+    .unwrap();
+    let bits: Vec<u32> = VECTORS
+        .iter()
+        .map(|k| problem.raw_error(&FaultVector::new(*k).unwrap()).to_bits())
+        .collect();
+    assert_eq!(
+        bits, FITNESS_BITS,
+        "fitness bits changed; new table: {:#010x?}",
+        bits
+    );
+    // The truth scores lowest against its own (quantised) trace.
+    let errors: Vec<f32> = bits.iter().map(|b| f32::from_bits(*b)).collect();
+    assert!(
+        errors[..7].iter().all(|e| *e > 1e3 * errors[7]),
+        "{errors:?}"
+    );
+}
