@@ -6,10 +6,11 @@ use std::time::Instant;
 
 use anyhow::Result;
 use indicatif::{ProgressBar, ProgressStyle};
+use shared::command::CommandTable;
 use shared::fdi::{
     Identification, IdentificationResult, OnboardMeasured, POPULATION, TEST_SAMPLES,
 };
-use shared::{ActuatorParams, Calibration, GaSettings, Status};
+use shared::{ActuatorParams, Calibration, ChirpCommand, GaSettings, Status};
 
 /// Evaluations per slice (the firmware's bounded tick does the same kind of slicing).
 pub const SLICE: u32 = 32;
@@ -18,7 +19,7 @@ pub const SLICE: u32 = 32;
 #[derive(Clone, Debug)]
 pub struct Identified {
     pub result: IdentificationResult,
-    /// Wall time of the GA alone [s].
+    /// Wall time of the identification (command table and GA) [s].
     pub seconds: f64,
     /// (evaluations, best fitness) after each slice.
     pub history: Vec<(u32, f32)>,
@@ -32,13 +33,22 @@ pub fn identify(
     progress: bool,
 ) -> Result<Identified> {
     let settings = GaSettings::FDI;
+    let params = ActuatorParams::REFERENCE;
+    let start = Instant::now();
+    // The firmware evaluates the chirp at every step; the host reads the same bits from a
+    // table (20 kB), built inside the timed span.
+    let table = Box::new(CommandTable::<TEST_SAMPLES>::new(
+        ChirpCommand::PREFLIGHT,
+        params.control_period,
+    ));
     let mut id = Identification::<TEST_SAMPLES, POPULATION>::new(
         measured,
-        ActuatorParams::REFERENCE,
+        params,
         calibration,
         settings,
         seed,
     )
+    .and_then(|id| id.with_command_table(&table))
     .map_err(|e| anyhow::anyhow!("setting up the identification: {e:?}"))?;
     let bar = if progress {
         let bar = ProgressBar::new(u64::from(settings.max_evaluations));
@@ -50,7 +60,6 @@ pub fn identify(
     } else {
         ProgressBar::hidden()
     };
-    let start = Instant::now();
     let mut history = Vec::new();
     loop {
         let status = id.step(SLICE);

@@ -3,6 +3,10 @@
 //! `θ_cmd(t) = A · sin(2π · f_end · t² / (2T))` for `t ∈ [0, T]`: frequency rising linearly
 //! from 0 to `f_end` in `T` seconds. Units: rad (user side), s, Hz. O(1) per call; time is
 //! passed in, never read.
+//!
+//! The monitor model reads the command through [`CommandSource`]: either the chirp itself,
+//! evaluated at each step, or a [`CommandTable`] of the same samples computed once (the same
+//! bits, `N` × 4 bytes, one load per step instead of a division, a floor and a cosine).
 
 use crate::math::{frac, sin, TAU};
 
@@ -53,6 +57,67 @@ impl Default for ChirpCommand {
     }
 }
 
+/// Where the monitor model reads the commanded user-shaft angle [rad] of sample `index`,
+/// taken at `time = index · dt` [s]. O(1) per call.
+pub trait CommandSource {
+    fn position_at(&self, index: usize, time: f32) -> f32;
+}
+
+impl CommandSource for ChirpCommand {
+    #[inline(always)]
+    fn position_at(&self, _index: usize, time: f32) -> f32 {
+        self.position(time)
+    }
+}
+
+/// A command sampled once at every control period: sample `i` holds exactly
+/// `command.position(i as f32 · period)`, the value [`ChirpCommand`] gives at that step, so
+/// a model driven by the table produces the same bits as one driven by the chirp. Capacity
+/// `N` samples; beyond the table the chirp is evaluated. `4·N` bytes (20 kB for the 0.5 s
+/// test): the host keeps one per identification; the firmware, short of RAM, evaluates the
+/// chirp.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CommandTable<const N: usize> {
+    command: ChirpCommand,
+    period: f32,
+    samples: [f32; N],
+}
+
+impl<const N: usize> CommandTable<N> {
+    /// Samples `command` at `i · period` for `i` in `0..N`. O(N).
+    pub fn new(command: ChirpCommand, period: f32) -> Self {
+        Self {
+            command,
+            period,
+            samples: core::array::from_fn(|i| command.position(i as f32 * period)),
+        }
+    }
+
+    /// The command the table samples.
+    pub fn command(&self) -> &ChirpCommand {
+        &self.command
+    }
+
+    /// The sampling period [s].
+    pub fn period(&self) -> f32 {
+        self.period
+    }
+
+    pub fn samples(&self) -> &[f32; N] {
+        &self.samples
+    }
+}
+
+impl<const N: usize> CommandSource for CommandTable<N> {
+    #[inline(always)]
+    fn position_at(&self, index: usize, time: f32) -> f32 {
+        match self.samples.get(index) {
+            Some(&x) => x,
+            None => self.command.position(time),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -78,6 +143,20 @@ mod tests {
             let exact = 5e-3 * (std::f64::consts::PI * 15.0 * t * t / 0.5).sin();
             let ours = c.position(t as f32) as f64;
             assert!((exact - ours).abs() < 2e-5, "t={t}: {exact} vs {ours}");
+        }
+    }
+
+    #[test]
+    fn table_holds_the_chirps_bits() {
+        let c = ChirpCommand::PREFLIGHT;
+        let table = CommandTable::<5000>::new(c, 1e-4);
+        for i in 0..5100 {
+            let t = i as f32 * 1e-4;
+            assert_eq!(
+                table.position_at(i, t).to_bits(),
+                c.position(t).to_bits(),
+                "sample {i}"
+            );
         }
     }
 

@@ -6,12 +6,17 @@
 //! derivative normalisation; using differences instead of derivatives is the same ratio).
 //! Units: A²·s. One evaluation = one monitor-model run over the measured samples: O(N), no
 //! allocation, never panics; a non-finite result cannot occur for finite inputs and is
-//! reported as `+∞` by [`FitnessProblem::error`] if it ever did.
+//! reported as `+∞` by [`FitnessProblem::error`] if it ever did. A bounded evaluation
+//! ([`FitnessProblem::error_below`]) stops as soon as the candidate provably cannot beat the
+//! bound, with the same result below it.
 
+use core::ops::ControlFlow;
+
+use crate::command::CommandTable;
 use crate::conditioning::{ConditioningError, LowPassState, MeasuredCurrent};
 use crate::fault::{FaultVector, FAULT_COUNT};
 use crate::ga::Problem;
-use crate::monitor::MonitorModel;
+use crate::monitor::{MonitorModel, MonitorSample};
 use crate::params::ActuatorParams;
 
 /// How the monitor model is fitted to one actuator: electrical scale factors found on a
@@ -74,6 +79,8 @@ impl Default for Calibration {
 pub enum FitnessError {
     /// The measured current is not usable (not finished, too short, …).
     Measured(ConditioningError),
+    /// A command table that does not sample the model's command at its control period.
+    CommandTableMismatch,
 }
 
 impl From<ConditioningError> for FitnessError {
@@ -89,7 +96,12 @@ pub struct FitnessProblem<'a, const N: usize> {
     model: MonitorModel,
     inv_kappa: f32,
     nominal_residual: f32,
+    command_table: Option<&'a CommandTable<N>>,
 }
+
+/// Samples between two checks of the partial error against the bound in
+/// [`FitnessProblem::error_below`] (10 ms of the test).
+pub const BOUND_CHECK_INTERVAL: u32 = 100;
 
 impl<'a, const N: usize> FitnessProblem<'a, N> {
     /// The fitness of the monitor model of `params`, calibrated by `calibration`, against a
@@ -104,6 +116,7 @@ impl<'a, const N: usize> FitnessProblem<'a, N> {
             model: MonitorModel::new(params, calibration),
             inv_kappa: measured.inv_kappa()?,
             nominal_residual: calibration.nominal_residual,
+            command_table: None,
         })
     }
 
@@ -111,40 +124,86 @@ impl<'a, const N: usize> FitnessProblem<'a, N> {
         &self.model
     }
 
+    /// Drives the monitor model with the precomputed `table` instead of evaluating the chirp
+    /// at each step: the same bits, less work per step. Refused unless the table samples this
+    /// model's command at its control period.
+    pub fn with_command_table(mut self, table: &'a CommandTable<N>) -> Result<Self, FitnessError> {
+        let period = self.model.params().control_period;
+        if table.command() != self.model.command() || table.period().to_bits() != period.to_bits() {
+            return Err(FitnessError::CommandTableMismatch);
+        }
+        self.command_table = Some(table);
+        Ok(self)
+    }
+
     /// Eq. (3) without the residual subtracted [A²·s]. `+∞` if the sum is not finite.
     pub fn raw_error(&self, k: &FaultVector) -> f32 {
-        let reference = self.measured.samples();
-        let filter = self.measured.filter();
-        let mut filter_state = LowPassState::default();
-        let mut previous = 0.0f32;
-        let mut sum = 0.0f32;
-        let mut reference_iter = reference.iter();
-        self.model
-            .run_from(k, self.measured.initial_angles(), reference.len(), |s| {
-                let modelled = filter.apply(&mut filter_state, s.current);
-                if let Some(&r) = reference_iter.next() {
-                    let d = r - previous;
-                    previous = r;
-                    let e = r - modelled;
-                    sum += e * e / (d * d * self.inv_kappa + 1.0);
-                }
-            });
-        let err = sum * self.model.params().control_period;
-        if err.is_finite() {
-            err
-        } else {
-            f32::INFINITY
-        }
+        self.raw_error_until(k, f32::INFINITY)
     }
 
     /// Eq. (3) with the calibrated nominal residual subtracted [A²·s].
     pub fn error(&self, k: &FaultVector) -> f32 {
         self.raw_error(k) - self.nominal_residual
     }
+
+    /// [`error`](Self::error) if it is below `bound`; otherwise a value `≥ bound`, returned
+    /// as soon as the partial sum proves it (checked every [`BOUND_CHECK_INTERVAL`]
+    /// samples). Every term of the sum is non-negative and rounding is monotone, so the
+    /// partial error never exceeds the full one: below `bound` the result is bit for bit
+    /// [`error`](Self::error).
+    pub fn error_below(&self, k: &FaultVector, bound: f32) -> f32 {
+        self.raw_error_until(k, bound) - self.nominal_residual
+    }
+
+    /// The raw error, stopping once `partial·dt − residual ≥ bound`.
+    fn raw_error_until(&self, k: &FaultVector, bound: f32) -> f32 {
+        let reference = self.measured.samples();
+        let filter = self.measured.filter();
+        let dt = self.model.params().control_period;
+        let mut filter_state = LowPassState::default();
+        let mut previous = 0.0f32;
+        let mut sum = 0.0f32;
+        let mut reference_iter = reference.iter();
+        let mut until_check = BOUND_CHECK_INTERVAL;
+        let sink = |s: &MonitorSample| {
+            let modelled = filter.apply(&mut filter_state, s.current);
+            if let Some(&r) = reference_iter.next() {
+                let d = r - previous;
+                previous = r;
+                let e = r - modelled;
+                sum += e * e / (d * d * self.inv_kappa + 1.0);
+            }
+            until_check -= 1;
+            if until_check == 0 {
+                until_check = BOUND_CHECK_INTERVAL;
+                if sum * dt - self.nominal_residual >= bound {
+                    return ControlFlow::Break(());
+                }
+            }
+            ControlFlow::Continue(())
+        };
+        let start = self.measured.initial_angles();
+        match self.command_table {
+            Some(table) => self.model.run_with(k, start, reference.len(), table, sink),
+            None => self
+                .model
+                .run_with(k, start, reference.len(), self.model.command(), sink),
+        };
+        let err = sum * dt;
+        if err.is_finite() {
+            err
+        } else {
+            f32::INFINITY
+        }
+    }
 }
 
 impl<const N: usize> Problem for FitnessProblem<'_, N> {
     fn fitness(&mut self, genes: &[f32; FAULT_COUNT]) -> f32 {
         self.error(&FaultVector::saturating(*genes))
+    }
+
+    fn fitness_below(&mut self, genes: &[f32; FAULT_COUNT], bound: f32) -> f32 {
+        self.error_below(&FaultVector::saturating(*genes), bound)
     }
 }

@@ -34,6 +34,15 @@ pub type Genes = [f32; GENES];
 /// The objective the GA minimises. Lower is better; a non-finite value counts as `+∞`.
 pub trait Problem {
     fn fitness(&mut self, genes: &Genes) -> f32;
+
+    /// The fitness if it is below `bound`; otherwise any value `≥ bound`, as soon as that is
+    /// certain. The GA passes the fitness a candidate must beat to enter the population, so a
+    /// problem whose cost only grows as it is evaluated (a sum of non-negative terms) can stop
+    /// early without changing a single decision of the run. Default: the exact fitness.
+    fn fitness_below(&mut self, genes: &Genes, bound: f32) -> f32 {
+        let _ = bound;
+        self.fitness(genes)
+    }
 }
 
 impl<F: FnMut(&Genes) -> f32> Problem for F {
@@ -307,7 +316,7 @@ impl<const P: usize> SteadyStateGa<P> {
                 Ok(g) => g,
                 Err(_) => break,
             };
-            let fitness = problem.fitness(&genes);
+            let fitness = problem.fitness_below(&genes, self.acceptance_bound());
             if let Ok(Status::Done(_)) | Err(_) = self.tell(fitness) {
                 break;
             }
@@ -348,6 +357,25 @@ impl<const P: usize> SteadyStateGa<P> {
         } else {
             Status::Running
         };
+    }
+
+    /// The fitness the pending candidate must beat to change the run: `+∞` while the
+    /// initial population fills, then the worst member's. A candidate told a fitness `≥` this
+    /// neither enters the population nor becomes the best, so its exact value is never read
+    /// ([`Problem::fitness_below`]). O(P).
+    pub fn acceptance_bound(&self) -> f32 {
+        if usize::from(self.filled) < P {
+            return f32::INFINITY;
+        }
+        self.population
+            .iter()
+            .fold(f32::NEG_INFINITY, |worst, ind| {
+                if ind.fitness > worst {
+                    ind.fitness
+                } else {
+                    worst
+                }
+            })
     }
 
     fn worst_mut(&mut self) -> Option<&mut Individual> {

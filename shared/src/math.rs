@@ -45,10 +45,11 @@ pub fn sqrt(x: f32) -> f32 {
 /// they are (micromath's floor goes through a saturating `i32` cast); NaN stays NaN.
 #[inline]
 pub fn floor(x: f32) -> f32 {
-    if abs(x) >= 8_388_608.0 || x.is_nan() {
-        x
-    } else {
+    // One compare: false for NaN and for |x| ≥ 2²³ alike.
+    if abs(x) < 8_388_608.0 {
         F32Ext::floor(x)
+    } else {
+        x
     }
 }
 

@@ -27,7 +27,9 @@
 //! A run starts at rest from the shaft angles measured at the test's first sample, the gear
 //! relaxed inside its play ([`MonitorModel::run_from`]); the model's own traces start at zero.
 
-use crate::command::ChirpCommand;
+use core::ops::ControlFlow;
+
+use crate::command::{ChirpCommand, CommandSource};
 use crate::conditioning::commutation_sector;
 use crate::conditioning::ShaftAngles;
 use crate::fault::FaultVector;
@@ -214,12 +216,34 @@ impl MonitorModel {
         samples: usize,
         mut sink: impl FnMut(&MonitorSample),
     ) {
+        self.run_with(k, start, samples, &self.command, |s| {
+            sink(s);
+            ControlFlow::Continue(())
+        });
+    }
+
+    /// The general run: at most `samples` steps from rest at `start`, reading the command
+    /// from `command` (the model's own chirp, or a [`CommandTable`](crate::command::CommandTable)
+    /// of it for the same bits with less work), until `sink` breaks. Returns the number of
+    /// steps simulated. O(`samples`) work, no allocation.
+    pub fn run_with(
+        &self,
+        k: &FaultVector,
+        start: ShaftAngles,
+        samples: usize,
+        command: &impl CommandSource,
+        mut sink: impl FnMut(&MonitorSample) -> ControlFlow<()>,
+    ) -> usize {
         let f = self.faulted(k);
         let mut state = MonitorState::at_rest(start, &f, self.inv_gear_ratio);
         for i in 0..samples {
-            let sample = self.step(&f, &mut state, i as f32 * self.dt);
-            sink(&sample);
+            let time = i as f32 * self.dt;
+            let sample = self.step(&f, &mut state, time, command.position_at(i, time));
+            if sink(&sample).is_break() {
+                return i + 1;
+            }
         }
+        samples
     }
 
     /// Simulates `out.len()` samples and writes the equivalent current [A] into `out`.
@@ -234,10 +258,15 @@ impl MonitorModel {
 
     /// One control period. O(1).
     #[inline(always)]
-    fn step(&self, f: &FaultedConstants, s: &mut MonitorState, time: f32) -> MonitorSample {
+    fn step(
+        &self,
+        f: &FaultedConstants,
+        s: &mut MonitorState,
+        time: f32,
+        command: f32,
+    ) -> MonitorSample {
         let p = &self.params;
         let dt = self.dt;
-        let command = self.command.position(time);
 
         // 1. ACE controller.
         let error = command - (s.user_angle + s.user_offset);

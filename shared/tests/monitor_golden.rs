@@ -6,12 +6,18 @@
 //! purpose, the tables are regenerated (the failure message prints the new values) and the
 //! calibration and campaigns must be measured again.
 
+use shared::command::CommandTable;
 use shared::conditioning::{LowPass, ShaftAngles};
-use shared::fdi::{record_monitor_trace, OnboardMeasured};
-use shared::fitness::FitnessProblem;
+use shared::fdi::{
+    record_monitor_trace, Identification, OnboardMeasured, POPULATION, TEST_SAMPLES,
+};
+use shared::fitness::{FitnessError, FitnessProblem};
+use shared::ga::Problem;
 use shared::monitor::MonitorSample;
 use shared::trace::Crc32;
-use shared::{ActuatorParams, Calibration, FaultVector, MonitorModel};
+use shared::{
+    ActuatorParams, Calibration, ChirpCommand, FaultVector, GaSettings, MonitorModel, SteadyStateGa,
+};
 
 /// Fault vectors that exercise every branch of the step: healthy, friction and gain drift,
 /// backlash, each short, eccentricity at several phases, everything at once.
@@ -113,4 +119,73 @@ fn fitness_matches_the_stored_bits() {
         errors[..7].iter().all(|e| *e > 1e3 * errors[7]),
         "{errors:?}"
     );
+}
+
+/// The command table and the bounded evaluation are speed-ups only: the same bits below the
+/// bound, a value at or above it otherwise, and a whole identification that takes every
+/// decision the exact evaluation takes.
+#[test]
+fn table_and_bound_keep_the_bits() {
+    let m = model();
+    let params = ActuatorParams::REFERENCE;
+    let mut measured = Box::new(OnboardMeasured::new(
+        LowPass::for_control_period(params.control_period).unwrap(),
+    ));
+    let truth = FaultVector::new(VECTORS[7]).unwrap();
+    record_monitor_trace(&m, &truth, &mut measured).unwrap();
+    let cal = Calibration::REFERENCE_ACTUATOR;
+    let table = Box::new(CommandTable::<TEST_SAMPLES>::new(
+        ChirpCommand::PREFLIGHT,
+        params.control_period,
+    ));
+    let plain = FitnessProblem::new(&measured, params, &cal).unwrap();
+    let tabled = plain.clone().with_command_table(&table).unwrap();
+    for k in VECTORS {
+        let k = FaultVector::new(k).unwrap();
+        let exact = plain.error(&k);
+        assert_eq!(tabled.error(&k).to_bits(), exact.to_bits());
+        for p in [&plain, &tabled] {
+            assert_eq!(p.error_below(&k, f32::INFINITY).to_bits(), exact.to_bits());
+            let above = exact + 1e-4 * exact.abs() + 1e-9;
+            assert_eq!(p.error_below(&k, above).to_bits(), exact.to_bits());
+            let below = exact - 0.5 * exact.abs();
+            let cut = p.error_below(&k, below);
+            assert!(cut >= below && cut <= exact, "{cut} vs {below}, {exact}");
+        }
+    }
+    // A table of another command or period is refused.
+    let other = Box::new(CommandTable::<TEST_SAMPLES>::new(
+        ChirpCommand {
+            end_frequency: 14.0,
+            ..ChirpCommand::PREFLIGHT
+        },
+        params.control_period,
+    ));
+    assert_eq!(
+        plain.clone().with_command_table(&other).err(),
+        Some(FitnessError::CommandTableMismatch)
+    );
+
+    // Exact evaluation only: a problem that does not override `fitness_below`.
+    struct Exact<'p, 'a>(&'p FitnessProblem<'a, TEST_SAMPLES>);
+    impl Problem for Exact<'_, '_> {
+        fn fitness(&mut self, genes: &[f32; 8]) -> f32 {
+            self.0.error(&FaultVector::saturating(*genes))
+        }
+    }
+    let mut exact_ga = SteadyStateGa::<POPULATION>::new(GaSettings::FDI, 4).unwrap();
+    exact_ga.run(&mut Exact(&plain));
+    let mut fast = Identification::<TEST_SAMPLES, POPULATION>::new(
+        &measured,
+        params,
+        &cal,
+        GaSettings::FDI,
+        4,
+    )
+    .unwrap()
+    .with_command_table(&table)
+    .unwrap();
+    fast.run();
+    assert!(exact_ga.evaluations() > 1000);
+    assert_eq!(fast.ga(), &exact_ga);
 }
