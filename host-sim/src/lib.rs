@@ -13,6 +13,7 @@ pub mod calibration;
 pub mod campaign;
 pub mod faults;
 pub mod identify;
+pub mod optimisers;
 pub mod plot;
 pub mod reference;
 pub mod separability;

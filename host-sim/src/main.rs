@@ -15,6 +15,8 @@ use host_sim::calibration::{calibrate, CalibrationFile};
 use host_sim::campaign::{run_once, TABLE_1};
 use host_sim::faults;
 use host_sim::identify::{identify, Identified};
+use host_sim::optimisers::{self, TraceSource};
+use host_sim::plot;
 use host_sim::reference::{ReferenceModel, ReferenceSettings, Scenario};
 use host_sim::trace_file::{Trace, TraceFormat};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -169,6 +171,31 @@ enum Command {
         #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u64).range(2..=1000))]
         seeds: u64,
     },
+    /// Optimiser comparison on the same fitness and traces (paper Table I cases): our
+    /// steady-state GA, a generational GA configured as the paper's MATLAB `ga`, and
+    /// DE/rand/1/bin. Prints evaluations to reach the target e_tot and e_tot at fixed budgets.
+    Optimisers {
+        /// Seeds per case (reference-model seed r, solver seed 1 + r).
+        #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=100))]
+        seeds: u64,
+        /// Evaluations per run at most (the MATLAB-default GA stops by itself after at most
+        /// 200 + 300 × 190 = 57 200).
+        #[arg(long, default_value_t = 60_000, value_parser = clap::value_parser!(u64).range(100..=1_000_000))]
+        cap: u64,
+        /// Where the traces come from: the reference model (the real problem), or the
+        /// calibrated monitor model (the truth is the optimum: the solvers alone).
+        #[arg(long, value_enum, default_value = "reference")]
+        source: SourceArg,
+        /// e_tot target [%].
+        #[arg(long, default_value_t = 1.0)]
+        target: f32,
+        /// Also write the tables as Markdown to this file.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Also draw the median e_tot against evaluations into this SVG.
+        #[arg(long)]
+        plot: Option<PathBuf>,
+    },
     /// Bytes of the onboard FDI state (GA, measured-current buffer, monitor model).
     Footprint,
     /// Time one monitor-model evaluation, one fitness evaluation and one reference-model test
@@ -182,6 +209,12 @@ enum Command {
         #[arg(long, default_value_t = 10)]
         identifications: u64,
     },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum SourceArg {
+    Reference,
+    Monitor,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -257,6 +290,14 @@ fn main() -> ExitCode {
             versus,
             seeds,
         } => separability_command(&faults, &versus, seeds),
+        Command::Optimisers {
+            seeds,
+            cap,
+            source,
+            target,
+            out,
+            plot,
+        } => optimisers_command(seeds, cap, source, target, out.as_deref(), plot.as_deref()),
         Command::Footprint => {
             footprint();
             Ok(())
@@ -732,6 +773,54 @@ fn bench(evaluations: u32, identifications: u64) -> Result<()> {
     );
     if identifications > 0 {
         bench_identifications(&rm, identifications)?;
+    }
+    Ok(())
+}
+
+fn optimisers_command(
+    seeds: u64,
+    cap: u64,
+    source: SourceArg,
+    target: f32,
+    out: Option<&Path>,
+    plot: Option<&Path>,
+) -> Result<()> {
+    if !(target.is_finite() && target > 0.0) {
+        anyhow::bail!("--target must be a positive e_tot in percent, got {target}");
+    }
+    let source = match source {
+        SourceArg::Reference => TraceSource::Reference,
+        SourceArg::Monitor => TraceSource::Monitor,
+    };
+    let cap = usize::try_from(cap)?;
+    let started = Instant::now();
+    let solvers = optimisers::compare(&TABLE_1, seeds, cap, source, progress_wanted(false))?;
+    let md = optimisers::markdown(&solvers, target, cap, source);
+    println!("{md}");
+    println!(
+        "({:.0} s wall on {} threads)",
+        started.elapsed().as_secs_f64(),
+        rayon::current_num_threads()
+    );
+    if let Some(path) = out {
+        std::fs::write(path, &md).with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(path) = plot {
+        let curves: Vec<(&str, Vec<f64>)> = solvers
+            .iter()
+            .map(|s| (s.optimiser.name(), optimisers::median_curve(s, cap)))
+            .collect();
+        plot::optimisers_svg(
+            path,
+            &curves,
+            f64::from(target),
+            &format!(
+                "Optimisers on {} (median over {} runs)",
+                source.name(),
+                solvers.first().map_or(0, |s| s.runs.len())
+            ),
+        )?;
+        println!("plot: {}", path.display());
     }
     Ok(())
 }

@@ -124,3 +124,75 @@ pub(crate) fn draw_legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
         .draw()
         .map_err(|e| anyhow!("drawing {}: {e:?}", out.display()))
 }
+
+/// Median best-so-far e_tot against evaluations, one line per optimiser, log–log, with the
+/// target as a dashed line.
+pub fn optimisers_svg(
+    out: &Path,
+    curves: &[(&str, Vec<f64>)],
+    target: f64,
+    title: &str,
+) -> Result<()> {
+    let e = |e: DrawingAreaErrorKind<_>| anyhow!("drawing {}: {e:?}", out.display());
+    let root = SVGBackend::new(out, (1000, 650)).into_drawing_area();
+    root.fill(&WHITE).map_err(e)?;
+    let max_n = curves.iter().map(|c| c.1.len()).max().unwrap_or(1).max(2) as f64;
+    let finite = curves
+        .iter()
+        .flat_map(|c| c.1.iter().copied())
+        .filter(|v| v.is_finite() && *v > 0.0);
+    let (lo, hi) = finite.fold((target, target), |(lo, hi), v| (lo.min(v), hi.max(v)));
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 18))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(
+            (1.0..max_n).log_scale(),
+            ((lo / 1.5)..(hi * 1.5)).log_scale(),
+        )
+        .map_err(e)?;
+    chart
+        .configure_mesh()
+        .x_desc("monitor-model evaluations")
+        .y_desc("median e_tot of the best so far [%]")
+        .y_label_formatter(&|v| format!("{v:.2}"))
+        .x_label_formatter(&|v| format!("{v:.0}"))
+        .draw()
+        .map_err(e)?;
+    let colours = [RED, BLUE, GREEN, MAGENTA];
+    for (i, (name, curve)) in curves.iter().enumerate() {
+        let colour = colours[i % colours.len()];
+        // Thin out long curves: every point up to 1 000, then every 1 %.
+        let points: Vec<(f64, f64)> = curve
+            .iter()
+            .enumerate()
+            .filter(|(n, v)| v.is_finite() && (*n < 1000 || n % (curve.len() / 100).max(1) == 0))
+            .map(|(n, &v)| ((n + 1) as f64, v))
+            .collect();
+        chart
+            .draw_series(LineSeries::new(points, colour.stroke_width(2)))
+            .map_err(e)?
+            .label(*name)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
+    }
+    chart
+        .draw_series(DashedLineSeries::new(
+            vec![(1.0, target), (max_n, target)],
+            6,
+            4,
+            BLACK.into(),
+        ))
+        .map_err(e)?
+        .label(format!("target e_tot = {target} %"))
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
+        .map_err(e)?;
+    root.present().map_err(e)?;
+    Ok(())
+}

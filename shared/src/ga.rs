@@ -505,12 +505,12 @@ impl<const P: usize> SteadyStateGa<P> {
 }
 
 /// Difference on the unit circle, reduced to `[-0.5, 0.5)`.
-fn wrap_difference(d: f32) -> f32 {
+pub fn wrap_difference(d: f32) -> f32 {
     wrap_unit(d + 0.5) - 0.5
 }
 
 /// Reduces to `[0, 1)`. Non-finite input maps to 0.5.
-fn wrap_unit(v: f32) -> f32 {
+pub fn wrap_unit(v: f32) -> f32 {
     if !v.is_finite() {
         return 0.5;
     }
@@ -524,7 +524,7 @@ fn wrap_unit(v: f32) -> f32 {
 }
 
 /// Reflects into `[0, 1]` at the bounds (then clamps, for far excursions). Non-finite → 0.5.
-fn reflect_unit(v: f32) -> f32 {
+pub fn reflect_unit(v: f32) -> f32 {
     if !v.is_finite() {
         return 0.5;
     }
