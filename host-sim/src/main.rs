@@ -5,6 +5,7 @@
 //! with trace files; `inverse`, `footprint` and `bench` check the FDI core on its own.
 
 use std::io::IsTerminal;
+use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
@@ -21,6 +22,7 @@ use host_sim::reference::{ReferenceModel, ReferenceSettings, Scenario};
 use host_sim::trace_file::{Trace, TraceFormat};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
+use shared::command::{CommandSource, CommandTable};
 use shared::fault::{Verdict, FAULT_COUNT, FAULT_NAMES};
 use shared::fdi::{
     record_monitor_trace, Identification, OnboardGa, OnboardMeasured, POPULATION, TEST_SAMPLES,
@@ -28,7 +30,8 @@ use shared::fdi::{
 use shared::metrics::{component_errors, total_error};
 use shared::monitor::MonitorState;
 use shared::{
-    ActuatorParams, Calibration, FaultVector, FitnessProblem, GaSettings, LowPass, MonitorModel,
+    ActuatorParams, Calibration, ChirpCommand, FaultVector, FitnessProblem, GaSettings, LowPass,
+    MonitorModel, ShaftAngles, SteadyStateGa,
 };
 
 #[derive(Parser)]
@@ -729,30 +732,44 @@ fn bench(evaluations: u32, identifications: u64) -> Result<()> {
         .collect();
     let steps = model.test_samples();
     let mut buffer = vec![0.0f32; steps];
-    let start = Instant::now();
-    for i in 0..evaluations {
-        model.simulate(&candidates[i as usize % candidates.len()], &mut buffer);
-        std::hint::black_box(&buffer);
-    }
-    let mm = start.elapsed().as_secs_f64() / f64::from(evaluations);
-    let start = Instant::now();
+    let table = Box::new(CommandTable::<TEST_SAMPLES>::new(
+        ChirpCommand::PREFLIGHT,
+        params.control_period,
+    ));
+    let tabled = problem
+        .clone()
+        .with_command_table(&table)
+        .map_err(|e| anyhow::anyhow!("fitness: {e:?}"))?;
+    let pick = |i: u32| &candidates[i as usize % candidates.len()];
+    let per_evaluation = |f: &mut dyn FnMut(u32)| {
+        let start = Instant::now();
+        for i in 0..evaluations {
+            f(i);
+        }
+        start.elapsed().as_secs_f64() / f64::from(evaluations)
+    };
+    let mm_chirp =
+        per_evaluation(&mut |i| simulate_into(&model, pick(i), model.command(), &mut buffer));
+    let mm_table = per_evaluation(&mut |i| simulate_into(&model, pick(i), &*table, &mut buffer));
     let mut sink = 0.0f32;
-    for i in 0..evaluations {
-        sink += problem.error(&candidates[i as usize % candidates.len()]);
-    }
+    let fit_chirp = per_evaluation(&mut |i| sink += problem.error(pick(i)));
+    let fit_table = per_evaluation(&mut |i| sink += tabled.error(pick(i)));
     std::hint::black_box(sink);
-    let fit = start.elapsed().as_secs_f64() / f64::from(evaluations);
     println!(
-        "monitor model, {steps} steps (0.5 s):  {:>8.1} µs/evaluation  {:>6.1} ns/step",
-        mm * 1e6,
-        mm * 1e9 / steps as f64
+        "one evaluation, {steps} steps (0.5 s), one core, mean of {evaluations} (target ≤ 100 µs):"
     );
-    println!(
-        "fitness eq. (3) incl. model + filter:  {:>8.1} µs/evaluation  {:>6.1} ns/step",
-        fit * 1e6,
-        fit * 1e9 / steps as f64
-    );
-    println!("({evaluations} evaluations, one core; target ≤ 100 µs/evaluation)");
+    for (what, seconds) in [
+        ("monitor model, chirp at each step (firmware)", mm_chirp),
+        ("monitor model, command table (host)", mm_table),
+        ("fitness eq. (3), chirp at each step (firmware)", fit_chirp),
+        ("fitness eq. (3), command table (host)", fit_table),
+    ] {
+        println!(
+            "  {what:<48} {:>7.1} µs  {:>5.1} ns/step",
+            seconds * 1e6,
+            seconds * 1e9 / steps as f64
+        );
+    }
     let rm = ReferenceModel::new(ReferenceSettings::REFERENCE);
     let runs = 5;
     let start = Instant::now();
@@ -771,6 +788,7 @@ fn bench(evaluations: u32, identifications: u64) -> Result<()> {
             * rm.test_samples(),
         rm.settings().step * 1e6
     );
+    bench_speedups(&rm)?;
     if identifications > 0 {
         bench_identifications(&rm, identifications)?;
     }
@@ -821,6 +839,105 @@ fn optimisers_command(
             ),
         )?;
         println!("plot: {}", path.display());
+    }
+    Ok(())
+}
+
+/// One monitor-model run from rest into `buffer` (the equivalent current), reading the
+/// command from `command`; monomorphised, as in the fitness.
+fn simulate_into(
+    model: &MonitorModel,
+    k: &FaultVector,
+    command: &impl CommandSource,
+    buffer: &mut [f32],
+) {
+    let mut slots = buffer.iter_mut();
+    model.run_with(k, ShaftAngles::ZERO, slots.len(), command, |s| {
+        if let Some(slot) = slots.next() {
+            *slot = s.current;
+        }
+        ControlFlow::Continue(())
+    });
+    std::hint::black_box(buffer);
+}
+
+/// The same identification four ways: command evaluated or tabled, every candidate evaluated
+/// in full or stopped at the GA's acceptance bound. All four must give the same bits.
+fn bench_speedups(rm: &ReferenceModel) -> Result<()> {
+    struct Exact<'p, 'a>(&'p FitnessProblem<'a, TEST_SAMPLES>);
+    impl shared::Problem for Exact<'_, '_> {
+        fn fitness(&mut self, genes: &[f32; FAULT_COUNT]) -> f32 {
+            self.0.error(&FaultVector::saturating(*genes))
+        }
+    }
+    let case = &TABLE_1[1];
+    let truth = FaultVector::new(case.faults).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    let params = ActuatorParams::REFERENCE;
+    let calibration = Calibration::REFERENCE_ACTUATOR;
+    let measured = rm
+        .simulate(&Scenario {
+            faults: truth,
+            current_ref_noise: 0.0,
+            seed: 0,
+        })
+        .trace
+        .measured(&params)?;
+    let table = Box::new(CommandTable::<TEST_SAMPLES>::new(
+        ChirpCommand::PREFLIGHT,
+        params.control_period,
+    ));
+    let chirp = FitnessProblem::new(&measured, params, &calibration)
+        .map_err(|e| anyhow::anyhow!("fitness: {e:?}"))?;
+    let tabled = chirp
+        .clone()
+        .with_command_table(&table)
+        .map_err(|e| anyhow::anyhow!("fitness: {e:?}"))?;
+    println!();
+    println!(
+        "one identification of {} (RM seed 0, GA seed 1), median of 3 on one core:",
+        case.name
+    );
+    let mut reference: Option<SteadyStateGa<POPULATION>> = None;
+    let mut differ = false;
+    for (what, problem, bounded) in [
+        ("chirp at each step, every candidate in full", &chirp, false),
+        ("command table, every candidate in full", &tabled, false),
+        ("chirp at each step, bounded (firmware)", &chirp, true),
+        ("command table, bounded (host)", &tabled, true),
+    ] {
+        let mut seconds = Vec::new();
+        let mut ga = SteadyStateGa::<POPULATION>::new(GaSettings::FDI, 1)
+            .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+        for _ in 0..3 {
+            ga = SteadyStateGa::<POPULATION>::new(GaSettings::FDI, 1)
+                .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+            let start = Instant::now();
+            if bounded {
+                ga.run(&mut problem.clone());
+            } else {
+                ga.run(&mut Exact(problem));
+            }
+            seconds.push(start.elapsed().as_secs_f64());
+        }
+        let same = match &reference {
+            None => {
+                reference = Some(ga.clone());
+                "reference"
+            }
+            Some(r) if *r == ga => "same bits",
+            Some(_) => {
+                differ = true;
+                "DIFFERENT BITS"
+            }
+        };
+        println!(
+            "  {what:<46} {:>6.3} s  {:>5} evaluations  {same}",
+            median(&mut seconds),
+            ga.evaluations()
+        );
+    }
+    if differ {
+        anyhow::bail!("the speed-ups changed the identification's bits");
     }
     Ok(())
 }
