@@ -187,6 +187,22 @@ pub fn run(
     }
 }
 
+/// The generational GA with other settings than the paper's.
+pub fn run_matlab_ga(
+    problem: &FitnessProblem<'_, TEST_SAMPLES>,
+    truth: FaultVector,
+    settings: &MatlabGaSettings,
+    seed: u64,
+    cap: usize,
+) -> Trajectory {
+    let mut recorder = Recorder::new(problem, truth, cap);
+    let stop = matlab_ga(&mut recorder, settings, seed);
+    Trajectory {
+        e_tot: recorder.e_tot,
+        stop,
+    }
+}
+
 fn steady_state(recorder: &mut Recorder<'_, '_>, seed: u64) -> RunStop {
     let settings = GaSettings {
         max_evaluations: u32::try_from(recorder.cap).unwrap_or(u32::MAX),
@@ -515,7 +531,7 @@ impl SolverRuns {
 }
 
 /// The measured test of `case`, run `run`, from `source`.
-fn measured_for(
+pub fn measured_for(
     case: &Case,
     run: u64,
     source: TraceSource,
