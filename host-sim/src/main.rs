@@ -964,7 +964,7 @@ fn bench_identifications(rm: &ReferenceModel, seeds: u64) -> Result<()> {
     );
     println!();
     println!(
-        "one full identification on one core (GA only; median of {seeds} RM seeds per Table I case)"
+        "one full identification on one core (command table + GA, the RM simulation not counted; median of {seeds} RM seeds per Table I case)"
     );
     println!(
         "{:<24} {:>10} {:>12} {:>10} {:>12}",

@@ -505,7 +505,7 @@ impl<const P: usize> SteadyStateGa<P> {
 }
 
 /// Difference on the unit circle, reduced to `[-0.5, 0.5)`.
-pub fn wrap_difference(d: f32) -> f32 {
+fn wrap_difference(d: f32) -> f32 {
     wrap_unit(d + 0.5) - 0.5
 }
 
