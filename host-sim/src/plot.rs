@@ -156,7 +156,13 @@ pub fn optimisers_svg(
         .configure_mesh()
         .x_desc("monitor-model evaluations")
         .y_desc("median e_tot of the best so far [%]")
-        .y_label_formatter(&|v| format!("{v:.2}"))
+        .y_label_formatter(&|v| {
+            if *v >= 0.01 {
+                format!("{v:.2}")
+            } else {
+                format!("{v:.0e}")
+            }
+        })
         .x_label_formatter(&|v| format!("{v:.0}"))
         .draw()
         .map_err(e)?;
