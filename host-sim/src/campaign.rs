@@ -455,7 +455,7 @@ pub fn plot(out: &Path, title: &str, summaries: &[CaseSummary]) -> Result<()> {
         .map_err(e)?
         .label("our target")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
-    crate::plot::draw_legend(&mut chart, out)?;
+    crate::plot::draw_legend(&mut chart, out, SeriesLabelPosition::UpperLeft)?;
     root.present().map_err(e)?;
     Ok(())
 }

@@ -254,6 +254,29 @@ fn index(rng: &mut Xoshiro256PlusPlus, n: usize) -> usize {
     ((u128::from(rng.next_u64()) * n as u128) >> 64) as usize
 }
 
+/// `n` evaluated members: the nominal guess, then uniform in `[0, 1]⁸`. `None` if the cap is
+/// reached first.
+fn initial_population(
+    recorder: &mut Recorder<'_, '_>,
+    rng: &mut Xoshiro256PlusPlus,
+    n: usize,
+) -> Option<Vec<(Genes, f32)>> {
+    let mut population = Vec::with_capacity(n);
+    for i in 0..n {
+        if recorder.full() {
+            return None;
+        }
+        let genes = if i == 0 {
+            GUESS
+        } else {
+            core::array::from_fn(|_| uniform(rng) as f32)
+        };
+        let f = recorder.evaluate(&genes);
+        population.push((genes, f));
+    }
+    Some(population)
+}
+
 /// Keeps gene `g` of a candidate in its domain: wraps the circular gene, reflects the others.
 fn bounded(g: usize, v: f64) -> f32 {
     if CIRCULAR.get(g).copied().unwrap_or(false) {
@@ -277,19 +300,9 @@ fn bounded(g: usize, v: f64) -> f32 {
 fn matlab_ga(recorder: &mut Recorder<'_, '_>, s: &MatlabGaSettings, seed: u64) -> RunStop {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
     let n = s.population;
-    let mut population: Vec<(Genes, f32)> = Vec::with_capacity(n);
-    for i in 0..n {
-        if recorder.full() {
-            return RunStop::Cap;
-        }
-        let genes = if i == 0 {
-            GUESS
-        } else {
-            core::array::from_fn(|_| uniform(&mut rng) as f32)
-        };
-        let f = recorder.evaluate(&genes);
-        population.push((genes, f));
-    }
+    let Some(mut population) = initial_population(recorder, &mut rng, n) else {
+        return RunStop::Cap;
+    };
     let crossover_children = (s.crossover_fraction * (n - s.elites) as f64).round() as usize;
     let mutation_children = n - s.elites - crossover_children;
     let parents_needed = 2 * crossover_children + mutation_children;
@@ -412,19 +425,9 @@ fn differential_evolution(
 ) -> RunStop {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
     let n = s.population;
-    let mut population: Vec<(Genes, f32)> = Vec::with_capacity(n);
-    for i in 0..n {
-        if recorder.full() {
-            return RunStop::Cap;
-        }
-        let genes = if i == 0 {
-            GUESS
-        } else {
-            core::array::from_fn(|_| uniform(&mut rng) as f32)
-        };
-        let f = recorder.evaluate(&genes);
-        population.push((genes, f));
-    }
+    let Some(mut population) = initial_population(recorder, &mut rng, n) else {
+        return RunStop::Cap;
+    };
     loop {
         let mut next = population.clone();
         for i in 0..n {

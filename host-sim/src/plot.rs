@@ -67,7 +67,7 @@ pub fn identification_svg(
         .map_err(e)?
         .label("monitor model at the identified faults")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED));
-    draw_legend(&mut chart, out)?;
+    draw_legend(&mut chart, out, SeriesLabelPosition::UpperLeft)?;
 
     // Fitness history: eq. (3) error plus the residual (the raw, positive error) on a log axis.
     let residual = f64::from(calibration.nominal_residual);
@@ -111,16 +111,18 @@ pub fn identification_svg(
     Ok(())
 }
 
-/// The series legend every plot of this crate draws: upper left, on a translucent white box.
+/// The series legend every plot of this crate draws: at `position`, on a translucent white
+/// box.
 pub(crate) fn draw_legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
     chart: &mut ChartContext<'a, DB, CT>,
     out: &Path,
+    position: SeriesLabelPosition,
 ) -> Result<()> {
     chart
         .configure_series_labels()
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperLeft)
+        .position(position)
         .draw()
         .map_err(|e| anyhow!("drawing {}: {e:?}", out.display()))
 }
@@ -192,13 +194,7 @@ pub fn optimisers_svg(
         .map_err(e)?
         .label(format!("target e_tot = {target} %"))
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
-        .map_err(e)?;
+    draw_legend(&mut chart, out, SeriesLabelPosition::UpperRight)?;
     root.present().map_err(e)?;
     Ok(())
 }
