@@ -8,7 +8,6 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::{anyhow, Result};
-use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use shared::fault::FAULT_COUNT;
 use shared::metrics::total_error;
@@ -279,18 +278,11 @@ pub fn run_campaign(cases: &[Case], runs: u64, progress: bool) -> Result<Vec<Cas
     let jobs: Vec<(usize, u64)> = (0..cases.len())
         .flat_map(|c| (0..runs).map(move |r| (c, r)))
         .collect();
-    let bar = if progress {
-        let bar = ProgressBar::new(jobs.len() as u64);
-        bar.set_style(
-            ProgressStyle::with_template(
-                "campaign {bar:40} {pos}/{len} identifications, {elapsed} elapsed, ~{eta} left",
-            )
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
-        bar
-    } else {
-        ProgressBar::hidden()
-    };
+    let bar = crate::progress_bar(
+        jobs.len() as u64,
+        "campaign {bar:40} {pos}/{len} identifications, {elapsed} elapsed, ~{eta} left",
+        progress,
+    );
     let results: Vec<Result<(usize, RunResult)>> = jobs
         .par_iter()
         .map(|&(c, r)| {

@@ -5,7 +5,6 @@
 use std::time::Instant;
 
 use anyhow::Result;
-use indicatif::{ProgressBar, ProgressStyle};
 use shared::command::CommandTable;
 use shared::fdi::{
     Identification, IdentificationResult, OnboardMeasured, POPULATION, TEST_SAMPLES,
@@ -50,16 +49,11 @@ pub fn identify(
     )
     .and_then(|id| id.with_command_table(&table))
     .map_err(|e| anyhow::anyhow!("setting up the identification: {e:?}"))?;
-    let bar = if progress {
-        let bar = ProgressBar::new(u64::from(settings.max_evaluations));
-        bar.set_style(
-            ProgressStyle::with_template("identifying {bar:40} {pos}/{len} evaluations {msg}")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
-        bar
-    } else {
-        ProgressBar::hidden()
-    };
+    let bar = crate::progress_bar(
+        u64::from(settings.max_evaluations),
+        "identifying {bar:40} {pos}/{len} evaluations {msg}",
+        progress,
+    );
     let mut history = Vec::new();
     loop {
         let status = id.step(SLICE);

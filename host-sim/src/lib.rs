@@ -18,3 +18,29 @@ pub mod plot;
 pub mod reference;
 pub mod separability;
 pub mod trace_file;
+
+use indicatif::{ProgressBar, ProgressStyle};
+
+/// A progress bar on stderr with `template` (indicatif syntax), or a hidden one when
+/// `visible` is false.
+pub fn progress_bar(len: u64, template: &str, visible: bool) -> ProgressBar {
+    if !visible {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::new(len);
+    bar.set_style(
+        ProgressStyle::with_template(template).unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar
+}
+
+/// Median of `values` (`+∞` sorts last); `None` when there are none.
+pub fn median(values: &[f64]) -> Option<f64> {
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    match v.len() {
+        0 => None,
+        n if n % 2 == 1 => v.get(n / 2).copied(),
+        n => Some(0.5 * (v[n / 2 - 1] + v[n / 2])),
+    }
+}

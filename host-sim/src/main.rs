@@ -16,11 +16,11 @@ use host_sim::calibration::{calibrate, CalibrationFile};
 use host_sim::campaign::{run_once, TABLE_1};
 use host_sim::faults;
 use host_sim::identify::{identify, Identified};
+use host_sim::median;
 use host_sim::optimisers::{self, TraceSource};
 use host_sim::plot;
 use host_sim::reference::{ReferenceModel, ReferenceSettings, Scenario};
 use host_sim::trace_file::{Trace, TraceFormat};
-use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 use shared::command::{CommandSource, CommandTable};
 use shared::fault::{Verdict, FAULT_COUNT, FAULT_NAMES};
@@ -906,11 +906,13 @@ fn bench_speedups(rm: &ReferenceModel) -> Result<()> {
         ("command table, bounded (host)", &tabled, true),
     ] {
         let mut seconds = Vec::new();
-        let mut ga = SteadyStateGa::<POPULATION>::new(GaSettings::FDI, 1)
-            .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+        let fresh = || {
+            SteadyStateGa::<POPULATION>::new(GaSettings::FDI, 1)
+                .map_err(|e| anyhow::anyhow!("{e:?}"))
+        };
+        let mut last = None;
         for _ in 0..3 {
-            ga = SteadyStateGa::<POPULATION>::new(GaSettings::FDI, 1)
-                .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+            let mut ga = fresh()?;
             let start = Instant::now();
             if bounded {
                 ga.run(&mut problem.clone());
@@ -918,7 +920,9 @@ fn bench_speedups(rm: &ReferenceModel) -> Result<()> {
                 ga.run(&mut Exact(problem));
             }
             seconds.push(start.elapsed().as_secs_f64());
+            last = Some(ga);
         }
+        let ga = last.ok_or_else(|| anyhow::anyhow!("no identification ran"))?;
         let same = match &reference {
             None => {
                 reference = Some(ga.clone());
@@ -932,7 +936,7 @@ fn bench_speedups(rm: &ReferenceModel) -> Result<()> {
         };
         println!(
             "  {what:<46} {:>6.3} s  {:>5} evaluations  {same}",
-            median(&mut seconds),
+            median(&seconds).unwrap_or(f64::NAN),
             ga.evaluations()
         );
     }
@@ -945,23 +949,10 @@ fn bench_speedups(rm: &ReferenceModel) -> Result<()> {
 /// The paper's time for one identification [s] (MATLAB, 4-core i5-3340, parallel GA).
 const PAPER_IDENTIFICATION_SECONDS: f64 = 400.0;
 
-fn median(values: &mut [f64]) -> f64 {
-    values.sort_by(f64::total_cmp);
-    match values.len() {
-        0 => f64::NAN,
-        n if n % 2 == 1 => values[n / 2],
-        n => 0.5 * (values[n / 2 - 1] + values[n / 2]),
-    }
-}
-
 /// Times full identifications of every Table I case, one at a time on this thread.
 fn bench_identifications(rm: &ReferenceModel, seeds: u64) -> Result<()> {
     let total = seeds * TABLE_1.len() as u64;
-    let bar = ProgressBar::new(total);
-    bar.set_style(
-        ProgressStyle::with_template("identifications {bar:40} {pos}/{len} {msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
+    let bar = host_sim::progress_bar(total, "identifications {bar:40} {pos}/{len} {msg}", true);
     println!();
     println!(
         "one full identification on one core (command table + GA, the RM simulation not counted; median of {seeds} RM seeds per Table I case)"
@@ -984,19 +975,19 @@ fn bench_identifications(rm: &ReferenceModel, seeds: u64) -> Result<()> {
             bar.inc(1);
         }
         all.extend_from_slice(&seconds);
-        let s = median(&mut seconds);
+        let s = median(&seconds).unwrap_or(f64::NAN);
         bar.suspend(|| {
             println!(
                 "{:<24} {s:>10.3} {:>12.0} {:>10.2} {:>12.0}",
                 case.name,
-                median(&mut evaluations),
-                median(&mut errors),
+                median(&evaluations).unwrap_or(f64::NAN),
+                median(&errors).unwrap_or(f64::NAN),
                 PAPER_IDENTIFICATION_SECONDS / s
             )
         });
     }
     bar.finish_and_clear();
-    let s = median(&mut all);
+    let s = median(&all).unwrap_or(f64::NAN);
     println!(
         "all {} identifications: median {s:.3} s, {:.0}× faster than the paper's {PAPER_IDENTIFICATION_SECONDS:.0} s (target ≤ 1 s, ≥ 400×)",
         all.len(),

@@ -18,7 +18,6 @@
 //! is reproducible.
 
 use anyhow::{anyhow, Result};
-use indicatif::{ProgressBar, ProgressStyle};
 use rand_core::{RngCore, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 use rayon::prelude::*;
@@ -33,6 +32,7 @@ use shared::{
 };
 
 use crate::campaign::Case;
+use crate::median;
 use crate::reference::{ReferenceModel, ReferenceSettings, Scenario};
 
 /// The nominal fault vector, the starting guess every solver receives.
@@ -139,11 +139,9 @@ impl<'p, 'a> Recorder<'p, 'a> {
         self.e_tot.push(self.best_e_tot);
     }
 
+    /// The exact fitness (`error_below` with no bound gives `error`'s bits).
     fn evaluate(&mut self, genes: &Genes) -> f32 {
-        let f = self.problem.error(&FaultVector::saturating(*genes));
-        let f = if f.is_nan() { f32::INFINITY } else { f };
-        self.record(genes, f);
-        f
+        self.fitness_below(genes, f32::INFINITY)
     }
 }
 
@@ -306,6 +304,13 @@ fn matlab_ga(recorder: &mut Recorder<'_, '_>, s: &MatlabGaSettings, seed: u64) -
     let crossover_children = (s.crossover_fraction * (n - s.elites) as f64).round() as usize;
     let mutation_children = n - s.elites - crossover_children;
     let parents_needed = 2 * crossover_children + mutation_children;
+    // Rank scaling: the same expectations every generation (the population is sorted).
+    let raw: Vec<f64> = (1..=n).map(|r| 1.0 / (r as f64).sqrt()).collect();
+    let total: f64 = raw.iter().sum();
+    let expectation: Vec<f64> = raw
+        .iter()
+        .map(|e| e * parents_needed as f64 / total)
+        .collect();
     let mut step = 1.0f64;
     let mut best_history: Vec<f64> = Vec::new();
     for generation in 1..=s.max_generations {
@@ -327,13 +332,7 @@ fn matlab_ga(recorder: &mut Recorder<'_, '_>, s: &MatlabGaSettings, seed: u64) -
                 return RunStop::Stalled;
             }
         }
-        // Rank scaling and stochastic uniform selection.
-        let raw: Vec<f64> = (1..=n).map(|r| 1.0 / (r as f64).sqrt()).collect();
-        let total: f64 = raw.iter().sum();
-        let expectation: Vec<f64> = raw
-            .iter()
-            .map(|e| e * parents_needed as f64 / total)
-            .collect();
+        // Stochastic uniform selection on the rank-scaled expectations.
         let mut parents = Vec::with_capacity(parents_needed);
         let mut pointer = uniform(&mut rng);
         let mut cumulative = 0.0;
@@ -498,17 +497,6 @@ pub struct SolverRuns {
     pub runs: Vec<(&'static str, u64, Trajectory)>,
 }
 
-/// Median of `values`, `+∞` counted as the largest; `None` for no values.
-pub fn median(values: &[f64]) -> Option<f64> {
-    let mut v = values.to_vec();
-    v.sort_by(f64::total_cmp);
-    match v.len() {
-        0 => None,
-        n if n % 2 == 1 => Some(v[n / 2]),
-        n => Some(0.5 * (v[n / 2 - 1] + v[n / 2])),
-    }
-}
-
 impl SolverRuns {
     /// Median evaluations to reach e_tot ≤ `target` (runs that never do count as `+∞`), and
     /// how many runs reached it.
@@ -576,18 +564,11 @@ pub fn compare(
     let jobs: Vec<(usize, u64, Optimiser)> = (0..cases.len())
         .flat_map(|c| (0..seeds).flat_map(move |r| Optimiser::ALL.map(|o| (c, r, o))))
         .collect();
-    let bar = if progress {
-        let bar = ProgressBar::new(jobs.len() as u64);
-        bar.set_style(
-            ProgressStyle::with_template(
-                "optimiser runs {bar:40} {pos}/{len}, {elapsed} elapsed, ~{eta} left",
-            )
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
-        bar
-    } else {
-        ProgressBar::hidden()
-    };
+    let bar = crate::progress_bar(
+        jobs.len() as u64,
+        "optimiser runs {bar:40} {pos}/{len}, {elapsed} elapsed, ~{eta} left",
+        progress,
+    );
     let results: Vec<Result<(Optimiser, &'static str, u64, Trajectory)>> = jobs
         .par_iter()
         .map(|&(c, run, optimiser)| {

@@ -23,8 +23,8 @@ fn trajectory_reads_evaluations_and_budgets() {
     assert_eq!(t.e_tot_at(3), 5.0);
     // A solver that stopped early keeps its final error.
     assert_eq!(t.e_tot_at(1000), 0.5);
-    assert_eq!(optimisers::median(&[3.0, f64::INFINITY, 1.0]), Some(3.0));
-    assert_eq!(optimisers::median(&[]), None);
+    assert_eq!(host_sim::median(&[3.0, f64::INFINITY, 1.0]), Some(3.0));
+    assert_eq!(host_sim::median(&[]), None);
 }
 
 /// Runs `f` against the monitor-model trace of Table I's backlash k2 = 0.4 case.
