@@ -4,6 +4,17 @@
 //! (`main.rs`) runs it under embassy on the Cortex-M4F; only its hardware glue is
 //! `cfg(target_os = "none")`.
 #![no_std]
+// No panic on any input (issue 7): these lints make unwraps, panics and unchecked indexing
+// compile errors in this crate; unit tests may use them.
+#![cfg_attr(
+    not(test),
+    deny(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::panic,
+        clippy::indexing_slicing
+    )
+)]
 
 pub mod preflight;
 pub mod source;

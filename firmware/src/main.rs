@@ -14,6 +14,14 @@
 //! On the host the crate compiles to a stub so that `cargo test --workspace` stays runnable.
 #![cfg_attr(target_os = "none", no_std)]
 #![cfg_attr(target_os = "none", no_main)]
+// No panic on any input (issue 7); the one deliberate panic (`--crash panic`, which proves the
+// panic handler) carries its own `allow`.
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
 
 #[cfg(target_os = "none")]
 mod emulation;

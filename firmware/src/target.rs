@@ -147,6 +147,8 @@ async fn preflight(spawner: Spawner) -> i32 {
         }
     };
     match command.crash {
+        // Deliberate: `--crash panic` proves the panic handler reports and exits (test).
+        #[allow(clippy::panic)]
         Some(Crash::Panic) => core::panic!("crash requested on the command line"),
         Some(Crash::HardFault) => {
             // An unmapped address: the bus fault escalates to HardFault.

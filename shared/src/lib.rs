@@ -14,6 +14,17 @@
 //! * [`fdi`] — the pieces wired together with the onboard sizes and settings.
 //! * [`trace`] — the binary preflight trace format (header, fixed-point rows, CRC-32).
 #![cfg_attr(not(test), no_std)]
+// No panic on any input (issue 7): these lints make unwraps, panics and unchecked indexing
+// compile errors in this crate; unit tests may use them.
+#![cfg_attr(
+    not(test),
+    deny(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::panic,
+        clippy::indexing_slicing
+    )
+)]
 
 pub mod command;
 pub mod conditioning;
