@@ -7,7 +7,8 @@
 //! `host-sim` does, so both sides refuse the same files.
 
 use shared::trace::{
-    Crc32, TraceError, TraceHeader, TraceRow, HEADER_BYTES, ROW_BYTES, TRAILER_BYTES,
+    Crc32, SaturationCheck, TraceError, TraceHeader, TraceRow, HEADER_BYTES, ROW_BYTES,
+    TRAILER_BYTES,
 };
 use shared::AdcFrame;
 
@@ -61,6 +62,7 @@ pub struct TraceSource<B> {
     header: TraceHeader,
     rows_read: u32,
     crc: Crc32,
+    saturation: SaturationCheck,
     finished: bool,
 }
 
@@ -90,6 +92,7 @@ impl<B: TraceBytes> TraceSource<B> {
             header,
             rows_read: 0,
             crc,
+            saturation: SaturationCheck::new(),
             finished: false,
         })
     }
@@ -128,7 +131,11 @@ impl<B: TraceBytes> CurrentSource for TraceSource<B> {
             .map_err(TraceSourceError::Io)?;
         self.crc.update(&row);
         self.rows_read = self.rows_read.saturating_add(1);
-        Ok(Acquired::Frame(TraceRow::decode(&row).adc_frame()))
+        let frame = TraceRow::decode(&row).adc_frame();
+        self.saturation
+            .push(&frame)
+            .map_err(TraceSourceError::Trace)?;
+        Ok(Acquired::Frame(frame))
     }
 }
 

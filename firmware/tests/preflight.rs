@@ -281,3 +281,23 @@ fn an_adc_frame_survives_the_trace_round_trip() {
     let row = TraceRow::from_f64(0.0, [1.5, -0.25, -1.25], 0.125, 2.0e-3);
     assert_eq!(row.adc_frame(), frame);
 }
+
+#[test]
+fn a_clipped_current_stretch_is_refused_in_acquire() {
+    let mut rows = monitor_rows(FAULTS, TEST_SAMPLES);
+    for row in rows.iter_mut().skip(2000).take(12) {
+        row.phase_currents[1] = fixed::types::I16F16::from_num(20);
+    }
+    let bytes = trace_bytes(&rows, SAMPLE_RATE_HZ);
+    let source = TraceSource::open(SliceBytes::new(&bytes)).expect("a valid header");
+    let mut buffer = empty_buffer();
+    let mut preflight = Preflight::new(settings(), source, &mut buffer);
+    let error = poll_until_error(&mut preflight);
+    assert_eq!(
+        error,
+        PreflightError::Source(TraceSourceError::Trace(TraceError::SaturatedCurrent {
+            phase: 1,
+            first_row: 2000
+        }))
+    );
+}

@@ -20,7 +20,7 @@ use host_sim::median;
 use host_sim::optimisers::{self, TraceSource};
 use host_sim::plot;
 use host_sim::reference::{ReferenceModel, ReferenceSettings, Scenario};
-use host_sim::trace_file::{Trace, TraceFormat};
+use host_sim::trace_file::{IngestError, Trace, TraceFormat};
 use serde_json::json;
 use shared::command::{CommandSource, CommandTable};
 use shared::fault::{Verdict, FAULT_COUNT, FAULT_NAMES};
@@ -38,12 +38,19 @@ use shared::{
 #[command(
     name = "host-sim",
     version,
-    about = "Ground tools for the ema-fdi onboard actuator prognostics"
+    about = "Ground tools for the ema-fdi onboard actuator prognostics",
+    after_help = EXIT_HELP
 )]
 struct Cli {
     #[command(subcommand)]
     command: Command,
 }
+
+const EXIT_HELP: &str = "Exit status: 0 done; 1 error; 2 usage; 3 trace refused (the message \
+names the field and the line or row).";
+
+/// Exit status when a trace file is refused.
+const EXIT_TRACE_REFUSED: u8 = 3;
 
 const FAULTS_HELP: &str = "eight comma-separated values in [0, 1]: friction, backlash, \
 short A, short B, short C, eccentricity, eccentricity phase, gain drift (nominal \
@@ -314,7 +321,11 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
-            ExitCode::FAILURE
+            if e.chain().any(|c| c.is::<IngestError>()) {
+                ExitCode::from(EXIT_TRACE_REFUSED)
+            } else {
+                ExitCode::FAILURE
+            }
         }
     }
 }

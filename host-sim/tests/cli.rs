@@ -213,8 +213,12 @@ fn missing_or_broken_files_are_refused_by_name() {
     let garbage = path(&dir, "garbage.csv");
     std::fs::write(&garbage, "time,current\n0,1\n").unwrap();
     let o = host_sim(&["calibrate", &garbage, "--out", &path(&dir, "c.json")]);
-    assert!(!o.status.success());
-    assert!(stderr(&o).contains("header"), "{}", stderr(&o));
+    assert_eq!(o.status.code(), Some(3), "trace refused");
+    assert!(
+        stderr(&o).contains("unknown column `time`"),
+        "{}",
+        stderr(&o)
+    );
 
     let bad_cal = path(&dir, "bad.json");
     std::fs::write(

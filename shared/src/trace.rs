@@ -49,6 +49,57 @@ pub enum TraceError {
     LengthMismatch { rows: u32, bytes: u64 },
     /// The stored checksum differs from the computed one.
     BadChecksum { stored: u32, computed: u32 },
+    /// Phase `phase` (0 = A) read full scale for [`SATURATION_RUN`] rows in a row, the
+    /// first of them at row `first_row` (0-based): the ADC clipped, the current is unknown.
+    SaturatedCurrent { phase: u8, first_row: u32 },
+}
+
+/// The controller's phase-current ADC range [A]: ±20 A, 12 bits (SPEC §4 sensors).
+pub const CURRENT_FULL_SCALE: f32 = 20.0;
+/// One count of the phase-current ADC [A].
+pub const CURRENT_LSB: f32 = 2.0 * CURRENT_FULL_SCALE / 4096.0;
+/// A reading at least this large in magnitude is a clipped one [A] (full scale less 2 counts).
+pub const SATURATION_LEVEL: f32 = CURRENT_FULL_SCALE - 2.0 * CURRENT_LSB;
+/// Clipped readings of one phase in a row that make a trace unusable: 1 ms at 10 kHz. A
+/// single clipped sample (a spike) passes; a stretch means the real current is unknown.
+pub const SATURATION_RUN: u32 = 10;
+
+/// Streaming check for clipped phase-current stretches: O(1) per frame, 16 bytes of state.
+/// Host ingestion and the firmware's trace source both run every frame through it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SaturationCheck {
+    /// Clipped readings in a row so far, per phase.
+    run: [u32; 3],
+    /// Frames seen.
+    rows: u32,
+}
+
+impl SaturationCheck {
+    pub const fn new() -> Self {
+        Self {
+            run: [0; 3],
+            rows: 0,
+        }
+    }
+
+    /// Takes the next frame; refuses the trace at the [`SATURATION_RUN`]-th clipped reading in
+    /// a row of one phase.
+    pub fn push(&mut self, frame: &AdcFrame) -> Result<(), TraceError> {
+        let row = self.rows;
+        self.rows = self.rows.saturating_add(1);
+        for ((phase, run), current) in (0u8..).zip(self.run.iter_mut()).zip(frame.phase_currents) {
+            let magnitude = current.to_num::<f32>();
+            let clipped = magnitude >= SATURATION_LEVEL || magnitude <= -SATURATION_LEVEL;
+            *run = if clipped { run.saturating_add(1) } else { 0 };
+            if *run >= SATURATION_RUN {
+                return Err(TraceError::SaturatedCurrent {
+                    phase,
+                    first_row: row.saturating_add(1).saturating_sub(*run),
+                });
+            }
+        }
+        Ok(())
+    }
 }
 
 /// The header of a binary trace.
@@ -277,6 +328,31 @@ mod tests {
             TraceHeader::decode(&bad),
             Err(TraceError::BadColumns { found: 7 })
         );
+    }
+
+    #[test]
+    fn a_clipped_stretch_is_refused_and_a_spike_is_not() {
+        let frame = |a: f32| AdcFrame::from_f32([a, -a, 0.0], 0.0, 0.0);
+        let mut check = SaturationCheck::new();
+        // A lone clipped sample between ordinary ones passes.
+        for a in [1.0, 19.99, 1.0] {
+            assert_eq!(check.push(&frame(a)), Ok(()));
+        }
+        for _ in 0..SATURATION_RUN - 1 {
+            assert_eq!(check.push(&frame(-CURRENT_FULL_SCALE)), Ok(()));
+        }
+        assert_eq!(
+            check.push(&frame(-CURRENT_FULL_SCALE)),
+            Err(TraceError::SaturatedCurrent {
+                phase: 0,
+                first_row: 3
+            })
+        );
+        // Just below the level never trips.
+        let mut check = SaturationCheck::new();
+        for _ in 0..100 {
+            assert_eq!(check.push(&frame(SATURATION_LEVEL - 0.01)), Ok(()));
+        }
     }
 
     #[test]
