@@ -9,9 +9,10 @@ use crate::command::CommandTable;
 use crate::conditioning::{commutation_signs, AdcFrame, MeasuredCurrent};
 use crate::fault::FaultVector;
 use crate::fitness::{Calibration, FitnessError, FitnessProblem};
-use crate::ga::{GaError, GaSettings, Status, SteadyStateGa, StopReason};
+use crate::ga::{GaError, GaSettings, RecordError, Status, SteadyStateGa, StopReason};
 use crate::monitor::MonitorModel;
 use crate::params::ActuatorParams;
+use crate::trace::Crc32;
 
 /// Samples in one preflight test: 0.5 s at 10 kHz.
 pub const TEST_SAMPLES: usize = 5000;
@@ -24,6 +25,10 @@ pub type OnboardMeasured = MeasuredCurrent<TEST_SAMPLES>;
 
 /// The onboard GA.
 pub type OnboardGa = SteadyStateGa<POPULATION>;
+
+/// The onboard GA's checkpoint record (1 276 bytes): a flash page on the controller, a file
+/// under emulation and on the host.
+pub type OnboardRecord = [u8; crate::ga::record_bytes(POPULATION)];
 
 /// Result of an identification.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -61,6 +66,8 @@ impl From<GaError> for FdiError {
 pub struct Identification<'a, const N: usize, const P: usize> {
     problem: FitnessProblem<'a, N>,
     ga: SteadyStateGa<P>,
+    settings: GaSettings,
+    fingerprint: u32,
 }
 
 impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
@@ -74,7 +81,28 @@ impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
         Ok(Self {
             problem: FitnessProblem::new(measured, params, calibration)?,
             ga: SteadyStateGa::new(settings, seed)?,
+            settings,
+            fingerprint: fingerprint(measured, calibration, &settings, seed),
         })
+    }
+
+    /// What ties a checkpoint to this run: a CRC-32 over the measured samples and initial
+    /// angles, the calibration, the GA settings and the seed. O(N), computed once.
+    pub fn fingerprint(&self) -> u32 {
+        self.fingerprint
+    }
+
+    /// Writes the GA's state into `record` (see [`crate::ga::checkpoint`]). O(P).
+    pub fn save(&self, record: &mut [u8]) -> Result<(), RecordError> {
+        self.ga.save(self.fingerprint, record)
+    }
+
+    /// Continues from `record` if it is a sound checkpoint of this very run; returns the
+    /// evaluations it had done. On `Err` this identification is left exactly as it was
+    /// (a fresh one restarts cleanly). O(P).
+    pub fn resume(&mut self, record: &[u8]) -> Result<u32, RecordError> {
+        self.ga = SteadyStateGa::restore(self.settings, self.fingerprint, record)?;
+        Ok(self.ga.evaluations())
     }
 
     /// The same identification with the command read from `table` (see
@@ -116,6 +144,52 @@ impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
             },
         }
     }
+}
+
+fn fingerprint<const N: usize>(
+    measured: &MeasuredCurrent<N>,
+    calibration: &Calibration,
+    settings: &GaSettings,
+    seed: u64,
+) -> u32 {
+    let mut crc = Crc32::new();
+    let mut f32s = |values: &[f32]| {
+        for v in values {
+            crc.update(&v.to_bits().to_le_bytes());
+        }
+    };
+    f32s(measured.samples());
+    let angles = measured.initial_angles();
+    let c = calibration;
+    let s = settings;
+    f32s(&[angles.motor, angles.user]);
+    f32s(&[
+        c.resistance_scale,
+        c.inductance_scale,
+        c.back_emf_scale,
+        c.friction_scale,
+        c.damping,
+        c.nominal_residual,
+    ]);
+    f32s(&[
+        s.tolerance,
+        s.crossover_alpha,
+        s.mutation_probability,
+        s.mutation_scale,
+        s.mutation_floor,
+        s.differential_probability,
+        s.differential_scale,
+    ]);
+    f32s(&s.initial_guess.unwrap_or([f32::NAN; crate::ga::GENES]));
+    for word in [s.max_evaluations, s.max_generations, s.stall_generations] {
+        crc.update(&word.to_le_bytes());
+    }
+    crc.update(&[s.tournament_size, u8::from(s.initial_guess.is_some())]);
+    for c in s.circular {
+        crc.update(&[u8::from(c)]);
+    }
+    crc.update(&seed.to_le_bytes());
+    crc.finish()
 }
 
 /// Records what the controller would measure if the actuator behaved exactly like the monitor

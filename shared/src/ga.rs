@@ -20,8 +20,11 @@
 //!   limit, or stall — best fitness improved by no more than `tolerance` over
 //!   `stall_generations` generations.
 
-use rand_core::{RngCore, SeedableRng};
-use rand_xoshiro::Xoshiro128PlusPlus;
+use crate::random::Xoshiro128PlusPlus;
+
+pub mod checkpoint;
+
+pub use checkpoint::{record_bytes, RecordError};
 
 use crate::fault::{CIRCULAR, FAULT_COUNT};
 

@@ -36,6 +36,7 @@ pub mod math;
 pub mod metrics;
 pub mod monitor;
 pub mod params;
+pub mod random;
 pub mod trace;
 
 pub use command::ChirpCommand;

@@ -1,0 +1,309 @@
+//! The GA's state as a fixed-size, versioned, checksummed byte record, so that a preflight
+//! interrupted by a power loss resumes where its last checkpoint left it and finishes with
+//! the same bits as an uninterrupted run. O(`P`) to write or read; no allocation.
+//!
+//! Layout (format version 1), all little-endian, `P` = population:
+//!
+//! | offset | bytes | field |
+//! | --- | --- | --- |
+//! | 0 | 4 | magic `b"EMAG"` |
+//! | 4 | 2 | format version `u16` = 1 |
+//! | 6 | 2 | population `P` (`u16`) |
+//! | 8 | 2 | genes per individual (`u16`, 8) |
+//! | 10 | 2 | reserved, 0 |
+//! | 12 | 4 | run fingerprint `u32` (the caller's: measured test, settings, seed) |
+//! | 16 | 16 | random generator state, 4 × `u32` |
+//! | 32 | 4 | evaluations `u32` |
+//! | 36 | 4 | generations `u32` |
+//! | 40 | 4 | stall count `u32` |
+//! | 44 | 4 | stall reference fitness `f32` |
+//! | 48 | 2 | initial-population members evaluated `u16` |
+//! | 50 | 1 | status: 0 running, 1 evaluation budget, 2 generation limit, 3 stalled |
+//! | 51 | 1 | 1 if a candidate is pending, else 0 |
+//! | 52 | 32 | pending candidate's genes, 8 × `f32` (0 when none) |
+//! | 84 | 36 | best individual: 8 genes + fitness, 9 × `f32` |
+//! | 120 | 36·P | population, 9 × `f32` per member |
+//! | 120 + 36·P | 4 | CRC-32 (IEEE) of every byte before it |
+//!
+//! The settings are not stored: they belong to the firmware image; the fingerprint (e.g.
+//! [`crate::fdi::Identification::fingerprint`]) ties a record to one test, settings and seed.
+
+use super::{Genes, Individual, Status, SteadyStateGa, StopReason, GENES};
+use crate::random::Xoshiro128PlusPlus;
+use crate::trace::Crc32;
+
+/// First four bytes of every GA record.
+pub const RECORD_MAGIC: [u8; 4] = *b"EMAG";
+/// The record format version this code writes and reads.
+pub const RECORD_VERSION: u16 = 1;
+/// Bytes before the population.
+const FIXED_BYTES: usize = 120;
+/// Bytes of one individual.
+const INDIVIDUAL_BYTES: usize = 4 * (GENES + 1);
+
+/// Bytes of the record of a GA with `population` members.
+pub const fn record_bytes(population: usize) -> usize {
+    FIXED_BYTES + INDIVIDUAL_BYTES * population + 4
+}
+
+/// Why a record was refused. The GA it would have replaced is left as it was, so the
+/// identification simply starts (or goes on) from there.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum RecordError {
+    /// The buffer is not [`record_bytes`]`(P)` long.
+    WrongLength {
+        found: u32,
+        expected: u32,
+    },
+    /// Not a GA record (erased flash reads `ff ff ff ff`).
+    BadMagic,
+    UnsupportedVersion {
+        found: u16,
+    },
+    /// A record of another population size or gene count.
+    WrongShape {
+        population: u16,
+        genes: u16,
+    },
+    /// The stored checksum differs from the computed one (a torn write, a flipped bit).
+    BadChecksum {
+        stored: u32,
+        computed: u32,
+    },
+    /// A sound record of another run (another test, settings or seed).
+    OtherRun {
+        stored: u32,
+        expected: u32,
+    },
+    /// Checksum right but contents impossible (NaN fitness, counters out of range): written
+    /// by other code.
+    Inconsistent,
+}
+
+/// Writes little-endian fields into a byte slice; out-of-range writes are dropped (the length
+/// is checked before any write).
+struct Writer<'a> {
+    out: &'a mut [u8],
+    at: usize,
+}
+
+impl Writer<'_> {
+    fn bytes(&mut self, b: &[u8]) {
+        let end = self.at.saturating_add(b.len());
+        if let Some(dst) = self.out.get_mut(self.at..end) {
+            dst.copy_from_slice(b);
+        }
+        self.at = end;
+    }
+    fn u16(&mut self, v: u16) {
+        self.bytes(&v.to_le_bytes());
+    }
+    fn u32(&mut self, v: u32) {
+        self.bytes(&v.to_le_bytes());
+    }
+    fn f32(&mut self, v: f32) {
+        self.u32(v.to_bits());
+    }
+    fn individual(&mut self, ind: &Individual) {
+        for g in ind.genes {
+            self.f32(g);
+        }
+        self.f32(ind.fitness);
+    }
+}
+
+/// Reads little-endian fields; past the end it reads zeros (the length is checked first).
+struct Reader<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl Reader<'_> {
+    fn array<const N: usize>(&mut self) -> [u8; N] {
+        let mut out = [0u8; N];
+        let end = self.at.saturating_add(N);
+        if let Some(src) = self.bytes.get(self.at..end) {
+            out.copy_from_slice(src);
+        }
+        self.at = end;
+        out
+    }
+    fn u8(&mut self) -> u8 {
+        let [b] = self.array::<1>();
+        b
+    }
+    fn u16(&mut self) -> u16 {
+        u16::from_le_bytes(self.array())
+    }
+    fn u32(&mut self) -> u32 {
+        u32::from_le_bytes(self.array())
+    }
+    fn f32(&mut self) -> f32 {
+        f32::from_bits(self.u32())
+    }
+    fn genes(&mut self) -> Genes {
+        core::array::from_fn(|_| self.f32())
+    }
+    fn individual(&mut self) -> Individual {
+        let genes = self.genes();
+        Individual {
+            genes,
+            fitness: self.f32(),
+        }
+    }
+}
+
+fn status_code(status: Status) -> u8 {
+    match status {
+        Status::Running => 0,
+        Status::Done(StopReason::EvaluationBudget) => 1,
+        Status::Done(StopReason::GenerationLimit) => 2,
+        Status::Done(StopReason::Stalled) => 3,
+    }
+}
+
+fn status_from_code(code: u8) -> Option<Status> {
+    Some(match code {
+        0 => Status::Running,
+        1 => Status::Done(StopReason::EvaluationBudget),
+        2 => Status::Done(StopReason::GenerationLimit),
+        3 => Status::Done(StopReason::Stalled),
+        _ => return None,
+    })
+}
+
+fn crc(bytes: &[u8]) -> u32 {
+    let mut c = Crc32::new();
+    c.update(bytes);
+    c.finish()
+}
+
+fn check_length(len: usize, population: usize) -> Result<(), RecordError> {
+    let expected = record_bytes(population);
+    if len == expected {
+        Ok(())
+    } else {
+        Err(RecordError::WrongLength {
+            found: u32::try_from(len).unwrap_or(u32::MAX),
+            expected: u32::try_from(expected).unwrap_or(u32::MAX),
+        })
+    }
+}
+
+impl<const P: usize> SteadyStateGa<P> {
+    /// Bytes of this GA's record.
+    pub const RECORD_BYTES: usize = record_bytes(P);
+
+    /// Writes the whole state into `out` ([`Self::RECORD_BYTES`] long), tagged with the
+    /// caller's run `fingerprint`. O(P).
+    pub fn save(&self, fingerprint: u32, out: &mut [u8]) -> Result<(), RecordError> {
+        check_length(out.len(), P)?;
+        let mut w = Writer { out, at: 0 };
+        w.bytes(&RECORD_MAGIC);
+        w.u16(RECORD_VERSION);
+        w.u16(P as u16);
+        w.u16(GENES as u16);
+        w.u16(0);
+        w.u32(fingerprint);
+        for word in self.rng.state() {
+            w.u32(word);
+        }
+        w.u32(self.evaluations);
+        w.u32(self.generations);
+        w.u32(self.stall_count);
+        w.f32(self.stall_reference);
+        w.u16(self.filled);
+        w.bytes(&[status_code(self.status), u8::from(self.pending.is_some())]);
+        for g in self.pending.unwrap_or([0.0; GENES]) {
+            w.f32(g);
+        }
+        w.individual(&self.best);
+        for ind in &self.population {
+            w.individual(ind);
+        }
+        let body = w.at;
+        let sum = crc(w.out.get(..body).unwrap_or(&[]));
+        w.u32(sum);
+        Ok(())
+    }
+
+    /// The GA stored in `record`, run with `settings`, if the record is sound and belongs to
+    /// the run `fingerprint`. O(P). On `Err` nothing is changed anywhere: start afresh.
+    pub fn restore(
+        settings: super::GaSettings,
+        fingerprint: u32,
+        record: &[u8],
+    ) -> Result<Self, RecordError> {
+        check_length(record.len(), P)?;
+        let body = record.len().saturating_sub(4);
+        let (head, trailer) = record.split_at(body);
+        let mut r = Reader {
+            bytes: record,
+            at: 0,
+        };
+        if r.array::<4>() != RECORD_MAGIC {
+            return Err(RecordError::BadMagic);
+        }
+        let version = r.u16();
+        if version != RECORD_VERSION {
+            return Err(RecordError::UnsupportedVersion { found: version });
+        }
+        let (population, genes) = (r.u16(), r.u16());
+        if usize::from(population) != P || usize::from(genes) != GENES {
+            return Err(RecordError::WrongShape { population, genes });
+        }
+        let stored_sum = Reader {
+            bytes: trailer,
+            at: 0,
+        }
+        .u32();
+        let computed = crc(head);
+        if stored_sum != computed {
+            return Err(RecordError::BadChecksum {
+                stored: stored_sum,
+                computed,
+            });
+        }
+        let _reserved = r.u16();
+        let stored = r.u32();
+        if stored != fingerprint {
+            return Err(RecordError::OtherRun {
+                stored,
+                expected: fingerprint,
+            });
+        }
+        let mut ga = Self::new(settings, 0).map_err(|_| RecordError::Inconsistent)?;
+        let state = [r.u32(), r.u32(), r.u32(), r.u32()];
+        ga.rng = Xoshiro128PlusPlus::from_state(state).ok_or(RecordError::Inconsistent)?;
+        ga.evaluations = r.u32();
+        ga.generations = r.u32();
+        ga.stall_count = r.u32();
+        ga.stall_reference = r.f32();
+        ga.filled = r.u16();
+        ga.status = status_from_code(r.u8()).ok_or(RecordError::Inconsistent)?;
+        let has_pending = r.u8();
+        let pending = r.genes();
+        ga.pending = match has_pending {
+            0 => None,
+            1 => Some(pending),
+            _ => return Err(RecordError::Inconsistent),
+        };
+        ga.best = r.individual();
+        for ind in ga.population.iter_mut() {
+            *ind = r.individual();
+        }
+        let genes_sound = |g: &Genes| g.iter().all(|x| (0.0..=1.0).contains(x));
+        let sound = usize::from(ga.filled) <= P
+            && ga.pending.as_ref().is_none_or(genes_sound)
+            && core::iter::once(&ga.best)
+                .chain(ga.population.iter())
+                .all(|ind| !ind.fitness.is_nan() && genes_sound(&ind.genes))
+            && !ga.stall_reference.is_nan();
+        if sound {
+            Ok(ga)
+        } else {
+            Err(RecordError::Inconsistent)
+        }
+    }
+}

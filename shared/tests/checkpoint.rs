@@ -1,0 +1,223 @@
+//! Power loss during a preflight: the identification stopped at any point and resumed from its
+//! checkpoint record finishes with the very bits of an uninterrupted run; a damaged, foreign
+//! or erased record is refused and the identification restarts cleanly.
+
+use proptest::prelude::*;
+use shared::fdi::{record_monitor_trace, Identification, OnboardMeasured, OnboardRecord};
+use shared::fdi::{POPULATION, TEST_SAMPLES};
+use shared::ga::{RecordError, Status};
+use shared::trace::Crc32;
+use shared::{ActuatorParams, Calibration, FaultVector, GaSettings, LowPass, MonitorModel};
+
+/// A short run (the resume logic does not depend on the length): 300 evaluations.
+const SETTINGS: GaSettings = GaSettings {
+    max_evaluations: 300,
+    ..GaSettings::FDI
+};
+
+type Id<'a> = Identification<'a, TEST_SAMPLES, POPULATION>;
+
+fn measured() -> Box<OnboardMeasured> {
+    let filter = LowPass::for_control_period(1.0e-4).unwrap();
+    let mut m = Box::new(OnboardMeasured::new(filter));
+    let model = MonitorModel::new(ActuatorParams::REFERENCE, &Calibration::REFERENCE_ACTUATOR);
+    let k = FaultVector::new([0.3, 0.2, 0.0, 0.1, 0.0, 0.0, 0.5, 0.6]).unwrap();
+    record_monitor_trace(&model, &k, &mut m).unwrap();
+    m
+}
+
+fn fresh(m: &OnboardMeasured, seed: u64) -> Id<'_> {
+    Identification::new(
+        m,
+        ActuatorParams::REFERENCE,
+        &Calibration::REFERENCE_ACTUATOR,
+        SETTINGS,
+        seed,
+    )
+    .unwrap()
+}
+
+/// The uninterrupted run's whole GA state at the end.
+fn uninterrupted(m: &OnboardMeasured) -> Id<'_> {
+    let mut id = fresh(m, 1);
+    id.run();
+    id
+}
+
+/// Runs `stops[0]` evaluations, "loses power" (only the record survives), resumes in a new
+/// identification, runs to `stops[1]`, and so on, then to the end.
+fn interrupted<'a>(m: &'a OnboardMeasured, stops: &[u32]) -> Id<'a> {
+    let mut record: OnboardRecord = [0; core::mem::size_of::<OnboardRecord>()];
+    let mut id = fresh(m, 1);
+    for &stop in stops {
+        let done = id.ga().evaluations();
+        id.step(stop.saturating_sub(done));
+        id.save(&mut record).unwrap();
+        drop(id);
+        id = fresh(m, 1);
+        let resumed = id.resume(&record).unwrap();
+        assert_eq!(resumed, stop.min(SETTINGS.max_evaluations));
+    }
+    id.run();
+    id
+}
+
+#[test]
+fn stopped_anywhere_and_resumed_gives_the_same_bits() {
+    let m = measured();
+    let reference = uninterrupted(&m);
+    assert_eq!(reference.ga().evaluations(), 300);
+    // Before the first evaluation, inside the initial population, at its end, one past,
+    // mid-run, one before the end, at the end, and a chain of several losses.
+    for stops in [
+        &[0][..],
+        &[1],
+        &[31],
+        &[32],
+        &[33],
+        &[157],
+        &[299],
+        &[300],
+        &[5, 64, 65, 200, 201],
+    ] {
+        let resumed = interrupted(&m, stops);
+        assert_eq!(resumed.ga(), reference.ga(), "stops {stops:?}");
+        let (a, b) = (resumed.result_so_far(), reference.result_so_far());
+        assert_eq!(
+            a.faults.as_array().map(f32::to_bits),
+            b.faults.as_array().map(f32::to_bits)
+        );
+        assert_eq!(a.fitness.to_bits(), b.fitness.to_bits());
+        assert_eq!(a.stop_reason, b.stop_reason);
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+
+    #[test]
+    fn any_stop_point_resumes_to_the_same_bits(stop in 0u32..=300, second in 0u32..=300) {
+        let m = measured();
+        let reference = uninterrupted(&m);
+        let mut stops = [stop, second];
+        stops.sort_unstable();
+        let resumed = interrupted(&m, &stops);
+        prop_assert_eq!(resumed.ga(), reference.ga());
+    }
+}
+
+#[test]
+fn a_pending_candidate_survives_the_record() {
+    // Power lost between `ask` and `tell`: the same candidate is asked again after resume.
+    let mut ga = shared::SteadyStateGa::<POPULATION>::new(SETTINGS, 9).unwrap();
+    for _ in 0..40 {
+        let g = ga.ask().unwrap();
+        ga.tell(g.iter().sum()).unwrap();
+    }
+    let pending = ga.ask().unwrap();
+    let mut record = [0u8; shared::SteadyStateGa::<POPULATION>::RECORD_BYTES];
+    ga.save(7, &mut record).unwrap();
+    let mut back = shared::SteadyStateGa::<POPULATION>::restore(SETTINGS, 7, &record).unwrap();
+    assert_eq!(back, ga);
+    assert_eq!(back.ask().unwrap(), pending);
+}
+
+#[test]
+fn every_damaged_byte_is_detected_and_the_run_restarts_cleanly() {
+    let m = measured();
+    let reference = uninterrupted(&m);
+    let mut record: OnboardRecord = [0; core::mem::size_of::<OnboardRecord>()];
+    let mut id = fresh(&m, 1);
+    id.step(120);
+    id.save(&mut record).unwrap();
+    assert_eq!(record.len(), 1276);
+
+    for at in 0..record.len() {
+        for flip in [0x01u8, 0x80, 0xFF] {
+            let mut damaged = record;
+            damaged[at] ^= flip;
+            let mut restarted = fresh(&m, 1);
+            let before = restarted.ga().clone();
+            let e = restarted.resume(&damaged).unwrap_err();
+            assert!(
+                matches!(
+                    e,
+                    RecordError::BadChecksum { .. }
+                        | RecordError::BadMagic
+                        | RecordError::UnsupportedVersion { .. }
+                        | RecordError::WrongShape { .. }
+                ),
+                "byte {at} ^ {flip:#x}: {e:?}"
+            );
+            assert_eq!(restarted.ga(), &before, "a refused record changes nothing");
+        }
+    }
+    // A torn write: the first half new, the rest still erased flash.
+    let mut torn = [0xFFu8; 1276];
+    torn[..600].copy_from_slice(&record[..600]);
+    let mut restarted = fresh(&m, 1);
+    assert!(matches!(
+        restarted.resume(&torn),
+        Err(RecordError::BadChecksum { .. })
+    ));
+    restarted.run();
+    assert_eq!(
+        restarted.ga(),
+        reference.ga(),
+        "the clean restart finishes as usual"
+    );
+}
+
+#[test]
+fn foreign_erased_short_and_forged_records_are_refused() {
+    let m = measured();
+    let mut record: OnboardRecord = [0; core::mem::size_of::<OnboardRecord>()];
+    let mut id = fresh(&m, 1);
+    id.step(50);
+    id.save(&mut record).unwrap();
+
+    // Another seed is another run.
+    let mut other = fresh(&m, 2);
+    assert!(matches!(
+        other.resume(&record),
+        Err(RecordError::OtherRun { .. })
+    ));
+    // Another measured test is another run.
+    let filter = LowPass::for_control_period(1.0e-4).unwrap();
+    let mut m2 = Box::new(OnboardMeasured::new(filter));
+    let model = MonitorModel::new(ActuatorParams::REFERENCE, &Calibration::REFERENCE_ACTUATOR);
+    record_monitor_trace(&model, &FaultVector::NOMINAL, &mut m2).unwrap();
+    assert!(matches!(
+        fresh(&m2, 1).resume(&record),
+        Err(RecordError::OtherRun { .. })
+    ));
+    // Erased flash, a short buffer.
+    assert_eq!(
+        fresh(&m, 1).resume(&[0xFF; 1276]),
+        Err(RecordError::BadMagic)
+    );
+    assert_eq!(
+        fresh(&m, 1).resume(&record[..1000]),
+        Err(RecordError::WrongLength {
+            found: 1000,
+            expected: 1276
+        })
+    );
+    let mut short = [0u8; 10];
+    assert!(matches!(
+        id.save(&mut short),
+        Err(RecordError::WrongLength { .. })
+    ));
+    // A sound checksum over impossible contents (a NaN fitness in the population).
+    let mut forged = record;
+    forged[120 + 32..120 + 36].copy_from_slice(&f32::NAN.to_bits().to_le_bytes());
+    let end = forged.len() - 4;
+    let mut crc = Crc32::new();
+    crc.update(&forged[..end]);
+    forged[end..].copy_from_slice(&crc.finish().to_le_bytes());
+    assert_eq!(fresh(&m, 1).resume(&forged), Err(RecordError::Inconsistent));
+    // And the unforged record resumes.
+    let mut resumed = fresh(&m, 1);
+    assert_eq!(resumed.resume(&record), Ok(50));
+    assert_eq!(resumed.ga().status(), Status::Running);
+}
