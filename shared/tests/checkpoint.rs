@@ -53,7 +53,7 @@ fn interrupted<'a>(m: &'a OnboardMeasured, stops: &[u32]) -> Id<'a> {
         let done = id.ga().evaluations();
         id.step(stop.saturating_sub(done));
         id.save(&mut record).unwrap();
-        drop(id);
+        // Power lost: the old state is gone, a new identification starts from the record.
         id = fresh(m, 1);
         let resumed = id.resume(&record).unwrap();
         assert_eq!(resumed, stop.min(SETTINGS.max_evaluations));
