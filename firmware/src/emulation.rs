@@ -1,8 +1,9 @@
 //! Emulation glue (QEMU with semihosting): the command line and the trace file on the host.
 //!
-//! `cargo fw -- TRACE.bin [--seed N]`: the runner (`firmware/qemu-run`) passes the ELF path
+//! `cargo fw -- TRACE.bin [--seed N] [--checkpoint FILE [--stop-after N]]`: the runner (`firmware/qemu-run`) passes the ELF path
 //! and these arguments through QEMU's semihosting command line; the trace is read with
-//! SYS_OPEN / SYS_FLEN / SYS_READ, one row (24 B) per read.
+//! SYS_OPEN / SYS_FLEN / SYS_READ, one row (24 B) per read. The checkpoint file stands in
+//! for the flash page that keeps the GA record across a power loss.
 
 use core::ffi::CStr;
 
@@ -21,7 +22,10 @@ const CMDLINE_BYTES: usize = 512;
 /// What the command line asked for.
 pub struct Command {
     path: [u8; MAX_PATH + 1],
+    checkpoint: Option<[u8; MAX_PATH + 1]>,
     pub seed: Option<u64>,
+    /// Simulated power loss: stop after this many evaluations, checkpoint written.
+    pub stop_after: Option<u32>,
     /// Fault injection for the handler tests (emulation only).
     pub crash: Option<Crash>,
 }
@@ -56,6 +60,8 @@ impl Command {
         let mut have_path = false;
         let mut seed = None;
         let mut crash = None;
+        let mut checkpoint = None;
+        let mut stop_after = None;
         while let Some(word) = words.next() {
             let word = word.map_err(|_| UsageError::NotUtf8)?;
             if word == "--seed" {
@@ -65,6 +71,19 @@ impl Command {
                     .and_then(|w| w.parse::<u64>().ok())
                     .ok_or(UsageError::BadOption)?;
                 seed = Some(n);
+            } else if word == "--stop-after" {
+                let n = words
+                    .next()
+                    .and_then(|w| w.ok())
+                    .and_then(|w| w.parse::<u32>().ok())
+                    .ok_or(UsageError::BadOption)?;
+                stop_after = Some(n);
+            } else if word == "--checkpoint" {
+                let file = words
+                    .next()
+                    .and_then(|w| w.ok())
+                    .ok_or(UsageError::BadOption)?;
+                checkpoint = Some(nul_terminated(file)?);
             } else if word == "--crash" {
                 crash = match words.next().and_then(|w| w.ok()) {
                     Some("panic") => Some(Crash::Panic),
@@ -74,20 +93,31 @@ impl Command {
             } else if word.starts_with("--") || have_path {
                 return Err(UsageError::BadOption);
             } else {
-                let bytes = word.as_bytes();
-                if bytes.len() > MAX_PATH {
-                    return Err(UsageError::PathTooLong);
-                }
-                for (d, s) in path.iter_mut().zip(bytes) {
-                    *d = *s;
-                }
+                path = nul_terminated(word)?;
                 have_path = true;
             }
         }
         if !have_path && crash.is_none() {
             return Err(UsageError::MissingTrace);
         }
-        Ok(Self { path, seed, crash })
+        if stop_after.is_some() && checkpoint.is_none() {
+            // A power loss without a checkpoint would only throw the work away.
+            return Err(UsageError::BadOption);
+        }
+        Ok(Self {
+            path,
+            checkpoint,
+            seed,
+            stop_after,
+            crash,
+        })
+    }
+
+    /// The checkpoint file, NUL-terminated, if one was given.
+    pub fn checkpoint_path(&self) -> Option<&CStr> {
+        self.checkpoint
+            .as_ref()
+            .map(|p| CStr::from_bytes_until_nul(p).unwrap_or(c""))
     }
 
     /// The trace path, NUL-terminated.
@@ -95,6 +125,52 @@ impl Command {
         // The buffer is zeroed and at most MAX_PATH bytes are written: a NUL always follows.
         CStr::from_bytes_until_nul(&self.path).unwrap_or(c"")
     }
+}
+
+/// `word` as a NUL-terminated path buffer.
+fn nul_terminated(word: &str) -> Result<[u8; MAX_PATH + 1], UsageError> {
+    let bytes = word.as_bytes();
+    if bytes.len() > MAX_PATH {
+        return Err(UsageError::PathTooLong);
+    }
+    let mut path = [0u8; MAX_PATH + 1];
+    for (d, s) in path.iter_mut().zip(bytes) {
+        *d = *s;
+    }
+    Ok(path)
+}
+
+/// Reads the checkpoint record at `path` into `record`; `Ok(false)` when there is no file
+/// (the first run), `Err` with the file's length when it is not one record long.
+pub fn read_checkpoint(path: &CStr, record: &mut [u8]) -> Result<bool, CheckpointFileError> {
+    let Ok(mut file) = File::open(path) else {
+        return Ok(false);
+    };
+    let len = file
+        .metadata()
+        .map(|m| m.len())
+        .map_err(|_| CheckpointFileError::Io)?;
+    if len != record.len() as u64 {
+        return Err(CheckpointFileError::Length { bytes: len });
+    }
+    file.read_exact(record)
+        .map_err(|_| CheckpointFileError::Io)?;
+    Ok(true)
+}
+
+/// Replaces the checkpoint file with `record`.
+pub fn write_checkpoint(path: &CStr, record: &[u8]) -> Result<(), CheckpointFileError> {
+    semihosting::fs::write(path, record).map_err(|_| CheckpointFileError::Io)
+}
+
+/// Why the checkpoint file could not be used.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]
+pub enum CheckpointFileError {
+    Io,
+    /// Not one record long.
+    Length {
+        bytes: u64,
+    },
 }
 
 /// Why the trace file could not be read.

@@ -19,5 +19,7 @@
 pub mod preflight;
 pub mod source;
 
-pub use preflight::{Preflight, PreflightError, PreflightSettings, Progress, Report, Stage};
+pub use preflight::{
+    CheckpointError, Preflight, PreflightError, PreflightSettings, Progress, Report, Stage,
+};
 pub use source::{Acquired, CurrentSource, TraceBytes, TraceSource, TraceSourceError};

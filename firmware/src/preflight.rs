@@ -13,6 +13,7 @@
 use shared::conditioning::ConditioningError;
 use shared::fdi::TEST_SAMPLES;
 use shared::fdi::{FdiError, Identification, IdentificationResult, OnboardMeasured, POPULATION};
+use shared::ga::RecordError;
 use shared::{ActuatorParams, Calibration, GaSettings, Status, Verdict, FAULT_COUNT};
 
 use crate::source::{Acquired, CurrentSource};
@@ -86,6 +87,16 @@ pub struct Report {
     pub max_evaluations_per_poll: u32,
 }
 
+/// Why a checkpoint was not taken or not resumed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum CheckpointError {
+    /// Checkpoints exist only during Identify (resume: before its first evaluation).
+    NotIdentifying,
+    /// The record was refused (the identification goes on from where it was).
+    Record(RecordError),
+}
+
 /// The outcome of one poll.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Progress {
@@ -156,6 +167,31 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
             State::Report { result } => result.evaluations,
             State::Done(report) => report.result.evaluations,
             _ => 0,
+        }
+    }
+
+    /// Writes the identification's state into `record` (an `OnboardRecord`, 1 276 B) for a
+    /// resume after a power loss; returns the evaluations it holds. O(`POPULATION`).
+    pub fn checkpoint(&self, record: &mut [u8]) -> Result<u32, CheckpointError> {
+        match &self.state {
+            State::Identify { id } => {
+                id.save(record).map_err(CheckpointError::Record)?;
+                Ok(id.ga().evaluations())
+            }
+            _ => Err(CheckpointError::NotIdentifying),
+        }
+    }
+
+    /// Continues the identification from a checkpoint of this same test, settings and seed,
+    /// right after Identify began; returns the evaluations it resumed at. A refused record
+    /// (damaged, torn, erased, another run) leaves the fresh identification untouched: the
+    /// preflight restarts cleanly. O(`POPULATION`).
+    pub fn resume(&mut self, record: &[u8]) -> Result<u32, CheckpointError> {
+        match &mut self.state {
+            State::Identify { id } if id.ga().evaluations() == 0 => {
+                id.resume(record).map_err(CheckpointError::Record)
+            }
+            _ => Err(CheckpointError::NotIdentifying),
         }
     }
 

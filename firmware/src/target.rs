@@ -22,7 +22,8 @@ use shared::fault::FAULT_NAMES;
 use shared::fdi::OnboardMeasured;
 use shared::LowPass;
 
-use crate::emulation::{Command, Crash, HostFile};
+use crate::emulation::{read_checkpoint, write_checkpoint, Command, Crash, HostFile};
+use shared::fdi::OnboardRecord;
 
 /// Exit statuses (semihosting SYS_EXIT_EXTENDED, QEMU's own exit status).
 mod status {
@@ -31,6 +32,8 @@ mod status {
     pub const USAGE: i32 = 2;
     pub const BAD_TRACE: i32 = 3;
     pub const START_UP: i32 = 4;
+    /// `--stop-after`: the simulated power loss cut the preflight (checkpoint written).
+    pub const INTERRUPTED: i32 = 5;
     pub const PANIC: i32 = 101;
     pub const HARD_FAULT: i32 = 102;
 }
@@ -52,6 +55,10 @@ const CORE_HZ: u64 = 168_000_000;
 
 /// Evaluations between two progress lines.
 const PROGRESS_EVERY: u32 = 1000;
+
+/// Evaluations between two checkpoints (`--checkpoint`): at most this much work is redone
+/// after a power loss; each write is one 1 276-byte record.
+const CHECKPOINT_EVERY: u32 = 500;
 
 fn start_cycle_clock(mut syst: SYST) {
     syst.set_clock_source(SystClkSource::Core);
@@ -140,7 +147,7 @@ async fn preflight(spawner: Spawner) -> i32 {
         Ok(c) => c,
         Err(e) => {
             defmt::error!(
-                "usage: cargo fw -- TRACE.bin [--seed N]  (binary trace from `host-sim simulate --format bin`): {}",
+                "usage: cargo fw -- TRACE.bin [--seed N] [--checkpoint FILE [--stop-after N]]  (binary trace from `host-sim simulate --format bin`): {}",
                 e
             );
             return status::USAGE;
@@ -204,6 +211,18 @@ async fn preflight(spawner: Spawner) -> i32 {
     );
     defmt::info!("calibration {}", settings.calibration);
 
+    // The GA record (the flash page on the controller; the --checkpoint file here).
+    let mut record: OnboardRecord = [0; core::mem::size_of::<OnboardRecord>()];
+    let checkpoint = command.checkpoint_path();
+    let mut have_record = false;
+    if let Some(path) = checkpoint {
+        match read_checkpoint(path, &mut record) {
+            Ok(found) => have_record = found,
+            Err(e) => defmt::println!("checkpoint refused reason={} (restarting)", e),
+        }
+    }
+    let mut next_checkpoint = CHECKPOINT_EVERY;
+
     let started = cycles();
     let mut preflight = Preflight::new(settings, source, measured);
     let mut stage = preflight.stage();
@@ -221,6 +240,18 @@ async fn preflight(spawner: Spawner) -> i32 {
                     if next == Stage::Identify {
                         observed.identify_start_cycles = now;
                         observed.stack_peak_before_identify = stack_peak();
+                        if have_record {
+                            match preflight.resume(&record) {
+                                Ok(n) => {
+                                    defmt::println!("checkpoint resumed evaluations={=u32}", n)
+                                }
+                                Err(e) => {
+                                    defmt::println!("checkpoint refused reason={} (restarting)", e)
+                                }
+                            }
+                            next_checkpoint =
+                                preflight.evaluations().saturating_add(CHECKPOINT_EVERY);
+                        }
                     } else if stage == Stage::Identify {
                         observed.identify_cycles =
                             now.saturating_sub(observed.identify_start_cycles);
@@ -234,6 +265,26 @@ async fn preflight(spawner: Spawner) -> i32 {
             }
         }
         let evaluations = preflight.evaluations();
+        if let Some(path) = checkpoint {
+            let cut = command.stop_after.is_some_and(|n| evaluations >= n);
+            if stage == Stage::Identify && (evaluations >= next_checkpoint || cut) {
+                next_checkpoint = evaluations.saturating_add(CHECKPOINT_EVERY);
+                let saved = preflight.checkpoint(&mut record);
+                let written = saved.map(|n| (n, write_checkpoint(path, &record)));
+                match written {
+                    Ok((n, Ok(()))) => defmt::info!("checkpoint written at {=u32} evaluations", n),
+                    Ok((_, Err(e))) => defmt::error!("checkpoint not written: {}", e),
+                    Err(e) => defmt::error!("checkpoint not taken: {}", e),
+                }
+                if cut {
+                    defmt::println!(
+                        "stopped evaluations={=u32} (simulated power loss)",
+                        evaluations
+                    );
+                    return status::INTERRUPTED;
+                }
+            }
+        }
         if evaluations >= next_progress {
             defmt::info!("identify: {=u32} evaluations", evaluations);
             next_progress = next_progress.saturating_add(PROGRESS_EVERY);

@@ -3,11 +3,12 @@
 
 use firmware::source::{SliceBytes, SAMPLE_RATE_HZ};
 use firmware::{
-    Acquired, CurrentSource, Preflight, PreflightError, PreflightSettings, Progress, Stage,
-    TraceSource, TraceSourceError,
+    Acquired, CheckpointError, CurrentSource, Preflight, PreflightError, PreflightSettings,
+    Progress, Stage, TraceSource, TraceSourceError,
 };
 use shared::conditioning::commutation_signs;
-use shared::fdi::{Identification, OnboardMeasured, POPULATION, TEST_SAMPLES};
+use shared::fdi::{Identification, OnboardMeasured, OnboardRecord, POPULATION, TEST_SAMPLES};
+use shared::ga::RecordError;
 use shared::trace::{Crc32, TraceError, TraceHeader, TraceRow};
 use shared::{AdcFrame, Calibration, FaultVector, GaSettings, LowPass, MonitorModel, StopReason};
 
@@ -300,4 +301,70 @@ fn a_clipped_current_stretch_is_refused_in_acquire() {
             first_row: 2000
         }))
     );
+}
+
+/// Polls until the report, resuming from `record` when Identify begins (if given) and
+/// taking a checkpoint into `save` after `stop_after` evaluations (then stops: power loss).
+fn run_preflight(
+    bytes: &[u8],
+    record: Option<&[u8]>,
+    stop_after: Option<(u32, &mut [u8])>,
+) -> (
+    Option<firmware::Report>,
+    Option<Result<u32, CheckpointError>>,
+) {
+    let source = TraceSource::open(SliceBytes::new(bytes)).expect("a valid trace");
+    let mut buffer = empty_buffer();
+    let mut preflight = Preflight::new(settings(), source, &mut buffer);
+    let mut resumed = None;
+    let mut stop_after = stop_after;
+    loop {
+        match preflight.poll().expect("no failure") {
+            Progress::Finished(r) => return (Some(r), resumed),
+            Progress::Working { stage } => {
+                if stage == Stage::Identify && resumed.is_none() {
+                    if let Some(record) = record {
+                        resumed = Some(preflight.resume(record));
+                    }
+                }
+                if let Some((at, out)) = stop_after.as_mut() {
+                    if preflight.evaluations() >= *at {
+                        // Polls do `evaluations_per_poll` (5) at a time: `at` is a multiple.
+                        assert_eq!(preflight.checkpoint(out), Ok(*at));
+                        return (None, resumed);
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn a_preflight_cut_by_power_loss_resumes_to_the_same_report() {
+    let bytes = trace_bytes(&monitor_rows(FAULTS, TEST_SAMPLES), SAMPLE_RATE_HZ);
+    let (reference, _) = run_preflight(&bytes, None, None);
+    let reference = reference.expect("a report");
+
+    let mut record = [0u8; core::mem::size_of::<OnboardRecord>()];
+    let (report, _) = run_preflight(&bytes, None, Some((40, &mut record)));
+    assert!(report.is_none(), "stopped before the end");
+    let (report, resumed) = run_preflight(&bytes, Some(&record), None);
+    assert_eq!(resumed, Some(Ok(40)));
+    let report = report.expect("a report");
+    assert_eq!(report.result, reference.result);
+    assert_eq!(
+        report.result.fitness.to_bits(),
+        reference.result.fitness.to_bits()
+    );
+
+    // A damaged record: refused, and the preflight restarts to the same report.
+    record[700] ^= 0x04;
+    let (report, resumed) = run_preflight(&bytes, Some(&record), None);
+    assert!(matches!(
+        resumed,
+        Some(Err(CheckpointError::Record(
+            RecordError::BadChecksum { .. }
+        )))
+    ));
+    assert_eq!(report.expect("a report").result, reference.result);
 }

@@ -1,14 +1,17 @@
 //! Running the onboard FDI on the host: the very `shared` code, sizes, GA settings and seed
 //! the firmware uses, driven in slices of [`SLICE`] evaluations so that the host can show
-//! progress and record the fitness history.
+//! progress and record the fitness history. With [`Checkpointing`] the GA record is written
+//! to a file as the firmware writes its flash page, and a run resumes from it.
 
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use shared::command::CommandTable;
 use shared::fdi::{
-    Identification, IdentificationResult, OnboardMeasured, POPULATION, TEST_SAMPLES,
+    Identification, IdentificationResult, OnboardMeasured, OnboardRecord, POPULATION, TEST_SAMPLES,
 };
+use shared::ga::RecordError;
 use shared::{ActuatorParams, Calibration, ChirpCommand, GaSettings, Status};
 
 /// Evaluations per slice (the firmware's bounded tick does the same kind of slicing).
@@ -24,6 +27,37 @@ pub struct Identified {
     pub history: Vec<(u32, f32)>,
 }
 
+/// Where the GA record goes and when (`identify --checkpoint`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Checkpointing {
+    pub path: PathBuf,
+    /// Evaluations between two writes (rounded up to whole slices).
+    pub every: u32,
+    /// Simulated power loss: stop once this many evaluations are done, record written.
+    pub stop_after: Option<u32>,
+}
+
+/// What became of an existing checkpoint file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Resumption {
+    /// No file: a fresh run.
+    Fresh,
+    /// Resumed at this many evaluations.
+    Resumed(u32),
+    /// The file was refused; the run restarted from scratch.
+    Refused(RecordError),
+}
+
+/// How a checkpointed identification ended.
+#[derive(Clone, Debug)]
+pub enum Outcome {
+    Finished(Identified),
+    /// `stop_after` reached; the record holds this many evaluations.
+    Interrupted {
+        evaluations: u32,
+    },
+}
+
 /// Identifies the faults behind `measured`. `progress` shows a bar on stderr.
 pub fn identify(
     measured: &OnboardMeasured,
@@ -31,6 +65,38 @@ pub fn identify(
     seed: u64,
     progress: bool,
 ) -> Result<Identified> {
+    match identify_checkpointed(measured, calibration, seed, progress, None)?.0 {
+        Outcome::Finished(id) => Ok(id),
+        Outcome::Interrupted { .. } => unreachable!("no checkpointing, no interruption"),
+    }
+}
+
+fn read_record(path: &Path) -> Result<Option<Vec<u8>>> {
+    match std::fs::read(path) {
+        Ok(bytes) => Ok(Some(bytes)),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        Err(e) => Err(e).with_context(|| format!("reading checkpoint {}", path.display())),
+    }
+}
+
+/// Writes the record beside `path` and renames it over: a crash mid-write leaves the old one.
+fn write_record(path: &Path, record: &OnboardRecord) -> Result<()> {
+    let mut tmp = path.as_os_str().to_owned();
+    tmp.push(".tmp");
+    std::fs::write(&tmp, record).with_context(|| format!("writing {}", path.display()))?;
+    std::fs::rename(&tmp, path).with_context(|| format!("replacing {}", path.display()))
+}
+
+/// [`identify`] with an optional checkpoint file: resumes from it if it is a sound record of
+/// this run, writes it every `every` evaluations and at the end, and stops early on
+/// `stop_after`.
+pub fn identify_checkpointed(
+    measured: &OnboardMeasured,
+    calibration: &Calibration,
+    seed: u64,
+    progress: bool,
+    checkpointing: Option<&Checkpointing>,
+) -> Result<(Outcome, Resumption)> {
     let settings = GaSettings::FDI;
     let params = ActuatorParams::REFERENCE;
     let start = Instant::now();
@@ -49,6 +115,17 @@ pub fn identify(
     )
     .and_then(|id| id.with_command_table(&table))
     .map_err(|e| anyhow::anyhow!("setting up the identification: {e:?}"))?;
+    let mut resumption = Resumption::Fresh;
+    let mut record: OnboardRecord = [0; std::mem::size_of::<OnboardRecord>()];
+    if let Some(c) = checkpointing {
+        if let Some(bytes) = read_record(&c.path)? {
+            resumption = match id.resume(&bytes) {
+                Ok(n) => Resumption::Resumed(n),
+                Err(e) => Resumption::Refused(e),
+            };
+        }
+    }
+    let mut next_write = checkpointing.map_or(u32::MAX, |c| id.ga().evaluations() + c.every);
     let bar = crate::progress_bar(
         u64::from(settings.max_evaluations),
         "identifying {bar:40} {pos}/{len} evaluations {msg}",
@@ -56,20 +133,43 @@ pub fn identify(
     );
     let mut history = Vec::new();
     loop {
-        let status = id.step(SLICE);
+        let done = id.ga().evaluations();
+        // Never step past the simulated power loss.
+        let slice = checkpointing
+            .and_then(|c| c.stop_after)
+            .map_or(SLICE, |stop| stop.saturating_sub(done).min(SLICE));
+        let status = id.step(slice);
+        let evaluations = id.ga().evaluations();
         let best = id.ga().best();
-        history.push((id.ga().evaluations(), best.fitness));
-        bar.set_position(u64::from(id.ga().evaluations()));
+        history.push((evaluations, best.fitness));
+        bar.set_position(u64::from(evaluations));
         bar.set_message(format!("best {:.3e} A²·s", best.fitness));
+        if let Some(c) = checkpointing {
+            let cut = c.stop_after.is_some_and(|n| evaluations >= n);
+            let finished = matches!(status, Status::Done(_));
+            if evaluations >= next_write || cut || finished {
+                next_write = evaluations.saturating_add(c.every);
+                id.save(&mut record)
+                    .map_err(|e| anyhow::anyhow!("checkpoint: {e:?}"))?;
+                write_record(&c.path, &record)?;
+            }
+            if cut && !finished {
+                bar.finish_and_clear();
+                return Ok((Outcome::Interrupted { evaluations }, resumption));
+            }
+        }
         if let Status::Done(_) = status {
             break;
         }
     }
     let seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
-    Ok(Identified {
-        result: id.result_so_far(),
-        seconds,
-        history,
-    })
+    Ok((
+        Outcome::Finished(Identified {
+            result: id.result_so_far(),
+            seconds,
+            history,
+        }),
+        resumption,
+    ))
 }

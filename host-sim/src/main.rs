@@ -15,7 +15,9 @@ use clap::{Parser, Subcommand};
 use host_sim::calibration::{calibrate, CalibrationFile};
 use host_sim::campaign::{run_once, TABLE_1};
 use host_sim::faults;
-use host_sim::identify::{identify, Identified};
+use host_sim::identify::{
+    identify, identify_checkpointed, Checkpointing, Identified, Outcome, Resumption,
+};
 use host_sim::median;
 use host_sim::optimisers::{self, TraceSource};
 use host_sim::plot;
@@ -47,10 +49,24 @@ struct Cli {
 }
 
 const EXIT_HELP: &str = "Exit status: 0 done; 1 error; 2 usage; 3 trace refused (the message \
-names the field and the line or row).";
+names the field and the line or row); 5 identify stopped by --stop-after (checkpoint written).";
 
 /// Exit status when a trace file is refused.
 const EXIT_TRACE_REFUSED: u8 = 3;
+/// Exit status of `identify --stop-after` (the simulated power loss).
+const EXIT_INTERRUPTED: u8 = 5;
+
+/// A command that ended without error but is not done (`identify --stop-after`).
+#[derive(Debug)]
+struct Interrupted;
+
+impl std::fmt::Display for Interrupted {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("interrupted")
+    }
+}
+
+impl std::error::Error for Interrupted {}
 
 const FAULTS_HELP: &str = "eight comma-separated values in [0, 1]: friction, backlash, \
 short A, short B, short C, eccentricity, eccentricity phase, gain drift (nominal \
@@ -123,6 +139,18 @@ enum Command {
         /// Print one JSON object instead of the table.
         #[arg(long)]
         json: bool,
+        /// GA checkpoint file (the firmware's 1 276-byte record): resumed from if it is a
+        /// sound record of this trace, seed and settings (else refused and restarted), and
+        /// rewritten as the run goes.
+        #[arg(long, value_name = "FILE")]
+        checkpoint: Option<PathBuf>,
+        /// Evaluations between two checkpoint writes.
+        #[arg(long, default_value_t = 500, requires = "checkpoint", value_parser = clap::value_parser!(u32).range(1..))]
+        checkpoint_every: u32,
+        /// Simulate a power loss: stop after N evaluations with the checkpoint written
+        /// (exit status 5).
+        #[arg(long, value_name = "N", requires = "checkpoint")]
+        stop_after: Option<u32>,
     },
     /// Identify a trace and draw measured vs best-fit current and the fitness history (SVG).
     Plot {
@@ -281,7 +309,24 @@ fn main() -> ExitCode {
             seed,
             truth,
             json,
-        } => identify_command(&trace, calibration.as_deref(), seed, truth, json),
+            checkpoint,
+            checkpoint_every,
+            stop_after,
+        } => {
+            let checkpointing = checkpoint.map(|path| Checkpointing {
+                path,
+                every: checkpoint_every,
+                stop_after,
+            });
+            identify_command(
+                &trace,
+                calibration.as_deref(),
+                seed,
+                truth,
+                json,
+                checkpointing.as_ref(),
+            )
+        }
         Command::Plot {
             trace,
             calibration,
@@ -319,6 +364,7 @@ fn main() -> ExitCode {
     };
     match outcome {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e) if e.is::<Interrupted>() => ExitCode::from(EXIT_INTERRUPTED),
         Err(e) => {
             eprintln!("error: {e:#}");
             if e.chain().any(|c| c.is::<IngestError>()) {
@@ -482,16 +528,51 @@ fn identify_command(
     seed: u64,
     truth: Option<FaultVector>,
     json: bool,
+    checkpointing: Option<&Checkpointing>,
 ) -> Result<()> {
     let trace = Trace::read(trace_path)?;
     let measured = trace.measured(&ActuatorParams::REFERENCE)?;
     let (calibration, cal_name) = load_calibration(calibration)?;
-    let id = identify(&measured, &calibration, seed, progress_wanted(json))?;
-    let heading = vec![
+    let (outcome, resumption) = identify_checkpointed(
+        &measured,
+        &calibration,
+        seed,
+        progress_wanted(json),
+        checkpointing,
+    )?;
+    if let Some(c) = checkpointing {
+        let file = c.path.display();
+        match resumption {
+            Resumption::Fresh => {}
+            Resumption::Resumed(n) => eprintln!("resumed from {file} at {n} evaluations"),
+            Resumption::Refused(e) => {
+                eprintln!("checkpoint {file} refused ({e:?}): the identification restarted")
+            }
+        }
+    }
+    let id = match outcome {
+        Outcome::Finished(id) => id,
+        Outcome::Interrupted { evaluations } => {
+            eprintln!(
+                "stopped after {evaluations} evaluations (simulated power loss); checkpoint in {}",
+                checkpointing.map_or(String::new(), |c| c.path.display().to_string())
+            );
+            return Err(Interrupted.into());
+        }
+    };
+    let mut heading = vec![
         ("trace".to_string(), trace_path.display().to_string()),
         ("calibration".to_string(), cal_name),
         ("ga_seed".to_string(), seed.to_string()),
     ];
+    if checkpointing.is_some() {
+        let said = match resumption {
+            Resumption::Fresh => "fresh start".to_string(),
+            Resumption::Resumed(n) => format!("resumed at {n} evaluations"),
+            Resumption::Refused(e) => format!("refused ({e:?}), restarted"),
+        };
+        heading.push(("checkpoint".to_string(), said));
+    }
     report(&id, truth.as_ref(), &heading, json);
     Ok(())
 }
