@@ -244,3 +244,92 @@ fn a_too_long_trace_is_refused_not_truncated() {
     assert_eq!(run.status, 1, "{}", run.output);
     assert!(run.output.contains("TooManyFrames"), "{}", run.output);
 }
+
+/// The firmware's `bits faults=… fitness=…` line as `u32`s (faults, then fitness).
+fn result_bits(output: &str) -> Vec<u32> {
+    let mut bits: Vec<u32> = list(field(output, "bits ", "faults"))
+        .iter()
+        .map(|x| u32::from_str_radix(x, 16).expect("hex bits"))
+        .collect();
+    bits.push(u32::from_str_radix(field(output, "bits ", "fitness"), 16).expect("hex"));
+    bits
+}
+
+fn host_bits(r: &shared::fdi::IdentificationResult) -> Vec<u32> {
+    let mut bits: Vec<u32> = r.faults.as_array().iter().map(|x| x.to_bits()).collect();
+    bits.push(r.fitness.to_bits());
+    bits
+}
+
+#[test]
+fn a_power_loss_under_qemu_resumes_to_the_same_bits_and_a_damaged_record_restarts() {
+    use host_sim::identify::{identify_checkpointed, Checkpointing, Outcome, Resumption};
+
+    let bytes = faulty_trace().to_bin().expect("encodable");
+    let trace = temp_trace("resume.bin", &bytes);
+    let trace = trace.to_str().expect("UTF-8 temp path");
+    let measured = Trace::from_bin(&bytes)
+        .expect("readable")
+        .measured(&ActuatorParams::REFERENCE)
+        .expect("conditioned");
+    let host = identify(&measured, &Calibration::REFERENCE_ACTUATOR, 1, false)
+        .expect("host identification runs")
+        .result;
+
+    // Power lost after 2 345 evaluations: exit 5, the record written.
+    let record_path = temp_trace("resume.ck", b"");
+    std::fs::remove_file(&record_path).expect("no record yet");
+    let record_arg = record_path.to_str().expect("UTF-8 temp path");
+    let cut = run_firmware(&[trace, "--checkpoint", record_arg, "--stop-after", "2345"]);
+    assert_eq!(cut.status, 5, "{}", cut.output);
+    assert_eq!(number(&cut.output, "stopped ", "evaluations"), 2345);
+    let record = std::fs::read(&record_path).expect("the record was written");
+    assert_eq!(record.len(), 1276);
+
+    // The host resumes the firmware's record to the same bits (one format, one code).
+    let copy = temp_trace("resume-host.ck", &record);
+    let checkpointing = Checkpointing {
+        path: copy,
+        every: 500,
+        stop_after: None,
+    };
+    let (outcome, resumption) = identify_checkpointed(
+        &measured,
+        &Calibration::REFERENCE_ACTUATOR,
+        1,
+        false,
+        Some(&checkpointing),
+    )
+    .expect("host resumes");
+    assert_eq!(resumption, Resumption::Resumed(2345));
+    let Outcome::Finished(resumed_on_host) = outcome else {
+        panic!("no stop requested")
+    };
+    assert_eq!(host_bits(&resumed_on_host.result), host_bits(&host));
+
+    // Power back: the firmware resumes and finishes with the uninterrupted bits.
+    let resumed = run_firmware(&[trace, "--checkpoint", record_arg]);
+    assert_eq!(resumed.status, 0, "{}", resumed.output);
+    assert_eq!(
+        number(&resumed.output, "checkpoint resumed", "evaluations"),
+        2345
+    );
+    assert_eq!(result_bits(&resumed.output), host_bits(&host));
+
+    // A damaged record: refused by its checksum, the identification restarts cleanly and
+    // still gives the same bits.
+    let mut damaged = record.clone();
+    damaged[600] ^= 0x20;
+    std::fs::write(&record_path, &damaged).expect("written");
+    let restarted = run_firmware(&[trace, "--checkpoint", record_arg]);
+    assert_eq!(restarted.status, 0, "{}", restarted.output);
+    assert!(
+        restarted
+            .output
+            .contains("checkpoint refused reason=Record(BadChecksum"),
+        "{}",
+        restarted.output
+    );
+    assert!(!restarted.output.contains("checkpoint resumed"));
+    assert_eq!(result_bits(&restarted.output), host_bits(&host));
+}
