@@ -4,17 +4,19 @@
 //! Work bounds per poll: Acquire ≤ [`PreflightSettings::frames_per_poll`] frames (O(1) each);
 //! Condition one O(`TEST_SAMPLES`) pass; Identify ≤
 //! [`PreflightSettings::evaluations_per_poll`] monitor-model evaluations (each 0.5 s of model
-//! time at the control period); Report O(1). Time is never read here; the caller measures it.
+//! time at the control period); Report O(1), including the domain verdict
+//! ([`shared::domain`], its statistics gathered frame by frame during Acquire). Time is never read here; the caller measures it.
 //!
 //! Memory: the measured-current buffer is lent in (`&mut OnboardMeasured`, 20 kB), the GA
 //! and the monitor model live in the state (≈ 1.5 kB). Same settings, seed and frames give the
 //! same bits as `host-sim identify`.
 
 use shared::conditioning::ConditioningError;
+use shared::domain::{Domain, DomainLimits, DomainMonitor};
 use shared::fdi::TEST_SAMPLES;
 use shared::fdi::{FdiError, Identification, IdentificationResult, OnboardMeasured, POPULATION};
 use shared::ga::RecordError;
-use shared::{ActuatorParams, Calibration, GaSettings, Status, Verdict, FAULT_COUNT};
+use shared::{ActuatorParams, Calibration, ChirpCommand, GaSettings, Status, Verdict, FAULT_COUNT};
 
 use crate::source::{Acquired, CurrentSource};
 
@@ -25,6 +27,8 @@ pub struct PreflightSettings {
     /// The monitor model's calibration against this actuator (a flash record on a fleet).
     pub calibration: Calibration,
     pub ga: GaSettings,
+    /// Where the monitor model's domain ends (jam, open phase, other command, fitness).
+    pub domain: DomainLimits,
     /// GA seed (`host-sim identify --seed`).
     pub seed: u64,
     /// Frames taken from the source per poll.
@@ -40,6 +44,7 @@ impl PreflightSettings {
         params: ActuatorParams::REFERENCE,
         calibration: Calibration::REFERENCE_ACTUATOR,
         ga: GaSettings::FDI,
+        domain: DomainLimits::REFERENCE_ACTUATOR,
         seed: 1,
         frames_per_poll: 500,
         evaluations_per_poll: 1,
@@ -78,6 +83,9 @@ pub enum PreflightError<E> {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Report {
     pub result: IdentificationResult,
+    /// Whether the monitor model explains this actuator at all; when `Outside`, the fault
+    /// vector and the verdicts must not be acted on.
+    pub domain: Domain,
     pub verdicts: [Verdict; FAULT_COUNT],
     /// Frames acquired.
     pub frames: u32,
@@ -131,6 +139,7 @@ pub struct Preflight<'m, S> {
     settings: PreflightSettings,
     source: S,
     state: State<'m>,
+    domain: DomainMonitor,
     frames: u32,
     identify_polls: u32,
     max_evaluations_per_poll: u32,
@@ -144,6 +153,11 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
             settings,
             source,
             state: State::Acquire { measured },
+            domain: DomainMonitor::new(
+                ChirpCommand::PREFLIGHT,
+                settings.params.control_period,
+                settings.params.pole_pairs,
+            ),
             frames: 0,
             identify_polls: 0,
             max_evaluations_per_poll: 0,
@@ -224,6 +238,7 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                                     capacity: TEST_SAMPLES as u32,
                                 });
                             }
+                            self.domain.push(&frame);
                             self.frames = self.frames.saturating_add(1);
                         }
                         Acquired::NotYet => break,
@@ -255,6 +270,7 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
             }
             State::Report { result } => Ok(State::Done(Report {
                 result,
+                domain: self.domain.assess(&self.settings.domain, result.fitness),
                 verdicts: result.faults.verdicts(),
                 frames: self.frames,
                 identify_polls: self.identify_polls,

@@ -18,6 +18,7 @@ use semihosting::process::exit;
 use static_cell::StaticCell;
 
 use firmware::{Preflight, PreflightSettings, Progress, Report, Stage, TraceSource};
+use shared::domain::Domain;
 use shared::fault::FAULT_NAMES;
 use shared::fdi::OnboardMeasured;
 use shared::LowPass;
@@ -325,6 +326,13 @@ fn print_report(report: &Report, observed: &Observed, total_cycles: u64) {
         faults.map(f32::to_bits),
         r.fitness.to_bits()
     );
+    match report.domain {
+        Domain::Within => defmt::println!("domain within"),
+        Domain::Outside(reason) => defmt::println!(
+            "domain outside reason={} (outside the monitor model's domain: do not act on the fault vector)",
+            reason
+        ),
+    }
     for (name, verdict) in FAULT_NAMES.iter().zip(report.verdicts.iter()) {
         defmt::println!("verdict {=str} {}", name, verdict);
     }

@@ -7,6 +7,7 @@ use firmware::{
     Progress, Stage, TraceSource, TraceSourceError,
 };
 use shared::conditioning::commutation_signs;
+use shared::domain::{Domain, OutsideReason};
 use shared::fdi::{Identification, OnboardMeasured, OnboardRecord, POPULATION, TEST_SAMPLES};
 use shared::ga::RecordError;
 use shared::trace::{Crc32, TraceError, TraceHeader, TraceRow};
@@ -367,4 +368,35 @@ fn a_preflight_cut_by_power_loss_resumes_to_the_same_report() {
         )))
     ));
     assert_eq!(report.expect("a report").result, reference.result);
+}
+
+#[test]
+fn a_jammed_actuator_is_reported_outside_the_models_domain() {
+    // The user shaft stands still whatever the command; the motor trace is the model's.
+    let mut rows = monitor_rows(FAULTS, TEST_SAMPLES);
+    let stuck = rows[0].user_angle;
+    for row in rows.iter_mut() {
+        row.user_angle = stuck;
+    }
+    let bytes = trace_bytes(&rows, SAMPLE_RATE_HZ);
+    let (report, _) = run_preflight(&bytes, None, None);
+    let report = report.expect("a report");
+    assert!(
+        matches!(
+            report.domain,
+            Domain::Outside(OutsideReason::NoMotion { travel }) if travel == 0.0
+        ),
+        "{:?}",
+        report.domain
+    );
+    // The untouched trace moves and is not refused for lack of motion.
+    let bytes = trace_bytes(&monitor_rows(FAULTS, TEST_SAMPLES), SAMPLE_RATE_HZ);
+    let (report, _) = run_preflight(&bytes, None, None);
+    assert!(
+        !matches!(
+            report.expect("a report").domain,
+            Domain::Outside(OutsideReason::NoMotion { .. })
+        ),
+        "the model's own trace moves"
+    );
 }

@@ -5,12 +5,14 @@
 //! * [`trace_file`] — CSV and binary trace files.
 //! * [`calibration`] — fitting the monitor model to a healthy trace.
 //! * [`campaign`] — accuracy campaigns over the paper's fault cases.
+//! * [`domain`] — the survey behind the "outside the monitor model's domain" limits.
 //! * [`identify`] — the onboard FDI driven on the host, with progress and history.
 //! * [`plot`] — SVG pictures of an identification.
 //! * [`faults`] — parsing fault vectors from the command line.
 
 pub mod calibration;
 pub mod campaign;
+pub mod domain;
 pub mod faults;
 pub mod identify;
 pub mod optimisers;

@@ -25,6 +25,7 @@ use host_sim::reference::{ReferenceModel, ReferenceSettings, Scenario};
 use host_sim::trace_file::{IngestError, Trace, TraceFormat};
 use serde_json::json;
 use shared::command::{CommandSource, CommandTable};
+use shared::domain::{Domain, DomainLimits};
 use shared::fault::{Verdict, FAULT_COUNT, FAULT_NAMES};
 use shared::fdi::{
     record_monitor_trace, Identification, OnboardGa, OnboardMeasured, POPULATION, TEST_SAMPLES,
@@ -49,24 +50,47 @@ struct Cli {
 }
 
 const EXIT_HELP: &str = "Exit status: 0 done; 1 error; 2 usage; 3 trace refused (the message \
-names the field and the line or row); 5 identify stopped by --stop-after (checkpoint written).";
+names the field and the line or row); 4 identify/preflight: the actuator is outside the monitor \
+model's domain (jammed, open phase, another command, unexplained residual; the result is \
+printed but must not be acted on); 5 identify stopped by --stop-after (checkpoint written).";
 
 /// Exit status when a trace file is refused.
 const EXIT_TRACE_REFUSED: u8 = 3;
 /// Exit status of `identify --stop-after` (the simulated power loss).
 const EXIT_INTERRUPTED: u8 = 5;
 
-/// A command that ended without error but is not done (`identify --stop-after`).
-#[derive(Debug)]
-struct Interrupted;
+/// Exit status of `identify`/`preflight` when the actuator lies outside the monitor model's
+/// domain (the result was printed, marked as not to be acted on).
+const EXIT_OUTSIDE_DOMAIN: u8 = 4;
 
-impl std::fmt::Display for Interrupted {
+/// A command that said what it had to and ends with this exit status (no error message).
+#[derive(Debug)]
+struct ExitWith(u8);
+
+impl std::fmt::Display for ExitWith {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("interrupted")
+        write!(f, "exit status {}", self.0)
     }
 }
 
-impl std::error::Error for Interrupted {}
+impl std::error::Error for ExitWith {}
+
+/// The domain verdict as a heading line, and the exit status it calls for.
+fn domain_heading(domain: Domain) -> ((String, String), Result<()>) {
+    match domain {
+        Domain::Within => (("domain".to_string(), "within".to_string()), Ok(())),
+        Domain::Outside(reason) => {
+            eprintln!(
+                "warning: the actuator is outside the monitor model's domain ({reason:?}): \
+                 do not act on the fault vector"
+            );
+            (
+                ("domain".to_string(), format!("outside: {reason:?}")),
+                Err(ExitWith(EXIT_OUTSIDE_DOMAIN).into()),
+            )
+        }
+    }
+}
 
 const FAULTS_HELP: &str = "eight comma-separated values in [0, 1]: friction, backlash, \
 short A, short B, short C, eccentricity, eccentricity phase, gain drift (nominal \
@@ -208,6 +232,17 @@ enum Command {
         /// Noise seeds per vector (3 × this many reference-model runs).
         #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u64).range(2..=1000))]
         seeds: u64,
+    },
+    /// Domain survey: the statistics behind the "outside the monitor model's domain" verdict
+    /// on actuators the model explains (Table I/II, healthy, noise, seeds) and on ones it
+    /// does not (jammed, an open phase, other commands). Prints a table and the limits.
+    Domain {
+        /// Reference-model seeds per case.
+        #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u64).range(1..=100))]
+        seeds: u64,
+        /// Also write the table to this Markdown file.
+        #[arg(long)]
+        out: Option<PathBuf>,
     },
     /// Optimiser comparison on the same fitness and traces (paper Table I cases): our
     /// steady-state GA, a generational GA configured as the paper's MATLAB `ga`, and
@@ -353,6 +388,7 @@ fn main() -> ExitCode {
             out,
             plot,
         } => optimisers_command(seeds, cap, source, target, out.as_deref(), plot.as_deref()),
+        Command::Domain { seeds, out } => domain_command(seeds, out.as_deref()),
         Command::Footprint => {
             footprint();
             Ok(())
@@ -364,7 +400,10 @@ fn main() -> ExitCode {
     };
     match outcome {
         Ok(()) => ExitCode::SUCCESS,
-        Err(e) if e.is::<Interrupted>() => ExitCode::from(EXIT_INTERRUPTED),
+        Err(e) if e.is::<ExitWith>() => match e.downcast_ref::<ExitWith>() {
+            Some(ExitWith(code)) => ExitCode::from(*code),
+            None => ExitCode::FAILURE,
+        },
         Err(e) => {
             eprintln!("error: {e:#}");
             if e.chain().any(|c| c.is::<IngestError>()) {
@@ -374,6 +413,23 @@ fn main() -> ExitCode {
             }
         }
     }
+}
+
+fn domain_command(seeds: u64, out: Option<&Path>) -> Result<()> {
+    let limits = shared::domain::DomainLimits::REFERENCE_ACTUATOR;
+    let start = Instant::now();
+    let rows = host_sim::domain::survey(seeds, &limits, std::io::stderr().is_terminal())?;
+    let text = host_sim::domain::markdown(&rows, &limits);
+    print!("{text}");
+    println!(
+        "\n{} tests in {:.0} s",
+        rows.len(),
+        start.elapsed().as_secs_f64()
+    );
+    if let Some(path) = out {
+        std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(())
 }
 
 fn progress_wanted(json: bool) -> bool {
@@ -557,7 +613,7 @@ fn identify_command(
                 "stopped after {evaluations} evaluations (simulated power loss); checkpoint in {}",
                 checkpointing.map_or(String::new(), |c| c.path.display().to_string())
             );
-            return Err(Interrupted.into());
+            return Err(ExitWith(EXIT_INTERRUPTED).into());
         }
     };
     let mut heading = vec![
@@ -565,6 +621,12 @@ fn identify_command(
         ("calibration".to_string(), cal_name),
         ("ga_seed".to_string(), seed.to_string()),
     ];
+    let (line, verdict) = domain_heading(
+        trace
+            .domain_monitor(&ActuatorParams::REFERENCE)
+            .assess(&DomainLimits::REFERENCE_ACTUATOR, id.result.fitness),
+    );
+    heading.push(line);
     if checkpointing.is_some() {
         let said = match resumption {
             Resumption::Fresh => "fresh start".to_string(),
@@ -574,7 +636,7 @@ fn identify_command(
         heading.push(("checkpoint".to_string(), said));
     }
     report(&id, truth.as_ref(), &heading, json);
-    Ok(())
+    verdict
 }
 
 fn preflight(
@@ -596,7 +658,7 @@ fn preflight(
         ga_seed,
         progress_wanted(json),
     )?;
-    let heading = vec![
+    let mut heading = vec![
         (
             "actuator".to_string(),
             format!("reference model, noise {noise}, seed {seed} ({rm_seconds:.3} s)"),
@@ -604,8 +666,14 @@ fn preflight(
         ("calibration".to_string(), "built-in".to_string()),
         ("ga_seed".to_string(), ga_seed.to_string()),
     ];
+    let (line, verdict) = domain_heading(
+        trace
+            .domain_monitor(&ActuatorParams::REFERENCE)
+            .assess(&DomainLimits::REFERENCE_ACTUATOR, id.result.fitness),
+    );
+    heading.push(line);
     report(&id, Some(&faults), &heading, json);
-    Ok(())
+    verdict
 }
 
 fn campaign_command(

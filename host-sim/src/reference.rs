@@ -185,11 +185,24 @@ struct Phase {
     coupling: f64,
 }
 
+/// A failure outside the fault vector, which the monitor model cannot represent: what the
+/// FDI must report as "outside the monitor model's domain" rather than fit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Anomaly {
+    /// The user shaft is jammed where it starts (a seized ball screw or hinge): it does not
+    /// move whatever the gear transmits.
+    Jammed,
+    /// One motor phase (0 = A) is disconnected: it carries no current, and the other two can
+    /// only carry current in series.
+    OpenPhase(usize),
+}
+
 /// The reference model: settings plus the command.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ReferenceModel {
     settings: ReferenceSettings,
     command: ChirpCommand,
+    anomaly: Option<Anomaly>,
 }
 
 impl ReferenceModel {
@@ -197,11 +210,18 @@ impl ReferenceModel {
         Self {
             settings,
             command: ChirpCommand::PREFLIGHT,
+            anomaly: None,
         }
     }
 
     pub fn with_command(mut self, command: ChirpCommand) -> Self {
         self.command = command;
+        self
+    }
+
+    /// The same actuator with a failure outside the fault vector.
+    pub fn with_anomaly(mut self, anomaly: Anomaly) -> Self {
+        self.anomaly = Some(anomaly);
         self
     }
 
@@ -288,6 +308,11 @@ impl ReferenceModel {
         let aero = f64::from(p.aero_stiffness);
         let vdc = f64::from(p.dc_bus_voltage);
         let pole_pairs = f64::from(p.pole_pairs);
+        let jammed = self.anomaly == Some(Anomaly::Jammed);
+        let open_phase = match self.anomaly {
+            Some(Anomaly::OpenPhase(x)) => Some(x % 3),
+            _ => None,
+        };
 
         // Random streams: sensors and process noise, independent, both from the seed.
         let mut sensor_rng = Gaussian::new(scenario.seed ^ 0x5E45_0125_u64);
@@ -420,7 +445,19 @@ impl ReferenceModel {
 
                 // Current derivatives with a floating neutral.
                 let mut di = [0.0f64; 3];
-                if i[floating] == 0.0 {
+                if let Some(x) = open_phase {
+                    // Only the other two phases form a circuit, in series; none if one of
+                    // them is the floating leg with its diodes blocking.
+                    let (y, z) = ((x + 1) % 3, (x + 2) % 3);
+                    let blocked = (y == floating || z == floating) && i[floating] == 0.0;
+                    if !blocked {
+                        let r = phases[y].resistance + phases[z].resistance;
+                        let l = phases[y].inductance + phases[z].inductance;
+                        let d = (v[y] - v[z] - r * i[y] - emf[y] + emf[z]) / l;
+                        di[y] = d;
+                        di[z] = -d;
+                    }
+                } else if i[floating] == 0.0 {
                     // The open phase carries nothing: the other two are in series.
                     let (y, z) = ((floating + 1) % 3, (floating + 2) % 3);
                     let r = phases[y].resistance + phases[z].resistance;
@@ -468,6 +505,15 @@ impl ReferenceModel {
                     let residual = 0.5 * (i[y] + i[z]);
                     i[y] -= residual;
                     i[z] -= residual;
+                }
+                if let Some(x) = open_phase {
+                    // The series constraint again after the diode rule above.
+                    let (y, z) = ((x + 1) % 3, (x + 2) % 3);
+                    let blocked = (y == floating || z == floating) && i[floating] == 0.0;
+                    let m = if blocked { 0.0 } else { 0.5 * (i[y] - i[z]) };
+                    i[x] = 0.0;
+                    i[y] = m;
+                    i[z] = -m;
                 }
 
                 // Gear train: dead zone, compliant contact with damping, never pulling.
@@ -519,7 +565,11 @@ impl ReferenceModel {
                     load += -s.end_stop_stiffness * beyond - s.end_stop_damping * omega_u;
                     ledger.mechanical_loss += s.end_stop_damping * omega_u * omega_u * dt;
                 }
-                let new_omega_u = omega_u + dt * (gear_torque + load) / ju;
+                let new_omega_u = if jammed {
+                    0.0
+                } else {
+                    omega_u + dt * (gear_torque + load) / ju
+                };
 
                 omega_m = new_omega_m;
                 omega_u = new_omega_u;

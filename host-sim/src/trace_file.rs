@@ -16,12 +16,13 @@ use std::path::Path;
 
 use anyhow::{bail, Context, Result};
 use fixed::types::{I16F16, I4F28};
+use shared::domain::DomainMonitor;
 use shared::fdi::{OnboardMeasured, TEST_SAMPLES};
 use shared::trace::{
     Crc32, SaturationCheck, TraceError, TraceHeader, TraceRow, CURRENT_FULL_SCALE, HEADER_BYTES,
     MAGIC, ROW_BYTES, SATURATION_RUN, TRAILER_BYTES,
 };
-use shared::{ActuatorParams, LowPass};
+use shared::{ActuatorParams, ChirpCommand, LowPass};
 
 /// The CSV header, column for column.
 pub const CSV_HEADER: [&str; 7] = ["t", "theta_cmd", "i_a", "i_b", "i_c", "theta_m", "theta_u"];
@@ -86,6 +87,20 @@ impl Trace {
 
     pub fn samples(&self) -> &[TraceSample] {
         &self.samples
+    }
+
+    /// The domain statistics of this test ([`shared::domain`]), as the controller gathers
+    /// them frame by frame against the preflight chirp.
+    pub fn domain_monitor(&self, params: &ActuatorParams) -> DomainMonitor {
+        let mut monitor = DomainMonitor::new(
+            ChirpCommand::PREFLIGHT,
+            params.control_period,
+            params.pole_pairs,
+        );
+        for s in &self.samples {
+            monitor.push(&s.row().adc_frame());
+        }
+        monitor
     }
 
     /// Conditions the trace exactly as the controller does: fixed-point ADC frames →

@@ -13,6 +13,9 @@
 //! * [`metrics`] — e_i and e_tot, eq. (4).
 //! * [`fdi`] — the pieces wired together with the onboard sizes and settings.
 //! * [`trace`] — the binary preflight trace format (header, fixed-point rows, CRC-32).
+//! * [`domain`] — is the actuator inside the monitor model's domain (jam, open phase, other
+//!   command, fitness floor)?
+//! * [`random`] — the GA's seeded xoshiro128++ (state readable for checkpoints).
 #![cfg_attr(not(test), no_std)]
 // No panic on any input (issue 7): these lints make unwraps, panics and unchecked indexing
 // compile errors in this crate; unit tests may use them.
@@ -28,6 +31,7 @@
 
 pub mod command;
 pub mod conditioning;
+pub mod domain;
 pub mod fault;
 pub mod fdi;
 pub mod fitness;

@@ -1,0 +1,213 @@
+//! The domain survey (`host-sim domain`): the statistics [`shared::domain`] judges, measured
+//! on actuators the monitor model explains (Table I and II cases, the healthy actuator, with
+//! process noise and several seeds) and on actuators it does not (jammed, each phase open,
+//! tests run with other commands), so that each limit of
+//! [`DomainLimits::REFERENCE_ACTUATOR`] can be seen to separate the two groups.
+//! One row = one reference-model test (0.05 s) + one identification (≈ 1 s).
+
+use anyhow::Result;
+use rayon::prelude::*;
+use shared::domain::{Domain, DomainLimits, DomainMonitor};
+use shared::{ActuatorParams, Calibration, ChirpCommand, FaultVector};
+
+use crate::campaign::{HEALTHY, TABLE_1, TABLE_2};
+use crate::identify::identify;
+use crate::reference::{Anomaly, ReferenceModel, ReferenceSettings, Scenario};
+use crate::trace_file::Trace;
+
+/// One surveyed test.
+#[derive(Clone, Debug)]
+pub struct SurveyRow {
+    pub name: String,
+    /// Whether the monitor model explains this actuator (what the verdict should say).
+    pub inside: bool,
+    pub travel: f32,
+    /// Smallest phase ratio (mean commutated current over the largest phase's).
+    pub phase_ratio: f32,
+    pub tracking: f32,
+    /// Largest phase's mean commutated current [A].
+    pub phase_current: f32,
+    pub fitness: f32,
+    pub domain: Domain,
+}
+
+/// The statistics and the verdict for `trace`, with the built-in calibration and GA seed 1.
+pub fn assess(trace: &Trace, limits: &DomainLimits) -> Result<(DomainMonitor, f32, Domain)> {
+    let params = ActuatorParams::REFERENCE;
+    let monitor = trace.domain_monitor(&params);
+    let measured = trace.measured(&params)?;
+    let id = identify(&measured, &Calibration::REFERENCE_ACTUATOR, 1, false)?;
+    let fitness = id.result.fitness;
+    Ok((monitor, fitness, monitor.assess(limits, fitness)))
+}
+
+/// Everything the survey runs: (name, inside?, model, scenario).
+fn tests(seeds: u64) -> Vec<(String, bool, ReferenceModel, Scenario)> {
+    let rm = ReferenceModel::new(ReferenceSettings::REFERENCE);
+    let mut out = Vec::new();
+    let inside = TABLE_1.iter().chain(TABLE_2.iter()).chain([&HEALTHY]);
+    for case in inside {
+        for noise in [case.noise, 0.1] {
+            for seed in 0..seeds {
+                let mut s = Scenario::new(FaultVector::saturating(case.faults));
+                s.current_ref_noise = noise;
+                s.seed = seed;
+                out.push((
+                    format!("{} (noise {noise}, seed {seed})", case.name),
+                    true,
+                    rm,
+                    s,
+                ));
+            }
+        }
+    }
+    let outside = [
+        ("jammed", rm.with_anomaly(Anomaly::Jammed)),
+        ("phase A open", rm.with_anomaly(Anomaly::OpenPhase(0))),
+        ("phase B open", rm.with_anomaly(Anomaly::OpenPhase(1))),
+        ("phase C open", rm.with_anomaly(Anomaly::OpenPhase(2))),
+        (
+            "command: chirp ×2 amplitude",
+            rm.with_command(chirp(10.0e-3, 15.0)),
+        ),
+        (
+            "command: chirp ×0.4 amplitude",
+            rm.with_command(chirp(2.0e-3, 15.0)),
+        ),
+        (
+            "command: chirp to 5 Hz",
+            rm.with_command(chirp(5.0e-3, 5.0)),
+        ),
+        (
+            "command: chirp to 30 Hz",
+            rm.with_command(chirp(5.0e-3, 30.0)),
+        ),
+    ];
+    for (name, model) in outside {
+        for faults in [
+            [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5],
+            [0.3, 0.3, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5],
+        ] {
+            for seed in 0..seeds {
+                let mut s = Scenario::new(FaultVector::saturating(faults));
+                s.seed = seed;
+                let label = if faults[0] > 0.0 {
+                    ", friction + backlash 0.3"
+                } else {
+                    ""
+                };
+                out.push((format!("{name}{label} (seed {seed})"), false, model, s));
+            }
+        }
+    }
+    out
+}
+
+fn chirp(amplitude: f32, end_frequency: f32) -> ChirpCommand {
+    ChirpCommand {
+        amplitude,
+        end_frequency,
+        ..ChirpCommand::PREFLIGHT
+    }
+}
+
+/// Runs the survey in parallel (`seeds` RM seeds per case).
+pub fn survey(seeds: u64, limits: &DomainLimits, progress: bool) -> Result<Vec<SurveyRow>> {
+    let tests = tests(seeds);
+    let bar = crate::progress_bar(
+        tests.len() as u64,
+        "domain survey {bar:40} {pos}/{len}",
+        progress,
+    );
+    let rows = tests
+        .into_par_iter()
+        .map(|(name, inside, model, scenario)| {
+            let trace = model.simulate(&scenario).trace;
+            let (monitor, fitness, domain) = assess(&trace, limits)?;
+            let means = monitor.phase_means(limits.min_phase_samples);
+            let largest = means.iter().flatten().fold(0.0f32, |a, &b| a.max(b));
+            let phase_ratio = means
+                .iter()
+                .flatten()
+                .fold(f32::INFINITY, |a, &b| a.min(b / largest));
+            bar.inc(1);
+            Ok(SurveyRow {
+                name,
+                inside,
+                travel: monitor.travel(),
+                phase_ratio,
+                tracking: monitor.tracking(),
+                phase_current: monitor.largest_phase_mean(limits.min_phase_samples),
+                fitness,
+                domain,
+            })
+        })
+        .collect::<Result<Vec<_>>>();
+    bar.finish_and_clear();
+    rows
+}
+
+/// The survey as a Markdown table, with the range of each statistic per group.
+pub fn markdown(rows: &[SurveyRow], limits: &DomainLimits) -> String {
+    let mut out = String::new();
+    out += "| test | monitor model explains it | user travel [mrad] | phase current [A] | min phase ratio | tracking | best fitness [A²·s] | verdict |\n";
+    out += "| --- | --- | ---: | ---: | ---: | ---: | ---: | --- |\n";
+    for r in rows {
+        let verdict = match r.domain {
+            Domain::Within => "within".to_string(),
+            Domain::Outside(reason) => format!("outside: {reason:?}"),
+        };
+        out += &format!(
+            "| {} | {} | {:.2} | {:.2} | {:.3} | {:.3} | {:.2e} | {} |\n",
+            r.name,
+            if r.inside { "yes" } else { "no" },
+            r.travel * 1e3,
+            r.phase_current,
+            r.phase_ratio,
+            r.tracking,
+            r.fitness,
+            verdict
+        );
+    }
+    let group = |inside: bool| rows.iter().filter(move |r| r.inside == inside);
+    let range = |inside: bool, f: fn(&SurveyRow) -> f32| {
+        let (lo, hi) = group(inside)
+            .map(f)
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), x| {
+                (a.min(x), b.max(x))
+            });
+        format!("{lo:.3e} … {hi:.3e}")
+    };
+    let wrong_inside = group(true).filter(|r| r.domain != Domain::Within).count();
+    let wrong_outside = group(false).filter(|r| r.domain == Domain::Within).count();
+    out += &format!(
+        "\nInside the model ({} tests): travel {} rad, phase current {} A, phase ratio {}, tracking {}, fitness {}.\n",
+        group(true).count(),
+        range(true, |r| r.travel),
+        range(true, |r| r.phase_current),
+        range(true, |r| r.phase_ratio),
+        range(true, |r| r.tracking),
+        range(true, |r| r.fitness)
+    );
+    out += &format!(
+        "Outside ({} tests): travel {} rad, phase current {} A, phase ratio {}, tracking {}, fitness {}.\n",
+        group(false).count(),
+        range(false, |r| r.travel),
+        range(false, |r| r.phase_current),
+        range(false, |r| r.phase_ratio),
+        range(false, |r| r.tracking),
+        range(false, |r| r.fitness)
+    );
+    out += &format!(
+        "\nLimits: phase ratio ≥ {} (checked when a phase carries ≥ {} A), travel ≥ {} rad, \
+         tracking ≤ {}, fitness ≤ {} A²·s.\n\
+         Verdicts wrong: {wrong_inside} explained actuators called outside, {wrong_outside} \
+         unexplained ones called within.\n",
+        limits.min_phase_ratio,
+        limits.min_phase_current,
+        limits.min_travel,
+        limits.max_tracking,
+        limits.max_fitness
+    );
+    out
+}

@@ -1,0 +1,212 @@
+//! Is the measured actuator inside the monitor model's domain? The monitor model explains
+//! friction, backlash, partial stator shorts, eccentricity and gain drift of an actuator that
+//! follows the preflight chirp. A jammed actuator, an open phase or a test run with another
+//! command lies outside it: the GA would still return its best vector, a confident wrong
+//! answer. These checks turn that into the verdict [`Domain::Outside`].
+//!
+//! [`DomainMonitor::push`] takes each ADC frame of the test (O(1): one chirp sample, a few
+//! compares and sums; 48 bytes of state); [`DomainMonitor::assess`] judges the statistics and
+//! the identification's best fitness against [`DomainLimits`] (O(1)).
+
+use crate::command::ChirpCommand;
+use crate::conditioning::{commutation_signs, AdcFrame};
+
+/// Why a test lies outside the monitor model's domain.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum OutsideReason {
+    /// The user shaft hardly moved [rad of travel]: jammed (or not driven).
+    NoMotion { travel: f32 },
+    /// Phase `phase` (0 = A) carried far less current than the others while it was
+    /// commutated in: open (disconnected winding, failed leg). `ratio` is its mean current
+    /// over the largest phase's.
+    OpenPhase { phase: u8, ratio: f32 },
+    /// The user shaft did not follow the preflight chirp: the test ran another command.
+    /// `tracking` is Σ(θ_u − θ_cmd)² / Σθ_cmd² over the test (offsets removed).
+    CommandMismatch { tracking: f32 },
+    /// Even the best fault vector leaves this much unexplained [A²·s]: the actuator does
+    /// something the monitor model cannot.
+    FitnessFloor { fitness: f32 },
+}
+
+/// The verdict on the whole test.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Domain {
+    /// Inside the monitor model's domain: the fault vector can be trusted as far as the
+    /// model goes.
+    Within,
+    /// Outside: the fault vector explains nothing, do not act on it.
+    Outside(OutsideReason),
+}
+
+/// Where the domain ends: plain data, set from campaigns (see the constants' docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct DomainLimits {
+    /// Least user-shaft travel of a test that moved [rad].
+    pub min_travel: f32,
+    /// Least ratio of a phase's mean commutated current to the largest phase's.
+    pub min_phase_ratio: f32,
+    /// Commutated samples each phase needs before the phase check is made.
+    pub min_phase_samples: u32,
+    /// The phase check needs the largest phase's mean commutated current at least this
+    /// high [A] (with no current at all there is nothing to compare).
+    pub min_phase_current: f32,
+    /// Largest tracking ratio of a test that ran the preflight chirp.
+    pub max_tracking: f32,
+    /// Largest best fitness of an actuator the monitor model explains [A²·s].
+    pub max_fitness: f32,
+}
+
+impl DomainLimits {
+    /// Limits for this project's reference actuator and the preflight chirp
+    /// (±5 mrad, 0.5 s). Measured by `host-sim domain` over the Table I and II cases, the
+    /// healthy actuator, noise levels 0–10 % and seeds, against jammed, open-phase and
+    /// other-command tests; each limit sits between the two groups (BENCHMARKS.md).
+    pub const REFERENCE_ACTUATOR: Self = Self {
+        min_travel: 2.0e-3,
+        min_phase_ratio: 0.25,
+        min_phase_samples: 200,
+        min_phase_current: 0.2,
+        max_tracking: 0.33,
+        max_fitness: 0.12,
+    };
+}
+
+/// Running statistics of one test (the settings are the command and the pole pairs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DomainMonitor {
+    command: ChirpCommand,
+    control_period: f32,
+    pole_pairs: f32,
+    samples: u32,
+    first_user: f32,
+    user_min: f32,
+    user_max: f32,
+    tracking_error: f32,
+    command_energy: f32,
+    phase_current: [f32; 3],
+    phase_samples: [u32; 3],
+}
+
+impl DomainMonitor {
+    pub fn new(command: ChirpCommand, control_period: f32, pole_pairs: f32) -> Self {
+        Self {
+            command,
+            control_period,
+            pole_pairs,
+            samples: 0,
+            first_user: 0.0,
+            user_min: f32::INFINITY,
+            user_max: f32::NEG_INFINITY,
+            tracking_error: 0.0,
+            command_energy: 0.0,
+            phase_current: [0.0; 3],
+            phase_samples: [0; 3],
+        }
+    }
+
+    /// Takes the next frame of the test. O(1).
+    pub fn push(&mut self, frame: &AdcFrame) {
+        let user: f32 = frame.user_angle.to_num();
+        if self.samples == 0 {
+            self.first_user = user;
+        }
+        let t = self.samples as f32 * self.control_period;
+        let commanded = self.command.position(t);
+        let followed = user - self.first_user;
+        let e = followed - commanded;
+        self.tracking_error += e * e;
+        self.command_energy += commanded * commanded;
+        self.user_min = self.user_min.min(user);
+        self.user_max = self.user_max.max(user);
+        let theta_e = self.pole_pairs * frame.motor_angle.to_num::<f32>();
+        let signs = commutation_signs(theta_e);
+        for ((sum, count), (sign, current)) in self
+            .phase_current
+            .iter_mut()
+            .zip(self.phase_samples.iter_mut())
+            .zip(signs.iter().zip(frame.phase_currents))
+        {
+            if *sign != 0 {
+                let i: f32 = current.to_num();
+                *sum += if i < 0.0 { -i } else { i };
+                *count = count.saturating_add(1);
+            }
+        }
+        self.samples = self.samples.saturating_add(1);
+    }
+
+    /// User-shaft travel so far [rad].
+    pub fn travel(&self) -> f32 {
+        if self.samples == 0 {
+            0.0
+        } else {
+            self.user_max - self.user_min
+        }
+    }
+
+    /// Σ(θ_u − θ_cmd)² / Σθ_cmd² so far (`+∞` before the command moved).
+    pub fn tracking(&self) -> f32 {
+        if self.command_energy > 0.0 {
+            self.tracking_error / self.command_energy
+        } else {
+            f32::INFINITY
+        }
+    }
+
+    /// Mean |current| of each phase over the samples it was commutated in [A] (`None` for a
+    /// phase with fewer than `min_samples`).
+    pub fn phase_means(&self, min_samples: u32) -> [Option<f32>; 3] {
+        let mut out = [None; 3];
+        for ((slot, sum), count) in out
+            .iter_mut()
+            .zip(self.phase_current)
+            .zip(self.phase_samples)
+        {
+            if count >= min_samples.max(1) {
+                *slot = Some(sum / count as f32);
+            }
+        }
+        out
+    }
+
+    /// Largest phase's mean commutated current [A] (0 before any phase has `min_samples`).
+    pub fn largest_phase_mean(&self, min_samples: u32) -> f32 {
+        self.phase_means(min_samples)
+            .iter()
+            .flatten()
+            .fold(0.0f32, |a, &b| a.max(b))
+    }
+
+    /// The verdict, checks in order of how directly they see the failure: phases (while
+    /// current flows), motion, command, then the identification's best `fitness`.
+    pub fn assess(&self, limits: &DomainLimits, fitness: f32) -> Domain {
+        let means = self.phase_means(limits.min_phase_samples);
+        let largest = self.largest_phase_mean(limits.min_phase_samples);
+        if largest >= limits.min_phase_current {
+            for (phase, mean) in (0u8..).zip(means) {
+                if let Some(mean) = mean {
+                    let ratio = mean / largest;
+                    if ratio < limits.min_phase_ratio {
+                        return Domain::Outside(OutsideReason::OpenPhase { phase, ratio });
+                    }
+                }
+            }
+        }
+        let travel = self.travel();
+        if travel < limits.min_travel {
+            return Domain::Outside(OutsideReason::NoMotion { travel });
+        }
+        let tracking = self.tracking();
+        // NaN counts as outside.
+        if tracking.is_nan() || tracking > limits.max_tracking {
+            return Domain::Outside(OutsideReason::CommandMismatch { tracking });
+        }
+        if fitness.is_nan() || fitness > limits.max_fitness {
+            return Domain::Outside(OutsideReason::FitnessFloor { fitness });
+        }
+        Domain::Within
+    }
+}
