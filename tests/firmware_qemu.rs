@@ -112,6 +112,24 @@ fn temp_trace(name: &str, bytes: &[u8]) -> PathBuf {
     path
 }
 
+/// The host's answer for a binary trace: the trace as `host-sim identify` reads it, same
+/// seed (1) and the built-in calibration. Returns the conditioned buffer too.
+fn host_identification(
+    bytes: &[u8],
+) -> (
+    Box<shared::fdi::OnboardMeasured>,
+    shared::fdi::IdentificationResult,
+) {
+    let measured = Trace::from_bin(bytes)
+        .expect("readable")
+        .measured(&ActuatorParams::REFERENCE)
+        .expect("conditioned");
+    let host = identify(&measured, &Calibration::REFERENCE_ACTUATOR, 1, false)
+        .expect("host identification runs")
+        .result;
+    (measured, host)
+}
+
 fn faulty_trace() -> Trace {
     let faults = FaultVector::new([0.2, 0.3, 0.15, 0.0, 0.0, 0.0, 0.5, 0.45]).expect("valid");
     let rm = ReferenceModel::new(ReferenceSettings::REFERENCE);
@@ -130,15 +148,7 @@ fn firmware_under_qemu_gives_the_hosts_bits() {
     assert_eq!(run.status, 0, "firmware failed:\n{}", run.output);
     println!("{}", run.output);
 
-    // The host's answer: the trace as `host-sim identify` reads it, same seed (1) and the
-    // built-in calibration.
-    let measured = Trace::from_bin(&bytes)
-        .expect("readable")
-        .measured(&ActuatorParams::REFERENCE)
-        .expect("conditioned");
-    let host = identify(&measured, &Calibration::REFERENCE_ACTUATOR, 1, false)
-        .expect("host identification runs")
-        .result;
+    let (_, host) = host_identification(&bytes);
 
     let bits = list(field(&run.output, "bits ", "faults"));
     assert_eq!(bits.len(), FAULT_COUNT);
@@ -268,13 +278,7 @@ fn a_power_loss_under_qemu_resumes_to_the_same_bits_and_a_damaged_record_restart
     let bytes = faulty_trace().to_bin().expect("encodable");
     let trace = temp_trace("resume.bin", &bytes);
     let trace = trace.to_str().expect("UTF-8 temp path");
-    let measured = Trace::from_bin(&bytes)
-        .expect("readable")
-        .measured(&ActuatorParams::REFERENCE)
-        .expect("conditioned");
-    let host = identify(&measured, &Calibration::REFERENCE_ACTUATOR, 1, false)
-        .expect("host identification runs")
-        .result;
+    let (measured, host) = host_identification(&bytes);
 
     // Power lost after 2 345 evaluations: exit 5, the record written.
     let record_path = temp_trace("resume.ck", b"");

@@ -65,29 +65,23 @@ impl Command {
         while let Some(word) = words.next() {
             let word = word.map_err(|_| UsageError::NotUtf8)?;
             if word == "--seed" {
-                let n = words
-                    .next()
-                    .and_then(|w| w.ok())
-                    .and_then(|w| w.parse::<u64>().ok())
-                    .ok_or(UsageError::BadOption)?;
-                seed = Some(n);
+                seed = Some(
+                    option_value(&mut words)?
+                        .parse()
+                        .map_err(|_| UsageError::BadOption)?,
+                );
             } else if word == "--stop-after" {
-                let n = words
-                    .next()
-                    .and_then(|w| w.ok())
-                    .and_then(|w| w.parse::<u32>().ok())
-                    .ok_or(UsageError::BadOption)?;
-                stop_after = Some(n);
+                stop_after = Some(
+                    option_value(&mut words)?
+                        .parse()
+                        .map_err(|_| UsageError::BadOption)?,
+                );
             } else if word == "--checkpoint" {
-                let file = words
-                    .next()
-                    .and_then(|w| w.ok())
-                    .ok_or(UsageError::BadOption)?;
-                checkpoint = Some(nul_terminated(file)?);
+                checkpoint = Some(nul_terminated(option_value(&mut words)?)?);
             } else if word == "--crash" {
-                crash = match words.next().and_then(|w| w.ok()) {
-                    Some("panic") => Some(Crash::Panic),
-                    Some("hard-fault") => Some(Crash::HardFault),
+                crash = match option_value(&mut words)? {
+                    "panic" => Some(Crash::Panic),
+                    "hard-fault" => Some(Crash::HardFault),
                     _ => return Err(UsageError::BadOption),
                 };
             } else if word.starts_with("--") || have_path {
@@ -125,6 +119,16 @@ impl Command {
         // The buffer is zeroed and at most MAX_PATH bytes are written: a NUL always follows.
         CStr::from_bytes_until_nul(&self.path).unwrap_or(c"")
     }
+}
+
+/// The word after an option (`--seed N`): missing or not UTF-8 is a usage error.
+fn option_value<'a, E>(
+    words: &mut impl Iterator<Item = Result<&'a str, E>>,
+) -> Result<&'a str, UsageError> {
+    words
+        .next()
+        .and_then(|w| w.ok())
+        .ok_or(UsageError::BadOption)
 }
 
 /// `word` as a NUL-terminated path buffer.

@@ -124,12 +124,11 @@ pub fn survey(seeds: u64, limits: &DomainLimits, progress: bool) -> Result<Vec<S
         .map(|(name, inside, model, scenario)| {
             let trace = model.simulate(&scenario).trace;
             let (monitor, fitness, domain) = assess(&trace, limits)?;
-            let means = monitor.phase_means(limits.min_phase_samples);
-            let largest = means.iter().flatten().fold(0.0f32, |a, &b| a.max(b));
-            let phase_ratio = means
+            let phase_ratio = monitor
+                .phase_ratios(limits.min_phase_samples)
                 .iter()
                 .flatten()
-                .fold(f32::INFINITY, |a, &b| a.min(b / largest));
+                .fold(f32::INFINITY, |a, &b| a.min(b));
             bar.inc(1);
             Ok(SurveyRow {
                 name,
@@ -180,24 +179,17 @@ pub fn markdown(rows: &[SurveyRow], limits: &DomainLimits) -> String {
     };
     let wrong_inside = group(true).filter(|r| r.domain != Domain::Within).count();
     let wrong_outside = group(false).filter(|r| r.domain == Domain::Within).count();
-    out += &format!(
-        "\nInside the model ({} tests): travel {} rad, phase current {} A, phase ratio {}, tracking {}, fitness {}.\n",
-        group(true).count(),
-        range(true, |r| r.travel),
-        range(true, |r| r.phase_current),
-        range(true, |r| r.phase_ratio),
-        range(true, |r| r.tracking),
-        range(true, |r| r.fitness)
-    );
-    out += &format!(
-        "Outside ({} tests): travel {} rad, phase current {} A, phase ratio {}, tracking {}, fitness {}.\n",
-        group(false).count(),
-        range(false, |r| r.travel),
-        range(false, |r| r.phase_current),
-        range(false, |r| r.phase_ratio),
-        range(false, |r| r.tracking),
-        range(false, |r| r.fitness)
-    );
+    for (inside, lead) in [(true, "\nInside the model"), (false, "Outside")] {
+        out += &format!(
+            "{lead} ({} tests): travel {} rad, phase current {} A, phase ratio {}, tracking {}, fitness {}.\n",
+            group(inside).count(),
+            range(inside, |r| r.travel),
+            range(inside, |r| r.phase_current),
+            range(inside, |r| r.phase_ratio),
+            range(inside, |r| r.tracking),
+            range(inside, |r| r.fitness)
+        );
+    }
     out += &format!(
         "\nLimits: phase ratio ≥ {} (checked when a phase carries ≥ {} A), travel ≥ {} rad, \
          tracking ≤ {}, fitness ≤ {} A²·s.\n\

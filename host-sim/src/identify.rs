@@ -67,7 +67,10 @@ pub fn identify(
 ) -> Result<Identified> {
     match identify_checkpointed(measured, calibration, seed, progress, None)?.0 {
         Outcome::Finished(id) => Ok(id),
-        Outcome::Interrupted { .. } => unreachable!("no checkpointing, no interruption"),
+        // Only a checkpointed run can be cut short.
+        Outcome::Interrupted { evaluations } => {
+            anyhow::bail!("identification stopped after {evaluations} evaluations")
+        }
     }
 }
 

@@ -180,18 +180,22 @@ impl DomainMonitor {
             .fold(0.0f32, |a, &b| a.max(b))
     }
 
+    /// Each phase's mean commutated current over the largest phase's (`None` for a phase
+    /// with fewer than `min_samples`, or when no phase carries current).
+    pub fn phase_ratios(&self, min_samples: u32) -> [Option<f32>; 3] {
+        let largest = self.largest_phase_mean(min_samples);
+        self.phase_means(min_samples)
+            .map(|mean| mean.filter(|_| largest > 0.0).map(|m| m / largest))
+    }
+
     /// The verdict, checks in order of how directly they see the failure: phases (while
     /// current flows), motion, command, then the identification's best `fitness`.
     pub fn assess(&self, limits: &DomainLimits, fitness: f32) -> Domain {
-        let means = self.phase_means(limits.min_phase_samples);
-        let largest = self.largest_phase_mean(limits.min_phase_samples);
-        if largest >= limits.min_phase_current {
-            for (phase, mean) in (0u8..).zip(means) {
-                if let Some(mean) = mean {
-                    let ratio = mean / largest;
-                    if ratio < limits.min_phase_ratio {
-                        return Domain::Outside(OutsideReason::OpenPhase { phase, ratio });
-                    }
+        if self.largest_phase_mean(limits.min_phase_samples) >= limits.min_phase_current {
+            let ratios = self.phase_ratios(limits.min_phase_samples);
+            for (phase, ratio) in (0u8..).zip(ratios) {
+                if let Some(ratio) = ratio.filter(|r| *r < limits.min_phase_ratio) {
+                    return Domain::Outside(OutsideReason::OpenPhase { phase, ratio });
                 }
             }
         }

@@ -66,7 +66,6 @@ impl From<GaError> for FdiError {
 pub struct Identification<'a, const N: usize, const P: usize> {
     problem: FitnessProblem<'a, N>,
     ga: SteadyStateGa<P>,
-    settings: GaSettings,
     fingerprint: u32,
 }
 
@@ -81,7 +80,6 @@ impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
         Ok(Self {
             problem: FitnessProblem::new(measured, params, calibration)?,
             ga: SteadyStateGa::new(settings, seed)?,
-            settings,
             fingerprint: fingerprint(measured, calibration, &settings, seed),
         })
     }
@@ -101,7 +99,7 @@ impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
     /// evaluations it had done. On `Err` this identification is left exactly as it was
     /// (a fresh one restarts cleanly). O(P).
     pub fn resume(&mut self, record: &[u8]) -> Result<u32, RecordError> {
-        self.ga = SteadyStateGa::restore(self.settings, self.fingerprint, record)?;
+        self.ga = SteadyStateGa::restore(*self.ga.settings(), self.fingerprint, record)?;
         Ok(self.ga.evaluations())
     }
 
