@@ -5,7 +5,8 @@
 //! Condition one O(`TEST_SAMPLES`) pass; Identify ≤
 //! [`PreflightSettings::evaluations_per_poll`] monitor-model evaluations (each 0.5 s of model
 //! time at the control period); Report O(1), including the domain verdict
-//! ([`shared::domain`], its statistics gathered frame by frame during Acquire). Time is never read here; the caller measures it.
+//! ([`shared::domain`], its statistics gathered frame by frame during Acquire). Time is
+//! never read here; the caller measures it.
 //!
 //! Memory: the measured-current buffer is lent in (`&mut OnboardMeasured`, 20 kB), the GA
 //! and the monitor model live in the state (≈ 1.5 kB). Same settings, seed and frames give the
