@@ -15,6 +15,7 @@
 //! * [`trace`] — the binary preflight trace format (header, fixed-point rows, CRC-32).
 //! * [`domain`] — is the actuator inside the monitor model's domain (jam, open phase, other
 //!   command, fitness floor)?
+//! * [`health`] — the health log: one record per preflight, a bounded ring, its store.
 //! * [`random`] — the GA's seeded xoshiro128++ (state readable for checkpoints).
 #![cfg_attr(not(test), no_std)]
 // No panic on any input (issue 7): these lints make unwraps, panics and unchecked indexing
@@ -36,6 +37,7 @@ pub mod fault;
 pub mod fdi;
 pub mod fitness;
 pub mod ga;
+pub mod health;
 pub mod math;
 pub mod metrics;
 pub mod monitor;

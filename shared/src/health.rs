@@ -1,0 +1,562 @@
+//! The actuator's health log: one fixed-size, versioned, checksummed [`HealthRecord`] per
+//! preflight test, kept in a bounded ring ([`HealthLog`]) and persisted slot by slot in a
+//! [`HealthStore`] (RAM under emulation: [`RamStore`]; a file on the host; flash on the
+//! controller, see the sketch below).
+//!
+//! Units: flight index (count), fault vector (normalised, [`FaultVector`]), fitness [A²·s].
+//! Work bounds: [`HealthRecord::encode`]/[`HealthRecord::decode`] O([`RECORD_BYTES`]);
+//! [`HealthLog::push`] O(1); [`HealthLog::append`] one slot write; [`HealthLog::load`] reads
+//! every slot once and orders them, O(slots · N).
+//!
+//! ## Record (52 bytes, little-endian)
+//!
+//! | bytes | field |
+//! | --- | --- |
+//! | 0..4 | magic `EMAH` |
+//! | 4 | version (1) |
+//! | 5 | domain: 0 within, 1 no motion, 2 open phase, 3 command mismatch, 4 fitness floor |
+//! | 6 | detected faults: bit i set when component i is beyond the detection threshold |
+//! | 7 | reserved, 0 |
+//! | 8..12 | flight index (u32) |
+//! | 12..44 | fault vector, 8 × f32 |
+//! | 44..48 | best fitness (f32) |
+//! | 48..52 | CRC-32 of bytes 0..48 |
+//!
+//! ## Slots
+//!
+//! The record of flight `f` goes to slot `f mod slots`: a store of `S` slots keeps the last
+//! `S` flight indices, a torn or erased slot costs that one record (its checksum fails, it is
+//! skipped at load), and no head pointer has to be persisted.
+//!
+//! ## Flash on the controller (sketch, not built)
+//!
+//! The STM32F405 erases flash by sector (16–128 KiB) and programs it in words, 1 → 0 only.
+//! A `HealthStore` over two 16 KiB sectors (e.g. sectors 2 and 3) writes slot `s` at
+//! `sector(s) + RECORD_BYTES · (s mod per_sector)`: `read` copies the 52 bytes; `write`
+//! programs them when the slot is still erased (all 0xFF) and otherwise first erases the
+//! slot's sector (the other sector keeps its records; a flight whose record was lost that way
+//! is one missing point of the trend, never a wrong one). With embassy-stm32 this is
+//! `Flash::blocking_read`/`blocking_write`/`blocking_erase`, which implement
+//! `embedded_storage::nor_flash::NorFlash`. An erased slot decodes as
+//! [`HealthRecordError::BadMagic`] and counts as empty.
+
+use heapless::Deque;
+
+use crate::domain::{Domain, OutsideReason};
+use crate::fault::{FaultVector, Verdict, FAULT_COUNT};
+use crate::trace::Crc32;
+
+/// Bytes of one encoded record.
+pub const RECORD_BYTES: usize = 52;
+
+/// The record format's magic and version.
+pub const RECORD_MAGIC: [u8; 4] = *b"EMAH";
+pub const RECORD_VERSION: u8 = 1;
+
+/// Records the controller keeps (its log and its store).
+pub const ONBOARD_RECORDS: usize = 32;
+
+/// One encoded record.
+pub type EncodedRecord = [u8; RECORD_BYTES];
+
+/// One preflight test's outcome as the log keeps it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct HealthRecord {
+    /// Index of the flight whose preflight this was (strictly increasing in a log).
+    pub flight: u32,
+    /// The identified fault vector.
+    pub faults: FaultVector,
+    /// Best fitness of the identification [A²·s].
+    pub fitness: f32,
+    /// The domain verdict; only tests [`Domain::Within`] feed a trend.
+    pub domain: DomainCode,
+    /// Bit i set: component i was beyond the detection threshold.
+    pub detected: u8,
+}
+
+/// The domain verdict as stored (the reason without its measured value).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum DomainCode {
+    Within = 0,
+    NoMotion = 1,
+    OpenPhase = 2,
+    CommandMismatch = 3,
+    FitnessFloor = 4,
+}
+
+impl From<Domain> for DomainCode {
+    fn from(d: Domain) -> Self {
+        match d {
+            Domain::Within => Self::Within,
+            Domain::Outside(OutsideReason::NoMotion { .. }) => Self::NoMotion,
+            Domain::Outside(OutsideReason::OpenPhase { .. }) => Self::OpenPhase,
+            Domain::Outside(OutsideReason::CommandMismatch { .. }) => Self::CommandMismatch,
+            Domain::Outside(OutsideReason::FitnessFloor { .. }) => Self::FitnessFloor,
+        }
+    }
+}
+
+impl DomainCode {
+    fn from_byte(b: u8) -> Option<Self> {
+        Some(match b {
+            0 => Self::Within,
+            1 => Self::NoMotion,
+            2 => Self::OpenPhase,
+            3 => Self::CommandMismatch,
+            4 => Self::FitnessFloor,
+            _ => return None,
+        })
+    }
+
+    /// Short name for reports and CSV files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Within => "within",
+            Self::NoMotion => "no_motion",
+            Self::OpenPhase => "open_phase",
+            Self::CommandMismatch => "command_mismatch",
+            Self::FitnessFloor => "fitness_floor",
+        }
+    }
+
+    /// Inverse of [`DomainCode::name`].
+    pub fn from_name(name: &str) -> Option<Self> {
+        [
+            Self::Within,
+            Self::NoMotion,
+            Self::OpenPhase,
+            Self::CommandMismatch,
+            Self::FitnessFloor,
+        ]
+        .into_iter()
+        .find(|c| c.name() == name)
+    }
+}
+
+/// Why bytes are not a record.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum HealthRecordError {
+    /// Not a record (an erased or never-written slot reads this way).
+    BadMagic,
+    UnsupportedVersion(u8),
+    BadChecksum,
+    /// Sound checksum but a field out of its domain (a forged or buggy writer).
+    BadField,
+}
+
+impl HealthRecord {
+    /// The record of one preflight: `detected` follows from the fault vector.
+    pub fn new(flight: u32, faults: FaultVector, fitness: f32, domain: Domain) -> Self {
+        let mut detected = 0u8;
+        for (i, v) in faults.verdicts().iter().enumerate() {
+            if *v == Verdict::Faulty {
+                detected |= 1 << i;
+            }
+        }
+        Self {
+            flight,
+            faults,
+            fitness,
+            domain: domain.into(),
+            detected,
+        }
+    }
+
+    /// Whether this test can feed a trend (inside the monitor model's domain).
+    pub fn is_trusted(&self) -> bool {
+        self.domain == DomainCode::Within
+    }
+
+    pub fn encode(&self) -> EncodedRecord {
+        let mut out = [0u8; RECORD_BYTES];
+        let mut w = Writer {
+            out: &mut out,
+            at: 0,
+        };
+        w.put(&RECORD_MAGIC);
+        w.put(&[RECORD_VERSION, self.domain as u8, self.detected, 0]);
+        w.put(&self.flight.to_le_bytes());
+        for k in self.faults.as_array() {
+            w.put(&k.to_le_bytes());
+        }
+        w.put(&self.fitness.to_le_bytes());
+        let mut crc = Crc32::new();
+        crc.update(w.out.get(..RECORD_BYTES - 4).unwrap_or(&[]));
+        let sum = crc.finish().to_le_bytes();
+        w.put(&sum);
+        out
+    }
+
+    pub fn decode(bytes: &EncodedRecord) -> Result<Self, HealthRecordError> {
+        let word = |at: usize| -> [u8; 4] {
+            let mut w = [0u8; 4];
+            if let Some(src) = bytes.get(at..at + 4) {
+                w.copy_from_slice(src);
+            }
+            w
+        };
+        if word(0) != RECORD_MAGIC {
+            return Err(HealthRecordError::BadMagic);
+        }
+        let [version, domain, detected, reserved] = word(4);
+        if version != RECORD_VERSION {
+            return Err(HealthRecordError::UnsupportedVersion(version));
+        }
+        let mut crc = Crc32::new();
+        crc.update(bytes.get(..RECORD_BYTES - 4).unwrap_or(&[]));
+        if crc.finish() != u32::from_le_bytes(word(RECORD_BYTES - 4)) {
+            return Err(HealthRecordError::BadChecksum);
+        }
+        let mut k = [0f32; FAULT_COUNT];
+        for (i, v) in k.iter_mut().enumerate() {
+            *v = f32::from_le_bytes(word(12 + 4 * i));
+        }
+        let fitness = f32::from_le_bytes(word(44));
+        match (
+            DomainCode::from_byte(domain),
+            FaultVector::new(k),
+            reserved,
+            fitness.is_finite(),
+        ) {
+            (Some(domain), Ok(faults), 0, true) => Ok(Self {
+                flight: u32::from_le_bytes(word(8)),
+                faults,
+                fitness,
+                domain,
+                detected,
+            }),
+            _ => Err(HealthRecordError::BadField),
+        }
+    }
+}
+
+struct Writer<'a> {
+    out: &'a mut EncodedRecord,
+    at: usize,
+}
+
+impl Writer<'_> {
+    fn put(&mut self, bytes: &[u8]) {
+        if let Some(dst) = self.out.get_mut(self.at..self.at + bytes.len()) {
+            dst.copy_from_slice(bytes);
+        }
+        self.at += bytes.len();
+    }
+}
+
+/// Persistent slots of [`RECORD_BYTES`] each. `read` of a never-written slot returns whatever
+/// the medium holds (erased flash: 0xFF); decoding tells records from the rest.
+pub trait HealthStore {
+    type Error;
+    /// Number of slots (constant for a store).
+    fn slots(&self) -> usize;
+    fn read(&mut self, slot: usize, out: &mut EncodedRecord) -> Result<(), Self::Error>;
+    fn write(&mut self, slot: usize, record: &EncodedRecord) -> Result<(), Self::Error>;
+}
+
+/// A store in RAM: the controller under emulation (its image is saved to and loaded from a
+/// semihosting file between runs), and tests.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RamStore<const S: usize> {
+    slots: [EncodedRecord; S],
+}
+
+/// A slot index beyond the store.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct NoSuchSlot(pub usize);
+
+impl<const S: usize> RamStore<S> {
+    /// Bytes of the whole image (`S · RECORD_BYTES`).
+    pub const IMAGE_BYTES: usize = S * RECORD_BYTES;
+
+    /// An erased store (every byte 0xFF, as flash after erase).
+    pub const fn erased() -> Self {
+        Self {
+            slots: [[0xFF; RECORD_BYTES]; S],
+        }
+    }
+
+    /// The store from an image: slot `i` is bytes `52·i..52·(i+1)`; a short image leaves the
+    /// remaining slots erased, bytes beyond `IMAGE_BYTES` are ignored.
+    pub fn from_image(image: &[u8]) -> Self {
+        let mut store = Self::erased();
+        for (slot, chunk) in store.slots.iter_mut().zip(image.chunks_exact(RECORD_BYTES)) {
+            slot.copy_from_slice(chunk);
+        }
+        store
+    }
+
+    /// Slot `i`'s bytes, in order (the image, slot by slot).
+    pub fn image(&self) -> impl Iterator<Item = &EncodedRecord> {
+        self.slots.iter()
+    }
+}
+
+impl<const S: usize> HealthStore for RamStore<S> {
+    type Error = NoSuchSlot;
+
+    fn slots(&self) -> usize {
+        S
+    }
+
+    fn read(&mut self, slot: usize, out: &mut EncodedRecord) -> Result<(), NoSuchSlot> {
+        *out = *self.slots.get(slot).ok_or(NoSuchSlot(slot))?;
+        Ok(())
+    }
+
+    fn write(&mut self, slot: usize, record: &EncodedRecord) -> Result<(), NoSuchSlot> {
+        *self.slots.get_mut(slot).ok_or(NoSuchSlot(slot))? = *record;
+        Ok(())
+    }
+}
+
+/// Why a record was not added to the log.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum HealthLogError<E> {
+    /// Its flight index is not after the newest record's (`last`).
+    NotNewer { last: u32 },
+    /// The store has no slot.
+    NoSlots,
+    /// The store failed; the log in RAM is unchanged.
+    Store(E),
+}
+
+/// What [`HealthLog::load`] found in the store.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LoadSummary {
+    /// Sound records read.
+    pub records: u16,
+    /// Slots never written (or erased).
+    pub empty: u16,
+    /// Slots with a record that failed its checksum, version or field checks.
+    pub damaged: u16,
+    /// Sound records dropped: older than the log's capacity, or a repeated flight index.
+    pub dropped: u16,
+}
+
+/// The newest `N` records, oldest first, strictly increasing in flight index.
+#[derive(Clone, Debug)]
+pub struct HealthLog<const N: usize> {
+    records: Deque<HealthRecord, N>,
+}
+
+impl<const N: usize> Default for HealthLog<N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const N: usize> HealthLog<N> {
+    pub const fn new() -> Self {
+        Self {
+            records: Deque::new(),
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.records.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.records.is_empty()
+    }
+
+    /// Oldest first.
+    pub fn iter(&self) -> impl Iterator<Item = &HealthRecord> {
+        self.records.iter()
+    }
+
+    pub fn latest(&self) -> Option<&HealthRecord> {
+        self.records.back()
+    }
+
+    /// Adds `record` as the newest. When the ring is full the oldest record leaves it and is
+    /// handed back (`Ok(Some(oldest))`); a record not newer than the newest (or any record
+    /// when `N = 0`) is handed back as the error, nothing changed. O(1).
+    pub fn push(&mut self, record: HealthRecord) -> Result<Option<HealthRecord>, HealthRecord> {
+        if self
+            .records
+            .back()
+            .is_some_and(|last| record.flight <= last.flight)
+        {
+            return Err(record);
+        }
+        let evicted = if self.records.is_full() {
+            self.records.pop_front()
+        } else {
+            None
+        };
+        self.records.push_back(record).map(|()| evicted)
+    }
+
+    /// Writes `record` to its slot of `store`, then adds it to the log (see [`Self::push`]).
+    /// Returns the record that left the ring, if any.
+    pub fn append<S: HealthStore>(
+        &mut self,
+        store: &mut S,
+        record: HealthRecord,
+    ) -> Result<Option<HealthRecord>, HealthLogError<S::Error>> {
+        if let Some(last) = self.records.back() {
+            if record.flight <= last.flight {
+                return Err(HealthLogError::NotNewer { last: last.flight });
+            }
+        }
+        let slots = store.slots();
+        if slots == 0 || N == 0 {
+            return Err(HealthLogError::NoSlots);
+        }
+        store
+            .write(record.flight as usize % slots, &record.encode())
+            .map_err(HealthLogError::Store)?;
+        // Checked above: newer than the newest, and N > 0.
+        self.push(record).map_err(|_| HealthLogError::NoSlots)
+    }
+
+    /// Reads every slot of `store` and keeps the newest `N` sound records in flight order.
+    pub fn load<S: HealthStore>(store: &mut S) -> Result<(Self, LoadSummary), S::Error> {
+        let mut sorted: heapless::Vec<HealthRecord, N> = heapless::Vec::new();
+        let mut summary = LoadSummary::default();
+        let mut bytes = [0u8; RECORD_BYTES];
+        for slot in 0..store.slots() {
+            store.read(slot, &mut bytes)?;
+            let record = match HealthRecord::decode(&bytes) {
+                Ok(r) => r,
+                Err(HealthRecordError::BadMagic) if is_blank(&bytes) => {
+                    summary.empty = summary.empty.saturating_add(1);
+                    continue;
+                }
+                Err(_) => {
+                    summary.damaged = summary.damaged.saturating_add(1);
+                    continue;
+                }
+            };
+            summary.records = summary.records.saturating_add(1);
+            if insert_newest(&mut sorted, record) {
+                summary.dropped = summary.dropped.saturating_add(1);
+            }
+        }
+        let mut log = Self::new();
+        for r in sorted {
+            // Strictly increasing and at most N: every push succeeds.
+            let _ = log.push(r);
+        }
+        Ok((log, summary))
+    }
+}
+
+/// A never-written slot: all 0xFF (erased flash) or all zero (fresh RAM or file).
+fn is_blank(bytes: &EncodedRecord) -> bool {
+    bytes.iter().all(|&b| b == 0xFF) || bytes.iter().all(|&b| b == 0)
+}
+
+/// Inserts `r` into `sorted` (increasing flight) keeping the newest `N`; true when a record
+/// was dropped (`r` itself: a repeated flight index or older than all of a full vector; or
+/// the oldest, to make room). O(N).
+fn insert_newest<const N: usize>(
+    sorted: &mut heapless::Vec<HealthRecord, N>,
+    r: HealthRecord,
+) -> bool {
+    let at = sorted
+        .iter()
+        .position(|x| x.flight >= r.flight)
+        .unwrap_or(sorted.len());
+    if sorted.get(at).is_some_and(|x| x.flight == r.flight) {
+        return true;
+    }
+    if !sorted.is_full() {
+        return sorted.insert(at, r).is_err();
+    }
+    if at > 0 {
+        sorted.remove(0);
+        let _ = sorted.insert(at - 1, r);
+    }
+    true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn record(flight: u32, friction: f32) -> HealthRecord {
+        let mut k = *FaultVector::NOMINAL.as_array();
+        k[0] = friction;
+        HealthRecord::new(flight, FaultVector::new(k).unwrap(), 0.01, Domain::Within)
+    }
+
+    #[test]
+    fn record_round_trips_and_every_byte_is_covered() {
+        let r = HealthRecord::new(
+            7,
+            FaultVector::new([0.3, 0.01, 0.2, 0.0, 0.0, 0.1, 0.25, 0.6]).unwrap(),
+            0.0123,
+            Domain::Outside(OutsideReason::NoMotion { travel: 1e-4 }),
+        );
+        // Friction, short A, eccentricity 0.1 and gain drift 0.6 are beyond 0.05 of nominal.
+        assert_eq!(r.detected, 0b1010_0101);
+        let bytes = r.encode();
+        assert_eq!(&bytes[..4], b"EMAH");
+        assert_eq!(HealthRecord::decode(&bytes), Ok(r));
+        for i in 0..RECORD_BYTES {
+            let mut b = bytes;
+            b[i] ^= 0x10;
+            assert!(
+                HealthRecord::decode(&b).is_err(),
+                "byte {i} damage accepted"
+            );
+        }
+    }
+
+    #[test]
+    fn ring_hands_back_the_oldest_and_refuses_the_past() {
+        let mut log = HealthLog::<3>::new();
+        for f in 0..3 {
+            assert_eq!(log.push(record(f, 0.1)), Ok(None));
+        }
+        assert_eq!(log.push(record(3, 0.1)), Ok(Some(record(0, 0.1))));
+        assert_eq!(log.iter().map(|r| r.flight).collect::<Vec<_>>(), [1, 2, 3]);
+        let stale = record(3, 0.2);
+        assert_eq!(log.push(stale), Err(stale));
+        assert_eq!(
+            log.append(&mut RamStore::<3>::erased(), stale),
+            Err(HealthLogError::NotNewer { last: 3 })
+        );
+    }
+
+    #[test]
+    fn store_keeps_the_newest_slots_and_skips_damage() {
+        let mut store = RamStore::<4>::erased();
+        let mut log = HealthLog::<4>::new();
+        for f in 10..17 {
+            log.append(&mut store, record(f, f as f32 / 100.0)).unwrap();
+        }
+        // Slots hold flights 16, 13, 14, 15 (f mod 4); damage the one of flight 14.
+        let (loaded, summary) = HealthLog::<4>::load(&mut store.clone()).unwrap();
+        assert_eq!(
+            loaded.iter().map(|r| r.flight).collect::<Vec<_>>(),
+            [13, 14, 15, 16]
+        );
+        assert_eq!(summary.records, 4);
+        let mut image: Vec<u8> = store.image().flatten().copied().collect();
+        image[2 * RECORD_BYTES + 20] ^= 1;
+        let (loaded, summary) =
+            HealthLog::<3>::load(&mut RamStore::<4>::from_image(&image)).unwrap();
+        assert_eq!(
+            loaded.iter().map(|r| r.flight).collect::<Vec<_>>(),
+            [13, 15, 16]
+        );
+        assert_eq!((summary.records, summary.damaged, summary.empty), (3, 1, 0));
+        // A smaller log keeps the newest.
+        let (small, summary) = HealthLog::<2>::load(&mut store).unwrap();
+        assert_eq!(small.iter().map(|r| r.flight).collect::<Vec<_>>(), [15, 16]);
+        assert_eq!(summary.dropped, 2);
+        let (empty, summary) = HealthLog::<4>::load(&mut RamStore::<5>::erased()).unwrap();
+        assert!(empty.is_empty());
+        assert_eq!(summary.empty, 5);
+    }
+}
