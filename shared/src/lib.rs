@@ -16,6 +16,7 @@
 //! * [`domain`] — is the actuator inside the monitor model's domain (jam, open phase, other
 //!   command, fitness floor)?
 //! * [`health`] — the health log: one record per preflight, a bounded ring, its store.
+//! * [`prognosis`] — degradation trend and remaining useful life per fault, from the log.
 //! * [`random`] — the GA's seeded xoshiro128++ (state readable for checkpoints).
 #![cfg_attr(not(test), no_std)]
 // No panic on any input (issue 7): these lints make unwraps, panics and unchecked indexing
@@ -42,6 +43,7 @@ pub mod math;
 pub mod metrics;
 pub mod monitor;
 pub mod params;
+pub mod prognosis;
 pub mod random;
 pub mod trace;
 

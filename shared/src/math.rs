@@ -1,4 +1,4 @@
-//! Transcendental maths for `shared`, always through micromath.
+//! Transcendental maths for `shared`: f32 through micromath, f64 from IEEE operations only.
 //!
 //! micromath is plain f32 arithmetic, so the same inputs give the same bits on x86 and on the
 //! Cortex-M4F; std's `f32` methods (libm / platform intrinsics) would not. Calling the trait
@@ -78,6 +78,46 @@ pub fn clamp(x: f32, lo: f32, hi: f32) -> f32 {
     }
 }
 
+/// `e^x` in f64 from IEEE operations only (range reduction by ln 2, degree-13 Taylor
+/// polynomial, exponent bits), so it gives the same bits on every target; relative error
+/// below 1e-15. `x` is clamped to `[−700, 700]` (no overflow to infinity); NaN gives NaN.
+pub fn exp64(x: f64) -> f64 {
+    // ln 2 split (fdlibm): the high part has trailing zero bits, so k·LN2_HI is exact.
+    const LN2_HI: f64 = f64::from_bits(0x3FE6_2E42_FEE0_0000);
+    const LN2_LO: f64 = f64::from_bits(0x3DEA_39EF_3579_3C76);
+    if x.is_nan() {
+        return x;
+    }
+    let x = x.clamp(-700.0, 700.0);
+    let half = if x < 0.0 { -0.5 } else { 0.5 };
+    let k = (x * core::f64::consts::LOG2_E + half) as i64;
+    let r = (x - k as f64 * LN2_HI) - k as f64 * LN2_LO;
+    let mut p = 1.0;
+    let mut n = 13.0;
+    while n > 0.5 {
+        p = 1.0 + p * r / n;
+        n -= 1.0;
+    }
+    // |k| ≤ 1010: a normal power of two.
+    p * f64::from_bits(((k + 1023) as u64) << 52)
+}
+
+/// Square root in f64 from IEEE operations only (exponent-halving seed, six Newton steps);
+/// `x ≤ 0` and NaN give 0, +∞ gives +∞.
+pub fn sqrt64(x: f64) -> f64 {
+    if x.is_nan() || x <= 0.0 {
+        return 0.0;
+    }
+    if x == f64::INFINITY {
+        return x;
+    }
+    let mut y = f64::from_bits((x.to_bits() >> 1) + 0x1FF8_0000_0000_0000);
+    for _ in 0..6 {
+        y = 0.5 * (y + x / y);
+    }
+    y
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -112,6 +152,23 @@ mod tests {
             assert!((sin(x) - x.sin()).abs() < 2.5e-3);
             assert!((cos(x) - x.cos()).abs() < 2.5e-3);
         }
+    }
+
+    #[test]
+    fn f64_exp_and_sqrt_match_std() {
+        for i in -400..400 {
+            let x = i as f64 * 0.37 + 0.013;
+            let rel = (exp64(x) - x.exp()).abs() / x.exp();
+            assert!(rel < 2e-15, "exp64({x}): rel error {rel}");
+            let y = (x * 1e3).abs() + 1e-9;
+            let rel = (sqrt64(y) - y.sqrt()).abs() / y.sqrt();
+            assert!(rel < 1e-15, "sqrt64({y}): rel error {rel}");
+        }
+        assert_eq!(exp64(0.0), 1.0);
+        assert!(exp64(1e6).is_finite());
+        assert_eq!(sqrt64(4.0), 2.0);
+        assert_eq!(sqrt64(-1.0), 0.0);
+        assert_eq!(sqrt64(f64::INFINITY), f64::INFINITY);
     }
 
     #[test]
