@@ -8,15 +8,19 @@
 //! * [`domain`] — the survey behind the "outside the monitor model's domain" limits.
 //! * [`identify`] — the onboard FDI driven on the host, with progress and history.
 //! * [`plot`] — SVG pictures of an identification.
+//! * [`health_file`] — the health log in a file, and history CSV files.
+//! * [`prognostics`] — simulated degradations, trend and RUL reports and pictures.
 //! * [`faults`] — parsing fault vectors from the command line.
 
 pub mod calibration;
 pub mod campaign;
 pub mod domain;
 pub mod faults;
+pub mod health_file;
 pub mod identify;
 pub mod optimisers;
 pub mod plot;
+pub mod prognostics;
 pub mod reference;
 pub mod separability;
 pub mod trace_file;

@@ -15,12 +15,14 @@ use clap::{Parser, Subcommand};
 use host_sim::calibration::{calibrate, CalibrationFile};
 use host_sim::campaign::{run_once, TABLE_1};
 use host_sim::faults;
+use host_sim::health_file;
 use host_sim::identify::{
     identify, identify_checkpointed, Checkpointing, Identified, Outcome, Resumption,
 };
 use host_sim::median;
 use host_sim::optimisers::{self, TraceSource};
 use host_sim::plot;
+use host_sim::prognostics::{self, DegradationPath, PathShape};
 use host_sim::reference::{ReferenceModel, ReferenceSettings, Scenario};
 use host_sim::trace_file::{IngestError, Trace, TraceFormat};
 use serde_json::json;
@@ -30,8 +32,10 @@ use shared::fault::{Verdict, FAULT_COUNT, FAULT_NAMES};
 use shared::fdi::{
     record_monitor_trace, Identification, OnboardGa, OnboardMeasured, POPULATION, TEST_SAMPLES,
 };
+use shared::health::{HealthLog, ONBOARD_RECORDS};
 use shared::metrics::{component_errors, total_error};
 use shared::monitor::MonitorState;
+use shared::prognosis::TrendSettings;
 use shared::{
     ActuatorParams, Calibration, ChirpCommand, FaultVector, FitnessProblem, GaSettings, LowPass,
     MonitorModel, ShaftAngles, SteadyStateGa,
@@ -269,6 +273,83 @@ enum Command {
         #[arg(long)]
         plot: Option<PathBuf>,
     },
+    /// Simulate N preflights of an actuator whose faults grow from --faults-start to
+    /// --faults-end: per flight a reference-model test and the onboard identification; writes
+    /// the history CSV (identified and true vectors, fitness, domain verdict).
+    Degrade {
+        /// True fault vector at the first flight.
+        #[arg(long, value_parser = faults::parse_fault_vector, allow_hyphen_values = true, long_help = FAULTS_HELP)]
+        faults_start: FaultVector,
+        /// True fault vector at the last flight.
+        #[arg(long, value_parser = faults::parse_fault_vector, allow_hyphen_values = true, long_help = FAULTS_HELP)]
+        faults_end: FaultVector,
+        /// Number of flights (one preflight each).
+        #[arg(long, value_parser = clap::value_parser!(u32).range(2..=10_000))]
+        flights: u32,
+        /// How the faults grow along the path.
+        #[arg(long, value_enum, default_value = "linear")]
+        shape: PathShape,
+        /// Band-limited white noise on I_ref, RMS as a fraction of the nominal I_ref RMS.
+        #[arg(long, default_value_t = 0.0, value_parser = parse_noise)]
+        noise: f64,
+        /// Seed of the run (each flight's reference-model and GA seeds derive from it).
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// History CSV to write.
+        #[arg(long)]
+        out: PathBuf,
+        /// Also append every record to this health-log file (the controller's 52-byte
+        /// records, 32 slots: the newest 32 flights), as the firmware's --health reads it.
+        #[arg(long)]
+        log: Option<PathBuf>,
+    },
+    /// Trend and remaining useful life (RUL, in flights) of each fault from a history CSV or
+    /// a health-log file: the onboard prognosis (shared::prognosis) run on the ground.
+    Prognose {
+        /// History CSV (`degrade --out`) or health log (`degrade --log`, the firmware's).
+        history: PathBuf,
+        /// Maintenance threshold on the deviation from nominal: one value for every fault, or
+        /// name=value pairs (friction, backlash, short_a, short_b, short_c, eccentricity,
+        /// gain_drift) over the defaults 0.5, 0.5, 0.3, 0.3, 0.3, 0.5, 0.25.
+        #[arg(long, value_parser = prognostics::parse_thresholds)]
+        threshold: Option<[f32; FAULT_COUNT]>,
+        /// Use only the flights up to and including this one.
+        #[arg(long)]
+        at: Option<u32>,
+        /// Flights searched ahead for the threshold crossing.
+        #[arg(long, default_value_t = 500, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+        horizon: u32,
+        /// Draw the history, the fit and the RUL cone into this SVG.
+        #[arg(long)]
+        plot: Option<PathBuf>,
+        /// Print one JSON object instead of the table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Evaluate the prognosis like ProgPy's metrics: simulated degradations (linear and
+    /// accelerating, single faults and pairs), the onboard trend replayed flight by flight,
+    /// α-λ accuracy, share within ±α after half of the life, interval coverage, prognostic
+    /// horizon. 8 scenarios × seeds × flights identifications (≈ 9 min for 3 seeds × 40).
+    Prognostics {
+        /// Runs per scenario (seeds 0…N−1).
+        #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..))]
+        seeds: u64,
+        /// Flights per run.
+        #[arg(long, default_value_t = 40, value_parser = clap::value_parser!(u32).range(10..=1000))]
+        flights: u32,
+        /// Band-limited white noise on I_ref, RMS as a fraction of the nominal I_ref RMS.
+        #[arg(long, default_value_t = 0.0, value_parser = parse_noise)]
+        noise: f64,
+        /// Accuracy bound α (relative).
+        #[arg(long, default_value_t = 0.2)]
+        alpha: f64,
+        /// Also write the table as Markdown to this file.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Also draw the α-λ picture into this SVG.
+        #[arg(long)]
+        plot: Option<PathBuf>,
+    },
     /// Bytes of the onboard FDI state (GA, measured-current buffer, monitor model).
     Footprint,
     /// Time one monitor-model evaluation, one fitness evaluation and one reference-model test
@@ -389,6 +470,57 @@ fn main() -> ExitCode {
             plot,
         } => optimisers_command(seeds, cap, source, target, out.as_deref(), plot.as_deref()),
         Command::Domain { seeds, out } => domain_command(seeds, out.as_deref()),
+        Command::Degrade {
+            faults_start,
+            faults_end,
+            flights,
+            shape,
+            noise,
+            seed,
+            out,
+            log,
+        } => degrade_command(
+            &DegradationPath {
+                start: faults_start,
+                end: faults_end,
+                flights,
+                shape,
+            },
+            noise,
+            seed,
+            &out,
+            log.as_deref(),
+        ),
+        Command::Prognose {
+            history,
+            threshold,
+            at,
+            horizon,
+            plot,
+            json,
+        } => {
+            let mut settings = TrendSettings::DEFAULT;
+            if let Some(t) = threshold {
+                settings.thresholds = t;
+            }
+            settings.horizon = horizon;
+            prognose_command(&history, &settings, at, plot.as_deref(), json)
+        }
+        Command::Prognostics {
+            seeds,
+            flights,
+            noise,
+            alpha,
+            out,
+            plot,
+        } => prognostics_command(
+            seeds,
+            flights,
+            noise,
+            alpha,
+            out.as_deref(),
+            plot.as_deref(),
+        ),
         Command::Footprint => {
             footprint();
             Ok(())
@@ -413,6 +545,127 @@ fn main() -> ExitCode {
             }
         }
     }
+}
+
+fn degrade_command(
+    path: &DegradationPath,
+    noise: f64,
+    seed: u64,
+    out: &Path,
+    log: Option<&Path>,
+) -> Result<()> {
+    let start = Instant::now();
+    let bar = host_sim::progress_bar(
+        u64::from(path.flights),
+        "{elapsed_precise} [{bar:40}] {pos}/{len} flights (ETA {eta})",
+        std::io::stderr().is_terminal(),
+    );
+    let rows = prognostics::degrade(path, noise, seed, &|| bar.inc(1))?;
+    bar.finish_and_clear();
+    std::fs::write(out, health_file::history_csv(&rows))
+        .with_context(|| format!("writing {}", out.display()))?;
+    if let Some(log_path) = log {
+        let mut store = health_file::FileStore::open(log_path, ONBOARD_RECORDS)?;
+        let (mut log, _) = HealthLog::<ONBOARD_RECORDS>::load(&mut store)?;
+        for r in &rows {
+            log.append(&mut store, r.record)
+                .map_err(|e| anyhow::anyhow!("appending flight {}: {e:?}", r.record.flight))?;
+        }
+    }
+    let outside = rows.iter().filter(|r| !r.record.is_trusted()).count();
+    println!(
+        "wrote {} ({} flights, {outside} outside the monitor model's domain; {:.0} s)",
+        out.display(),
+        rows.len(),
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+fn prognose_command(
+    history: &Path,
+    settings: &TrendSettings,
+    at: Option<u32>,
+    plot_out: Option<&Path>,
+    json: bool,
+) -> Result<()> {
+    let mut rows = health_file::read_history(history)?;
+    if let Some(at) = at {
+        rows.retain(|r| r.record.flight <= at);
+        if rows.is_empty() {
+            anyhow::bail!("no flight at or before {at} in {}", history.display());
+        }
+    }
+    let trend = prognostics::trend_of(&rows, None, settings);
+    let estimates = trend.estimates(settings);
+    if json {
+        println!(
+            "{}",
+            prognostics::report_json(&rows, &trend, &estimates, settings)
+        );
+    } else {
+        println!(
+            "{}: {} records, newest flight {}, {} outside the domain (not used)",
+            history.display(),
+            rows.len(),
+            rows.last().map_or(0, |r| r.record.flight),
+            trend.skipped()
+        );
+        print!("{}", prognostics::report_text(&estimates, settings));
+        println!(
+            "RUL in flights after the newest; \"beyond\" = no crossing within {} flights.",
+            settings.horizon
+        );
+    }
+    if let Some(out) = plot_out {
+        let title = format!(
+            "{} up to flight {}",
+            history.display(),
+            rows.last().map_or(0, |r| r.record.flight)
+        );
+        prognostics::history_svg(out, &rows, &trend, settings, &title)?;
+        if !json {
+            println!("wrote {}", out.display());
+        }
+    }
+    Ok(())
+}
+
+fn prognostics_command(
+    seeds: u64,
+    flights: u32,
+    noise: f64,
+    alpha: f64,
+    out: Option<&Path>,
+    plot_out: Option<&Path>,
+) -> Result<()> {
+    let start = Instant::now();
+    let scenarios = &prognostics::EVAL_SCENARIOS;
+    let total = scenarios.len() as u64 * seeds * u64::from(flights);
+    let bar = host_sim::progress_bar(
+        total,
+        "{elapsed_precise} [{bar:40}] {pos}/{len} flights (ETA {eta})",
+        std::io::stderr().is_terminal(),
+    );
+    let settings = TrendSettings::DEFAULT;
+    let tracks =
+        prognostics::evaluate(scenarios, seeds, flights, noise, &settings, &|| bar.inc(1))?;
+    bar.finish_and_clear();
+    let mut text = prognostics::eval_markdown(&tracks, alpha);
+    text += &format!(
+        "\n{} runs × {flights} flights, noise {noise}, thresholds 0.5 friction and backlash, 0.3 \
+         shorts, 0.25 gain drift; {:.0} s.\n",
+        scenarios.len() as u64 * seeds,
+        start.elapsed().as_secs_f64()
+    );
+    print!("{text}");
+    if let Some(path) = out {
+        std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(path) = plot_out {
+        prognostics::eval_svg(path, &tracks, alpha)?;
+    }
+    Ok(())
 }
 
 fn domain_command(seeds: u64, out: Option<&Path>) -> Result<()> {

@@ -304,13 +304,22 @@ impl FaultTrend {
         (fit.mean(g), t90(dof) * sqrt64(var))
     }
 
-    /// The envelope of every plausible rate's 90 % band at `flight` (the RUL cone).
+    /// Whether rate `i`'s growth coefficient is significantly positive (t > 2): a rate whose
+    /// fit shows no growth cannot vouch for exponential growth at that rate.
+    fn grows(&self, i: usize, settings: &TrendSettings) -> bool {
+        let fit = self.fit(i);
+        let var = fit.variance(self.observations, settings.noise_floor) * fit.p[2];
+        fit.theta[1] > 0.0 && fit.theta[1] * fit.theta[1] > 4.0 * var
+    }
+
+    /// The envelope of the 90 % bands of the chosen rate and of every other plausible rate
+    /// that shows growth, at `flight` (the RUL cone).
     pub fn envelope(&self, flight: f64, settings: &TrendSettings) -> (f64, f64) {
-        let (_, plausible) = self.choice();
+        let (chosen, plausible) = self.choice();
         let mut lo = f64::INFINITY;
         let mut hi = f64::NEG_INFINITY;
         for (i, fit) in self.fits.iter().enumerate() {
-            if fit.sse <= plausible {
+            if i == chosen || (fit.sse <= plausible && self.grows(i, settings)) {
                 let (m, h) = self.band_of(i, flight, settings);
                 lo = lo.min(m - h);
                 hi = hi.max(m + h);
@@ -365,7 +374,7 @@ impl FaultTrend {
             let mut lower: Option<f64> = None;
             let mut upper: Option<f64> = Some(0.0);
             for (i, f) in self.fits.iter().enumerate() {
-                if f.sse > plausible {
+                if i != chosen && !(f.sse <= plausible && self.grows(i, settings)) {
                     continue;
                 }
                 let first = self.crossing(t, h, |x| {
