@@ -144,11 +144,21 @@ fn firmware_under_qemu_gives_the_hosts_bits() {
     let bytes = trace.to_bin().expect("encodable");
     let path = temp_trace("faulty.bin", &bytes);
 
-    let run = run_firmware(&[path.to_str().expect("UTF-8 temp path")]);
+    // A health log of 12 earlier flights on the path to this actuator's faults.
+    let log_path = temp_trace("health.bin", &[]);
+    std::fs::remove_file(&log_path).expect("fresh log");
+    let earlier = earlier_flights(&log_path);
+
+    let run = run_firmware(&[
+        path.to_str().expect("UTF-8 temp path"),
+        "--health",
+        log_path.to_str().expect("UTF-8 temp path"),
+    ]);
     assert_eq!(run.status, 0, "firmware failed:\n{}", run.output);
     println!("{}", run.output);
 
     let (_, host) = host_identification(&bytes);
+    health_matches_the_host(&run.output, &log_path, earlier, &host);
 
     let bits = list(field(&run.output, "bits ", "faults"));
     assert_eq!(bits.len(), FAULT_COUNT);
@@ -256,6 +266,79 @@ fn a_too_long_trace_is_refused_not_truncated() {
 }
 
 /// The firmware's `bits faults=… fitness=…` line as `u32`s (faults, then fitness).
+/// Writes flights 0..12 of a linear path from nominal to [`faulty_trace`]'s vector (reached at
+/// flight 12) into a new health log at `path`; returns how many.
+fn earlier_flights(path: &Path) -> u32 {
+    use shared::domain::Domain;
+    use shared::health::{HealthLog, HealthRecord, ONBOARD_RECORDS};
+    let mut store = host_sim::health_file::FileStore::open(path, ONBOARD_RECORDS).expect("log");
+    let mut log = HealthLog::<ONBOARD_RECORDS>::new();
+    let end = [0.2f32, 0.3, 0.15, 0.0, 0.0, 0.0, 0.5, 0.45];
+    let nominal = FaultVector::NOMINAL;
+    for f in 0..12u32 {
+        let k: Vec<f32> = nominal
+            .as_array()
+            .iter()
+            .zip(end)
+            .map(|(a, b)| a + (b - a) * f as f32 / 12.0)
+            .collect();
+        let k = FaultVector::new(k.try_into().expect("8")).expect("valid");
+        log.append(&mut store, HealthRecord::new(f, k, 0.001, Domain::Within))
+            .expect("appended");
+    }
+    12
+}
+
+/// The firmware appended its result as flight 12 of the log, and its trend and RUL lines are
+/// the host's (`shared::prognosis` over the same log file), bit for bit.
+fn health_matches_the_host(
+    output: &str,
+    log_path: &Path,
+    earlier: u32,
+    host: &shared::fdi::IdentificationResult,
+) {
+    use shared::health::ONBOARD_RECORDS;
+    use shared::prognosis::{HealthTrend, TrendSettings};
+    assert_eq!(number(output, "health ", "flight"), u64::from(earlier));
+    assert_eq!(number(output, "health ", "records"), u64::from(earlier) + 1);
+    let (log, summary) =
+        host_sim::health_file::load_log::<ONBOARD_RECORDS>(log_path).expect("the log reads");
+    assert_eq!(summary.damaged, 0);
+    let latest = log.latest().expect("a record");
+    assert_eq!(latest.flight, earlier);
+    assert_eq!(latest.faults, host.faults);
+    assert_eq!(latest.fitness.to_bits(), host.fitness.to_bits());
+    let settings = TrendSettings::DEFAULT;
+    let estimates = HealthTrend::from_records(log.iter(), &settings).estimates(&settings);
+    let bits = |v: Option<f32>| format!("{:08x}", v.map_or(u32::MAX, f32::to_bits));
+    let mut compared = 0;
+    for (name, e) in shared::fault::FAULT_NAMES.iter().zip(estimates) {
+        let Some(e) = e else { continue };
+        let prefix = format!("trend {name} ");
+        let r = e.rul.expect("every trended fault has a threshold");
+        assert_eq!(field(output, &prefix, "rul_bits"), bits(r.rul), "{name}");
+        assert_eq!(
+            field(output, &prefix, "lower_bits"),
+            bits(r.lower),
+            "{name}"
+        );
+        assert_eq!(
+            field(output, &prefix, "upper_bits"),
+            bits(r.upper),
+            "{name}"
+        );
+        assert_eq!(number(output, &prefix, "n"), u64::from(e.observations));
+        compared += 1;
+    }
+    assert_eq!(compared, 7, "seven fault trends");
+    // Friction grows 0.2/12 per flight: 0.5 is reached near flight 30, ≈ 18 flights on.
+    let friction = estimates[0]
+        .and_then(|e| e.rul)
+        .and_then(|r| r.rul)
+        .expect("a RUL");
+    assert!((12.0..24.0).contains(&friction), "friction RUL {friction}");
+}
+
 fn result_bits(output: &str) -> Vec<u32> {
     let mut bits: Vec<u32> = list(field(output, "bits ", "faults"))
         .iter()

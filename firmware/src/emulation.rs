@@ -1,9 +1,11 @@
 //! Emulation glue (QEMU with semihosting): the command line and the trace file on the host.
 //!
-//! `cargo fw -- TRACE.bin [--seed N] [--checkpoint FILE [--stop-after N]]`: the runner (`firmware/qemu-run`) passes the ELF path
-//! and these arguments through QEMU's semihosting command line; the trace is read with
-//! SYS_OPEN / SYS_FLEN / SYS_READ, one row (24 B) per read. The checkpoint file stands in
-//! for the flash page that keeps the GA record across a power loss.
+//! `cargo fw -- TRACE.bin [--seed N] [--checkpoint FILE [--stop-after N]] [--health FILE
+//! [--flight N]]`: the runner (`firmware/qemu-run`) passes the ELF path and these arguments
+//! through QEMU's semihosting command line; the trace is read with SYS_OPEN / SYS_FLEN /
+//! SYS_READ, one row (24 B) per read. The checkpoint file stands in for the flash page that
+//! keeps the GA record across a power loss; the health file for the flash that keeps the
+//! health log (the RAM store's image, `ONBOARD_RECORDS` × 52 bytes).
 
 use core::ffi::CStr;
 
@@ -23,7 +25,11 @@ const CMDLINE_BYTES: usize = 512;
 pub struct Command {
     path: [u8; MAX_PATH + 1],
     checkpoint: Option<[u8; MAX_PATH + 1]>,
+    health: Option<[u8; MAX_PATH + 1]>,
     pub seed: Option<u64>,
+    /// `--flight N`: the flight index of this preflight's health record (default: one after
+    /// the newest in the log).
+    pub flight: Option<u32>,
     /// Simulated power loss: stop after this many evaluations, checkpoint written.
     pub stop_after: Option<u32>,
     /// Fault injection for the handler tests (emulation only).
@@ -51,7 +57,7 @@ pub enum UsageError {
 }
 
 impl Command {
-    /// Reads `PROGRAM TRACE.bin [--seed N] [--crash panic|hard-fault]` from the semihosting
+    /// Reads the command line (module doc; plus `--crash panic|hard-fault`) from the semihosting
     /// command line.
     pub fn from_host() -> Result<Self, UsageError> {
         let args = env::args::<CMDLINE_BYTES>().map_err(|_| UsageError::NoCommandLine)?;
@@ -62,6 +68,8 @@ impl Command {
         let mut crash = None;
         let mut checkpoint = None;
         let mut stop_after = None;
+        let mut health = None;
+        let mut flight = None;
         while let Some(word) = words.next() {
             let word = word.map_err(|_| UsageError::NotUtf8)?;
             if word == "--seed" {
@@ -76,6 +84,14 @@ impl Command {
                         .parse()
                         .map_err(|_| UsageError::BadOption)?,
                 );
+            } else if word == "--flight" {
+                flight = Some(
+                    option_value(&mut words)?
+                        .parse()
+                        .map_err(|_| UsageError::BadOption)?,
+                );
+            } else if word == "--health" {
+                health = Some(nul_terminated(option_value(&mut words)?)?);
             } else if word == "--checkpoint" {
                 checkpoint = Some(nul_terminated(option_value(&mut words)?)?);
             } else if word == "--crash" {
@@ -98,10 +114,15 @@ impl Command {
             // A power loss without a checkpoint would only throw the work away.
             return Err(UsageError::BadOption);
         }
+        if flight.is_some() && health.is_none() {
+            return Err(UsageError::BadOption);
+        }
         Ok(Self {
             path,
             checkpoint,
+            health,
             seed,
+            flight,
             stop_after,
             crash,
         })
@@ -109,16 +130,24 @@ impl Command {
 
     /// The checkpoint file, NUL-terminated, if one was given.
     pub fn checkpoint_path(&self) -> Option<&CStr> {
-        self.checkpoint
-            .as_ref()
-            .map(|p| CStr::from_bytes_until_nul(p).unwrap_or(c""))
+        self.checkpoint.as_ref().map(|p| path_of(p))
+    }
+
+    /// The health-log file (the RAM store's image between runs), if one was given.
+    pub fn health_path(&self) -> Option<&CStr> {
+        self.health.as_ref().map(|p| path_of(p))
     }
 
     /// The trace path, NUL-terminated.
     pub fn trace_path(&self) -> &CStr {
-        // The buffer is zeroed and at most MAX_PATH bytes are written: a NUL always follows.
-        CStr::from_bytes_until_nul(&self.path).unwrap_or(c"")
+        path_of(&self.path)
     }
+}
+
+/// A zero-padded path buffer as a C string.
+fn path_of(buffer: &[u8; MAX_PATH + 1]) -> &CStr {
+    // At most MAX_PATH bytes are written into the zeroed buffer: a NUL always follows.
+    CStr::from_bytes_until_nul(buffer).unwrap_or(c"")
 }
 
 /// The word after an option (`--seed N`): missing or not UTF-8 is a usage error.
@@ -144,32 +173,32 @@ fn nul_terminated(word: &str) -> Result<[u8; MAX_PATH + 1], UsageError> {
     Ok(path)
 }
 
-/// Reads the checkpoint record at `path` into `record`; `Ok(false)` when there is no file
-/// (the first run), `Err` with the file's length when it is not one record long.
-pub fn read_checkpoint(path: &CStr, record: &mut [u8]) -> Result<bool, CheckpointFileError> {
+/// Reads the record file at `path` (the GA checkpoint, or the health store's image) into
+/// `record`; `Ok(false)` when there is no file (the first run), `Err` with the file's length
+/// when it is not exactly `record.len()` long.
+pub fn read_record_file(path: &CStr, record: &mut [u8]) -> Result<bool, RecordFileError> {
     let Ok(mut file) = File::open(path) else {
         return Ok(false);
     };
     let len = file
         .metadata()
         .map(|m| m.len())
-        .map_err(|_| CheckpointFileError::Io)?;
+        .map_err(|_| RecordFileError::Io)?;
     if len != record.len() as u64 {
-        return Err(CheckpointFileError::Length { bytes: len });
+        return Err(RecordFileError::Length { bytes: len });
     }
-    file.read_exact(record)
-        .map_err(|_| CheckpointFileError::Io)?;
+    file.read_exact(record).map_err(|_| RecordFileError::Io)?;
     Ok(true)
 }
 
-/// Replaces the checkpoint file with `record`.
-pub fn write_checkpoint(path: &CStr, record: &[u8]) -> Result<(), CheckpointFileError> {
-    semihosting::fs::write(path, record).map_err(|_| CheckpointFileError::Io)
+/// Replaces the record file at `path` with `record`.
+pub fn write_record_file(path: &CStr, record: &[u8]) -> Result<(), RecordFileError> {
+    semihosting::fs::write(path, record).map_err(|_| RecordFileError::Io)
 }
 
-/// Why the checkpoint file could not be used.
+/// Why a record file (checkpoint, health store) could not be used.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]
-pub enum CheckpointFileError {
+pub enum RecordFileError {
     Io,
     /// Not one record long.
     Length {

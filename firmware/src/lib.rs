@@ -16,6 +16,7 @@
     )
 )]
 
+pub mod health;
 pub mod preflight;
 pub mod source;
 

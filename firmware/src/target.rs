@@ -17,13 +17,18 @@ use embassy_executor::Spawner;
 use semihosting::process::exit;
 use static_cell::StaticCell;
 
+use core::ffi::CStr;
+
+use firmware::health::record_preflight;
 use firmware::{Preflight, PreflightSettings, Progress, Report, Stage, TraceSource};
 use shared::domain::Domain;
 use shared::fault::FAULT_NAMES;
 use shared::fdi::OnboardMeasured;
+use shared::health::{RamStore, ONBOARD_RECORDS};
+use shared::prognosis::TrendSettings;
 use shared::LowPass;
 
-use crate::emulation::{read_checkpoint, write_checkpoint, Command, Crash, HostFile};
+use crate::emulation::{read_record_file, write_record_file, Command, Crash, HostFile};
 use shared::fdi::OnboardRecord;
 
 /// Exit statuses (semihosting SYS_EXIT_EXTENDED, QEMU's own exit status).
@@ -35,12 +40,18 @@ mod status {
     pub const START_UP: i32 = 4;
     /// `--stop-after`: the simulated power loss cut the preflight (checkpoint written).
     pub const INTERRUPTED: i32 = 5;
+    /// `--health`: the health-log file is not a store image (the preflight was reported).
+    pub const HEALTH_LOG: i32 = 6;
     pub const PANIC: i32 = 101;
     pub const HARD_FAULT: i32 = 102;
 }
 
 /// The measured-current buffer (20 kB), in `.bss`.
 static MEASURED: StaticCell<OnboardMeasured> = StaticCell::new();
+
+/// The health store: a flash sector on the controller; RAM here, loaded from and saved to the
+/// `--health` file around each run.
+static HEALTH_STORE: StaticCell<RamStore<ONBOARD_RECORDS>> = StaticCell::new();
 
 /// SysTick wraps of the 24-bit counter.
 static WRAPS: AtomicU32 = AtomicU32::new(0);
@@ -148,7 +159,7 @@ async fn preflight(spawner: Spawner) -> i32 {
         Ok(c) => c,
         Err(e) => {
             defmt::error!(
-                "usage: cargo fw -- TRACE.bin [--seed N] [--checkpoint FILE [--stop-after N]]  (binary trace from `host-sim simulate --format bin`): {}",
+                "usage: cargo fw -- TRACE.bin [--seed N] [--checkpoint FILE [--stop-after N]] [--health FILE [--flight N]]  (binary trace from `host-sim simulate --format bin`): {}",
                 e
             );
             return status::USAGE;
@@ -217,7 +228,7 @@ async fn preflight(spawner: Spawner) -> i32 {
     let checkpoint = command.checkpoint_path();
     let mut have_record = false;
     if let Some(path) = checkpoint {
-        match read_checkpoint(path, &mut record) {
+        match read_record_file(path, &mut record) {
             Ok(found) => have_record = found,
             Err(e) => defmt::println!("checkpoint refused reason={} (restarting)", e),
         }
@@ -271,7 +282,7 @@ async fn preflight(spawner: Spawner) -> i32 {
             if stage == Stage::Identify && (evaluations >= next_checkpoint || cut) {
                 next_checkpoint = evaluations.saturating_add(CHECKPOINT_EVERY);
                 let saved = preflight.checkpoint(&mut record);
-                let written = saved.map(|n| (n, write_checkpoint(path, &record)));
+                let written = saved.map(|n| (n, write_record_file(path, &record)));
                 match written {
                     Ok((n, Ok(()))) => defmt::info!("checkpoint written at {=u32} evaluations", n),
                     Ok((_, Err(e))) => defmt::error!("checkpoint not written: {}", e),
@@ -304,6 +315,73 @@ async fn preflight(spawner: Spawner) -> i32 {
     };
     let total_cycles = cycles().saturating_sub(started);
     print_report(&report, &observed, total_cycles);
+    match command.health_path() {
+        Some(path) => record_health(path, command.flight, &report),
+        None => status::SUCCESS,
+    }
+}
+
+/// Appends this preflight's record to the health log kept in `path` and reports each fault's
+/// trend and RUL (flights; `none` = beyond the horizon). `*_bits` give the f32 bits
+/// (`ffffffff` for none) for the comparison with the host.
+fn record_health(path: &CStr, flight: Option<u32>, report: &Report) -> i32 {
+    let path_text = path.to_str().unwrap_or("(not UTF-8)");
+    let Some(store) = HEALTH_STORE.try_init_with(RamStore::erased) else {
+        defmt::error!("health store already in use");
+        return status::START_UP;
+    };
+    match read_record_file(path, store.as_bytes_mut()) {
+        Ok(true) => {}
+        Ok(false) => defmt::println!("health log {=str}: new", path_text),
+        Err(e) => {
+            defmt::error!("health log {=str} refused: {}", path_text, e);
+            return status::HEALTH_LOG;
+        }
+    }
+    let settings = TrendSettings::DEFAULT;
+    let update = match record_preflight(store, flight, report, &settings) {
+        Ok(u) => u,
+        Err(e) => {
+            defmt::error!("health record not appended: {}", e);
+            return status::HEALTH_LOG;
+        }
+    };
+    if let Err(e) = write_record_file(path, store.as_bytes()) {
+        defmt::error!("health log {=str} not written: {}", path_text, e);
+        return status::HEALTH_LOG;
+    }
+    defmt::println!(
+        "health flight={=u32} records={=u32} loaded={} evicted={} skipped={=u32}",
+        update.record.flight,
+        update.records,
+        update.loaded,
+        update.evicted.map(|r| r.flight),
+        update.skipped
+    );
+    let bits = |v: Option<f32>| v.map_or(u32::MAX, f32::to_bits);
+    for (name, estimate) in FAULT_NAMES.iter().zip(update.estimates.iter()) {
+        let Some(e) = estimate else { continue };
+        let rul = e.rul.unwrap_or(shared::prognosis::RulEstimate {
+            rul: None,
+            lower: None,
+            upper: None,
+        });
+        defmt::println!(
+            "trend {=str} n={=u32} outliers={=u32} level={=f32} slope={=f32} rate={=f32} rul={} lower={} upper={} rul_bits={=u32:08x} lower_bits={=u32:08x} upper_bits={=u32:08x}",
+            name,
+            e.observations,
+            e.outliers,
+            e.level,
+            e.slope,
+            e.rate,
+            rul.rul,
+            rul.lower,
+            rul.upper,
+            bits(rul.rul),
+            bits(rul.lower),
+            bits(rul.upper)
+        );
+    }
     status::SUCCESS
 }
 

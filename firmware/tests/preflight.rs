@@ -400,3 +400,57 @@ fn a_jammed_actuator_is_reported_outside_the_models_domain() {
         "the model's own trace moves"
     );
 }
+
+#[test]
+fn each_preflight_appends_its_record_and_reassesses_the_trend() {
+    use firmware::health::record_preflight;
+    use shared::health::{HealthLog, HealthRecord, RamStore, ONBOARD_RECORDS};
+    use shared::prognosis::{HealthTrend, TrendSettings};
+
+    let trend_settings = TrendSettings::DEFAULT;
+    let (report, _) = run_preflight(
+        &trace_bytes(
+            &monitor_rows(*FaultVector::NOMINAL.as_array(), 1200),
+            10_000,
+        ),
+        None,
+        None,
+    );
+    let mut report = report.expect("finished");
+    // Earlier preflights saw friction grow by 0.02 per flight over flights 100..=130 (0.5,
+    // the threshold, at flight 125); this one (flight 131) reports 0.4.
+    let mut store = RamStore::<ONBOARD_RECORDS>::erased();
+    let mut log = HealthLog::<ONBOARD_RECORDS>::new();
+    let mut k = *FaultVector::NOMINAL.as_array();
+    for f in 100..=130u32 {
+        k[0] = 0.02 * (f - 100) as f32;
+        let r = HealthRecord::new(f, FaultVector::new(k).unwrap(), 0.01, Domain::Within);
+        log.append(&mut store, r).unwrap();
+    }
+    k[0] = 0.4;
+    report.result.faults = FaultVector::new(k).unwrap();
+    let update = record_preflight(&mut store, None, &report, &trend_settings).unwrap();
+    assert_eq!(update.record.flight, 131, "one after the newest");
+    assert_eq!(update.loaded.records, 31);
+    assert_eq!(update.records, 32);
+    assert_eq!(update.evicted, None);
+    // The last level (0.4) is below the line's 0.62: an outlier for the trend, not the end.
+    let friction = update.estimates[0].expect("a friction trend");
+    assert_eq!(friction.outliers, 1);
+    let rul = friction.rul.unwrap().rul.expect("a crossing");
+    assert_eq!(rul, 0.0, "the line crossed 0.5 at flight 125");
+    // The store now holds the record: a reload gives the same log and the same trend bits.
+    let (reloaded, _) = HealthLog::<ONBOARD_RECORDS>::load(&mut store).unwrap();
+    assert_eq!(reloaded.latest(), Some(&update.record));
+    let again =
+        HealthTrend::from_records(reloaded.iter(), &trend_settings).estimates(&trend_settings);
+    assert_eq!(again, update.estimates);
+    // The next preflight evicts the oldest (flight 100).
+    let next = record_preflight(&mut store, Some(140), &report, &trend_settings).unwrap();
+    assert_eq!(next.evicted.map(|r| r.flight), Some(100));
+    assert_eq!(next.records, 32);
+    // A record for the past is refused and the store is unchanged.
+    let before = store.clone();
+    assert!(record_preflight(&mut store, Some(120), &report, &trend_settings).is_err());
+    assert_eq!(store, before);
+}

@@ -290,9 +290,14 @@ impl<const S: usize> RamStore<S> {
         store
     }
 
-    /// Slot `i`'s bytes, in order (the image, slot by slot).
-    pub fn image(&self) -> impl Iterator<Item = &EncodedRecord> {
-        self.slots.iter()
+    /// The image: slot after slot.
+    pub fn as_bytes(&self) -> &[u8] {
+        self.slots.as_flattened()
+    }
+
+    /// The image, writable (to load it from where it was kept).
+    pub fn as_bytes_mut(&mut self) -> &mut [u8] {
+        self.slots.as_flattened_mut()
     }
 }
 
@@ -542,7 +547,7 @@ mod tests {
             [13, 14, 15, 16]
         );
         assert_eq!(summary.records, 4);
-        let mut image: Vec<u8> = store.image().flatten().copied().collect();
+        let mut image = store.as_bytes().to_vec();
         image[2 * RECORD_BYTES + 20] ^= 1;
         let (loaded, summary) =
             HealthLog::<3>::load(&mut RamStore::<4>::from_image(&image)).unwrap();

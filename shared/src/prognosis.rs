@@ -61,7 +61,8 @@ pub struct TrendSettings {
     /// Maintenance threshold on each component's deviation from nominal; NaN or ≤ 0: no RUL
     /// for that component (the eccentricity phase is never trended).
     pub thresholds: [f32; FAULT_COUNT],
-    /// Least residual standard deviation assumed (the FDI's resolution).
+    /// Least residual standard deviation assumed: the FDI's own error on one test, which is
+    /// partly systematic (it does not average out along a history).
     pub noise_floor: f64,
     /// Standardised prediction error beyond which an observation is down-weighted.
     pub outlier_z: f64,
@@ -74,19 +75,25 @@ impl TrendSettings {
     /// backlash 0.5, each short 0.3, eccentricity 0.5, gain drift ±0.25.
     pub const DEFAULT: Self = Self {
         thresholds: [0.5, 0.5, 0.3, 0.3, 0.3, 0.5, f32::NAN, 0.25],
-        noise_floor: 0.003,
+        // Single-fault identification errors reach ~0.01 (docs/accuracy.md, Table I).
+        noise_floor: 0.01,
         outlier_z: 3.0,
         horizon: 500,
     };
 
     /// The threshold of component `i`, if it has one.
     pub fn threshold(&self, i: usize) -> Option<f32> {
-        let trended = !CIRCULAR.get(i).copied().unwrap_or(true);
         match self.thresholds.get(i) {
-            Some(&t) if trended && t > 0.0 => Some(t),
+            Some(&t) if is_trended(i) && t > 0.0 => Some(t),
             _ => None,
         }
     }
+}
+
+/// Whether component `i` has a trend (every fault component; not the eccentricity phase,
+/// which is a location).
+pub fn is_trended(i: usize) -> bool {
+    !CIRCULAR.get(i).copied().unwrap_or(true)
 }
 
 /// One rate's recursive least-squares state.
@@ -183,6 +190,14 @@ fn t90(dof: u32) -> f64 {
     }
 }
 
+/// Which curve a crossing is searched on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Curve {
+    Level,
+    Upper,
+    Lower,
+}
+
 /// One fault's trend: every rate's filter.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FaultTrend {
@@ -269,6 +284,23 @@ impl FaultTrend {
         true
     }
 
+    /// Component `i`'s trend over `records` (oldest first; records outside the monitor
+    /// model's domain are left out): the replay the controller does one fault at a time, in
+    /// 680 bytes instead of a whole [`HealthTrend`].
+    pub fn from_records<'r>(
+        records: impl IntoIterator<Item = &'r HealthRecord>,
+        i: usize,
+        settings: &TrendSettings,
+    ) -> Self {
+        let mut trend = Self::new();
+        for r in records.into_iter().filter(|r| r.is_trusted()) {
+            if let Some(Some(d)) = r.faults.deviations().get(i) {
+                trend.update(r.flight, *d, settings);
+            }
+        }
+        trend
+    }
+
     /// Index of the chosen rate and the plausibility bound on the residual.
     fn choice(&self) -> (usize, f64) {
         let best = self
@@ -328,20 +360,37 @@ impl FaultTrend {
         (lo, hi)
     }
 
-    /// Flights from the newest until `curve` reaches `threshold` (see the module doc).
-    fn crossing(&self, threshold: f64, horizon: u32, curve: impl Fn(f64) -> f64) -> Option<f64> {
+    /// The curve of rate `i` at `flight`: its fitted level, or its upper or lower 90 % band.
+    fn curve(&self, i: usize, curve: Curve, flight: f64, settings: &TrendSettings) -> f64 {
+        let (m, w) = self.band_of(i, flight, settings);
+        match curve {
+            Curve::Level => m,
+            Curve::Upper => m + w,
+            Curve::Lower => m - w,
+        }
+    }
+
+    /// Flights from the newest until rate `i`'s `curve` reaches `threshold` (module doc).
+    fn crossing(
+        &self,
+        i: usize,
+        curve: Curve,
+        threshold: f64,
+        settings: &TrendSettings,
+    ) -> Option<f64> {
+        let at = |x: f64| self.curve(i, curve, x, settings) >= threshold;
         let now = f64::from(self.newest);
-        if curve(now) >= threshold {
+        if at(now) {
             return Some(0.0);
         }
         let mut before = now;
-        for step in 1..=horizon {
-            let at = now + f64::from(step);
-            if curve(at) >= threshold {
-                let (mut lo, mut hi) = (before, at);
+        for step in 1..=settings.horizon {
+            let x = now + f64::from(step);
+            if at(x) {
+                let (mut lo, mut hi) = (before, x);
                 for _ in 0..BISECTION_STEPS {
                     let mid = 0.5 * (lo + hi);
-                    if curve(mid) >= threshold {
+                    if at(mid) {
                         hi = mid;
                     } else {
                         lo = mid;
@@ -349,7 +398,7 @@ impl FaultTrend {
                 }
                 return Some(hi - now);
             }
-            before = at;
+            before = x;
         }
         None
     }
@@ -369,22 +418,15 @@ impl FaultTrend {
         let delta = f64::from(self.newest - self.origin);
         let rul = threshold.map(|t| {
             let t = f64::from(t);
-            let h = settings.horizon;
-            let rul = self.crossing(t, h, |f| self.band_of(chosen, f, settings).0);
+            let rul = self.crossing(chosen, Curve::Level, t, settings);
             let mut lower: Option<f64> = None;
             let mut upper: Option<f64> = Some(0.0);
             for (i, f) in self.fits.iter().enumerate() {
                 if i != chosen && !(f.sse <= plausible && self.grows(i, settings)) {
                     continue;
                 }
-                let first = self.crossing(t, h, |x| {
-                    let (m, w) = self.band_of(i, x, settings);
-                    m + w
-                });
-                let last = self.crossing(t, h, |x| {
-                    let (m, w) = self.band_of(i, x, settings);
-                    m - w
-                });
+                let first = self.crossing(i, Curve::Upper, t, settings);
+                let last = self.crossing(i, Curve::Lower, t, settings);
                 lower = match (lower, first) {
                     (Some(a), Some(b)) => Some(a.min(b)),
                     (a, b) => a.or(b),
@@ -484,7 +526,7 @@ impl HealthTrend {
     pub fn estimates(&self, settings: &TrendSettings) -> [Option<TrendEstimate>; FAULT_COUNT] {
         let mut out = [None; FAULT_COUNT];
         for (i, (o, trend)) in out.iter_mut().zip(self.faults.iter()).enumerate() {
-            if !CIRCULAR.get(i).copied().unwrap_or(true) {
+            if is_trended(i) {
                 *o = trend.estimate(settings.threshold(i), settings);
             }
         }
