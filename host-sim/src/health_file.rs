@@ -292,7 +292,7 @@ mod tests {
         assert_eq!(parse_history_csv(&text).unwrap(), rows);
         let bad = text.replace(",0.125,", ",x,");
         let e = parse_history_csv(&bad).unwrap_err();
-        assert!(format!("{e:#}").contains("line 2"), "{e:#}");
+        assert!(format!("{e:#}").contains("line 3"), "{e:#}");
         let swapped = format!("{}\n{}", text.trim_end(), text.lines().nth(1).unwrap());
         assert!(
             format!("{:#}", parse_history_csv(&swapped).unwrap_err()).contains("does not follow")

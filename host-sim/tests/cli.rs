@@ -45,6 +45,9 @@ fn every_command_has_help() {
         vec!["calibrate", "--help"],
         vec!["identify", "--help"],
         vec!["plot", "--help"],
+        vec!["degrade", "--help"],
+        vec!["prognose", "--help"],
+        vec!["prognostics", "--help"],
     ] {
         let o = host_sim(&cmd);
         assert!(o.status.success(), "{cmd:?}");

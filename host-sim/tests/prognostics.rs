@@ -1,0 +1,190 @@
+//! `degrade` and `prognose` end to end: a simulated degradation gives a history whose
+//! identified faults follow the truth, the health log written beside it reads back, and the
+//! RUL `prognose` reports follows the threshold and the growth it is given.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use host_sim::health_file::{history_csv, HistoryRow};
+use shared::domain::{Domain, OutsideReason};
+use shared::health::HealthRecord;
+use shared::FaultVector;
+
+fn host_sim(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args(args)
+        .output()
+        .expect("host-sim runs")
+}
+
+fn text(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr)
+}
+
+fn path_str(p: &Path) -> &str {
+    p.to_str().expect("UTF-8 temp path")
+}
+
+/// Friction 0.1 + 0.01·f over flights 0..n, with a ±0.006 deterministic wiggle; flight 7 lies
+/// outside the domain (and reads 0.9).
+fn friction_history(n: u32) -> String {
+    let rows: Vec<HistoryRow> = (0..n)
+        .map(|f| {
+            let mut k = *FaultVector::NOMINAL.as_array();
+            let truth = 0.1 + 0.01 * f as f32;
+            k[0] = truth + 0.006 * (((f * 37) % 7) as f32 / 3.0 - 1.0);
+            let domain = if f == 7 {
+                k[0] = 0.9;
+                Domain::Outside(OutsideReason::CommandMismatch { tracking: 0.5 })
+            } else {
+                Domain::Within
+            };
+            let mut t = *FaultVector::NOMINAL.as_array();
+            t[0] = truth;
+            HistoryRow {
+                record: HealthRecord::new(f, FaultVector::new(k).unwrap(), 0.01, domain),
+                truth: Some(FaultVector::new(t).unwrap()),
+            }
+        })
+        .collect();
+    history_csv(&rows)
+}
+
+fn json(o: &Output) -> serde_json::Value {
+    assert!(o.status.success(), "{}", text(o));
+    serde_json::from_slice(&o.stdout).expect("one JSON object")
+}
+
+#[test]
+fn prognose_reports_the_rul_the_trend_and_the_threshold_give() {
+    let dir = tempfile::tempdir().unwrap();
+    let history = dir.path().join("history.csv");
+    std::fs::write(&history, friction_history(20)).unwrap();
+    let h = path_str(&history);
+
+    // 0.1 + 0.01·f reaches 0.5 at flight 40: 21 flights after the newest (19).
+    let v = json(&host_sim(&["prognose", h, "--json"]));
+    assert_eq!(v["records"], 20);
+    assert_eq!(v["skipped"], 1, "flight 7 is outside the domain");
+    let rul = &v["faults"]["friction"]["rul"];
+    let flights = rul["flights"].as_f64().unwrap();
+    assert!((flights - 21.0).abs() < 2.0, "{rul}");
+    assert!(rul["lower"].as_f64().unwrap() <= flights);
+    assert!(rul["upper"].as_f64().unwrap() >= flights);
+    assert!(
+        v["faults"]["backlash"]["rul"]["flights"].is_null(),
+        "no growth, no RUL"
+    );
+    assert!(v["faults"].get("ecc_phase").is_none());
+
+    // A lower threshold is reached sooner (0.3 at flight 20: one flight on).
+    let low = json(&host_sim(&[
+        "prognose",
+        h,
+        "--json",
+        "--threshold",
+        "friction=0.3",
+    ]));
+    let f_low = low["faults"]["friction"]["rul"]["flights"]
+        .as_f64()
+        .unwrap();
+    assert!((f_low - 1.0).abs() < 1.5, "{f_low}");
+    // Up to flight 9 only: 0.5 is 31 flights on.
+    let early = json(&host_sim(&["prognose", h, "--json", "--at", "9"]));
+    let f_early = early["faults"]["friction"]["rul"]["flights"]
+        .as_f64()
+        .unwrap();
+    assert!((f_early - 31.0).abs() < 6.0, "{f_early}");
+
+    // The table and the picture.
+    let svg = dir.path().join("h.svg");
+    let o = host_sim(&["prognose", h, "--plot", path_str(&svg)]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(text(&o).contains("friction"));
+    let picture = std::fs::read_to_string(&svg).unwrap();
+    assert!(picture.contains("friction") && picture.contains("RUL"));
+}
+
+#[test]
+fn prognose_refuses_bad_input_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let history = dir.path().join("history.csv");
+    std::fs::write(&history, friction_history(6)).unwrap();
+    let h = path_str(&history);
+    for (args, expect) in [
+        (vec!["--threshold", "1.5"], "outside (0, 1]"),
+        (vec!["--threshold", "frication=0.3"], "unknown fault"),
+        (vec!["--at", "x"], "invalid value"),
+    ] {
+        let mut all = vec!["prognose", h];
+        all.extend(args);
+        let o = host_sim(&all);
+        assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+        assert!(text(&o).contains(expect), "{}", text(&o));
+    }
+    let bad = dir.path().join("bad.csv");
+    let damaged = friction_history(6).replace("\n3,", "\n3,x");
+    std::fs::write(&bad, damaged).unwrap();
+    let o = host_sim(&["prognose", path_str(&bad)]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(text(&o).contains("line 5"), "{}", text(&o));
+    let o = host_sim(&["prognose", path_str(&dir.path().join("missing.csv"))]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(!text(&o).contains("panicked"));
+}
+
+#[test]
+fn degrade_simulates_each_flight_and_writes_history_and_log() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("h.csv");
+    let log = dir.path().join("h.bin");
+    let o = host_sim(&[
+        "degrade",
+        "--faults-start",
+        "0.1,0,0,0,0,0,0.5,0.5",
+        "--faults-end",
+        "0.3,0,0.2,0,0,0,0.5,0.5",
+        "--flights",
+        "3",
+        "--seed",
+        "4",
+        "--out",
+        path_str(&out),
+        "--log",
+        path_str(&log),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let csv = std::fs::read_to_string(&out).unwrap();
+    let rows: Vec<Vec<f64>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| {
+            l.split(',')
+                .map(|c| c.parse().unwrap_or(f64::NAN))
+                .collect()
+        })
+        .collect();
+    assert_eq!(rows.len(), 3);
+    // Columns: flight, 8 identified, fitness, domain, 8 true.
+    for (f, r) in rows.iter().enumerate() {
+        assert_eq!(r[0], f as f64);
+        let truth_friction = 0.1 + 0.1 * f as f64;
+        let truth_short = 0.1 * f as f64;
+        assert!((r[11] - truth_friction).abs() < 1e-6, "{r:?}");
+        assert!((r[13] - truth_short).abs() < 1e-6, "{r:?}");
+        assert!(
+            (r[1] - truth_friction).abs() < 0.03,
+            "identified friction {r:?}"
+        );
+        assert!(
+            (r[3] - truth_short).abs() < 0.03,
+            "identified short A {r:?}"
+        );
+    }
+    assert!(csv.lines().skip(1).all(|l| l.contains(",within,")));
+    // The log holds the same records, and prognose reads it.
+    assert_eq!(std::fs::metadata(&log).unwrap().len(), 32 * 52);
+    let from_log = json(&host_sim(&["prognose", path_str(&log), "--json"]));
+    let from_csv = json(&host_sim(&["prognose", path_str(&out), "--json"]));
+    assert_eq!(from_log, from_csv);
+}
