@@ -324,6 +324,7 @@ async fn preflight(spawner: Spawner) -> i32 {
 /// Appends this preflight's record to the health log kept in `path` and reports each fault's
 /// trend and RUL (flights; `none` = beyond the horizon). `*_bits` give the f32 bits
 /// (`ffffffff` for none) for the comparison with the host.
+#[inline(never)]
 fn record_health(path: &CStr, flight: Option<u32>, report: &Report) -> i32 {
     let path_text = path.to_str().unwrap_or("(not UTF-8)");
     let Some(store) = HEALTH_STORE.try_init_with(RamStore::erased) else {

@@ -424,64 +424,49 @@ impl<const N: usize> HealthLog<N> {
     }
 
     /// Reads every slot of `store` and keeps the newest `N` sound records in flight order.
+    /// Two passes over the slots, no sorting: the newest record's slot is found first, and
+    /// since flight `f` sits in slot `f mod slots`, walking the slots on from there meets the
+    /// store's flights oldest first (a record left from an earlier lap of the ring, older
+    /// than the last `slots` flights, is dropped).
     pub fn load<S: HealthStore>(store: &mut S) -> Result<(Self, LoadSummary), S::Error> {
-        let mut sorted: heapless::Vec<HealthRecord, N> = heapless::Vec::new();
         let mut summary = LoadSummary::default();
         let mut bytes = [0u8; RECORD_BYTES];
-        for slot in 0..store.slots() {
+        let slots = store.slots();
+        let mut newest: Option<(usize, u32)> = None;
+        for slot in 0..slots {
             store.read(slot, &mut bytes)?;
-            let record = match HealthRecord::decode(&bytes) {
-                Ok(r) => r,
+            match HealthRecord::decode(&bytes) {
+                Ok(r) => {
+                    summary.records = summary.records.saturating_add(1);
+                    if newest.is_none_or(|(_, f)| r.flight > f) {
+                        newest = Some((slot, r.flight));
+                    }
+                }
                 Err(HealthRecordError::BadMagic) if is_blank(&bytes) => {
                     summary.empty = summary.empty.saturating_add(1);
-                    continue;
                 }
-                Err(_) => {
-                    summary.damaged = summary.damaged.saturating_add(1);
-                    continue;
-                }
-            };
-            summary.records = summary.records.saturating_add(1);
-            if insert_newest(&mut sorted, record) {
-                summary.dropped = summary.dropped.saturating_add(1);
+                Err(_) => summary.damaged = summary.damaged.saturating_add(1),
             }
         }
         let mut log = Self::new();
-        for r in sorted {
-            // Strictly increasing and at most N: every push succeeds.
-            let _ = log.push(r);
+        if let Some((last_slot, _)) = newest {
+            for k in 1..=slots {
+                store.read((last_slot + k) % slots, &mut bytes)?;
+                if let Ok(r) = HealthRecord::decode(&bytes) {
+                    // Refused when not newer than the last one kept (an earlier lap).
+                    let _ = log.push(r);
+                }
+            }
         }
+        summary.dropped = summary.records.saturating_sub(log.len() as u16);
         Ok((log, summary))
     }
 }
 
 /// A never-written slot: all 0xFF (erased flash) or all zero (fresh RAM or file).
 fn is_blank(bytes: &EncodedRecord) -> bool {
-    bytes.iter().all(|&b| b == 0xFF) || bytes.iter().all(|&b| b == 0)
-}
-
-/// Inserts `r` into `sorted` (increasing flight) keeping the newest `N`; true when a record
-/// was dropped (`r` itself: a repeated flight index or older than all of a full vector; or
-/// the oldest, to make room). O(N).
-fn insert_newest<const N: usize>(
-    sorted: &mut heapless::Vec<HealthRecord, N>,
-    r: HealthRecord,
-) -> bool {
-    let at = sorted
-        .iter()
-        .position(|x| x.flight >= r.flight)
-        .unwrap_or(sorted.len());
-    if sorted.get(at).is_some_and(|x| x.flight == r.flight) {
-        return true;
-    }
-    if !sorted.is_full() {
-        return sorted.insert(at, r).is_err();
-    }
-    if at > 0 {
-        sorted.remove(0);
-        let _ = sorted.insert(at - 1, r);
-    }
-    true
+    let first = bytes.first().copied().unwrap_or(0);
+    (first == 0 || first == 0xFF) && bytes.iter().all(|&b| b == first)
 }
 
 #[cfg(test)]
