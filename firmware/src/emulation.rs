@@ -130,12 +130,12 @@ impl Command {
 
     /// The checkpoint file, NUL-terminated, if one was given.
     pub fn checkpoint_path(&self) -> Option<&CStr> {
-        self.checkpoint.as_ref().map(|p| path_of(p))
+        self.checkpoint.as_ref().map(path_of)
     }
 
     /// The health-log file (the RAM store's image between runs), if one was given.
     pub fn health_path(&self) -> Option<&CStr> {
-        self.health.as_ref().map(|p| path_of(p))
+        self.health.as_ref().map(path_of)
     }
 
     /// The trace path, NUL-terminated.
