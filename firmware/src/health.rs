@@ -3,7 +3,7 @@
 //! `shared::prognosis`). Host-tested; the binary keeps the store in RAM under emulation
 //! (loaded from and saved to a semihosting file) and would keep it in flash on hardware.
 //!
-//! Work bound: one store read per slot ([`ONBOARD_RECORDS`]), one slot write, one trend
+//! Work bound: two store reads per slot ([`ONBOARD_RECORDS`]), one slot write, one trend
 //! update per record (O(records · faults · rates)) and one estimate per fault (O(rates ·
 //! horizon)). Stack: the log (≈ 1.4 KiB) and one fault's trend (680 B), held only during
 //! the call.

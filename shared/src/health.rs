@@ -6,7 +6,7 @@
 //! Units: flight index (count), fault vector (normalised, [`FaultVector`]), fitness [A²·s].
 //! Work bounds: [`HealthRecord::encode`]/[`HealthRecord::decode`] O([`RECORD_BYTES`]);
 //! [`HealthLog::push`] O(1); [`HealthLog::append`] one slot write; [`HealthLog::load`] reads
-//! every slot once and orders them, O(slots · N).
+//! every slot twice (find the newest, then walk the ring from it), O(slots).
 //!
 //! ## Record (52 bytes, little-endian)
 //!
