@@ -145,7 +145,7 @@ pub fn parse_thresholds(text: &str) -> Result<[f32; FAULT_COUNT], String> {
     if !text.contains('=') {
         let v = value(text)?;
         for (i, o) in t.iter_mut().enumerate() {
-            if i != 6 {
+            if shared::prognosis::is_trended(i) {
                 *o = v;
             }
         }
@@ -158,7 +158,7 @@ pub fn parse_thresholds(text: &str) -> Result<[f32; FAULT_COUNT], String> {
         let i = FAULT_NAMES
             .iter()
             .position(|n| *n == name.trim())
-            .filter(|&i| i != 6)
+            .filter(|&i| shared::prognosis::is_trended(i))
             .ok_or_else(|| {
                 format!(
                     "unknown fault \"{}\" (one of friction, backlash, short_a, short_b, short_c, \

@@ -99,15 +99,17 @@ impl From<Domain> for DomainCode {
 }
 
 impl DomainCode {
+    /// Every code, in the order of its byte.
+    const ALL: [Self; 5] = [
+        Self::Within,
+        Self::NoMotion,
+        Self::OpenPhase,
+        Self::CommandMismatch,
+        Self::FitnessFloor,
+    ];
+
     fn from_byte(b: u8) -> Option<Self> {
-        Some(match b {
-            0 => Self::Within,
-            1 => Self::NoMotion,
-            2 => Self::OpenPhase,
-            3 => Self::CommandMismatch,
-            4 => Self::FitnessFloor,
-            _ => return None,
-        })
+        Self::ALL.get(usize::from(b)).copied()
     }
 
     /// Short name for reports and CSV files.
@@ -123,15 +125,7 @@ impl DomainCode {
 
     /// Inverse of [`DomainCode::name`].
     pub fn from_name(name: &str) -> Option<Self> {
-        [
-            Self::Within,
-            Self::NoMotion,
-            Self::OpenPhase,
-            Self::CommandMismatch,
-            Self::FitnessFloor,
-        ]
-        .into_iter()
-        .find(|c| c.name() == name)
+        Self::ALL.into_iter().find(|c| c.name() == name)
     }
 }
 

@@ -1,7 +1,7 @@
 //! Degradation trends and remaining useful life (RUL), per fault, from the health log.
 //!
 //! Units: time in flights (one preflight per flight), fault level in the fault vector's
-//! normalised deviation from nominal ([`FaultVector::deviations`]), RUL in flights.
+//! normalised deviation from nominal ([`crate::fault::FaultVector::deviations`]), RUL in flights.
 //!
 //! ## Model
 //!
@@ -33,7 +33,7 @@
 //! fault. All in f64 from IEEE operations ([`crate::math::exp64`], [`crate::math::sqrt64`]):
 //! the same bits on the host and on the controller.
 
-use crate::fault::{FaultVector, CIRCULAR, FAULT_COUNT};
+use crate::fault::{CIRCULAR, FAULT_COUNT};
 use crate::health::HealthRecord;
 use crate::math::{exp64, sqrt64};
 
@@ -496,15 +496,10 @@ impl HealthTrend {
             self.skipped += 1;
             return;
         }
-        self.update_faults(record.flight, &record.faults, settings);
-    }
-
-    /// Adds one identified vector at `flight` (the host's history files).
-    pub fn update_faults(&mut self, flight: u32, faults: &FaultVector, settings: &TrendSettings) {
         let mut taken = false;
-        for (trend, d) in self.faults.iter_mut().zip(faults.deviations()) {
+        for (trend, d) in self.faults.iter_mut().zip(record.faults.deviations()) {
             if let Some(d) = d {
-                taken |= trend.update(flight, d, settings);
+                taken |= trend.update(record.flight, d, settings);
             }
         }
         if !taken {
@@ -537,6 +532,7 @@ impl HealthTrend {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fault::FaultVector;
 
     /// A deterministic scatter in ±`amp` (no RNG needed).
     fn wiggle(i: u32, amp: f32) -> f32 {
