@@ -6,6 +6,7 @@
 //! * [`calibration`] — fitting the monitor model to a healthy trace.
 //! * [`campaign`] — accuracy campaigns over the paper's fault cases.
 //! * [`domain`] — the survey behind the "outside the monitor model's domain" limits.
+//! * [`identifiability`] — which test design can tell every fault apart (sensitivity study).
 //! * [`identify`] — the onboard FDI driven on the host, with progress and history.
 //! * [`plot`] — SVG pictures of an identification.
 //! * [`health_file`] — the health log in a file, and history CSV files.
@@ -17,6 +18,7 @@ pub mod campaign;
 pub mod domain;
 pub mod faults;
 pub mod health_file;
+pub mod identifiability;
 pub mod identify;
 pub mod optimisers;
 pub mod plot;

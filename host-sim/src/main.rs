@@ -237,6 +237,33 @@ enum Command {
         #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u64).range(2..=1000))]
         seeds: u64,
     },
+    /// Identifiability study: for each test design, the sensitivity J of what the FDI fits to
+    /// the 8 fault components (central differences on the reference model, averaged over
+    /// noise seeds) at the healthy point and the Table II low and medium vectors; singular
+    /// values, condition number and the predicted one-test standard deviation of each
+    /// component. How the default test was chosen (docs/identifiability.md).
+    Identifiability {
+        /// Designs to study (default: all).
+        #[arg(long, value_delimiter = ',')]
+        designs: Vec<host_sim::identifiability::Design>,
+        /// Noise seeds per point (each costs 1 + 2 × 8 reference-model runs).
+        #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u64).range(3..=200))]
+        seeds: u64,
+        /// Difference step h in fault-vector units.
+        #[arg(long, default_value_t = 0.02)]
+        step: f32,
+        /// Cutoff of the reference model's analogue current anti-alias filter [Hz] (0: none).
+        #[arg(long, default_value_t = ReferenceSettings::ANTI_ALIAS_HZ)]
+        anti_alias: f64,
+        /// Instead of the designs: the paper's test's linearised identification error from
+        /// the monitor model's structural mismatch, at the Table I, Table II and random
+        /// vectors (no anti-alias filter: the reference actuator as calibrated).
+        #[arg(long)]
+        bias: bool,
+        /// Also write the tables to this Markdown file.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// Domain survey: the statistics behind the "outside the monitor model's domain" verdict
     /// on actuators the model explains (Table I/II, healthy, noise, seeds) and on ones it
     /// does not (jammed, an open phase, other commands). Prints a table and the limits.
@@ -470,6 +497,20 @@ fn main() -> ExitCode {
             plot,
         } => optimisers_command(seeds, cap, source, target, out.as_deref(), plot.as_deref()),
         Command::Domain { seeds, out } => domain_command(seeds, out.as_deref()),
+        Command::Identifiability {
+            designs,
+            seeds,
+            step,
+            anti_alias,
+            bias,
+            out,
+        } => {
+            if bias {
+                mismatch_bias_command(seeds, step, out.as_deref())
+            } else {
+                identifiability_command(&designs, seeds, step, anti_alias, out.as_deref())
+            }
+        }
         Command::Degrade {
             faults_start,
             faults_end,
@@ -1019,6 +1060,91 @@ fn measured_from_monitor(
     record_monitor_trace(model, truth, &mut measured)
         .map_err(|e| anyhow::anyhow!("recording the trace: {e:?}"))?;
     Ok(measured)
+}
+
+fn mismatch_bias_command(seeds: u64, step: f32, out: Option<&Path>) -> Result<()> {
+    use host_sim::campaign::{random_cases, TABLE_2};
+    use host_sim::identifiability::mismatch_bias;
+    use std::fmt::Write;
+    let cases: Vec<(&'static str, FaultVector)> = TABLE_1
+        .iter()
+        .chain(TABLE_2.iter())
+        .chain(random_cases(6).iter())
+        .filter(|c| c.noise == 0.0)
+        .map(|c| (c.name, FaultVector::saturating(c.faults)))
+        .collect();
+    let bar = host_sim::progress_bar(
+        cases.len() as u64,
+        "{elapsed_precise} [{bar:40}] {pos}/{len} cases {msg}",
+        std::io::stderr().is_terminal(),
+    );
+    let mut text = format!(
+        "Paper's test, reference actuator as calibrated, {seeds} seeds, step {step}: \
+         predicted identification error k_found − k_true (in % of the range) from the \
+         monitor model's structural mismatch alone.\n\n\
+         | case | mismatch RMS (%) | k1 | k2 | k3 | k4 | k5 | k6 | k7 | k8 | predicted e_tot (%) |\n\
+         | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n"
+    );
+    for (name, k) in cases {
+        bar.set_message(name);
+        let b = mismatch_bias(name, &k, seeds, step)?;
+        let cells: Vec<String> = b
+            .bias
+            .iter()
+            .map(|x| x.map_or("—".into(), |v| format!("{:+.2}", 100.0 * v)))
+            .collect();
+        let _ = writeln!(
+            text,
+            "| {name} | {:.2} | {} | {:.2} |",
+            b.mismatch_rms,
+            cells.join(" | "),
+            b.e_tot(&k)
+        );
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    print!("{text}");
+    if let Some(path) = out {
+        std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(())
+}
+
+fn identifiability_command(
+    designs: &[host_sim::identifiability::Design],
+    seeds: u64,
+    step: f32,
+    anti_alias_hz: f64,
+    out: Option<&Path>,
+) -> Result<()> {
+    use host_sim::identifiability::{markdown, points, study, Design};
+    let designs = if designs.is_empty() {
+        Design::ALL.to_vec()
+    } else {
+        designs.to_vec()
+    };
+    let jobs: Vec<_> = designs
+        .iter()
+        .flat_map(|&d| points().map(|(name, k)| (d, name, k)))
+        .collect();
+    let bar = host_sim::progress_bar(
+        jobs.len() as u64,
+        "{elapsed_precise} [{bar:40}] {pos}/{len} design × point {msg}",
+        std::io::stderr().is_terminal(),
+    );
+    let mut studies = Vec::new();
+    for (design, name, k) in jobs {
+        bar.set_message(format!("{design:?} @ {name}"));
+        studies.push(study(design, name, &k, seeds, step, anti_alias_hz)?);
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    let text = markdown(&studies, seeds, step, anti_alias_hz);
+    print!("{text}");
+    if let Some(path) = out {
+        std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(())
 }
 
 fn separability_command(a: &FaultVector, b: &FaultVector, seeds: u64) -> Result<()> {

@@ -34,11 +34,12 @@
 use rand_core::{RngCore, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 use shared::conditioning::COMMUTATION_SIGNS;
+use shared::test_design::{Drive, PreflightTest};
 use shared::{ActuatorParams, ChirpCommand, FaultVector};
 
 use crate::trace_file::{Trace, TraceSample};
 
-use std::f64::consts::{FRAC_PI_2, PI, TAU};
+use std::f64::consts::{FRAC_PI_2, PI, SQRT_2, TAU};
 
 /// Mechanical angle of the centre of each phase's coil group (A, B, C) [rad]. The groups sit
 /// 120° apart in the order A, C, B, which for P = 4 puts phase B 120° electrical behind A.
@@ -73,6 +74,11 @@ pub struct ReferenceSettings {
     pub current_bits: u32,
     /// RMS of the white electrical noise on each current line [A].
     pub current_noise: f64,
+    /// Cutoff of the analogue anti-alias filter of each current-sense channel before its
+    /// ADC: second-order Butterworth [Hz]; 0 = none (the ADC samples the raw hysteresis
+    /// ripple). [`Self::ANTI_ALIAS_HZ`] is the study's value; the reference actuator keeps
+    /// 0 until the calibration and accuracy tables are regenerated with it.
+    pub anti_alias_hz: f64,
     /// Bits per revolution of the motor encoder.
     pub encoder_bits: u32,
     /// Full scale (±) [rad] and bits of the user-shaft transducer.
@@ -101,6 +107,7 @@ impl ReferenceSettings {
         current_full_scale: 20.0,
         current_bits: 12,
         current_noise: 0.01,
+        anti_alias_hz: 0.0,
         encoder_bits: 20,
         user_full_scale: 0.5,
         user_bits: 20,
@@ -108,6 +115,12 @@ impl ReferenceSettings {
         user_noise: 5.0e-7,
         pre_roll: 0.01,
     };
+}
+
+impl ReferenceSettings {
+    /// A 3 kHz second-order anti-alias stage (0.6 × the 5 kHz Nyquist frequency): the
+    /// 20–50 kHz hysteresis ripple is attenuated 40–280 times, the signal delayed ≈ 75 µs.
+    pub const ANTI_ALIAS_HZ: f64 = 3000.0;
 }
 
 impl Default for ReferenceSettings {
@@ -146,6 +159,10 @@ pub struct TruthSample {
     pub motor_speed: f64,
     pub user_angle: f64,
     pub motor_torque: f64,
+    /// Mean voltage of each inverter leg over the coming control period, from the DC bus's
+    /// midpoint [V]: what the controller knows of its own switching (the open leg's diode
+    /// voltage included).
+    pub applied_voltages: [f64; 3],
 }
 
 /// Energy bookkeeping over a run [J]: what the inverter delivered and where it went.
@@ -201,7 +218,7 @@ pub enum Anomaly {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ReferenceModel {
     settings: ReferenceSettings,
-    command: ChirpCommand,
+    test: PreflightTest,
     anomaly: Option<Anomaly>,
 }
 
@@ -209,14 +226,25 @@ impl ReferenceModel {
     pub fn new(settings: ReferenceSettings) -> Self {
         Self {
             settings,
-            command: ChirpCommand::PREFLIGHT,
+            test: PreflightTest::PAPER,
             anomaly: None,
         }
     }
 
+    /// The same actuator driven by another chirp (the test's other segments unchanged).
     pub fn with_command(mut self, command: ChirpCommand) -> Self {
-        self.command = command;
+        self.test.chirp = command;
         self
+    }
+
+    /// The same actuator driven by another test design.
+    pub fn with_test(mut self, test: PreflightTest) -> Self {
+        self.test = test;
+        self
+    }
+
+    pub fn test(&self) -> &PreflightTest {
+        &self.test
     }
 
     /// The same actuator with a failure outside the fault vector.
@@ -231,15 +259,16 @@ impl ReferenceModel {
 
     /// Control periods in the test.
     pub fn test_samples(&self) -> usize {
-        let ts = f64::from(self.settings.params.control_period);
-        (f64::from(self.command.duration) / ts).round().max(0.0) as usize
+        self.test.samples(self.settings.params.control_period)
     }
 
     /// RMS of I_ref of the healthy actuator without process noise [A]: the reference level of
     /// [`Scenario::current_ref_noise`].
     pub fn nominal_current_ref_rms(&self) -> f64 {
         let sim = self.simulate(&Scenario::new(FaultVector::NOMINAL));
-        rms(sim.truth.iter().map(|t| t.current_ref))
+        // Over the chirp: the segments before it do not use the current loop alike.
+        let lead = self.test.lead_samples();
+        rms(sim.truth.iter().skip(lead).map(|t| t.current_ref))
     }
 
     /// Back-EMF shape of each phase over one mechanical revolution: the coupling of phase x
@@ -334,6 +363,9 @@ impl ReferenceModel {
         let (mut position_integral, mut previous_error, mut speed_integral) = (0.0f64, 0.0, 0.0);
         let mut previous_encoder: Option<f64> = None;
         let mut ledger = EnergyLedger::default();
+        // Anti-alias filter of each current-sense channel: output and its derivative.
+        let aa_omega = TAU * s.anti_alias_hz;
+        let mut sensed_filter = [[0.0f64; 2]; 3];
 
         let mut trace = Trace::with_capacity(samples);
         let mut truth = Vec::with_capacity(samples);
@@ -343,7 +375,12 @@ impl ReferenceModel {
             let tick = n.checked_sub(pre_roll);
 
             // ---- sensors (what the ADC latches at this instant) ----
-            let sensed_currents = i.map(|x| {
+            let analogue = if s.anti_alias_hz > 0.0 {
+                sensed_filter.map(|[x, _]| x)
+            } else {
+                i
+            };
+            let sensed_currents = analogue.map(|x| {
                 quantise(
                     x + s.current_noise * sensor_rng.next(),
                     current_lsb,
@@ -357,9 +394,13 @@ impl ReferenceModel {
                 s.user_full_scale,
             );
             // The command samples are the monitor model's, bit for bit (same f32 time).
-            let command = tick.map_or(0.0, |k| {
-                f64::from(self.command.position(k as f32 * p.control_period))
+            let drive = tick.map_or(Drive::Position(0.0), |k| {
+                self.test.drive(k, p.control_period)
             });
+            let (command, pair_drive) = match drive {
+                Drive::Position(x) => (f64::from(x), None),
+                Drive::Pair(d) => (0.0, Some(d)),
+            };
             if let Some(k) = tick {
                 trace.push(TraceSample {
                     time: k as f64 / f64::from(crate::trace_file::SAMPLE_RATE_HZ),
@@ -393,7 +434,13 @@ impl ReferenceModel {
             if unsaturated == saturated || (unsaturated > saturated) != (speed_error > 0.0) {
                 speed_integral = integral;
             }
-            let current_ref = (saturated + process_noise).clamp(-max_current, max_current);
+            let mut current_ref = (saturated + process_noise).clamp(-max_current, max_current);
+            if pair_drive.is_some() {
+                // Position loop suspended: the loops restart empty when it closes again.
+                position_integral = 0.0;
+                speed_integral = 0.0;
+                current_ref = 0.0;
+            }
 
             let shape = lookup(&shapes, theta_m);
             if tick.is_some() {
@@ -404,15 +451,31 @@ impl ReferenceModel {
                     motor_speed: omega_m,
                     user_angle: theta_u,
                     motor_torque: (0..3).map(|x| phases[x].coupling * shape[x] * i[x]).sum(),
+                    applied_voltages: [0.0; 3],
                 });
             }
+            let mut applied = [0.0f64; 3];
+            // Centre-aligned PWM of the standstill segment: leg x is high for the middle
+            // `duty_x` of each control period, duty = ½ ± V/(2·V_dc).
+            let pwm_window = pair_drive.map(|d| {
+                let signs = d.signs();
+                signs.map(|sign| {
+                    let duty = 0.5 + f64::from(sign) * f64::from(d.volts) / (2.0 * vdc);
+                    (0.5 * ts * (1.0 - duty), 0.5 * ts * (1.0 + duty))
+                })
+            });
 
             // ---- power stage, motor and mechanics, `steps_per_tick` fine steps ----
-            for _ in 0..steps_per_tick {
+            for fine in 0..steps_per_tick {
                 let theta_e = pole_pairs * theta_m;
                 let sector = ((theta_e * 3.0 / PI + 0.5).floor() as i64).rem_euclid(6) as usize;
-                let signs = COMMUTATION_SIGNS[sector];
-                let floating = sector % 3;
+                let (signs, floating) = match pair_drive {
+                    Some(d) => {
+                        let signs = d.signs();
+                        (signs, signs.iter().position(|&x| x == 0).unwrap_or(2))
+                    }
+                    None => (COMMUTATION_SIGNS[sector], sector % 3),
+                };
 
                 let shape = lookup(&shapes, theta_m);
                 let coupling: [f64; 3] = core::array::from_fn(|x| phases[x].coupling * shape[x]);
@@ -430,6 +493,13 @@ impl ReferenceModel {
                         } else {
                             0.0
                         };
+                    } else if let Some(windows) = pwm_window {
+                        // The share of this fine step the leg spends high.
+                        let (rise, fall) = windows[x];
+                        let t0 = fine as f64 * dt;
+                        let high = ((t0 + dt).min(fall) - t0.max(rise)).max(0.0) / dt;
+                        legs[x] = 0;
+                        v[x] = (2.0 * high - 1.0) * 0.5 * vdc;
                     } else {
                         let reference = f64::from(signs[x]) * current_ref;
                         if i[x] < reference - s.hysteresis_band {
@@ -484,6 +554,7 @@ impl ReferenceModel {
                 let previous = i;
                 for x in 0..3 {
                     i[x] += di[x] * dt;
+                    applied[x] += v[x] / steps_per_tick as f64;
                 }
                 // Energy booked at the step's mid-point current: with explicit Euler that makes
                 // Σ v·i = Σ R·i·i_mid + Δ(½Li²) + Σ e·i_mid hold step by step (booking at the
@@ -575,6 +646,17 @@ impl ReferenceModel {
                 omega_u = new_omega_u;
                 theta_m += omega_m * dt;
                 theta_u += omega_u * dt;
+
+                // Anti-alias filters (semi-implicit Euler; ω·dt ≈ 0.02).
+                for (state, &current) in sensed_filter.iter_mut().zip(&i) {
+                    let [y, dy] = *state;
+                    let ddy = aa_omega * aa_omega * (current - y) - SQRT_2 * aa_omega * dy;
+                    let dy = dy + ddy * dt;
+                    *state = [y + dy * dt, dy];
+                }
+            }
+            if let (Some(_), Some(last)) = (tick, truth.last_mut()) {
+                last.applied_voltages = applied;
             }
         }
 

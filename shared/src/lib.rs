@@ -45,6 +45,7 @@ pub mod monitor;
 pub mod params;
 pub mod prognosis;
 pub mod random;
+pub mod test_design;
 pub mod trace;
 
 pub use command::ChirpCommand;

@@ -1,0 +1,158 @@
+//! The reference model plays the test designs of the identifiability study with its full
+//! physics, and the study's numbers behave: a standstill pair step is an R–L circuit that
+//! does not turn the shaft, a short shows in the pair's resistance and an eccentricity does
+//! not, the anti-alias stage removes the ripple the ADC would alias, and the applied-voltage
+//! channel conditions the study better than the paper's currents alone.
+
+use host_sim::identifiability::{points, study, Design};
+use host_sim::reference::{ReferenceModel, ReferenceSettings, Scenario, Simulation};
+use shared::conditioning::commutation_signs;
+use shared::test_design::{PreflightTest, StandstillSegment};
+use shared::FaultVector;
+
+const HEALTHY: [f32; 8] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5];
+
+fn standstill(k: [f32; 8]) -> Simulation {
+    ReferenceModel::new(ReferenceSettings {
+        current_noise: 0.0,
+        ..ReferenceSettings::REFERENCE
+    })
+    .with_test(PreflightTest::STANDSTILL)
+    .simulate(&Scenario::new(FaultVector::new(k).expect("valid")))
+}
+
+/// Pair current ½(i_+ − i_−) at the last "on" sample of each pair (truth).
+fn plateaus(sim: &Simulation) -> [f64; 3] {
+    let s = StandstillSegment::DEFAULT;
+    let per_pair = usize::from(s.on_samples) + usize::from(s.off_samples);
+    core::array::from_fn(|pair| {
+        let t = &sim.truth[pair * per_pair + usize::from(s.on_samples) - 1];
+        let signs = shared::test_design::PAIR_SIGNS[pair];
+        0.5 * (0..3)
+            .map(|x| f64::from(signs[x]) * t.phase_currents[x])
+            .sum::<f64>()
+    })
+}
+
+#[test]
+fn a_standstill_step_is_an_rl_circuit_and_the_shaft_does_not_turn() {
+    let sim = standstill(HEALTHY);
+    let s = StandstillSegment::DEFAULT;
+    let segment = &sim.truth[..s.samples()];
+    let start = segment[0].motor_angle;
+    let travel = segment
+        .iter()
+        .map(|t| (t.motor_angle - start).abs())
+        .fold(0.0, f64::max);
+    // Below breakaway friction: the rotor holds (the chirp moves it by radians).
+    assert!(
+        travel < 1e-3,
+        "motor moved {travel} rad during the standstill segment"
+    );
+    // R = 1.2 Ω, L = 5 mH in series: i(t) = V/R·(1 − e^(−t·R/L)), sampled at the start of
+    // the last "on" period, 79 periods after the step.
+    let t: f64 = 79.0e-4;
+    let expected = 0.24 / 1.2 * (1.0 - (-t * 1.2 / 5.0e-3).exp());
+    for (pair, got) in plateaus(&sim).iter().enumerate() {
+        assert!(
+            (got - expected).abs() < 0.03 * expected,
+            "pair {pair}: {got} A, expected {expected} A"
+        );
+    }
+    // The open phase carries nothing once its diode has blocked.
+    for t in &segment[10..usize::from(s.on_samples)] {
+        assert!(t.phase_currents[2].abs() < 1e-6, "{:?}", t.phase_currents);
+    }
+    // The controller's applied line voltage is the commanded one.
+    let applied = segment[40].applied_voltages;
+    assert!((applied[0] - applied[1] - 0.24).abs() < 1e-3, "{applied:?}");
+}
+
+#[test]
+fn a_short_shows_in_its_pairs_current_an_eccentricity_does_not() {
+    let healthy = plateaus(&standstill(HEALTHY));
+    let mut short = HEALTHY;
+    short[2] = 0.5; // N_a = 0.5: pairs A→B and C→A lose a quarter of their resistance.
+    let shorted = plateaus(&standstill(short));
+    assert!(shorted[0] > 1.15 * healthy[0], "{shorted:?} vs {healthy:?}");
+    assert!(shorted[2] > 1.15 * healthy[2], "{shorted:?} vs {healthy:?}");
+    assert!((shorted[1] - healthy[1]).abs() < 0.01 * healthy[1]);
+    let mut eccentric = HEALTHY;
+    eccentric[5] = 0.5;
+    let ecc = plateaus(&standstill(eccentric));
+    for pair in 0..3 {
+        assert!(
+            (ecc[pair] - healthy[pair]).abs() < 0.01 * healthy[pair],
+            "pair {pair}: {ecc:?} vs {healthy:?}"
+        );
+    }
+}
+
+#[test]
+fn the_anti_alias_stage_removes_the_ripple_the_adc_would_alias() {
+    let roughness = |anti_alias_hz: f64| {
+        let sim = ReferenceModel::new(ReferenceSettings {
+            current_noise: 0.0,
+            anti_alias_hz,
+            ..ReferenceSettings::REFERENCE
+        })
+        .with_test(PreflightTest::PAPER)
+        .simulate(&Scenario::new(FaultVector::NOMINAL));
+        // RMS of the second difference of the equivalent current (continuous through
+        // commutation) over the chirp's slow first 0.2 s: ripple, not signal.
+        let a: Vec<f64> = sim.trace.samples()[..2000]
+            .iter()
+            .map(|s| {
+                let signs = commutation_signs(4.0 * s.motor_angle as f32);
+                0.5 * (0..3)
+                    .map(|x| f64::from(signs[x]) * s.phase_currents[x])
+                    .sum::<f64>()
+            })
+            .collect();
+        let sum: f64 = a
+            .windows(3)
+            .map(|w| (w[0] - 2.0 * w[1] + w[2]).powi(2))
+            .sum();
+        (sum / a.len() as f64).sqrt()
+    };
+    let raw = roughness(0.0);
+    let filtered = roughness(ReferenceSettings::ANTI_ALIAS_HZ);
+    eprintln!("raw {raw} A, filtered {filtered} A");
+    assert!(filtered < 0.5 * raw, "raw {raw} A, filtered {filtered} A");
+}
+
+#[test]
+fn the_paper_test_is_unchanged_by_the_segments_code() {
+    // The default reference actuator still plays the paper's chirp alone, 5 000 samples.
+    let rm = ReferenceModel::new(ReferenceSettings::REFERENCE);
+    assert_eq!(*rm.test(), PreflightTest::PAPER);
+    assert_eq!(rm.test_samples(), 5000);
+}
+
+#[test]
+fn the_voltage_channel_conditions_the_study_better_than_currents_alone() {
+    let (name, k) = points()[1]; // Table II low: every component, the phase included.
+    let hz = ReferenceSettings::ANTI_ALIAS_HZ;
+    let paper = study(Design::Paper, name, &k, 3, 0.02, hz).unwrap();
+    let voltage = study(Design::Voltage, name, &k, 3, 0.02, hz).unwrap();
+    assert_eq!(paper.components, (0..8).collect::<Vec<_>>());
+    for s in [&paper, &voltage] {
+        assert!(s
+            .singular_values
+            .windows(2)
+            .all(|w| w[0] >= w[1] && w[1] > 0.0));
+        assert!(s.std_white.iter().all(|x| x.is_some_and(|v| v > 0.0)));
+    }
+    assert_eq!(voltage.samples, 2 * paper.samples);
+    assert!(
+        voltage.condition() < 0.6 * paper.condition(),
+        "voltage {} vs paper {}",
+        voltage.condition(),
+        paper.condition()
+    );
+    // At the healthy point the eccentricity phase has no effect and is left out.
+    let (name, k) = points()[0];
+    let healthy = study(Design::Paper, name, &k, 3, 0.05, hz).unwrap();
+    assert!(!healthy.components.contains(&6));
+    assert_eq!(healthy.std_white[6], None);
+}

@@ -1,0 +1,350 @@
+//! The preflight test design: what the controller commands, control period by control period.
+//!
+//! Units: volts (line voltage across a phase pair), rad (user shaft), samples of one control
+//! period (100 µs). Every call is O(1); time is passed in as a sample index, never read.
+//!
+//! A test is a sequence of segments, all optional but the chirp:
+//! 1. **Standstill** ([`StandstillSegment`]): the position loop is suspended and the drive
+//!    applies a small DC line voltage to each phase pair in turn (A→B, B→C, C→A), then lets
+//!    the pair freewheel at zero volts, as drives' motor-characterisation routines do. The
+//!    current rises with the pair's `R` and `L` and falls with `L/R`; the voltage is low
+//!    enough that the torque stays below the motor's breakaway friction, so the shaft does
+//!    not turn and no back-EMF hides the winding. A short of `N` healthy turns scales `R` by
+//!    `N` and `L` by `N²`; eccentricity leaves both alone: the three shorts become directly
+//!    observable.
+//! 2. **Motion** ([`MotionSegment`], studied, not the default): smooth user-shaft moves to
+//!    `+A`, `−A` and back with plateaus, enough travel to turn the motor more than one
+//!    mechanical revolution.
+//! 3. **Chirp** ([`ChirpCommand`]): the paper's test (SPEC §5).
+//!
+//! [`PreflightTest::PAPER`] is the chirp alone (the paper's current-only test, trace format
+//! version 1); [`PreflightTest::STANDSTILL`] is the product's default.
+
+use crate::command::ChirpCommand;
+use crate::math::cos;
+use core::f32::consts::PI;
+
+/// Signs of phases A, B, C for each standstill pair: current into the `+1` phase, out of the
+/// `−1` phase, the `0` phase open. Pairs in order A→B, B→C, C→A.
+pub const PAIR_SIGNS: [[i8; 3]; 3] = [[1, -1, 0], [0, 1, -1], [-1, 0, 1]];
+
+/// One drive setting of the standstill segment.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PairDrive {
+    /// Index into [`PAIR_SIGNS`].
+    pub pair: usize,
+    /// Line voltage across the pair, `+` phase minus `−` phase [V].
+    pub volts: f32,
+}
+
+impl PairDrive {
+    /// Signs of A, B, C for this pair.
+    pub fn signs(&self) -> [i8; 3] {
+        match PAIR_SIGNS.get(self.pair) {
+            Some(s) => *s,
+            None => [0; 3],
+        }
+    }
+}
+
+/// Voltage steps on each phase pair at standstill.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct StandstillSegment {
+    /// Line voltage of the step [V].
+    pub volts: f32,
+    /// Control periods with the voltage applied, per pair.
+    pub on_samples: u16,
+    /// Control periods at zero volts (the pair freewheels) after each step.
+    pub off_samples: u16,
+}
+
+impl StandstillSegment {
+    /// The product's segment for the reference actuator: 0.24 V (≈ 0.2 A in a healthy pair
+    /// of 2 × 0.6 Ω, a torque of at most 0.052 N·m against 0.06 N·m of breakaway friction),
+    /// 8 ms on (≈ 2 electrical time constants L/R = 4.2 ms), 6 ms off; 42 ms in all.
+    pub const DEFAULT: Self = Self {
+        volts: 0.24,
+        on_samples: 80,
+        off_samples: 60,
+    };
+
+    /// Control periods in the whole segment (three pairs).
+    pub const fn samples(&self) -> usize {
+        3 * (self.on_samples as usize + self.off_samples as usize)
+    }
+
+    /// The drive during sample `index` of the segment, `None` past its end.
+    pub fn at(&self, index: usize) -> Option<PairDrive> {
+        let per_pair = self.on_samples as usize + self.off_samples as usize;
+        if per_pair == 0 || index >= self.samples() {
+            return None;
+        }
+        let pair = index / per_pair;
+        let on = index % per_pair < self.on_samples as usize;
+        Some(PairDrive {
+            pair,
+            volts: if on { self.volts } else { 0.0 },
+        })
+    }
+}
+
+/// Smooth position moves before the chirp: 0 → +A → −A → 0, raised-cosine ramps, plateaus
+/// after each.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MotionSegment {
+    /// Plateau angle at the user shaft [rad].
+    pub amplitude: f32,
+    /// Control periods of one ramp from 0 to ±A (the ±A → ∓A ramp takes twice as long).
+    pub ramp_samples: u16,
+    /// Control periods of each plateau.
+    pub hold_samples: u16,
+}
+
+impl MotionSegment {
+    /// ±7 mrad at the user shaft: 14 mrad peak to peak, 7 rad (1.1 revolutions) at the motor
+    /// with the gear of 500; 40 ms ramps, 30 ms plateaus, 250 ms in all.
+    pub const DEFAULT: Self = Self {
+        amplitude: 7.0e-3,
+        ramp_samples: 400,
+        hold_samples: 300,
+    };
+
+    pub const fn samples(&self) -> usize {
+        4 * self.ramp_samples as usize + 3 * self.hold_samples as usize
+    }
+
+    /// Commanded user angle at sample `index` [rad] (0 past the end).
+    pub fn position(&self, index: usize) -> f32 {
+        let r = self.ramp_samples as usize;
+        let h = self.hold_samples as usize;
+        let a = self.amplitude;
+        // Raised-cosine ramp from `from` to `to` over `len` samples.
+        let ramp = |from: f32, to: f32, i: usize, len: usize| {
+            let x = if len == 0 { 1.0 } else { i as f32 / len as f32 };
+            from + (to - from) * 0.5 * (1.0 - cos(PI * x))
+        };
+        let mut i = index;
+        for (from, to, len) in [(0.0, a, r), (a, a, h), (a, -a, 2 * r), (-a, -a, h)] {
+            if i < len {
+                return ramp(from, to, i, len);
+            }
+            i -= len;
+        }
+        if i < r {
+            return ramp(-a, 0.0, i, r);
+        }
+        0.0
+    }
+}
+
+/// What the controller commands during one control period.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Drive {
+    /// Position loop closed on this user-shaft angle [rad].
+    Position(f32),
+    /// Position loop suspended, this voltage across this pair.
+    Pair(PairDrive),
+}
+
+/// A whole preflight test: optional standstill and motion segments, then the chirp.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PreflightTest {
+    pub standstill: Option<StandstillSegment>,
+    pub motion: Option<MotionSegment>,
+    pub chirp: ChirpCommand,
+}
+
+impl PreflightTest {
+    /// The paper's test: the chirp alone, currents only.
+    pub const PAPER: Self = Self {
+        standstill: None,
+        motion: None,
+        chirp: ChirpCommand::PREFLIGHT,
+    };
+
+    /// The product's default: the standstill segment, then the paper's chirp.
+    pub const STANDSTILL: Self = Self {
+        standstill: Some(StandstillSegment::DEFAULT),
+        motion: None,
+        chirp: ChirpCommand::PREFLIGHT,
+    };
+
+    /// Design c of the identifiability study: the motion segment, then the chirp.
+    pub const MOTION: Self = Self {
+        standstill: None,
+        motion: Some(MotionSegment::DEFAULT),
+        chirp: ChirpCommand::PREFLIGHT,
+    };
+
+    /// The same test with another chirp.
+    pub const fn with_chirp(mut self, chirp: ChirpCommand) -> Self {
+        self.chirp = chirp;
+        self
+    }
+
+    /// Control periods of the standstill segment (0 without one).
+    pub fn standstill_samples(&self) -> usize {
+        self.standstill.map_or(0, |s| s.samples())
+    }
+
+    /// Control periods before the chirp starts.
+    pub fn lead_samples(&self) -> usize {
+        self.standstill_samples() + self.motion.map_or(0, |m| m.samples())
+    }
+
+    /// Control periods of the chirp at control period `dt` [s].
+    pub fn chirp_samples(&self, dt: f32) -> usize {
+        let n = self.chirp.duration / dt + 0.5;
+        if n.is_finite() && n > 0.0 {
+            n as usize
+        } else {
+            0
+        }
+    }
+
+    /// Control periods of the whole test.
+    pub fn samples(&self, dt: f32) -> usize {
+        self.lead_samples() + self.chirp_samples(dt)
+    }
+
+    /// What the controller commands during sample `index` of the test, at control period
+    /// `dt` [s]. O(1).
+    pub fn drive(&self, index: usize, dt: f32) -> Drive {
+        let mut i = index;
+        if let Some(s) = self.standstill {
+            if let Some(d) = s.at(i) {
+                return Drive::Pair(d);
+            }
+            i -= s.samples();
+        }
+        if let Some(m) = self.motion {
+            if i < m.samples() {
+                return Drive::Position(m.position(i));
+            }
+            i -= m.samples();
+        }
+        Drive::Position(self.chirp.position(i as f32 * dt))
+    }
+
+    /// A one-byte code of the design, stored in trace headers: 0 = paper, 1 = standstill +
+    /// chirp, 2 = motion + chirp, 3 = both; with the default segments and chirp only.
+    pub fn code(&self) -> Option<u8> {
+        let default_segments = self
+            .standstill
+            .is_none_or(|s| s == StandstillSegment::DEFAULT)
+            && self.motion.is_none_or(|m| m == MotionSegment::DEFAULT)
+            && self.chirp == ChirpCommand::PREFLIGHT;
+        default_segments
+            .then_some(u8::from(self.standstill.is_some()) | (u8::from(self.motion.is_some()) << 1))
+    }
+
+    /// The design of a header code.
+    pub fn from_code(code: u8) -> Option<Self> {
+        if code > 3 {
+            return None;
+        }
+        Some(Self {
+            standstill: (code & 1 != 0).then_some(StandstillSegment::DEFAULT),
+            motion: (code & 2 != 0).then_some(MotionSegment::DEFAULT),
+            chirp: ChirpCommand::PREFLIGHT,
+        })
+    }
+}
+
+impl Default for PreflightTest {
+    fn default() -> Self {
+        Self::STANDSTILL
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn standstill_steps_each_pair_then_freewheels() {
+        let s = StandstillSegment::DEFAULT;
+        assert_eq!(s.samples(), 420);
+        assert_eq!(
+            s.at(0),
+            Some(PairDrive {
+                pair: 0,
+                volts: 0.24
+            })
+        );
+        assert_eq!(s.at(79).map(|d| d.volts), Some(0.24));
+        assert_eq!(
+            s.at(80),
+            Some(PairDrive {
+                pair: 0,
+                volts: 0.0
+            })
+        );
+        assert_eq!(
+            s.at(140),
+            Some(PairDrive {
+                pair: 1,
+                volts: 0.24
+            })
+        );
+        assert_eq!(s.at(419).map(|d| d.pair), Some(2));
+        assert_eq!(s.at(420), None);
+        for signs in PAIR_SIGNS {
+            assert_eq!(signs.iter().map(|&x| i32::from(x)).sum::<i32>(), 0);
+        }
+    }
+
+    #[test]
+    fn the_chirp_follows_the_segments_and_starts_at_its_own_zero() {
+        let t = PreflightTest::STANDSTILL;
+        assert_eq!(t.samples(1e-4), 5420);
+        assert!(matches!(t.drive(419, 1e-4), Drive::Pair(_)));
+        for i in 0..5000 {
+            let Drive::Position(x) = t.drive(420 + i, 1e-4) else {
+                panic!("sample {i}")
+            };
+            assert_eq!(x.to_bits(), t.chirp.position(i as f32 * 1e-4).to_bits());
+        }
+        assert_eq!(PreflightTest::PAPER.samples(1e-4), 5000);
+    }
+
+    #[test]
+    fn motion_turns_the_motor_over_a_revolution_and_returns() {
+        let m = MotionSegment::DEFAULT;
+        let (mut lo, mut hi) = (0.0f32, 0.0f32);
+        let mut previous = 0.0f32;
+        for i in 0..m.samples() {
+            let x = m.position(i);
+            lo = lo.min(x);
+            hi = hi.max(x);
+            // Smooth: no step larger than the steepest ramp allows.
+            assert!((x - previous).abs() < 4.0e-5, "sample {i}");
+            previous = x;
+        }
+        assert!((hi - lo) * 500.0 > core::f32::consts::TAU);
+        assert!(m.position(m.samples() - 1).abs() < 1e-6);
+        assert_eq!(m.position(m.samples()), 0.0);
+    }
+
+    #[test]
+    fn codes_round_trip() {
+        for t in [
+            PreflightTest::PAPER,
+            PreflightTest::STANDSTILL,
+            PreflightTest::MOTION,
+        ] {
+            assert_eq!(PreflightTest::from_code(t.code().unwrap()), Some(t));
+        }
+        assert_eq!(PreflightTest::from_code(4), None);
+        let odd = PreflightTest::PAPER.with_chirp(ChirpCommand {
+            amplitude: 1e-3,
+            ..ChirpCommand::PREFLIGHT
+        });
+        assert_eq!(odd.code(), None);
+    }
+}
