@@ -284,7 +284,7 @@ pub fn study(
 }
 
 /// The linearised identification error that the monitor model's structural mismatch
-/// causes with the paper's test, at one point.
+/// causes with a test design, at one point.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MismatchBias {
     pub point: &'static str,
@@ -311,8 +311,8 @@ impl MismatchBias {
     }
 }
 
-/// What the paper's FDI would find if it reached the weighted least-squares optimum of its
-/// fitness, linearised: `δk = (JᵀWJ)⁻¹ JᵀW m`, with `J` the calibrated monitor model's
+/// What the FDI would find with `test` if it reached the weighted least-squares optimum of
+/// its fitness (the standstill segment weighted by `standstill_weight`), linearised: `δk = (JᵀWJ)⁻¹ JᵀW m`, with `J` the calibrated monitor model's
 /// sensitivity (central differences), `W` eq. (3)'s per-sample weights and `m` the
 /// mismatch between the conditioned reference-model current and the monitor model's at the
 /// true `k` (each from the same measured start), averaged over `seeds`. Work: `seeds`
@@ -320,6 +320,8 @@ impl MismatchBias {
 pub fn mismatch_bias(
     point: &'static str,
     k: &FaultVector,
+    test: PreflightTest,
+    standstill_weight: f64,
     seeds: u64,
     step: f32,
 ) -> Result<MismatchBias> {
@@ -328,9 +330,10 @@ pub fn mismatch_bias(
     if seeds < 1 {
         bail!("need at least 1 seed");
     }
-    let rm = ReferenceModel::new(ReferenceSettings::REFERENCE);
+    let rm = ReferenceModel::new(ReferenceSettings::REFERENCE).with_test(test);
     let params = ActuatorParams::REFERENCE;
-    let model = MonitorModel::new(params, &Calibration::REFERENCE_ACTUATOR);
+    let model = MonitorModel::new(params, &Calibration::REFERENCE_ACTUATOR).with_test(&test);
+    let lead = test.standstill_samples();
     let filter = LowPass::for_control_period(params.control_period)
         .map_err(|e| anyhow::anyhow!("conditioning filter: {e:?}"))?;
     let components: Vec<usize> = (0..FAULT_COUNT)
@@ -354,10 +357,17 @@ pub fn mismatch_bias(
                     .inv_kappa()
                     .map_err(|e| anyhow::anyhow!("conditioning: {e:?}"))?,
             );
+            // As the fitness weighs them: the standstill segment by its weight, the chirp by
+            // eq. (3)'s derivative normalisation.
             let mut previous = 0.0;
             let weight: Vec<f64> = reference
                 .iter()
-                .map(|&r| {
+                .enumerate()
+                .map(|(i, &r)| {
+                    if i < lead {
+                        let fitted = test.standstill.is_some_and(|s| s.fitted(i));
+                        return if fitted { standstill_weight } else { 0.0 };
+                    }
                     let d = r - previous;
                     previous = r;
                     1.0 / (d * d * inv_kappa + 1.0)

@@ -255,11 +255,15 @@ enum Command {
         /// Cutoff of the reference model's analogue current anti-alias filter [Hz] (0: none).
         #[arg(long, default_value_t = ReferenceSettings::ANTI_ALIAS_HZ)]
         anti_alias: f64,
-        /// Instead of the designs: the paper's test's linearised identification error from
-        /// the monitor model's structural mismatch, at the Table I, Table II and random
-        /// vectors (no anti-alias filter: the reference actuator as calibrated).
+        /// Instead of the designs: the linearised identification error from the monitor
+        /// model's structural mismatch, at the Table I, Table II and random vectors, for the
+        /// designs the monitor model plays (paper, standstill; the reference actuator as
+        /// calibrated).
         #[arg(long)]
         bias: bool,
+        /// Weights of the standstill segment to compare with --bias (comma-separated).
+        #[arg(long, value_delimiter = ',', default_value = "100")]
+        weights: Vec<f64>,
         /// Also write the tables to this Markdown file.
         #[arg(long)]
         out: Option<PathBuf>,
@@ -503,10 +507,11 @@ fn main() -> ExitCode {
             step,
             anti_alias,
             bias,
+            weights,
             out,
         } => {
             if bias {
-                mismatch_bias_command(seeds, step, out.as_deref())
+                mismatch_bias_command(&designs, &weights, seeds, step, out.as_deref())
             } else {
                 identifiability_command(&designs, seeds, step, anti_alias, out.as_deref())
             }
@@ -1062,10 +1067,31 @@ fn measured_from_monitor(
     Ok(measured)
 }
 
-fn mismatch_bias_command(seeds: u64, step: f32, out: Option<&Path>) -> Result<()> {
+fn mismatch_bias_command(
+    designs: &[host_sim::identifiability::Design],
+    weights: &[f64],
+    seeds: u64,
+    step: f32,
+    out: Option<&Path>,
+) -> Result<()> {
     use host_sim::campaign::{random_cases, TABLE_2};
-    use host_sim::identifiability::mismatch_bias;
+    use host_sim::identifiability::{mismatch_bias, Design};
     use std::fmt::Write;
+    let designs = if designs.is_empty() {
+        vec![Design::Paper, Design::Standstill]
+    } else {
+        designs.to_vec()
+    };
+    let mut variants = Vec::new();
+    for d in designs {
+        match d {
+            Design::Paper => variants.push((d, 0.0)),
+            Design::Standstill => variants.extend(weights.iter().map(|&w| (d, w))),
+            other => anyhow::bail!(
+                "the monitor model does not play design {other:?}: --bias takes paper, standstill"
+            ),
+        }
+    }
     let cases: Vec<(&'static str, FaultVector)> = TABLE_1
         .iter()
         .chain(TABLE_2.iter())
@@ -1074,33 +1100,41 @@ fn mismatch_bias_command(seeds: u64, step: f32, out: Option<&Path>) -> Result<()
         .map(|c| (c.name, FaultVector::saturating(c.faults)))
         .collect();
     let bar = host_sim::progress_bar(
-        cases.len() as u64,
+        (cases.len() * variants.len()) as u64,
         "{elapsed_precise} [{bar:40}] {pos}/{len} cases {msg}",
         std::io::stderr().is_terminal(),
     );
     let mut text = format!(
-        "Paper's test, reference actuator as calibrated, {seeds} seeds, step {step}: \
-         predicted identification error k_found − k_true (in % of the range) from the \
-         monitor model's structural mismatch alone.\n\n\
-         | case | mismatch RMS (%) | k1 | k2 | k3 | k4 | k5 | k6 | k7 | k8 | predicted e_tot (%) |\n\
-         | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n"
+        "Reference actuator as calibrated, {seeds} seeds, step {step}: predicted \
+         identification error k_found − k_true (in % of the range) from the monitor model's \
+         structural mismatch alone.\n"
     );
-    for (name, k) in cases {
-        bar.set_message(name);
-        let b = mismatch_bias(name, &k, seeds, step)?;
-        let cells: Vec<String> = b
-            .bias
-            .iter()
-            .map(|x| x.map_or("—".into(), |v| format!("{:+.2}", 100.0 * v)))
-            .collect();
-        let _ = writeln!(
-            text,
-            "| {name} | {:.2} | {} | {:.2} |",
-            b.mismatch_rms,
-            cells.join(" | "),
-            b.e_tot(&k)
-        );
-        bar.inc(1);
+    for (design, weight) in variants {
+        let _ = write!(
+        text,
+        "\n### {}{}\n\n\
+         | case | mismatch RMS (%) | k1 | k2 | k3 | k4 | k5 | k6 | k7 | k8 | predicted e_tot (%) |\n\
+         | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n",
+        design.label(),
+        if design == Design::Standstill { format!(", standstill weight {weight}") } else { String::new() }
+    );
+        for &(name, k) in &cases {
+            bar.set_message(name);
+            let b = mismatch_bias(name, &k, design.test(), weight, seeds, step)?;
+            let cells: Vec<String> = b
+                .bias
+                .iter()
+                .map(|x| x.map_or("—".into(), |v| format!("{:+.2}", 100.0 * v)))
+                .collect();
+            let _ = writeln!(
+                text,
+                "| {name} | {:.2} | {} | {:.2} |",
+                b.mismatch_rms,
+                cells.join(" | "),
+                b.e_tot(&k)
+            );
+            bar.inc(1);
+        }
     }
     bar.finish_and_clear();
     print!("{text}");

@@ -367,7 +367,7 @@ impl ReferenceModel {
         let aa_omega = TAU * s.anti_alias_hz;
         let mut sensed_filter = [[0.0f64; 2]; 3];
 
-        let mut trace = Trace::with_capacity(samples);
+        let mut trace = Trace::with_capacity(samples).with_test(self.test);
         let mut truth = Vec::with_capacity(samples);
 
         for (n, &process_noise) in current_ref_noise.iter().enumerate() {

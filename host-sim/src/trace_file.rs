@@ -3,9 +3,12 @@
 //! * **CSV** — header `t,theta_cmd,i_a,i_b,i_c,theta_m,theta_u`: time [s], commanded user
 //!   angle [rad], phase currents [A], motor-shaft angle [rad], user-shaft angle [rad]. Values
 //!   are printed in Rust's shortest round-trip form, so reading gives back the same `f64`s.
-//!   `pandas.read_csv` reads it as is.
-//! * **Binary** — `shared::trace` format v1 (header, fixed-point rows, CRC-32); what the
-//!   firmware reads. Time is implied by the row index and the sample rate.
+//!   Version 2: a first line `# test: NAME` names the test design (`standstill`: the
+//!   standstill segment's rows first, then the chirp's); without it (version 1) the trace is
+//!   the paper's test. `pandas.read_csv(f, comment="#")` reads both.
+//! * **Binary** — `shared::trace` format v1 (the paper's test) or v2 (the design in the
+//!   header): header, fixed-point rows, CRC-32; what the firmware reads. Time is implied by
+//!   the row index and the sample rate.
 //!
 //! Reading detects the form from the first bytes (`EMAT` = binary). Both forms condition into
 //! the same bits: values go through `shared::trace::TraceRow::from_f64` either way.
@@ -18,6 +21,7 @@ use anyhow::{bail, Context, Result};
 use fixed::types::{I16F16, I4F28};
 use shared::domain::DomainMonitor;
 use shared::fdi::{OnboardMeasured, TEST_SAMPLES};
+use shared::test_design::PreflightTest;
 use shared::trace::{
     Crc32, SaturationCheck, TraceError, TraceHeader, TraceRow, CURRENT_FULL_SCALE, HEADER_BYTES,
     MAGIC, ROW_BYTES, SATURATION_RUN, TRAILER_BYTES,
@@ -53,9 +57,17 @@ impl TraceSample {
 }
 
 /// A whole test.
-#[derive(Clone, Debug, PartialEq, Default)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Trace {
     samples: Vec<TraceSample>,
+    test: PreflightTest,
+}
+
+impl Default for Trace {
+    /// An empty trace of the paper's test.
+    fn default() -> Self {
+        Self::with_capacity(0)
+    }
 }
 
 /// On-disk form of a trace.
@@ -75,10 +87,29 @@ impl fmt::Display for TraceFormat {
 }
 
 impl Trace {
+    /// An empty trace of the paper's test.
     pub fn with_capacity(n: usize) -> Self {
         Self {
             samples: Vec::with_capacity(n),
+            test: PreflightTest::PAPER,
         }
+    }
+
+    /// The same trace, declared as coming from `test`.
+    pub fn with_test(mut self, test: PreflightTest) -> Self {
+        self.test = test;
+        self
+    }
+
+    /// The test design the samples come from.
+    pub fn test(&self) -> &PreflightTest {
+        &self.test
+    }
+
+    /// The samples of the chirp (after any standstill segment).
+    pub fn chirp_samples(&self) -> &[TraceSample] {
+        let lead = self.test.lead_samples().min(self.samples.len());
+        &self.samples[lead..]
     }
 
     pub fn push(&mut self, s: TraceSample) {
@@ -97,7 +128,7 @@ impl Trace {
             params.control_period,
             params.pole_pairs,
         );
-        for s in &self.samples {
+        for s in self.chirp_samples() {
             monitor.push(&s.row().adc_frame());
         }
         monitor
@@ -108,11 +139,11 @@ impl Trace {
     pub fn measured(&self, params: &ActuatorParams) -> Result<Box<OnboardMeasured>> {
         let filter = LowPass::for_control_period(params.control_period)
             .map_err(|e| anyhow::anyhow!("conditioning filter: {e:?}"))?;
-        let mut measured = Box::new(OnboardMeasured::new(filter));
+        let mut measured = Box::new(OnboardMeasured::for_test(filter, self.test));
         let capacity = shared::fdi::TEST_SAMPLES;
         if self.samples.len() > capacity {
             bail!(
-                "the trace has {} samples; the onboard buffer holds {capacity} (0.5 s at 10 kHz)",
+                "the trace has {} samples; the onboard buffer holds {capacity}",
                 self.samples.len()
             );
         }
@@ -142,7 +173,11 @@ impl Trace {
     }
 
     pub fn to_csv(&self) -> Vec<u8> {
-        let mut out = Vec::with_capacity(80 * (self.samples.len() + 1));
+        let mut out = Vec::with_capacity(80 * (self.samples.len() + 2));
+        if self.test != PreflightTest::PAPER {
+            let name = self.test.name().unwrap_or("unnamed");
+            let _ = writeln!(out, "# test: {name}");
+        }
         let _ = writeln!(out, "{}", CSV_HEADER.join(","));
         for s in &self.samples {
             let [a, b, c] = s.phase_currents;
@@ -160,9 +195,14 @@ impl Trace {
         let header = TraceHeader {
             sample_rate_hz: SAMPLE_RATE_HZ,
             rows,
+            test: self.test,
         };
         let mut out = Vec::with_capacity(header.file_bytes() as usize);
-        out.extend_from_slice(&header.encode());
+        out.extend_from_slice(
+            &header
+                .encode()
+                .map_err(|_| anyhow::anyhow!("this test design has no code in format v2"))?,
+        );
         for s in &self.samples {
             out.extend_from_slice(&s.row().encode());
         }
@@ -208,6 +248,10 @@ impl Trace {
             },
             TraceError::UnsupportedVersion { found } => IngestError::UnsupportedVersion { found },
             TraceError::BadColumns { found } => IngestError::BadColumnCount { found },
+            TraceError::UnknownTest { code } => IngestError::UnknownTest {
+                line: 0,
+                name: format!("code {code}"),
+            },
             other => IngestError::Binary(other),
         })?;
         let need = header.file_bytes();
@@ -254,7 +298,10 @@ impl Trace {
                 }
             })
             .collect();
-        let trace = Self { samples };
+        let trace = Self {
+            samples,
+            test: header.test,
+        };
         trace.check(Form::Binary)?;
         Ok(trace)
     }
@@ -273,8 +320,22 @@ impl Trace {
             }
         };
         let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l));
-        let Some((_, header)) = lines.find(|(_, l)| !l.trim().is_empty()) else {
-            return Err(IngestError::Empty);
+        // Comment lines before the header; `# test: NAME` names the design (version 2).
+        let mut test = PreflightTest::PAPER;
+        let (header_line, header) = loop {
+            let Some((line, l)) = lines.find(|(_, l)| !l.trim().is_empty()) else {
+                return Err(IngestError::Empty);
+            };
+            let Some(comment) = l.trim().strip_prefix('#') else {
+                break (line, l);
+            };
+            if let Some(name) = comment.trim().strip_prefix("test:") {
+                let name = name.trim();
+                test = PreflightTest::from_name(name).ok_or_else(|| IngestError::UnknownTest {
+                    line,
+                    name: name.to_string(),
+                })?;
+            }
         };
         // Where each CSV_HEADER column sits in the file.
         let names: Vec<&str> = header.split(',').map(str::trim).collect();
@@ -350,8 +411,8 @@ impl Trace {
                 user_angle: v[6],
             });
         }
-        let trace = Self { samples };
-        trace.check(Form::Csv)?;
+        let trace = Self { samples, test };
+        trace.check(Form::Csv { header_line })?;
         Ok(trace)
     }
 
@@ -359,17 +420,18 @@ impl Trace {
     /// current stretch.
     fn check(&self, form: Form) -> Result<(), IngestError> {
         let n = self.samples.len();
-        let need = OnboardMeasured::MIN_SAMPLES;
+        let need = OnboardMeasured::MIN_SAMPLES + self.test.lead_samples();
         if n < need {
             return Err(IngestError::TooFewSamples { have: n, need });
         }
-        if n > TEST_SAMPLES {
-            return Err(IngestError::TooManySamples {
-                have: n,
-                capacity: TEST_SAMPLES,
-            });
+        let capacity = self
+            .test
+            .samples(1.0 / SAMPLE_RATE_HZ as f32)
+            .min(TEST_SAMPLES);
+        if n > capacity {
+            return Err(IngestError::TooManySamples { have: n, capacity });
         }
-        if form == Form::Csv {
+        if let Form::Csv { .. } = form {
             check_time_base(&self.samples)?;
         }
         let mut saturation = SaturationCheck::new();
@@ -423,15 +485,18 @@ fn looks_binary(bytes: &[u8]) -> bool {
 /// Which form a trace was read from (for error locations).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Form {
-    Csv,
+    /// The header on this 1-based line.
+    Csv {
+        header_line: usize,
+    },
     Binary,
 }
 
 impl Form {
-    /// The 1-based line of sample `row` in a CSV (the header is line 1); `0` for a binary.
+    /// The 1-based line of sample `row` in a CSV; `0` for a binary.
     fn line(self, row: usize) -> usize {
         match self {
-            Self::Csv => row + 2,
+            Self::Csv { header_line } => header_line + 1 + row,
             Self::Binary => 0,
         }
     }
@@ -552,6 +617,12 @@ pub enum IngestError {
         samples: usize,
     },
     /// Any other refusal of the binary format.
+    /// A test design this code does not know (CSV `# test:` line; line 0 for a binary
+    /// header's code).
+    UnknownTest {
+        line: usize,
+        name: String,
+    },
     Binary(TraceError),
 }
 
@@ -582,6 +653,7 @@ impl IngestError {
             Self::BadColumnCount { .. } => "bad-column-count",
             Self::BadChecksum { .. } => "bad-checksum",
             Self::SaturatedCurrent { .. } => "saturated-current",
+            Self::UnknownTest { .. } => "unknown-test",
             Self::Binary(_) => "binary",
         }
     }
@@ -677,6 +749,12 @@ impl fmt::Display for IngestError {
                 at_line(*first_line),
                 CURRENT_FULL_SCALE,
                 *first_row as f64 / f64::from(SAMPLE_RATE_HZ)
+            ),
+            Self::UnknownTest { line, name } => write!(
+                f,
+                "{}unknown test design `{name}` (known: {})",
+                if *line > 0 { format!("line {line}: ") } else { "header: ".into() },
+                shared::test_design::TEST_NAMES.join(", ")
             ),
             Self::Binary(e) => write!(f, "binary trace refused: {e:?}"),
         }

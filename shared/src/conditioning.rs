@@ -21,6 +21,7 @@ use fixed::types::{I16F16, I4F28};
 use heapless::Vec;
 
 use crate::math::{floor, tan};
+use crate::test_design::PreflightTest;
 
 /// Positive-torque current sign of phases A, B, C in each 60° commutation sector.
 pub const COMMUTATION_SIGNS: [[i8; 3]; 6] = [
@@ -84,13 +85,17 @@ impl AdcFrame {
 pub struct ShaftAngles {
     pub motor: f32,
     pub user: f32,
+    /// The three phase currents at the same frame [A]: where a standstill segment's pair
+    /// current starts (what the position hold before the test left in the windings).
+    pub currents: [f32; 3],
 }
 
 impl ShaftAngles {
-    /// Both shafts at zero (the monitor model's own traces start here).
+    /// Both shafts at zero, no current (the monitor model's own traces start here).
     pub const ZERO: Self = Self {
         motor: 0.0,
         user: 0.0,
+        currents: [0.0; 3],
     };
 }
 
@@ -193,6 +198,9 @@ pub struct MeasuredCurrent<const N: usize> {
     /// Shaft angles at the first frame ([`ShaftAngles::ZERO`] when fed by
     /// [`push_equivalent`](Self::push_equivalent) only).
     initial_angles: ShaftAngles,
+    /// The test the samples come from: during its standstill segment a frame's current is
+    /// the driven pair's, not the commutated pair's.
+    test: PreflightTest,
     /// `1 / κ`, κ = mean of the squared sample-to-sample difference; `None` until finished.
     inv_kappa: Option<f32>,
 }
@@ -201,30 +209,61 @@ impl<const N: usize> MeasuredCurrent<N> {
     /// Shortest trace the fitness accepts: 0.1 s at 10 kHz.
     pub const MIN_SAMPLES: usize = 1000;
 
-    /// An empty buffer that conditions with `filter`.
+    /// An empty buffer that conditions with `filter` the paper's test (the chirp alone).
     pub const fn new(filter: LowPass) -> Self {
+        Self::for_test(filter, PreflightTest::PAPER)
+    }
+
+    /// An empty buffer that conditions with `filter` the frames of `test`.
+    pub const fn for_test(filter: LowPass, test: PreflightTest) -> Self {
         Self {
             filter,
             filter_state: LowPassState { z1: 0.0, z2: 0.0 },
             samples: Vec::new(),
             initial_angles: ShaftAngles::ZERO,
+            test,
             inv_kappa: None,
         }
     }
 
+    /// The test the buffer conditions.
+    pub fn test(&self) -> &PreflightTest {
+        &self.test
+    }
+
+    /// Samples of the test's standstill segment (they come first; 0 without one).
+    pub fn lead_samples(&self) -> usize {
+        self.test.standstill_samples()
+    }
+
     /// Conditions and stores one ADC frame; hands it back when the buffer is full. The first
-    /// frame also sets the [`initial_angles`](Self::initial_angles).
+    /// frame also sets the [`initial_angles`](Self::initial_angles). During a standstill
+    /// segment the current is the driven pair's, `½·Σ s_x·i_x` with the pair's signs.
     pub fn push_frame(&mut self, frame: AdcFrame, pole_pairs: f32) -> Result<(), AdcFrame> {
         let [a, b, c] = frame.phase_currents.map(|x| x.to_num::<f32>());
         let theta_e = pole_pairs * frame.motor_angle.to_num::<f32>();
-        let first = self.samples.is_empty();
-        match self.push_equivalent(equivalent_current([a, b, c], theta_e)) {
+        let index = self.samples.len();
+        let pair = self
+            .test
+            .standstill
+            .and_then(|segment| segment.at(self.samples.len()));
+        let current = match pair {
+            Some(drive) => {
+                let s = drive.signs();
+                0.5 * (f32::from(s[0]) * a + f32::from(s[1]) * b + f32::from(s[2]) * c)
+            }
+            None => equivalent_current([a, b, c], theta_e),
+        };
+        match self.push_equivalent(current) {
             Ok(()) => {
-                if first {
-                    self.initial_angles = ShaftAngles {
-                        motor: frame.motor_angle.to_num(),
-                        user: frame.user_angle.to_num(),
-                    };
+                // The phase currents where the test starts; the shaft angles where the chirp
+                // starts (the same frame without a standstill segment).
+                if index == 0 {
+                    self.initial_angles.currents = [a, b, c];
+                }
+                if index == self.lead_samples() {
+                    self.initial_angles.motor = frame.motor_angle.to_num();
+                    self.initial_angles.user = frame.user_angle.to_num();
                 }
                 Ok(())
             }
@@ -256,14 +295,17 @@ impl<const N: usize> MeasuredCurrent<N> {
                 index: index as u32,
             });
         }
+        // κ over the chirp: the standstill segment has its own weight in the fitness.
+        let lead = self.lead_samples().min(self.samples.len());
+        let chirp = self.samples.get(lead..).unwrap_or(&[]);
         let mut sum_sq = 0.0f32;
         let mut previous = 0.0f32;
-        for &x in &self.samples {
+        for &x in chirp {
             let d = x - previous;
             sum_sq += d * d;
             previous = x;
         }
-        let kappa = sum_sq / self.samples.len() as f32;
+        let kappa = sum_sq / chirp.len().max(1) as f32;
         // A flat trace has no derivative to normalise: every weight is then 1.
         self.inv_kappa = Some(if kappa > f32::MIN_POSITIVE {
             1.0 / kappa
@@ -278,7 +320,8 @@ impl<const N: usize> MeasuredCurrent<N> {
         &self.samples
     }
 
-    /// Shaft angles at the first sample: where the monitor model starts.
+    /// Where the monitor model starts: the shaft angles at the chirp's first sample, the
+    /// phase currents at the test's first sample.
     pub fn initial_angles(&self) -> ShaftAngles {
         self.initial_angles
     }

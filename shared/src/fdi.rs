@@ -14,8 +14,9 @@ use crate::monitor::MonitorModel;
 use crate::params::ActuatorParams;
 use crate::trace::Crc32;
 
-/// Samples in one preflight test: 0.5 s at 10 kHz.
-pub const TEST_SAMPLES: usize = 5000;
+/// Capacity of the measured buffer: the longest test the controller runs, the standstill
+/// segment (52 ms) and the chirp (0.5 s) at 10 kHz.
+pub const TEST_SAMPLES: usize = 5520;
 
 /// Individuals in the onboard GA population.
 pub const POPULATION: usize = 32;
@@ -192,7 +193,8 @@ fn fingerprint<const N: usize>(
 
 /// Records what the controller would measure if the actuator behaved exactly like the monitor
 /// model with faults `k`: three phase currents from the equivalent current and the commutation
-/// table, quantised into [`AdcFrame`]s and conditioned into `measured` (cleared first). Used
+/// table (the driven pair during a standstill segment of `measured`'s test, which the model
+/// plays), quantised into [`AdcFrame`]s and conditioned into `measured` (cleared first). Used
 /// by the inverse check, which proves fitness and optimiser before any reference model.
 pub fn record_monitor_trace<const N: usize>(
     model: &MonitorModel,
@@ -201,9 +203,17 @@ pub fn record_monitor_trace<const N: usize>(
 ) -> Result<(), FitnessError> {
     measured.clear();
     let pole_pairs = model.params().pole_pairs;
+    let model = model.with_test(measured.test());
     let samples = model.test_samples().min(N);
+    let standstill = measured.test().standstill;
+    let mut index = 0usize;
     model.run(k, samples, |s| {
-        let signs = commutation_signs(pole_pairs * s.motor_angle);
+        // The driven pair's signs during a standstill segment, the commutated pair's after.
+        let signs = match standstill.and_then(|segment| segment.at(index)) {
+            Some(drive) => drive.signs(),
+            None => commutation_signs(pole_pairs * s.motor_angle),
+        };
+        index += 1;
         let phases = signs.map(|x| f32::from(x) * s.current);
         // Cannot be full: at most N samples are produced.
         let _ = measured.push_frame(

@@ -4,6 +4,10 @@
 //! filtered measured equivalent current, `I_m` the monitor model's current through the same
 //! filter, `ΔI_r,i` the sample-to-sample change of `I_r` and κ its mean square (the
 //! derivative normalisation; using differences instead of derivatives is the same ratio).
+//!
+//! A test with a standstill segment adds, for its fitted samples (they come first, after the
+//! unfitted settle), `dt · w · Σ (I_r,i − I_m,i)²` with `w` = [`STANDSTILL_WEIGHT`]; κ and
+//! the eq. (3) sum run over the chirp only, so the paper's test keeps its bits.
 //! Units: A²·s. One evaluation = one monitor-model run over the measured samples: O(N), no
 //! allocation, never panics; a non-finite result cannot occur for finite inputs and is
 //! reported as `+∞` by [`FitnessProblem::error`] if it ever did. A bounded evaluation
@@ -95,9 +99,14 @@ pub struct FitnessProblem<'a, const N: usize> {
     measured: &'a MeasuredCurrent<N>,
     model: MonitorModel,
     inv_kappa: f32,
+    standstill_weight: f32,
     nominal_residual: f32,
     command_table: Option<&'a CommandTable<N>>,
 }
+
+/// Weight of the standstill segment's squared residual against the chirp's eq. (3) terms
+/// (module docs of [`FitnessProblem`]; chosen by `host-sim identifiability --bias`).
+pub const STANDSTILL_WEIGHT: f32 = 100.0;
 
 /// Samples between two checks of the partial error against the bound in
 /// [`FitnessProblem::error_below`] (10 ms of the test).
@@ -113,8 +122,9 @@ impl<'a, const N: usize> FitnessProblem<'a, N> {
     ) -> Result<Self, FitnessError> {
         Ok(Self {
             measured,
-            model: MonitorModel::new(params, calibration),
+            model: MonitorModel::new(params, calibration).with_test(measured.test()),
             inv_kappa: measured.inv_kappa()?,
+            standstill_weight: STANDSTILL_WEIGHT,
             nominal_residual: calibration.nominal_residual,
             command_table: None,
         })
@@ -122,6 +132,12 @@ impl<'a, const N: usize> FitnessProblem<'a, N> {
 
     pub fn model(&self) -> &MonitorModel {
         &self.model
+    }
+
+    /// The same problem with another standstill weight (for studies of the weight).
+    pub fn with_standstill_weight(mut self, weight: f32) -> Self {
+        self.standstill_weight = weight;
+        self
     }
 
     /// Drives the monitor model with the precomputed `table` instead of evaluating the chirp
@@ -165,13 +181,23 @@ impl<'a, const N: usize> FitnessProblem<'a, N> {
         let mut sum = 0.0f32;
         let mut reference_iter = reference.iter();
         let mut until_check = BOUND_CHECK_INTERVAL;
+        let standstill = self.measured.test().standstill;
+        let lead = self.measured.lead_samples();
+        let mut index = 0usize;
         let sink = |s: &MonitorSample| {
             let modelled = filter.apply(&mut filter_state, s.current);
             if let Some(&r) = reference_iter.next() {
-                let d = r - previous;
-                previous = r;
                 let e = r - modelled;
-                sum += e * e / (d * d * self.inv_kappa + 1.0);
+                if index < lead {
+                    if standstill.is_some_and(|segment| segment.fitted(index)) {
+                        sum += self.standstill_weight * e * e;
+                    }
+                    index += 1;
+                } else {
+                    let d = r - previous;
+                    previous = r;
+                    sum += e * e / (d * d * self.inv_kappa + 1.0);
+                }
             }
             until_check -= 1;
             if until_check == 0 {

@@ -32,10 +32,12 @@ use core::ops::ControlFlow;
 use crate::command::{ChirpCommand, CommandSource};
 use crate::conditioning::commutation_sector;
 use crate::conditioning::ShaftAngles;
+use crate::fault::FaultEffects;
 use crate::fault::FaultVector;
 use crate::fitness::Calibration;
-use crate::math::{abs, clamp, cos, frac, sin, TAU};
+use crate::math::{abs, clamp, cos, exp64, floor, TAU};
 use crate::params::ActuatorParams;
+use crate::test_design::{PreflightTest, StandstillSegment, PAIR_SIGNS};
 
 /// What the monitor model exposes at each sample: the state at `time`, before the step's
 /// update, plus the controller's output for the coming period.
@@ -74,6 +76,8 @@ pub struct MonitorState {
     pub position_integral: f32,
     pub previous_error: f32,
     pub speed_integral: f32,
+    /// Phase currents measured at the first frame [A] (a standstill segment starts there).
+    pub start_currents: [f32; 3],
 }
 
 impl MonitorState {
@@ -94,6 +98,7 @@ impl MonitorState {
             user_offset: start.user - user_angle,
             // The command starts at 0: no derivative kick on the first step.
             previous_error: -start.user,
+            start_currents: start.currents,
             ..Self::default()
         }
     }
@@ -106,10 +111,17 @@ struct FaultedConstants {
     static_friction_impulse: f32,
     dynamic_friction_impulse: f32,
     half_backlash: f32,
-    /// Short-circuit shape function eq. (1) for sector index mod 3.
+    /// Resistance shape, eq. (1): mean healthy fraction of the two conducting phases, per
+    /// sector index mod 3.
     sector_gain: [f32; 3],
-    eccentricity_z: f32,
-    eccentricity_phase: f32,
+    /// Torque/back-EMF shape over one electrical turn in [`GAIN_BINS`] bins (eight per
+    /// sector, bin 0 starting at θ_e = −30°): mean over the two conducting phases of healthy
+    /// fraction × air-gap coupling factor ([`torque_gain_table`]).
+    torque_gain: [f32; GAIN_BINS],
+    /// Standstill pair circuits A→B, B→C, C→A: `i ← decay·i + gain·V` per period (the
+    /// exact step response of R_pair, L_pair).
+    pair_decay: [f32; 3],
+    pair_gain: [f32; 3],
 }
 
 /// The monitor model's settings: parameters, calibration and test command, with the
@@ -130,6 +142,8 @@ pub struct MonitorModel {
     dt_over_user_inertia: f32,
     friction_scale: f32,
     user_damping: f32,
+    /// The standstill segment played before the chirp, if the test has one.
+    standstill: Option<StandstillSegment>,
 }
 
 impl MonitorModel {
@@ -152,6 +166,7 @@ impl MonitorModel {
             dt_over_user_inertia: dt / params.user_inertia,
             friction_scale: calibration.friction_scale,
             user_damping: calibration.damping,
+            standstill: None,
         }
     }
 
@@ -159,6 +174,28 @@ impl MonitorModel {
     pub fn with_command(mut self, command: ChirpCommand) -> Self {
         self.command = command;
         self
+    }
+
+    /// The same model playing a whole test design: its standstill segment, if any, then its
+    /// chirp. (The motion segment of the identifiability study is not played.)
+    pub fn with_test(mut self, test: &PreflightTest) -> Self {
+        self.command = test.chirp;
+        self.standstill = test.standstill;
+        self
+    }
+
+    /// The test this model plays.
+    pub fn test(&self) -> PreflightTest {
+        PreflightTest {
+            standstill: self.standstill,
+            motion: None,
+            chirp: self.command,
+        }
+    }
+
+    /// Samples of the standstill segment before the chirp (0 without one).
+    pub fn lead_samples(&self) -> usize {
+        self.standstill.map_or(0, |s| s.samples())
     }
 
     pub fn params(&self) -> &ActuatorParams {
@@ -169,20 +206,38 @@ impl MonitorModel {
         &self.command
     }
 
-    /// Number of samples in the whole test command.
+    /// Number of samples in the whole test: the standstill segment and the chirp.
     pub fn test_samples(&self) -> usize {
         let n = self.command.duration * self.inv_dt + 0.5;
-        if n.is_finite() && n > 0.0 {
+        let chirp = if n.is_finite() && n > 0.0 {
             n as usize
         } else {
             0
-        }
+        };
+        self.lead_samples() + chirp
     }
 
     fn faulted(&self, k: &FaultVector) -> FaultedConstants {
         let fx = k.effects();
         let p = &self.params;
         let [na, nb, nc] = fx.healthy_turns;
+        let turns = fx.healthy_turns;
+        // Standstill pair y → z: R = R_ph·(N_y + N_z), L = L_ph·(N_y² + N_z²).
+        let pair = |j: usize| -> (f32, f32) {
+            let signs = PAIR_SIGNS.get(j).copied().unwrap_or([0; 3]);
+            let (mut n1, mut n2) = (0.0f32, 0.0f32);
+            for (&sign, &n) in signs.iter().zip(&turns) {
+                if sign != 0 {
+                    n1 += n;
+                    n2 += n * n;
+                }
+            }
+            let r = f64::from(p.phase_resistance * n1);
+            let l = f64::from(p.phase_inductance * n2);
+            let decay = exp64(-f64::from(self.dt) * r / l);
+            (decay as f32, ((1.0 - decay) / r) as f32)
+        };
+        let pairs = [pair(0), pair(1), pair(2)];
         FaultedConstants {
             kp: p.position_kp * fx.kp_scale,
             static_friction_impulse: self.dt_over_motor_inertia
@@ -196,8 +251,9 @@ impl MonitorModel {
             half_backlash: 0.5 * p.nominal_backlash * fx.backlash_scale,
             // Sector j (mod 3) has phase j floating: the other two conduct.
             sector_gain: [0.5 * (nb + nc), 0.5 * (nc + na), 0.5 * (na + nb)],
-            eccentricity_z: fx.eccentricity_z,
-            eccentricity_phase: fx.eccentricity_phase,
+            torque_gain: torque_gain_table(p, &fx),
+            pair_decay: pairs.map(|(d, _)| d),
+            pair_gain: pairs.map(|(_, g)| g),
         }
     }
 
@@ -236,14 +292,69 @@ impl MonitorModel {
     ) -> usize {
         let f = self.faulted(k);
         let mut state = MonitorState::at_rest(start, &f, self.inv_gear_ratio);
-        for i in 0..samples {
+        let lead = match self.standstill {
+            Some(segment) => match self.run_standstill(&f, &segment, &state, samples, &mut sink) {
+                ControlFlow::Break(done) => return done,
+                ControlFlow::Continue(lead) => lead,
+            },
+            None => 0,
+        };
+        for i in 0..samples.saturating_sub(lead) {
             let time = i as f32 * self.dt;
             let sample = self.step(&f, &mut state, time, command.position_at(i, time));
             if sink(&sample).is_break() {
-                return i + 1;
+                return lead + i + 1;
             }
         }
         samples
+    }
+
+    /// The standstill segment: each pair an R–L circuit driven by the segment's voltage, the
+    /// shaft held by breakaway friction (the segment's torque stays below it), the position
+    /// loop suspended. When the driven pair changes, the phase left open drops its current
+    /// through its diodes and the other two share what it carried. At most `samples` steps,
+    /// O(1) each; breaks with the number of samples produced, or continues with the
+    /// segment's length.
+    fn run_standstill(
+        &self,
+        f: &FaultedConstants,
+        segment: &StandstillSegment,
+        state: &MonitorState,
+        samples: usize,
+        sink: &mut impl FnMut(&MonitorSample) -> ControlFlow<()>,
+    ) -> ControlFlow<usize, usize> {
+        let lead = segment.samples();
+        let mut pair = 0usize;
+        let mut current = pair_current_after_switch(state.start_currents, pair);
+        for i in 0..lead.min(samples) {
+            let Some(drive) = segment.at(i) else {
+                break;
+            };
+            if drive.pair != pair {
+                let signs = PAIR_SIGNS.get(pair).copied().unwrap_or([0; 3]);
+                current =
+                    pair_current_after_switch(signs.map(|s| f32::from(s) * current), drive.pair);
+                pair = drive.pair;
+            }
+            let sample = MonitorSample {
+                time: (i as f32 - lead as f32) * self.dt,
+                command: 0.0,
+                current,
+                current_ref: 0.0,
+                motor_angle: state.motor_angle,
+                user_angle: state.user_angle + state.user_offset,
+            };
+            if sink(&sample).is_break() {
+                return ControlFlow::Break(i + 1);
+            }
+            let decay = f.pair_decay.get(pair).copied().unwrap_or(0.0);
+            let gain = f.pair_gain.get(pair).copied().unwrap_or(0.0);
+            current = decay * current + gain * drive.volts;
+        }
+        if samples <= lead {
+            return ControlFlow::Break(samples);
+        }
+        ControlFlow::Continue(lead)
     }
 
     /// Simulates `out.len()` samples and writes the equivalent current [A] into `out`.
@@ -295,14 +406,8 @@ impl MonitorModel {
             1 => f.sector_gain[1],
             _ => f.sector_gain[2],
         };
-        let eccentricity_gain = if f.eccentricity_z > 0.0 {
-            let a = theta_e + f.eccentricity_phase;
-            let sawtooth = frac((6.0 * theta_e + f.eccentricity_phase) * (1.0 / TAU));
-            1.0 - f.eccentricity_z * (cos(a) + sawtooth * sin(a))
-        } else {
-            1.0
-        };
-        let kt = self.torque_constant * short_gain * eccentricity_gain;
+        let kt =
+            self.torque_constant * f.torque_gain.get(gain_bin(theta_e)).copied().unwrap_or(1.0);
         let r = self.resistance * short_gain;
         let back_emf = kt * s.motor_speed;
         let sampled = (s.current, s.motor_angle, s.user_angle + s.user_offset);
@@ -351,4 +456,92 @@ impl MonitorModel {
             user_angle: sampled.2,
         }
     }
+}
+
+/// The current of standstill pair `to` just after the drive switches to it with phase
+/// currents `phases` [A]: the phase `to` leaves open drops to zero through its diodes and the
+/// other two share what it carried (the three currents sum to zero). O(1).
+fn pair_current_after_switch(mut phases: [f32; 3], to: usize) -> f32 {
+    let Some(new) = PAIR_SIGNS.get(to) else {
+        return 0.0;
+    };
+    let open = new.iter().position(|&s| s == 0).unwrap_or(0);
+    let dropped = phases.get(open).copied().unwrap_or(0.0);
+    for (x, slot) in phases.iter_mut().enumerate() {
+        *slot = if x == open {
+            0.0
+        } else {
+            *slot + 0.5 * dropped
+        };
+    }
+    0.5 * new
+        .iter()
+        .zip(&phases)
+        .map(|(&s, &i)| f32::from(s) * i)
+        .sum::<f32>()
+}
+
+/// Bins of the torque-gain table over one electrical turn (7.5° each).
+pub const GAIN_BINS: usize = 48;
+const BINS_PER_SECTOR: usize = GAIN_BINS / 6;
+
+/// Bin `0..GAIN_BINS` of an electrical angle [rad] (any value; NaN maps to bin 0). Bin `b`
+/// covers `θ_e ∈ (−30° + 7.5°·b, −30° + 7.5°·(b+1))` mod 360°, so that sector `j` is bins
+/// `8j … 8j+7`, as in [`commutation_sector`].
+#[inline]
+fn gain_bin(theta_e: f32) -> usize {
+    let x = theta_e * (GAIN_BINS as f32 / TAU) + 0.5 * BINS_PER_SECTOR as f32;
+    // `as i32` saturates and maps NaN to 0: no panic for any input.
+    (floor(x) as i32).rem_euclid(GAIN_BINS as i32) as usize
+}
+
+/// The torque/back-EMF gain of the two conducting phases over one electrical turn.
+///
+/// Short circuit: a phase's coupling scales with its healthy turns N (eq. (1) extended to
+/// the torque gain). Static eccentricity: the air gap at stator angle ψ is
+/// g₀·(1 − Z·cos(ψ − ψ_min)), ψ_min at φ from the centre of phase A's coils; a phase's
+/// coupling scales with the mean permeance 1/(1 − Z·cos(ψ − ψ_min)) at the two magnet
+/// edges under its coils (two full-pitch coils side by side per phase, edges one pole pitch
+/// apart), evaluated at each bin's centre. The edges under a coil repeat every pole pitch,
+/// so one electrical turn holds the whole shape. Without eccentricity each bin is the
+/// conducting pair's mean healthy fraction, eq. (1). O(GAIN_BINS) work per fault vector.
+fn torque_gain_table(p: &ActuatorParams, fx: &FaultEffects) -> [f32; GAIN_BINS] {
+    let z = fx.eccentricity_z;
+    let psi_min = p.winding_group_angle[0] + fx.eccentricity_phase;
+    let pole_pairs = if p.pole_pairs >= 1.0 {
+        p.pole_pairs
+    } else {
+        1.0
+    };
+    let pitch = core::f32::consts::PI / pole_pairs;
+    let permeance = |psi: f32| {
+        let d = 1.0 - z * cos(psi - psi_min);
+        if d > 0.0 {
+            1.0 / d
+        } else {
+            1.0
+        }
+    };
+    let coupling = |phase: usize, theta_m: f32| -> f32 {
+        let turns = fx.healthy_turns.get(phase).copied().unwrap_or(1.0);
+        if z == 0.0 {
+            return turns;
+        }
+        let group = p.winding_group_angle.get(phase).copied().unwrap_or(0.0);
+        // First coil spans [group − pitch, group); the edge inside it, then the next one.
+        let start = group - pitch;
+        let offset = theta_m + 0.5 * pitch - start;
+        let u = offset - pitch * floor(offset / pitch);
+        let e1 = start + u;
+        turns * 0.5 * (permeance(e1) + permeance(e1 + pitch))
+    };
+    let mut table = [1.0f32; GAIN_BINS];
+    for (b, slot) in table.iter_mut().enumerate() {
+        let theta_e = -TAU / 12.0 + (b as f32 + 0.5) * (TAU / GAIN_BINS as f32);
+        let theta_m = theta_e / pole_pairs;
+        let floating = (b / BINS_PER_SECTOR) % 3;
+        let (y, z_phase) = ((floating + 1) % 3, (floating + 2) % 3);
+        *slot = 0.5 * (coupling(y, theta_m) + coupling(z_phase, theta_m));
+    }
+    table
 }

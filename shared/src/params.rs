@@ -28,6 +28,11 @@ pub struct ActuatorParams {
     pub back_emf_constant: f32,
     /// Saturation of the reference current I_ref [A].
     pub max_current: f32,
+    /// Winding layout: mechanical angle of the centre of each phase's coil group (A, B, C)
+    /// [rad]. Each phase's coils sit side by side in its own third of the stator (a modular,
+    /// fault-tolerant winding); what an eccentric air gap does to a phase depends on where
+    /// its coils are.
+    pub winding_group_angle: [f32; 3],
 
     // ---- mechanics ----
     /// Rotor (and motor-side gear) inertia [kg·m²].
@@ -78,6 +83,13 @@ impl ActuatorParams {
         phase_inductance: 2.5e-3,
         back_emf_constant: 0.13,
         max_current: 15.0,
+        // A, B, C at 67.5°, 307.5°, 187.5°: 120° apart in the order A, C, B, which with 4
+        // pole pairs puts B 120° electrical behind A.
+        winding_group_angle: [
+            67.5 * core::f32::consts::PI / 180.0,
+            307.5 * core::f32::consts::PI / 180.0,
+            187.5 * core::f32::consts::PI / 180.0,
+        ],
 
         motor_inertia: 1.0e-4,
         user_inertia: 2.0,

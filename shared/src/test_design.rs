@@ -54,6 +54,10 @@ impl PairDrive {
 pub struct StandstillSegment {
     /// Line voltage of the step [V].
     pub volts: f32,
+    /// Control periods at zero volts on the first pair before the steps: the rotor, which
+    /// the position hold may leave hunting inside the gear's play, comes to rest (the
+    /// shorted pair brakes it, friction stops it). Not fitted: the shaft moves.
+    pub settle_samples: u16,
     /// Control periods with the voltage applied, per pair.
     pub on_samples: u16,
     /// Control periods at zero volts (the pair freewheels) after each step.
@@ -61,18 +65,25 @@ pub struct StandstillSegment {
 }
 
 impl StandstillSegment {
-    /// The product's segment for the reference actuator: 0.24 V (≈ 0.2 A in a healthy pair
-    /// of 2 × 0.6 Ω, a torque of at most 0.052 N·m against 0.06 N·m of breakaway friction),
-    /// 8 ms on (≈ 2 electrical time constants L/R = 4.2 ms), 6 ms off; 42 ms in all.
+    /// The product's segment for the reference actuator: 10 ms settle, then 0.24 V
+    /// (≈ 0.2 A in a healthy pair of 2 × 0.6 Ω, a torque of at most 0.052 N·m against
+    /// 0.06 N·m of breakaway friction) for 8 ms (≈ 2 electrical time constants L/R =
+    /// 4.2 ms) and 6 ms off per pair; 52 ms in all.
     pub const DEFAULT: Self = Self {
         volts: 0.24,
+        settle_samples: 100,
         on_samples: 80,
         off_samples: 60,
     };
 
-    /// Control periods in the whole segment (three pairs).
+    /// Control periods in the whole segment (settle and three pairs).
     pub const fn samples(&self) -> usize {
-        3 * (self.on_samples as usize + self.off_samples as usize)
+        self.settle_samples as usize + 3 * (self.on_samples as usize + self.off_samples as usize)
+    }
+
+    /// Whether sample `index` of the segment is fitted (past the settle).
+    pub const fn fitted(&self, index: usize) -> bool {
+        index >= self.settle_samples as usize && index < self.samples()
     }
 
     /// The drive during sample `index` of the segment, `None` past its end.
@@ -81,6 +92,12 @@ impl StandstillSegment {
         if per_pair == 0 || index >= self.samples() {
             return None;
         }
+        let Some(index) = index.checked_sub(self.settle_samples as usize) else {
+            return Some(PairDrive {
+                pair: 0,
+                volts: 0.0,
+            });
+        };
         let pair = index / per_pair;
         let on = index % per_pair < self.on_samples as usize;
         Some(PairDrive {
@@ -139,6 +156,9 @@ impl MotionSegment {
         0.0
     }
 }
+
+/// Names of the coded designs, by code.
+pub const TEST_NAMES: [&str; 4] = ["paper", "standstill", "motion", "standstill+motion"];
 
 /// What the controller commands during one control period.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -243,6 +263,18 @@ impl PreflightTest {
             .then_some(u8::from(self.standstill.is_some()) | (u8::from(self.motion.is_some()) << 1))
     }
 
+    /// The name of a coded design, as CSV traces and the command line write it.
+    pub fn name(&self) -> Option<&'static str> {
+        self.code()
+            .and_then(|c| TEST_NAMES.get(usize::from(c)).copied())
+    }
+
+    /// The coded design of a name.
+    pub fn from_name(name: &str) -> Option<Self> {
+        let code = TEST_NAMES.iter().position(|n| *n == name)?;
+        Self::from_code(code as u8)
+    }
+
     /// The design of a header code.
     pub fn from_code(code: u8) -> Option<Self> {
         if code > 3 {
@@ -269,31 +301,16 @@ mod tests {
     #[test]
     fn standstill_steps_each_pair_then_freewheels() {
         let s = StandstillSegment::DEFAULT;
-        assert_eq!(s.samples(), 420);
-        assert_eq!(
-            s.at(0),
-            Some(PairDrive {
-                pair: 0,
-                volts: 0.24
-            })
-        );
-        assert_eq!(s.at(79).map(|d| d.volts), Some(0.24));
-        assert_eq!(
-            s.at(80),
-            Some(PairDrive {
-                pair: 0,
-                volts: 0.0
-            })
-        );
-        assert_eq!(
-            s.at(140),
-            Some(PairDrive {
-                pair: 1,
-                volts: 0.24
-            })
-        );
-        assert_eq!(s.at(419).map(|d| d.pair), Some(2));
-        assert_eq!(s.at(420), None);
+        let drive = |pair, volts| Some(PairDrive { pair, volts });
+        assert_eq!(s.samples(), 520);
+        assert_eq!(s.at(0), drive(0, 0.0));
+        assert!(!s.fitted(99) && s.fitted(100) && s.fitted(519) && !s.fitted(520));
+        assert_eq!(s.at(100), drive(0, 0.24));
+        assert_eq!(s.at(179).map(|d| d.volts), Some(0.24));
+        assert_eq!(s.at(180), drive(0, 0.0));
+        assert_eq!(s.at(240), drive(1, 0.24));
+        assert_eq!(s.at(519).map(|d| d.pair), Some(2));
+        assert_eq!(s.at(520), None);
         for signs in PAIR_SIGNS {
             assert_eq!(signs.iter().map(|&x| i32::from(x)).sum::<i32>(), 0);
         }
@@ -302,10 +319,10 @@ mod tests {
     #[test]
     fn the_chirp_follows_the_segments_and_starts_at_its_own_zero() {
         let t = PreflightTest::STANDSTILL;
-        assert_eq!(t.samples(1e-4), 5420);
-        assert!(matches!(t.drive(419, 1e-4), Drive::Pair(_)));
+        assert_eq!(t.samples(1e-4), 5520);
+        assert!(matches!(t.drive(519, 1e-4), Drive::Pair(_)));
         for i in 0..5000 {
-            let Drive::Position(x) = t.drive(420 + i, 1e-4) else {
+            let Drive::Position(x) = t.drive(520 + i, 1e-4) else {
                 panic!("sample {i}")
             };
             assert_eq!(x.to_bits(), t.chirp.position(i as f32 * 1e-4).to_bits());
@@ -341,6 +358,10 @@ mod tests {
             assert_eq!(PreflightTest::from_code(t.code().unwrap()), Some(t));
         }
         assert_eq!(PreflightTest::from_code(4), None);
+        for name in TEST_NAMES {
+            assert_eq!(PreflightTest::from_name(name).unwrap().name(), Some(name));
+        }
+        assert_eq!(PreflightTest::from_name("chirp"), None);
         let odd = PreflightTest::PAPER.with_chirp(ChirpCommand {
             amplitude: 1e-3,
             ..ChirpCommand::PREFLIGHT

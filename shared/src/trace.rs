@@ -1,17 +1,24 @@
-//! The binary preflight trace, format version 1: what `host-sim simulate --format bin` writes
-//! and what the firmware reads under emulation. Decoding is O(1) per row, no allocation.
+//! The binary preflight trace, format versions 1 and 2: what `host-sim simulate --format bin`
+//! writes and what the firmware reads under emulation. Decoding is O(1) per row, no
+//! allocation.
 //!
 //! Layout, all integers little-endian:
 //!
 //! | offset | bytes | field |
 //! | --- | --- | --- |
 //! | 0 | 4 | magic `b"EMAT"` |
-//! | 4 | 2 | format version, `u16` = 1 |
-//! | 6 | 2 | columns per row, `u16` = 6 |
+//! | 4 | 2 | format version, `u16`: 1 or 2 |
+//! | 6 | 1 | columns per row, `u8` = 6 |
+//! | 7 | 1 | version 2: the test design's code ([`PreflightTest::code`]); version 1: 0 |
 //! | 8 | 4 | sample rate [Hz], `u32` (10 000) |
 //! | 12 | 4 | number of rows, `u32` |
 //! | 16 | 24 · rows | rows, 6 × `i32` each (below) |
 //! | end | 4 | CRC-32 (IEEE 802.3) of every byte before it |
+//!
+//! Version 1 (a `u16` column count at offset 6, the same bytes as version 2 with code 0) is
+//! the paper's test, the chirp alone. A version 2 trace with a standstill segment holds its
+//! samples first, then the chirp's; `theta_cmd` is 0 during the segment. Paper-test traces
+//! are still written as version 1.
 //!
 //! A row is the sample at `t = index / sample_rate`, six fixed-point numbers stored as the
 //! `i32` of their bits: commanded user angle θ_cmd [rad] as `I4F28`, phase currents i_a, i_b,
@@ -21,11 +28,12 @@
 use fixed::types::{I16F16, I4F28};
 
 use crate::conditioning::AdcFrame;
+use crate::test_design::PreflightTest;
 
 /// First four bytes of every binary trace.
 pub const MAGIC: [u8; 4] = *b"EMAT";
-/// The format version this code reads and writes.
-pub const VERSION: u16 = 1;
+/// The newest format version this code reads and writes (it reads 1 too).
+pub const VERSION: u16 = 2;
 /// Columns per row.
 pub const COLUMNS: u16 = 6;
 /// Bytes of the header.
@@ -45,6 +53,8 @@ pub enum TraceError {
     UnsupportedVersion { found: u16 },
     /// A column count other than [`COLUMNS`].
     BadColumns { found: u16 },
+    /// A test design code this code does not know.
+    UnknownTest { code: u8 },
     /// The file length does not match the header's row count.
     LengthMismatch { rows: u32, bytes: u64 },
     /// The stored checksum differs from the computed one.
@@ -103,22 +113,30 @@ impl SaturationCheck {
 }
 
 /// The header of a binary trace.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct TraceHeader {
     /// Sample rate [Hz].
     pub sample_rate_hz: u32,
     /// Number of rows that follow.
     pub rows: u32,
+    /// The test design the rows come from (version 1: the paper's).
+    pub test: PreflightTest,
 }
 
 impl TraceHeader {
-    pub fn encode(&self) -> [u8; HEADER_BYTES] {
+    /// The header's bytes; `Err` for a test design that has no code.
+    pub fn encode(&self) -> Result<[u8; HEADER_BYTES], TraceError> {
+        let code = self
+            .test
+            .code()
+            .ok_or(TraceError::UnknownTest { code: u8::MAX })?;
+        let version: u16 = if code == 0 { 1 } else { VERSION };
         let mut out = [0u8; HEADER_BYTES];
         let fields = [
             &MAGIC[..],
-            &VERSION.to_le_bytes(),
-            &COLUMNS.to_le_bytes(),
+            &version.to_le_bytes(),
+            &[COLUMNS as u8, code],
             &self.sample_rate_hz.to_le_bytes(),
             &self.rows.to_le_bytes(),
         ];
@@ -129,7 +147,7 @@ impl TraceHeader {
             }
             at += f.len();
         }
-        out
+        Ok(out)
     }
 
     pub fn decode(bytes: &[u8; HEADER_BYTES]) -> Result<Self, TraceError> {
@@ -138,16 +156,19 @@ impl TraceHeader {
             return Err(TraceError::BadMagic);
         }
         let version = u16::from_le_bytes([v0, v1]);
-        if version != VERSION {
-            return Err(TraceError::UnsupportedVersion { found: version });
-        }
-        let columns = u16::from_le_bytes([c0, c1]);
+        let (columns, code) = match version {
+            1 => (u16::from_le_bytes([c0, c1]), 0),
+            2 => (u16::from(c0), c1),
+            _ => return Err(TraceError::UnsupportedVersion { found: version }),
+        };
         if columns != COLUMNS {
             return Err(TraceError::BadColumns { found: columns });
         }
+        let test = PreflightTest::from_code(code).ok_or(TraceError::UnknownTest { code })?;
         Ok(Self {
             sample_rate_hz: u32::from_le_bytes([r0, r1, r2, r3]),
             rows: u32::from_le_bytes([n0, n1, n2, n3]),
+            test,
         })
     }
 
@@ -300,8 +321,11 @@ mod tests {
         let h = TraceHeader {
             sample_rate_hz: 10_000,
             rows: 5000,
+            test: PreflightTest::PAPER,
         };
-        let bytes = h.encode();
+        let bytes = h.encode().unwrap();
+        // The paper's test is written as version 1.
+        assert_eq!(&bytes[4..8], &[1, 0, 6, 0]);
         assert_eq!(&bytes[..4], b"EMAT");
         assert_eq!(TraceHeader::decode(&bytes), Ok(h));
         assert_eq!(h.file_bytes(), 16 + 4 + 24 * 5000);
@@ -317,10 +341,17 @@ mod tests {
         bad[0] = b'X';
         assert_eq!(TraceHeader::decode(&bad), Err(TraceError::BadMagic));
         let mut bad = bytes;
-        bad[4] = 2;
+        bad[4] = 3;
         assert_eq!(
             TraceHeader::decode(&bad),
-            Err(TraceError::UnsupportedVersion { found: 2 })
+            Err(TraceError::UnsupportedVersion { found: 3 })
+        );
+        // Version 1 has a u16 column count: a high byte is no design code there.
+        let mut bad = bytes;
+        bad[7] = 1;
+        assert_eq!(
+            TraceHeader::decode(&bad),
+            Err(TraceError::BadColumns { found: 0x0106 })
         );
         let mut bad = bytes;
         bad[6] = 7;
@@ -328,6 +359,32 @@ mod tests {
             TraceHeader::decode(&bad),
             Err(TraceError::BadColumns { found: 7 })
         );
+    }
+
+    #[test]
+    fn version_2_carries_the_test_design() {
+        let h = TraceHeader {
+            sample_rate_hz: 10_000,
+            rows: 5420,
+            test: PreflightTest::STANDSTILL,
+        };
+        let bytes = h.encode().unwrap();
+        assert_eq!(&bytes[4..8], &[2, 0, 6, 1]);
+        assert_eq!(TraceHeader::decode(&bytes), Ok(h));
+        let mut bad = bytes;
+        bad[7] = 9;
+        assert_eq!(
+            TraceHeader::decode(&bad),
+            Err(TraceError::UnknownTest { code: 9 })
+        );
+        let odd = TraceHeader {
+            test: PreflightTest::PAPER.with_chirp(crate::ChirpCommand {
+                amplitude: 1.0e-3,
+                ..crate::ChirpCommand::PREFLIGHT
+            }),
+            ..h
+        };
+        assert!(odd.encode().is_err());
     }
 
     #[test]

@@ -36,6 +36,7 @@ const VECTORS: [[f32; 8]; 8] = [
 const START: ShaftAngles = ShaftAngles {
     motor: 1.234,
     user: 0.0021,
+    currents: [0.0; 3],
 };
 
 /// CRC-32 over every field of every sample of a 5 000-sample run from [`START`] with

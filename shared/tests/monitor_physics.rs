@@ -196,6 +196,7 @@ fn a_run_starts_where_the_measured_test_began_with_the_gear_relaxed() {
     let start = ShaftAngles {
         motor: 1.0e-4 * ratio,
         user: 3.0e-5,
+        currents: [0.0; 3],
     };
     let mut first = None;
     m.run_from(&FaultVector::new(with(1, 1.0)).unwrap(), start, 1, |s| {
