@@ -7,6 +7,7 @@ use shared::fdi::{
     record_monitor_trace, Identification, OnboardMeasured, POPULATION, TEST_SAMPLES,
 };
 use shared::metrics::total_error;
+use shared::test_design::PreflightTest;
 use shared::{ActuatorParams, Calibration, FaultVector, GaSettings, LowPass, MonitorModel};
 
 fn identify(truth: [f32; 8], seed: u64) -> (f32, u32, f32) {
@@ -14,8 +15,10 @@ fn identify(truth: [f32; 8], seed: u64) -> (f32, u32, f32) {
     let calibration = Calibration::IDENTITY;
     let model = MonitorModel::new(params, &calibration);
     let truth = FaultVector::new(truth).unwrap();
-    let mut measured = Box::new(OnboardMeasured::new(
+    // The product's default test: the standstill segment, then the chirp.
+    let mut measured = Box::new(OnboardMeasured::for_test(
         LowPass::for_control_period(params.control_period).unwrap(),
+        PreflightTest::STANDSTILL,
     ));
     record_monitor_trace(&model, &truth, &mut measured).unwrap();
     let mut id = Identification::<TEST_SAMPLES, POPULATION>::new(

@@ -3,12 +3,12 @@
 //!
 //! Work bounds per poll: Acquire ≤ [`PreflightSettings::frames_per_poll`] frames (O(1) each);
 //! Condition one O(`TEST_SAMPLES`) pass; Identify ≤
-//! [`PreflightSettings::evaluations_per_poll`] monitor-model evaluations (each 0.5 s of model
-//! time at the control period); Report O(1), including the domain verdict
+//! [`PreflightSettings::evaluations_per_poll`] monitor-model evaluations (each one whole test,
+//! ≤ 0.552 s of model time at the control period); Report O(1), including the domain verdict
 //! ([`shared::domain`], its statistics gathered frame by frame during Acquire). Time is
 //! never read here; the caller measures it.
 //!
-//! Memory: the measured-current buffer is lent in (`&mut OnboardMeasured`, 20 kB), the GA
+//! Memory: the measured-current buffer is lent in (`&mut OnboardMeasured`, 22 kB), the GA
 //! and the monitor model live in the state (≈ 1.5 kB). Same settings, seed and frames give the
 //! same bits as `host-sim identify`.
 
@@ -17,7 +17,8 @@ use shared::domain::{Domain, DomainLimits, DomainMonitor};
 use shared::fdi::TEST_SAMPLES;
 use shared::fdi::{FdiError, Identification, IdentificationResult, OnboardMeasured, POPULATION};
 use shared::ga::RecordError;
-use shared::{ActuatorParams, Calibration, ChirpCommand, GaSettings, Status, Verdict, FAULT_COUNT};
+use shared::test_design::PreflightTest;
+use shared::{ActuatorParams, Calibration, GaSettings, Status, Verdict, FAULT_COUNT};
 
 use crate::source::{Acquired, CurrentSource};
 
@@ -25,6 +26,8 @@ use crate::source::{Acquired, CurrentSource};
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PreflightSettings {
     pub params: ActuatorParams,
+    /// The test the controller commands (under emulation: the trace header's).
+    pub test: PreflightTest,
     /// The monitor model's calibration against this actuator (a flash record on a fleet).
     pub calibration: Calibration,
     pub ga: GaSettings,
@@ -39,10 +42,19 @@ pub struct PreflightSettings {
 }
 
 impl PreflightSettings {
+    /// The same settings for another test design, with the reference actuator's calibration
+    /// for it.
+    pub fn for_test(mut self, test: PreflightTest) -> Self {
+        self.test = test;
+        self.calibration = Calibration::reference_actuator(&test);
+        self
+    }
+
     /// The onboard FDI against this project's reference actuator: the same parameters,
     /// calibration, GA settings and default seed as `host-sim identify`.
     pub const ONBOARD: Self = Self {
         params: ActuatorParams::REFERENCE,
+        test: PreflightTest::STANDSTILL,
         calibration: Calibration::REFERENCE_ACTUATOR,
         ga: GaSettings::FDI,
         domain: DomainLimits::REFERENCE_ACTUATOR,
@@ -149,13 +161,13 @@ pub struct Preflight<'m, S> {
 impl<'m, S: CurrentSource> Preflight<'m, S> {
     /// A self-test that fills `measured` (cleared first) from `source`.
     pub fn new(settings: PreflightSettings, source: S, measured: &'m mut OnboardMeasured) -> Self {
-        measured.clear();
+        measured.clear_for(settings.test);
         Self {
             settings,
             source,
             state: State::Acquire { measured },
             domain: DomainMonitor::new(
-                ChirpCommand::PREFLIGHT,
+                settings.test.chirp,
                 settings.params.control_period,
                 settings.params.pole_pairs,
             ),
@@ -239,7 +251,10 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                                     capacity: TEST_SAMPLES as u32,
                                 });
                             }
-                            self.domain.push(&frame);
+                            // The domain statistics are the chirp's.
+                            if self.frames as usize >= self.settings.test.lead_samples() {
+                                self.domain.push(&frame);
+                            }
                             self.frames = self.frames.saturating_add(1);
                         }
                         Acquired::NotYet => break,

@@ -46,7 +46,7 @@ mod status {
     pub const HARD_FAULT: i32 = 102;
 }
 
-/// The measured-current buffer (20 kB), in `.bss`.
+/// The measured-current buffer (22 kB), in `.bss`.
 static MEASURED: StaticCell<OnboardMeasured> = StaticCell::new();
 
 /// The health store: a flash sector on the controller; RAM here, loaded from and saved to the
@@ -192,7 +192,8 @@ async fn preflight(spawner: Spawner) -> i32 {
             return status::BAD_TRACE;
         }
     };
-    let mut settings = PreflightSettings::ONBOARD;
+    // The trace says which test the actuator played (version 1: the paper's).
+    let mut settings = PreflightSettings::ONBOARD.for_test(source.header().test);
     if let Some(seed) = command.seed {
         settings.seed = seed;
     }

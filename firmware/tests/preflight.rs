@@ -10,6 +10,7 @@ use shared::conditioning::commutation_signs;
 use shared::domain::{Domain, OutsideReason};
 use shared::fdi::{Identification, OnboardMeasured, OnboardRecord, POPULATION, TEST_SAMPLES};
 use shared::ga::RecordError;
+use shared::test_design::PreflightTest;
 use shared::trace::{Crc32, TraceError, TraceHeader, TraceRow};
 use shared::{AdcFrame, Calibration, FaultVector, GaSettings, LowPass, MonitorModel, StopReason};
 
@@ -21,7 +22,9 @@ fn settings() -> PreflightSettings {
         },
         evaluations_per_poll: 5,
         frames_per_poll: 700,
-        ..PreflightSettings::ONBOARD
+        // The MM-made traces here are the paper's test (the chirp alone); the standstill
+        // test runs on the ELF in tests/firmware_qemu.rs.
+        ..PreflightSettings::ONBOARD.for_test(PreflightTest::PAPER)
     }
 }
 
@@ -33,7 +36,7 @@ fn empty_buffer() -> Box<OnboardMeasured> {
 /// The rows the controller would record from an actuator that behaves like the monitor
 /// model with faults `k`.
 fn monitor_rows(k: [f32; 8], samples: usize) -> Vec<TraceRow> {
-    let s = PreflightSettings::ONBOARD;
+    let s = settings();
     let model = MonitorModel::new(s.params, &Calibration::IDENTITY);
     let k = FaultVector::new(k).expect("a valid fault vector");
     let mut rows = Vec::new();
@@ -53,8 +56,12 @@ fn trace_bytes(rows: &[TraceRow], sample_rate_hz: u32) -> Vec<u8> {
     let header = TraceHeader {
         sample_rate_hz,
         rows: rows.len() as u32,
+        test: PreflightTest::PAPER,
     };
-    let mut out = header.encode().to_vec();
+    let mut out = header
+        .encode()
+        .expect("the paper's test has a code")
+        .to_vec();
     for r in rows {
         out.extend_from_slice(&r.encode());
     }

@@ -125,7 +125,7 @@ pub fn filtered_model_current(
     calibration: &Calibration,
     k: &FaultVector,
 ) -> Vec<f32> {
-    let model = MonitorModel::new(params, calibration);
+    let model = MonitorModel::new(params, calibration).with_test(measured.test());
     let filter = measured.filter();
     let mut state = LowPassState::default();
     let mut out = Vec::with_capacity(measured.samples().len());
@@ -297,22 +297,26 @@ mod tests {
 mod reference_tests {
     use super::*;
     use crate::reference::{ReferenceModel, ReferenceSettings, Scenario};
+    use shared::test_design::PreflightTest;
 
-    /// The calibration the firmware and `identify` use by default is exactly what the fit
-    /// gives on the healthy reference trace (seed 0): a stored table, checked.
+    /// The calibrations the firmware and `identify` use by default are exactly what the fit
+    /// gives on the healthy reference trace (seed 0) of each test: stored tables, checked.
     #[test]
     fn built_in_calibration_is_what_the_fit_gives() {
-        let sim = ReferenceModel::new(ReferenceSettings::REFERENCE)
-            .simulate(&Scenario::new(FaultVector::NOMINAL));
-        let params = ActuatorParams::REFERENCE;
-        let measured = sim.trace.measured(&params).unwrap();
-        let fit = calibrate(&measured, params).unwrap();
-        assert_eq!(
-            fit.calibration(),
-            Calibration::REFERENCE_ACTUATOR,
-            "{fit:?}"
-        );
-        // Calibration never makes the nominal fit worse.
-        assert!(fit.mismatch_after <= fit.mismatch_before);
+        for test in [PreflightTest::STANDSTILL, PreflightTest::PAPER] {
+            let sim = ReferenceModel::new(ReferenceSettings::REFERENCE)
+                .with_test(test)
+                .simulate(&Scenario::new(FaultVector::NOMINAL));
+            let params = ActuatorParams::REFERENCE;
+            let measured = sim.trace.measured(&params).unwrap();
+            let fit = calibrate(&measured, params).unwrap();
+            assert_eq!(
+                fit.calibration(),
+                Calibration::reference_actuator(&test),
+                "{test:?}: {fit:?}"
+            );
+            // Calibration never makes the nominal fit worse.
+            assert!(fit.mismatch_after <= fit.mismatch_before);
+        }
     }
 }

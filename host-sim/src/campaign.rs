@@ -11,6 +11,7 @@ use anyhow::{anyhow, Result};
 use rayon::prelude::*;
 use shared::fault::FAULT_COUNT;
 use shared::metrics::total_error;
+use shared::test_design::PreflightTest;
 use shared::{ActuatorParams, Calibration, FaultVector};
 
 use crate::identify::identify;
@@ -128,15 +129,35 @@ pub const HEALTHY: Case = Case {
 /// Largest allowed identified component on a healthy actuator.
 pub const FALSE_ALARM_LIMIT: f64 = 0.03;
 
-/// Random multi-fault vectors not used for tuning: every component uniform in its range,
-/// drawn from a fixed seed (xoshiro256++ seed 2026). Target as Table II medium (2 %).
+/// Random multi-fault vectors: every component uniform in its range, drawn from a fixed
+/// seed (xoshiro256++ seed 2026). Target as Table II medium (2 %). The first six served
+/// the identifiability study's diagnostics; campaigns use [`untuned_random_cases`].
 pub fn random_cases(n: usize) -> Vec<Case> {
+    random_cases_from(2026, RANDOM_NAMES, n)
+}
+
+/// Random multi-fault vectors that no design, weight or setting was chosen on (seed 2027).
+pub fn untuned_random_cases(n: usize) -> Vec<Case> {
+    random_cases_from(2027, UNTUNED_NAMES, n)
+}
+
+const RANDOM_NAMES: [&str; 8] = [
+    "random 1", "random 2", "random 3", "random 4", "random 5", "random 6", "random 7", "random 8",
+];
+const UNTUNED_NAMES: [&str; 8] = [
+    "untuned 1",
+    "untuned 2",
+    "untuned 3",
+    "untuned 4",
+    "untuned 5",
+    "untuned 6",
+    "untuned 7",
+    "untuned 8",
+];
+
+fn random_cases_from(seed: u64, names: [&'static str; 8], n: usize) -> Vec<Case> {
     use rand_core::{RngCore, SeedableRng};
-    let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(2026);
-    let names = [
-        "random 1", "random 2", "random 3", "random 4", "random 5", "random 6", "random 7",
-        "random 8",
-    ];
+    let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed);
     (0..n.min(names.len()))
         .map(|j| {
             let mut k = [0.0f32; FAULT_COUNT];
@@ -272,9 +293,14 @@ pub fn run_once(
 }
 
 /// Runs every case `runs` times, in parallel, with a progress bar when `progress`.
-pub fn run_campaign(cases: &[Case], runs: u64, progress: bool) -> Result<Vec<CaseSummary>> {
-    let rm = ReferenceModel::new(ReferenceSettings::REFERENCE);
-    let calibration = Calibration::REFERENCE_ACTUATOR;
+pub fn run_campaign(
+    cases: &[Case],
+    runs: u64,
+    test: PreflightTest,
+    progress: bool,
+) -> Result<Vec<CaseSummary>> {
+    let rm = ReferenceModel::new(ReferenceSettings::REFERENCE).with_test(test);
+    let calibration = Calibration::reference_actuator(&test);
     let jobs: Vec<(usize, u64)> = (0..cases.len())
         .flat_map(|c| (0..runs).map(move |r| (c, r)))
         .collect();

@@ -332,7 +332,7 @@ pub fn mismatch_bias(
     }
     let rm = ReferenceModel::new(ReferenceSettings::REFERENCE).with_test(test);
     let params = ActuatorParams::REFERENCE;
-    let model = MonitorModel::new(params, &Calibration::REFERENCE_ACTUATOR).with_test(&test);
+    let model = MonitorModel::new(params, &Calibration::reference_actuator(&test)).with_test(&test);
     let lead = test.standstill_samples();
     let filter = LowPass::for_control_period(params.control_period)
         .map_err(|e| anyhow::anyhow!("conditioning filter: {e:?}"))?;

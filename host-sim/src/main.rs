@@ -36,6 +36,7 @@ use shared::health::{HealthLog, ONBOARD_RECORDS};
 use shared::metrics::{component_errors, total_error};
 use shared::monitor::MonitorState;
 use shared::prognosis::TrendSettings;
+use shared::test_design::PreflightTest;
 use shared::{
     ActuatorParams, Calibration, ChirpCommand, FaultVector, FitnessProblem, GaSettings, LowPass,
     MonitorModel, ShaftAngles, SteadyStateGa,
@@ -112,6 +113,26 @@ struct ActuatorArgs {
     /// Seed of every random draw of the reference model (sensor and process noise).
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// Preflight test design: `standstill` (default: voltage steps on each phase pair at
+    /// standstill, then the chirp) or `paper` (the paper's chirp alone, currents only).
+    #[arg(long, value_enum, default_value_t = TestChoice::Standstill)]
+    test: TestChoice,
+}
+
+/// The preflight test designs the FDI plays end to end.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum TestChoice {
+    Standstill,
+    Paper,
+}
+
+impl TestChoice {
+    fn test(self) -> PreflightTest {
+        match self {
+            Self::Standstill => PreflightTest::STANDSTILL,
+            Self::Paper => PreflightTest::PAPER,
+        }
+    }
 }
 
 #[derive(Subcommand)]
@@ -210,6 +231,9 @@ enum Command {
         /// Also draw e_tot per case (ours vs paper) into this SVG.
         #[arg(long)]
         plot: Option<PathBuf>,
+        /// Preflight test design the reference model plays and the FDI fits.
+        #[arg(long, value_enum, default_value_t = TestChoice::Standstill)]
+        test: TestChoice,
     },
     /// Inverse check: simulate the monitor model at known faults, then identify them with the
     /// onboard FDI (same code, settings and sizes as the firmware).
@@ -434,21 +458,31 @@ fn main() -> ExitCode {
                     faults,
                     noise,
                     seed,
+                    test,
                 },
             ga_seed,
             trace_out,
             json,
-        } => preflight(faults, noise, seed, ga_seed, trace_out.as_deref(), json),
+        } => preflight(
+            faults,
+            noise,
+            seed,
+            test.test(),
+            ga_seed,
+            trace_out.as_deref(),
+            json,
+        ),
         Command::Simulate {
             actuator:
                 ActuatorArgs {
                     faults,
                     noise,
                     seed,
+                    test,
                 },
             format,
             out,
-        } => simulate(faults, noise, seed, format, &out),
+        } => simulate(faults, noise, seed, test.test(), format, &out),
         Command::Calibrate { nominal_trace, out } => calibrate_command(&nominal_trace, &out),
         Command::Identify {
             trace,
@@ -485,7 +519,8 @@ fn main() -> ExitCode {
             runs,
             out,
             plot,
-        } => campaign_command(table, runs, out.as_deref(), plot.as_deref()),
+            test,
+        } => campaign_command(table, runs, test.test(), out.as_deref(), plot.as_deref()),
         Command::Inverse { faults, seed, json } => inverse(faults, seed, json),
         Command::Separability {
             faults,
@@ -735,18 +770,27 @@ fn progress_wanted(json: bool) -> bool {
     !json && std::io::stderr().is_terminal()
 }
 
-fn load_calibration(path: Option<&Path>) -> Result<(Calibration, String)> {
+/// The calibration file at `path`, or the built-in one of the trace's test.
+fn load_calibration(path: Option<&Path>, test: &PreflightTest) -> Result<(Calibration, String)> {
     match path {
         Some(p) => Ok((
             CalibrationFile::read(p)?.calibration(),
             p.display().to_string(),
         )),
-        None => Ok((Calibration::REFERENCE_ACTUATOR, "built-in".into())),
+        None => Ok((
+            Calibration::reference_actuator(test),
+            format!("built-in ({} test)", test.name().unwrap_or("custom")),
+        )),
     }
 }
 
-fn simulate_scenario(faults: FaultVector, noise: f64, seed: u64) -> (Trace, f64) {
-    let rm = ReferenceModel::new(ReferenceSettings::REFERENCE);
+fn simulate_scenario(
+    faults: FaultVector,
+    noise: f64,
+    seed: u64,
+    test: PreflightTest,
+) -> (Trace, f64) {
+    let rm = ReferenceModel::new(ReferenceSettings::REFERENCE).with_test(test);
     let start = Instant::now();
     let sim = rm.simulate(&Scenario {
         faults,
@@ -767,10 +811,11 @@ fn simulate(
     faults: FaultVector,
     noise: f64,
     seed: u64,
+    test: PreflightTest,
     format: TraceFormat,
     out: &Path,
 ) -> Result<()> {
-    let (trace, seconds) = simulate_scenario(faults, noise, seed);
+    let (trace, seconds) = simulate_scenario(faults, noise, seed, test);
     trace.write(out, format)?;
     println!(
         "wrote {} ({format}, {} samples at 10 kHz; reference model {seconds:.3} s)",
@@ -887,7 +932,7 @@ fn identify_command(
 ) -> Result<()> {
     let trace = Trace::read(trace_path)?;
     let measured = trace.measured(&ActuatorParams::REFERENCE)?;
-    let (calibration, cal_name) = load_calibration(calibration)?;
+    let (calibration, cal_name) = load_calibration(calibration, measured.test())?;
     let (outcome, resumption) = identify_checkpointed(
         &measured,
         &calibration,
@@ -942,27 +987,27 @@ fn preflight(
     faults: FaultVector,
     noise: f64,
     seed: u64,
+    test: PreflightTest,
     ga_seed: u64,
     trace_out: Option<&Path>,
     json: bool,
 ) -> Result<()> {
-    let (trace, rm_seconds) = simulate_scenario(faults, noise, seed);
+    let (trace, rm_seconds) = simulate_scenario(faults, noise, seed, test);
     if let Some(path) = trace_out {
         trace.write(path, format_from_extension(path))?;
     }
     let measured = trace.measured(&ActuatorParams::REFERENCE)?;
-    let id = identify(
-        &measured,
-        &Calibration::REFERENCE_ACTUATOR,
-        ga_seed,
-        progress_wanted(json),
-    )?;
+    let (calibration, cal_name) = load_calibration(None, &test)?;
+    let id = identify(&measured, &calibration, ga_seed, progress_wanted(json))?;
     let mut heading = vec![
         (
             "actuator".to_string(),
-            format!("reference model, noise {noise}, seed {seed} ({rm_seconds:.3} s)"),
+            format!(
+                "reference model, {} test, noise {noise}, seed {seed} ({rm_seconds:.3} s)",
+                test.name().unwrap_or("custom")
+            ),
         ),
-        ("calibration".to_string(), "built-in".to_string()),
+        ("calibration".to_string(), cal_name),
         ("ga_seed".to_string(), ga_seed.to_string()),
     ];
     let (line, verdict) = domain_heading(
@@ -978,6 +1023,7 @@ fn preflight(
 fn campaign_command(
     table: CampaignTable,
     runs: u64,
+    test: PreflightTest,
     out: Option<&Path>,
     plot: Option<&Path>,
 ) -> Result<()> {
@@ -991,11 +1037,11 @@ fn campaign_command(
         }),
         CampaignTable::Random => (
             "Random multi-fault vectors (not tuned on)",
-            campaign::random_cases(6),
+            campaign::untuned_random_cases(8),
         ),
     };
     let start = Instant::now();
-    let summaries = campaign::run_campaign(&cases, runs, std::io::stderr().is_terminal())?;
+    let summaries = campaign::run_campaign(&cases, runs, test, std::io::stderr().is_terminal())?;
     let mut text = campaign::markdown(title, &summaries, runs);
     if matches!(table, CampaignTable::Random) {
         text += "\nVectors:\n\n";
@@ -1035,7 +1081,7 @@ fn plot_command(
 ) -> Result<()> {
     let trace = Trace::read(trace_path)?;
     let measured = trace.measured(&ActuatorParams::REFERENCE)?;
-    let (calibration, _) = load_calibration(calibration)?;
+    let (calibration, _) = load_calibration(calibration, measured.test())?;
     let id = identify(&measured, &calibration, seed, progress_wanted(false))?;
     let k = id.result.faults;
     let title = format!(
@@ -1061,7 +1107,8 @@ fn measured_from_monitor(
 ) -> Result<Box<OnboardMeasured>> {
     let filter = LowPass::for_control_period(model.params().control_period)
         .map_err(|e| anyhow::anyhow!("conditioning filter: {e:?}"))?;
-    let mut measured = Box::new(OnboardMeasured::new(filter));
+    // The product's default test (the standstill segment, then the chirp).
+    let mut measured = Box::new(OnboardMeasured::for_test(filter, PreflightTest::STANDSTILL));
     record_monitor_trace(model, truth, &mut measured)
         .map_err(|e| anyhow::anyhow!("recording the trace: {e:?}"))?;
     Ok(measured)

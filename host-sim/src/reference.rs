@@ -226,7 +226,7 @@ impl ReferenceModel {
     pub fn new(settings: ReferenceSettings) -> Self {
         Self {
             settings,
-            test: PreflightTest::PAPER,
+            test: PreflightTest::STANDSTILL,
             anomaly: None,
         }
     }
@@ -367,7 +367,14 @@ impl ReferenceModel {
         let aa_omega = TAU * s.anti_alias_hz;
         let mut sensed_filter = [[0.0f64; 2]; 3];
 
-        let mut trace = Trace::with_capacity(samples).with_test(self.test);
+        // The trace declares the design by its code, as files do: the segments, with the
+        // preflight chirp the FDI expects (a test of another chirp is an anomaly it must
+        // find, not be told).
+        let declared = PreflightTest {
+            chirp: ChirpCommand::PREFLIGHT,
+            ..self.test
+        };
+        let mut trace = Trace::with_capacity(samples).with_test(declared);
         let mut truth = Vec::with_capacity(samples);
 
         for (n, &process_noise) in current_ref_noise.iter().enumerate() {

@@ -837,15 +837,30 @@ mod tests {
     fn csv_round_trips_exactly_and_binary_to_the_fixed_point_bits() {
         let t = trace();
         let csv = t.to_csv();
-        assert!(csv.starts_with(b"t,theta_cmd,i_a,i_b,i_c,theta_m,theta_u\n"));
+        // Version 2: the design on a comment line, then the header.
+        assert!(csv.starts_with(b"# test: standstill\nt,theta_cmd,i_a,i_b,i_c,theta_m,theta_u\n"));
         assert_eq!(Trace::from_csv(&csv).unwrap(), t);
         let bin = t.to_bin().unwrap();
-        assert_eq!(bin.len(), 16 + 24 * 5000 + 4);
+        assert_eq!(bin.len(), 16 + 24 * 5520 + 4);
+        assert_eq!(&bin[4..8], &[2, 0, 6, 1]);
         let back = Trace::from_bin(&bin).unwrap();
+        assert_eq!(back.test(), t.test());
         for (a, b) in t.samples().iter().zip(back.samples()) {
             assert_eq!(a.row(), b.row());
             assert_eq!(a.time, b.time);
         }
+        // The paper's test is still written, and read, as version 1.
+        let paper = ReferenceModel::new(ReferenceSettings::REFERENCE)
+            .with_test(PreflightTest::PAPER)
+            .simulate(&Scenario::new(FaultVector::NOMINAL))
+            .trace;
+        let csv = paper.to_csv();
+        assert!(csv.starts_with(b"t,theta_cmd,i_a,i_b,i_c,theta_m,theta_u\n"));
+        assert_eq!(Trace::from_csv(&csv).unwrap(), paper);
+        let bin = paper.to_bin().unwrap();
+        assert_eq!(bin.len(), 16 + 24 * 5000 + 4);
+        assert_eq!(&bin[4..8], &[1, 0, 6, 0]);
+        assert_eq!(*Trace::from_bin(&bin).unwrap().test(), PreflightTest::PAPER);
     }
 
     #[test]
@@ -873,7 +888,22 @@ mod tests {
         });
         let e = format!("{:#}", t.measured(&ActuatorParams::REFERENCE).unwrap_err());
         assert!(
-            e.contains("5001 samples") && e.contains("holds 5000"),
+            e.contains("5521 samples") && e.contains("holds 5520"),
+            "{e}"
+        );
+        // A file is refused past its own test's length.
+        let mut csv = String::from_utf8(t.to_csv()).unwrap();
+        csv = csv.replacen("# test: standstill\n", "", 1);
+        let e = Trace::from_csv(csv.as_bytes()).unwrap_err();
+        assert_eq!(e.kind(), "too-many-samples", "{e}");
+        let unknown = String::from_utf8(t.to_csv())
+            .unwrap()
+            .replacen("standstill", "wobble", 1);
+        let e = Trace::from_csv(unknown.as_bytes()).unwrap_err();
+        assert_eq!(e.kind(), "unknown-test");
+        assert!(
+            e.to_string()
+                .contains("line 1: unknown test design `wobble`"),
             "{e}"
         );
     }

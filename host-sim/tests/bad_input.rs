@@ -12,7 +12,10 @@ use shared::FaultVector;
 
 fn good_trace() -> Trace {
     let k = FaultVector::new([0.3, 0.1, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]).unwrap();
+    // The paper's test: its CSV has no comment line, so every line number below is the
+    // header's plus the row (version 2's `# test:` line is checked in trace_file's tests).
     ReferenceModel::new(ReferenceSettings::REFERENCE)
+        .with_test(shared::test_design::PreflightTest::PAPER)
         .simulate(&Scenario::new(k))
         .trace
 }
@@ -244,10 +247,18 @@ fn cases() -> Vec<Case> {
         *e == IngestError::BadMagic { found: *b"EMAX" }
     });
     let mut b = bin.clone();
-    b[4] = 2;
+    b[4] = 3;
     add("wrong version", b, |e| {
-        *e == IngestError::UnsupportedVersion { found: 2 }
+        *e == IngestError::UnsupportedVersion { found: 3 }
     });
+    let mut b = bin.clone();
+    b[4] = 2;
+    b[7] = 9;
+    add(
+        "unknown test design",
+        b,
+        |e| matches!(e, IngestError::UnknownTest { line: 0, name } if name == "code 9"),
+    );
     let mut b = bin.clone();
     b[6] = 7;
     add("wrong column count", b, |e| {

@@ -4,10 +4,13 @@
 
 use host_sim::reference::{ReferenceModel, ReferenceSettings, Scenario, Simulation};
 use shared::conditioning::commutation_signs;
+use shared::test_design::PreflightTest;
 use shared::FaultVector;
 
+/// The paper's test: these checks are about the chirp (the standstill segment has its own
+/// in `test_designs.rs`).
 fn rm() -> ReferenceModel {
-    ReferenceModel::new(ReferenceSettings::REFERENCE)
+    ReferenceModel::new(ReferenceSettings::REFERENCE).with_test(PreflightTest::PAPER)
 }
 
 fn run(k: [f32; 8]) -> Simulation {

@@ -26,7 +26,8 @@ fn plateaus(sim: &Simulation) -> [f64; 3] {
     let s = StandstillSegment::DEFAULT;
     let per_pair = usize::from(s.on_samples) + usize::from(s.off_samples);
     core::array::from_fn(|pair| {
-        let t = &sim.truth[pair * per_pair + usize::from(s.on_samples) - 1];
+        let t = &sim.truth
+            [usize::from(s.settle_samples) + pair * per_pair + usize::from(s.on_samples) - 1];
         let signs = shared::test_design::PAIR_SIGNS[pair];
         0.5 * (0..3)
             .map(|x| f64::from(signs[x]) * t.phase_currents[x])
@@ -38,7 +39,8 @@ fn plateaus(sim: &Simulation) -> [f64; 3] {
 fn a_standstill_step_is_an_rl_circuit_and_the_shaft_does_not_turn() {
     let sim = standstill(HEALTHY);
     let s = StandstillSegment::DEFAULT;
-    let segment = &sim.truth[..s.samples()];
+    // After the settle, while the pairs are driven.
+    let segment = &sim.truth[usize::from(s.settle_samples)..s.samples()];
     let start = segment[0].motor_angle;
     let travel = segment
         .iter()
@@ -122,11 +124,12 @@ fn the_anti_alias_stage_removes_the_ripple_the_adc_would_alias() {
 }
 
 #[test]
-fn the_paper_test_is_unchanged_by_the_segments_code() {
-    // The default reference actuator still plays the paper's chirp alone, 5 000 samples.
+fn the_default_test_is_the_standstill_segment_then_the_chirp() {
     let rm = ReferenceModel::new(ReferenceSettings::REFERENCE);
-    assert_eq!(*rm.test(), PreflightTest::PAPER);
-    assert_eq!(rm.test_samples(), 5000);
+    assert_eq!(*rm.test(), PreflightTest::STANDSTILL);
+    assert_eq!(rm.test_samples(), 5520);
+    let paper = rm.with_test(PreflightTest::PAPER);
+    assert_eq!(paper.test_samples(), 5000);
 }
 
 #[test]

@@ -337,6 +337,12 @@ impl<const N: usize> MeasuredCurrent<N> {
         &self.filter
     }
 
+    /// Empties the buffer for a new test of design `test`, keeping the filter.
+    pub fn clear_for(&mut self, test: PreflightTest) {
+        self.clear();
+        self.test = test;
+    }
+
     /// Empties the buffer for a new test, keeping the filter.
     pub fn clear(&mut self) {
         self.samples.clear();

@@ -14,6 +14,7 @@ use shared::fdi::{
 use shared::fitness::{FitnessError, FitnessProblem};
 use shared::ga::Problem;
 use shared::monitor::MonitorSample;
+use shared::test_design::PreflightTest;
 use shared::trace::Crc32;
 use shared::{
     ActuatorParams, Calibration, ChirpCommand, FaultVector, GaSettings, MonitorModel, SteadyStateGa,
@@ -32,23 +33,29 @@ const VECTORS: [[f32; 8]; 8] = [
     [0.1, 0.1, 0.1, 0.05, 0.02, 0.1, 0.25, 0.4],
 ];
 
-/// A start away from zero, as a measured test's first sample gives.
+/// A start away from zero, as a measured test's first sample gives (the currents a position
+/// hold leaves in the windings, where a standstill segment starts).
 const START: ShaftAngles = ShaftAngles {
     motor: 1.234,
     user: 0.0021,
-    currents: [0.0; 3],
+    currents: [0.05, -0.11, 0.06],
 };
 
-/// CRC-32 over every field of every sample of a 5 000-sample run from [`START`] with
-/// `Calibration::REFERENCE_ACTUATOR`, one per vector of [`VECTORS`].
+/// CRC-32 over every field of every sample of a 5 000-sample run of the paper's test from
+/// [`START`] with `Calibration::REFERENCE_ACTUATOR`, one per vector of [`VECTORS`].
 const RUN_CRC: [u32; 8] = [
-    0xb301753d, 0xfc480b18, 0xe1540325, 0x66bda6b8, 0x1e31e0b3, 0xbbe357bb, 0xdf45fd06, 0xb2ceb923,
+    0xf9885107, 0xd4135b5d, 0x80e73923, 0x116526a7, 0xc6d88ef3, 0x62bc02a1, 0xb1c5a513, 0x9b8c8535,
 ];
 
-/// Bits of `FitnessProblem::raw_error` of every vector of [`VECTORS`] against the trace the
-/// monitor model records for the last one.
+/// The same over the 5 520 samples of the standstill test (segment, then chirp).
+const RUN_CRC_STANDSTILL: [u32; 8] = [
+    0x6a045df6, 0x479f57ac, 0x136b35d2, 0x381c6dbb, 0x0ddc58b1, 0xf1300e50, 0x2249a9e2, 0xea975e53,
+];
+
+/// Bits of `FitnessProblem::raw_error` of every vector of [`VECTORS`] against the
+/// standstill-test trace the monitor model records for the last one.
 const FITNESS_BITS: [u32; 8] = [
-    0x3cf7ad93, 0x3dfd224d, 0x405784b2, 0x3ce79e52, 0x3e088a0f, 0x3df839c2, 0x3edfee11, 0x2c07b846,
+    0x3cd64366, 0x3de62ed9, 0x405e0f19, 0x3ce8057d, 0x3e277874, 0x3d1f59ea, 0x3de08101, 0x2e3d81ea,
 ];
 
 fn model() -> MonitorModel {
@@ -73,29 +80,39 @@ fn sample_bytes(s: &MonitorSample) -> [u8; 24] {
 
 #[test]
 fn monitor_runs_match_the_stored_bits() {
-    let m = model();
-    let crcs: Vec<u32> = VECTORS
-        .iter()
-        .map(|k| {
-            let mut crc = Crc32::new();
-            m.run_from(&FaultVector::new(*k).unwrap(), START, 5000, |s| {
-                crc.update(&sample_bytes(s))
-            });
-            crc.finish()
-        })
-        .collect();
-    assert_eq!(
-        crcs, RUN_CRC,
-        "monitor-model bits changed; new table: {:#010x?}",
-        crcs
-    );
+    for (m, stored, name) in [
+        (model(), RUN_CRC, "paper"),
+        (
+            model().with_test(&PreflightTest::STANDSTILL),
+            RUN_CRC_STANDSTILL,
+            "standstill",
+        ),
+    ] {
+        let samples = m.test_samples();
+        let crcs: Vec<u32> = VECTORS
+            .iter()
+            .map(|k| {
+                let mut crc = Crc32::new();
+                m.run_from(&FaultVector::new(*k).unwrap(), START, samples, |s| {
+                    crc.update(&sample_bytes(s))
+                });
+                crc.finish()
+            })
+            .collect();
+        assert_eq!(
+            crcs, stored,
+            "monitor-model bits changed ({name} test); new table: {:#010x?}",
+            crcs
+        );
+    }
 }
 
 #[test]
 fn fitness_matches_the_stored_bits() {
     let m = model();
-    let mut measured = Box::new(OnboardMeasured::new(
+    let mut measured = Box::new(OnboardMeasured::for_test(
         LowPass::for_control_period(ActuatorParams::REFERENCE.control_period).unwrap(),
+        PreflightTest::STANDSTILL,
     ));
     let truth = FaultVector::new(VECTORS[7]).unwrap();
     record_monitor_trace(&m, &truth, &mut measured).unwrap();
@@ -129,8 +146,9 @@ fn fitness_matches_the_stored_bits() {
 fn table_and_bound_keep_the_bits() {
     let m = model();
     let params = ActuatorParams::REFERENCE;
-    let mut measured = Box::new(OnboardMeasured::new(
+    let mut measured = Box::new(OnboardMeasured::for_test(
         LowPass::for_control_period(params.control_period).unwrap(),
+        PreflightTest::STANDSTILL,
     ));
     let truth = FaultVector::new(VECTORS[7]).unwrap();
     record_monitor_trace(&m, &truth, &mut measured).unwrap();
