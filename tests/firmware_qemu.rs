@@ -251,7 +251,7 @@ fn panic_and_hard_fault_report_and_exit_non_zero() {
 #[test]
 fn a_too_long_trace_is_refused_not_truncated() {
     let trace = faulty_trace();
-    let mut long = Trace::with_capacity(TEST_SAMPLES + 10);
+    let mut long = Trace::with_capacity(TEST_SAMPLES + 10).with_test(*trace.test());
     for s in trace
         .samples()
         .iter()

@@ -154,6 +154,7 @@ pub fn study(
     seeds: u64,
     step: f32,
     anti_alias_hz: f64,
+    current_ref_noise: f64,
 ) -> Result<Study> {
     if seeds < 3 {
         bail!("need at least 3 seeds, got {seeds}");
@@ -170,7 +171,7 @@ pub fn study(
     let run = |k: &FaultVector, seed: u64| -> Result<Vec<f64>> {
         let sim = rm.simulate(&Scenario {
             faults: *k,
-            current_ref_noise: 0.0,
+            current_ref_noise,
             seed,
         });
         measurement(design, &sim, &params)
@@ -548,14 +549,21 @@ pub fn invert(m: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
 }
 
 /// Markdown: one table per design (points as rows), then the summary.
-pub fn markdown(studies: &[Study], seeds: u64, step: f32, anti_alias_hz: f64) -> String {
+pub fn markdown(
+    studies: &[Study],
+    seeds: u64,
+    step: f32,
+    anti_alias_hz: f64,
+    current_ref_noise: f64,
+) -> String {
     use std::fmt::Write;
     let mut out = String::new();
     let pct = |x: Option<f64>| x.map_or("—".to_string(), |v| format!("{:.2}", 100.0 * v));
     let _ = writeln!(
         out,
-        "Reference model (current anti-alias filter {anti_alias_hz} Hz), {seeds} noise seeds \
-         per point, difference step h = {step}. \
+        "Reference model (current anti-alias filter {anti_alias_hz} Hz, I_ref noise \
+         {current_ref_noise} of the nominal RMS), {seeds} noise seeds per point, difference \
+         step h = {step}. \
          Standard deviations in % of the component's [0, 1] range: `white` = √diag(F⁻¹), \
          `seeds` = scatter of the linearised estimate over the seeds. \
          Components: {}.\n",

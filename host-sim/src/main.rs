@@ -279,6 +279,10 @@ enum Command {
         /// Cutoff of the reference model's analogue current anti-alias filter [Hz] (0: none).
         #[arg(long, default_value_t = ReferenceSettings::ANTI_ALIAS_HZ)]
         anti_alias: f64,
+        /// Band-limited noise on I_ref during the study, as a fraction of the nominal I_ref
+        /// RMS (the process noise Σ then includes).
+        #[arg(long, default_value_t = 0.0, value_parser = parse_noise)]
+        noise: f64,
         /// Instead of the designs: the linearised identification error from the monitor
         /// model's structural mismatch, at the Table I, Table II and random vectors, for the
         /// designs the monitor model plays (paper, standstill; the reference actuator as
@@ -541,6 +545,7 @@ fn main() -> ExitCode {
             seeds,
             step,
             anti_alias,
+            noise,
             bias,
             weights,
             out,
@@ -548,7 +553,7 @@ fn main() -> ExitCode {
             if bias {
                 mismatch_bias_command(&designs, &weights, seeds, step, out.as_deref())
             } else {
-                identifiability_command(&designs, seeds, step, anti_alias, out.as_deref())
+                identifiability_command(&designs, seeds, step, anti_alias, noise, out.as_deref())
             }
         }
         Command::Degrade {
@@ -1196,6 +1201,7 @@ fn identifiability_command(
     seeds: u64,
     step: f32,
     anti_alias_hz: f64,
+    noise: f64,
     out: Option<&Path>,
 ) -> Result<()> {
     use host_sim::identifiability::{markdown, points, study, Design};
@@ -1216,11 +1222,11 @@ fn identifiability_command(
     let mut studies = Vec::new();
     for (design, name, k) in jobs {
         bar.set_message(format!("{design:?} @ {name}"));
-        studies.push(study(design, name, &k, seeds, step, anti_alias_hz)?);
+        studies.push(study(design, name, &k, seeds, step, anti_alias_hz, noise)?);
         bar.inc(1);
     }
     bar.finish_and_clear();
-    let text = markdown(&studies, seeds, step, anti_alias_hz);
+    let text = markdown(&studies, seeds, step, anti_alias_hz, noise);
     print!("{text}");
     if let Some(path) = out {
         std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
@@ -1321,7 +1327,8 @@ fn footprint() {
     println!("monitor model running state           {state:>6} B");
     let total = ga + measured + model + state;
     println!(
-        "total                                 {total:>6} B ({:.1} KiB; target 24 KiB)",
+        "total                                 {total:>6} B ({:.1} KiB; with the firmware's \
+         preflight task, budget 32 KiB)",
         total as f64 / 1024.0
     );
 }

@@ -136,8 +136,8 @@ fn the_default_test_is_the_standstill_segment_then_the_chirp() {
 fn the_voltage_channel_conditions_the_study_better_than_currents_alone() {
     let (name, k) = points()[1]; // Table II low: every component, the phase included.
     let hz = ReferenceSettings::ANTI_ALIAS_HZ;
-    let paper = study(Design::Paper, name, &k, 3, 0.02, hz).unwrap();
-    let voltage = study(Design::Voltage, name, &k, 3, 0.02, hz).unwrap();
+    let paper = study(Design::Paper, name, &k, 3, 0.02, hz, 0.0).unwrap();
+    let voltage = study(Design::Voltage, name, &k, 3, 0.02, hz, 0.0).unwrap();
     assert_eq!(paper.components, (0..8).collect::<Vec<_>>());
     for s in [&paper, &voltage] {
         assert!(s
@@ -155,7 +155,7 @@ fn the_voltage_channel_conditions_the_study_better_than_currents_alone() {
     );
     // At the healthy point the eccentricity phase has no effect and is left out.
     let (name, k) = points()[0];
-    let healthy = study(Design::Paper, name, &k, 3, 0.05, hz).unwrap();
+    let healthy = study(Design::Paper, name, &k, 3, 0.05, hz, 0.0).unwrap();
     assert!(!healthy.components.contains(&6));
     assert_eq!(healthy.std_white[6], None);
 }
