@@ -174,6 +174,31 @@ fn firmware_under_qemu_gives_the_hosts_bits() {
     }
     let fitness = u32::from_str_radix(field(&run.output, "bits ", "fitness"), 16).expect("hex");
     assert_eq!(fitness, host.fitness.to_bits(), "fitness differs");
+    // The uncertainty: the same standard deviations and 90 % intervals, bit for bit.
+    let measured = Trace::from_bin(&bytes)
+        .expect("readable")
+        .measured(&ActuatorParams::REFERENCE)
+        .expect("conditioned");
+    let (u, _) = shared::FitnessProblem::new(
+        &measured,
+        ActuatorParams::REFERENCE,
+        &Calibration::REFERENCE_ACTUATOR,
+    )
+    .expect("a fitness")
+    .uncertainty(&host.faults)
+    .expect("determined");
+    for (key, host_values) in [("std", u.std), ("lower", u.lower), ("upper", u.upper)] {
+        let fw: Vec<u32> = list(field(&run.output, "uncertainty_bits ", key))
+            .iter()
+            .map(|x| u32::from_str_radix(x, 16).expect("hex bits"))
+            .collect();
+        assert_eq!(
+            fw,
+            host_values.map(f32::to_bits).to_vec(),
+            "uncertainty {key} differs"
+        );
+    }
+    assert!(u.std[0].is_finite() && u.std[0] > 0.0, "{u:?}");
     // The readable line says the same numbers.
     let shown: Vec<f32> = list(field(&run.output, "result ", "faults"))
         .iter()

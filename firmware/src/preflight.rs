@@ -4,7 +4,8 @@
 //! Work bounds per poll: Acquire ≤ [`PreflightSettings::frames_per_poll`] frames (O(1) each);
 //! Condition one O(`TEST_SAMPLES`) pass; Identify ≤
 //! [`PreflightSettings::evaluations_per_poll`] monitor-model evaluations (each one whole test,
-//! ≤ 0.552 s of model time at the control period); Report O(1), including the domain verdict
+//! ≤ 0.552 s of model time at the control period); Uncertainty ≤
+//! [`PreflightSettings::uncertainty_samples_per_poll`] samples of 9 lockstep runs; Report O(1), including the domain verdict
 //! ([`shared::domain`], its statistics gathered frame by frame during Acquire). Time is
 //! never read here; the caller measures it.
 //!
@@ -16,8 +17,10 @@ use shared::conditioning::ConditioningError;
 use shared::domain::{Domain, DomainLimits, DomainMonitor};
 use shared::fdi::TEST_SAMPLES;
 use shared::fdi::{FdiError, Identification, IdentificationResult, OnboardMeasured, POPULATION};
+use shared::fitness::CurvatureRun;
 use shared::ga::RecordError;
 use shared::test_design::PreflightTest;
+use shared::uncertainty::{Assessment, Uncertainty};
 use shared::{ActuatorParams, Calibration, GaSettings, Status, Verdict, FAULT_COUNT};
 
 use crate::source::{Acquired, CurrentSource};
@@ -39,6 +42,9 @@ pub struct PreflightSettings {
     pub frames_per_poll: u32,
     /// Monitor-model evaluations per poll during Identify.
     pub evaluations_per_poll: u32,
+    /// Samples per poll of the uncertainty's 9 lockstep runs (200 ≈ a third of one
+    /// evaluation's work: 9 model steps and 36 f64 multiply-adds per sample).
+    pub uncertainty_samples_per_poll: u32,
 }
 
 impl PreflightSettings {
@@ -61,6 +67,7 @@ impl PreflightSettings {
         seed: 1,
         frames_per_poll: 500,
         evaluations_per_poll: 1,
+        uncertainty_samples_per_poll: 200,
     };
 }
 
@@ -71,6 +78,8 @@ pub enum Stage {
     Acquire,
     Condition,
     Identify,
+    /// A standard deviation and a 90 % interval per component ([`shared::uncertainty`]).
+    Uncertainty,
     Report,
     Done,
 }
@@ -96,6 +105,11 @@ pub enum PreflightError<E> {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Report {
     pub result: IdentificationResult,
+    /// Standard deviation and 90 % interval per component (`None`: not determined).
+    pub uncertainty: Option<Uncertainty>,
+    /// Verdicts that use the uncertainty: `Faulty` only when the interval clears the
+    /// detection threshold.
+    pub assessments: [Assessment; FAULT_COUNT],
     /// Whether the monitor model explains this actuator at all; when `Outside`, the fault
     /// vector and the verdicts must not be acted on.
     pub domain: Domain,
@@ -140,8 +154,15 @@ enum State<'m> {
     Identify {
         id: Identification<'m, TEST_SAMPLES, POPULATION>,
     },
+    /// The runs themselves stay in place in [`Preflight::curvature`] (≈ 3 kB, not moved
+    /// from poll to poll).
+    Uncertainty {
+        id: Identification<'m, TEST_SAMPLES, POPULATION>,
+        result: IdentificationResult,
+    },
     Report {
         result: IdentificationResult,
+        uncertainty: Option<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT])>,
     },
     Done(Report),
     Failed,
@@ -152,6 +173,9 @@ pub struct Preflight<'m, S> {
     settings: PreflightSettings,
     source: S,
     state: State<'m>,
+    /// The uncertainty's lockstep runs (≈ 3 kB), lent in like the measured buffer; without
+    /// one the Uncertainty stage is skipped and the report has no uncertainty.
+    curvature: Option<&'m mut CurvatureRun>,
     domain: DomainMonitor,
     frames: u32,
     identify_polls: u32,
@@ -166,6 +190,7 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
             settings,
             source,
             state: State::Acquire { measured },
+            curvature: None,
             domain: DomainMonitor::new(
                 settings.test.chirp,
                 settings.params.control_period,
@@ -177,11 +202,18 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
         }
     }
 
+    /// The same self-test computing the uncertainty of its result in `buffer`.
+    pub fn with_curvature_buffer(mut self, buffer: &'m mut CurvatureRun) -> Self {
+        self.curvature = Some(buffer);
+        self
+    }
+
     pub fn stage(&self) -> Stage {
         match self.state {
             State::Acquire { .. } => Stage::Acquire,
             State::Condition { .. } => Stage::Condition,
             State::Identify { .. } => Stage::Identify,
+            State::Uncertainty { .. } => Stage::Uncertainty,
             State::Report { .. } => Stage::Report,
             State::Done(_) | State::Failed => Stage::Done,
         }
@@ -190,8 +222,8 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
     /// Evaluations done so far (0 before Identify).
     pub fn evaluations(&self) -> u32 {
         match &self.state {
-            State::Identify { id } => id.ga().evaluations(),
-            State::Report { result } => result.evaluations,
+            State::Identify { id } | State::Uncertainty { id, .. } => id.ga().evaluations(),
+            State::Report { result, .. } => result.evaluations,
             State::Done(report) => report.result.evaluations,
             _ => 0,
         }
@@ -279,13 +311,53 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                 self.max_evaluations_per_poll = self.max_evaluations_per_poll.max(done);
                 Ok(match status {
                     Status::Running => State::Identify { id },
-                    Status::Done(_) => State::Report {
-                        result: id.result_so_far(),
+                    Status::Done(_) => {
+                        let result = id.result_so_far();
+                        match self.curvature.as_deref_mut() {
+                            Some(run) => {
+                                id.problem().restart_curvature(run, &result.faults);
+                                State::Uncertainty { id, result }
+                            }
+                            None => State::Report {
+                                result,
+                                uncertainty: None,
+                            },
+                        }
+                    }
+                })
+            }
+            State::Uncertainty { id, result } => {
+                let samples = self.settings.uncertainty_samples_per_poll as usize;
+                let done = match self.curvature.as_deref_mut() {
+                    Some(run) => id.problem().continue_curvature(run, samples),
+                    None => Some(shared::uncertainty::Curvature {
+                        normal: [[0.0; FAULT_COUNT]; FAULT_COUNT],
+                        rss: 0.0,
+                        fitted: 0,
+                    }),
+                };
+                Ok(match done {
+                    None => State::Uncertainty { id, result },
+                    Some(curvature) => State::Report {
+                        result,
+                        uncertainty: curvature.uncertainty(&result.faults).ok(),
                     },
                 })
             }
-            State::Report { result } => Ok(State::Done(Report {
+            State::Report {
                 result,
+                uncertainty,
+            } => Ok(State::Done(Report {
+                result,
+                uncertainty: uncertainty.map(|(u, _)| u),
+                assessments: match &uncertainty {
+                    Some((u, correlation)) => u.assess(&result.faults, correlation),
+                    None => result.faults.verdicts().map(|v| match v {
+                        Verdict::Healthy => Assessment::Healthy,
+                        Verdict::Faulty => Assessment::Suspect,
+                        Verdict::NotApplicable => Assessment::NotApplicable,
+                    }),
+                },
                 domain: self.domain.assess(&self.settings.domain, result.fitness),
                 verdicts: result.faults.verdicts(),
                 frames: self.frames,

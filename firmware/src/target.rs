@@ -15,6 +15,8 @@ use cortex_m_rt::{exception, ExceptionFrame};
 use defmt_semihosting as _;
 use embassy_executor::Spawner;
 use semihosting::process::exit;
+use shared::fitness::CurvatureRun;
+use shared::MonitorModel;
 use static_cell::StaticCell;
 
 use core::ffi::CStr;
@@ -48,6 +50,9 @@ mod status {
 
 /// The measured-current buffer (22 kB), in `.bss`.
 static MEASURED: StaticCell<OnboardMeasured> = StaticCell::new();
+
+/// The uncertainty's nine lockstep monitor-model runs (≈ 3 kB), in `.bss`.
+static CURVATURE: StaticCell<CurvatureRun> = StaticCell::new();
 
 /// The health store: a flash sector on the controller; RAM here, loaded from and saved to the
 /// `--health` file around each run.
@@ -208,6 +213,11 @@ async fn preflight(spawner: Spawner) -> i32 {
         defmt::error!("measured-current buffer already in use");
         return status::START_UP;
     };
+    let model = MonitorModel::new(settings.params, &settings.calibration);
+    let Some(curvature) = CURVATURE.try_init_with(|| CurvatureRun::new(&model)) else {
+        defmt::error!("uncertainty buffer already in use");
+        return status::START_UP;
+    };
     match heartbeat() {
         Ok(token) => spawner.spawn(token),
         Err(_) => {
@@ -237,7 +247,7 @@ async fn preflight(spawner: Spawner) -> i32 {
     let mut next_checkpoint = CHECKPOINT_EVERY;
 
     let started = cycles();
-    let mut preflight = Preflight::new(settings, source, measured);
+    let mut preflight = Preflight::new(settings, source, measured).with_curvature_buffer(curvature);
     let mut stage = preflight.stage();
     let mut observed = Observed::default();
     let mut next_progress = PROGRESS_EVERY;
@@ -415,6 +425,26 @@ fn print_report(report: &Report, observed: &Observed, total_cycles: u64) {
     }
     for (name, verdict) in FAULT_NAMES.iter().zip(report.verdicts.iter()) {
         defmt::println!("verdict {=str} {}", name, verdict);
+    }
+    match &report.uncertainty {
+        Some(u) => {
+            defmt::println!(
+                "uncertainty std={} lower={} upper={}",
+                u.std,
+                u.lower,
+                u.upper
+            );
+            defmt::println!(
+                "uncertainty_bits std={:08x} lower={:08x} upper={:08x}",
+                u.std.map(f32::to_bits),
+                u.lower.map(f32::to_bits),
+                u.upper.map(f32::to_bits)
+            );
+        }
+        None => defmt::println!("uncertainty none"),
+    }
+    for (name, a) in FAULT_NAMES.iter().zip(report.assessments.iter()) {
+        defmt::println!("assessment {=str} {}", name, a);
     }
     defmt::println!("stop_reason {}", r.stop_reason);
     defmt::println!(

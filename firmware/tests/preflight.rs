@@ -9,6 +9,7 @@ use firmware::{
 use shared::conditioning::commutation_signs;
 use shared::domain::{Domain, OutsideReason};
 use shared::fdi::{Identification, OnboardMeasured, OnboardRecord, POPULATION, TEST_SAMPLES};
+use shared::fitness::CurvatureRun;
 use shared::ga::RecordError;
 use shared::test_design::PreflightTest;
 use shared::trace::{Crc32, TraceError, TraceHeader, TraceRow};
@@ -132,6 +133,59 @@ fn trace_source_refuses_bad_traces() {
         end,
         Err(TraceSourceError::Trace(TraceError::BadChecksum { .. }))
     ));
+}
+
+/// With an uncertainty buffer lent in: an Uncertainty stage of bounded polls, then the same
+/// standard deviations and intervals, bit for bit, as the shared code in one go, and verdicts
+/// that use them.
+#[test]
+fn the_uncertainty_stage_is_bounded_and_gives_the_shared_bits() {
+    let rows = monitor_rows(FAULTS, TEST_SAMPLES);
+    let bytes = trace_bytes(&rows, SAMPLE_RATE_HZ);
+    let source = TraceSource::open(SliceBytes::new(&bytes)).expect("a valid trace");
+    let s = settings();
+    let mut buffer = empty_buffer();
+    let model = MonitorModel::new(s.params, &s.calibration);
+    let mut curvature = Box::new(CurvatureRun::new(&model));
+    let mut preflight =
+        Preflight::new(s, source, &mut buffer).with_curvature_buffer(&mut curvature);
+    let mut uncertainty_polls = 0u32;
+    let report = loop {
+        match preflight.poll().expect("the preflight runs") {
+            Progress::Working { stage } => {
+                if stage == Stage::Uncertainty {
+                    uncertainty_polls += 1;
+                }
+            }
+            Progress::Finished(report) => break report,
+        }
+    };
+    // Every sample in slices of `per_poll`: the poll that starts the stage, then one per
+    // slice but the last, which moves to Report.
+    let per_poll = s.uncertainty_samples_per_poll;
+    assert_eq!(uncertainty_polls, (rows.len() as u32).div_ceil(per_poll));
+    let u = report
+        .uncertainty
+        .expect("the test determines the components");
+
+    let mut measured = empty_buffer();
+    measured.clear_for(s.test);
+    for r in &rows {
+        measured
+            .push_frame(r.adc_frame(), s.params.pole_pairs)
+            .unwrap();
+    }
+    measured.finish().unwrap();
+    let problem = shared::FitnessProblem::new(&measured, s.params, &s.calibration).unwrap();
+    let (expected, correlation) = problem.uncertainty(&report.result.faults).unwrap();
+    assert_eq!(u.std.map(f32::to_bits), expected.std.map(f32::to_bits));
+    assert_eq!(u.lower.map(f32::to_bits), expected.lower.map(f32::to_bits));
+    assert_eq!(
+        report.assessments,
+        expected.assess(&report.result.faults, &correlation)
+    );
+    // Friction 0.2 and backlash 0.3 are there to be found; their intervals say so.
+    assert!(u.std[0] > 0.0 && u.std[0] < 0.1, "{u:?}");
 }
 
 #[test]

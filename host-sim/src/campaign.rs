@@ -12,6 +12,7 @@ use rayon::prelude::*;
 use shared::fault::FAULT_COUNT;
 use shared::metrics::total_error;
 use shared::test_design::PreflightTest;
+use shared::uncertainty::Uncertainty;
 use shared::{ActuatorParams, Calibration, FaultVector};
 
 use crate::identify::identify;
@@ -196,6 +197,30 @@ pub struct RunResult {
     pub fitness_at_truth: f32,
     pub evaluations: u32,
     pub seconds: f64,
+    /// The identification's uncertainty (`None` if this test determines no component).
+    pub uncertainty: Option<Uncertainty>,
+    /// Per component, |found − true| / std without the inflation (the raw Gauss–Newton
+    /// std); `None` where undetermined or for the phase without an eccentricity.
+    pub z_raw: [Option<f64>; FAULT_COUNT],
+}
+
+impl RunResult {
+    /// (inside, determined) component counts of the 90 % intervals against the truth.
+    pub fn coverage(&self, truth: &FaultVector) -> (usize, usize) {
+        let Some(u) = &self.uncertainty else {
+            return (0, 0);
+        };
+        let c = u.covers(truth);
+        // The phase counts only with an eccentricity (e_tot weighs it by k6).
+        let counted = c.iter().enumerate().filter_map(|(i, x)| {
+            if i == 6 && truth.eccentricity() == 0.0 {
+                None
+            } else {
+                *x
+            }
+        });
+        counted.fold((0, 0), |(inside, n), x| (inside + usize::from(x), n + 1))
+    }
 }
 
 /// Statistics of one case.
@@ -241,6 +266,15 @@ impl CaseSummary {
     pub fn mean_seconds(&self) -> f64 {
         self.runs.iter().map(|r| r.seconds).sum::<f64>() / self.runs.len().max(1) as f64
     }
+    /// (inside, determined) component-runs of the 90 % intervals.
+    pub fn coverage(&self) -> (usize, usize) {
+        let truth = FaultVector::saturating(self.case.faults);
+        self.runs.iter().fold((0, 0), |(a, b), r| {
+            let (x, y) = r.coverage(&truth);
+            (a + x, b + y)
+        })
+    }
+
     /// Runs whose best fitness is above the fitness at the true vector (the optimiser stopped
     /// short of a better-known point).
     pub fn optimiser_misses(&self) -> usize {
@@ -281,6 +315,21 @@ pub fn run_once(
         .map_err(|e| anyhow!("fitness: {e:?}"))?;
     let found = id.result.faults;
     let largest_component = f64::from(found.largest_deviation());
+    let uncertainty = id.uncertainty.map(|(u, _)| u);
+    let mut z_raw = [None; FAULT_COUNT];
+    if let Some(u) = &uncertainty {
+        for (i, z) in z_raw.iter_mut().enumerate() {
+            let raw = f64::from(u.std[i]) / f64::from(shared::uncertainty::INFLATION);
+            let skip = i == 6 && truth.eccentricity() == 0.0;
+            if raw.is_finite() && raw > 0.0 && !skip {
+                let mut e = f64::from(found.as_array()[i] - truth.as_array()[i]).abs();
+                if i == 6 {
+                    e = e.min(1.0 - e);
+                }
+                *z = Some(e / raw);
+            }
+        }
+    }
     Ok(RunResult {
         found,
         e_tot: f64::from(total_error(&found, &truth)),
@@ -289,6 +338,8 @@ pub fn run_once(
         fitness_at_truth: problem.error(&truth),
         evaluations: id.result.evaluations,
         seconds: id.seconds,
+        uncertainty,
+        z_raw,
     })
 }
 
@@ -342,11 +393,11 @@ pub fn markdown(title: &str, summaries: &[CaseSummary], runs: u64) -> String {
     );
     let _ = writeln!(
         s,
-        "| case | paper mean | our mean | variance | worst | target | meets | mean evaluations | mean seconds | optimiser short of truth |"
+        "| case | paper mean | our mean | variance | worst | target | meets | mean evaluations | mean seconds | optimiser short of truth | 90 % intervals holding the truth |"
     );
     let _ = writeln!(
         s,
-        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"
     );
     for c in summaries {
         let paper = match c.case.paper {
@@ -361,7 +412,7 @@ pub fn markdown(title: &str, summaries: &[CaseSummary], runs: u64) -> String {
         };
         let _ = writeln!(
             s,
-            "| {} | {paper} | {:.2} | {:.3} | {:.2} | {target} | {} | {:.0} | {:.2} | {}/{} |",
+            "| {} | {paper} | {:.2} | {:.3} | {:.2} | {target} | {} | {:.0} | {:.2} | {}/{} | {}/{} |",
             c.case.name,
             c.mean(),
             c.variance(),
@@ -370,9 +421,46 @@ pub fn markdown(title: &str, summaries: &[CaseSummary], runs: u64) -> String {
             c.mean_evaluations(),
             c.mean_seconds(),
             c.optimiser_misses(),
-            c.runs.len()
+            c.runs.len(),
+            c.coverage().0,
+            c.coverage().1
         );
     }
+    let (inside, all) = summaries
+        .iter()
+        .map(CaseSummary::coverage)
+        .fold((0, 0), |(a, b), (x, y)| (a + x, b + y));
+    let mut z: Vec<f64> = summaries
+        .iter()
+        .flat_map(|c| {
+            c.runs
+                .iter()
+                .flat_map(|r| r.z_raw.iter().flatten().copied())
+        })
+        .collect();
+    z.sort_by(f64::total_cmp);
+    let needed = z
+        .get(((z.len() as f64 * 0.9).ceil() as usize).saturating_sub(1))
+        .map_or(f64::NAN, |q| q / f64::from(shared::uncertainty::Z90));
+    let _ = writeln!(
+        s,
+        "\n90 % intervals (inflation {}): the truth inside {inside} of {all} component-runs \
+         ({:.1} %); the inflation that would make it 90 % here: {needed:.2}.",
+        shared::uncertainty::INFLATION,
+        100.0 * inside as f64 / all.max(1) as f64
+    );
+    // For calibrating the inflation across campaigns: inside counts at other values.
+    let grid: Vec<String> = [4.0, 6.0, 8.0, 10.0, 12.0, 14.0, 16.0, 20.0, 25.0]
+        .iter()
+        .map(|&c: &f64| {
+            let n = z
+                .iter()
+                .filter(|&&x| x <= c * f64::from(shared::uncertainty::Z90))
+                .count();
+            format!("{c}: {n}/{}", z.len())
+        })
+        .collect();
+    let _ = writeln!(s, "Inside at other inflations: {}.", grid.join(", "));
     s
 }
 

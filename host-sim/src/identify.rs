@@ -8,10 +8,12 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use shared::command::CommandTable;
+use shared::fault::FAULT_COUNT;
 use shared::fdi::{
     Identification, IdentificationResult, OnboardMeasured, OnboardRecord, POPULATION, TEST_SAMPLES,
 };
 use shared::ga::RecordError;
+use shared::uncertainty::{Assessment, Uncertainty};
 use shared::{ActuatorParams, Calibration, ChirpCommand, GaSettings, Status};
 
 /// Evaluations per slice (the firmware's bounded tick does the same kind of slicing).
@@ -25,6 +27,24 @@ pub struct Identified {
     pub seconds: f64,
     /// (evaluations, best fitness) after each slice.
     pub history: Vec<(u32, f32)>,
+    /// Standard deviation and 90 % interval per component, with the correlations
+    /// (`shared::uncertainty`; `None` when the test determines no component).
+    pub uncertainty: Option<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT])>,
+}
+
+impl Identified {
+    /// Verdicts that use the uncertainty (the plain threshold verdicts without one).
+    pub fn assessments(&self) -> [Assessment; FAULT_COUNT] {
+        let k = &self.result.faults;
+        match &self.uncertainty {
+            Some((u, correlation)) => u.assess(k, correlation),
+            None => k.verdicts().map(|v| match v {
+                shared::Verdict::Healthy => Assessment::Healthy,
+                shared::Verdict::Faulty => Assessment::Suspect,
+                shared::Verdict::NotApplicable => Assessment::NotApplicable,
+            }),
+        }
+    }
 }
 
 /// Where the GA record goes and when (`identify --checkpoint`).
@@ -51,7 +71,7 @@ pub enum Resumption {
 /// How a checkpointed identification ended.
 #[derive(Clone, Debug)]
 pub enum Outcome {
-    Finished(Identified),
+    Finished(Box<Identified>),
     /// `stop_after` reached; the record holds this many evaluations.
     Interrupted {
         evaluations: u32,
@@ -66,7 +86,7 @@ pub fn identify(
     progress: bool,
 ) -> Result<Identified> {
     match identify_checkpointed(measured, calibration, seed, progress, None)?.0 {
-        Outcome::Finished(id) => Ok(id),
+        Outcome::Finished(id) => Ok(*id),
         // Only a checkpointed run can be cut short.
         Outcome::Interrupted { evaluations } => {
             anyhow::bail!("identification stopped after {evaluations} evaluations")
@@ -167,12 +187,15 @@ pub fn identify_checkpointed(
     }
     let seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
+    let result = id.result_so_far();
+    let uncertainty = id.problem().uncertainty(&result.faults).ok();
     Ok((
-        Outcome::Finished(Identified {
-            result: id.result_so_far(),
+        Outcome::Finished(Box::new(Identified {
+            result,
             seconds,
             history,
-        }),
+            uncertainty,
+        })),
         resumption,
     ))
 }

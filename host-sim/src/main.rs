@@ -37,6 +37,7 @@ use shared::metrics::{component_errors, total_error};
 use shared::monitor::MonitorState;
 use shared::prognosis::TrendSettings;
 use shared::test_design::PreflightTest;
+use shared::uncertainty::Assessment;
 use shared::{
     ActuatorParams, Calibration, ChirpCommand, FaultVector, FitnessProblem, GaSettings, LowPass,
     MonitorModel, ShaftAngles, SteadyStateGa,
@@ -864,9 +865,24 @@ fn verdict_text(v: Verdict) -> &'static str {
     }
 }
 
+fn assessment_text(a: Assessment) -> String {
+    match a {
+        Assessment::Healthy => "healthy".into(),
+        Assessment::Suspect => "suspect".into(),
+        Assessment::Faulty => "FAULT".into(),
+        Assessment::Ambiguous { with } => format!(
+            "ambiguous/{}",
+            FAULT_NAMES.get(usize::from(with)).copied().unwrap_or("?")
+        ),
+        Assessment::NotApplicable => "-".into(),
+    }
+}
+
 fn report(id: &Identified, truth: Option<&FaultVector>, heading: &[(String, String)], json: bool) {
     let found = id.result.faults;
     let verdicts = found.verdicts();
+    let assessments = id.assessments();
+    let uncertainty = id.uncertainty.as_ref().map(|(u, _)| u);
     if json {
         let mut obj = json!({
             "faults": found.as_array(),
@@ -874,8 +890,21 @@ fn report(id: &Identified, truth: Option<&FaultVector>, heading: &[(String, Stri
             "evaluations": id.result.evaluations,
             "seconds": id.seconds,
             "stop_reason": format!("{:?}", id.result.stop_reason),
-            "verdicts": verdicts.iter().map(|&v| verdict_text(v)).collect::<Vec<_>>(),
+            "verdicts": assessments.iter().map(|&a| assessment_text(a)).collect::<Vec<_>>(),
+            "threshold_verdicts": verdicts.iter().map(|&v| verdict_text(v)).collect::<Vec<_>>(),
         });
+        if let Some(u) = uncertainty {
+            // NaN (undetermined) is written as null.
+            let finite = |x: f32| x.is_finite().then_some(x);
+            obj["std"] = json!(u.std.map(finite));
+            obj["interval90"] = json!((0..FAULT_COUNT)
+                .map(|i| finite(u.std[i]).map(|_| [u.lower[i], u.upper[i]]))
+                .collect::<Vec<_>>());
+            obj["worst_correlation"] = json!({
+                "pair": [FAULT_NAMES[usize::from(u.worst_pair.0)], FAULT_NAMES[usize::from(u.worst_pair.1)]],
+                "value": u.worst_correlation,
+            });
+        }
         if let Some(t) = truth {
             obj["truth"] = json!(t.as_array());
             obj["errors"] = json!(component_errors(&found, t));
@@ -894,17 +923,27 @@ fn report(id: &Identified, truth: Option<&FaultVector>, heading: &[(String, Stri
     let errors = truth.map(|t| component_errors(&found, t));
     match truth {
         Some(_) => println!(
-            "{:<13} {:>8} {:>9} {:>8} {:>8}",
-            "fault", "found", "reading", "true", "e_i [%]"
+            "{:<13} {:>8} {:>8} {:>17} {:>22} {:>8} {:>8}",
+            "fault", "found", "std", "90 % interval", "reading", "true", "e_i [%]"
         ),
-        None => println!("{:<13} {:>8} {:>9}", "fault", "found", "reading"),
+        None => println!(
+            "{:<13} {:>8} {:>8} {:>17} {:>22}",
+            "fault", "found", "std", "90 % interval", "reading"
+        ),
     }
     for i in 0..FAULT_COUNT {
         let k = found.as_array()[i];
+        let (std, interval) = match uncertainty {
+            Some(u) if u.std[i].is_finite() => (
+                format!("{:.4}", u.std[i]),
+                format!("[{:.4}, {:.4}]", u.lower[i], u.upper[i]),
+            ),
+            _ => ("-".to_string(), "-".to_string()),
+        };
         let mut line = format!(
-            "{:<13} {k:>8.4} {:>9}",
+            "{:<13} {k:>8.4} {std:>8} {interval:>17} {:>22}",
             FAULT_NAMES[i],
-            verdict_text(verdicts[i])
+            assessment_text(assessments[i])
         );
         if let (Some(t), Some(e)) = (truth, errors.as_ref()) {
             line += &format!(" {:>8.4} {:>8.3}", t.as_array()[i], e[i]);
@@ -913,6 +952,16 @@ fn report(id: &Identified, truth: Option<&FaultVector>, heading: &[(String, Stri
     }
     let phase_deg = -180.0 + 360.0 * f64::from(found.eccentricity_phase());
     println!("(eccentricity phase {phase_deg:.0}° from phase A; a location, read only with an eccentricity fault)");
+    if let Some(u) = uncertainty {
+        println!(
+            "(FAULT: the whole 90 % interval is beyond the {} detection threshold; suspect: the \
+             value is, its interval is not; most correlated pair: {} and {}, {:.2})",
+            shared::fault::DETECTION_THRESHOLD,
+            FAULT_NAMES[usize::from(u.worst_pair.0)],
+            FAULT_NAMES[usize::from(u.worst_pair.1)],
+            u.worst_correlation
+        );
+    }
     if let Some(t) = truth {
         println!("e_tot         {:.3} %", total_error(&found, t));
     }
@@ -956,7 +1005,7 @@ fn identify_command(
         }
     }
     let id = match outcome {
-        Outcome::Finished(id) => id,
+        Outcome::Finished(id) => *id,
         Outcome::Interrupted { evaluations } => {
             eprintln!(
                 "stopped after {evaluations} evaluations (simulated power loss); checkpoint in {}",

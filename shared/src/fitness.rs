@@ -16,13 +16,14 @@
 
 use core::ops::ControlFlow;
 
-use crate::command::CommandTable;
+use crate::command::{CommandSource, CommandTable};
 use crate::conditioning::{ConditioningError, LowPassState, MeasuredCurrent};
 use crate::fault::{FaultVector, FAULT_COUNT};
 use crate::ga::Problem;
-use crate::monitor::{MonitorModel, MonitorSample};
+use crate::monitor::{MonitorModel, MonitorRun, MonitorSample};
 use crate::params::ActuatorParams;
 use crate::test_design::PreflightTest;
+use crate::uncertainty::{Curvature, Uncertainty, UncertaintyError, STEP};
 
 /// How the monitor model is fitted to one actuator: electrical scale factors found on a
 /// healthy trace, and the nominal residual error subtracted so that a healthy actuator scores
@@ -250,6 +251,203 @@ impl<'a, const N: usize> FitnessProblem<'a, N> {
             err
         } else {
             f32::INFINITY
+        }
+    }
+}
+
+impl<const N: usize> FitnessProblem<'_, N> {
+    /// Starts the Gauss–Newton sums at `k` ([`crate::uncertainty`]): the base run and one run
+    /// per component shifted by [`crate::uncertainty::STEP`] (down where up would leave
+    /// [0, 1]), to be stepped in lockstep through the same filter and weights as the fitness
+    /// by [`continue_curvature`](Self::continue_curvature). O(1).
+    #[inline(never)]
+    pub fn start_curvature(&self, k: &FaultVector) -> CurvatureRun {
+        let base = *k.as_array();
+        let shifts: [f32; FAULT_COUNT] = core::array::from_fn(|a| {
+            let x = base.get(a).copied().unwrap_or(0.0);
+            if x + STEP <= 1.0 {
+                STEP
+            } else {
+                -STEP
+            }
+        });
+        let start = self.measured.initial_angles();
+        let runs = core::array::from_fn(|j| {
+            let mut g = base;
+            if let (Some(slot), Some(&h)) = (
+                j.checked_sub(1).and_then(|a| g.get_mut(a)),
+                j.checked_sub(1).and_then(|a| shifts.get(a)),
+            ) {
+                *slot += h;
+            }
+            self.model.start_run(&FaultVector::saturating(g), start)
+        });
+        CurvatureRun {
+            runs,
+            filters: [LowPassState::default(); FAULT_COUNT + 1],
+            shifts,
+            index: 0,
+            previous: 0.0,
+            sums: Curvature {
+                normal: [[0.0; FAULT_COUNT]; FAULT_COUNT],
+                rss: 0.0,
+                fitted: 0,
+            },
+        }
+    }
+
+    /// [`start_curvature`](Self::start_curvature) into an existing run, in place (no
+    /// kilobyte temporaries on a small stack). O(1).
+    #[inline(never)]
+    pub fn restart_curvature(&self, run: &mut CurvatureRun, k: &FaultVector) {
+        let base = *k.as_array();
+        let start = self.measured.initial_angles();
+        for (a, slot) in run.shifts.iter_mut().enumerate() {
+            let x = base.get(a).copied().unwrap_or(0.0);
+            *slot = if x + STEP <= 1.0 { STEP } else { -STEP };
+        }
+        for (j, slot) in run.runs.iter_mut().enumerate() {
+            let mut g = base;
+            if let (Some(x), Some(&h)) = (
+                j.checked_sub(1).and_then(|a| g.get_mut(a)),
+                j.checked_sub(1).and_then(|a| run.shifts.get(a)),
+            ) {
+                *x += h;
+            }
+            self.model
+                .restart_run(slot, &FaultVector::saturating(g), start);
+        }
+        run.filters = [LowPassState::default(); FAULT_COUNT + 1];
+        run.index = 0;
+        run.previous = 0.0;
+        run.sums = Curvature {
+            normal: [[0.0; FAULT_COUNT]; FAULT_COUNT],
+            rss: 0.0,
+            fitted: 0,
+        };
+    }
+
+    /// Advances `run` by at most `samples` samples (9 monitor-model steps and 36 f64
+    /// multiply-adds each); the finished sums once every measured sample is done.
+    #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // a, b < FAULT_COUNT, j ≤ FAULT_COUNT on fixed arrays
+    #[inline(never)]
+    pub fn continue_curvature(&self, run: &mut CurvatureRun, samples: usize) -> Option<Curvature> {
+        let reference = self.measured.samples();
+        let filter = self.measured.filter();
+        let standstill = self.measured.test().standstill;
+        let lead = self.measured.lead_samples();
+        let end = run.index.saturating_add(samples).min(reference.len());
+        while run.index < end {
+            let i = run.index;
+            run.index += 1;
+            let r = reference[i];
+            // One command for all nine runs: they are at the same sample.
+            let command = match run.runs[0].next_command_index(&self.model) {
+                Some(c) => {
+                    let time = c as f32 * self.model.params().control_period;
+                    match self.command_table {
+                        Some(table) => table.position_at(c, time),
+                        None => self.model.command().position_at(c, time),
+                    }
+                }
+                None => 0.0,
+            };
+            let mut m = [0.0f32; FAULT_COUNT + 1];
+            for (j, model) in run.runs.iter_mut().enumerate() {
+                let sample = model.next_sample(&self.model, command);
+                m[j] = filter.apply(&mut run.filters[j], sample.current);
+            }
+            let w = if i < lead {
+                if standstill.is_some_and(|s| s.fitted(i)) {
+                    self.standstill_weight
+                } else {
+                    0.0
+                }
+            } else {
+                let d = r - run.previous;
+                run.previous = r;
+                1.0 / (d * d * self.inv_kappa + 1.0)
+            };
+            if w <= 0.0 {
+                continue;
+            }
+            let w = f64::from(w);
+            let e = f64::from(r - m[0]);
+            run.sums.rss += w * e * e;
+            run.sums.fitted = run.sums.fitted.saturating_add(1);
+            let d: [f64; FAULT_COUNT] =
+                core::array::from_fn(|a| f64::from(m[a + 1] - m[0]) / f64::from(run.shifts[a]));
+            for a in 0..FAULT_COUNT {
+                let wa = w * d[a];
+                for b in a..FAULT_COUNT {
+                    run.sums.normal[a][b] += wa * d[b];
+                }
+            }
+        }
+        if run.index < reference.len() {
+            return None;
+        }
+        let mut out = run.sums;
+        for a in 0..FAULT_COUNT {
+            for b in 0..a {
+                out.normal[a][b] = out.normal[b][a];
+            }
+        }
+        Some(out)
+    }
+
+    /// The Gauss–Newton sums at `k` in one go: 9 monitor-model runs, O(N · 8²).
+    pub fn curvature(&self, k: &FaultVector) -> Curvature {
+        let mut run = self.start_curvature(k);
+        loop {
+            if let Some(c) = self.continue_curvature(&mut run, usize::MAX) {
+                return c;
+            }
+        }
+    }
+
+    /// A standard deviation, a 90 % interval and the correlations of each component of the
+    /// identified `k` ([`crate::uncertainty`]). 9 monitor-model runs.
+    pub fn uncertainty(
+        &self,
+        k: &FaultVector,
+    ) -> Result<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT]), UncertaintyError> {
+        self.curvature(k).uncertainty(k)
+    }
+}
+
+/// The Gauss–Newton sums of one identified vector in progress ([`FitnessProblem::
+/// start_curvature`]): 9 monitor-model runs and their filters, ≈ 4 kB.
+#[derive(Clone, Debug)]
+pub struct CurvatureRun {
+    runs: [MonitorRun; FAULT_COUNT + 1],
+    filters: [LowPassState; FAULT_COUNT + 1],
+    shifts: [f32; FAULT_COUNT],
+    index: usize,
+    previous: f32,
+    sums: Curvature,
+}
+
+impl CurvatureRun {
+    /// A run to restart later ([`FitnessProblem::restart_curvature`]): for a buffer that
+    /// lives in static storage. O(1).
+    pub fn new(model: &MonitorModel) -> Self {
+        Self {
+            runs: core::array::from_fn(|_| {
+                model.start_run(
+                    &FaultVector::NOMINAL,
+                    crate::conditioning::ShaftAngles::ZERO,
+                )
+            }),
+            filters: [LowPassState::default(); FAULT_COUNT + 1],
+            shifts: [STEP; FAULT_COUNT],
+            index: 0,
+            previous: 0.0,
+            sums: Curvature {
+                normal: [[0.0; FAULT_COUNT]; FAULT_COUNT],
+                rss: 0.0,
+                fitted: 0,
+            },
         }
     }
 }

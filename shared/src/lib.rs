@@ -17,6 +17,8 @@
 //!   command, fitness floor)?
 //! * [`health`] — the health log: one record per preflight, a bounded ring, its store.
 //! * [`prognosis`] — degradation trend and remaining useful life per fault, from the log.
+//! * [`test_design`] — the preflight test: standstill segment, chirp, what is commanded when.
+//! * [`uncertainty`] — a standard deviation and a 90 % interval per identified component.
 //! * [`random`] — the GA's seeded xoshiro128++ (state readable for checkpoints).
 #![cfg_attr(not(test), no_std)]
 // No panic on any input (issue 7): these lints make unwraps, panics and unchecked indexing
@@ -47,6 +49,7 @@ pub mod prognosis;
 pub mod random;
 pub mod test_design;
 pub mod trace;
+pub mod uncertainty;
 
 pub use command::ChirpCommand;
 pub use conditioning::{AdcFrame, LowPass, MeasuredCurrent, ShaftAngles};

@@ -309,6 +309,32 @@ impl MonitorModel {
         samples
     }
 
+    /// A run advanced one sample at a time ([`MonitorRun::next_sample`]), for callers that
+    /// step several runs in lockstep (the identification's uncertainty). The same bits as
+    /// [`run_with`](Self::run_with) from the same start. O(1) to create.
+    pub fn start_run(&self, k: &FaultVector, start: ShaftAngles) -> MonitorRun {
+        let f = self.faulted(k);
+        let state = MonitorState::at_rest(start, &f, self.inv_gear_ratio);
+        let pair_current = pair_current_after_switch(state.start_currents, 0);
+        MonitorRun {
+            f,
+            state,
+            index: 0,
+            pair: 0,
+            pair_current,
+        }
+    }
+
+    /// [`start_run`](Self::start_run) into an existing run, in place. O(1).
+    #[inline(never)]
+    pub fn restart_run(&self, run: &mut MonitorRun, k: &FaultVector, start: ShaftAngles) {
+        run.f = self.faulted(k);
+        run.state = MonitorState::at_rest(start, &run.f, self.inv_gear_ratio);
+        run.index = 0;
+        run.pair = 0;
+        run.pair_current = pair_current_after_switch(run.state.start_currents, 0);
+    }
+
     /// The standstill segment: each pair an R–L circuit driven by the segment's voltage, the
     /// shaft held by breakaway friction (the segment's torque stays below it), the position
     /// loop suspended. When the driven pair changes, the phase left open drops its current
@@ -455,6 +481,65 @@ impl MonitorModel {
             motor_angle: sampled.1,
             user_angle: sampled.2,
         }
+    }
+}
+
+/// One monitor-model run in progress (see [`MonitorModel::start_run`]): its fault-dependent
+/// constants and state, ≈ 0.3 kB; the model's settings are passed to each step.
+#[derive(Clone, Debug)]
+pub struct MonitorRun {
+    f: FaultedConstants,
+    state: MonitorState,
+    /// Samples produced so far.
+    index: usize,
+    /// Standstill pair driven at the previous sample, and its current [A].
+    pair: usize,
+    pair_current: f32,
+}
+
+impl MonitorRun {
+    /// Index of the next sample and, during the chirp, the index into the command (`None`
+    /// during the standstill segment): what the caller reads the command at.
+    pub fn next_command_index(&self, m: &MonitorModel) -> Option<usize> {
+        self.index.checked_sub(m.lead_samples())
+    }
+
+    /// The next sample of the test of model `m` (the one that started this run): the
+    /// standstill segment's, then the chirp's with the commanded user angle `command` [rad]
+    /// (ignored during the segment). O(1).
+    pub fn next_sample(&mut self, m: &MonitorModel, command: f32) -> MonitorSample {
+        let lead = m.lead_samples();
+        let i = self.index;
+        self.index = self.index.saturating_add(1);
+        if let (Some(segment), true) = (m.standstill, i < lead) {
+            let drive = segment.at(i).unwrap_or(crate::test_design::PairDrive {
+                pair: self.pair,
+                volts: 0.0,
+            });
+            if drive.pair != self.pair {
+                let signs = PAIR_SIGNS.get(self.pair).copied().unwrap_or([0; 3]);
+                self.pair_current = pair_current_after_switch(
+                    signs.map(|s| f32::from(s) * self.pair_current),
+                    drive.pair,
+                );
+                self.pair = drive.pair;
+            }
+            let sample = MonitorSample {
+                time: (i as f32 - lead as f32) * m.dt,
+                command: 0.0,
+                current: self.pair_current,
+                current_ref: 0.0,
+                motor_angle: self.state.motor_angle,
+                user_angle: self.state.user_angle + self.state.user_offset,
+            };
+            let decay = self.f.pair_decay.get(self.pair).copied().unwrap_or(0.0);
+            let gain = self.f.pair_gain.get(self.pair).copied().unwrap_or(0.0);
+            self.pair_current = decay * self.pair_current + gain * drive.volts;
+            return sample;
+        }
+        let j = i.saturating_sub(lead);
+        let time = j as f32 * m.dt;
+        m.step(&self.f, &mut self.state, time, command)
     }
 }
 

@@ -107,6 +107,36 @@ fn monitor_runs_match_the_stored_bits() {
     }
 }
 
+/// The lockstep stepper (`MonitorModel::start_run`, used by the uncertainty) gives the same
+/// bits as `run_from`: the same stored tables.
+#[test]
+fn the_stepper_gives_the_stored_bits() {
+    for (m, stored) in [
+        (model(), RUN_CRC),
+        (
+            model().with_test(&PreflightTest::STANDSTILL),
+            RUN_CRC_STANDSTILL,
+        ),
+    ] {
+        let crcs: Vec<u32> = VECTORS
+            .iter()
+            .map(|k| {
+                let mut run = m.start_run(&FaultVector::new(*k).unwrap(), START);
+                let mut crc = Crc32::new();
+                for _ in 0..m.test_samples() {
+                    let command = match run.next_command_index(&m) {
+                        Some(i) => m.command().position(i as f32 * 1.0e-4),
+                        None => 0.0,
+                    };
+                    crc.update(&sample_bytes(&run.next_sample(&m, command)));
+                }
+                crc.finish()
+            })
+            .collect();
+        assert_eq!(crcs, stored);
+    }
+}
+
 #[test]
 fn fitness_matches_the_stored_bits() {
     let m = model();

@@ -1,0 +1,385 @@
+//! The uncertainty of an identified fault vector: a standard deviation and a 90 % interval
+//! per component, from the curvature of the fitness at the optimum, and verdicts that use
+//! them.
+//!
+//! Gauss–Newton: with the fitness's weighted residuals `r_i(k)`, `JᵀWJ` is accumulated from
+//! one base run and one run per component shifted by [`STEP`], stepped in lockstep
+//! ([`FitnessProblem::uncertainty`]): 9 monitor-model runs, O(N · 8²) multiply-adds in f64
+//! (IEEE operations only, the same bits on every target), no storage of residuals. The
+//! residual variance is `s² = RSS / (n − p)` over the fitted samples; the covariance is
+//! `(c · s)² · (JᵀWJ)⁻¹`, where [`INFLATION`] `c` accounts for what the white-noise formula
+//! leaves out (the residual is mostly correlated model mismatch, not white noise): it was
+//! calibrated on the Table I campaign so that the 90 % interval covers the truth in about
+//! 90 % of component-runs, and checked on Table II and random vectors
+//! (docs/identifiability.md). Units: the fault vector's [0, 1] range.
+//!
+//! [`FitnessProblem::uncertainty`]: crate::fitness::FitnessProblem::uncertainty
+
+use crate::fault::{FaultVector, CIRCULAR, DETECTION_THRESHOLD, FAULT_COUNT};
+use crate::math::sqrt64;
+
+/// Shift of each component for the finite differences [fault-vector units].
+pub const STEP: f32 = 0.01;
+
+/// Two-sided 90 % quantile of the normal distribution.
+pub const Z90: f32 = 1.644_854;
+
+/// Ratio of the real scatter of the identified components to the white-noise Gauss–Newton
+/// standard deviation (module docs). Calibrated on the Table I campaign of the default test
+/// (16 cases × 10 seeds): with 1.0 the 90 % intervals held the truth in 57.8 % of 1 150
+/// component-runs, and 6.01 makes it 90 % (`host-sim campaign --table 1 --runs 10`, last
+/// line). The residual is correlated model mismatch, about 36 samples per independent one.
+pub const INFLATION: f32 = 6.0;
+
+/// Correlation beyond which two components are read as not separable by one test.
+pub const AMBIGUOUS_CORRELATION: f32 = 0.9;
+
+/// A component whose curvature is below this share of the largest is not identifiable at
+/// this point (the eccentricity phase without an eccentricity).
+const FLAT: f64 = 1.0e-9;
+
+/// What one test says about each component beyond its value.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Uncertainty {
+    /// Standard deviation per component; NaN where the test does not determine it.
+    pub std: [f32; FAULT_COUNT],
+    /// 90 % interval per component (clamped to [0, 1]; the circular phase is not clamped).
+    pub lower: [f32; FAULT_COUNT],
+    pub upper: [f32; FAULT_COUNT],
+    /// Largest |correlation| between two fault components (not the phase), and the pair.
+    pub worst_correlation: f32,
+    pub worst_pair: (u8, u8),
+    /// Residual standard deviation per fitted sample [A] (before inflation).
+    pub residual_std: f32,
+}
+
+/// The reading of one component with its uncertainty.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Assessment {
+    /// The 90 % interval of the deviation from nominal stays within the detection threshold,
+    /// or the value is within it.
+    Healthy,
+    /// The value is beyond the threshold but its interval is not: not proven.
+    Suspect,
+    /// The whole 90 % interval is beyond the detection threshold.
+    Faulty,
+    /// Beyond the threshold, but so correlated with component `with` (index) that one test
+    /// cannot say which of the two it is.
+    Ambiguous { with: u8 },
+    /// Not a fault on its own (the eccentricity phase).
+    NotApplicable,
+}
+
+impl Uncertainty {
+    /// Whether the true `k` lies inside every determined interval, per component (`None`
+    /// where undetermined).
+    pub fn covers(&self, truth: &FaultVector) -> [Option<bool>; FAULT_COUNT] {
+        let mut out = [None; FAULT_COUNT];
+        for (i, slot) in out.iter_mut().enumerate() {
+            let (Some(&lo), Some(&hi), Some(&x), Some(&s)) = (
+                self.lower.get(i),
+                self.upper.get(i),
+                truth.as_array().get(i),
+                self.std.get(i),
+            ) else {
+                continue;
+            };
+            if s.is_nan() {
+                continue;
+            }
+            *slot = Some(lo <= x && x <= hi);
+        }
+        out
+    }
+
+    /// Verdicts of `k` (the identified vector these intervals belong to) against the
+    /// detection threshold, using the intervals and the correlations `correlation` (from
+    /// [`Curvature::uncertainty`]).
+    #[inline(never)]
+    pub fn assess(
+        &self,
+        k: &FaultVector,
+        correlation: &[[f32; FAULT_COUNT]; FAULT_COUNT],
+    ) -> [Assessment; FAULT_COUNT] {
+        let mut out = [Assessment::NotApplicable; FAULT_COUNT];
+        let deviations = k.deviations();
+        for (i, slot) in out.iter_mut().enumerate() {
+            let (Some(Some(d)), Some(&s)) = (deviations.get(i), self.std.get(i)) else {
+                continue;
+            };
+            let d = *d;
+            if d <= DETECTION_THRESHOLD {
+                *slot = Assessment::Healthy;
+                continue;
+            }
+            if !s.is_nan() && d - Z90 * s > DETECTION_THRESHOLD {
+                *slot = Assessment::Faulty;
+                continue;
+            }
+            // Not proven on its own: is it entangled with another fault component?
+            let row = correlation.get(i).copied().unwrap_or([0.0; FAULT_COUNT]);
+            let partner = row
+                .iter()
+                .enumerate()
+                .filter(|&(j, c)| {
+                    j != i && CIRCULAR.get(j) == Some(&false) && c.abs() > AMBIGUOUS_CORRELATION
+                })
+                .fold(None, |best: Option<(usize, f32)>, (j, &c)| match best {
+                    Some((_, b)) if b >= c.abs() => best,
+                    _ => Some((j, c.abs())),
+                });
+            *slot = match partner {
+                Some((j, _)) => Assessment::Ambiguous { with: j as u8 },
+                None => Assessment::Suspect,
+            };
+        }
+        out
+    }
+}
+
+/// The Gauss–Newton sums of one test ([`FitnessProblem::uncertainty`] fills them).
+///
+/// [`FitnessProblem::uncertainty`]: crate::fitness::FitnessProblem::uncertainty
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Curvature {
+    /// `JᵀWJ` of the model's current w.r.t. each component [A² per unit²].
+    pub normal: [[f64; FAULT_COUNT]; FAULT_COUNT],
+    /// Weighted residual sum of squares at the identified vector [A²].
+    pub rss: f64,
+    /// Samples with a non-zero weight.
+    pub fitted: u32,
+}
+
+/// Why no uncertainty could be computed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum UncertaintyError {
+    /// No component is determined by this test (all flat), or too few fitted samples.
+    Undetermined,
+}
+
+impl Curvature {
+    /// Standard deviations, intervals and correlations for the identified `k`. O(8³).
+    #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 8×8 arrays
+    #[inline(never)]
+    pub fn uncertainty(
+        &self,
+        k: &FaultVector,
+    ) -> Result<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT]), UncertaintyError> {
+        let largest = (0..FAULT_COUNT)
+            .map(|i| {
+                self.normal
+                    .get(i)
+                    .and_then(|r| r.get(i))
+                    .copied()
+                    .unwrap_or(0.0)
+            })
+            .fold(0.0f64, f64::max);
+        let determined: [bool; FAULT_COUNT] = core::array::from_fn(|i| {
+            let d = self
+                .normal
+                .get(i)
+                .and_then(|r| r.get(i))
+                .copied()
+                .unwrap_or(0.0);
+            d > FLAT * largest && d > 0.0
+        });
+        let p = determined.iter().filter(|&&x| x).count();
+        if p == 0 || (self.fitted as usize) <= p {
+            return Err(UncertaintyError::Undetermined);
+        }
+        // Undetermined components get an identity row and column (they do not couple).
+        let mut m = self.normal;
+        for i in 0..FAULT_COUNT {
+            for j in 0..FAULT_COUNT {
+                if !(determined[i] && determined[j]) {
+                    if let Some(x) = m.get_mut(i).and_then(|r| r.get_mut(j)) {
+                        *x = if i == j { 1.0 } else { 0.0 };
+                    }
+                }
+            }
+        }
+        let inverse = invert(&m).ok_or(UncertaintyError::Undetermined)?;
+        let s2 = self.rss / (self.fitted as usize - p) as f64;
+        let c = f64::from(INFLATION);
+        let variance = |i: usize| {
+            c * c
+                * s2
+                * inverse
+                    .get(i)
+                    .and_then(|r| r.get(i))
+                    .copied()
+                    .unwrap_or(0.0)
+        };
+        let mut out = Uncertainty {
+            std: [f32::NAN; FAULT_COUNT],
+            lower: *k.as_array(),
+            upper: *k.as_array(),
+            worst_correlation: 0.0,
+            worst_pair: (0, 0),
+            residual_std: sqrt64(s2) as f32,
+        };
+        let mut correlation = [[0.0f32; FAULT_COUNT]; FAULT_COUNT];
+        for i in 0..FAULT_COUNT {
+            if !determined[i] {
+                continue;
+            }
+            let s = sqrt64(variance(i)) as f32;
+            let x = k.as_array()[i];
+            out.std[i] = s;
+            let (lo, hi) = (x - Z90 * s, x + Z90 * s);
+            if CIRCULAR[i] {
+                out.lower[i] = lo;
+                out.upper[i] = hi;
+            } else {
+                out.lower[i] = lo.clamp(0.0, 1.0);
+                out.upper[i] = hi.clamp(0.0, 1.0);
+            }
+            for j in 0..FAULT_COUNT {
+                if !determined[j] {
+                    continue;
+                }
+                let cij = inverse[i][j] / sqrt64(inverse[i][i] * inverse[j][j]);
+                correlation[i][j] = cij as f32;
+                if i < j && !CIRCULAR[i] && !CIRCULAR[j] && cij.abs() as f32 > out.worst_correlation
+                {
+                    out.worst_correlation = cij.abs() as f32;
+                    out.worst_pair = (i as u8, j as u8);
+                }
+            }
+        }
+        Ok((out, correlation))
+    }
+}
+
+/// Inverse of a symmetric positive-definite 8×8 matrix (Gauss–Jordan, partial pivoting);
+/// `None` if singular. O(8³), no allocation.
+#[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // fixed 8×8 bounds
+fn invert(m: &[[f64; FAULT_COUNT]; FAULT_COUNT]) -> Option<[[f64; FAULT_COUNT]; FAULT_COUNT]> {
+    const N: usize = FAULT_COUNT;
+    let mut a = *m;
+    let mut inv = [[0.0f64; N]; N];
+    for (i, row) in inv.iter_mut().enumerate() {
+        row[i] = 1.0;
+    }
+    for col in 0..N {
+        let mut pivot = col;
+        for r in col + 1..N {
+            if a[r][col].abs() > a[pivot][col].abs() {
+                pivot = r;
+            }
+        }
+        if a[pivot][col].abs() < 1e-300 {
+            return None;
+        }
+        a.swap(col, pivot);
+        inv.swap(col, pivot);
+        let d = a[col][col];
+        for c in 0..N {
+            a[col][c] /= d;
+            inv[col][c] /= d;
+        }
+        for r in 0..N {
+            if r != col {
+                let f = a[r][col];
+                if f != 0.0 {
+                    for c in 0..N {
+                        a[r][c] -= f * a[col][c];
+                        inv[r][c] -= f * inv[col][c];
+                    }
+                }
+            }
+        }
+    }
+    Some(inv)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn diagonal(values: [f64; FAULT_COUNT]) -> [[f64; FAULT_COUNT]; FAULT_COUNT] {
+        let mut m = [[0.0; FAULT_COUNT]; FAULT_COUNT];
+        for i in 0..FAULT_COUNT {
+            m[i][i] = values[i];
+        }
+        m
+    }
+
+    #[test]
+    fn a_diagonal_curvature_gives_its_standard_deviations() {
+        // s² = rss / (n − p) = 8 / (108 − 8) = 0.08; std_i = √(0.08 / d_i).
+        let c = Curvature {
+            normal: diagonal([8.0, 2.0, 0.5, 8.0, 8.0, 8.0, 8.0, 0.08]),
+            rss: 8.0,
+            fitted: 108,
+        };
+        let k = FaultVector::new([0.5, 0.5, 0.5, 0.0, 0.0, 0.5, 0.5, 0.5]).unwrap();
+        let (u, corr) = c.uncertainty(&k).unwrap();
+        let expect = [0.1, 0.2, 0.4, 0.1, 0.1, 0.1, 0.1, 1.0];
+        for i in 0..FAULT_COUNT {
+            assert!(
+                (u.std[i] - expect[i] * INFLATION).abs() < 1e-6,
+                "{i}: {:?}",
+                u.std
+            );
+            assert!((corr[i][i] - 1.0).abs() < 1e-6);
+        }
+        assert!((u.lower[0] - (0.5 - Z90 * 0.1 * INFLATION)).abs() < 1e-6);
+        assert_eq!(u.lower[3], 0.0); // clamped
+        assert_eq!(u.upper[7], 1.0);
+        assert_eq!(u.worst_correlation, 0.0);
+        assert!(u.covers(&k).iter().all(|c| *c == Some(true)));
+    }
+
+    #[test]
+    fn a_flat_component_is_undetermined_and_correlations_are_found() {
+        let mut normal = diagonal([4.0, 4.0, 4.0, 4.0, 4.0, 4.0, 0.0, 4.0]);
+        // Shorts A and C nearly the same direction.
+        normal[2][4] = 3.96;
+        normal[4][2] = 3.96;
+        let c = Curvature {
+            normal,
+            rss: 1.0,
+            fitted: 1000,
+        };
+        let k = FaultVector::new([0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5]).unwrap();
+        let (u, corr) = c.uncertainty(&k).unwrap();
+        assert!(u.std[6].is_nan());
+        assert_eq!(u.covers(&k)[6], None);
+        assert_eq!(u.worst_pair, (2, 4));
+        assert!((u.worst_correlation - 0.99).abs() < 1e-4);
+        // Short A at 0.2 with a wide interval, entangled with short C: ambiguous.
+        let verdicts = u.assess(&k, &corr);
+        assert_eq!(verdicts[2], Assessment::Ambiguous { with: 4 });
+        assert_eq!(verdicts[0], Assessment::Healthy);
+        assert_eq!(verdicts[6], Assessment::NotApplicable);
+    }
+
+    #[test]
+    fn faulty_needs_the_interval_beyond_the_threshold() {
+        let c = Curvature {
+            normal: diagonal([1.0e4; FAULT_COUNT]),
+            rss: 1.0,
+            fitted: 10_008,
+        };
+        // std = √(1e-4 / 1e4)·c = 1e-4·c: tiny.
+        let k = FaultVector::new([0.3, 0.052, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]).unwrap();
+        let (u, corr) = c.uncertainty(&k).unwrap();
+        let v = u.assess(&k, &corr);
+        assert_eq!(v[0], Assessment::Faulty);
+        // Just beyond the threshold, but its interval is not when the std is larger.
+        let wide = Curvature { rss: 1.0e6, ..c };
+        let (u, corr) = wide.uncertainty(&k).unwrap();
+        assert_eq!(u.assess(&k, &corr)[1], Assessment::Suspect);
+        assert!(Curvature {
+            normal: [[0.0; FAULT_COUNT]; FAULT_COUNT],
+            rss: 1.0,
+            fitted: 10
+        }
+        .uncertainty(&k)
+        .is_err());
+    }
+}
