@@ -12,7 +12,8 @@ use rayon::prelude::*;
 use shared::fault::FAULT_COUNT;
 use shared::metrics::total_error;
 use shared::test_design::PreflightTest;
-use shared::uncertainty::Uncertainty;
+use shared::fault::DETECTION_THRESHOLD;
+use shared::uncertainty::{Assessment, Uncertainty};
 use shared::{ActuatorParams, Calibration, FaultVector};
 
 use crate::identify::identify;
@@ -202,9 +203,34 @@ pub struct RunResult {
     /// Per component, |found − true| / std without the inflation (the raw Gauss–Newton
     /// std); `None` where undetermined or for the phase without an eccentricity.
     pub z_raw: [Option<f64>; FAULT_COUNT],
+    /// Verdicts with the uncertainty (`Faulty` only when the 90 % interval clears the
+    /// detection threshold).
+    pub assessments: [Assessment; FAULT_COUNT],
 }
 
 impl RunResult {
+    /// Whether every truly faulty component (beyond the detection threshold) reads `Faulty`;
+    /// `None` for a healthy truth.
+    pub fn detected(&self, truth: &FaultVector) -> Option<bool> {
+        let faulty: Vec<usize> = truth
+            .deviations()
+            .iter()
+            .enumerate()
+            .filter(|(_, d)| d.is_some_and(|d| d > DETECTION_THRESHOLD))
+            .map(|(i, _)| i)
+            .collect();
+        (!faulty.is_empty())
+            .then(|| faulty.iter().all(|&i| self.assessments[i] == Assessment::Faulty))
+    }
+
+    /// Whether a truly healthy component reads `Faulty`.
+    pub fn false_alarm(&self, truth: &FaultVector) -> bool {
+        truth.deviations().iter().enumerate().any(|(i, d)| {
+            d.is_some_and(|d| d <= DETECTION_THRESHOLD)
+                && self.assessments[i] == Assessment::Faulty
+        })
+    }
+
     /// (inside, determined) component counts of the 90 % intervals against the truth.
     pub fn coverage(&self, truth: &FaultVector) -> (usize, usize) {
         let Some(u) = &self.uncertainty else {
@@ -275,6 +301,16 @@ impl CaseSummary {
         })
     }
 
+    /// (runs detecting every true fault, runs with a fault to detect, runs with a false
+    /// alarm).
+    pub fn detection(&self) -> (usize, usize, usize) {
+        let truth = FaultVector::saturating(self.case.faults);
+        self.runs.iter().fold((0, 0, 0), |(d, n, f), r| match r.detected(&truth) {
+            Some(hit) => (d + usize::from(hit), n + 1, f + usize::from(r.false_alarm(&truth))),
+            None => (d, n, f + usize::from(r.false_alarm(&truth))),
+        })
+    }
+
     /// Runs whose best fitness is above the fitness at the true vector (the optimiser stopped
     /// short of a better-known point).
     pub fn optimiser_misses(&self) -> usize {
@@ -315,6 +351,7 @@ pub fn run_once(
         .map_err(|e| anyhow!("fitness: {e:?}"))?;
     let found = id.result.faults;
     let largest_component = f64::from(found.largest_deviation());
+    let assessments = id.assessments();
     let uncertainty = id.uncertainty.map(|(u, _)| u);
     let mut z_raw = [None; FAULT_COUNT];
     if let Some(u) = &uncertainty {
@@ -340,6 +377,7 @@ pub fn run_once(
         seconds: id.seconds,
         uncertainty,
         z_raw,
+        assessments,
     })
 }
 
@@ -393,11 +431,11 @@ pub fn markdown(title: &str, summaries: &[CaseSummary], runs: u64) -> String {
     );
     let _ = writeln!(
         s,
-        "| case | paper mean | our mean | variance | worst | target | meets | mean evaluations | mean seconds | optimiser short of truth | 90 % intervals holding the truth |"
+        "| case | paper mean | our mean | variance | worst | target | meets | mean evaluations | mean seconds | optimiser short of truth | 90 % intervals holding the truth | runs detecting every fault | runs with a false alarm |"
     );
     let _ = writeln!(
         s,
-        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"
     );
     for c in summaries {
         let paper = match c.case.paper {
@@ -412,7 +450,7 @@ pub fn markdown(title: &str, summaries: &[CaseSummary], runs: u64) -> String {
         };
         let _ = writeln!(
             s,
-            "| {} | {paper} | {:.2} | {:.3} | {:.2} | {target} | {} | {:.0} | {:.2} | {}/{} | {}/{} |",
+            "| {} | {paper} | {:.2} | {:.3} | {:.2} | {target} | {} | {:.0} | {:.2} | {}/{} | {}/{} | {} | {}/{} |",
             c.case.name,
             c.mean(),
             c.variance(),
@@ -423,7 +461,17 @@ pub fn markdown(title: &str, summaries: &[CaseSummary], runs: u64) -> String {
             c.optimiser_misses(),
             c.runs.len(),
             c.coverage().0,
-            c.coverage().1
+            c.coverage().1,
+            {
+                let (d, n, _) = c.detection();
+                if n > 0 {
+                    format!("{d}/{n}")
+                } else {
+                    "–".into()
+                }
+            },
+            c.detection().2,
+            c.runs.len()
         );
     }
     let (inside, all) = summaries

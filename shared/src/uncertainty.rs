@@ -25,11 +25,12 @@ pub const STEP: f32 = 0.01;
 pub const Z90: f32 = 1.644_854;
 
 /// Ratio of the real scatter of the identified components to the white-noise Gauss–Newton
-/// standard deviation (module docs). Calibrated on the Table I campaign of the default test
-/// (16 cases × 10 seeds): with 1.0 the 90 % intervals held the truth in 57.8 % of 1 150
-/// component-runs, and 6.01 makes it 90 % (`host-sim campaign --table 1 --runs 10`, last
-/// line). The residual is correlated model mismatch, about 36 samples per independent one.
-pub const INFLATION: f32 = 6.0;
+/// standard deviation (module docs). Calibrated on the Table I and II campaigns of the
+/// default test (10 seeds): with 8 the 90 % intervals hold the truth in 1 383 of 1 540
+/// component-runs (89.8 %); 6 gives 84.5 %, 10 gives 91.8 % (`host-sim campaign --table 1`
+/// and `--table 2`, their last lines). On the random vectors, which no choice used, 8 gives
+/// 73.1 %: multi-fault vectors carry more systematic error than the curvature shows.
+pub const INFLATION: f32 = 8.0;
 
 /// Correlation beyond which two components are read as not separable by one test.
 pub const AMBIGUOUS_CORRELATION: f32 = 0.9;
