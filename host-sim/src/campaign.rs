@@ -9,10 +9,10 @@ use std::path::Path;
 
 use anyhow::{anyhow, Result};
 use rayon::prelude::*;
+use shared::fault::DETECTION_THRESHOLD;
 use shared::fault::FAULT_COUNT;
 use shared::metrics::total_error;
 use shared::test_design::PreflightTest;
-use shared::fault::DETECTION_THRESHOLD;
 use shared::uncertainty::{Assessment, Uncertainty};
 use shared::{ActuatorParams, Calibration, FaultVector};
 
@@ -219,15 +219,17 @@ impl RunResult {
             .filter(|(_, d)| d.is_some_and(|d| d > DETECTION_THRESHOLD))
             .map(|(i, _)| i)
             .collect();
-        (!faulty.is_empty())
-            .then(|| faulty.iter().all(|&i| self.assessments[i] == Assessment::Faulty))
+        (!faulty.is_empty()).then(|| {
+            faulty
+                .iter()
+                .all(|&i| self.assessments[i] == Assessment::Faulty)
+        })
     }
 
     /// Whether a truly healthy component reads `Faulty`.
     pub fn false_alarm(&self, truth: &FaultVector) -> bool {
         truth.deviations().iter().enumerate().any(|(i, d)| {
-            d.is_some_and(|d| d <= DETECTION_THRESHOLD)
-                && self.assessments[i] == Assessment::Faulty
+            d.is_some_and(|d| d <= DETECTION_THRESHOLD) && self.assessments[i] == Assessment::Faulty
         })
     }
 
@@ -305,10 +307,16 @@ impl CaseSummary {
     /// alarm).
     pub fn detection(&self) -> (usize, usize, usize) {
         let truth = FaultVector::saturating(self.case.faults);
-        self.runs.iter().fold((0, 0, 0), |(d, n, f), r| match r.detected(&truth) {
-            Some(hit) => (d + usize::from(hit), n + 1, f + usize::from(r.false_alarm(&truth))),
-            None => (d, n, f + usize::from(r.false_alarm(&truth))),
-        })
+        self.runs
+            .iter()
+            .fold((0, 0, 0), |(d, n, f), r| match r.detected(&truth) {
+                Some(hit) => (
+                    d + usize::from(hit),
+                    n + 1,
+                    f + usize::from(r.false_alarm(&truth)),
+                ),
+                None => (d, n, f + usize::from(r.false_alarm(&truth))),
+            })
     }
 
     /// Runs whose best fitness is above the fitness at the true vector (the optimiser stopped
