@@ -6,7 +6,8 @@
 //! Input: byte 0 picks the mode, bytes 1..9 the fault vector (each byte / 255), the rest is
 //! either a whole trace file (mode even) or raw 24-byte rows that the harness seals with a
 //! valid header and checksum, repeated up to the fitness's minimum length (mode odd), so that
-//! mutations reach conditioning and the fitness past the checksum.
+//! mutations reach conditioning and the fitness past the checksum. Bit 1 of the mode picks
+//! the sealed trace's test: the paper's (version 1) or the standstill design (version 2).
 #![no_main]
 
 use firmware::source::{SliceBytes, SAMPLE_RATE_HZ};
@@ -14,6 +15,7 @@ use firmware::{Acquired, CurrentSource, TraceSource};
 use host_sim::trace_file::Trace;
 use libfuzzer_sys::fuzz_target;
 use shared::fdi::{OnboardMeasured, TEST_SAMPLES};
+use shared::test_design::PreflightTest;
 use shared::trace::{Crc32, TraceHeader, ROW_BYTES};
 use shared::{ActuatorParams, Calibration, FaultVector, FitnessProblem, LowPass};
 
@@ -25,18 +27,26 @@ fn fault_vector(bytes: &[u8]) -> FaultVector {
     FaultVector::saturating(k)
 }
 
-/// A binary trace v1 made of `rows` (repeated to at least `min_rows`), header and CRC right.
-fn sealed(rows: &[u8], min_rows: usize) -> Vec<u8> {
+/// A binary trace of `test` made of `rows` (repeated to at least `min_rows`), header and CRC
+/// right.
+fn sealed(rows: &[u8], min_rows: usize, test: PreflightTest) -> Vec<u8> {
     let chunks: Vec<&[u8]> = rows.chunks_exact(ROW_BYTES).collect();
     if chunks.is_empty() {
         return Vec::new();
     }
-    let n = chunks.len().max(min_rows).min(TEST_SAMPLES);
+    let n = chunks
+        .len()
+        .max(min_rows + test.lead_samples())
+        .min(TEST_SAMPLES);
     let header = TraceHeader {
         sample_rate_hz: SAMPLE_RATE_HZ,
         rows: n as u32,
+        test,
     };
-    let mut out = header.encode().to_vec();
+    let Ok(head) = header.encode() else {
+        return Vec::new();
+    };
+    let mut out = head.to_vec();
     for row in chunks.iter().cycle().take(n) {
         out.extend_from_slice(row);
     }
@@ -50,7 +60,7 @@ fn check_fitness(measured: &OnboardMeasured, k: &FaultVector) {
     let problem = FitnessProblem::new(
         measured,
         ActuatorParams::REFERENCE,
-        &Calibration::REFERENCE_ACTUATOR,
+        &Calibration::reference_actuator(measured.test()),
     )
     .expect("a finished buffer makes a problem");
     let f = problem.error(k);
@@ -63,8 +73,13 @@ fuzz_target!(|data: &[u8]| {
     };
     let (k_bytes, body) = rest.split_at(rest.len().min(8));
     let k = fault_vector(k_bytes);
+    let test = if mode & 2 == 0 {
+        PreflightTest::PAPER
+    } else {
+        PreflightTest::STANDSTILL
+    };
     let file = if mode % 2 == 1 {
-        sealed(body, OnboardMeasured::MIN_SAMPLES)
+        sealed(body, OnboardMeasured::MIN_SAMPLES, test)
     } else {
         body.to_vec()
     };
@@ -82,7 +97,7 @@ fuzz_target!(|data: &[u8]| {
         return;
     };
     let filter = LowPass::for_control_period(params.control_period).expect("10 kHz filter");
-    let mut measured = Box::new(OnboardMeasured::new(filter));
+    let mut measured = Box::new(OnboardMeasured::for_test(filter, source.header().test));
     loop {
         match source.next_frame() {
             Ok(Acquired::Frame(frame)) => {
