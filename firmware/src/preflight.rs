@@ -330,11 +330,7 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                 let samples = self.settings.uncertainty_samples_per_poll as usize;
                 let done = match self.curvature.as_deref_mut() {
                     Some(run) => id.problem().continue_curvature(run, samples),
-                    None => Some(shared::uncertainty::Curvature {
-                        normal: [[0.0; FAULT_COUNT]; FAULT_COUNT],
-                        rss: 0.0,
-                        fitted: 0,
-                    }),
+                    None => Some(shared::uncertainty::Curvature::EMPTY),
                 };
                 Ok(match done {
                     None => State::Uncertainty { id, result },

@@ -260,40 +260,10 @@ impl<const N: usize> FitnessProblem<'_, N> {
     /// per component shifted by [`crate::uncertainty::STEP`] (down where up would leave
     /// [0, 1]), to be stepped in lockstep through the same filter and weights as the fitness
     /// by [`continue_curvature`](Self::continue_curvature). O(1).
-    #[inline(never)]
     pub fn start_curvature(&self, k: &FaultVector) -> CurvatureRun {
-        let base = *k.as_array();
-        let shifts: [f32; FAULT_COUNT] = core::array::from_fn(|a| {
-            let x = base.get(a).copied().unwrap_or(0.0);
-            if x + STEP <= 1.0 {
-                STEP
-            } else {
-                -STEP
-            }
-        });
-        let start = self.measured.initial_angles();
-        let runs = core::array::from_fn(|j| {
-            let mut g = base;
-            if let (Some(slot), Some(&h)) = (
-                j.checked_sub(1).and_then(|a| g.get_mut(a)),
-                j.checked_sub(1).and_then(|a| shifts.get(a)),
-            ) {
-                *slot += h;
-            }
-            self.model.start_run(&FaultVector::saturating(g), start)
-        });
-        CurvatureRun {
-            runs,
-            filters: [LowPassState::default(); FAULT_COUNT + 1],
-            shifts,
-            index: 0,
-            previous: 0.0,
-            sums: Curvature {
-                normal: [[0.0; FAULT_COUNT]; FAULT_COUNT],
-                rss: 0.0,
-                fitted: 0,
-            },
-        }
+        let mut run = CurvatureRun::new(&self.model);
+        self.restart_curvature(&mut run, k);
+        run
     }
 
     /// [`start_curvature`](Self::start_curvature) into an existing run, in place (no
@@ -320,11 +290,7 @@ impl<const N: usize> FitnessProblem<'_, N> {
         run.filters = [LowPassState::default(); FAULT_COUNT + 1];
         run.index = 0;
         run.previous = 0.0;
-        run.sums = Curvature {
-            normal: [[0.0; FAULT_COUNT]; FAULT_COUNT],
-            rss: 0.0,
-            fitted: 0,
-        };
+        run.sums = Curvature::EMPTY;
     }
 
     /// Advances `run` by at most `samples` samples (9 monitor-model steps and 36 f64
@@ -443,11 +409,7 @@ impl CurvatureRun {
             shifts: [STEP; FAULT_COUNT],
             index: 0,
             previous: 0.0,
-            sums: Curvature {
-                normal: [[0.0; FAULT_COUNT]; FAULT_COUNT],
-                rss: 0.0,
-                fitted: 0,
-            },
+            sums: Curvature::EMPTY,
         }
     }
 }

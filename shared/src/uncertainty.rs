@@ -162,6 +162,13 @@ pub enum UncertaintyError {
 }
 
 impl Curvature {
+    /// No sample yet.
+    pub const EMPTY: Self = Self {
+        normal: [[0.0; FAULT_COUNT]; FAULT_COUNT],
+        rss: 0.0,
+        fitted: 0,
+    };
+
     /// Standard deviations, intervals and correlations for the identified `k`. O(8³).
     #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 8×8 arrays
     #[inline(never)]
