@@ -335,7 +335,9 @@ mod tests {
             );
             assert!((corr[i][i] - 1.0).abs() < 1e-6);
         }
-        assert!((u.lower[0] - (0.5 - Z90 * 0.1 * INFLATION)).abs() < 1e-6);
+        // The interval is clamped to [0, 1].
+        assert!((u.lower[0] - (0.5 - Z90 * 0.1 * INFLATION).max(0.0)).abs() < 1e-6);
+        assert!((u.upper[0] - (0.5 + Z90 * 0.1 * INFLATION).min(1.0)).abs() < 1e-6);
         assert_eq!(u.lower[3], 0.0); // clamped
         assert_eq!(u.upper[7], 1.0);
         assert_eq!(u.worst_correlation, 0.0);
