@@ -240,13 +240,14 @@ impl PreflightTest {
             if let Some(d) = s.at(i) {
                 return Drive::Pair(d);
             }
-            i -= s.samples();
+            // `at` is `None` past the segment, or for a segment without pair steps.
+            i = i.saturating_sub(s.samples());
         }
         if let Some(m) = self.motion {
             if i < m.samples() {
                 return Drive::Position(m.position(i));
             }
-            i -= m.samples();
+            i = i.saturating_sub(m.samples());
         }
         Drive::Position(self.chirp.position(i as f32 * dt))
     }
@@ -346,6 +347,21 @@ mod tests {
         assert!((hi - lo) * 500.0 > core::f32::consts::TAU);
         assert!(m.position(m.samples() - 1).abs() < 1e-6);
         assert_eq!(m.position(m.samples()), 0.0);
+    }
+
+    #[test]
+    fn a_segment_without_pair_steps_never_underflows() {
+        let t = PreflightTest {
+            standstill: Some(StandstillSegment {
+                on_samples: 0,
+                off_samples: 0,
+                ..StandstillSegment::DEFAULT
+            }),
+            ..PreflightTest::STANDSTILL
+        };
+        for i in 0..200 {
+            assert!(matches!(t.drive(i, 1e-4), Drive::Position(_)));
+        }
     }
 
     #[test]
