@@ -1,11 +1,12 @@
 //! Emulation glue (QEMU with semihosting): the command line and the trace file on the host.
 //!
-//! `cargo fw -- TRACE.bin [--seed N] [--checkpoint FILE [--stop-after N]] [--health FILE
-//! [--flight N]]`: the runner (`firmware/qemu-run`) passes the ELF path and these arguments
+//! `cargo fw -- TRACE.bin [--actuator RECORD] [--seed N] [--checkpoint FILE [--stop-after N]]
+//! [--health FILE [--flight N]]`: the runner (`firmware/qemu-run`) passes the ELF path and these arguments
 //! through QEMU's semihosting command line; the trace is read with SYS_OPEN / SYS_FLEN /
 //! SYS_READ, one row (24 B) per read. The checkpoint file stands in for the flash page that
 //! keeps the GA record across a power loss; the health file for the flash that keeps the
-//! health log (the RAM store's image, `ONBOARD_RECORDS` × 52 bytes).
+//! health log (the RAM store's image, `ONBOARD_RECORDS` × 52 bytes); the actuator file for
+//! the flash sector that holds the actuator record (`host-sim actuator`, 300 bytes).
 
 use core::ffi::CStr;
 
@@ -26,6 +27,7 @@ pub struct Command {
     path: [u8; MAX_PATH + 1],
     checkpoint: Option<[u8; MAX_PATH + 1]>,
     health: Option<[u8; MAX_PATH + 1]>,
+    actuator: Option<[u8; MAX_PATH + 1]>,
     pub seed: Option<u64>,
     /// `--flight N`: the flight index of this preflight's health record (default: one after
     /// the newest in the log).
@@ -69,6 +71,7 @@ impl Command {
         let mut checkpoint = None;
         let mut stop_after = None;
         let mut health = None;
+        let mut actuator = None;
         let mut flight = None;
         while let Some(word) = words.next() {
             let word = word.map_err(|_| UsageError::NotUtf8)?;
@@ -90,6 +93,8 @@ impl Command {
                         .parse()
                         .map_err(|_| UsageError::BadOption)?,
                 );
+            } else if word == "--actuator" {
+                actuator = Some(nul_terminated(option_value(&mut words)?)?);
             } else if word == "--health" {
                 health = Some(nul_terminated(option_value(&mut words)?)?);
             } else if word == "--checkpoint" {
@@ -121,6 +126,7 @@ impl Command {
             path,
             checkpoint,
             health,
+            actuator,
             seed,
             flight,
             stop_after,
@@ -136,6 +142,12 @@ impl Command {
     /// The health-log file (the RAM store's image between runs), if one was given.
     pub fn health_path(&self) -> Option<&CStr> {
         self.health.as_ref().map(path_of)
+    }
+
+    /// The actuator record file (the record's flash sector on the controller), if one was
+    /// given; without one the firmware runs the built-in reference actuator.
+    pub fn actuator_path(&self) -> Option<&CStr> {
+        self.actuator.as_ref().map(path_of)
     }
 
     /// The trace path, NUL-terminated.

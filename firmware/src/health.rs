@@ -18,7 +18,7 @@ use crate::preflight::Report;
 
 /// What the log and the trend say after this preflight.
 #[derive(Clone, Copy, Debug, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(any(feature = "defmt", target_os = "none"), derive(defmt::Format))]
 pub struct HealthUpdate {
     /// What the store held before this record.
     pub loaded: LoadSummary,

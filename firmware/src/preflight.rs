@@ -19,6 +19,7 @@ use shared::fdi::TEST_SAMPLES;
 use shared::fdi::{FdiError, Identification, IdentificationResult, OnboardMeasured, POPULATION};
 use shared::fitness::CurvatureRun;
 use shared::ga::RecordError;
+use shared::actuator::ActuatorRecord;
 use shared::test_design::PreflightTest;
 use shared::uncertainty::{Assessment, Uncertainty};
 use shared::{ActuatorParams, Calibration, GaSettings, Status, Verdict, FAULT_COUNT};
@@ -36,6 +37,8 @@ pub struct PreflightSettings {
     pub ga: GaSettings,
     /// Where the monitor model's domain ends (jam, open phase, other command, fitness).
     pub domain: DomainLimits,
+    /// Deviation from nominal above which a component reads as a fault.
+    pub detection_threshold: f32,
     /// GA seed (`host-sim identify --seed`).
     pub seed: u64,
     /// Frames taken from the source per poll.
@@ -56,6 +59,18 @@ impl PreflightSettings {
         self
     }
 
+    /// The same settings for the actuator `record` describes (its parameters, test,
+    /// calibration, GA settings, domain limits and threshold).
+    pub fn for_actuator(mut self, record: &ActuatorRecord) -> Self {
+        self.params = record.params;
+        self.test = record.test;
+        self.calibration = record.calibration;
+        self.ga = record.ga;
+        self.domain = record.domain;
+        self.detection_threshold = record.detection_threshold;
+        self
+    }
+
     /// The onboard FDI against this project's reference actuator: the same parameters,
     /// calibration, GA settings and default seed as `host-sim identify`.
     pub const ONBOARD: Self = Self {
@@ -64,6 +79,7 @@ impl PreflightSettings {
         calibration: Calibration::REFERENCE_ACTUATOR,
         ga: GaSettings::FDI,
         domain: DomainLimits::REFERENCE_ACTUATOR,
+        detection_threshold: ActuatorRecord::REFERENCE.detection_threshold,
         seed: 1,
         frames_per_poll: 500,
         evaluations_per_poll: 1,
@@ -73,7 +89,7 @@ impl PreflightSettings {
 
 /// Where the self-test stands.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(any(feature = "defmt", target_os = "none"), derive(defmt::Format))]
 pub enum Stage {
     Acquire,
     Condition,
@@ -86,7 +102,7 @@ pub enum Stage {
 
 /// Why a self-test gave no result.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(any(feature = "defmt", target_os = "none"), derive(defmt::Format))]
 pub enum PreflightError<E> {
     /// The current source failed.
     Source(E),
@@ -102,7 +118,7 @@ pub enum PreflightError<E> {
 
 /// What the self-test found.
 #[derive(Clone, Copy, Debug, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(any(feature = "defmt", target_os = "none"), derive(defmt::Format))]
 pub struct Report {
     pub result: IdentificationResult,
     /// Standard deviation and 90 % interval per component (`None`: not determined).
@@ -124,7 +140,7 @@ pub struct Report {
 
 /// Why a checkpoint was not taken or not resumed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(any(feature = "defmt", target_os = "none"), derive(defmt::Format))]
 pub enum CheckpointError {
     /// Checkpoints exist only during Identify (resume: before its first evaluation).
     NotIdentifying,
@@ -347,15 +363,22 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                 result,
                 uncertainty: uncertainty.map(|(u, _)| u),
                 assessments: match &uncertainty {
-                    Some((u, correlation)) => u.assess(&result.faults, correlation),
-                    None => result.faults.verdicts().map(|v| match v {
+                    Some((u, correlation)) => u.assess_at(
+                        &result.faults,
+                        correlation,
+                        self.settings.detection_threshold,
+                    ),
+                    None => result
+                        .faults
+                        .verdicts_at(self.settings.detection_threshold)
+                        .map(|v| match v {
                         Verdict::Healthy => Assessment::Healthy,
                         Verdict::Faulty => Assessment::Suspect,
                         Verdict::NotApplicable => Assessment::NotApplicable,
                     }),
                 },
                 domain: self.domain.assess(&self.settings.domain, result.fitness),
-                verdicts: result.faults.verdicts(),
+                verdicts: result.faults.verdicts_at(self.settings.detection_threshold),
                 frames: self.frames,
                 identify_polls: self.identify_polls,
                 max_evaluations_per_poll: self.max_evaluations_per_poll,

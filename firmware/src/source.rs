@@ -44,7 +44,7 @@ pub trait TraceBytes {
 
 /// Why a stored trace was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(any(feature = "defmt", target_os = "none"), derive(defmt::Format))]
 pub enum TraceSourceError<E> {
     /// Reading the bytes failed.
     Io(E),
@@ -154,7 +154,7 @@ impl<'a> SliceBytes<'a> {
 
 /// A read past the end of a [`SliceBytes`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(any(feature = "defmt", target_os = "none"), derive(defmt::Format))]
 pub struct EndOfBytes;
 
 impl TraceBytes for SliceBytes<'_> {

@@ -31,6 +31,7 @@ use shared::prognosis::TrendSettings;
 use shared::LowPass;
 
 use crate::emulation::{read_record_file, write_record_file, Command, Crash, HostFile};
+use shared::actuator::{ActuatorRecord, RECORD_BYTES};
 use shared::fdi::OnboardRecord;
 
 /// Exit statuses (semihosting SYS_EXIT_EXTENDED, QEMU's own exit status).
@@ -44,6 +45,9 @@ mod status {
     pub const INTERRUPTED: i32 = 5;
     /// `--health`: the health-log file is not a store image (the preflight was reported).
     pub const HEALTH_LOG: i32 = 6;
+    /// `--actuator`: the record is missing, damaged, of another version, out of range, or
+    /// for another test than the trace's.
+    pub const ACTUATOR_RECORD: i32 = 7;
     pub const PANIC: i32 = 101;
     pub const HARD_FAULT: i32 = 102;
 }
@@ -164,7 +168,7 @@ async fn preflight(spawner: Spawner) -> i32 {
         Ok(c) => c,
         Err(e) => {
             defmt::error!(
-                "usage: cargo fw -- TRACE.bin [--seed N] [--checkpoint FILE [--stop-after N]] [--health FILE [--flight N]]  (binary trace from `host-sim simulate --format bin`): {}",
+                "usage: cargo fw -- TRACE.bin [--actuator RECORD] [--seed N] [--checkpoint FILE [--stop-after N]] [--health FILE [--flight N]]  (binary trace from `host-sim simulate --format bin`, record from `host-sim actuator`): {}",
                 e
             );
             return status::USAGE;
@@ -197,8 +201,44 @@ async fn preflight(spawner: Spawner) -> i32 {
             return status::BAD_TRACE;
         }
     };
-    // The trace says which test the actuator played (version 1: the paper's).
-    let mut settings = PreflightSettings::ONBOARD.for_test(source.header().test);
+    // The actuator record (a flash sector on the controller; the --actuator file here), or
+    // the built-in reference actuator with the test the trace says it played.
+    let mut settings = match command.actuator_path() {
+        None => PreflightSettings::ONBOARD.for_test(source.header().test),
+        Some(path) => {
+            let mut bytes = [0u8; RECORD_BYTES];
+            let name = path.to_str().unwrap_or("(not UTF-8)");
+            match read_record_file(path, &mut bytes) {
+                Ok(true) => {}
+                Ok(false) => {
+                    defmt::error!("actuator record {=str} not found", name);
+                    return status::ACTUATOR_RECORD;
+                }
+                Err(e) => {
+                    defmt::error!("actuator record {=str} refused: {}", name, e);
+                    return status::ACTUATOR_RECORD;
+                }
+            }
+            let record = match ActuatorRecord::decode(&bytes) {
+                Ok(r) => r,
+                Err(e) => {
+                    defmt::error!("actuator record {=str} refused: {}", name, e);
+                    return status::ACTUATOR_RECORD;
+                }
+            };
+            if record.test.kind() != source.header().test.kind() {
+                defmt::error!(
+                    "actuator record {=str} is for the {=str} test, the trace played {=str}",
+                    name,
+                    record.test.kind_name(),
+                    source.header().test.kind_name()
+                );
+                return status::ACTUATOR_RECORD;
+            }
+            defmt::info!("actuator record {=str}: {}", name, record.params);
+            PreflightSettings::ONBOARD.for_actuator(&record)
+        }
+    };
     if let Some(seed) = command.seed {
         settings.seed = seed;
     }

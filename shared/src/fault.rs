@@ -171,9 +171,14 @@ impl FaultVector {
 
     /// Per-component verdicts against [`DETECTION_THRESHOLD`].
     pub fn verdicts(&self) -> [Verdict; FAULT_COUNT] {
+        self.verdicts_at(DETECTION_THRESHOLD)
+    }
+
+    /// Per-component verdicts against `threshold` (an actuator record's).
+    pub fn verdicts_at(&self, threshold: f32) -> [Verdict; FAULT_COUNT] {
         self.deviations().map(|d| match d {
             None => Verdict::NotApplicable,
-            Some(d) if d > DETECTION_THRESHOLD => Verdict::Faulty,
+            Some(d) if d > threshold => Verdict::Faulty,
             Some(_) => Verdict::Healthy,
         })
     }

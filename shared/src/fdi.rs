@@ -8,7 +8,8 @@
 use crate::command::CommandTable;
 use crate::conditioning::{commutation_signs, AdcFrame, MeasuredCurrent};
 use crate::fault::FaultVector;
-use crate::fitness::{Calibration, FitnessError, FitnessProblem};
+use crate::calibration::Calibration;
+use crate::fitness::{FitnessError, FitnessProblem};
 use crate::ga::{GaError, GaSettings, RecordError, Status, SteadyStateGa, StopReason};
 use crate::monitor::MonitorModel;
 use crate::params::ActuatorParams;
@@ -81,12 +82,13 @@ impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
         Ok(Self {
             problem: FitnessProblem::new(measured, params, calibration)?,
             ga: SteadyStateGa::new(settings, seed)?,
-            fingerprint: fingerprint(measured, calibration, &settings, seed),
+            fingerprint: fingerprint(measured, &params, calibration, &settings, seed),
         })
     }
 
     /// What ties a checkpoint to this run: a CRC-32 over the measured samples and initial
-    /// angles, the calibration, the GA settings and the seed. O(N), computed once.
+    /// angles, the actuator (parameters, test, calibration, GA settings: what an actuator
+    /// record holds) and the seed. O(N), computed once.
     pub fn fingerprint(&self) -> u32 {
         self.fingerprint
     }
@@ -147,6 +149,7 @@ impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
 
 fn fingerprint<const N: usize>(
     measured: &MeasuredCurrent<N>,
+    params: &ActuatorParams,
     calibration: &Calibration,
     settings: &GaSettings,
     seed: u64,
@@ -158,6 +161,50 @@ fn fingerprint<const N: usize>(
         }
     };
     f32s(measured.samples());
+    let p = params;
+    f32s(&[
+        p.dc_bus_voltage,
+        p.pole_pairs,
+        p.phase_resistance,
+        p.phase_inductance,
+        p.back_emf_constant,
+        p.max_current,
+        p.motor_inertia,
+        p.user_inertia,
+        p.gear_ratio,
+        p.gear_stiffness,
+        p.gear_damping,
+        p.nominal_backlash,
+        p.static_friction,
+        p.dynamic_friction,
+        p.stick_speed,
+        p.aero_stiffness,
+        p.encoder_offset,
+        p.position_kp,
+        p.position_ki,
+        p.position_kd,
+        p.max_speed,
+        p.speed_kp,
+        p.speed_ki,
+        p.control_period,
+    ]);
+    f32s(&p.winding_group_angle);
+    let t = measured.test();
+    let standstill = t.standstill.unwrap_or(crate::test_design::StandstillSegment::DEFAULT);
+    let motion = t.motion.unwrap_or(crate::test_design::MotionSegment::DEFAULT);
+    f32s(&[
+        f32::from(t.kind()),
+        standstill.volts,
+        f32::from(standstill.settle_samples),
+        f32::from(standstill.on_samples),
+        f32::from(standstill.off_samples),
+        motion.amplitude,
+        f32::from(motion.ramp_samples),
+        f32::from(motion.hold_samples),
+        t.chirp.amplitude,
+        t.chirp.end_frequency,
+        t.chirp.duration,
+    ]);
     let angles = measured.initial_angles();
     let c = calibration;
     let s = settings;

@@ -1,4 +1,5 @@
-//! The fitness of a candidate fault vector, paper eq. (3), and the calibration it relies on.
+//! The fitness of a candidate fault vector, paper eq. (3) (the calibration it subtracts lives
+//! in [`crate::calibration`]).
 //!
 //! `err(k) = dt · Σ_i (I_r,i − I_m,i(k))² / ((ΔI_r,i)²/κ + 1) − residual`, with `I_r` the
 //! filtered measured equivalent current, `I_m` the monitor model's current through the same
@@ -16,91 +17,14 @@
 
 use core::ops::ControlFlow;
 
+use crate::calibration::Calibration;
 use crate::command::{CommandSource, CommandTable};
 use crate::conditioning::{ConditioningError, LowPassState, MeasuredCurrent};
 use crate::fault::{FaultVector, FAULT_COUNT};
 use crate::ga::Problem;
 use crate::monitor::{MonitorModel, MonitorRun, MonitorSample};
 use crate::params::ActuatorParams;
-use crate::test_design::PreflightTest;
 use crate::uncertainty::{Curvature, Uncertainty, UncertaintyError, STEP};
-
-/// How the monitor model is fitted to one actuator: electrical scale factors found on a
-/// healthy trace, and the nominal residual error subtracted so that a healthy actuator scores
-/// 0 (paper §III.2). Plain data: the firmware carries it as a constant or a flash record.
-#[derive(Clone, Copy, Debug, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Calibration {
-    /// Multiplier of the monitor model's equivalent resistance.
-    pub resistance_scale: f32,
-    /// Multiplier of the monitor model's equivalent inductance.
-    pub inductance_scale: f32,
-    /// Multiplier of the monitor model's back-EMF / torque constant.
-    pub back_emf_scale: f32,
-    /// Multiplier of the monitor model's nominal dry-friction torques (what the lumped
-    /// friction of the model needs to be to match the healthy actuator).
-    pub friction_scale: f32,
-    /// Viscous damping on the monitor model's user shaft [N·m·s/rad] (aerodynamic and
-    /// bearing damping the parameters do not list).
-    pub damping: f32,
-    /// Fitness of the nominal fault vector against the healthy trace [A²·s].
-    pub nominal_residual: f32,
-}
-
-impl Calibration {
-    /// No correction: the monitor model as the parameters describe it.
-    pub const IDENTITY: Self = Self {
-        resistance_scale: 1.0,
-        inductance_scale: 1.0,
-        back_emf_scale: 1.0,
-        friction_scale: 1.0,
-        damping: 0.0,
-        nominal_residual: 0.0,
-    };
-}
-
-impl Calibration {
-    /// The monitor model calibrated against this project's reference model with the default
-    /// test (standstill segment + chirp): what `host-sim calibrate` fits on the healthy,
-    /// noise-free reference trace (seed 0). The firmware carries it as data; `host-sim`
-    /// checks it is still what the fit gives.
-    pub const REFERENCE_ACTUATOR: Self = Self {
-        resistance_scale: 0.8238181,
-        inductance_scale: 1.144718,
-        back_emf_scale: 1.0011686,
-        friction_scale: 1.0000055,
-        damping: 9.856253,
-        nominal_residual: 0.00077065185,
-    };
-
-    /// The same for the paper's test (the chirp alone).
-    pub const REFERENCE_ACTUATOR_PAPER: Self = Self {
-        resistance_scale: 0.76799506,
-        inductance_scale: 0.8571639,
-        back_emf_scale: 0.9999629,
-        friction_scale: 0.97744757,
-        damping: 8.947216,
-        nominal_residual: 0.0011609145,
-    };
-}
-
-impl Calibration {
-    /// The reference actuator's calibration for `test`: the paper's for a test without a
-    /// standstill segment, the default test's otherwise.
-    pub fn reference_actuator(test: &PreflightTest) -> Self {
-        if test.standstill.is_some() {
-            Self::REFERENCE_ACTUATOR
-        } else {
-            Self::REFERENCE_ACTUATOR_PAPER
-        }
-    }
-}
-
-impl Default for Calibration {
-    fn default() -> Self {
-        Self::IDENTITY
-    }
-}
 
 /// Why a fitness problem could not be set up.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

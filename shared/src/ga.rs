@@ -105,6 +105,12 @@ impl GaSettings {
         initial_guess: Some([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]),
     };
 
+    /// Whether these settings can run a population of `population` (what
+    /// [`SteadyStateGa::new`] checks). O(1).
+    pub fn check(&self, population: usize) -> Result<(), GaError> {
+        self.validate(population)
+    }
+
     fn validate(&self, population: usize) -> Result<(), GaError> {
         let probability_ok = (0.0..=1.0).contains(&self.mutation_probability)
             && (0.0..=1.0).contains(&self.differential_probability);

@@ -4,11 +4,13 @@
 //! `no_std`, no heap, no panics on flight paths; capacity in types; time passed in.
 //!
 //! * [`params`] — the actuator's physical parameters, in one documented struct.
+//! * [`actuator`] — the actuator record: parameters, test, calibration, settings, as checked bytes.
 //! * [`fault`] — the 8-component fault vector and its physical mapping.
 //! * [`command`] — the preflight chirp.
 //! * [`conditioning`] — ADC frames → equivalent current → low-pass; the measured buffer.
 //! * [`monitor`] — the monitor model (single-phase equivalent, fixed step).
-//! * [`fitness`] — eq. (3) and the calibration (problem).
+//! * [`calibration`] — how the monitor model is fitted to one actuator (plain data).
+//! * [`fitness`] — eq. (3) (the problem).
 //! * [`ga`] — the memory-bounded steady-state GA (solver, ask/tell, `step(budget)`).
 //! * [`metrics`] — e_i and e_tot, eq. (4).
 //! * [`fdi`] — the pieces wired together with the onboard sizes and settings.
@@ -33,6 +35,8 @@
     )
 )]
 
+pub mod actuator;
+pub mod calibration;
 pub mod command;
 pub mod conditioning;
 pub mod domain;
@@ -54,7 +58,8 @@ pub mod uncertainty;
 pub use command::ChirpCommand;
 pub use conditioning::{AdcFrame, LowPass, MeasuredCurrent, ShaftAngles};
 pub use fault::{FaultVector, Verdict, FAULT_COUNT};
-pub use fitness::{Calibration, FitnessProblem};
+pub use calibration::Calibration;
+pub use fitness::FitnessProblem;
 pub use ga::{GaSettings, Problem, Status, SteadyStateGa, StopReason};
 pub use monitor::MonitorModel;
 pub use params::ActuatorParams;

@@ -34,7 +34,7 @@ use crate::conditioning::commutation_sector;
 use crate::conditioning::ShaftAngles;
 use crate::fault::FaultEffects;
 use crate::fault::FaultVector;
-use crate::fitness::Calibration;
+use crate::calibration::Calibration;
 use crate::math::{abs, clamp, cos, exp64, floor, TAU};
 use crate::params::ActuatorParams;
 use crate::test_design::{PreflightTest, StandstillSegment, PAIR_SIGNS};
@@ -84,8 +84,13 @@ impl MonitorState {
     /// At rest, with the shafts where the measured test began. The gear starts relaxed: the
     /// surface as near its load's rest (0) as the play allows, which splits the measured
     /// user angle into a true angle and the transducer's offset. O(1).
-    fn at_rest(start: ShaftAngles, f: &FaultedConstants, inv_gear_ratio: f32) -> Self {
-        let motor_at_user = start.motor * inv_gear_ratio;
+    fn at_rest(
+        start: ShaftAngles,
+        f: &FaultedConstants,
+        inv_gear_ratio: f32,
+        encoder_offset: f32,
+    ) -> Self {
+        let motor_at_user = (start.motor - encoder_offset) * inv_gear_ratio;
         let user_angle = clamp(
             0.0,
             motor_at_user - f.half_backlash,
@@ -291,7 +296,7 @@ impl MonitorModel {
         mut sink: impl FnMut(&MonitorSample) -> ControlFlow<()>,
     ) -> usize {
         let f = self.faulted(k);
-        let mut state = MonitorState::at_rest(start, &f, self.inv_gear_ratio);
+        let mut state = MonitorState::at_rest(start, &f, self.inv_gear_ratio, self.params.encoder_offset);
         let lead = match self.standstill {
             Some(segment) => match self.run_standstill(&f, &segment, &state, samples, &mut sink) {
                 ControlFlow::Break(done) => return done,
@@ -314,7 +319,7 @@ impl MonitorModel {
     /// [`run_with`](Self::run_with) from the same start. O(1) to create.
     pub fn start_run(&self, k: &FaultVector, start: ShaftAngles) -> MonitorRun {
         let f = self.faulted(k);
-        let state = MonitorState::at_rest(start, &f, self.inv_gear_ratio);
+        let state = MonitorState::at_rest(start, &f, self.inv_gear_ratio, self.params.encoder_offset);
         let pair_current = pair_current_after_switch(state.start_currents, 0);
         MonitorRun {
             f,
@@ -329,7 +334,7 @@ impl MonitorModel {
     #[inline(never)]
     pub fn restart_run(&self, run: &mut MonitorRun, k: &FaultVector, start: ShaftAngles) {
         run.f = self.faulted(k);
-        run.state = MonitorState::at_rest(start, &run.f, self.inv_gear_ratio);
+        run.state = MonitorState::at_rest(start, &run.f, self.inv_gear_ratio, self.params.encoder_offset);
         run.index = 0;
         run.pair = 0;
         run.pair_current = pair_current_after_switch(run.state.start_currents, 0);
@@ -443,7 +448,8 @@ impl MonitorModel {
         let motor_torque = kt * s.current;
 
         // 3. Mechanics: dead-zone compliant gear train, stick-slip friction, aero load.
-        let deflection = s.motor_angle * self.inv_gear_ratio - s.user_angle;
+        // The gear sees the motor angle from the surface's zero (the rigging offset).
+        let deflection = (s.motor_angle - p.encoder_offset) * self.inv_gear_ratio - s.user_angle;
         let engaged = deflection - clamp(deflection, -f.half_backlash, f.half_backlash);
         // A contact pushes, never pulls: damping cannot reverse the spring's torque.
         let contact = p.gear_stiffness * engaged

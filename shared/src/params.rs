@@ -55,6 +55,11 @@ pub struct ActuatorParams {
     pub stick_speed: f32,
     /// Aerodynamic hinge-moment stiffness on the user shaft: T_R = −k · θ_user [N·m/rad].
     pub aero_stiffness: f32,
+    /// What the motor encoder reads when the surface is at its zero with the gear relaxed
+    /// [rad, motor side]: the rigging of one installation (the encoder is aligned to the
+    /// rotor's magnets, not to the surface). The gear sees `θ_motor − encoder_offset`; the
+    /// commutation sees `θ_motor`.
+    pub encoder_offset: f32,
 
     // ---- ACE controller ----
     /// Position-loop proportional gain: motor speed reference per user-side position error
@@ -102,6 +107,7 @@ impl ActuatorParams {
         dynamic_friction: 0.04,
         stick_speed: 0.5,
         aero_stiffness: 5.0e4,
+        encoder_offset: 0.0,
 
         // Position bandwidth ≈ kp / gear_ratio ≈ 200 rad/s (≈ 32 Hz): the chirp is tracked
         // with a growing lag, and the loop stays free of backlash limit cycles over the whole

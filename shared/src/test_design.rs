@@ -264,6 +264,21 @@ impl PreflightTest {
             .then_some(u8::from(self.standstill.is_some()) | (u8::from(self.motion.is_some()) << 1))
     }
 
+    /// Which segments the test has, as trace headers store it: 0 = chirp alone, +1 with a
+    /// standstill segment, +2 with a motion segment. Segments and chirp of another actuator
+    /// (from its record) keep the kind of the default design they follow.
+    pub const fn kind(&self) -> u8 {
+        (self.standstill.is_some() as u8) | ((self.motion.is_some() as u8) << 1)
+    }
+
+    /// The name of [`Self::kind`], as CSV traces write it.
+    pub fn kind_name(&self) -> &'static str {
+        TEST_NAMES
+            .get(usize::from(self.kind()))
+            .copied()
+            .unwrap_or("unnamed")
+    }
+
     /// The name of a coded design, as CSV traces and the command line write it.
     pub fn name(&self) -> Option<&'static str> {
         self.code()
@@ -383,5 +398,8 @@ mod tests {
             ..ChirpCommand::PREFLIGHT
         });
         assert_eq!(odd.code(), None);
+        assert_eq!(odd.kind(), 0);
+        assert_eq!(odd.kind_name(), "paper");
+        assert_eq!(PreflightTest::STANDSTILL.kind_name(), "standstill");
     }
 }

@@ -125,12 +125,10 @@ pub struct TraceHeader {
 }
 
 impl TraceHeader {
-    /// The header's bytes; `Err` for a test design that has no code.
+    /// The header's bytes: the test is stored as its [`PreflightTest::kind`] (the segments'
+    /// settings of another actuator come from its record).
     pub fn encode(&self) -> Result<[u8; HEADER_BYTES], TraceError> {
-        let code = self
-            .test
-            .code()
-            .ok_or(TraceError::UnknownTest { code: u8::MAX })?;
+        let code = self.test.kind();
         let version: u16 = if code == 0 { 1 } else { VERSION };
         let mut out = [0u8; HEADER_BYTES];
         let fields = [

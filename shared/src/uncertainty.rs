@@ -98,11 +98,21 @@ impl Uncertainty {
     /// Verdicts of `k` (the identified vector these intervals belong to) against the
     /// detection threshold, using the intervals and the correlations `correlation` (from
     /// [`Curvature::uncertainty`]).
-    #[inline(never)]
     pub fn assess(
         &self,
         k: &FaultVector,
         correlation: &[[f32; FAULT_COUNT]; FAULT_COUNT],
+    ) -> [Assessment; FAULT_COUNT] {
+        self.assess_at(k, correlation, DETECTION_THRESHOLD)
+    }
+
+    /// [`Self::assess`] against `threshold` (an actuator record's).
+    #[inline(never)]
+    pub fn assess_at(
+        &self,
+        k: &FaultVector,
+        correlation: &[[f32; FAULT_COUNT]; FAULT_COUNT],
+        threshold: f32,
     ) -> [Assessment; FAULT_COUNT] {
         let mut out = [Assessment::NotApplicable; FAULT_COUNT];
         let deviations = k.deviations();
@@ -111,11 +121,11 @@ impl Uncertainty {
                 continue;
             };
             let d = *d;
-            if d <= DETECTION_THRESHOLD {
+            if d <= threshold {
                 *slot = Assessment::Healthy;
                 continue;
             }
-            if !s.is_nan() && d - Z90 * s > DETECTION_THRESHOLD {
+            if !s.is_nan() && d - Z90 * s > threshold {
                 *slot = Assessment::Faulty;
                 continue;
             }

@@ -1,0 +1,570 @@
+//! The actuator record: everything the onboard FDI knows about one actuator — its physical
+//! parameters, the preflight test it commands, the monitor model's calibration, the GA
+//! settings, the domain limits and the detection threshold — as versioned, CRC-32-checked
+//! bytes beside one verified executable (DO-178C's parameter data items).
+//!
+//! Layout (little endian): `"EMAA"`, version `u16`, body length `u16`, the body as 32-bit
+//! words in the order of [`ActuatorRecord::encode`], CRC-32 of everything before it.
+//! [`RECORD_BYTES`] in all. Encoding and decoding are O(1) (a fixed 300 bytes), allocate
+//! nothing and never panic; a decoded record is range-checked ([`ActuatorRecord::validate`])
+//! before it is handed out.
+
+use crate::calibration::Calibration;
+use crate::command::ChirpCommand;
+use crate::domain::DomainLimits;
+use crate::fault::{DETECTION_THRESHOLD, FAULT_COUNT};
+use crate::fdi::{POPULATION, TEST_SAMPLES};
+use crate::ga::{GaSettings, GENES};
+use crate::params::ActuatorParams;
+use crate::test_design::{MotionSegment, PreflightTest, StandstillSegment};
+use crate::trace::Crc32;
+
+/// First bytes of every actuator record.
+pub const RECORD_MAGIC: [u8; 4] = *b"EMAA";
+/// The version this code writes and reads.
+pub const RECORD_VERSION: u16 = 1;
+/// 32-bit words in the body.
+const BODY_WORDS: usize = 72;
+/// Bytes of one record: magic, version, length, body, CRC-32.
+pub const RECORD_BYTES: usize = 8 + 4 * BODY_WORDS + 4;
+
+/// Why a record was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ActuatorRecordError {
+    /// Fewer bytes than one record.
+    TooShort { found: usize },
+    /// Not an actuator record.
+    BadMagic,
+    /// Written by another version of this format.
+    UnsupportedVersion { found: u16 },
+    /// The length field disagrees with the version's layout.
+    BadLength { found: u16 },
+    /// The bytes are damaged.
+    BadChecksum,
+    /// A value outside its physical or working range; names the field as the actuator
+    /// description file does (`section.key`).
+    OutOfRange { field: &'static str },
+}
+
+/// One actuator, as the FDI needs it. Plain data.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ActuatorRecord {
+    pub params: ActuatorParams,
+    /// The preflight test this actuator's controller commands.
+    pub test: PreflightTest,
+    /// The monitor model fitted to this actuator (`host-sim calibrate`).
+    pub calibration: Calibration,
+    pub ga: GaSettings,
+    pub domain: DomainLimits,
+    /// Deviation from nominal above which a component reads as a fault.
+    pub detection_threshold: f32,
+}
+
+impl ActuatorRecord {
+    /// This project's reference actuator with the default test.
+    pub const REFERENCE: Self = Self {
+        params: ActuatorParams::REFERENCE,
+        test: PreflightTest::STANDSTILL,
+        calibration: Calibration::REFERENCE_ACTUATOR,
+        ga: GaSettings::FDI,
+        domain: DomainLimits::REFERENCE_ACTUATOR,
+        detection_threshold: DETECTION_THRESHOLD,
+    };
+
+    /// The record's bytes. Validate first: encoding does not check ranges.
+    pub fn encode(&self) -> [u8; RECORD_BYTES] {
+        let mut w = Writer {
+            out: [0; RECORD_BYTES],
+            at: 0,
+        };
+        w.bytes(&RECORD_MAGIC);
+        w.bytes(&RECORD_VERSION.to_le_bytes());
+        w.bytes(&((4 * BODY_WORDS) as u16).to_le_bytes());
+        let p = &self.params;
+        for v in [
+            p.dc_bus_voltage,
+            p.pole_pairs,
+            p.phase_resistance,
+            p.phase_inductance,
+            p.back_emf_constant,
+            p.max_current,
+        ] {
+            w.f32(v);
+        }
+        for v in p.winding_group_angle {
+            w.f32(v);
+        }
+        for v in [
+            p.motor_inertia,
+            p.user_inertia,
+            p.gear_ratio,
+            p.gear_stiffness,
+            p.gear_damping,
+            p.nominal_backlash,
+            p.static_friction,
+            p.dynamic_friction,
+            p.stick_speed,
+            p.aero_stiffness,
+            p.encoder_offset,
+            p.position_kp,
+            p.position_ki,
+            p.position_kd,
+            p.max_speed,
+            p.speed_kp,
+            p.speed_ki,
+            p.control_period,
+        ] {
+            w.f32(v);
+        }
+        let t = &self.test;
+        w.u32(u32::from(t.kind()));
+        let s = t.standstill.unwrap_or(StandstillSegment::DEFAULT);
+        w.f32(s.volts);
+        for v in [s.settle_samples, s.on_samples, s.off_samples] {
+            w.u32(u32::from(v));
+        }
+        let m = t.motion.unwrap_or(MotionSegment::DEFAULT);
+        w.f32(m.amplitude);
+        w.u32(u32::from(m.ramp_samples));
+        w.u32(u32::from(m.hold_samples));
+        for v in [t.chirp.amplitude, t.chirp.end_frequency, t.chirp.duration] {
+            w.f32(v);
+        }
+        let c = &self.calibration;
+        for v in [
+            c.resistance_scale,
+            c.inductance_scale,
+            c.back_emf_scale,
+            c.friction_scale,
+            c.damping,
+            c.nominal_residual,
+        ] {
+            w.f32(v);
+        }
+        let g = &self.ga;
+        for v in [g.max_evaluations, g.max_generations, g.stall_generations] {
+            w.u32(v);
+        }
+        w.u32(u32::from(g.tournament_size));
+        for v in [
+            g.tolerance,
+            g.crossover_alpha,
+            g.mutation_probability,
+            g.mutation_scale,
+            g.mutation_floor,
+            g.differential_probability,
+            g.differential_scale,
+        ] {
+            w.f32(v);
+        }
+        let circular = g
+            .circular
+            .iter()
+            .enumerate()
+            .fold(0u32, |m, (i, &c)| m | (u32::from(c) << i));
+        w.u32(circular);
+        w.u32(u32::from(g.initial_guess.is_some()));
+        for v in g.initial_guess.unwrap_or([0.0; GENES]) {
+            w.f32(v);
+        }
+        let d = &self.domain;
+        for v in [d.min_travel, d.min_phase_ratio] {
+            w.f32(v);
+        }
+        w.u32(d.min_phase_samples);
+        for v in [
+            d.min_phase_current,
+            d.max_tracking,
+            d.max_fitness,
+            self.detection_threshold,
+        ] {
+            w.f32(v);
+        }
+        let mut crc = Crc32::new();
+        crc.update(w.out.get(..RECORD_BYTES - 4).unwrap_or(&[]));
+        w.bytes(&crc.finish().to_le_bytes());
+        w.out
+    }
+
+    /// The record in `bytes` (at least [`RECORD_BYTES`]; any more are ignored), checked for
+    /// damage, version and ranges.
+    pub fn decode(bytes: &[u8]) -> Result<Self, ActuatorRecordError> {
+        let Some(bytes) = bytes.get(..RECORD_BYTES) else {
+            return Err(ActuatorRecordError::TooShort { found: bytes.len() });
+        };
+        let mut r = Reader { bytes, at: 0 };
+        if r.word() != RECORD_MAGIC {
+            return Err(ActuatorRecordError::BadMagic);
+        }
+        let [v0, v1, l0, l1] = r.word();
+        let version = u16::from_le_bytes([v0, v1]);
+        if version != RECORD_VERSION {
+            return Err(ActuatorRecordError::UnsupportedVersion { found: version });
+        }
+        let length = u16::from_le_bytes([l0, l1]);
+        if usize::from(length) != 4 * BODY_WORDS {
+            return Err(ActuatorRecordError::BadLength { found: length });
+        }
+        let mut crc = Crc32::new();
+        crc.update(bytes.get(..RECORD_BYTES - 4).unwrap_or(&[]));
+        let stored = bytes
+            .get(RECORD_BYTES - 4..)
+            .and_then(|b| <[u8; 4]>::try_from(b).ok())
+            .map(u32::from_le_bytes);
+        if stored != Some(crc.finish()) {
+            return Err(ActuatorRecordError::BadChecksum);
+        }
+        let out_of_range = |field| ActuatorRecordError::OutOfRange { field };
+        let [dc_bus_voltage, pole_pairs, phase_resistance, phase_inductance, back_emf_constant, max_current] =
+            r.f32s::<6>();
+        let winding_group_angle = r.f32s::<3>();
+        let [motor_inertia, user_inertia, gear_ratio, gear_stiffness, gear_damping, nominal_backlash, static_friction, dynamic_friction, stick_speed, aero_stiffness, encoder_offset, position_kp, position_ki, position_kd, max_speed, speed_kp, speed_ki, control_period] =
+            r.f32s::<18>();
+        let params = ActuatorParams {
+            dc_bus_voltage,
+            pole_pairs,
+            phase_resistance,
+            phase_inductance,
+            back_emf_constant,
+            max_current,
+            winding_group_angle,
+            motor_inertia,
+            user_inertia,
+            gear_ratio,
+            gear_stiffness,
+            gear_damping,
+            nominal_backlash,
+            static_friction,
+            dynamic_friction,
+            stick_speed,
+            aero_stiffness,
+            encoder_offset,
+            position_kp,
+            position_ki,
+            position_kd,
+            max_speed,
+            speed_kp,
+            speed_ki,
+            control_period,
+        };
+        let kind = r.u32();
+        let volts = r.f32();
+        let [settle, on, off] = [r.u16()?, r.u16()?, r.u16()?];
+        let amplitude = r.f32();
+        let [ramp, hold] = [r.u16()?, r.u16()?];
+        let [chirp_amplitude, end_frequency, duration] = r.f32s::<3>();
+        if kind > 3 {
+            return Err(out_of_range("test.design"));
+        }
+        let test = PreflightTest {
+            standstill: (kind & 1 != 0).then_some(StandstillSegment {
+                volts,
+                settle_samples: settle,
+                on_samples: on,
+                off_samples: off,
+            }),
+            motion: (kind & 2 != 0).then_some(MotionSegment {
+                amplitude,
+                ramp_samples: ramp,
+                hold_samples: hold,
+            }),
+            chirp: ChirpCommand {
+                amplitude: chirp_amplitude,
+                end_frequency,
+                duration,
+            },
+        };
+        let [resistance_scale, inductance_scale, back_emf_scale, friction_scale, damping, nominal_residual] =
+            r.f32s::<6>();
+        let calibration = Calibration {
+            resistance_scale,
+            inductance_scale,
+            back_emf_scale,
+            friction_scale,
+            damping,
+            nominal_residual,
+        };
+        let [max_evaluations, max_generations, stall_generations] =
+            [r.u32(), r.u32(), r.u32()];
+        let tournament_size = u8::try_from(r.u32()).map_err(|_| out_of_range("ga.tournament_size"))?;
+        let [tolerance, crossover_alpha, mutation_probability, mutation_scale, mutation_floor, differential_probability, differential_scale] =
+            r.f32s::<7>();
+        let circular_mask = r.u32();
+        let mut circular = [false; GENES];
+        for (i, c) in circular.iter_mut().enumerate() {
+            *c = circular_mask & (1 << i) != 0;
+        }
+        let has_guess = r.u32();
+        let guess = r.f32s::<GENES>();
+        let ga = GaSettings {
+            max_evaluations,
+            max_generations,
+            stall_generations,
+            tolerance,
+            tournament_size,
+            crossover_alpha,
+            mutation_probability,
+            mutation_scale,
+            mutation_floor,
+            differential_probability,
+            differential_scale,
+            circular,
+            initial_guess: (has_guess != 0).then_some(guess),
+        };
+        let [min_travel, min_phase_ratio] = r.f32s::<2>();
+        let min_phase_samples = r.u32();
+        let [min_phase_current, max_tracking, max_fitness, detection_threshold] = r.f32s::<4>();
+        let record = Self {
+            params,
+            test,
+            calibration,
+            ga,
+            domain: DomainLimits {
+                min_travel,
+                min_phase_ratio,
+                min_phase_samples,
+                min_phase_current,
+                max_tracking,
+                max_fitness,
+            },
+            detection_threshold,
+        };
+        record.validate()?;
+        Ok(record)
+    }
+
+    /// Refuses values outside their physical or working range, naming the first one as
+    /// `section.key` of the actuator description file. O(1).
+    pub fn validate(&self) -> Result<(), ActuatorRecordError> {
+        let p = &self.params;
+        let positive = |v: f32| v.is_finite() && v > 0.0;
+        let non_negative = |v: f32| v.is_finite() && v >= 0.0;
+        let checks: [(bool, &'static str); 40] = [
+            (positive(p.dc_bus_voltage), "motor.dc_bus_voltage"),
+            (
+                p.pole_pairs >= 1.0 && p.pole_pairs <= 64.0 && p.pole_pairs == (p.pole_pairs as u32) as f32,
+                "motor.pole_pairs",
+            ),
+            (positive(p.phase_resistance), "motor.phase_resistance"),
+            (positive(p.phase_inductance), "motor.phase_inductance"),
+            (positive(p.back_emf_constant), "motor.back_emf_constant"),
+            (positive(p.max_current), "motor.max_current"),
+            (
+                p.winding_group_angle.iter().all(|a| a.is_finite() && a.abs() <= 7.0),
+                "motor.winding_group_angle_deg",
+            ),
+            (positive(p.motor_inertia), "mechanics.motor_inertia"),
+            (positive(p.user_inertia), "mechanics.user_inertia"),
+            (positive(p.gear_ratio), "mechanics.gear_ratio"),
+            (positive(p.gear_stiffness), "mechanics.gear_stiffness"),
+            (non_negative(p.gear_damping), "mechanics.gear_damping"),
+            (positive(p.nominal_backlash), "mechanics.nominal_backlash"),
+            (positive(p.static_friction), "mechanics.static_friction"),
+            (
+                positive(p.dynamic_friction) && p.dynamic_friction <= p.static_friction,
+                "mechanics.dynamic_friction",
+            ),
+            (positive(p.stick_speed), "mechanics.stick_speed"),
+            (non_negative(p.aero_stiffness), "mechanics.aero_stiffness"),
+            (
+                p.encoder_offset.is_finite() && p.encoder_offset.abs() <= 1.0e4,
+                "installation.encoder_offset",
+            ),
+            (positive(p.position_kp), "controller.position_kp"),
+            (non_negative(p.position_ki), "controller.position_ki"),
+            (non_negative(p.position_kd), "controller.position_kd"),
+            (positive(p.max_speed), "controller.max_speed"),
+            (positive(p.speed_kp), "controller.speed_kp"),
+            (non_negative(p.speed_ki), "controller.speed_ki"),
+            (
+                positive(p.control_period) && p.control_period <= 1.0e-2,
+                "controller.control_period",
+            ),
+            (
+                self.test.standstill.is_none_or(|s| {
+                    positive(s.volts) && s.volts <= p.dc_bus_voltage && s.on_samples > 0
+                }),
+                "test.standstill_volts",
+            ),
+            (
+                self.test.motion.is_none_or(|m| positive(m.amplitude) && m.ramp_samples > 0),
+                "test.motion_amplitude",
+            ),
+            (positive(self.test.chirp.amplitude), "test.chirp_amplitude"),
+            (
+                positive(self.test.chirp.end_frequency)
+                    && self.test.chirp.end_frequency * p.control_period < 0.1,
+                "test.chirp_end_frequency",
+            ),
+            (
+                positive(self.test.chirp.duration)
+                    && self.test.samples(p.control_period) <= TEST_SAMPLES,
+                "test.chirp_duration",
+            ),
+            (positive(self.calibration.resistance_scale), "calibration.resistance_scale"),
+            (positive(self.calibration.inductance_scale), "calibration.inductance_scale"),
+            (positive(self.calibration.back_emf_scale), "calibration.back_emf_scale"),
+            (positive(self.calibration.friction_scale), "calibration.friction_scale"),
+            (non_negative(self.calibration.damping), "calibration.damping"),
+            (non_negative(self.calibration.nominal_residual), "calibration.nominal_residual"),
+            (self.ga.check(POPULATION).is_ok(), "ga"),
+            (
+                [
+                    self.domain.min_travel,
+                    self.domain.min_phase_ratio,
+                    self.domain.min_phase_current,
+                    self.domain.max_tracking,
+                ]
+                .iter()
+                .all(|&v| non_negative(v)),
+                "domain",
+            ),
+            (positive(self.domain.max_fitness), "domain.max_fitness"),
+            (
+                positive(self.detection_threshold) && self.detection_threshold < 1.0,
+                "detection.threshold",
+            ),
+        ];
+        match checks.iter().find(|(ok, _)| !ok) {
+            Some(&(_, field)) => Err(ActuatorRecordError::OutOfRange { field }),
+            None => Ok(()),
+        }
+    }
+}
+
+impl Default for ActuatorRecord {
+    fn default() -> Self {
+        Self::REFERENCE
+    }
+}
+
+const _: () = assert!(FAULT_COUNT == GENES);
+
+struct Writer {
+    out: [u8; RECORD_BYTES],
+    at: usize,
+}
+
+impl Writer {
+    fn bytes(&mut self, b: &[u8]) {
+        if let Some(dst) = self.out.get_mut(self.at..self.at + b.len()) {
+            dst.copy_from_slice(b);
+        }
+        self.at += b.len();
+    }
+    fn f32(&mut self, v: f32) {
+        self.bytes(&v.to_bits().to_le_bytes());
+    }
+    fn u32(&mut self, v: u32) {
+        self.bytes(&v.to_le_bytes());
+    }
+}
+
+/// Reads words in order; past the end it reads zeros (the length was checked before).
+struct Reader<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl Reader<'_> {
+    fn word(&mut self) -> [u8; 4] {
+        let w = self
+            .bytes
+            .get(self.at..self.at + 4)
+            .and_then(|b| <[u8; 4]>::try_from(b).ok())
+            .unwrap_or([0; 4]);
+        self.at += 4;
+        w
+    }
+    fn u32(&mut self) -> u32 {
+        u32::from_le_bytes(self.word())
+    }
+    fn u16(&mut self) -> Result<u16, ActuatorRecordError> {
+        u16::try_from(self.u32()).map_err(|_| ActuatorRecordError::OutOfRange { field: "test" })
+    }
+    fn f32(&mut self) -> f32 {
+        f32::from_bits(self.u32())
+    }
+    fn f32s<const K: usize>(&mut self) -> [f32; K] {
+        let mut out = [0.0; K];
+        for v in &mut out {
+            *v = self.f32();
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_reference_record_round_trips_bit_for_bit() {
+        let bytes = ActuatorRecord::REFERENCE.encode();
+        assert_eq!(bytes.len(), RECORD_BYTES);
+        let back = ActuatorRecord::decode(&bytes).unwrap();
+        assert_eq!(back, ActuatorRecord::REFERENCE);
+        assert_eq!(back.encode(), bytes);
+    }
+
+    #[test]
+    fn every_flipped_bit_is_refused() {
+        let bytes = ActuatorRecord::REFERENCE.encode();
+        for i in 0..RECORD_BYTES * 8 {
+            let mut damaged = bytes;
+            damaged[i / 8] ^= 1 << (i % 8);
+            assert!(ActuatorRecord::decode(&damaged).is_err(), "bit {i}");
+        }
+    }
+
+    #[test]
+    fn header_errors_are_named() {
+        let bytes = ActuatorRecord::REFERENCE.encode();
+        assert_eq!(
+            ActuatorRecord::decode(&bytes[..100]),
+            Err(ActuatorRecordError::TooShort { found: 100 })
+        );
+        let mut other = bytes;
+        other[4] = 2;
+        assert_eq!(
+            ActuatorRecord::decode(&other),
+            Err(ActuatorRecordError::UnsupportedVersion { found: 2 })
+        );
+        let mut other = bytes;
+        other[0] = b'X';
+        assert_eq!(ActuatorRecord::decode(&other), Err(ActuatorRecordError::BadMagic));
+    }
+
+    #[test]
+    fn out_of_range_values_are_refused_even_with_a_good_checksum() {
+        let mut r = ActuatorRecord::REFERENCE;
+        r.params.gear_ratio = 0.0;
+        assert_eq!(
+            ActuatorRecord::decode(&r.encode()),
+            Err(ActuatorRecordError::OutOfRange {
+                field: "mechanics.gear_ratio"
+            })
+        );
+        let mut r = ActuatorRecord::REFERENCE;
+        r.params.motor_inertia = -1e-4;
+        assert_eq!(
+            r.validate(),
+            Err(ActuatorRecordError::OutOfRange {
+                field: "mechanics.motor_inertia"
+            })
+        );
+        let mut r = ActuatorRecord::REFERENCE;
+        r.test.chirp.duration = 1.0; // 10 000 samples: more than the buffer holds
+        assert_eq!(
+            r.validate(),
+            Err(ActuatorRecordError::OutOfRange {
+                field: "test.chirp_duration"
+            })
+        );
+        let mut r = ActuatorRecord::REFERENCE;
+        r.params.pole_pairs = 4.5;
+        assert!(r.validate().is_err());
+    }
+}
