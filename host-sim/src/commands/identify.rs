@@ -1,0 +1,214 @@
+//! `identify`: the onboard FDI on a trace file, and the report (table or JSON) shared with `preflight`.
+
+use crate::*;
+
+/// The domain verdict as a heading line, and the exit status it calls for.
+pub(crate) fn domain_heading(domain: Domain) -> ((String, String), Result<()>) {
+    match domain {
+        Domain::Within => (("domain".to_string(), "within".to_string()), Ok(())),
+        Domain::Outside(reason) => {
+            eprintln!(
+                "warning: the actuator is outside the monitor model's domain ({reason:?}): \
+                 do not act on the fault vector"
+            );
+            (
+                ("domain".to_string(), format!("outside: {reason:?}")),
+                Err(ExitWith(EXIT_OUTSIDE_DOMAIN).into()),
+            )
+        }
+    }
+}
+
+/// The calibration file at `path`, or the built-in one of the trace's test.
+pub(crate) fn load_calibration(path: Option<&Path>, test: &PreflightTest) -> Result<(Calibration, String)> {
+    match path {
+        Some(p) => Ok((
+            CalibrationFile::read(p)?.calibration(),
+            p.display().to_string(),
+        )),
+        None => Ok((
+            Calibration::reference_actuator(test),
+            format!("built-in ({} test)", test.name().unwrap_or("custom")),
+        )),
+    }
+}
+
+pub(crate) fn verdict_text(v: Verdict) -> &'static str {
+    match v {
+        Verdict::Healthy => "healthy",
+        Verdict::Faulty => "FAULT",
+        Verdict::NotApplicable => "-",
+    }
+}
+
+pub(crate) fn assessment_text(a: Assessment) -> String {
+    match a {
+        Assessment::Healthy => "healthy".into(),
+        Assessment::Suspect => "suspect".into(),
+        Assessment::Faulty => "FAULT".into(),
+        Assessment::Ambiguous { with } => format!(
+            "ambiguous/{}",
+            FAULT_NAMES.get(usize::from(with)).copied().unwrap_or("?")
+        ),
+        Assessment::NotApplicable => "-".into(),
+    }
+}
+
+pub(crate) fn report(id: &Identified, truth: Option<&FaultVector>, heading: &[(String, String)], json: bool) {
+    let found = id.result.faults;
+    let verdicts = found.verdicts();
+    let assessments = id.assessments();
+    let uncertainty = id.uncertainty.as_ref().map(|(u, _)| u);
+    if json {
+        let mut obj = json!({
+            "faults": found.as_array(),
+            "fitness": id.result.fitness,
+            "evaluations": id.result.evaluations,
+            "seconds": id.seconds,
+            "stop_reason": format!("{:?}", id.result.stop_reason),
+            "verdicts": assessments.iter().map(|&a| assessment_text(a)).collect::<Vec<_>>(),
+            "threshold_verdicts": verdicts.iter().map(|&v| verdict_text(v)).collect::<Vec<_>>(),
+        });
+        if let Some(u) = uncertainty {
+            // NaN (undetermined) is written as null.
+            let finite = |x: f32| x.is_finite().then_some(x);
+            obj["std"] = json!(u.std.map(finite));
+            obj["interval90"] = json!((0..FAULT_COUNT)
+                .map(|i| finite(u.std[i]).map(|_| [u.lower[i], u.upper[i]]))
+                .collect::<Vec<_>>());
+            obj["worst_correlation"] = json!({
+                "pair": [FAULT_NAMES[usize::from(u.worst_pair.0)], FAULT_NAMES[usize::from(u.worst_pair.1)]],
+                "value": u.worst_correlation,
+            });
+        }
+        if let Some(t) = truth {
+            obj["truth"] = json!(t.as_array());
+            obj["errors"] = json!(component_errors(&found, t));
+            obj["e_tot"] = json!(total_error(&found, t));
+        }
+        for (k, v) in heading {
+            obj[k.as_str()] = json!(v);
+        }
+        println!("{obj}");
+        return;
+    }
+    for (k, v) in heading {
+        println!("{k:<13} {v}");
+    }
+    println!();
+    let errors = truth.map(|t| component_errors(&found, t));
+    match truth {
+        Some(_) => println!(
+            "{:<13} {:>8} {:>8} {:>17} {:>22} {:>8} {:>8}",
+            "fault", "found", "std", "90 % interval", "reading", "true", "e_i [%]"
+        ),
+        None => println!(
+            "{:<13} {:>8} {:>8} {:>17} {:>22}",
+            "fault", "found", "std", "90 % interval", "reading"
+        ),
+    }
+    for i in 0..FAULT_COUNT {
+        let k = found.as_array()[i];
+        let (std, interval) = match uncertainty {
+            Some(u) if u.std[i].is_finite() => (
+                format!("{:.4}", u.std[i]),
+                format!("[{:.4}, {:.4}]", u.lower[i], u.upper[i]),
+            ),
+            _ => ("-".to_string(), "-".to_string()),
+        };
+        let mut line = format!(
+            "{:<13} {k:>8.4} {std:>8} {interval:>17} {:>22}",
+            FAULT_NAMES[i],
+            assessment_text(assessments[i])
+        );
+        if let (Some(t), Some(e)) = (truth, errors.as_ref()) {
+            line += &format!(" {:>8.4} {:>8.3}", t.as_array()[i], e[i]);
+        }
+        println!("{line}");
+    }
+    let phase_deg = -180.0 + 360.0 * f64::from(found.eccentricity_phase());
+    println!("(eccentricity phase {phase_deg:.0}° from phase A; a location, read only with an eccentricity fault)");
+    if let Some(u) = uncertainty {
+        println!(
+            "(FAULT: the whole 90 % interval is beyond the {} detection threshold; suspect: the \
+             value is, its interval is not; most correlated pair: {} and {}, {:.2})",
+            shared::fault::DETECTION_THRESHOLD,
+            FAULT_NAMES[usize::from(u.worst_pair.0)],
+            FAULT_NAMES[usize::from(u.worst_pair.1)],
+            u.worst_correlation
+        );
+    }
+    if let Some(t) = truth {
+        println!("e_tot         {:.3} %", total_error(&found, t));
+    }
+    println!(
+        "fitness       {:.4e} A²·s (nominal residual subtracted)",
+        id.result.fitness
+    );
+    println!(
+        "evaluations   {} (stopped: {:?})",
+        id.result.evaluations, id.result.stop_reason
+    );
+    println!("seconds       {:.3}", id.seconds);
+}
+
+pub(crate) fn identify_command(
+    trace_path: &Path,
+    calibration: Option<&Path>,
+    seed: u64,
+    truth: Option<FaultVector>,
+    json: bool,
+    checkpointing: Option<&Checkpointing>,
+) -> Result<()> {
+    let trace = Trace::read(trace_path)?;
+    let measured = trace.measured(&ActuatorParams::REFERENCE)?;
+    let (calibration, cal_name) = load_calibration(calibration, measured.test())?;
+    let (outcome, resumption) = identify_checkpointed(
+        &measured,
+        &calibration,
+        seed,
+        progress_wanted(json),
+        checkpointing,
+    )?;
+    if let Some(c) = checkpointing {
+        let file = c.path.display();
+        match resumption {
+            Resumption::Fresh => {}
+            Resumption::Resumed(n) => eprintln!("resumed from {file} at {n} evaluations"),
+            Resumption::Refused(e) => {
+                eprintln!("checkpoint {file} refused ({e:?}): the identification restarted")
+            }
+        }
+    }
+    let id = match outcome {
+        Outcome::Finished(id) => *id,
+        Outcome::Interrupted { evaluations } => {
+            eprintln!(
+                "stopped after {evaluations} evaluations (simulated power loss); checkpoint in {}",
+                checkpointing.map_or(String::new(), |c| c.path.display().to_string())
+            );
+            return Err(ExitWith(EXIT_INTERRUPTED).into());
+        }
+    };
+    let mut heading = vec![
+        ("trace".to_string(), trace_path.display().to_string()),
+        ("calibration".to_string(), cal_name),
+        ("ga_seed".to_string(), seed.to_string()),
+    ];
+    let (line, verdict) = domain_heading(
+        trace
+            .domain_monitor(&ActuatorParams::REFERENCE)
+            .assess(&DomainLimits::REFERENCE_ACTUATOR, id.result.fitness),
+    );
+    heading.push(line);
+    if checkpointing.is_some() {
+        let said = match resumption {
+            Resumption::Fresh => "fresh start".to_string(),
+            Resumption::Resumed(n) => format!("resumed at {n} evaluations"),
+            Resumption::Refused(e) => format!("refused ({e:?}), restarted"),
+        };
+        heading.push(("checkpoint".to_string(), said));
+    }
+    report(&id, truth.as_ref(), &heading, json);
+    verdict
+}

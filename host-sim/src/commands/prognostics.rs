@@ -1,0 +1,124 @@
+//! `degrade`, `prognose` and `prognostics`: degradation histories, trends and RUL.
+
+use crate::*;
+
+pub(crate) fn degrade_command(
+    path: &DegradationPath,
+    noise: f64,
+    seed: u64,
+    out: &Path,
+    log: Option<&Path>,
+) -> Result<()> {
+    let start = Instant::now();
+    let bar = host_sim::progress_bar(
+        u64::from(path.flights),
+        "{elapsed_precise} [{bar:40}] {pos}/{len} flights (ETA {eta})",
+        std::io::stderr().is_terminal(),
+    );
+    let rows = prognostics::degrade(path, noise, seed, &|| bar.inc(1))?;
+    bar.finish_and_clear();
+    std::fs::write(out, health_file::history_csv(&rows))
+        .with_context(|| format!("writing {}", out.display()))?;
+    if let Some(log_path) = log {
+        let mut store = health_file::FileStore::open(log_path, ONBOARD_RECORDS)?;
+        let (mut log, _) = HealthLog::<ONBOARD_RECORDS>::load(&mut store)?;
+        for r in &rows {
+            log.append(&mut store, r.record)
+                .map_err(|e| anyhow::anyhow!("appending flight {}: {e:?}", r.record.flight))?;
+        }
+    }
+    let outside = rows.iter().filter(|r| !r.record.is_trusted()).count();
+    println!(
+        "wrote {} ({} flights, {outside} outside the monitor model's domain; {:.0} s)",
+        out.display(),
+        rows.len(),
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+pub(crate) fn prognose_command(
+    history: &Path,
+    settings: &TrendSettings,
+    at: Option<u32>,
+    plot_out: Option<&Path>,
+    json: bool,
+) -> Result<()> {
+    let mut rows = health_file::read_history(history)?;
+    if let Some(at) = at {
+        rows.retain(|r| r.record.flight <= at);
+        if rows.is_empty() {
+            anyhow::bail!("no flight at or before {at} in {}", history.display());
+        }
+    }
+    let trend = prognostics::trend_of(&rows, None, settings);
+    let estimates = trend.estimates(settings);
+    if json {
+        println!(
+            "{}",
+            prognostics::report_json(&rows, &trend, &estimates, settings)
+        );
+    } else {
+        println!(
+            "{}: {} records, newest flight {}, {} outside the domain (not used)",
+            history.display(),
+            rows.len(),
+            rows.last().map_or(0, |r| r.record.flight),
+            trend.skipped()
+        );
+        print!("{}", prognostics::report_text(&estimates, settings));
+        println!(
+            "RUL in flights after the newest; \"beyond\" = no crossing within {} flights.",
+            settings.horizon
+        );
+    }
+    if let Some(out) = plot_out {
+        let title = format!(
+            "{} up to flight {}",
+            history.display(),
+            rows.last().map_or(0, |r| r.record.flight)
+        );
+        prognostics::history_svg(out, &rows, &trend, settings, &title)?;
+        if !json {
+            println!("wrote {}", out.display());
+        }
+    }
+    Ok(())
+}
+
+pub(crate) fn prognostics_command(
+    seeds: u64,
+    flights: u32,
+    noise: f64,
+    alpha: f64,
+    out: Option<&Path>,
+    plot_out: Option<&Path>,
+) -> Result<()> {
+    let start = Instant::now();
+    let scenarios = &prognostics::EVAL_SCENARIOS;
+    let total = scenarios.len() as u64 * seeds * u64::from(flights);
+    let bar = host_sim::progress_bar(
+        total,
+        "{elapsed_precise} [{bar:40}] {pos}/{len} flights (ETA {eta})",
+        std::io::stderr().is_terminal(),
+    );
+    let settings = TrendSettings::DEFAULT;
+    let tracks =
+        prognostics::evaluate(scenarios, seeds, flights, noise, &settings, &|| bar.inc(1))?;
+    bar.finish_and_clear();
+    let mut text = prognostics::eval_markdown(&tracks, alpha);
+    text += &format!(
+        "\n{} runs × {flights} flights, noise {noise}, thresholds 0.5 friction and backlash, 0.3 \
+         shorts, 0.25 gain drift; {:.0} s.\n",
+        scenarios.len() as u64 * seeds,
+        start.elapsed().as_secs_f64()
+    );
+    print!("{text}");
+    if let Some(path) = out {
+        std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(path) = plot_out {
+        prognostics::eval_svg(path, &tracks, alpha)?;
+    }
+    Ok(())
+}
