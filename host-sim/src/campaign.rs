@@ -12,12 +12,13 @@ use rayon::prelude::*;
 use shared::fault::DETECTION_THRESHOLD;
 use shared::fault::FAULT_COUNT;
 use shared::metrics::total_error;
-use shared::test_design::PreflightTest;
+use shared::actuator::ActuatorRecord;
 use shared::uncertainty::{Assessment, Uncertainty};
-use shared::{ActuatorParams, Calibration, FaultVector};
+use shared::FaultVector;
 
-use crate::identify::identify;
-use crate::reference::{ReferenceModel, ReferenceSettings, Scenario};
+use crate::actuator_file::Actuator;
+use crate::identify::identify_for;
+use crate::reference::{ReferenceModel, Scenario};
 
 /// What the paper reports for a case.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -342,19 +343,20 @@ impl CaseSummary {
 /// Runs one case once.
 pub fn run_once(
     rm: &ReferenceModel,
-    calibration: &Calibration,
+    record: &ActuatorRecord,
     case: &Case,
     run: u64,
 ) -> Result<RunResult> {
+    let calibration = &record.calibration;
     let truth = FaultVector::new(case.faults).map_err(|e| anyhow!("case {}: {e:?}", case.name))?;
     let sim = rm.simulate(&Scenario {
         faults: truth,
         current_ref_noise: case.noise,
         seed: run,
     });
-    let params = ActuatorParams::REFERENCE;
+    let params = record.params;
     let measured = sim.trace.measured(&params)?;
-    let id = identify(&measured, calibration, 1 + run, false)?;
+    let id = identify_for(&measured, record, 1 + run, false)?;
     let problem = shared::FitnessProblem::new(&measured, params, calibration)
         .map_err(|e| anyhow!("fitness: {e:?}"))?;
     let found = id.result.faults;
@@ -393,11 +395,12 @@ pub fn run_once(
 pub fn run_campaign(
     cases: &[Case],
     runs: u64,
-    test: PreflightTest,
+    actuator: &Actuator,
     progress: bool,
 ) -> Result<Vec<CaseSummary>> {
-    let rm = ReferenceModel::new(ReferenceSettings::REFERENCE).with_test(test);
-    let calibration = Calibration::reference_actuator(&test);
+    let record = actuator.record;
+    actuator.calibration_for(&record.test)?;
+    let rm = ReferenceModel::new(actuator.reference_settings()?).with_test(record.test);
     let jobs: Vec<(usize, u64)> = (0..cases.len())
         .flat_map(|c| (0..runs).map(move |r| (c, r)))
         .collect();
@@ -409,7 +412,7 @@ pub fn run_campaign(
     let results: Vec<Result<(usize, RunResult)>> = jobs
         .par_iter()
         .map(|&(c, r)| {
-            let out = run_once(&rm, &calibration, &cases[c], r).map(|x| (c, x));
+            let out = run_once(&rm, &record, &cases[c], r).map(|x| (c, x));
             bar.inc(1);
             out
         })

@@ -14,7 +14,8 @@ use shared::fdi::{
 };
 use shared::ga::RecordError;
 use shared::uncertainty::{Assessment, Uncertainty};
-use shared::{ActuatorParams, Calibration, ChirpCommand, GaSettings, Status};
+use shared::actuator::ActuatorRecord;
+use shared::{Calibration, Status};
 
 /// Evaluations per slice (the firmware's bounded tick does the same kind of slicing).
 pub const SLICE: u32 = 32;
@@ -35,10 +36,15 @@ pub struct Identified {
 impl Identified {
     /// Verdicts that use the uncertainty (the plain threshold verdicts without one).
     pub fn assessments(&self) -> [Assessment; FAULT_COUNT] {
+        self.assessments_at(shared::fault::DETECTION_THRESHOLD)
+    }
+
+    /// [`Self::assessments`] against `threshold` (an actuator record's).
+    pub fn assessments_at(&self, threshold: f32) -> [Assessment; FAULT_COUNT] {
         let k = &self.result.faults;
         match &self.uncertainty {
-            Some((u, correlation)) => u.assess(k, correlation),
-            None => k.verdicts().map(|v| match v {
+            Some((u, correlation)) => u.assess_at(k, correlation, threshold),
+            None => k.verdicts_at(threshold).map(|v| match v {
                 shared::Verdict::Healthy => Assessment::Healthy,
                 shared::Verdict::Faulty => Assessment::Suspect,
                 shared::Verdict::NotApplicable => Assessment::NotApplicable,
@@ -78,14 +84,30 @@ pub enum Outcome {
     },
 }
 
-/// Identifies the faults behind `measured`. `progress` shows a bar on stderr.
+/// Identifies the faults behind `measured` of the reference actuator with `calibration`.
+/// `progress` shows a bar on stderr.
 pub fn identify(
     measured: &OnboardMeasured,
     calibration: &Calibration,
     seed: u64,
     progress: bool,
 ) -> Result<Identified> {
-    match identify_checkpointed(measured, calibration, seed, progress, None)?.0 {
+    let record = ActuatorRecord {
+        calibration: *calibration,
+        ..ActuatorRecord::REFERENCE
+    };
+    identify_for(measured, &record, seed, progress)
+}
+
+/// Identifies the faults behind `measured` of the actuator `record` describes (its
+/// parameters, calibration and GA settings; the test is `measured`'s).
+pub fn identify_for(
+    measured: &OnboardMeasured,
+    record: &ActuatorRecord,
+    seed: u64,
+    progress: bool,
+) -> Result<Identified> {
+    match identify_checkpointed(measured, record, seed, progress, None)?.0 {
         Outcome::Finished(id) => Ok(*id),
         // Only a checkpointed run can be cut short.
         Outcome::Interrupted { evaluations } => {
@@ -115,18 +137,19 @@ fn write_record(path: &Path, record: &OnboardRecord) -> Result<()> {
 /// `stop_after`.
 pub fn identify_checkpointed(
     measured: &OnboardMeasured,
-    calibration: &Calibration,
+    record: &ActuatorRecord,
     seed: u64,
     progress: bool,
     checkpointing: Option<&Checkpointing>,
 ) -> Result<(Outcome, Resumption)> {
-    let settings = GaSettings::FDI;
-    let params = ActuatorParams::REFERENCE;
+    let settings = record.ga;
+    let params = record.params;
+    let calibration = &record.calibration;
     let start = Instant::now();
     // The firmware evaluates the chirp at every step; the host reads the same bits from a
     // table (20 kB), built inside the timed span.
     let table = Box::new(CommandTable::<TEST_SAMPLES>::new(
-        ChirpCommand::PREFLIGHT,
+        measured.test().chirp,
         params.control_period,
     ));
     let mut id = Identification::<TEST_SAMPLES, POPULATION>::new(

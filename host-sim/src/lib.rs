@@ -1,6 +1,7 @@
 //! `host-sim`: the ground tools of ema-fdi, as a library (the CLI in `main.rs` and the
 //! workspace tests use it).
 //!
+//! * [`actuator_file`] — the actuator description file (TOML) and the record it becomes.
 //! * [`reference`] — the high-fidelity reference model (the "real actuator").
 //! * [`trace_file`] — CSV and binary trace files.
 //! * [`calibration`] — fitting the monitor model to a healthy trace.
@@ -13,6 +14,7 @@
 //! * [`prognostics`] — simulated degradations, trend and RUL reports and pictures.
 //! * [`faults`] — parsing fault vectors from the command line.
 
+pub mod actuator_file;
 pub mod calibration;
 pub mod campaign;
 pub mod domain;

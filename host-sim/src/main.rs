@@ -12,12 +12,14 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
+use host_sim::actuator_file::{Actuator, ActuatorRefused};
 use host_sim::calibration::{calibrate, CalibrationFile};
 use host_sim::campaign::{run_once, TABLE_1};
 use host_sim::faults;
 use host_sim::health_file;
 use host_sim::identify::{
-    identify, identify_checkpointed, Checkpointing, Identified, Outcome, Resumption,
+    identify_for,
+    identify_checkpointed, Checkpointing, Identified, Outcome, Resumption,
 };
 use host_sim::median;
 use host_sim::optimisers::{self, TraceSource};
@@ -27,7 +29,7 @@ use host_sim::reference::{ReferenceModel, ReferenceSettings, Scenario};
 use host_sim::trace_file::{IngestError, Trace, TraceFormat};
 use serde_json::json;
 use shared::command::{CommandSource, CommandTable};
-use shared::domain::{Domain, DomainLimits};
+use shared::domain::Domain;
 use shared::fault::{Verdict, FAULT_COUNT, FAULT_NAMES};
 use shared::fdi::{
     record_monitor_trace, Identification, OnboardGa, OnboardMeasured, POPULATION, TEST_SAMPLES,
@@ -37,6 +39,7 @@ use shared::metrics::{component_errors, total_error};
 use shared::monitor::MonitorState;
 use shared::prognosis::TrendSettings;
 use shared::test_design::PreflightTest;
+use shared::actuator::ActuatorRecord;
 use shared::uncertainty::Assessment;
 use shared::{
     ActuatorParams, Calibration, ChirpCommand, FaultVector, FitnessProblem, GaSettings, LowPass,
@@ -46,7 +49,7 @@ use shared::{
 mod commands;
 
 #[allow(clippy::wildcard_imports)]
-use commands::{bench::*, calibrate::*, campaign::*, domain::*, identify::*, plot::*, prognostics::*, simulate::*, studies::*};
+use commands::{actuator::*, bench::*, calibrate::*, campaign::*, domain::*, identify::*, plot::*, prognostics::*, simulate::*, studies::*};
 
 #[derive(Parser)]
 #[command(
@@ -58,12 +61,21 @@ use commands::{bench::*, calibrate::*, campaign::*, domain::*, identify::*, plot
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// The actuator: a description file (TOML, see actuators/reference.toml) or a record
+    /// from `host-sim actuator` / `calibrate --out X.rec`. Default: the built-in reference
+    /// actuator. Used by the reference model and by the FDI.
+    #[arg(long, global = true, value_name = "FILE")]
+    actuator: Option<PathBuf>,
 }
 
 const EXIT_HELP: &str = "Exit status: 0 done; 1 error; 2 usage; 3 trace refused (the message \
 names the field and the line or row); 4 identify/preflight: the actuator is outside the monitor \
 model's domain (jammed, open phase, another command, unexplained residual; the result is \
-printed but must not be acted on); 5 identify stopped by --stop-after (checkpoint written).";
+printed but must not be acted on); 5 identify stopped by --stop-after (checkpoint written); \
+7 the --actuator file was refused (the message names the key and its line).";
+
+/// Exit status when the actuator file or record is refused.
+const EXIT_ACTUATOR_REFUSED: u8 = 7;
 
 /// Exit status when a trace file is refused.
 const EXIT_TRACE_REFUSED: u8 = 3;
@@ -102,10 +114,11 @@ struct ActuatorArgs {
     /// Seed of every random draw of the reference model (sensor and process noise).
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// Preflight test design: `standstill` (default: voltage steps on each phase pair at
-    /// standstill, then the chirp) or `paper` (the paper's chirp alone, currents only).
-    #[arg(long, value_enum, default_value_t = TestChoice::Standstill)]
-    test: TestChoice,
+    /// Preflight test design of the built-in actuator: `standstill` (default: voltage
+    /// steps on each phase pair at standstill, then the chirp) or `paper` (the paper's chirp
+    /// alone, currents only). An actuator file carries its own test.
+    #[arg(long, value_enum)]
+    test: Option<TestChoice>,
 }
 
 /// The preflight test designs the FDI plays end to end.
@@ -156,9 +169,23 @@ enum Command {
     Calibrate {
         /// Trace of the healthy actuator (CSV or binary).
         nominal_trace: PathBuf,
-        /// Output calibration file (JSON).
+        /// Output: an actuator record with the calibration in it (`.rec`, what the firmware
+        /// loads: the --actuator file's record) or the calibration alone (JSON, any other
+        /// extension).
         #[arg(long)]
         out: PathBuf,
+        /// Also estimate the installation's encoder offset from the trace's first frame
+        /// (motor angle − gear ratio × surface angle) and write it into the record.
+        #[arg(long)]
+        estimate_offset: bool,
+    },
+    /// Check an actuator description (TOML) and write the record the firmware loads.
+    Actuator {
+        /// Actuator description (TOML) or record.
+        file: PathBuf,
+        /// Write the record (binary, versioned, CRC-32) here.
+        #[arg(long)]
+        out: Option<PathBuf>,
     },
     /// Identify the faults behind a trace with the onboard FDI (firmware code and settings).
     Identify {
@@ -220,9 +247,9 @@ enum Command {
         /// Also draw e_tot per case (ours vs paper) into this SVG.
         #[arg(long)]
         plot: Option<PathBuf>,
-        /// Preflight test design the reference model plays and the FDI fits.
-        #[arg(long, value_enum, default_value_t = TestChoice::Standstill)]
-        test: TestChoice,
+        /// Preflight test design of the built-in actuator (an actuator file carries its own).
+        #[arg(long, value_enum)]
+        test: Option<TestChoice>,
     },
     /// Inverse check: simulate the monitor model at known faults, then identify them with the
     /// onboard FDI (same code, settings and sizes as the firmware).
@@ -444,6 +471,14 @@ fn parse_noise(text: &str) -> Result<f64, String> {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    let actuator = match Actuator::from_option(cli.actuator.as_deref()) {
+        Ok(a) => a,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            return ExitCode::from(EXIT_ACTUATOR_REFUSED);
+        }
+    };
+    let with_test = |test: Option<TestChoice>| actuator.clone().with_test_choice(test.map(TestChoice::test));
     let outcome = match cli.command {
         Command::Preflight {
             actuator:
@@ -456,15 +491,15 @@ fn main() -> ExitCode {
             ga_seed,
             trace_out,
             json,
-        } => preflight(
+        } => with_test(test).and_then(|actuator| preflight(
+            &actuator,
             faults,
             noise,
             seed,
-            test.test(),
             ga_seed,
             trace_out.as_deref(),
             json,
-        ),
+        )),
         Command::Simulate {
             actuator:
                 ActuatorArgs {
@@ -475,8 +510,14 @@ fn main() -> ExitCode {
                 },
             format,
             out,
-        } => simulate(faults, noise, seed, test.test(), format, &out),
-        Command::Calibrate { nominal_trace, out } => calibrate_command(&nominal_trace, &out),
+        } => with_test(test)
+            .and_then(|actuator| simulate(&actuator, faults, noise, seed, format, &out)),
+        Command::Calibrate {
+            nominal_trace,
+            out,
+            estimate_offset,
+        } => calibrate_command(&actuator, &nominal_trace, &out, estimate_offset),
+        Command::Actuator { file, out } => actuator_command(&file, out.as_deref()),
         Command::Identify {
             trace,
             calibration,
@@ -493,6 +534,7 @@ fn main() -> ExitCode {
                 stop_after,
             });
             identify_command(
+                &actuator,
                 &trace,
                 calibration.as_deref(),
                 seed,
@@ -506,20 +548,26 @@ fn main() -> ExitCode {
             calibration,
             seed,
             out,
-        } => plot_command(&trace, calibration.as_deref(), seed, &out),
+        } => plot_command(&actuator, &trace, calibration.as_deref(), seed, &out),
         Command::Campaign {
             table,
             runs,
             out,
             plot,
             test,
-        } => campaign_command(table, runs, test.test(), out.as_deref(), plot.as_deref()),
-        Command::Inverse { faults, seed, json } => inverse(faults, seed, json),
+        } => with_test(test).and_then(|actuator| {
+            campaign_command(&actuator, table, runs, out.as_deref(), plot.as_deref())
+        }),
+        Command::Inverse { faults, seed, json } => actuator
+            .built_in_only("inverse")
+            .and_then(|()| inverse(faults, seed, json)),
         Command::Separability {
             faults,
             versus,
             seeds,
-        } => separability_command(&faults, &versus, seeds),
+        } => actuator
+            .built_in_only("separability")
+            .and_then(|()| separability_command(&faults, &versus, seeds)),
         Command::Optimisers {
             seeds,
             cap,
@@ -527,8 +575,12 @@ fn main() -> ExitCode {
             target,
             out,
             plot,
-        } => optimisers_command(seeds, cap, source, target, out.as_deref(), plot.as_deref()),
-        Command::Domain { seeds, out } => domain_command(seeds, out.as_deref()),
+        } => actuator.built_in_only("optimisers").and_then(|()| {
+            optimisers_command(seeds, cap, source, target, out.as_deref(), plot.as_deref())
+        }),
+        Command::Domain { seeds, out } => actuator
+            .built_in_only("domain")
+            .and_then(|()| domain_command(seeds, out.as_deref())),
         Command::Identifiability {
             designs,
             seeds,
@@ -538,13 +590,13 @@ fn main() -> ExitCode {
             bias,
             weights,
             out,
-        } => {
+        } => actuator.built_in_only("identifiability").and_then(|()| {
             if bias {
                 mismatch_bias_command(&designs, &weights, seeds, step, out.as_deref())
             } else {
                 identifiability_command(&designs, seeds, step, anti_alias, noise, out.as_deref())
             }
-        }
+        }),
         Command::Degrade {
             faults_start,
             faults_end,
@@ -554,18 +606,20 @@ fn main() -> ExitCode {
             seed,
             out,
             log,
-        } => degrade_command(
-            &DegradationPath {
-                start: faults_start,
-                end: faults_end,
-                flights,
-                shape,
-            },
-            noise,
-            seed,
-            &out,
-            log.as_deref(),
-        ),
+        } => actuator.built_in_only("degrade").and_then(|()| {
+            degrade_command(
+                &DegradationPath {
+                    start: faults_start,
+                    end: faults_end,
+                    flights,
+                    shape,
+                },
+                noise,
+                seed,
+                &out,
+                log.as_deref(),
+            )
+        }),
         Command::Prognose {
             history,
             threshold,
@@ -588,14 +642,9 @@ fn main() -> ExitCode {
             alpha,
             out,
             plot,
-        } => prognostics_command(
-            seeds,
-            flights,
-            noise,
-            alpha,
-            out.as_deref(),
-            plot.as_deref(),
-        ),
+        } => actuator.built_in_only("prognostics").and_then(|()| {
+            prognostics_command(seeds, flights, noise, alpha, out.as_deref(), plot.as_deref())
+        }),
         Command::Footprint => {
             footprint();
             Ok(())
@@ -603,7 +652,9 @@ fn main() -> ExitCode {
         Command::Bench {
             evaluations,
             identifications,
-        } => bench(evaluations, identifications),
+        } => actuator
+            .built_in_only("bench")
+            .and_then(|()| bench(evaluations, identifications)),
     };
     match outcome {
         Ok(()) => ExitCode::SUCCESS,
@@ -613,7 +664,9 @@ fn main() -> ExitCode {
         },
         Err(e) => {
             eprintln!("error: {e:#}");
-            if e.chain().any(|c| c.is::<IngestError>()) {
+            if e.chain().any(|c| c.is::<ActuatorRefused>()) {
+                ExitCode::from(EXIT_ACTUATOR_REFUSED)
+            } else if e.chain().any(|c| c.is::<IngestError>()) {
                 ExitCode::from(EXIT_TRACE_REFUSED)
             } else {
                 ExitCode::FAILURE

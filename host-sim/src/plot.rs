@@ -14,12 +14,12 @@ use crate::calibration::filtered_model_current;
 pub fn identification_svg(
     out: &Path,
     measured: &OnboardMeasured,
+    params: ActuatorParams,
     calibration: &Calibration,
     found: &FaultVector,
     history: &[(u32, f32)],
     title: &str,
 ) -> Result<()> {
-    let params = ActuatorParams::REFERENCE;
     let dt = f64::from(params.control_period);
     let fitted = filtered_model_current(measured, params, calibration, found);
     let series = |v: &[f32]| -> Vec<(f64, f64)> {

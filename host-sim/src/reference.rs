@@ -41,11 +41,10 @@ use crate::trace_file::{Trace, TraceSample};
 
 use std::f64::consts::{FRAC_PI_2, PI, SQRT_2, TAU};
 
-/// Mechanical angle of the centre of each phase's coil group (A, B, C) [rad]. The groups sit
-/// 120° apart in the order A, C, B, which for P = 4 puts phase B 120° electrical behind A.
+/// Mechanical angle of the centre of each phase's coil group (A, B, C) of the reference
+/// actuator [rad]. The groups sit 120° apart in the order A, C, B, which for P = 4 puts phase
+/// B 120° electrical behind A.
 const GROUP_CENTRE: [f64; 3] = [67.5 * PI / 180.0, 307.5 * PI / 180.0, 187.5 * PI / 180.0];
-/// Mechanical angle between the two coils of one group: one pole pitch (P = 4).
-const COIL_PITCH: f64 = PI / 4.0;
 /// Points per mechanical revolution of the back-EMF shape tables.
 const SHAPE_POINTS: usize = 8192;
 
@@ -60,6 +59,10 @@ pub struct ReferenceSettings {
     pub hysteresis_band: f64,
     /// Width of the magnet-edge transition (fringing) [rad electrical].
     pub magnet_fringe: f64,
+    /// Mechanical angle of the centre of each phase's coil group (A, B, C) [rad], in f64
+    /// (the parameters' f32 copy is what the monitor model knows). The two coils of a group
+    /// sit one pole pitch (π / P) apart.
+    pub winding_group_angle: [f64; 3],
     /// Aerodynamic damping on the user shaft [N·m·s/rad].
     pub aero_damping: f64,
     /// End-of-travel stop angle of the user shaft [rad] (symmetric).
@@ -87,6 +90,11 @@ pub struct ReferenceSettings {
     /// Offset and RMS noise of the user-shaft transducer [rad].
     pub user_offset: f64,
     pub user_noise: f64,
+    /// The installation's rigging: what the motor encoder reads with the surface at zero and
+    /// the gear relaxed [rad, motor side]. The encoder stays aligned to the magnets (the
+    /// commutation is unaffected); the gear sees `θ_m − encoder_offset`. What the FDI
+    /// believes is `params.encoder_offset` (from the actuator record).
+    pub encoder_offset: f64,
     /// Closed-loop hold at zero command before the chirp starts [s]: the test begins from
     /// a regulated actuator (which sits at minus the transducer offset), as on the aircraft.
     pub pre_roll: f64,
@@ -99,6 +107,7 @@ impl ReferenceSettings {
         step: 1.0e-6,
         hysteresis_band: 0.1,
         magnet_fringe: 60.0 * PI / 180.0,
+        winding_group_angle: GROUP_CENTRE,
         aero_damping: 10.0,
         end_stop_angle: 0.35,
         end_stop_stiffness: 1.0e8,
@@ -113,6 +122,7 @@ impl ReferenceSettings {
         user_bits: 20,
         user_offset: 2.0e-5,
         user_noise: 5.0e-7,
+        encoder_offset: 0.0,
         pre_roll: 0.01,
     };
 }
@@ -277,15 +287,17 @@ impl ReferenceModel {
     pub fn coupling_shapes(&self, faults: &FaultVector) -> Box<[[f64; SHAPE_POINTS]; 3]> {
         let fx = faults.effects();
         let z = f64::from(fx.eccentricity_z);
-        let psi_min = GROUP_CENTRE[0] + f64::from(fx.eccentricity_phase);
+        let centre = self.settings.winding_group_angle;
+        let psi_min = centre[0] + f64::from(fx.eccentricity_phase);
         let p = f64::from(self.settings.params.pole_pairs);
+        let coil_pitch = PI / p;
         let w = self.settings.magnet_fringe;
         let permeance = |psi: f64| 1.0 / (1.0 - z * (psi - psi_min).cos());
         let mut shapes = Box::new([[0.0; SHAPE_POINTS]; 3]);
         for (phase, table) in shapes.iter_mut().enumerate() {
             let coils = [
-                (GROUP_CENTRE[phase] - 0.5 * COIL_PITCH, 1.0),
-                (GROUP_CENTRE[phase] + 0.5 * COIL_PITCH, -1.0),
+                (centre[phase] - 0.5 * coil_pitch, 1.0),
+                (centre[phase] + 0.5 * coil_pitch, -1.0),
             ];
             for (j, slot) in table.iter_mut().enumerate() {
                 let theta = TAU * j as f64 / SHAPE_POINTS as f64;
@@ -359,7 +371,9 @@ impl ReferenceModel {
         // State.
         let mut i = [0.0f64; 3];
         let mut legs = [0i8; 3];
-        let (mut theta_m, mut omega_m, mut theta_u, mut omega_u) = (0.0f64, 0.0, 0.0, 0.0);
+        // The rotor starts where the rigging put it: at the encoder offset, surface at 0.
+        let rigging = s.encoder_offset;
+        let (mut theta_m, mut omega_m, mut theta_u, mut omega_u) = (rigging, 0.0, 0.0, 0.0);
         let (mut position_integral, mut previous_error, mut speed_integral) = (0.0f64, 0.0, 0.0);
         let mut previous_encoder: Option<f64> = None;
         let mut ledger = EnergyLedger::default();
@@ -595,7 +609,7 @@ impl ReferenceModel {
                 }
 
                 // Gear train: dead zone, compliant contact with damping, never pulling.
-                let deflection = theta_m / gear - theta_u;
+                let deflection = (theta_m - rigging) / gear - theta_u;
                 let engaged = deflection - deflection.clamp(-half_backlash, half_backlash);
                 let relative_speed = omega_m / gear - omega_u;
                 let mut gear_torque = 0.0;
@@ -667,7 +681,7 @@ impl ReferenceModel {
             }
         }
 
-        let deflection = theta_m / gear - theta_u;
+        let deflection = (theta_m - rigging) / gear - theta_u;
         let engaged = deflection - deflection.clamp(-half_backlash, half_backlash);
         let beyond = theta_u - theta_u.clamp(-s.end_stop_angle, s.end_stop_angle);
         ledger.magnetic = (0..3)

@@ -26,7 +26,7 @@ use shared::trace::{
     Crc32, SaturationCheck, TraceError, TraceHeader, TraceRow, CURRENT_FULL_SCALE, HEADER_BYTES,
     MAGIC, ROW_BYTES, SATURATION_RUN, TRAILER_BYTES,
 };
-use shared::{ActuatorParams, ChirpCommand, LowPass};
+use shared::{ActuatorParams, LowPass};
 
 /// The CSV header, column for column.
 pub const CSV_HEADER: [&str; 7] = ["t", "theta_cmd", "i_a", "i_b", "i_c", "theta_m", "theta_u"];
@@ -121,10 +121,10 @@ impl Trace {
     }
 
     /// The domain statistics of this test ([`shared::domain`]), as the controller gathers
-    /// them frame by frame against the preflight chirp.
+    /// them frame by frame against the test's chirp.
     pub fn domain_monitor(&self, params: &ActuatorParams) -> DomainMonitor {
         let mut monitor = DomainMonitor::new(
-            ChirpCommand::PREFLIGHT,
+            self.test.chirp,
             params.control_period,
             params.pole_pairs,
         );
@@ -175,7 +175,7 @@ impl Trace {
     pub fn to_csv(&self) -> Vec<u8> {
         let mut out = Vec::with_capacity(80 * (self.samples.len() + 2));
         if self.test != PreflightTest::PAPER {
-            let name = self.test.name().unwrap_or("unnamed");
+            let name = self.test.kind_name();
             let _ = writeln!(out, "# test: {name}");
         }
         let _ = writeln!(out, "{}", CSV_HEADER.join(","));

@@ -216,7 +216,7 @@ pub(crate) fn bench_identifications(rm: &ReferenceModel, seeds: u64) -> Result<(
         let mut evaluations = Vec::new();
         let mut errors = Vec::new();
         for run in 0..seeds {
-            let r = run_once(rm, &Calibration::REFERENCE_ACTUATOR, case, run)?;
+            let r = run_once(rm, &ActuatorRecord::REFERENCE, case, run)?;
             seconds.push(r.seconds);
             evaluations.push(f64::from(r.evaluations));
             errors.push(r.e_tot);

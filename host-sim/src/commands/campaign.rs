@@ -3,9 +3,9 @@
 use crate::*;
 
 pub(crate) fn campaign_command(
+    actuator: &Actuator,
     table: CampaignTable,
     runs: u64,
-    test: PreflightTest,
     out: Option<&Path>,
     plot: Option<&Path>,
 ) -> Result<()> {
@@ -23,7 +23,10 @@ pub(crate) fn campaign_command(
         ),
     };
     let start = Instant::now();
-    let summaries = campaign::run_campaign(&cases, runs, test, std::io::stderr().is_terminal())?;
+    let summaries =
+        campaign::run_campaign(&cases, runs, actuator, std::io::stderr().is_terminal())?;
+    let title = format!("{title} ({}, {} test)", actuator.name, actuator.record.test.kind_name());
+    let title = title.as_str();
     let mut text = campaign::markdown(title, &summaries, runs);
     if matches!(table, CampaignTable::Random) {
         text += "\nVectors:\n\n";

@@ -20,16 +20,32 @@ pub(crate) fn domain_heading(domain: Domain) -> ((String, String), Result<()>) {
 }
 
 /// The calibration file at `path`, or the built-in one of the trace's test.
-pub(crate) fn load_calibration(path: Option<&Path>, test: &PreflightTest) -> Result<(Calibration, String)> {
+/// The record the FDI runs with for `test`: the actuator's, with the calibration from
+/// `--calibration FILE` (JSON) when given; and a name for the calibration.
+pub(crate) fn load_record(
+    actuator: &Actuator,
+    path: Option<&Path>,
+    test: &PreflightTest,
+) -> Result<(ActuatorRecord, String)> {
     match path {
         Some(p) => Ok((
-            CalibrationFile::read(p)?.calibration(),
+            ActuatorRecord {
+                calibration: CalibrationFile::read(p)?.calibration(),
+                test: *test,
+                ..actuator.record
+            },
             p.display().to_string(),
         )),
-        None => Ok((
-            Calibration::reference_actuator(test),
-            format!("built-in ({} test)", test.name().unwrap_or("custom")),
-        )),
+        None => Ok((actuator.record_for(test)?, calibration_name(actuator, test))),
+    }
+}
+
+/// Where the calibration comes from, in words.
+pub(crate) fn calibration_name(actuator: &Actuator, test: &PreflightTest) -> String {
+    if actuator.built_in {
+        format!("built-in ({} test)", test.kind_name())
+    } else {
+        format!("{}'s record", actuator.name)
     }
 }
 
@@ -54,10 +70,16 @@ pub(crate) fn assessment_text(a: Assessment) -> String {
     }
 }
 
-pub(crate) fn report(id: &Identified, truth: Option<&FaultVector>, heading: &[(String, String)], json: bool) {
+pub(crate) fn report(
+    id: &Identified,
+    truth: Option<&FaultVector>,
+    heading: &[(String, String)],
+    json: bool,
+    threshold: f32,
+) {
     let found = id.result.faults;
-    let verdicts = found.verdicts();
-    let assessments = id.assessments();
+    let verdicts = found.verdicts_at(threshold);
+    let assessments = id.assessments_at(threshold);
     let uncertainty = id.uncertainty.as_ref().map(|(u, _)| u);
     if json {
         let mut obj = json!({
@@ -132,7 +154,7 @@ pub(crate) fn report(id: &Identified, truth: Option<&FaultVector>, heading: &[(S
         println!(
             "(FAULT: the whole 90 % interval is beyond the {} detection threshold; suspect: the \
              value is, its interval is not; most correlated pair: {} and {}, {:.2})",
-            shared::fault::DETECTION_THRESHOLD,
+            threshold,
             FAULT_NAMES[usize::from(u.worst_pair.0)],
             FAULT_NAMES[usize::from(u.worst_pair.1)],
             u.worst_correlation
@@ -153,6 +175,7 @@ pub(crate) fn report(id: &Identified, truth: Option<&FaultVector>, heading: &[(S
 }
 
 pub(crate) fn identify_command(
+    actuator: &Actuator,
     trace_path: &Path,
     calibration: Option<&Path>,
     seed: u64,
@@ -160,12 +183,12 @@ pub(crate) fn identify_command(
     json: bool,
     checkpointing: Option<&Checkpointing>,
 ) -> Result<()> {
-    let trace = Trace::read(trace_path)?;
-    let measured = trace.measured(&ActuatorParams::REFERENCE)?;
-    let (calibration, cal_name) = load_calibration(calibration, measured.test())?;
+    let trace = actuator.read_trace(trace_path)?;
+    let (record, cal_name) = load_record(actuator, calibration, trace.test())?;
+    let measured = trace.measured(&record.params)?;
     let (outcome, resumption) = identify_checkpointed(
         &measured,
-        &calibration,
+        &record,
         seed,
         progress_wanted(json),
         checkpointing,
@@ -192,13 +215,14 @@ pub(crate) fn identify_command(
     };
     let mut heading = vec![
         ("trace".to_string(), trace_path.display().to_string()),
+        ("actuator".to_string(), actuator.name.clone()),
         ("calibration".to_string(), cal_name),
         ("ga_seed".to_string(), seed.to_string()),
     ];
     let (line, verdict) = domain_heading(
         trace
-            .domain_monitor(&ActuatorParams::REFERENCE)
-            .assess(&DomainLimits::REFERENCE_ACTUATOR, id.result.fitness),
+            .domain_monitor(&record.params)
+            .assess(&record.domain, id.result.fitness),
     );
     heading.push(line);
     if checkpointing.is_some() {
@@ -209,6 +233,6 @@ pub(crate) fn identify_command(
         };
         heading.push(("checkpoint".to_string(), said));
     }
-    report(&id, truth.as_ref(), &heading, json);
+    report(&id, truth.as_ref(), &heading, json, record.detection_threshold);
     verdict
 }

@@ -7,6 +7,7 @@ pub(crate) mod identify;
 pub(crate) mod plot;
 pub(crate) mod campaign;
 pub(crate) mod studies;
+pub(crate) mod actuator;
 pub(crate) mod bench;
 pub(crate) mod prognostics;
 pub(crate) mod domain;

@@ -3,15 +3,16 @@
 use crate::*;
 
 pub(crate) fn plot_command(
+    actuator: &Actuator,
     trace_path: &Path,
     calibration: Option<&Path>,
     seed: u64,
     out: &Path,
 ) -> Result<()> {
-    let trace = Trace::read(trace_path)?;
-    let measured = trace.measured(&ActuatorParams::REFERENCE)?;
-    let (calibration, _) = load_calibration(calibration, measured.test())?;
-    let id = identify(&measured, &calibration, seed, progress_wanted(false))?;
+    let trace = actuator.read_trace(trace_path)?;
+    let (record, _) = load_record(actuator, calibration, trace.test())?;
+    let measured = trace.measured(&record.params)?;
+    let id = identify_for(&measured, &record, seed, progress_wanted(false))?;
     let k = id.result.faults;
     let title = format!(
         "{}: found k = [{}]",
@@ -24,7 +25,12 @@ pub(crate) fn plot_command(
             .collect::<Vec<_>>()
             .join(", ")
     );
-    host_sim::plot::identification_svg(out, &measured, &calibration, &k, &id.history, &title)
+    host_sim::plot::identification_svg(
+        out,
+        &measured,
+        record.params,
+        &record.calibration,
+        &k, &id.history, &title)
         .with_context(|| format!("plotting into {}", out.display()))?;
     println!("wrote {}", out.display());
     Ok(())

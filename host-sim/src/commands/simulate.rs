@@ -3,19 +3,19 @@
 use crate::*;
 
 pub(crate) fn simulate_scenario(
+    actuator: &Actuator,
     faults: FaultVector,
     noise: f64,
     seed: u64,
-    test: PreflightTest,
-) -> (Trace, f64) {
-    let rm = ReferenceModel::new(ReferenceSettings::REFERENCE).with_test(test);
+) -> Result<(Trace, f64)> {
+    let rm = ReferenceModel::new(actuator.reference_settings()?).with_test(actuator.record.test);
     let start = Instant::now();
     let sim = rm.simulate(&Scenario {
         faults,
         current_ref_noise: noise,
         seed,
     });
-    (sim.trace, start.elapsed().as_secs_f64())
+    Ok((sim.trace, start.elapsed().as_secs_f64()))
 }
 
 pub(crate) fn format_from_extension(path: &Path) -> TraceFormat {
@@ -26,19 +26,21 @@ pub(crate) fn format_from_extension(path: &Path) -> TraceFormat {
 }
 
 pub(crate) fn simulate(
+    actuator: &Actuator,
     faults: FaultVector,
     noise: f64,
     seed: u64,
-    test: PreflightTest,
     format: TraceFormat,
     out: &Path,
 ) -> Result<()> {
-    let (trace, seconds) = simulate_scenario(faults, noise, seed, test);
+    let (trace, seconds) = simulate_scenario(actuator, faults, noise, seed)?;
     trace.write(out, format)?;
     println!(
-        "wrote {} ({format}, {} samples at 10 kHz; reference model {seconds:.3} s)",
+        "wrote {} ({format}, {} samples at {:.0} Hz, {}; reference model {seconds:.3} s)",
         out.display(),
-        trace.samples().len()
+        trace.samples().len(),
+        1.0 / actuator.params().control_period,
+        actuator.name
     );
     Ok(())
 }
@@ -62,38 +64,40 @@ pub(crate) fn simulate_into(
 }
 
 pub(crate) fn preflight(
+    actuator: &Actuator,
     faults: FaultVector,
     noise: f64,
     seed: u64,
-    test: PreflightTest,
     ga_seed: u64,
     trace_out: Option<&Path>,
     json: bool,
 ) -> Result<()> {
-    let (trace, rm_seconds) = simulate_scenario(faults, noise, seed, test);
+    let test = actuator.record.test;
+    let record = actuator.record_for(&test)?;
+    let (trace, rm_seconds) = simulate_scenario(actuator, faults, noise, seed)?;
     if let Some(path) = trace_out {
         trace.write(path, format_from_extension(path))?;
     }
-    let measured = trace.measured(&ActuatorParams::REFERENCE)?;
-    let (calibration, cal_name) = load_calibration(None, &test)?;
-    let id = identify(&measured, &calibration, ga_seed, progress_wanted(json))?;
+    let measured = trace.measured(&record.params)?;
+    let id = identify_for(&measured, &record, ga_seed, progress_wanted(json))?;
     let mut heading = vec![
         (
             "actuator".to_string(),
             format!(
-                "reference model, {} test, noise {noise}, seed {seed} ({rm_seconds:.3} s)",
-                test.name().unwrap_or("custom")
+                "{} played by the reference model, {} test, noise {noise}, seed {seed} ({rm_seconds:.3} s)",
+                actuator.name,
+                test.kind_name()
             ),
         ),
-        ("calibration".to_string(), cal_name),
+        ("calibration".to_string(), calibration_name(actuator, &test)),
         ("ga_seed".to_string(), ga_seed.to_string()),
     ];
     let (line, verdict) = domain_heading(
         trace
-            .domain_monitor(&ActuatorParams::REFERENCE)
-            .assess(&DomainLimits::REFERENCE_ACTUATOR, id.result.fitness),
+            .domain_monitor(&record.params)
+            .assess(&record.domain, id.result.fitness),
     );
     heading.push(line);
-    report(&id, Some(&faults), &heading, json);
+    report(&id, Some(&faults), &heading, json, record.detection_threshold);
     verdict
 }

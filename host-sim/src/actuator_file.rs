@@ -1,0 +1,777 @@
+//! The actuator description file (TOML, human-edited) and the actuator record it becomes.
+//!
+//! One file describes one actuator: motor, mechanics, controller, installation (the
+//! rigging's encoder offset), the preflight test, GA settings, detection threshold, domain
+//! limits, optionally its calibration, the sensors and extra physics the reference model
+//! plays, and how a rig recording names its columns. Commented examples:
+//! `actuators/reference.toml` (this project's reference actuator, bit for bit the built-in
+//! one) and `actuators/light-28v.toml`. Units are SI, angles in the file are in degrees
+//! where the key says `_deg`.
+//!
+//! Every command of `host-sim` takes `--actuator FILE`: a description (`.toml`) or a record
+//! (`host-sim actuator FILE.toml --out unit.rec`, what the firmware loads), told apart by the
+//! record's magic bytes. A bad file is refused with the key and its line; values outside
+//! their range are refused by the record's own check ([`ActuatorRecord::validate`]), so the
+//! file and the flashed record accept exactly the same actuators.
+
+use std::collections::BTreeMap;
+use std::f64::consts::PI;
+use std::path::Path;
+
+use anyhow::{anyhow, bail, Context, Result};
+use serde::Deserialize;
+use shared::actuator::{ActuatorRecord, ActuatorRecordError, RECORD_MAGIC};
+use shared::command::ChirpCommand;
+use shared::domain::DomainLimits;
+use shared::test_design::{PreflightTest, StandstillSegment};
+use shared::{ActuatorParams, Calibration, GaSettings};
+
+use crate::reference::ReferenceSettings;
+
+/// One actuator as the ground tools use it: the record the firmware would load, what the
+/// reference model needs beyond it, and the rig's column names.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Actuator {
+    /// What the file calls it (`name`), or the record's file name.
+    pub name: String,
+    pub record: ActuatorRecord,
+    /// Whether the record holds a calibration (`[calibration]` or `host-sim calibrate`);
+    /// without one the FDI cannot run.
+    pub calibrated: bool,
+    /// The reference model's settings when it plays this actuator (its `params` are the
+    /// record's); `None` for a record, which holds only what the FDI needs.
+    pub reference: Option<ReferenceSettings>,
+    /// How a rig recording of this actuator names its columns (`[rig]`), if the file says.
+    pub rig: Option<RigColumns>,
+    /// Whether this is the built-in reference actuator (no `--actuator`).
+    pub built_in: bool,
+    /// The file it was loaded from.
+    pub source: Option<std::path::PathBuf>,
+}
+
+/// A rig recording's column names and unit scales (value in SI = recorded value × scale).
+#[derive(Clone, Debug, PartialEq, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RigColumns {
+    /// Our column (`t`, `theta_cmd`, `i_a`, `i_b`, `i_c`, `theta_m`, `theta_u`) → the rig's.
+    #[serde(default)]
+    pub columns: BTreeMap<String, String>,
+    /// Our column → multiplier to SI units (e.g. `t = 1e-3` for milliseconds).
+    #[serde(default)]
+    pub scales: BTreeMap<String, f64>,
+}
+
+impl Actuator {
+    /// This project's reference actuator with the default test (what no `--actuator` means).
+    pub fn reference() -> Self {
+        Self {
+            name: "built-in reference actuator".to_string(),
+            record: ActuatorRecord::REFERENCE,
+            calibrated: true,
+            reference: Some(ReferenceSettings::REFERENCE),
+            rig: None,
+            built_in: true,
+            source: None,
+        }
+    }
+
+    /// `--actuator`: the built-in reference actuator for `None`, else the file.
+    pub fn from_option(path: Option<&Path>) -> Result<Self> {
+        match path {
+            None => Ok(Self::reference()),
+            Some(p) => Self::load(p),
+        }
+    }
+
+    /// A description (TOML) or a record (binary), by content.
+    pub fn load(path: &Path) -> Result<Self> {
+        let bytes = std::fs::read(path)
+            .with_context(|| format!("cannot read actuator file {}", path.display()))?;
+        if bytes.starts_with(&RECORD_MAGIC) {
+            let record = ActuatorRecord::decode(&bytes)
+                .map_err(|e| anyhow!("{}: actuator record refused: {}", path.display(), describe(e)))?;
+            return Ok(Self {
+                name: path
+                    .file_stem()
+                    .map_or_else(|| "record".to_string(), |s| s.to_string_lossy().into_owned()),
+                record,
+                calibrated: record.calibration != Calibration::IDENTITY,
+                reference: None,
+                rig: None,
+                built_in: false,
+                source: Some(path.to_path_buf()),
+            });
+        }
+        let text = String::from_utf8(bytes)
+            .map_err(|_| anyhow!("{}: neither an actuator record nor UTF-8 text", path.display()))?;
+        let mut actuator =
+            Self::parse(&text).with_context(|| format!("actuator description {}", path.display()))?;
+        actuator.source = Some(path.to_path_buf());
+        Ok(actuator)
+    }
+
+    /// A description's text.
+    pub fn parse(text: &str) -> Result<Self> {
+        let d: Description = toml::from_str(text).map_err(|e| anyhow!("{e}"))?;
+        let actuator = d.build();
+        if let Err(e) = actuator.record.validate() {
+            let ActuatorRecordError::OutOfRange { field } = e else {
+                bail!("{}", describe(e));
+            };
+            let at = line_of(text, field).map_or(String::new(), |l| format!(" (line {l})"));
+            bail!("`{field}`{at}: {}", range_text(field));
+        }
+        if let Some(rig) = &actuator.rig {
+            for key in rig.columns.keys().chain(rig.scales.keys()) {
+                if !crate::trace_file::CSV_HEADER.contains(&key.as_str()) {
+                    let at = line_of_key(text, key).map_or(String::new(), |l| format!(" (line {l})"));
+                    bail!(
+                        "`rig`{at}: unknown column `{key}` (ours are {})",
+                        crate::trace_file::CSV_HEADER.join(", ")
+                    );
+                }
+            }
+        }
+        Ok(actuator)
+    }
+
+    /// The record's bytes (what `host-sim actuator --out` writes and the firmware loads).
+    pub fn record_bytes(&self) -> [u8; shared::actuator::RECORD_BYTES] {
+        self.record.encode()
+    }
+
+    /// The test a trace of this actuator was recorded with: the record's, if the trace's
+    /// kind (which segments it has) is the record's; the built-in actuator follows the trace.
+    pub fn test_for(&self, trace_test: &PreflightTest) -> Result<PreflightTest> {
+        if self.built_in {
+            return Ok(*trace_test);
+        }
+        if trace_test.kind() != self.record.test.kind() {
+            return Err(ActuatorRefused(format!(
+                "the trace played the {} test, the actuator {} commands the {} test",
+                trace_test.kind_name(),
+                self.name,
+                self.record.test.kind_name()
+            ))
+            .into());
+        }
+        Ok(self.record.test)
+    }
+
+    /// The calibration the FDI uses for `test`; an error for an uncalibrated actuator.
+    pub fn calibration_for(&self, test: &PreflightTest) -> Result<Calibration> {
+        if self.built_in {
+            return Ok(Calibration::reference_actuator(test));
+        }
+        if !self.calibrated {
+            return Err(ActuatorRefused(format!(
+                "the actuator {} has no calibration: run `host-sim calibrate HEALTHY_TRACE \
+                 --actuator FILE --out unit.rec` (or add a [calibration] section)",
+                self.name
+            ))
+            .into());
+        }
+        Ok(self.record.calibration)
+    }
+
+    /// This actuator with its test replaced by the built-in design `test` (`--test`); only
+    /// the built-in actuator can switch, a file's test is its own.
+    pub fn with_test_choice(mut self, test: Option<PreflightTest>) -> Result<Self> {
+        let Some(test) = test else {
+            return Ok(self);
+        };
+        if self.built_in {
+            self.record.test = test;
+            self.record.calibration = Calibration::reference_actuator(&test);
+            Ok(self)
+        } else if test.kind() == self.record.test.kind() {
+            Ok(self)
+        } else {
+            Err(ActuatorRefused(format!(
+                "--test {} disagrees with the actuator file, whose test is {} (edit its [test])",
+                test.kind_name(),
+                self.record.test.kind_name()
+            ))
+            .into())
+        }
+    }
+
+    pub fn params(&self) -> ActuatorParams {
+        self.record.params
+    }
+
+    /// The reference model's settings for this actuator; a record has none (it holds what
+    /// the FDI needs, not the simulated sensors and physics).
+    pub fn reference_settings(&self) -> Result<ReferenceSettings> {
+        self.reference.ok_or_else(|| {
+            ActuatorRefused(format!(
+                "{} is an actuator record: the reference model needs the description (TOML); \
+                 put the calibration into it with `host-sim calibrate HEALTHY --actuator \
+                 FILE.toml --out CALIBRATED.toml`",
+                self.name
+            ))
+            .into()
+        })
+    }
+
+    /// The description `text` with its `[calibration]` section replaced by `calibration`
+    /// (appended when it has none); every other line, comments included, is kept.
+    pub fn with_calibration_text(text: &str, calibration: &Calibration) -> String {
+        let mut out = String::new();
+        let mut skipping = false;
+        for line in text.lines() {
+            let t = line.trim();
+            if t.starts_with('[') {
+                skipping = t == "[calibration]";
+            }
+            if !skipping {
+                out += line;
+                out.push('\n');
+            }
+        }
+        let c = calibration;
+        out += &format!(
+            "\n[calibration]\n# Written by `host-sim calibrate`.\nresistance_scale = {:?}\ninductance_scale = {:?}\nback_emf_scale = {:?}\nfriction_scale = {:?}\ndamping = {:?}\nnominal_residual = {:?}\n",
+            c.resistance_scale,
+            c.inductance_scale,
+            c.back_emf_scale,
+            c.friction_scale,
+            c.damping,
+            c.nominal_residual
+        );
+        out
+    }
+
+    /// The description `text` with `section.key` set to `value` (the line replaced, its
+    /// comment dropped); `None` when the file does not set that key.
+    pub fn with_key_text(text: &str, field: &str, value: &str) -> Option<String> {
+        let line = line_of(text, field)?;
+        let key = field.split_once('.').map_or(field, |(_, k)| k);
+        Some(
+            text.lines()
+                .enumerate()
+                .map(|(n, l)| {
+                    if n + 1 == line {
+                        format!("{key} = {value}\n")
+                    } else {
+                        format!("{l}\n")
+                    }
+                })
+                .collect(),
+        )
+    }
+
+    /// The trace at `path`, its test resolved against this actuator ([`Self::test_for`]).
+    pub fn read_trace(&self, path: &Path) -> Result<crate::trace_file::Trace> {
+        let trace = crate::trace_file::Trace::read(path)?;
+        let test = self.test_for(trace.test())?;
+        Ok(trace.with_test(test))
+    }
+
+    /// The record with the calibration for `test` (the built-in actuator has one per test).
+    pub fn record_for(&self, test: &PreflightTest) -> Result<ActuatorRecord> {
+        Ok(ActuatorRecord {
+            calibration: self.calibration_for(test)?,
+            test: *test,
+            ..self.record
+        })
+    }
+
+    /// Refuses a command that runs on the built-in reference actuator only.
+    pub fn built_in_only(&self, command: &str) -> Result<()> {
+        if self.built_in {
+            Ok(())
+        } else {
+            Err(ActuatorRefused(format!(
+                "`{command}` runs on the built-in reference actuator only (its cases and \
+                 settings are tuned to it); drop --actuator"
+            ))
+            .into())
+        }
+    }
+}
+
+/// The actuator and what it is asked to do disagree (another test kind, no calibration):
+/// `host-sim` exits with status 7, as for a refused file.
+#[derive(Debug)]
+pub struct ActuatorRefused(pub String);
+
+impl std::fmt::Display for ActuatorRefused {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for ActuatorRefused {}
+
+/// A record error in words.
+pub fn describe(e: ActuatorRecordError) -> String {
+    match e {
+        ActuatorRecordError::TooShort { found } => format!(
+            "{found} bytes, a record has {}",
+            shared::actuator::RECORD_BYTES
+        ),
+        ActuatorRecordError::BadMagic => "not an actuator record".to_string(),
+        ActuatorRecordError::UnsupportedVersion { found } => format!(
+            "version {found}, this build reads version {}",
+            shared::actuator::RECORD_VERSION
+        ),
+        ActuatorRecordError::BadLength { found } => format!("body length {found} does not match its version"),
+        ActuatorRecordError::BadChecksum => "damaged (CRC-32 mismatch)".to_string(),
+        ActuatorRecordError::OutOfRange { field } => format!("`{field}`: {}", range_text(field)),
+    }
+}
+
+fn range_text(field: &str) -> &'static str {
+    match field {
+        "motor.pole_pairs" => "must be a whole number from 1 to 64",
+        "mechanics.dynamic_friction" => "must be positive and at most the static friction",
+        "controller.control_period" => "must be positive and at most 10 ms",
+        "test.standstill_volts" => "must be positive, at most the DC bus, with on_samples > 0",
+        "test.chirp_end_frequency" => "must be positive and below a tenth of the control rate",
+        "test.chirp_duration" => {
+            "must be positive, and the whole test must fit the onboard buffer (5520 samples)"
+        }
+        "installation.encoder_offset" => "must be finite (|offset| ≤ 10⁴ rad)",
+        "ga" => "GA settings the flown solver cannot run (rates in [0, 1], sizes ≥ 1)",
+        "detection.threshold" => "must be in (0, 1)",
+        f if f.ends_with("_ki")
+            || f.ends_with("_kd")
+            || f.ends_with("damping")
+            || f.ends_with("aero_stiffness")
+            || f.ends_with("nominal_residual")
+            || f == "domain" =>
+        {
+            "must be finite and not negative"
+        }
+        _ => "must be finite and positive",
+    }
+}
+
+/// The 1-based line of `section.key` in `text` (the section header's for a bare section).
+fn line_of(text: &str, field: &str) -> Option<usize> {
+    let (section, key) = field.split_once('.').unwrap_or((field, ""));
+    let mut in_section = false;
+    for (n, line) in text.lines().enumerate() {
+        let t = line.trim();
+        if t.starts_with('[') {
+            in_section = t.trim_matches(|c| c == '[' || c == ']').trim() == section;
+            if in_section && key.is_empty() {
+                return Some(n + 1);
+            }
+            continue;
+        }
+        if in_section && !key.is_empty() {
+            if let Some((k, _)) = t.split_once('=') {
+                if k.trim() == key {
+                    return Some(n + 1);
+                }
+            }
+        }
+    }
+    None
+}
+
+/// The 1-based line where `key` is set anywhere in `text`.
+fn line_of_key(text: &str, key: &str) -> Option<usize> {
+    text.lines().position(|l| {
+        l.trim()
+            .split_once('=')
+            .is_some_and(|(k, _)| k.trim() == key || k.trim().ends_with(&format!(".{key}")))
+            || l.contains(&format!(" {key} ="))
+            || l.contains(&format!("{{{key} ="))
+    })
+    .map(|n| n + 1)
+}
+
+// ---- the file's shape (serde) ----
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Description {
+    name: String,
+    motor: Motor,
+    mechanics: Mechanics,
+    controller: Controller,
+    #[serde(default)]
+    installation: Installation,
+    test: Test,
+    #[serde(default)]
+    ga: Ga,
+    detection: Detection,
+    domain: Domain,
+    calibration: Option<Cal>,
+    #[serde(default)]
+    sensors: Sensors,
+    #[serde(default)]
+    reference_model: ReferenceModelExtra,
+    rig: Option<RigColumns>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Motor {
+    dc_bus_voltage: f32,
+    pole_pairs: f32,
+    phase_resistance: f32,
+    phase_inductance: f32,
+    back_emf_constant: f32,
+    max_current: f32,
+    winding_group_angle_deg: [f64; 3],
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Mechanics {
+    motor_inertia: f32,
+    user_inertia: f32,
+    gear_ratio: f32,
+    gear_stiffness: f32,
+    gear_damping: f32,
+    nominal_backlash: f32,
+    static_friction: f32,
+    dynamic_friction: f32,
+    stick_speed: f32,
+    aero_stiffness: f32,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Controller {
+    position_kp: f32,
+    position_ki: f32,
+    position_kd: f32,
+    max_speed: f32,
+    speed_kp: f32,
+    speed_ki: f32,
+    control_period: f32,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct Installation {
+    /// Motor encoder reading with the surface at zero [rad, motor side].
+    #[serde(default)]
+    encoder_offset: f32,
+}
+
+#[derive(Deserialize, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+enum Design {
+    Standstill,
+    Paper,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Test {
+    design: Design,
+    #[serde(default)]
+    standstill_volts: Option<f32>,
+    #[serde(default)]
+    settle_samples: Option<u16>,
+    #[serde(default)]
+    on_samples: Option<u16>,
+    #[serde(default)]
+    off_samples: Option<u16>,
+    chirp_amplitude: f32,
+    chirp_end_frequency: f32,
+    chirp_duration: f32,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct Ga {
+    max_evaluations: Option<u32>,
+    max_generations: Option<u32>,
+    stall_generations: Option<u32>,
+    tournament_size: Option<u8>,
+    crossover_alpha: Option<f32>,
+    mutation_probability: Option<f32>,
+    mutation_scale: Option<f32>,
+    mutation_floor: Option<f32>,
+    differential_probability: Option<f32>,
+    differential_scale: Option<f32>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Detection {
+    threshold: f32,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Domain {
+    min_travel: f32,
+    min_phase_ratio: f32,
+    min_phase_samples: u32,
+    min_phase_current: f32,
+    max_tracking: f32,
+    max_fitness: f32,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Cal {
+    resistance_scale: f32,
+    inductance_scale: f32,
+    back_emf_scale: f32,
+    friction_scale: f32,
+    damping: f32,
+    nominal_residual: f32,
+}
+
+/// What the simulator's sensors do (the FDI reads only their output).
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct Sensors {
+    current_full_scale: Option<f64>,
+    current_bits: Option<u32>,
+    current_noise: Option<f64>,
+    anti_alias_hz: Option<f64>,
+    encoder_bits: Option<u32>,
+    user_full_scale: Option<f64>,
+    user_bits: Option<u32>,
+    user_offset: Option<f64>,
+    user_noise: Option<f64>,
+}
+
+/// Physics the reference model plays and the monitor model does not know.
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct ReferenceModelExtra {
+    step: Option<f64>,
+    hysteresis_band: Option<f64>,
+    magnet_fringe_deg: Option<f64>,
+    aero_damping: Option<f64>,
+    end_stop_angle: Option<f64>,
+    end_stop_stiffness: Option<f64>,
+    end_stop_damping: Option<f64>,
+    stick_band: Option<f64>,
+    pre_roll: Option<f64>,
+    /// The installation's true rigging offset the simulator plays [rad, motor side]
+    /// (default: what `[installation]` says the FDI believes).
+    encoder_offset: Option<f64>,
+}
+
+impl Description {
+    fn build(self) -> Actuator {
+        let m = &self.motor;
+        let k = &self.mechanics;
+        let c = &self.controller;
+        let params = ActuatorParams {
+            dc_bus_voltage: m.dc_bus_voltage,
+            pole_pairs: m.pole_pairs,
+            phase_resistance: m.phase_resistance,
+            phase_inductance: m.phase_inductance,
+            back_emf_constant: m.back_emf_constant,
+            max_current: m.max_current,
+            // In f32 as the built-in constant is written, so that the reference file is
+            // bit for bit the built-in actuator.
+            winding_group_angle: m
+                .winding_group_angle_deg
+                .map(|d| d as f32 * core::f32::consts::PI / 180.0),
+            motor_inertia: k.motor_inertia,
+            user_inertia: k.user_inertia,
+            gear_ratio: k.gear_ratio,
+            gear_stiffness: k.gear_stiffness,
+            gear_damping: k.gear_damping,
+            nominal_backlash: k.nominal_backlash,
+            static_friction: k.static_friction,
+            dynamic_friction: k.dynamic_friction,
+            stick_speed: k.stick_speed,
+            aero_stiffness: k.aero_stiffness,
+            encoder_offset: self.installation.encoder_offset,
+            position_kp: c.position_kp,
+            position_ki: c.position_ki,
+            position_kd: c.position_kd,
+            max_speed: c.max_speed,
+            speed_kp: c.speed_kp,
+            speed_ki: c.speed_ki,
+            control_period: c.control_period,
+        };
+        let t = &self.test;
+        let d = StandstillSegment::DEFAULT;
+        let test = PreflightTest {
+            standstill: (t.design == Design::Standstill).then(|| StandstillSegment {
+                volts: t.standstill_volts.unwrap_or(f32::NAN),
+                settle_samples: t.settle_samples.unwrap_or(d.settle_samples),
+                on_samples: t.on_samples.unwrap_or(d.on_samples),
+                off_samples: t.off_samples.unwrap_or(d.off_samples),
+            }),
+            motion: None,
+            chirp: ChirpCommand {
+                amplitude: t.chirp_amplitude,
+                end_frequency: t.chirp_end_frequency,
+                duration: t.chirp_duration,
+            },
+        };
+        let f = GaSettings::FDI;
+        let g = &self.ga;
+        let ga = GaSettings {
+            max_evaluations: g.max_evaluations.unwrap_or(f.max_evaluations),
+            max_generations: g.max_generations.unwrap_or(f.max_generations),
+            stall_generations: g.stall_generations.unwrap_or(f.stall_generations),
+            tournament_size: g.tournament_size.unwrap_or(f.tournament_size),
+            crossover_alpha: g.crossover_alpha.unwrap_or(f.crossover_alpha),
+            mutation_probability: g.mutation_probability.unwrap_or(f.mutation_probability),
+            mutation_scale: g.mutation_scale.unwrap_or(f.mutation_scale),
+            mutation_floor: g.mutation_floor.unwrap_or(f.mutation_floor),
+            differential_probability: g
+                .differential_probability
+                .unwrap_or(f.differential_probability),
+            differential_scale: g.differential_scale.unwrap_or(f.differential_scale),
+            ..f
+        };
+        let o = &self.domain;
+        let domain = DomainLimits {
+            min_travel: o.min_travel,
+            min_phase_ratio: o.min_phase_ratio,
+            min_phase_samples: o.min_phase_samples,
+            min_phase_current: o.min_phase_current,
+            max_tracking: o.max_tracking,
+            max_fitness: o.max_fitness,
+        };
+        let calibration = self.calibration.as_ref().map(|c| Calibration {
+            resistance_scale: c.resistance_scale,
+            inductance_scale: c.inductance_scale,
+            back_emf_scale: c.back_emf_scale,
+            friction_scale: c.friction_scale,
+            damping: c.damping,
+            nominal_residual: c.nominal_residual,
+        });
+        let r = ReferenceSettings::REFERENCE;
+        let s = &self.sensors;
+        let x = &self.reference_model;
+        let reference = ReferenceSettings {
+            params,
+            step: x.step.unwrap_or(r.step),
+            hysteresis_band: x.hysteresis_band.unwrap_or(r.hysteresis_band),
+            magnet_fringe: x.magnet_fringe_deg.map_or(r.magnet_fringe, |d| d * PI / 180.0),
+            winding_group_angle: m.winding_group_angle_deg.map(|d| d * PI / 180.0),
+            aero_damping: x.aero_damping.unwrap_or(r.aero_damping),
+            end_stop_angle: x.end_stop_angle.unwrap_or(r.end_stop_angle),
+            end_stop_stiffness: x.end_stop_stiffness.unwrap_or(r.end_stop_stiffness),
+            end_stop_damping: x.end_stop_damping.unwrap_or(r.end_stop_damping),
+            stick_band: x.stick_band.unwrap_or(r.stick_band),
+            current_full_scale: s.current_full_scale.unwrap_or(r.current_full_scale),
+            current_bits: s.current_bits.unwrap_or(r.current_bits),
+            current_noise: s.current_noise.unwrap_or(r.current_noise),
+            anti_alias_hz: s.anti_alias_hz.unwrap_or(r.anti_alias_hz),
+            encoder_bits: s.encoder_bits.unwrap_or(r.encoder_bits),
+            user_full_scale: s.user_full_scale.unwrap_or(r.user_full_scale),
+            user_bits: s.user_bits.unwrap_or(r.user_bits),
+            user_offset: s.user_offset.unwrap_or(r.user_offset),
+            user_noise: s.user_noise.unwrap_or(r.user_noise),
+            encoder_offset: x
+                .encoder_offset
+                .unwrap_or(f64::from(self.installation.encoder_offset)),
+            pre_roll: x.pre_roll.unwrap_or(r.pre_roll),
+        };
+        Actuator {
+            name: self.name,
+            record: ActuatorRecord {
+                params,
+                test,
+                calibration: calibration.unwrap_or(Calibration::IDENTITY),
+                ga,
+                domain,
+                detection_threshold: self.detection.threshold,
+            },
+            calibrated: calibration.is_some(),
+            reference: Some(reference),
+            rig: self.rig,
+            built_in: false,
+            source: None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn reference_text() -> String {
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../actuators/reference.toml"))
+            .unwrap()
+    }
+
+    #[test]
+    fn the_reference_file_is_the_built_in_actuator_bit_for_bit() {
+        let a = Actuator::parse(&reference_text()).unwrap();
+        let built_in = Actuator::reference();
+        assert_eq!(a.record, built_in.record);
+        assert_eq!(a.record.encode(), built_in.record.encode());
+        assert_eq!(a.reference, built_in.reference);
+        assert!(a.calibrated);
+        // Rewriting the calibration keeps everything else and round-trips its bits.
+        let c = Calibration {
+            damping: 1.25,
+            ..Calibration::REFERENCE_ACTUATOR_PAPER
+        };
+        let again = Actuator::parse(&Actuator::with_calibration_text(&reference_text(), &c)).unwrap();
+        assert_eq!(again.record.calibration, c);
+        assert_eq!(again.record.params, a.record.params);
+        assert_eq!(again.reference, a.reference);
+    }
+
+    #[test]
+    fn the_light_actuator_file_loads() {
+        let text = std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../actuators/light-28v.toml"
+        ))
+        .unwrap();
+        let a = Actuator::parse(&text).unwrap();
+        assert_eq!(a.record.params.pole_pairs, 5.0);
+        assert!(a.record.params.dc_bus_voltage < 30.0);
+    }
+
+    fn refusal(text: &str) -> String {
+        format!("{:#}", Actuator::parse(text).unwrap_err())
+    }
+
+    #[test]
+    fn out_of_range_values_are_refused_with_key_and_line() {
+        let text = reference_text().replace("gear_ratio = 500.0", "gear_ratio = 0.0");
+        let line = text.lines().position(|l| l.starts_with("gear_ratio")).unwrap() + 1;
+        let e = refusal(&text);
+        assert!(e.contains("mechanics.gear_ratio") && e.contains(&format!("line {line}")), "{e}");
+        let e = refusal(&reference_text().replace("motor_inertia = 1.0e-4", "motor_inertia = -1.0e-4"));
+        assert!(e.contains("mechanics.motor_inertia"), "{e}");
+        let e = refusal(&reference_text().replace("pole_pairs = 4", "pole_pairs = 4.5"));
+        assert!(e.contains("motor.pole_pairs"), "{e}");
+    }
+
+    #[test]
+    fn syntax_unknown_and_missing_keys_are_refused_with_their_line() {
+        let e = refusal(&reference_text().replace("gear_ratio = 500.0", "gear_ratio = fast"));
+        assert!(e.contains("line") && e.contains("gear_ratio"), "{e}");
+        let e = refusal(&reference_text().replace("gear_ratio = 500.0", "gear_ration = 500.0"));
+        assert!(e.contains("gear_ration") && e.contains("line"), "{e}");
+        let without: String = reference_text()
+            .lines()
+            .filter(|l| !l.starts_with("gear_ratio"))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        let e = refusal(&without);
+        assert!(e.contains("missing field `gear_ratio`"), "{e}");
+        let e = refusal(&reference_text().replace("design = \"standstill\"", "design = \"wobble\""));
+        assert!(e.contains("wobble") && e.contains("line"), "{e}");
+    }
+
+    #[test]
+    fn an_unknown_rig_column_is_refused() {
+        let text = format!("{}\n[rig]\ncolumns = {{ t = \"Time\", i_d = \"Id\" }}\n", reference_text());
+        let e = refusal(&text);
+        assert!(e.contains("i_d"), "{e}");
+    }
+
+    #[test]
+    fn a_file_of_another_test_kind_refuses_a_trace_of_the_other() {
+        let a = Actuator::parse(&reference_text()).unwrap();
+        assert!(a.test_for(&PreflightTest::PAPER).is_err());
+        assert_eq!(a.test_for(&PreflightTest::STANDSTILL).unwrap(), a.record.test);
+    }
+}
