@@ -407,7 +407,7 @@ fn a_power_loss_under_qemu_resumes_to_the_same_bits_and_a_damaged_record_restart
     };
     let (outcome, resumption) = identify_checkpointed(
         &measured,
-        &Calibration::REFERENCE_ACTUATOR,
+        &shared::actuator::ActuatorRecord::REFERENCE,
         1,
         false,
         Some(&checkpointing),
@@ -444,4 +444,75 @@ fn a_power_loss_under_qemu_resumes_to_the_same_bits_and_a_damaged_record_restart
     );
     assert!(!restarted.output.contains("checkpoint resumed"));
     assert_eq!(result_bits(&restarted.output), host_bits(&host));
+}
+
+/// The firmware loads an actuator record (`--actuator`) and gives the host's bits for both
+/// actuators: the reference one and the light 28 V one (5 pole pairs, gear 200, its own
+/// test, calibration and limits). The records carry a small GA budget so that the test
+/// stays short; the bits are compared, not the accuracy.
+#[test]
+fn firmware_with_an_actuator_record_gives_the_hosts_bits_for_both_actuators() {
+    use host_sim::actuator_file::Actuator;
+    for (file, faults) in [
+        ("reference.toml", [0.0, 0.2, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]),
+        ("light-28v.toml", [0.3, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5]),
+    ] {
+        let actuator =
+            Actuator::load(&workspace_root().join("actuators").join(file)).expect("loads");
+        let mut record = actuator.record;
+        record.ga.max_evaluations = 300;
+        let rm = ReferenceModel::new(actuator.reference_settings().expect("a description"))
+            .with_test(record.test);
+        let mut scenario = Scenario::new(FaultVector::new(faults).expect("valid"));
+        scenario.seed = 5;
+        let trace = rm.simulate(&scenario).trace;
+        let bytes = trace.to_bin().expect("encodable");
+        let trace_path = temp_trace(&format!("{file}.bin"), &bytes);
+        let record_path = temp_trace(&format!("{file}.rec"), &record.encode());
+
+        let measured = Trace::from_bin(&bytes)
+            .expect("readable")
+            .with_test(record.test)
+            .measured(&record.params)
+            .expect("conditioned");
+        let host = host_sim::identify::identify_for(&measured, &record, 1, false)
+            .expect("host identification")
+            .result;
+        assert_eq!(host.evaluations, 300);
+
+        let run = run_firmware(&[
+            trace_path.to_str().expect("UTF-8"),
+            "--actuator",
+            record_path.to_str().expect("UTF-8"),
+        ]);
+        assert_eq!(run.status, 0, "{file}:\n{}", run.output);
+        assert!(run.output.contains("actuator record"), "{}", run.output);
+        assert_eq!(result_bits(&run.output), host_bits(&host), "{file}:\n{}", run.output);
+
+        // A damaged record, one of another version, and one for another test are refused
+        // with the record's own exit status before any work.
+        let mut damaged = record.encode();
+        damaged[40] ^= 0x10;
+        let damaged_path = temp_trace(&format!("{file}-damaged.rec"), &damaged);
+        let mut other_version = record.encode();
+        other_version[4] = 9;
+        let other_version_path = temp_trace(&format!("{file}-v9.rec"), &other_version);
+        let mut paper = record;
+        paper.test.standstill = None;
+        let paper_path = temp_trace(&format!("{file}-paper.rec"), &paper.encode());
+        for (path, said) in [
+            (&damaged_path, "BadChecksum"),
+            (&other_version_path, "UnsupportedVersion"),
+            (&paper_path, "paper test"),
+        ] {
+            let run = run_firmware(&[
+                trace_path.to_str().expect("UTF-8"),
+                "--actuator",
+                path.to_str().expect("UTF-8"),
+            ]);
+            assert_eq!(run.status, 7, "{file}:\n{}", run.output);
+            assert!(run.output.contains(said), "{said}:\n{}", run.output);
+            assert!(!run.output.contains("result "), "{}", run.output);
+        }
+    }
 }

@@ -277,6 +277,19 @@ impl Actuator {
         })
     }
 
+    /// The installation rigged at `offset` [rad, motor side] (`--encoder-offset`): the
+    /// reference model plays it and the record carries it, as measured at rigging.
+    pub fn with_encoder_offset(mut self, offset: Option<f64>) -> Self {
+        if let Some(x) = offset {
+            self.record.params.encoder_offset = x as f32;
+            if let Some(r) = &mut self.reference {
+                r.params.encoder_offset = x as f32;
+                r.encoder_offset = x;
+            }
+        }
+        self
+    }
+
     /// Refuses a command that runs on the built-in reference actuator only.
     pub fn built_in_only(&self, command: &str) -> Result<()> {
         if self.built_in {

@@ -119,6 +119,11 @@ struct ActuatorArgs {
     /// alone, currents only). An actuator file carries its own test.
     #[arg(long, value_enum)]
     test: Option<TestChoice>,
+    /// The installation's rigging: what the motor encoder reads with the surface at zero
+    /// [rad, motor side]. The reference model plays it and the FDI's record carries it (as
+    /// measured at rigging). Default: the actuator file's `[installation] encoder_offset`.
+    #[arg(long, value_name = "RAD", allow_hyphen_values = true)]
+    encoder_offset: Option<f64>,
 }
 
 /// The preflight test designs the FDI plays end to end.
@@ -250,6 +255,9 @@ enum Command {
         /// Preflight test design of the built-in actuator (an actuator file carries its own).
         #[arg(long, value_enum)]
         test: Option<TestChoice>,
+        /// The installation's rigging offset [rad, motor side] (see `simulate --help`).
+        #[arg(long, value_name = "RAD", allow_hyphen_values = true)]
+        encoder_offset: Option<f64>,
     },
     /// Inverse check: simulate the monitor model at known faults, then identify them with the
     /// onboard FDI (same code, settings and sizes as the firmware).
@@ -478,7 +486,12 @@ fn main() -> ExitCode {
             return ExitCode::from(EXIT_ACTUATOR_REFUSED);
         }
     };
-    let with_test = |test: Option<TestChoice>| actuator.clone().with_test_choice(test.map(TestChoice::test));
+    let with_test = |test: Option<TestChoice>, offset: Option<f64>| {
+        actuator
+            .clone()
+            .with_encoder_offset(offset)
+            .with_test_choice(test.map(TestChoice::test))
+    };
     let outcome = match cli.command {
         Command::Preflight {
             actuator:
@@ -487,11 +500,12 @@ fn main() -> ExitCode {
                     noise,
                     seed,
                     test,
+                    encoder_offset,
                 },
             ga_seed,
             trace_out,
             json,
-        } => with_test(test).and_then(|actuator| preflight(
+        } => with_test(test, encoder_offset).and_then(|actuator| preflight(
             &actuator,
             faults,
             noise,
@@ -507,10 +521,11 @@ fn main() -> ExitCode {
                     noise,
                     seed,
                     test,
+                    encoder_offset,
                 },
             format,
             out,
-        } => with_test(test)
+        } => with_test(test, encoder_offset)
             .and_then(|actuator| simulate(&actuator, faults, noise, seed, format, &out)),
         Command::Calibrate {
             nominal_trace,
@@ -555,7 +570,8 @@ fn main() -> ExitCode {
             out,
             plot,
             test,
-        } => with_test(test).and_then(|actuator| {
+            encoder_offset,
+        } => with_test(test, encoder_offset).and_then(|actuator| {
             campaign_command(&actuator, table, runs, out.as_deref(), plot.as_deref())
         }),
         Command::Inverse { faults, seed, json } => actuator
