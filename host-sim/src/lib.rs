@@ -4,6 +4,7 @@
 //! * [`actuator_file`] — the actuator description file (TOML) and the record it becomes.
 //! * [`reference`] — the high-fidelity reference model (the "real actuator").
 //! * [`trace_file`] — CSV and binary trace files.
+//! * [`rig`] — recordings from a real rig (any column names, units and rate) → traces.
 //! * [`calibration`] — fitting the monitor model to a healthy trace.
 //! * [`campaign`] — accuracy campaigns over the paper's fault cases.
 //! * [`domain`] — the survey behind the "outside the monitor model's domain" limits.
@@ -26,6 +27,7 @@ pub mod optimisers;
 pub mod plot;
 pub mod prognostics;
 pub mod reference;
+pub mod rig;
 pub mod separability;
 pub mod trace_file;
 

@@ -25,6 +25,7 @@ use host_sim::median;
 use host_sim::optimisers::{self, TraceSource};
 use host_sim::plot;
 use host_sim::prognostics::{self, DegradationPath, PathShape};
+use host_sim::rig::RigFormat;
 use host_sim::reference::{ReferenceModel, ReferenceSettings, Scenario};
 use host_sim::trace_file::{IngestError, Trace, TraceFormat};
 use serde_json::json;
@@ -49,7 +50,7 @@ use shared::{
 mod commands;
 
 #[allow(clippy::wildcard_imports)]
-use commands::{actuator::*, bench::*, calibrate::*, campaign::*, domain::*, identify::*, plot::*, prognostics::*, simulate::*, studies::*};
+use commands::{actuator::*, import::*, bench::*, calibrate::*, campaign::*, domain::*, identify::*, plot::*, prognostics::*, simulate::*, studies::*};
 
 #[derive(Parser)]
 #[command(
@@ -183,6 +184,36 @@ enum Command {
         /// (motor angle − gear ratio × surface angle) and write it into the record.
         #[arg(long)]
         estimate_offset: bool,
+    },
+    /// Convert a rig recording (a data logger's CSV: any column names, units, delimiter and
+    /// rate at or above the control rate, idle before the test) into a trace of the
+    /// actuator's test at the control rate, for `identify`, `plot` and the firmware.
+    Import {
+        /// The recording (CSV).
+        recording: PathBuf,
+        /// The rig's column names, `our=theirs,…`, e.g.
+        /// `t=Time,theta_cmd=Cmd,i_a=Ia,i_b=Ib,i_c=Ic,theta_m=MotorAngle,theta_u=SurfaceAngle`
+        /// (default: the actuator file's `[rig] columns`, else our names).
+        #[arg(long, value_parser = RigFormat::parse_columns)]
+        columns: Option<std::collections::BTreeMap<String, String>>,
+        /// Multipliers to SI units, `our=factor,…`, e.g. `t=1e-3` for milliseconds
+        /// (default: the actuator file's `[rig] scales`, else 1).
+        #[arg(long, value_parser = RigFormat::parse_scales)]
+        scales: Option<std::collections::BTreeMap<String, f64>>,
+        /// Start of the test in the recording [s] (default: found from the command column).
+        #[arg(long)]
+        start: Option<f64>,
+        /// Field delimiter (default: sniffed from the header: `,`, `;` or tab).
+        #[arg(long)]
+        delimiter: Option<char>,
+        /// The controller's current-sense anti-alias filter the currents are read through
+        /// [Hz] (2nd-order Butterworth); 0 = none. Default: the actuator file's
+        /// `[sensors] anti_alias_hz` (0 for both example actuators, as calibrated).
+        #[arg(long)]
+        anti_alias_hz: Option<f64>,
+        /// Output trace (`.bin` binary, else CSV).
+        #[arg(long)]
+        out: PathBuf,
     },
     /// Check an actuator description (TOML) and write the record the firmware loads.
     Actuator {
@@ -533,6 +564,24 @@ fn main() -> ExitCode {
             estimate_offset,
         } => calibrate_command(&actuator, &nominal_trace, &out, estimate_offset),
         Command::Actuator { file, out } => actuator_command(&file, out.as_deref()),
+        Command::Import {
+            recording,
+            columns,
+            scales,
+            start,
+            delimiter,
+            anti_alias_hz,
+            out,
+        } => import_command(
+            &actuator,
+            &recording,
+            columns,
+            scales,
+            start,
+            delimiter,
+            anti_alias_hz,
+            &out,
+        ),
         Command::Identify {
             trace,
             calibration,
@@ -682,7 +731,10 @@ fn main() -> ExitCode {
             eprintln!("error: {e:#}");
             if e.chain().any(|c| c.is::<ActuatorRefused>()) {
                 ExitCode::from(EXIT_ACTUATOR_REFUSED)
-            } else if e.chain().any(|c| c.is::<IngestError>()) {
+            } else if e
+                .chain()
+                .any(|c| c.is::<IngestError>() || c.is::<host_sim::rig::RigError>())
+            {
                 ExitCode::from(EXIT_TRACE_REFUSED)
             } else {
                 ExitCode::FAILURE

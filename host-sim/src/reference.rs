@@ -202,6 +202,12 @@ pub struct Simulation {
     pub trace: Trace,
     pub truth: Vec<TruthSample>,
     pub energy: EnergyLedger,
+    /// What a rig's data logger recorded at [`ReferenceModel::with_recording`]'s rate,
+    /// from the start of the pre-roll (time 0) to the end of the test: the same sensor
+    /// signals (at a control instant exactly what the controller's ADC latched, in between
+    /// with their own noise draws; the trace's bits are the same with or without it).
+    /// Empty unless asked for.
+    pub recording: Vec<TraceSample>,
 }
 
 /// Per-phase electrical constants of one run.
@@ -230,6 +236,7 @@ pub struct ReferenceModel {
     settings: ReferenceSettings,
     test: PreflightTest,
     anomaly: Option<Anomaly>,
+    recording_hz: Option<f64>,
 }
 
 impl ReferenceModel {
@@ -238,7 +245,15 @@ impl ReferenceModel {
             settings,
             test: PreflightTest::STANDSTILL,
             anomaly: None,
+            recording_hz: None,
         }
+    }
+
+    /// Also records the sensors at `rate_hz` (a multiple-step period of the fine step, at or
+    /// above the control rate) into [`Simulation::recording`], as a rig's data logger would.
+    pub fn with_recording(mut self, rate_hz: f64) -> Self {
+        self.recording_hz = Some(rate_hz);
+        self
     }
 
     /// The same actuator driven by another chirp (the test's other segments unchanged).
@@ -390,6 +405,12 @@ impl ReferenceModel {
         };
         let mut trace = Trace::with_capacity(samples).with_test(declared);
         let mut truth = Vec::with_capacity(samples);
+        // The rig's logger: its own noise stream, every `record_every` fine steps.
+        let record_every = self
+            .recording_hz
+            .map(|hz| ((1.0 / (hz * dt)).round() as usize).clamp(1, steps_per_tick));
+        let mut recording = Vec::new();
+        let mut rig_rng = Gaussian::new(scenario.seed ^ 0x0000_4A61_u64);
 
         for (n, &process_noise) in current_ref_noise.iter().enumerate() {
             // `tick` is `None` during the pre-roll: zero command, nothing recorded.
@@ -488,6 +509,43 @@ impl ReferenceModel {
 
             // ---- power stage, motor and mechanics, `steps_per_tick` fine steps ----
             for fine in 0..steps_per_tick {
+                if let Some(every) = record_every {
+                    let step = n * steps_per_tick + fine;
+                    if step % every == 0 {
+                        let analogue = if s.anti_alias_hz > 0.0 {
+                            sensed_filter.map(|[x, _]| x)
+                        } else {
+                            i
+                        };
+                        // At a control instant the logger reads the very signal the
+                        // controller's ADC latched (same noise); in between, fresh noise.
+                        let (phase_currents, user_angle) = if fine == 0 {
+                            (sensed_currents, user_sensed)
+                        } else {
+                            (
+                                analogue.map(|x| {
+                                    quantise(
+                                        x + s.current_noise * rig_rng.next(),
+                                        current_lsb,
+                                        s.current_full_scale,
+                                    )
+                                }),
+                                quantise(
+                                    theta_u + s.user_offset + s.user_noise * rig_rng.next(),
+                                    user_lsb,
+                                    s.user_full_scale,
+                                ),
+                            )
+                        };
+                        recording.push(TraceSample {
+                            time: step as f64 * dt,
+                            command,
+                            phase_currents,
+                            motor_angle: quantise_angle(theta_m, encoder_lsb),
+                            user_angle,
+                        });
+                    }
+                }
                 let theta_e = pole_pairs * theta_m;
                 let sector = ((theta_e * 3.0 / PI + 0.5).floor() as i64).rem_euclid(6) as usize;
                 let (signs, floating) = match pair_drive {
@@ -697,6 +755,7 @@ impl ReferenceModel {
             trace,
             truth,
             energy: ledger,
+            recording,
         }
     }
 }

@@ -416,6 +416,13 @@ impl Trace {
         Ok(trace)
     }
 
+    /// The checks a binary trace gets (sample count, fixed-point range, no clipped current
+    /// stretch), for a trace built in memory (e.g. from a rig recording).
+    pub fn checked(self) -> Result<Self, IngestError> {
+        self.check(Form::Binary)?;
+        Ok(self)
+    }
+
     /// What both forms must satisfy: sample count, time base, fixed-point range, no clipped
     /// current stretch.
     fn check(&self, form: Form) -> Result<(), IngestError> {

@@ -4,6 +4,7 @@
 pub(crate) mod simulate;
 pub(crate) mod calibrate;
 pub(crate) mod identify;
+pub(crate) mod import;
 pub(crate) mod plot;
 pub(crate) mod campaign;
 pub(crate) mod studies;

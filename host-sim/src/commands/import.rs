@@ -1,0 +1,51 @@
+//! `import`: a rig recording → a trace of the actuator's test at the control rate.
+
+use crate::*;
+
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn import_command(
+    actuator: &Actuator,
+    recording: &Path,
+    columns: Option<std::collections::BTreeMap<String, String>>,
+    scales: Option<std::collections::BTreeMap<String, f64>>,
+    start: Option<f64>,
+    delimiter: Option<char>,
+    anti_alias_hz: Option<f64>,
+    out: &Path,
+) -> Result<()> {
+    // The controller's own current-sense front end, as the actuator file describes it.
+    let anti_alias_hz = anti_alias_hz
+        .or_else(|| actuator.reference.map(|r| r.anti_alias_hz))
+        .unwrap_or(0.0);
+    let rig = actuator.rig.clone().unwrap_or_default();
+    let delimiter = match delimiter {
+        None => None,
+        Some(c) if c.is_ascii() => Some(c as u8),
+        Some(c) => anyhow::bail!("--delimiter {c:?}: must be one ASCII character"),
+    };
+    let format = RigFormat {
+        columns: columns.unwrap_or(rig.columns),
+        scales: scales.unwrap_or(rig.scales),
+        delimiter,
+        start,
+        anti_alias_hz,
+    };
+    let bytes =
+        std::fs::read(recording).with_context(|| format!("reading {}", recording.display()))?;
+    let test = actuator.record.test;
+    let period = f64::from(actuator.params().control_period);
+    let trace = host_sim::rig::import(&bytes, &format, &test, period)
+        .map_err(anyhow::Error::new)
+        .and_then(|t| t.checked().map_err(anyhow::Error::new))
+        .with_context(|| format!("recording {} refused", recording.display()))?;
+    trace.write(out, format_from_extension(out))?;
+    println!(
+        "wrote {} ({} samples of the {} test at {:.0} Hz, from {})",
+        out.display(),
+        trace.samples().len(),
+        test.kind_name(),
+        1.0 / period,
+        recording.display()
+    );
+    Ok(())
+}
