@@ -8,11 +8,14 @@
 use anyhow::Result;
 use rayon::prelude::*;
 use shared::domain::{Domain, DomainLimits, DomainMonitor};
-use shared::{ActuatorParams, Calibration, ChirpCommand, FaultVector};
+use shared::{Calibration, ChirpCommand, FaultVector};
 
+use shared::actuator::ActuatorRecord;
+
+use crate::actuator_file::Actuator;
 use crate::campaign::{HEALTHY, TABLE_1, TABLE_2};
-use crate::identify::identify;
-use crate::reference::{Anomaly, ReferenceModel, ReferenceSettings, Scenario};
+use crate::identify::identify_for;
+use crate::reference::{Anomaly, ReferenceModel, Scenario};
 use crate::trace_file::Trace;
 
 /// One surveyed test.
@@ -33,17 +36,31 @@ pub struct SurveyRow {
 
 /// The statistics and the verdict for `trace`, with the built-in calibration and GA seed 1.
 pub fn assess(trace: &Trace, limits: &DomainLimits) -> Result<(DomainMonitor, f32, Domain)> {
-    let params = ActuatorParams::REFERENCE;
+    let record = ActuatorRecord {
+        test: *trace.test(),
+        calibration: Calibration::reference_actuator(trace.test()),
+        domain: *limits,
+        ..ActuatorRecord::REFERENCE
+    };
+    assess_for(trace, &record)
+}
+
+/// The statistics and the verdict for `trace` of the actuator `record` describes (its
+/// parameters, calibration and limits), GA seed 1.
+pub fn assess_for(trace: &Trace, record: &ActuatorRecord) -> Result<(DomainMonitor, f32, Domain)> {
+    let params = record.params;
+    let trace = trace.clone().with_test(record.test);
     let monitor = trace.domain_monitor(&params);
     let measured = trace.measured(&params)?;
-    let id = identify(&measured, &Calibration::REFERENCE_ACTUATOR, 1, false)?;
+    let id = identify_for(&measured, record, 1, false)?;
     let fitness = id.result.fitness;
-    Ok((monitor, fitness, monitor.assess(limits, fitness)))
+    Ok((monitor, fitness, monitor.assess(&record.domain, fitness)))
 }
 
 /// Everything the survey runs: (name, inside?, model, scenario).
-fn tests(seeds: u64) -> Vec<(String, bool, ReferenceModel, Scenario)> {
-    let rm = ReferenceModel::new(ReferenceSettings::REFERENCE);
+fn tests(rm: ReferenceModel, seeds: u64) -> Vec<(String, bool, ReferenceModel, Scenario)> {
+    let amplitude = rm.test().chirp.amplitude;
+    let end = rm.test().chirp.end_frequency;
     let mut out = Vec::new();
     let inside = TABLE_1.iter().chain(TABLE_2.iter()).chain([&HEALTHY]);
     for case in inside {
@@ -68,19 +85,19 @@ fn tests(seeds: u64) -> Vec<(String, bool, ReferenceModel, Scenario)> {
         ("phase C open", rm.with_anomaly(Anomaly::OpenPhase(2))),
         (
             "command: chirp ×2 amplitude",
-            rm.with_command(chirp(10.0e-3, 15.0)),
+            rm.with_command(chirp(2.0 * amplitude, end)),
         ),
         (
             "command: chirp ×0.4 amplitude",
-            rm.with_command(chirp(2.0e-3, 15.0)),
+            rm.with_command(chirp(0.4 * amplitude, end)),
         ),
         (
             "command: chirp to 5 Hz",
-            rm.with_command(chirp(5.0e-3, 5.0)),
+            rm.with_command(chirp(amplitude, end / 3.0)),
         ),
         (
             "command: chirp to 30 Hz",
-            rm.with_command(chirp(5.0e-3, 30.0)),
+            rm.with_command(chirp(amplitude, 2.0 * end)),
         ),
     ];
     for (name, model) in outside {
@@ -111,9 +128,18 @@ fn chirp(amplitude: f32, end_frequency: f32) -> ChirpCommand {
     }
 }
 
-/// Runs the survey in parallel (`seeds` RM seeds per case).
-pub fn survey(seeds: u64, limits: &DomainLimits, progress: bool) -> Result<Vec<SurveyRow>> {
-    let tests = tests(seeds);
+/// Runs the survey of `actuator` in parallel (`seeds` RM seeds per case), judged against
+/// `limits`.
+pub fn survey(
+    actuator: &Actuator,
+    seeds: u64,
+    limits: &DomainLimits,
+    progress: bool,
+) -> Result<Vec<SurveyRow>> {
+    let mut record = actuator.record_for(&actuator.record.test)?;
+    record.domain = *limits;
+    let rm = ReferenceModel::new(actuator.reference_settings()?).with_test(record.test);
+    let tests = tests(rm, seeds);
     let bar = crate::progress_bar(
         tests.len() as u64,
         "domain survey {bar:40} {pos}/{len}",
@@ -123,7 +149,7 @@ pub fn survey(seeds: u64, limits: &DomainLimits, progress: bool) -> Result<Vec<S
         .into_par_iter()
         .map(|(name, inside, model, scenario)| {
             let trace = model.simulate(&scenario).trace;
-            let (monitor, fitness, domain) = assess(&trace, limits)?;
+            let (monitor, fitness, domain) = assess_for(&trace, &record)?;
             let phase_ratio = monitor
                 .phase_ratios(limits.min_phase_samples)
                 .iter()
@@ -144,6 +170,41 @@ pub fn survey(seeds: u64, limits: &DomainLimits, progress: bool) -> Result<Vec<S
         .collect::<Result<Vec<_>>>();
     bar.finish_and_clear();
     rows
+}
+
+/// Limits placed from the survey of the explained actuators alone (for an actuator whose
+/// limits are not known yet): half the least travel and phase ratio, 1.5 × the largest
+/// tracking ratio, 2 × the largest best fitness seen inside; `min_phase_samples` and
+/// `min_phase_current` kept from `base`. How many unexplained tests each catches is in the
+/// survey's table.
+pub fn suggested_limits(rows: &[SurveyRow], base: &DomainLimits) -> DomainLimits {
+    let inside = rows.iter().filter(|r| r.inside);
+    let (mut travel, mut ratio, mut tracking, mut fitness) =
+        (f32::INFINITY, f32::INFINITY, 0.0f32, 0.0f32);
+    for r in inside {
+        travel = travel.min(r.travel);
+        if r.phase_ratio.is_finite() {
+            ratio = ratio.min(r.phase_ratio);
+        }
+        tracking = tracking.max(r.tracking);
+        fitness = fitness.max(r.fitness);
+    }
+    let round = |x: f32| {
+        // Two significant digits: a limit a person can read and edit.
+        if x > 0.0 && x.is_finite() {
+            let p = 10f32.powf(x.log10().floor() - 1.0);
+            (x / p).round() * p
+        } else {
+            x
+        }
+    };
+    DomainLimits {
+        min_travel: round(0.5 * travel),
+        min_phase_ratio: if ratio.is_finite() { round(0.5 * ratio) } else { base.min_phase_ratio },
+        max_tracking: round(1.5 * tracking),
+        max_fitness: round(2.0 * fitness),
+        ..*base
+    }
 }
 
 /// The survey as a Markdown table, with the range of each statistic per group.

@@ -361,6 +361,10 @@ enum Command {
         /// Also write the table to this Markdown file.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Write the suggested limits into this actuator description (its `[domain]` keys;
+        /// comments and everything else kept).
+        #[arg(long, value_name = "FILE.toml")]
+        write: Option<PathBuf>,
     },
     /// Optimiser comparison on the same fitness and traces (paper Table I cases): our
     /// steady-state GA, a generational GA configured as the paper's MATLAB `ga`, and
@@ -643,9 +647,9 @@ fn main() -> ExitCode {
         } => actuator.built_in_only("optimisers").and_then(|()| {
             optimisers_command(seeds, cap, source, target, out.as_deref(), plot.as_deref())
         }),
-        Command::Domain { seeds, out } => actuator
-            .built_in_only("domain")
-            .and_then(|()| domain_command(seeds, out.as_deref())),
+        Command::Domain { seeds, out, write } => {
+            domain_command(&actuator, seeds, out.as_deref(), write.as_deref())
+        }
         Command::Identifiability {
             designs,
             seeds,

@@ -382,7 +382,11 @@ mod tests {
             }),
             ..h
         };
-        assert!(odd.encode().is_err());
+        // Another actuator's chirp is stored by its kind; its settings come from the
+        // actuator record, not from the trace.
+        let odd_bytes = odd.encode().unwrap();
+        assert_eq!(odd_bytes[7], 0);
+        assert_eq!(TraceHeader::decode(&odd_bytes).unwrap().test, PreflightTest::PAPER);
     }
 
     #[test]
