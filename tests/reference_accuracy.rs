@@ -3,24 +3,60 @@
 //! seed 0, GA seed 1), each must reach e_tot ≤ 2 % (the target for low and medium damage).
 //! The full campaign is `host-sim campaign --table 1|2|random` (docs/accuracy.md).
 
+use host_sim::actuator_file::Actuator;
 use host_sim::campaign::{run_once, TABLE_1, TABLE_2};
-use host_sim::reference::{ReferenceModel, ReferenceSettings};
-use shared::Calibration;
+use host_sim::reference::ReferenceModel;
+use shared::actuator::ActuatorRecord;
 
 fn check(name: &str) {
+    check_on(&Actuator::reference(), name);
+}
+
+/// `name` on `actuator` (its reference model, record and calibration), RM seed 0.
+fn check_on(actuator: &Actuator, name: &str) -> shared::FaultVector {
     let case = TABLE_1
         .iter()
         .chain(TABLE_2.iter())
         .find(|c| c.name == name)
         .expect("a Table I or II case");
-    let rm = ReferenceModel::new(ReferenceSettings::REFERENCE);
-    let r = run_once(&rm, &Calibration::REFERENCE_ACTUATOR, case, 0).expect("identification runs");
+    let settings = actuator.reference_settings().expect("a description");
+    let rm = ReferenceModel::new(settings).with_test(actuator.record.test);
+    let record: ActuatorRecord = actuator.record;
+    let r = run_once(&rm, &record, case, 0).expect("identification runs");
     println!(
-        "{name}: e_tot {:.3} %, found {:?}",
+        "{} / {name}: e_tot {:.3} %, found {:?}",
+        actuator.name,
         r.e_tot,
         r.found.as_array()
     );
     assert!(r.e_tot <= 2.0, "{name}: e_tot {:.3} % > 2 %", r.e_tot);
+    r.found
+}
+
+fn light() -> Actuator {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../actuators/light-28v.toml");
+    Actuator::load(std::path::Path::new(path)).expect("the example file loads")
+}
+
+/// The second actuator (28 V, 5 pole pairs, gear 200) with its own calibration.
+#[test]
+fn light_actuator_short_and_eccentricity() {
+    check_on(&light(), "short A k3 = 0.2");
+    check_on(&light(), "eccentricity k6 = 0.2");
+}
+
+/// An installation rigged at 3 rad (motor side), carried in the record: the short is found
+/// as at rigging 0, with no false eccentricity beside it.
+#[test]
+fn a_rigged_installation_is_identified_as_an_unrigged_one() {
+    let rigged = Actuator::reference().with_encoder_offset(Some(3.0));
+    assert_eq!(
+        rigged.reference_settings().unwrap().encoder_offset,
+        3.0,
+        "the reference model plays the rigging"
+    );
+    let found = check_on(&rigged, "short A k3 = 0.2");
+    assert!(found.eccentricity() < 0.05, "false eccentricity {}", found.eccentricity());
 }
 
 #[test]
