@@ -487,7 +487,12 @@ fn firmware_with_an_actuator_record_gives_the_hosts_bits_for_both_actuators() {
         ]);
         assert_eq!(run.status, 0, "{file}:\n{}", run.output);
         assert!(run.output.contains("actuator record"), "{}", run.output);
-        assert_eq!(result_bits(&run.output), host_bits(&host), "{file}:\n{}", run.output);
+        assert_eq!(
+            result_bits(&run.output),
+            host_bits(&host),
+            "{file}:\n{}",
+            run.output
+        );
 
         // A damaged record, one of another version, and one for another test are refused
         // with the record's own exit status before any work.

@@ -56,7 +56,11 @@ fn a_rigged_installation_is_identified_as_an_unrigged_one() {
         "the reference model plays the rigging"
     );
     let found = check_on(&rigged, "short A k3 = 0.2");
-    assert!(found.eccentricity() < 0.05, "false eccentricity {}", found.eccentricity());
+    assert!(
+        found.eccentricity() < 0.05,
+        "false eccentricity {}",
+        found.eccentricity()
+    );
 }
 
 #[test]

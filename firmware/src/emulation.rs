@@ -16,18 +16,22 @@ use semihosting::io::Read;
 
 use firmware::TraceBytes;
 
-/// Longest trace path accepted [bytes, NUL excluded].
+/// Longest path accepted [bytes, NUL excluded].
 pub const MAX_PATH: usize = 200;
+/// Bytes for all the paths of one command line, each NUL-terminated (trace, checkpoint,
+/// health log, actuator record): one buffer, not one per path, to keep RAM small.
+const PATHS_BYTES: usize = 320;
 
 /// Bytes of the semihosting command line buffer.
 const CMDLINE_BYTES: usize = 512;
 
 /// What the command line asked for.
 pub struct Command {
-    path: [u8; MAX_PATH + 1],
-    checkpoint: Option<[u8; MAX_PATH + 1]>,
-    health: Option<[u8; MAX_PATH + 1]>,
-    actuator: Option<[u8; MAX_PATH + 1]>,
+    paths: Paths,
+    path: Option<u16>,
+    checkpoint: Option<u16>,
+    health: Option<u16>,
+    actuator: Option<u16>,
     pub seed: Option<u64>,
     /// `--flight N`: the flight index of this preflight's health record (default: one after
     /// the newest in the log).
@@ -64,8 +68,11 @@ impl Command {
     pub fn from_host() -> Result<Self, UsageError> {
         let args = env::args::<CMDLINE_BYTES>().map_err(|_| UsageError::NoCommandLine)?;
         let mut words = (&args).skip(1);
-        let mut path = [0u8; MAX_PATH + 1];
-        let mut have_path = false;
+        let mut paths = Paths {
+            bytes: [0; PATHS_BYTES],
+            used: 0,
+        };
+        let mut path = None;
         let mut seed = None;
         let mut crash = None;
         let mut checkpoint = None;
@@ -94,25 +101,24 @@ impl Command {
                         .map_err(|_| UsageError::BadOption)?,
                 );
             } else if word == "--actuator" {
-                actuator = Some(nul_terminated(option_value(&mut words)?)?);
+                actuator = Some(paths.push(option_value(&mut words)?)?);
             } else if word == "--health" {
-                health = Some(nul_terminated(option_value(&mut words)?)?);
+                health = Some(paths.push(option_value(&mut words)?)?);
             } else if word == "--checkpoint" {
-                checkpoint = Some(nul_terminated(option_value(&mut words)?)?);
+                checkpoint = Some(paths.push(option_value(&mut words)?)?);
             } else if word == "--crash" {
                 crash = match option_value(&mut words)? {
                     "panic" => Some(Crash::Panic),
                     "hard-fault" => Some(Crash::HardFault),
                     _ => return Err(UsageError::BadOption),
                 };
-            } else if word.starts_with("--") || have_path {
+            } else if word.starts_with("--") || path.is_some() {
                 return Err(UsageError::BadOption);
             } else {
-                path = nul_terminated(word)?;
-                have_path = true;
+                path = Some(paths.push(word)?);
             }
         }
-        if !have_path && crash.is_none() {
+        if path.is_none() && crash.is_none() {
             return Err(UsageError::MissingTrace);
         }
         if stop_after.is_some() && checkpoint.is_none() {
@@ -123,6 +129,7 @@ impl Command {
             return Err(UsageError::BadOption);
         }
         Ok(Self {
+            paths,
             path,
             checkpoint,
             health,
@@ -136,30 +143,56 @@ impl Command {
 
     /// The checkpoint file, NUL-terminated, if one was given.
     pub fn checkpoint_path(&self) -> Option<&CStr> {
-        self.checkpoint.as_ref().map(path_of)
+        self.checkpoint.map(|at| self.paths.get(at))
     }
 
     /// The health-log file (the RAM store's image between runs), if one was given.
     pub fn health_path(&self) -> Option<&CStr> {
-        self.health.as_ref().map(path_of)
+        self.health.map(|at| self.paths.get(at))
     }
 
     /// The actuator record file (the record's flash sector on the controller), if one was
     /// given; without one the firmware runs the built-in reference actuator.
     pub fn actuator_path(&self) -> Option<&CStr> {
-        self.actuator.as_ref().map(path_of)
+        self.actuator.map(|at| self.paths.get(at))
     }
 
     /// The trace path, NUL-terminated.
     pub fn trace_path(&self) -> &CStr {
-        path_of(&self.path)
+        self.path.map_or(c"", |at| self.paths.get(at))
     }
 }
 
-/// A zero-padded path buffer as a C string.
-fn path_of(buffer: &[u8; MAX_PATH + 1]) -> &CStr {
-    // At most MAX_PATH bytes are written into the zeroed buffer: a NUL always follows.
-    CStr::from_bytes_until_nul(buffer).unwrap_or(c"")
+/// The command line's paths, NUL-terminated one after the other in a zeroed buffer.
+struct Paths {
+    bytes: [u8; PATHS_BYTES],
+    used: usize,
+}
+
+impl Paths {
+    /// Stores `word` and its NUL; returns where it starts.
+    fn push(&mut self, word: &str) -> Result<u16, UsageError> {
+        let bytes = word.as_bytes();
+        let end = self.used + bytes.len() + 1;
+        if bytes.len() > MAX_PATH || end > PATHS_BYTES {
+            return Err(UsageError::PathTooLong);
+        }
+        let at = self.used;
+        if let Some(dst) = self.bytes.get_mut(at..at + bytes.len()) {
+            dst.copy_from_slice(bytes);
+        }
+        self.used = end;
+        Ok(at as u16)
+    }
+
+    /// The path stored at `at`.
+    fn get(&self, at: u16) -> &CStr {
+        // The buffer is zeroed and every stored path is followed by its NUL.
+        self.bytes
+            .get(usize::from(at)..)
+            .and_then(|b| CStr::from_bytes_until_nul(b).ok())
+            .unwrap_or(c"")
+    }
 }
 
 /// The word after an option (`--seed N`): missing or not UTF-8 is a usage error.
@@ -170,19 +203,6 @@ fn option_value<'a, E>(
         .next()
         .and_then(|w| w.ok())
         .ok_or(UsageError::BadOption)
-}
-
-/// `word` as a NUL-terminated path buffer.
-fn nul_terminated(word: &str) -> Result<[u8; MAX_PATH + 1], UsageError> {
-    let bytes = word.as_bytes();
-    if bytes.len() > MAX_PATH {
-        return Err(UsageError::PathTooLong);
-    }
-    let mut path = [0u8; MAX_PATH + 1];
-    for (d, s) in path.iter_mut().zip(bytes) {
-        *d = *s;
-    }
-    Ok(path)
 }
 
 /// Reads the record file at `path` (the GA checkpoint, or the health store's image) into

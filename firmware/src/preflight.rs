@@ -13,13 +13,13 @@
 //! and the monitor model live in the state (≈ 1.5 kB). Same settings, seed and frames give the
 //! same bits as `host-sim identify`.
 
+use shared::actuator::ActuatorRecord;
 use shared::conditioning::ConditioningError;
 use shared::domain::{Domain, DomainLimits, DomainMonitor};
 use shared::fdi::TEST_SAMPLES;
 use shared::fdi::{FdiError, Identification, IdentificationResult, OnboardMeasured, POPULATION};
 use shared::fitness::CurvatureRun;
 use shared::ga::RecordError;
-use shared::actuator::ActuatorRecord;
 use shared::test_design::PreflightTest;
 use shared::uncertainty::{Assessment, Uncertainty};
 use shared::{ActuatorParams, Calibration, GaSettings, Status, Verdict, FAULT_COUNT};
@@ -372,10 +372,10 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                         .faults
                         .verdicts_at(self.settings.detection_threshold)
                         .map(|v| match v {
-                        Verdict::Healthy => Assessment::Healthy,
-                        Verdict::Faulty => Assessment::Suspect,
-                        Verdict::NotApplicable => Assessment::NotApplicable,
-                    }),
+                            Verdict::Healthy => Assessment::Healthy,
+                            Verdict::Faulty => Assessment::Suspect,
+                            Verdict::NotApplicable => Assessment::NotApplicable,
+                        }),
                 },
                 domain: self.domain.assess(&self.settings.domain, result.fitness),
                 verdicts: result.faults.verdicts_at(self.settings.detection_threshold),

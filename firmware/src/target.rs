@@ -33,6 +33,7 @@ use shared::LowPass;
 use crate::emulation::{read_record_file, write_record_file, Command, Crash, HostFile};
 use shared::actuator::{ActuatorRecord, RECORD_BYTES};
 use shared::fdi::OnboardRecord;
+use shared::test_design::PreflightTest;
 
 /// Exit statuses (semihosting SYS_EXIT_EXTENDED, QEMU's own exit status).
 mod status {
@@ -203,44 +204,9 @@ async fn preflight(spawner: Spawner) -> i32 {
     };
     // The actuator record (a flash sector on the controller; the --actuator file here), or
     // the built-in reference actuator with the test the trace says it played.
-    let mut settings = match command.actuator_path() {
-        None => PreflightSettings::ONBOARD.for_test(source.header().test),
-        Some(path) => {
-            let mut bytes = [0u8; RECORD_BYTES];
-            let name = path.to_str().unwrap_or("(not UTF-8)");
-            match read_record_file(path, &mut bytes) {
-                Ok(true) => {}
-                Ok(false) => {
-                    defmt::error!("actuator record {=str} not found", name);
-                    return status::ACTUATOR_RECORD;
-                }
-                Err(e) => {
-                    defmt::error!("actuator record {=str} refused: {}", name, e);
-                    return status::ACTUATOR_RECORD;
-                }
-            }
-            let record = match ActuatorRecord::decode(&bytes) {
-                Ok(r) => r,
-                Err(e) => {
-                    defmt::error!("actuator record {=str} refused: {}", name, e);
-                    return status::ACTUATOR_RECORD;
-                }
-            };
-            if record.test.kind() != source.header().test.kind() {
-                defmt::error!(
-                    "actuator record {=str} is for the {=str} test, the trace played {=str}",
-                    name,
-                    record.test.kind_name(),
-                    source.header().test.kind_name()
-                );
-                return status::ACTUATOR_RECORD;
-            }
-            defmt::info!("actuator record {=str}: {}", name, record.params);
-            PreflightSettings::ONBOARD.for_actuator(&record)
-        }
-    };
-    if let Some(seed) = command.seed {
-        settings.seed = seed;
+    let mut settings = PreflightSettings::ONBOARD;
+    if let Err(status) = preflight_settings(&command, &source.header().test, &mut settings) {
+        return status;
     }
     let filter = match LowPass::for_control_period(settings.params.control_period) {
         Ok(f) => f,
@@ -370,6 +336,69 @@ async fn preflight(spawner: Spawner) -> i32 {
         Some(path) => record_health(path, command.flight, &report),
         None => status::SUCCESS,
     }
+}
+
+/// The preflight's settings, written into `settings`: the actuator record's (`--actuator`;
+/// the record's flash sector on the controller) or the built-in reference actuator with the
+/// trace's test, and the command line's seed; the exit status that refuses a record. Its
+/// own frame, so that the record's bytes and copies are on the stack only while it runs,
+/// not under every later poll of the preflight task.
+#[inline(never)]
+fn preflight_settings(
+    command: &Command,
+    trace_test: &PreflightTest,
+    settings: &mut PreflightSettings,
+) -> Result<(), i32> {
+    *settings = match command.actuator_path() {
+        None => PreflightSettings::ONBOARD.for_test(*trace_test),
+        Some(path) => load_actuator(path, trace_test)?,
+    };
+    if let Some(seed) = command.seed {
+        settings.seed = seed;
+    }
+    Ok(())
+}
+
+/// The settings for the actuator record at `path`, or the exit status that refuses it.
+fn load_actuator(path: &CStr, trace_test: &PreflightTest) -> Result<PreflightSettings, i32> {
+    let mut bytes = [0u8; RECORD_BYTES];
+    let name = path.to_str().unwrap_or("(not UTF-8)");
+    match read_record_file(path, &mut bytes) {
+        Ok(true) => {}
+        Ok(false) => {
+            defmt::error!("actuator record {=str} not found", name);
+            return Err(status::ACTUATOR_RECORD);
+        }
+        Err(e) => {
+            defmt::error!("actuator record {=str} refused: {}", name, e);
+            return Err(status::ACTUATOR_RECORD);
+        }
+    }
+    let record = match ActuatorRecord::decode(&bytes) {
+        Ok(r) => r,
+        Err(e) => {
+            defmt::error!("actuator record {=str} refused: {}", name, e);
+            return Err(status::ACTUATOR_RECORD);
+        }
+    };
+    if record.test.kind() != trace_test.kind() {
+        defmt::error!(
+            "actuator record {=str} is for the {=str} test, the trace played {=str}",
+            name,
+            record.test.kind_name(),
+            trace_test.kind_name()
+        );
+        return Err(status::ACTUATOR_RECORD);
+    }
+    defmt::info!(
+        "actuator record {=str}: {=f32} V, {=f32} pole pairs, gear {=f32}, {=str} test",
+        name,
+        record.params.dc_bus_voltage,
+        record.params.pole_pairs,
+        record.params.gear_ratio,
+        record.test.kind_name()
+    );
+    Ok(PreflightSettings::ONBOARD.for_actuator(&record))
 }
 
 /// Appends this preflight's record to the health log kept in `path` and reports each fault's

@@ -88,12 +88,18 @@ impl Actuator {
         let bytes = std::fs::read(path)
             .with_context(|| format!("cannot read actuator file {}", path.display()))?;
         if bytes.starts_with(&RECORD_MAGIC) {
-            let record = ActuatorRecord::decode(&bytes)
-                .map_err(|e| anyhow!("{}: actuator record refused: {}", path.display(), describe(e)))?;
+            let record = ActuatorRecord::decode(&bytes).map_err(|e| {
+                anyhow!(
+                    "{}: actuator record refused: {}",
+                    path.display(),
+                    describe(e)
+                )
+            })?;
             return Ok(Self {
-                name: path
-                    .file_stem()
-                    .map_or_else(|| "record".to_string(), |s| s.to_string_lossy().into_owned()),
+                name: path.file_stem().map_or_else(
+                    || "record".to_string(),
+                    |s| s.to_string_lossy().into_owned(),
+                ),
                 record,
                 calibrated: record.calibration != Calibration::IDENTITY,
                 reference: None,
@@ -102,10 +108,14 @@ impl Actuator {
                 source: Some(path.to_path_buf()),
             });
         }
-        let text = String::from_utf8(bytes)
-            .map_err(|_| anyhow!("{}: neither an actuator record nor UTF-8 text", path.display()))?;
-        let mut actuator =
-            Self::parse(&text).with_context(|| format!("actuator description {}", path.display()))?;
+        let text = String::from_utf8(bytes).map_err(|_| {
+            anyhow!(
+                "{}: neither an actuator record nor UTF-8 text",
+                path.display()
+            )
+        })?;
+        let mut actuator = Self::parse(&text)
+            .with_context(|| format!("actuator description {}", path.display()))?;
         actuator.source = Some(path.to_path_buf());
         Ok(actuator)
     }
@@ -124,7 +134,8 @@ impl Actuator {
         if let Some(rig) = &actuator.rig {
             for key in rig.columns.keys().chain(rig.scales.keys()) {
                 if !crate::trace_file::CSV_HEADER.contains(&key.as_str()) {
-                    let at = line_of_key(text, key).map_or(String::new(), |l| format!(" (line {l})"));
+                    let at =
+                        line_of_key(text, key).map_or(String::new(), |l| format!(" (line {l})"));
                     bail!(
                         "`rig`{at}: unknown column `{key}` (ours are {})",
                         crate::trace_file::CSV_HEADER.join(", ")
@@ -329,7 +340,9 @@ pub fn describe(e: ActuatorRecordError) -> String {
             "version {found}, this build reads version {}",
             shared::actuator::RECORD_VERSION
         ),
-        ActuatorRecordError::BadLength { found } => format!("body length {found} does not match its version"),
+        ActuatorRecordError::BadLength { found } => {
+            format!("body length {found} does not match its version")
+        }
         ActuatorRecordError::BadChecksum => "damaged (CRC-32 mismatch)".to_string(),
         ActuatorRecordError::OutOfRange { field } => format!("`{field}`: {}", range_text(field)),
     }
@@ -353,7 +366,7 @@ fn range_text(field: &str) -> &'static str {
             || f.ends_with("damping")
             || f.ends_with("aero_stiffness")
             || f.ends_with("nominal_residual")
-            || f == "domain" =>
+            || (f.starts_with("domain.") && f != "domain.max_fitness") =>
         {
             "must be finite and not negative"
         }
@@ -387,14 +400,15 @@ fn line_of(text: &str, field: &str) -> Option<usize> {
 
 /// The 1-based line where `key` is set anywhere in `text`.
 fn line_of_key(text: &str, key: &str) -> Option<usize> {
-    text.lines().position(|l| {
-        l.trim()
-            .split_once('=')
-            .is_some_and(|(k, _)| k.trim() == key || k.trim().ends_with(&format!(".{key}")))
-            || l.contains(&format!(" {key} ="))
-            || l.contains(&format!("{{{key} ="))
-    })
-    .map(|n| n + 1)
+    text.lines()
+        .position(|l| {
+            l.trim()
+                .split_once('=')
+                .is_some_and(|(k, _)| k.trim() == key || k.trim().ends_with(&format!(".{key}")))
+                || l.contains(&format!(" {key} ="))
+                || l.contains(&format!("{{{key} ="))
+        })
+        .map(|n| n + 1)
 }
 
 // ---- the file's shape (serde) ----
@@ -661,7 +675,9 @@ impl Description {
             params,
             step: x.step.unwrap_or(r.step),
             hysteresis_band: x.hysteresis_band.unwrap_or(r.hysteresis_band),
-            magnet_fringe: x.magnet_fringe_deg.map_or(r.magnet_fringe, |d| d * PI / 180.0),
+            magnet_fringe: x
+                .magnet_fringe_deg
+                .map_or(r.magnet_fringe, |d| d * PI / 180.0),
             winding_group_angle: m.winding_group_angle_deg.map(|d| d * PI / 180.0),
             aero_damping: x.aero_damping.unwrap_or(r.aero_damping),
             end_stop_angle: x.end_stop_angle.unwrap_or(r.end_stop_angle),
@@ -706,8 +722,11 @@ mod tests {
     use super::*;
 
     fn reference_text() -> String {
-        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../actuators/reference.toml"))
-            .unwrap()
+        std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../actuators/reference.toml"
+        ))
+        .unwrap()
     }
 
     #[test]
@@ -723,7 +742,8 @@ mod tests {
             damping: 1.25,
             ..Calibration::REFERENCE_ACTUATOR_PAPER
         };
-        let again = Actuator::parse(&Actuator::with_calibration_text(&reference_text(), &c)).unwrap();
+        let again =
+            Actuator::parse(&Actuator::with_calibration_text(&reference_text(), &c)).unwrap();
         assert_eq!(again.record.calibration, c);
         assert_eq!(again.record.params, a.record.params);
         assert_eq!(again.reference, a.reference);
@@ -748,10 +768,18 @@ mod tests {
     #[test]
     fn out_of_range_values_are_refused_with_key_and_line() {
         let text = reference_text().replace("gear_ratio = 500.0", "gear_ratio = 0.0");
-        let line = text.lines().position(|l| l.starts_with("gear_ratio")).unwrap() + 1;
+        let line = text
+            .lines()
+            .position(|l| l.starts_with("gear_ratio"))
+            .unwrap()
+            + 1;
         let e = refusal(&text);
-        assert!(e.contains("mechanics.gear_ratio") && e.contains(&format!("line {line}")), "{e}");
-        let e = refusal(&reference_text().replace("motor_inertia = 1.0e-4", "motor_inertia = -1.0e-4"));
+        assert!(
+            e.contains("mechanics.gear_ratio") && e.contains(&format!("line {line}")),
+            "{e}"
+        );
+        let e =
+            refusal(&reference_text().replace("motor_inertia = 1.0e-4", "motor_inertia = -1.0e-4"));
         assert!(e.contains("mechanics.motor_inertia"), "{e}");
         let e = refusal(&reference_text().replace("pole_pairs = 4", "pole_pairs = 4.5"));
         assert!(e.contains("motor.pole_pairs"), "{e}");
@@ -770,13 +798,17 @@ mod tests {
             .collect();
         let e = refusal(&without);
         assert!(e.contains("missing field `gear_ratio`"), "{e}");
-        let e = refusal(&reference_text().replace("design = \"standstill\"", "design = \"wobble\""));
+        let e =
+            refusal(&reference_text().replace("design = \"standstill\"", "design = \"wobble\""));
         assert!(e.contains("wobble") && e.contains("line"), "{e}");
     }
 
     #[test]
     fn an_unknown_rig_column_is_refused() {
-        let text = format!("{}\n[rig]\ncolumns = {{ t = \"Time\", i_d = \"Id\" }}\n", reference_text());
+        let text = format!(
+            "{}\n[rig]\ncolumns = {{ t = \"Time\", i_d = \"Id\" }}\n",
+            reference_text()
+        );
         let e = refusal(&text);
         assert!(e.contains("i_d"), "{e}");
     }
@@ -785,6 +817,9 @@ mod tests {
     fn a_file_of_another_test_kind_refuses_a_trace_of_the_other() {
         let a = Actuator::parse(&reference_text()).unwrap();
         assert!(a.test_for(&PreflightTest::PAPER).is_err());
-        assert_eq!(a.test_for(&PreflightTest::STANDSTILL).unwrap(), a.record.test);
+        assert_eq!(
+            a.test_for(&PreflightTest::STANDSTILL).unwrap(),
+            a.record.test
+        );
     }
 }

@@ -9,10 +9,10 @@ use std::path::Path;
 
 use anyhow::{anyhow, Result};
 use rayon::prelude::*;
+use shared::actuator::ActuatorRecord;
 use shared::fault::DETECTION_THRESHOLD;
 use shared::fault::FAULT_COUNT;
 use shared::metrics::total_error;
-use shared::actuator::ActuatorRecord;
 use shared::uncertainty::{Assessment, Uncertainty};
 use shared::FaultVector;
 

@@ -200,7 +200,11 @@ pub fn suggested_limits(rows: &[SurveyRow], base: &DomainLimits) -> DomainLimits
     };
     DomainLimits {
         min_travel: round(0.5 * travel),
-        min_phase_ratio: if ratio.is_finite() { round(0.5 * ratio) } else { base.min_phase_ratio },
+        min_phase_ratio: if ratio.is_finite() {
+            round(0.5 * ratio)
+        } else {
+            base.min_phase_ratio
+        },
         max_tracking: round(1.5 * tracking),
         max_fitness: round(2.0 * fitness),
         ..*base

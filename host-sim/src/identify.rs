@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, Result};
+use shared::actuator::ActuatorRecord;
 use shared::command::CommandTable;
 use shared::fault::FAULT_COUNT;
 use shared::fdi::{
@@ -14,7 +15,6 @@ use shared::fdi::{
 };
 use shared::ga::RecordError;
 use shared::uncertainty::{Assessment, Uncertainty};
-use shared::actuator::ActuatorRecord;
 use shared::{Calibration, Status};
 
 /// Evaluations per slice (the firmware's bounded tick does the same kind of slicing).

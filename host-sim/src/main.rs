@@ -18,17 +18,17 @@ use host_sim::campaign::{run_once, TABLE_1};
 use host_sim::faults;
 use host_sim::health_file;
 use host_sim::identify::{
-    identify_for,
-    identify_checkpointed, Checkpointing, Identified, Outcome, Resumption,
+    identify_checkpointed, identify_for, Checkpointing, Identified, Outcome, Resumption,
 };
 use host_sim::median;
 use host_sim::optimisers::{self, TraceSource};
 use host_sim::plot;
 use host_sim::prognostics::{self, DegradationPath, PathShape};
-use host_sim::rig::RigFormat;
 use host_sim::reference::{ReferenceModel, ReferenceSettings, Scenario};
+use host_sim::rig::RigFormat;
 use host_sim::trace_file::{IngestError, Trace, TraceFormat};
 use serde_json::json;
+use shared::actuator::ActuatorRecord;
 use shared::command::{CommandSource, CommandTable};
 use shared::domain::Domain;
 use shared::fault::{Verdict, FAULT_COUNT, FAULT_NAMES};
@@ -40,7 +40,6 @@ use shared::metrics::{component_errors, total_error};
 use shared::monitor::MonitorState;
 use shared::prognosis::TrendSettings;
 use shared::test_design::PreflightTest;
-use shared::actuator::ActuatorRecord;
 use shared::uncertainty::Assessment;
 use shared::{
     ActuatorParams, Calibration, ChirpCommand, FaultVector, FitnessProblem, GaSettings, LowPass,
@@ -50,7 +49,10 @@ use shared::{
 mod commands;
 
 #[allow(clippy::wildcard_imports)]
-use commands::{actuator::*, import::*, bench::*, calibrate::*, campaign::*, domain::*, identify::*, plot::*, prognostics::*, simulate::*, studies::*};
+use commands::{
+    actuator::*, bench::*, calibrate::*, campaign::*, domain::*, identify::*, import::*, plot::*,
+    prognostics::*, simulate::*, studies::*,
+};
 
 #[derive(Parser)]
 #[command(
@@ -540,15 +542,17 @@ fn main() -> ExitCode {
             ga_seed,
             trace_out,
             json,
-        } => with_test(test, encoder_offset).and_then(|actuator| preflight(
-            &actuator,
-            faults,
-            noise,
-            seed,
-            ga_seed,
-            trace_out.as_deref(),
-            json,
-        )),
+        } => with_test(test, encoder_offset).and_then(|actuator| {
+            preflight(
+                &actuator,
+                faults,
+                noise,
+                seed,
+                ga_seed,
+                trace_out.as_deref(),
+                json,
+            )
+        }),
         Command::Simulate {
             actuator:
                 ActuatorArgs {
@@ -712,7 +716,14 @@ fn main() -> ExitCode {
             out,
             plot,
         } => actuator.built_in_only("prognostics").and_then(|()| {
-            prognostics_command(seeds, flights, noise, alpha, out.as_deref(), plot.as_deref())
+            prognostics_command(
+                seeds,
+                flights,
+                noise,
+                alpha,
+                out.as_deref(),
+                plot.as_deref(),
+            )
         }),
         Command::Footprint => {
             footprint();

@@ -95,22 +95,52 @@ fn pairs<T>(
 #[derive(Clone, Debug, PartialEq)]
 pub enum RigError {
     /// The CSV itself is malformed (unbalanced quotes, a row of another length, …).
-    Csv { line: u64, message: String },
+    Csv {
+        line: u64,
+        message: String,
+    },
     NotText,
-    MissingColumn { ours: &'static str, theirs: String },
-    NotNumeric { line: u64, column: String, cell: String },
-    NotFinite { line: u64, column: String },
+    MissingColumn {
+        ours: &'static str,
+        theirs: String,
+    },
+    NotNumeric {
+        line: u64,
+        column: String,
+        cell: String,
+    },
+    NotFinite {
+        line: u64,
+        column: String,
+    },
     /// Fewer than two rows: no time base.
-    TooFewRows { rows: usize },
-    NotIncreasing { line: u64, time: f64 },
-    IrregularTime { line: u64, step: f64, median: f64 },
+    TooFewRows {
+        rows: usize,
+    },
+    NotIncreasing {
+        line: u64,
+        time: f64,
+    },
+    IrregularTime {
+        line: u64,
+        step: f64,
+        median: f64,
+    },
     /// Recorded below the control rate.
-    TooSlow { rate_hz: f64, control_hz: f64 },
+    TooSlow {
+        rate_hz: f64,
+        control_hz: f64,
+    },
     /// The command never leaves zero (and no `--start` was given), or the test would start
     /// before the recording.
-    NoTestStart { reason: String },
+    NoTestStart {
+        reason: String,
+    },
     /// After trimming, the recording ends before the test does.
-    TooShort { have_s: f64, need_s: f64 },
+    TooShort {
+        have_s: f64,
+        need_s: f64,
+    },
 }
 
 impl fmt::Display for RigError {
@@ -221,7 +251,10 @@ pub fn import(
         steps.push(step);
     }
     let median = crate::median(&steps).unwrap_or(0.0);
-    if let Some(k) = steps.iter().position(|s| (s - median).abs() > 0.01 * median) {
+    if let Some(k) = steps
+        .iter()
+        .position(|s| (s - median).abs() > 0.01 * median)
+    {
         return Err(RigError::IrregularTime {
             line: lines[k + 1],
             step: steps[k],
@@ -243,11 +276,12 @@ pub fn import(
     let start = match format.start {
         Some(s) => s,
         None => {
-            let first = rows.iter().position(|r| r[1] != 0.0).ok_or_else(|| {
-                RigError::NoTestStart {
-                    reason: "the command never leaves 0; give --start SECONDS".to_string(),
-                }
-            })?;
+            let first =
+                rows.iter()
+                    .position(|r| r[1] != 0.0)
+                    .ok_or_else(|| RigError::NoTestStart {
+                        reason: "the command never leaves 0; give --start SECONDS".to_string(),
+                    })?;
             // The chirp's sample 0 is 0; its sample 1 is the first non-zero command.
             rows[first][0] - (lead + 1.0) * control_period
         }
@@ -346,16 +380,25 @@ mod tests {
         let mut level = vec![1.5; 400];
         low_pass(&mut level, 2000.0, 50_000.0);
         assert!(level.iter().all(|v| (v - 1.5).abs() < 1e-9));
-        let mut fast: Vec<f64> = (0..2000).map(|n| if n % 2 == 0 { 1.0 } else { -1.0 }).collect();
+        let mut fast: Vec<f64> = (0..2000)
+            .map(|n| if n % 2 == 0 { 1.0 } else { -1.0 })
+            .collect();
         low_pass(&mut fast, 2000.0, 50_000.0);
-        assert!(fast[500..1500].iter().all(|v| v.abs() < 0.01), "{:?}", &fast[500..510]);
+        assert!(
+            fast[500..1500].iter().all(|v| v.abs() < 0.01),
+            "{:?}",
+            &fast[500..510]
+        );
         // 1 kHz at 50 kHz through a 1 kHz cutoff: −3 dB.
         let mut tone: Vec<f64> = (0..5000)
             .map(|n| (std::f64::consts::TAU * 1000.0 * n as f64 / 50_000.0).sin())
             .collect();
         low_pass(&mut tone, 1000.0, 50_000.0);
         let peak = tone[2500..].iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        assert!((peak - std::f64::consts::FRAC_1_SQRT_2).abs() < 0.01, "{peak}");
+        assert!(
+            (peak - std::f64::consts::FRAC_1_SQRT_2).abs() < 0.01,
+            "{peak}"
+        );
     }
 
     #[test]
@@ -366,7 +409,9 @@ mod tests {
         let m = RigFormat::parse_columns("t=Time, i_a = Ia").unwrap();
         assert_eq!(m["t"], "Time");
         assert_eq!(m["i_a"], "Ia");
-        assert!(RigFormat::parse_columns("i_d=Id").unwrap_err().contains("unknown column"));
+        assert!(RigFormat::parse_columns("i_d=Id")
+            .unwrap_err()
+            .contains("unknown column"));
         assert!(RigFormat::parse_scales("t=0").is_err());
         assert_eq!(RigFormat::parse_scales("t=1e-3").unwrap()["t"], 1e-3);
     }

@@ -23,7 +23,8 @@ const NAMES: [&str; 7] = [
 ];
 
 fn rig_csv(rows: &[TraceSample]) -> String {
-    let mut out = String::from("# logger export, 50 kHz\n# channel units: ms, rad, A, A, A, rad, rad\n");
+    let mut out =
+        String::from("# logger export, 50 kHz\n# channel units: ms, rad, A, A, A, rad, rad\n");
     out += &NAMES
         .iter()
         .map(|n| format!("\"{n}\""))
@@ -47,7 +48,8 @@ fn rig_csv(rows: &[TraceSample]) -> String {
 }
 
 fn format() -> RigFormat {
-    let columns = "t=Time [ms],theta_cmd=Cmd,i_a=Ia,i_b=Ib,i_c=Ic,theta_m=MotorAngle,theta_u=SurfaceAngle";
+    let columns =
+        "t=Time [ms],theta_cmd=Cmd,i_a=Ia,i_b=Ib,i_c=Ic,theta_m=MotorAngle,theta_u=SurfaceAngle";
     RigFormat {
         columns: RigFormat::parse_columns(columns).unwrap(),
         scales: RigFormat::parse_scales("t=1e-3").unwrap(),
@@ -81,7 +83,12 @@ fn a_50_khz_recording_with_idle_and_renamed_columns_identifies_like_the_10_khz_t
     assert_eq!(imported.samples().len(), at_control_rate.samples().len());
     // The window found from the command is the test's: the commands agree sample by sample.
     for (a, b) in imported.samples().iter().zip(at_control_rate.samples()) {
-        assert!((a.command - b.command).abs() < 1e-12, "{} vs {}", a.command, b.command);
+        assert!(
+            (a.command - b.command).abs() < 1e-12,
+            "{} vs {}",
+            a.command,
+            b.command
+        );
     }
     let truth = FaultVector::new(truth).unwrap();
     let e_tot = |t: &host_sim::trace_file::Trace| {
@@ -91,7 +98,10 @@ fn a_50_khz_recording_with_idle_and_renamed_columns_identifies_like_the_10_khz_t
     };
     let (rig, control) = (e_tot(&imported), e_tot(&at_control_rate));
     println!("e_tot: 50 kHz rig recording {rig:.3} %, 10 kHz trace {control:.3} %");
-    assert!((rig - control).abs() <= 0.1, "rig {rig} vs control rate {control}");
+    assert!(
+        (rig - control).abs() <= 0.1,
+        "rig {rig} vs control rate {control}"
+    );
 }
 
 #[test]
@@ -102,7 +112,10 @@ fn what_is_wrong_with_a_recording_is_refused_by_name() {
 
     // A column the mapping names is missing.
     let e = refused(&rig_csv(&rows).replacen("\"Ib\"", "\"I_b\"", 1), &format());
-    assert!(matches!(e, RigError::MissingColumn { ours: "i_b", .. }), "{e}");
+    assert!(
+        matches!(e, RigError::MissingColumn { ours: "i_b", .. }),
+        "{e}"
+    );
     // A cell that is not a number, with its line.
     let csv = rig_csv(&rows);
     let line_5: Vec<&str> = csv.lines().collect();

@@ -286,9 +286,9 @@ impl ActuatorRecord {
             damping,
             nominal_residual,
         };
-        let [max_evaluations, max_generations, stall_generations] =
-            [r.u32(), r.u32(), r.u32()];
-        let tournament_size = u8::try_from(r.u32()).map_err(|_| out_of_range("ga.tournament_size"))?;
+        let [max_evaluations, max_generations, stall_generations] = [r.u32(), r.u32(), r.u32()];
+        let tournament_size =
+            u8::try_from(r.u32()).map_err(|_| out_of_range("ga.tournament_size"))?;
         let [tolerance, crossover_alpha, mutation_probability, mutation_scale, mutation_floor, differential_probability, differential_scale] =
             r.f32s::<7>();
         let circular_mask = r.u32();
@@ -336,101 +336,121 @@ impl ActuatorRecord {
     }
 
     /// Refuses values outside their physical or working range, naming the first one as
-    /// `section.key` of the actuator description file. O(1).
+    /// `section.key` of the actuator description file. O(1); written as loops over tables
+    /// so that it stays small in flash.
     pub fn validate(&self) -> Result<(), ActuatorRecordError> {
         let p = &self.params;
-        let positive = |v: f32| v.is_finite() && v > 0.0;
-        let non_negative = |v: f32| v.is_finite() && v >= 0.0;
-        let checks: [(bool, &'static str); 40] = [
-            (positive(p.dc_bus_voltage), "motor.dc_bus_voltage"),
+        let c = &self.calibration;
+        let d = &self.domain;
+        let t = &self.test;
+        let fail = |field| Err(ActuatorRecordError::OutOfRange { field });
+        let positive: [(f32, &'static str); 24] = [
+            (p.dc_bus_voltage, "motor.dc_bus_voltage"),
+            (p.phase_resistance, "motor.phase_resistance"),
+            (p.phase_inductance, "motor.phase_inductance"),
+            (p.back_emf_constant, "motor.back_emf_constant"),
+            (p.max_current, "motor.max_current"),
+            (p.motor_inertia, "mechanics.motor_inertia"),
+            (p.user_inertia, "mechanics.user_inertia"),
+            (p.gear_ratio, "mechanics.gear_ratio"),
+            (p.gear_stiffness, "mechanics.gear_stiffness"),
+            (p.nominal_backlash, "mechanics.nominal_backlash"),
+            (p.static_friction, "mechanics.static_friction"),
+            (p.dynamic_friction, "mechanics.dynamic_friction"),
+            (p.stick_speed, "mechanics.stick_speed"),
+            (p.position_kp, "controller.position_kp"),
+            (p.max_speed, "controller.max_speed"),
+            (p.speed_kp, "controller.speed_kp"),
+            (p.control_period, "controller.control_period"),
+            (t.chirp.amplitude, "test.chirp_amplitude"),
+            (t.chirp.end_frequency, "test.chirp_end_frequency"),
+            (t.chirp.duration, "test.chirp_duration"),
+            (c.resistance_scale, "calibration.resistance_scale"),
+            (c.inductance_scale, "calibration.inductance_scale"),
+            (c.back_emf_scale, "calibration.back_emf_scale"),
+            (c.friction_scale, "calibration.friction_scale"),
+        ];
+        if let Some(field) = first_outside(&positive, false) {
+            return fail(field);
+        }
+        let non_negative: [(f32, &'static str); 11] = [
+            (p.gear_damping, "mechanics.gear_damping"),
+            (p.aero_stiffness, "mechanics.aero_stiffness"),
+            (p.position_ki, "controller.position_ki"),
+            (p.position_kd, "controller.position_kd"),
+            (p.speed_ki, "controller.speed_ki"),
+            (c.damping, "calibration.damping"),
+            (c.nominal_residual, "calibration.nominal_residual"),
+            (d.min_travel, "domain.min_travel"),
+            (d.min_phase_ratio, "domain.min_phase_ratio"),
+            (d.min_phase_current, "domain.min_phase_current"),
+            (d.max_tracking, "domain.max_tracking"),
+        ];
+        if let Some(field) = first_outside(&non_negative, true) {
+            return fail(field);
+        }
+        let whole_pole_pairs = p.pole_pairs >= 1.0 && p.pole_pairs <= 64.0 && {
+            let n = p.pole_pairs as u32;
+            n as f32 == p.pole_pairs
+        };
+        let others: [(bool, &'static str); 11] = [
+            (whole_pole_pairs, "motor.pole_pairs"),
             (
-                p.pole_pairs >= 1.0 && p.pole_pairs <= 64.0 && p.pole_pairs == (p.pole_pairs as u32) as f32,
-                "motor.pole_pairs",
-            ),
-            (positive(p.phase_resistance), "motor.phase_resistance"),
-            (positive(p.phase_inductance), "motor.phase_inductance"),
-            (positive(p.back_emf_constant), "motor.back_emf_constant"),
-            (positive(p.max_current), "motor.max_current"),
-            (
-                p.winding_group_angle.iter().all(|a| a.is_finite() && a.abs() <= 7.0),
+                p.winding_group_angle
+                    .iter()
+                    .all(|a| a.is_finite() && a.abs() <= 7.0),
                 "motor.winding_group_angle_deg",
             ),
-            (positive(p.motor_inertia), "mechanics.motor_inertia"),
-            (positive(p.user_inertia), "mechanics.user_inertia"),
-            (positive(p.gear_ratio), "mechanics.gear_ratio"),
-            (positive(p.gear_stiffness), "mechanics.gear_stiffness"),
-            (non_negative(p.gear_damping), "mechanics.gear_damping"),
-            (positive(p.nominal_backlash), "mechanics.nominal_backlash"),
-            (positive(p.static_friction), "mechanics.static_friction"),
             (
-                positive(p.dynamic_friction) && p.dynamic_friction <= p.static_friction,
+                p.dynamic_friction <= p.static_friction,
                 "mechanics.dynamic_friction",
             ),
-            (positive(p.stick_speed), "mechanics.stick_speed"),
-            (non_negative(p.aero_stiffness), "mechanics.aero_stiffness"),
             (
                 p.encoder_offset.is_finite() && p.encoder_offset.abs() <= 1.0e4,
                 "installation.encoder_offset",
             ),
-            (positive(p.position_kp), "controller.position_kp"),
-            (non_negative(p.position_ki), "controller.position_ki"),
-            (non_negative(p.position_kd), "controller.position_kd"),
-            (positive(p.max_speed), "controller.max_speed"),
-            (positive(p.speed_kp), "controller.speed_kp"),
-            (non_negative(p.speed_ki), "controller.speed_ki"),
+            (p.control_period <= 1.0e-2, "controller.control_period"),
             (
-                positive(p.control_period) && p.control_period <= 1.0e-2,
-                "controller.control_period",
-            ),
-            (
-                self.test.standstill.is_none_or(|s| {
-                    positive(s.volts) && s.volts <= p.dc_bus_voltage && s.on_samples > 0
+                t.standstill.is_none_or(|s| {
+                    s.volts.is_finite()
+                        && s.volts > 0.0
+                        && s.volts <= p.dc_bus_voltage
+                        && s.on_samples > 0
                 }),
                 "test.standstill_volts",
             ),
             (
-                self.test.motion.is_none_or(|m| positive(m.amplitude) && m.ramp_samples > 0),
+                t.motion.is_none_or(|m| {
+                    m.amplitude.is_finite() && m.amplitude > 0.0 && m.ramp_samples > 0
+                }),
                 "test.motion_amplitude",
             ),
-            (positive(self.test.chirp.amplitude), "test.chirp_amplitude"),
             (
-                positive(self.test.chirp.end_frequency)
-                    && self.test.chirp.end_frequency * p.control_period < 0.1,
+                t.chirp.end_frequency * p.control_period < 0.1,
                 "test.chirp_end_frequency",
             ),
             (
-                positive(self.test.chirp.duration)
-                    && self.test.samples(p.control_period) <= TEST_SAMPLES,
+                t.samples(p.control_period) <= TEST_SAMPLES,
                 "test.chirp_duration",
             ),
-            (positive(self.calibration.resistance_scale), "calibration.resistance_scale"),
-            (positive(self.calibration.inductance_scale), "calibration.inductance_scale"),
-            (positive(self.calibration.back_emf_scale), "calibration.back_emf_scale"),
-            (positive(self.calibration.friction_scale), "calibration.friction_scale"),
-            (non_negative(self.calibration.damping), "calibration.damping"),
-            (non_negative(self.calibration.nominal_residual), "calibration.nominal_residual"),
-            (self.ga.check(POPULATION).is_ok(), "ga"),
             (
-                [
-                    self.domain.min_travel,
-                    self.domain.min_phase_ratio,
-                    self.domain.min_phase_current,
-                    self.domain.max_tracking,
-                ]
-                .iter()
-                .all(|&v| non_negative(v)),
-                "domain",
+                d.max_fitness.is_finite() && d.max_fitness > 0.0,
+                "domain.max_fitness",
             ),
-            (positive(self.domain.max_fitness), "domain.max_fitness"),
             (
-                positive(self.detection_threshold) && self.detection_threshold < 1.0,
+                self.detection_threshold > 0.0 && self.detection_threshold < 1.0,
                 "detection.threshold",
             ),
         ];
-        match checks.iter().find(|(ok, _)| !ok) {
-            Some(&(_, field)) => Err(ActuatorRecordError::OutOfRange { field }),
-            None => Ok(()),
+        for (ok, field) in others {
+            if !ok {
+                return fail(field);
+            }
         }
+        if self.ga.check(POPULATION).is_err() {
+            return fail("ga");
+        }
+        Ok(())
     }
 }
 
@@ -441,6 +461,16 @@ impl Default for ActuatorRecord {
 }
 
 const _: () = assert!(FAULT_COUNT == GENES);
+
+/// The first value that is not finite and positive (or zero, with `zero_allowed`). Kept out
+/// of line so that the checks stay a loop in flash, not 35 unrolled copies.
+#[inline(never)]
+fn first_outside(values: &[(f32, &'static str)], zero_allowed: bool) -> Option<&'static str> {
+    values
+        .iter()
+        .find(|(v, _)| !(v.is_finite() && (*v > 0.0 || zero_allowed && *v == 0.0)))
+        .map(|&(_, field)| field)
+}
 
 struct Writer {
     out: [u8; RECORD_BYTES],
@@ -489,10 +519,15 @@ impl Reader<'_> {
     }
     fn f32s<const K: usize>(&mut self) -> [f32; K] {
         let mut out = [0.0; K];
-        for v in &mut out {
+        self.fill(&mut out);
+        out
+    }
+    /// Not generic, so that one copy serves every length (flash).
+    #[inline(never)]
+    fn fill(&mut self, out: &mut [f32]) {
+        for v in out {
             *v = self.f32();
         }
-        out
     }
 }
 
@@ -534,7 +569,10 @@ mod tests {
         );
         let mut other = bytes;
         other[0] = b'X';
-        assert_eq!(ActuatorRecord::decode(&other), Err(ActuatorRecordError::BadMagic));
+        assert_eq!(
+            ActuatorRecord::decode(&other),
+            Err(ActuatorRecordError::BadMagic)
+        );
     }
 
     #[test]

@@ -5,10 +5,10 @@
 //! [`Identification`] a bounded number of evaluations at a time; the host calls
 //! [`Identification::run`].
 
+use crate::calibration::Calibration;
 use crate::command::CommandTable;
 use crate::conditioning::{commutation_signs, AdcFrame, MeasuredCurrent};
 use crate::fault::FaultVector;
-use crate::calibration::Calibration;
 use crate::fitness::{FitnessError, FitnessProblem};
 use crate::ga::{GaError, GaSettings, RecordError, Status, SteadyStateGa, StopReason};
 use crate::monitor::MonitorModel;
@@ -190,8 +190,12 @@ fn fingerprint<const N: usize>(
     ]);
     f32s(&p.winding_group_angle);
     let t = measured.test();
-    let standstill = t.standstill.unwrap_or(crate::test_design::StandstillSegment::DEFAULT);
-    let motion = t.motion.unwrap_or(crate::test_design::MotionSegment::DEFAULT);
+    let standstill = t
+        .standstill
+        .unwrap_or(crate::test_design::StandstillSegment::DEFAULT);
+    let motion = t
+        .motion
+        .unwrap_or(crate::test_design::MotionSegment::DEFAULT);
     f32s(&[
         f32::from(t.kind()),
         standstill.volts,

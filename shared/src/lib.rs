@@ -55,10 +55,10 @@ pub mod test_design;
 pub mod trace;
 pub mod uncertainty;
 
+pub use calibration::Calibration;
 pub use command::ChirpCommand;
 pub use conditioning::{AdcFrame, LowPass, MeasuredCurrent, ShaftAngles};
 pub use fault::{FaultVector, Verdict, FAULT_COUNT};
-pub use calibration::Calibration;
 pub use fitness::FitnessProblem;
 pub use ga::{GaSettings, Problem, Status, SteadyStateGa, StopReason};
 pub use monitor::MonitorModel;

@@ -29,12 +29,12 @@
 
 use core::ops::ControlFlow;
 
+use crate::calibration::Calibration;
 use crate::command::{ChirpCommand, CommandSource};
 use crate::conditioning::commutation_sector;
 use crate::conditioning::ShaftAngles;
 use crate::fault::FaultEffects;
 use crate::fault::FaultVector;
-use crate::calibration::Calibration;
 use crate::math::{abs, clamp, cos, exp64, floor, TAU};
 use crate::params::ActuatorParams;
 use crate::test_design::{PreflightTest, StandstillSegment, PAIR_SIGNS};
@@ -296,7 +296,8 @@ impl MonitorModel {
         mut sink: impl FnMut(&MonitorSample) -> ControlFlow<()>,
     ) -> usize {
         let f = self.faulted(k);
-        let mut state = MonitorState::at_rest(start, &f, self.inv_gear_ratio, self.params.encoder_offset);
+        let mut state =
+            MonitorState::at_rest(start, &f, self.inv_gear_ratio, self.params.encoder_offset);
         let lead = match self.standstill {
             Some(segment) => match self.run_standstill(&f, &segment, &state, samples, &mut sink) {
                 ControlFlow::Break(done) => return done,
@@ -319,7 +320,8 @@ impl MonitorModel {
     /// [`run_with`](Self::run_with) from the same start. O(1) to create.
     pub fn start_run(&self, k: &FaultVector, start: ShaftAngles) -> MonitorRun {
         let f = self.faulted(k);
-        let state = MonitorState::at_rest(start, &f, self.inv_gear_ratio, self.params.encoder_offset);
+        let state =
+            MonitorState::at_rest(start, &f, self.inv_gear_ratio, self.params.encoder_offset);
         let pair_current = pair_current_after_switch(state.start_currents, 0);
         MonitorRun {
             f,
@@ -334,7 +336,12 @@ impl MonitorModel {
     #[inline(never)]
     pub fn restart_run(&self, run: &mut MonitorRun, k: &FaultVector, start: ShaftAngles) {
         run.f = self.faulted(k);
-        run.state = MonitorState::at_rest(start, &run.f, self.inv_gear_ratio, self.params.encoder_offset);
+        run.state = MonitorState::at_rest(
+            start,
+            &run.f,
+            self.inv_gear_ratio,
+            self.params.encoder_offset,
+        );
         run.index = 0;
         run.pair = 0;
         run.pair_current = pair_current_after_switch(run.state.start_currents, 0);

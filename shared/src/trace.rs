@@ -386,7 +386,10 @@ mod tests {
         // actuator record, not from the trace.
         let odd_bytes = odd.encode().unwrap();
         assert_eq!(odd_bytes[7], 0);
-        assert_eq!(TraceHeader::decode(&odd_bytes).unwrap().test, PreflightTest::PAPER);
+        assert_eq!(
+            TraceHeader::decode(&odd_bytes).unwrap().test,
+            PreflightTest::PAPER
+        );
     }
 
     #[test]

@@ -25,7 +25,11 @@ pub(crate) fn campaign_command(
     let start = Instant::now();
     let summaries =
         campaign::run_campaign(&cases, runs, actuator, std::io::stderr().is_terminal())?;
-    let title = format!("{title} ({}, {} test)", actuator.name, actuator.record.test.kind_name());
+    let title = format!(
+        "{title} ({}, {} test)",
+        actuator.name,
+        actuator.record.test.kind_name()
+    );
     let title = title.as_str();
     let mut text = campaign::markdown(title, &summaries, runs);
     if matches!(table, CampaignTable::Random) {

@@ -16,8 +16,14 @@ pub(crate) fn domain_command(
     let suggested = host_sim::domain::suggested_limits(&rows, &limits);
     let keys = [
         ("domain.min_travel", format!("{:?}", suggested.min_travel)),
-        ("domain.min_phase_ratio", format!("{:?}", suggested.min_phase_ratio)),
-        ("domain.max_tracking", format!("{:?}", suggested.max_tracking)),
+        (
+            "domain.min_phase_ratio",
+            format!("{:?}", suggested.min_phase_ratio),
+        ),
+        (
+            "domain.max_tracking",
+            format!("{:?}", suggested.max_tracking),
+        ),
         ("domain.max_fitness", format!("{:?}", suggested.max_fitness)),
     ];
     text += &format!(
@@ -39,15 +45,18 @@ pub(crate) fn domain_command(
         std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
     }
     if let Some(path) = write {
-        let mut file = std::fs::read_to_string(path)
-            .with_context(|| format!("reading {}", path.display()))?;
+        let mut file =
+            std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
         for (key, value) in &keys {
             file = Actuator::with_key_text(&file, key, value)
                 .with_context(|| format!("{} sets no `{key}`", path.display()))?;
         }
         Actuator::parse(&file).context("the rewritten description")?;
         std::fs::write(path, file).with_context(|| format!("writing {}", path.display()))?;
-        println!("wrote the suggested [domain] limits into {}", path.display());
+        println!(
+            "wrote the suggested [domain] limits into {}",
+            path.display()
+        );
     }
     Ok(())
 }

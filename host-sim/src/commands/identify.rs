@@ -233,6 +233,12 @@ pub(crate) fn identify_command(
         };
         heading.push(("checkpoint".to_string(), said));
     }
-    report(&id, truth.as_ref(), &heading, json, record.detection_threshold);
+    report(
+        &id,
+        truth.as_ref(),
+        &heading,
+        json,
+        record.detection_threshold,
+    );
     verdict
 }

@@ -30,8 +30,11 @@ pub(crate) fn plot_command(
         &measured,
         record.params,
         &record.calibration,
-        &k, &id.history, &title)
-        .with_context(|| format!("plotting into {}", out.display()))?;
+        &k,
+        &id.history,
+        &title,
+    )
+    .with_context(|| format!("plotting into {}", out.display()))?;
     println!("wrote {}", out.display());
     Ok(())
 }

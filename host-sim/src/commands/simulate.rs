@@ -98,6 +98,12 @@ pub(crate) fn preflight(
             .assess(&record.domain, id.result.fitness),
     );
     heading.push(line);
-    report(&id, Some(&faults), &heading, json, record.detection_threshold);
+    report(
+        &id,
+        Some(&faults),
+        &heading,
+        json,
+        record.detection_threshold,
+    );
     verdict
 }
