@@ -15,7 +15,7 @@ use crate::domain::DomainLimits;
 use crate::fault::{DETECTION_THRESHOLD, FAULT_COUNT};
 use crate::fdi::{POPULATION, TEST_SAMPLES};
 use crate::ga::{GaSettings, GENES};
-use crate::params::ActuatorParams;
+use crate::params::{ActuatorParams, PARAM_WORDS};
 use crate::test_design::{MotionSegment, PreflightTest, StandstillSegment};
 use crate::trace::Crc32;
 
@@ -82,40 +82,7 @@ impl ActuatorRecord {
         w.bytes(&RECORD_MAGIC);
         w.bytes(&RECORD_VERSION.to_le_bytes());
         w.bytes(&((4 * BODY_WORDS) as u16).to_le_bytes());
-        let p = &self.params;
-        for v in [
-            p.dc_bus_voltage,
-            p.pole_pairs,
-            p.phase_resistance,
-            p.phase_inductance,
-            p.back_emf_constant,
-            p.max_current,
-        ] {
-            w.f32(v);
-        }
-        for v in p.winding_group_angle {
-            w.f32(v);
-        }
-        for v in [
-            p.motor_inertia,
-            p.user_inertia,
-            p.gear_ratio,
-            p.gear_stiffness,
-            p.gear_damping,
-            p.nominal_backlash,
-            p.static_friction,
-            p.dynamic_friction,
-            p.stick_speed,
-            p.aero_stiffness,
-            p.encoder_offset,
-            p.position_kp,
-            p.position_ki,
-            p.position_kd,
-            p.max_speed,
-            p.speed_kp,
-            p.speed_ki,
-            p.control_period,
-        ] {
+        for v in self.params.to_words() {
             w.f32(v);
         }
         let t = &self.test;
@@ -217,38 +184,7 @@ impl ActuatorRecord {
             return Err(ActuatorRecordError::BadChecksum);
         }
         let out_of_range = |field| ActuatorRecordError::OutOfRange { field };
-        let [dc_bus_voltage, pole_pairs, phase_resistance, phase_inductance, back_emf_constant, max_current] =
-            r.f32s::<6>();
-        let winding_group_angle = r.f32s::<3>();
-        let [motor_inertia, user_inertia, gear_ratio, gear_stiffness, gear_damping, nominal_backlash, static_friction, dynamic_friction, stick_speed, aero_stiffness, encoder_offset, position_kp, position_ki, position_kd, max_speed, speed_kp, speed_ki, control_period] =
-            r.f32s::<18>();
-        let params = ActuatorParams {
-            dc_bus_voltage,
-            pole_pairs,
-            phase_resistance,
-            phase_inductance,
-            back_emf_constant,
-            max_current,
-            winding_group_angle,
-            motor_inertia,
-            user_inertia,
-            gear_ratio,
-            gear_stiffness,
-            gear_damping,
-            nominal_backlash,
-            static_friction,
-            dynamic_friction,
-            stick_speed,
-            aero_stiffness,
-            encoder_offset,
-            position_kp,
-            position_ki,
-            position_kd,
-            max_speed,
-            speed_kp,
-            speed_ki,
-            control_period,
-        };
+        let params = ActuatorParams::from_words(r.f32s::<PARAM_WORDS>());
         let kind = r.u32();
         let volts = r.f32();
         let [settle, on, off] = [r.u16()?, r.u16()?, r.u16()?];

@@ -161,34 +161,7 @@ fn fingerprint<const N: usize>(
         }
     };
     f32s(measured.samples());
-    let p = params;
-    f32s(&[
-        p.dc_bus_voltage,
-        p.pole_pairs,
-        p.phase_resistance,
-        p.phase_inductance,
-        p.back_emf_constant,
-        p.max_current,
-        p.motor_inertia,
-        p.user_inertia,
-        p.gear_ratio,
-        p.gear_stiffness,
-        p.gear_damping,
-        p.nominal_backlash,
-        p.static_friction,
-        p.dynamic_friction,
-        p.stick_speed,
-        p.aero_stiffness,
-        p.encoder_offset,
-        p.position_kp,
-        p.position_ki,
-        p.position_kd,
-        p.max_speed,
-        p.speed_kp,
-        p.speed_ki,
-        p.control_period,
-    ]);
-    f32s(&p.winding_group_angle);
+    f32s(&params.to_words());
     let t = measured.test();
     let standstill = t
         .standstill

@@ -10,6 +10,9 @@
 //! user shaft, 0 → 15 Hz) is tracked closely while drawing currents well above ripple and noise:
 //! a spring-like aerodynamic load dominates at low frequency, motor inertia at high frequency.
 
+/// Number of `f32` words in [`ActuatorParams::to_words`].
+pub const PARAM_WORDS: usize = 27;
+
 /// Physical parameters and nominal controller settings of the actuator.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -123,6 +126,74 @@ impl ActuatorParams {
         control_period: 1.0e-4,
     };
 
+    /// Every field as one array, in declaration order (the winding angles in place): what the
+    /// actuator record stores and the checkpoint fingerprint hashes. O(1).
+    pub const fn to_words(&self) -> [f32; PARAM_WORDS] {
+        let [a, b, c] = self.winding_group_angle;
+        [
+            self.dc_bus_voltage,
+            self.pole_pairs,
+            self.phase_resistance,
+            self.phase_inductance,
+            self.back_emf_constant,
+            self.max_current,
+            a,
+            b,
+            c,
+            self.motor_inertia,
+            self.user_inertia,
+            self.gear_ratio,
+            self.gear_stiffness,
+            self.gear_damping,
+            self.nominal_backlash,
+            self.static_friction,
+            self.dynamic_friction,
+            self.stick_speed,
+            self.aero_stiffness,
+            self.encoder_offset,
+            self.position_kp,
+            self.position_ki,
+            self.position_kd,
+            self.max_speed,
+            self.speed_kp,
+            self.speed_ki,
+            self.control_period,
+        ]
+    }
+
+    /// The parameters from [`Self::to_words`]'s array.
+    pub const fn from_words(w: [f32; PARAM_WORDS]) -> Self {
+        let [dc_bus_voltage, pole_pairs, phase_resistance, phase_inductance, back_emf_constant, max_current, a, b, c, motor_inertia, user_inertia, gear_ratio, gear_stiffness, gear_damping, nominal_backlash, static_friction, dynamic_friction, stick_speed, aero_stiffness, encoder_offset, position_kp, position_ki, position_kd, max_speed, speed_kp, speed_ki, control_period] =
+            w;
+        Self {
+            dc_bus_voltage,
+            pole_pairs,
+            phase_resistance,
+            phase_inductance,
+            back_emf_constant,
+            max_current,
+            winding_group_angle: [a, b, c],
+            motor_inertia,
+            user_inertia,
+            gear_ratio,
+            gear_stiffness,
+            gear_damping,
+            nominal_backlash,
+            static_friction,
+            dynamic_friction,
+            stick_speed,
+            aero_stiffness,
+            encoder_offset,
+            position_kp,
+            position_ki,
+            position_kd,
+            max_speed,
+            speed_kp,
+            speed_ki,
+            control_period,
+        }
+    }
+
     /// Equivalent torque (and line back-EMF) constant of two phases in series [N·m/A].
     pub fn torque_constant(&self) -> f32 {
         2.0 * self.back_emf_constant
@@ -132,5 +203,19 @@ impl ActuatorParams {
 impl Default for ActuatorParams {
     fn default() -> Self {
         Self::REFERENCE
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn words_round_trip() {
+        let p = ActuatorParams::REFERENCE;
+        assert_eq!(ActuatorParams::from_words(p.to_words()), p);
+        let w = p.to_words();
+        assert_eq!(w[19], p.encoder_offset);
+        assert_eq!(w[26], p.control_period);
     }
 }
