@@ -221,3 +221,41 @@ fn foreign_erased_short_and_forged_records_are_refused() {
     assert_eq!(resumed.resume(&record), Ok(50));
     assert_eq!(resumed.ga().status(), Status::Running);
 }
+
+/// The fingerprint covers the actuator record: a checkpoint of the same trace, seed and
+/// settings taken with other actuator parameters (here another rigging offset or gear
+/// ratio) is refused.
+#[test]
+fn a_checkpoint_of_another_actuator_is_refused() {
+    let m = measured();
+    let mut id = fresh(&m, 1);
+    id.step(50);
+    let mut record: OnboardRecord = [0; core::mem::size_of::<OnboardRecord>()];
+    id.save(&mut record).unwrap();
+    for params in [
+        ActuatorParams {
+            encoder_offset: 0.5,
+            ..ActuatorParams::REFERENCE
+        },
+        ActuatorParams {
+            gear_ratio: 499.0,
+            ..ActuatorParams::REFERENCE
+        },
+    ] {
+        let mut other = Identification::<TEST_SAMPLES, POPULATION>::new(
+            &m,
+            params,
+            &Calibration::REFERENCE_ACTUATOR,
+            SETTINGS,
+            1,
+        )
+        .unwrap();
+        assert_ne!(other.fingerprint(), id.fingerprint());
+        assert!(matches!(
+            other.resume(&record),
+            Err(RecordError::OtherRun { .. })
+        ));
+    }
+    // The same actuator resumes.
+    assert_eq!(fresh(&m, 1).resume(&record), Ok(50));
+}

@@ -45,7 +45,7 @@ pub(crate) fn calibration_name(actuator: &Actuator, test: &PreflightTest) -> Str
     if actuator.built_in {
         format!("built-in ({} test)", test.kind_name())
     } else {
-        format!("{}'s record", actuator.name)
+        format!("{}'s calibration", actuator.name)
     }
 }
 
