@@ -85,8 +85,9 @@ impl AdcFrame {
 pub struct ShaftAngles {
     pub motor: f32,
     pub user: f32,
-    /// The three phase currents at the same frame [A]: where a standstill segment's pair
-    /// current starts (what the position hold before the test left in the windings).
+    /// The three phase currents at the first fitted frame of a standstill segment, past its
+    /// settle [A]: where the segment's first step starts (what the hold before the test and
+    /// the rotor's motion during the settle left in the windings).
     pub currents: [f32; 3],
 }
 
@@ -256,9 +257,15 @@ impl<const N: usize> MeasuredCurrent<N> {
         };
         match self.push_equivalent(current) {
             Ok(()) => {
-                // The phase currents where the test starts; the shaft angles where the chirp
-                // starts (the same frame without a standstill segment).
-                if index == 0 {
+                // The phase currents where the fitted part of the test starts (past a
+                // standstill segment's settle, whose rotor motion the model does not play);
+                // the shaft angles where the chirp starts.
+                if index
+                    == self
+                        .test
+                        .standstill
+                        .map_or(0, |s| usize::from(s.settle_samples))
+                {
                     self.initial_angles.currents = [a, b, c];
                 }
                 if index == self.lead_samples() {
@@ -321,7 +328,7 @@ impl<const N: usize> MeasuredCurrent<N> {
     }
 
     /// Where the monitor model starts: the shaft angles at the chirp's first sample, the
-    /// phase currents at the test's first sample.
+    /// phase currents at the standstill segment's first fitted sample.
     pub fn initial_angles(&self) -> ShaftAngles {
         self.initial_angles
     }

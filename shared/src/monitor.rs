@@ -76,7 +76,8 @@ pub struct MonitorState {
     pub position_integral: f32,
     pub previous_error: f32,
     pub speed_integral: f32,
-    /// Phase currents measured at the first frame [A] (a standstill segment starts there).
+    /// Phase currents measured at the standstill segment's first fitted frame [A] (its first
+    /// step starts there; the model holds them through the settle).
     pub start_currents: [f32; 3],
 }
 
@@ -385,9 +386,13 @@ impl MonitorModel {
             if sink(&sample).is_break() {
                 return ControlFlow::Break(i + 1);
             }
-            let decay = f.pair_decay.get(pair).copied().unwrap_or(0.0);
-            let gain = f.pair_gain.get(pair).copied().unwrap_or(0.0);
-            current = decay * current + gain * drive.volts;
+            // Held through the settle (not fitted: the rotor may still move, and its
+            // back-EMF drives the shorted pair), then from the measured current on.
+            if segment.fitted(i) {
+                let decay = f.pair_decay.get(pair).copied().unwrap_or(0.0);
+                let gain = f.pair_gain.get(pair).copied().unwrap_or(0.0);
+                current = decay * current + gain * drive.volts;
+            }
         }
         if samples <= lead {
             return ControlFlow::Break(samples);
@@ -545,9 +550,12 @@ impl MonitorRun {
                 motor_angle: self.state.motor_angle,
                 user_angle: self.state.user_angle + self.state.user_offset,
             };
-            let decay = self.f.pair_decay.get(self.pair).copied().unwrap_or(0.0);
-            let gain = self.f.pair_gain.get(self.pair).copied().unwrap_or(0.0);
-            self.pair_current = decay * self.pair_current + gain * drive.volts;
+            // Held through the settle, as in `run_standstill`.
+            if segment.fitted(i) {
+                let decay = self.f.pair_decay.get(self.pair).copied().unwrap_or(0.0);
+                let gain = self.f.pair_gain.get(self.pair).copied().unwrap_or(0.0);
+                self.pair_current = decay * self.pair_current + gain * drive.volts;
+            }
             return sample;
         }
         let j = i.saturating_sub(lead);
