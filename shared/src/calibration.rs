@@ -50,7 +50,7 @@ impl Calibration {
         back_emf_scale: 1.0011686,
         friction_scale: 1.0000055,
         damping: 9.856253,
-        nominal_residual: 0.00077677146,
+        nominal_residual: 0.00077715336,
     };
 
     /// The same for the paper's test (the chirp alone).

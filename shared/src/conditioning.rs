@@ -85,9 +85,9 @@ impl AdcFrame {
 pub struct ShaftAngles {
     pub motor: f32,
     pub user: f32,
-    /// The three phase currents at the first fitted frame of a standstill segment, past its
-    /// settle [A]: where the segment's first step starts (what the hold before the test and
-    /// the rotor's motion during the settle left in the windings).
+    /// Phase currents where a standstill segment's first fitted step starts, past its settle
+    /// [A]: the first pair's filtered current as A = +i, B = −i (what the hold before the
+    /// test and the rotor's motion during the settle left in the windings).
     pub currents: [f32; 3],
 }
 
@@ -257,15 +257,16 @@ impl<const N: usize> MeasuredCurrent<N> {
         };
         match self.push_equivalent(current) {
             Ok(()) => {
-                // The phase currents where the fitted part of the test starts (past a
-                // standstill segment's settle, whose rotor motion the model does not play);
-                // the shaft angles where the chirp starts.
-                if index
-                    == self
-                        .test
-                        .standstill
-                        .map_or(0, |s| usize::from(s.settle_samples))
-                {
+                // Where the fitted part of a standstill segment starts (past its settle,
+                // whose rotor motion the model does not play): the first pair's current, as
+                // filtered (half the ADC noise of one raw frame; the current moves slowly
+                // there), put as phase currents A = +i, B = −i. Without a segment, the phase
+                // currents of the first frame. The shaft angles where the chirp starts.
+                let fitted_start = self.test.standstill.map(|s| usize::from(s.settle_samples));
+                if fitted_start == Some(index) {
+                    let i = self.samples.last().copied().unwrap_or(current);
+                    self.initial_angles.currents = [i, -i, 0.0];
+                } else if fitted_start.is_none() && index == 0 {
                     self.initial_angles.currents = [a, b, c];
                 }
                 if index == self.lead_samples() {
