@@ -45,11 +45,11 @@ impl Calibration {
     /// noise-free reference trace (seed 0). The firmware carries it as data; `host-sim`
     /// checks it is still what the fit gives.
     pub const REFERENCE_ACTUATOR: Self = Self {
-        resistance_scale: 0.8238181,
-        inductance_scale: 1.144718,
-        back_emf_scale: 1.0011686,
-        friction_scale: 1.0000055,
-        damping: 9.856253,
+        resistance_scale: 0.8280815,
+        inductance_scale: 1.1406101,
+        back_emf_scale: 1.0011379,
+        friction_scale: 0.9996323,
+        damping: 9.865397,
         nominal_residual: 0.00077715336,
     };
 
