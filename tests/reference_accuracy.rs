@@ -1,7 +1,8 @@
 //! CI-sized accuracy check against the reference model with the default test (standstill
-//! segment + chirp): a few paper Table I cases and the Table II medium vector, one seed (RM
-//! seed 0, GA seed 1), each must reach e_tot ≤ 2 % (the target for low and medium damage).
-//! The full campaign is `host-sim campaign --table 1|2|random` (docs/accuracy.md).
+//! segment + chirp): a few paper Table I cases and the Table II medium vector, each over
+//! three seeds (RM seed r, GA seed 1 + r, r = 0, 1, 2, as the campaigns run them), whose
+//! mean e_tot must be ≤ 2 % (the target for low and medium damage, a mean over runs). The
+//! full campaign is `host-sim campaign --table 1|2|random` (docs/accuracy.md).
 
 use host_sim::actuator_file::Actuator;
 use host_sim::campaign::{run_once, TABLE_1, TABLE_2};
@@ -12,8 +13,12 @@ fn check(name: &str) {
     check_on(&Actuator::reference(), name);
 }
 
-/// `name` on `actuator` (its reference model, record and calibration), RM seed 0.
-fn check_on(actuator: &Actuator, name: &str) -> shared::FaultVector {
+/// Runs per case (RM seeds 0, 1, 2).
+const RUNS: u64 = 3;
+
+/// `name` on `actuator` (its reference model, record and calibration), [`RUNS`] seeds; the
+/// mean e_tot must be ≤ 2 %. Returns the mean identified vector's eccentricity.
+fn check_on(actuator: &Actuator, name: &str) -> f32 {
     let case = TABLE_1
         .iter()
         .chain(TABLE_2.iter())
@@ -22,15 +27,21 @@ fn check_on(actuator: &Actuator, name: &str) -> shared::FaultVector {
     let settings = actuator.reference_settings().expect("a description");
     let rm = ReferenceModel::new(settings).with_test(actuator.record.test);
     let record: ActuatorRecord = actuator.record;
-    let r = run_once(&rm, &record, case, 0).expect("identification runs");
-    println!(
-        "{} / {name}: e_tot {:.3} %, found {:?}",
-        actuator.name,
-        r.e_tot,
-        r.found.as_array()
-    );
-    assert!(r.e_tot <= 2.0, "{name}: e_tot {:.3} % > 2 %", r.e_tot);
-    r.found
+    let (mut e_tot, mut eccentricity) = (0.0, 0.0);
+    for run in 0..RUNS {
+        let r = run_once(&rm, &record, case, run).expect("identification runs");
+        println!(
+            "{} / {name}, seed {run}: e_tot {:.3} %, found {:?}",
+            actuator.name,
+            r.e_tot,
+            r.found.as_array()
+        );
+        e_tot += r.e_tot / RUNS as f64;
+        eccentricity += r.found.eccentricity() / RUNS as f32;
+    }
+    println!("{} / {name}: mean e_tot {e_tot:.3} %", actuator.name);
+    assert!(e_tot <= 2.0, "{name}: mean e_tot {e_tot:.3} % > 2 %");
+    eccentricity
 }
 
 fn light() -> Actuator {
@@ -46,7 +57,8 @@ fn light_actuator_short_and_eccentricity() {
 }
 
 /// An installation rigged at 3 rad (motor side), carried in the record: the short is found
-/// as at rigging 0, with no false eccentricity beside it.
+/// as at rigging 0, with no false eccentricity beside it (mean over the runs below the
+/// detection threshold).
 #[test]
 fn a_rigged_installation_is_identified_as_an_unrigged_one() {
     let rigged = Actuator::reference().with_encoder_offset(Some(3.0));
@@ -55,11 +67,10 @@ fn a_rigged_installation_is_identified_as_an_unrigged_one() {
         3.0,
         "the reference model plays the rigging"
     );
-    let found = check_on(&rigged, "short A k3 = 0.2");
+    let eccentricity = check_on(&rigged, "short A k3 = 0.2");
     assert!(
-        found.eccentricity() < 0.05,
-        "false eccentricity {}",
-        found.eccentricity()
+        eccentricity < 0.05,
+        "false eccentricity {eccentricity} (mean over the runs)"
     );
 }
 

@@ -240,6 +240,8 @@ impl Actuator {
                 out.push('\n');
             }
         }
+        let mut out = out.trim_end().to_string();
+        out.push('\n');
         let c = calibration;
         out += &format!(
             "\n[calibration]\n# Written by `host-sim calibrate`.\nresistance_scale = {:?}\ninductance_scale = {:?}\nback_emf_scale = {:?}\nfriction_scale = {:?}\ndamping = {:?}\nnominal_residual = {:?}\n",
@@ -745,6 +747,12 @@ mod tests {
         let again =
             Actuator::parse(&Actuator::with_calibration_text(&reference_text(), &c)).unwrap();
         assert_eq!(again.record.calibration, c);
+        let once = Actuator::with_calibration_text(&reference_text(), &c);
+        assert_eq!(
+            Actuator::with_calibration_text(&once, &c),
+            once,
+            "idempotent"
+        );
         assert_eq!(again.record.params, a.record.params);
         assert_eq!(again.reference, a.reference);
     }
