@@ -2,7 +2,10 @@
 //!
 //! `preflight` simulates a (faulty) actuator with the reference model and identifies it with
 //! the onboard FDI; `simulate`, `calibrate`, `identify` and `plot` do the same step by step
-//! with trace files; `inverse`, `footprint` and `bench` check the FDI core on its own.
+//! with trace files; `actuator` and `import` bring another actuator and a rig's recordings
+//! (every command takes `--actuator FILE`); `inverse`, `footprint` and `bench` check the
+//! FDI core on its own. This file holds the command line and the dispatch; each command's
+//! body is in `commands/`.
 
 use std::io::IsTerminal;
 use std::ops::ControlFlow;
