@@ -15,30 +15,24 @@
 
 use shared::actuator::ActuatorRecord;
 use shared::conditioning::ConditioningError;
-use shared::domain::{Domain, DomainLimits, DomainMonitor};
+use shared::domain::{Domain, DomainMonitor};
 use shared::fdi::TEST_SAMPLES;
 use shared::fdi::{FdiError, Identification, IdentificationResult, OnboardMeasured, POPULATION};
 use shared::fitness::CurvatureRun;
 use shared::ga::RecordError;
 use shared::test_design::PreflightTest;
 use shared::uncertainty::{Assessment, Uncertainty};
-use shared::{ActuatorParams, Calibration, GaSettings, Status, Verdict, FAULT_COUNT};
+use shared::{Calibration, Status, Verdict, FAULT_COUNT};
 
 use crate::source::{Acquired, CurrentSource};
 
 /// How the preflight runs: plain data, split from the running state.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PreflightSettings {
-    pub params: ActuatorParams,
-    /// The test the controller commands (under emulation: the trace header's).
-    pub test: PreflightTest,
-    /// The monitor model's calibration against this actuator (a flash record on a fleet).
-    pub calibration: Calibration,
-    pub ga: GaSettings,
-    /// Where the monitor model's domain ends (jam, open phase, other command, fitness).
-    pub domain: DomainLimits,
-    /// Deviation from nominal above which a component reads as a fault.
-    pub detection_threshold: f32,
+    /// The actuator: its parameters, the test its controller commands (under emulation of
+    /// the trace header's kind), the monitor model's calibration, GA settings, domain limits
+    /// and detection threshold (a flash record on a fleet, [`ActuatorRecord`]).
+    pub actuator: ActuatorRecord,
     /// GA seed (`host-sim identify --seed`).
     pub seed: u64,
     /// Frames taken from the source per poll.
@@ -54,32 +48,22 @@ impl PreflightSettings {
     /// The same settings for another test design, with the reference actuator's calibration
     /// for it.
     pub fn for_test(mut self, test: PreflightTest) -> Self {
-        self.test = test;
-        self.calibration = Calibration::reference_actuator(&test);
+        self.actuator.test = test;
+        self.actuator.calibration = Calibration::reference_actuator(&test);
         self
     }
 
     /// The same settings for the actuator `record` describes (its parameters, test,
     /// calibration, GA settings, domain limits and threshold).
     pub fn for_actuator(mut self, record: &ActuatorRecord) -> Self {
-        self.params = record.params;
-        self.test = record.test;
-        self.calibration = record.calibration;
-        self.ga = record.ga;
-        self.domain = record.domain;
-        self.detection_threshold = record.detection_threshold;
+        self.actuator = *record;
         self
     }
 
     /// The onboard FDI against this project's reference actuator: the same parameters,
     /// calibration, GA settings and default seed as `host-sim identify`.
     pub const ONBOARD: Self = Self {
-        params: ActuatorParams::REFERENCE,
-        test: PreflightTest::STANDSTILL,
-        calibration: Calibration::REFERENCE_ACTUATOR,
-        ga: GaSettings::FDI,
-        domain: DomainLimits::REFERENCE_ACTUATOR,
-        detection_threshold: ActuatorRecord::REFERENCE.detection_threshold,
+        actuator: ActuatorRecord::REFERENCE,
         seed: 1,
         frames_per_poll: 500,
         evaluations_per_poll: 1,
@@ -201,16 +185,16 @@ pub struct Preflight<'m, S> {
 impl<'m, S: CurrentSource> Preflight<'m, S> {
     /// A self-test that fills `measured` (cleared first) from `source`.
     pub fn new(settings: PreflightSettings, source: S, measured: &'m mut OnboardMeasured) -> Self {
-        measured.clear_for(settings.test);
+        measured.clear_for(settings.actuator.test);
         Self {
             settings,
             source,
             state: State::Acquire { measured },
             curvature: None,
             domain: DomainMonitor::new(
-                settings.test.chirp,
-                settings.params.control_period,
-                settings.params.pole_pairs,
+                settings.actuator.test.chirp,
+                settings.actuator.params.control_period,
+                settings.actuator.params.pole_pairs,
             ),
             frames: 0,
             identify_polls: 0,
@@ -290,7 +274,7 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
     fn advance(&mut self, state: State<'m>) -> Result<State<'m>, PreflightError<S::Error>> {
         match state {
             State::Acquire { measured } => {
-                let pole_pairs = self.settings.params.pole_pairs;
+                let pole_pairs = self.settings.actuator.params.pole_pairs;
                 for _ in 0..self.settings.frames_per_poll {
                     match self.source.next_frame().map_err(PreflightError::Source)? {
                         Acquired::Frame(frame) => {
@@ -300,7 +284,7 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                                 });
                             }
                             // The domain statistics are the chirp's.
-                            if self.frames as usize >= self.settings.test.lead_samples() {
+                            if self.frames as usize >= self.settings.actuator.test.lead_samples() {
                                 self.domain.push(&frame);
                             }
                             self.frames = self.frames.saturating_add(1);
@@ -315,8 +299,14 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                 measured.finish().map_err(PreflightError::Conditioning)?;
                 let measured: &'m OnboardMeasured = measured;
                 let s = &self.settings;
-                let id = Identification::new(measured, s.params, &s.calibration, s.ga, s.seed)
-                    .map_err(PreflightError::Fdi)?;
+                let id = Identification::new(
+                    measured,
+                    s.actuator.params,
+                    &s.actuator.calibration,
+                    s.actuator.ga,
+                    s.seed,
+                )
+                .map_err(PreflightError::Fdi)?;
                 Ok(State::Identify { id })
             }
             State::Identify { mut id } => {
@@ -366,19 +356,23 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                     Some((u, correlation)) => u.assess_at(
                         &result.faults,
                         correlation,
-                        self.settings.detection_threshold,
+                        self.settings.actuator.detection_threshold,
                     ),
                     None => result
                         .faults
-                        .verdicts_at(self.settings.detection_threshold)
+                        .verdicts_at(self.settings.actuator.detection_threshold)
                         .map(|v| match v {
                             Verdict::Healthy => Assessment::Healthy,
                             Verdict::Faulty => Assessment::Suspect,
                             Verdict::NotApplicable => Assessment::NotApplicable,
                         }),
                 },
-                domain: self.domain.assess(&self.settings.domain, result.fitness),
-                verdicts: result.faults.verdicts_at(self.settings.detection_threshold),
+                domain: self
+                    .domain
+                    .assess(&self.settings.actuator.domain, result.fitness),
+                verdicts: result
+                    .faults
+                    .verdicts_at(self.settings.actuator.detection_threshold),
                 frames: self.frames,
                 identify_polls: self.identify_polls,
                 max_evaluations_per_poll: self.max_evaluations_per_poll,

@@ -208,7 +208,7 @@ async fn preflight(spawner: Spawner) -> i32 {
     if let Err(status) = preflight_settings(&command, &source.header().test, &mut settings) {
         return status;
     }
-    let filter = match LowPass::for_control_period(settings.params.control_period) {
+    let filter = match LowPass::for_control_period(settings.actuator.params.control_period) {
         Ok(f) => f,
         Err(e) => {
             defmt::error!("conditioning filter: {}", e);
@@ -219,7 +219,7 @@ async fn preflight(spawner: Spawner) -> i32 {
         defmt::error!("measured-current buffer already in use");
         return status::START_UP;
     };
-    let model = MonitorModel::new(settings.params, &settings.calibration);
+    let model = MonitorModel::new(settings.actuator.params, &settings.actuator.calibration);
     let Some(curvature) = CURVATURE.try_init_with(|| CurvatureRun::new(&model)) else {
         defmt::error!("uncertainty buffer already in use");
         return status::START_UP;
@@ -238,7 +238,7 @@ async fn preflight(spawner: Spawner) -> i32 {
         settings.seed,
         settings.evaluations_per_poll
     );
-    defmt::info!("calibration {}", settings.calibration);
+    defmt::info!("calibration {}", settings.actuator.calibration);
 
     // The GA record (the flash page on the controller; the --checkpoint file here).
     let mut record: OnboardRecord = [0; core::mem::size_of::<OnboardRecord>()];

@@ -16,17 +16,18 @@ use shared::trace::{Crc32, TraceError, TraceHeader, TraceRow};
 use shared::{AdcFrame, Calibration, FaultVector, GaSettings, LowPass, MonitorModel, StopReason};
 
 fn settings() -> PreflightSettings {
-    PreflightSettings {
-        ga: GaSettings {
-            max_evaluations: 96,
-            ..GaSettings::FDI
-        },
+    // The MM-made traces here are the paper's test (the chirp alone); the standstill test
+    // runs on the ELF in tests/firmware_qemu.rs.
+    let mut s = PreflightSettings {
         evaluations_per_poll: 5,
         frames_per_poll: 700,
-        // The MM-made traces here are the paper's test (the chirp alone); the standstill
-        // test runs on the ELF in tests/firmware_qemu.rs.
         ..PreflightSettings::ONBOARD.for_test(PreflightTest::PAPER)
-    }
+    };
+    s.actuator.ga = GaSettings {
+        max_evaluations: 96,
+        ..GaSettings::FDI
+    };
+    s
 }
 
 fn empty_buffer() -> Box<OnboardMeasured> {
@@ -38,11 +39,11 @@ fn empty_buffer() -> Box<OnboardMeasured> {
 /// model with faults `k`.
 fn monitor_rows(k: [f32; 8], samples: usize) -> Vec<TraceRow> {
     let s = settings();
-    let model = MonitorModel::new(s.params, &Calibration::IDENTITY);
+    let model = MonitorModel::new(s.actuator.params, &Calibration::IDENTITY);
     let k = FaultVector::new(k).expect("a valid fault vector");
     let mut rows = Vec::new();
     model.run(&k, samples, |m| {
-        let signs = commutation_signs(s.params.pole_pairs * m.motor_angle);
+        let signs = commutation_signs(s.actuator.params.pole_pairs * m.motor_angle);
         rows.push(TraceRow::from_f64(
             f64::from(m.command),
             signs.map(|x| f64::from(x) * f64::from(m.current)),
@@ -145,7 +146,7 @@ fn the_uncertainty_stage_is_bounded_and_gives_the_shared_bits() {
     let source = TraceSource::open(SliceBytes::new(&bytes)).expect("a valid trace");
     let s = settings();
     let mut buffer = empty_buffer();
-    let model = MonitorModel::new(s.params, &s.calibration);
+    let model = MonitorModel::new(s.actuator.params, &s.actuator.calibration);
     let mut curvature = Box::new(CurvatureRun::new(&model));
     let mut preflight =
         Preflight::new(s, source, &mut buffer).with_curvature_buffer(&mut curvature);
@@ -169,14 +170,15 @@ fn the_uncertainty_stage_is_bounded_and_gives_the_shared_bits() {
         .expect("the test determines the components");
 
     let mut measured = empty_buffer();
-    measured.clear_for(s.test);
+    measured.clear_for(s.actuator.test);
     for r in &rows {
         measured
-            .push_frame(r.adc_frame(), s.params.pole_pairs)
+            .push_frame(r.adc_frame(), s.actuator.params.pole_pairs)
             .unwrap();
     }
     measured.finish().unwrap();
-    let problem = shared::FitnessProblem::new(&measured, s.params, &s.calibration).unwrap();
+    let problem =
+        shared::FitnessProblem::new(&measured, s.actuator.params, &s.actuator.calibration).unwrap();
     let (expected, correlation) = problem.uncertainty(&report.result.faults).unwrap();
     assert_eq!(u.std.map(f32::to_bits), expected.std.map(f32::to_bits));
     assert_eq!(u.lower.map(f32::to_bits), expected.lower.map(f32::to_bits));
@@ -244,15 +246,15 @@ fn preflight_walks_the_stages_in_bounded_polls_and_matches_the_shared_loop() {
     let mut measured = empty_buffer();
     for r in &rows {
         measured
-            .push_frame(r.adc_frame(), s.params.pole_pairs)
+            .push_frame(r.adc_frame(), s.actuator.params.pole_pairs)
             .expect("room for the test");
     }
     measured.finish().expect("a usable trace");
     let direct = Identification::<TEST_SAMPLES, POPULATION>::new(
         &measured,
-        s.params,
-        &s.calibration,
-        s.ga,
+        s.actuator.params,
+        &s.actuator.calibration,
+        s.actuator.ga,
         s.seed,
     )
     .expect("identification starts")
