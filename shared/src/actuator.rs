@@ -82,60 +82,13 @@ impl ActuatorRecord {
         w.bytes(&RECORD_MAGIC);
         w.bytes(&RECORD_VERSION.to_le_bytes());
         w.bytes(&((4 * BODY_WORDS) as u16).to_le_bytes());
-        for v in self.params.to_words() {
-            w.f32(v);
-        }
-        let t = &self.test;
-        w.u32(u32::from(t.kind()));
-        let s = t.standstill.unwrap_or(StandstillSegment::DEFAULT);
-        w.f32(s.volts);
-        for v in [s.settle_samples, s.on_samples, s.off_samples] {
-            w.u32(u32::from(v));
-        }
-        let m = t.motion.unwrap_or(MotionSegment::DEFAULT);
-        w.f32(m.amplitude);
-        w.u32(u32::from(m.ramp_samples));
-        w.u32(u32::from(m.hold_samples));
-        for v in [t.chirp.amplitude, t.chirp.end_frequency, t.chirp.duration] {
-            w.f32(v);
-        }
-        let c = &self.calibration;
-        for v in [
-            c.resistance_scale,
-            c.inductance_scale,
-            c.back_emf_scale,
-            c.friction_scale,
-            c.damping,
-            c.nominal_residual,
-        ] {
-            w.f32(v);
-        }
-        let g = &self.ga;
-        for v in [g.max_evaluations, g.max_generations, g.stall_generations] {
-            w.u32(v);
-        }
-        w.u32(u32::from(g.tournament_size));
-        for v in [
-            g.tolerance,
-            g.crossover_alpha,
-            g.mutation_probability,
-            g.mutation_scale,
-            g.mutation_floor,
-            g.differential_probability,
-            g.differential_scale,
-        ] {
-            w.f32(v);
-        }
-        let circular = g
-            .circular
-            .iter()
-            .enumerate()
-            .fold(0u32, |m, (i, &c)| m | (u32::from(c) << i));
-        w.u32(circular);
-        w.u32(u32::from(g.initial_guess.is_some()));
-        for v in g.initial_guess.unwrap_or([0.0; GENES]) {
-            w.f32(v);
-        }
+        run_words(
+            &self.params,
+            &self.test,
+            &self.calibration,
+            &self.ga,
+            |word| w.u32(word),
+        );
         let d = &self.domain;
         for v in [d.min_travel, d.min_phase_ratio] {
             w.f32(v);
@@ -388,6 +341,75 @@ impl ActuatorRecord {
         }
         Ok(())
     }
+}
+
+/// The words of what defines one identification run — parameters, test, calibration, GA
+/// settings — in record order (f32 as their bits). One list for the record's body and the
+/// checkpoint fingerprint ([`crate::fdi::Identification::fingerprint`]). O(1).
+pub(crate) fn run_words(
+    params: &ActuatorParams,
+    test: &PreflightTest,
+    calibration: &Calibration,
+    ga: &GaSettings,
+    mut word: impl FnMut(u32),
+) {
+    let f32s = |values: &[f32], word: &mut dyn FnMut(u32)| {
+        for v in values {
+            word(v.to_bits());
+        }
+    };
+    f32s(&params.to_words(), &mut word);
+    let t = test;
+    word(u32::from(t.kind()));
+    let s = t.standstill.unwrap_or(StandstillSegment::DEFAULT);
+    word(s.volts.to_bits());
+    for v in [s.settle_samples, s.on_samples, s.off_samples] {
+        word(u32::from(v));
+    }
+    let m = t.motion.unwrap_or(MotionSegment::DEFAULT);
+    word(m.amplitude.to_bits());
+    word(u32::from(m.ramp_samples));
+    word(u32::from(m.hold_samples));
+    let c = calibration;
+    f32s(
+        &[
+            t.chirp.amplitude,
+            t.chirp.end_frequency,
+            t.chirp.duration,
+            c.resistance_scale,
+            c.inductance_scale,
+            c.back_emf_scale,
+            c.friction_scale,
+            c.damping,
+            c.nominal_residual,
+        ],
+        &mut word,
+    );
+    let g = ga;
+    for v in [g.max_evaluations, g.max_generations, g.stall_generations] {
+        word(v);
+    }
+    word(u32::from(g.tournament_size));
+    f32s(
+        &[
+            g.tolerance,
+            g.crossover_alpha,
+            g.mutation_probability,
+            g.mutation_scale,
+            g.mutation_floor,
+            g.differential_probability,
+            g.differential_scale,
+        ],
+        &mut word,
+    );
+    word(
+        g.circular
+            .iter()
+            .enumerate()
+            .fold(0u32, |m, (i, &c)| m | (u32::from(c) << i)),
+    );
+    word(u32::from(g.initial_guess.is_some()));
+    f32s(&g.initial_guess.unwrap_or([0.0; GENES]), &mut word);
 }
 
 impl Default for ActuatorRecord {

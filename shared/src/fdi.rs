@@ -155,62 +155,17 @@ fn fingerprint<const N: usize>(
     seed: u64,
 ) -> u32 {
     let mut crc = Crc32::new();
-    let mut f32s = |values: &[f32]| {
-        for v in values {
-            crc.update(&v.to_bits().to_le_bytes());
-        }
-    };
-    f32s(measured.samples());
-    f32s(&params.to_words());
-    let t = measured.test();
-    let standstill = t
-        .standstill
-        .unwrap_or(crate::test_design::StandstillSegment::DEFAULT);
-    let motion = t
-        .motion
-        .unwrap_or(crate::test_design::MotionSegment::DEFAULT);
-    f32s(&[
-        f32::from(t.kind()),
-        standstill.volts,
-        f32::from(standstill.settle_samples),
-        f32::from(standstill.on_samples),
-        f32::from(standstill.off_samples),
-        motion.amplitude,
-        f32::from(motion.ramp_samples),
-        f32::from(motion.hold_samples),
-        t.chirp.amplitude,
-        t.chirp.end_frequency,
-        t.chirp.duration,
-    ]);
+    for v in measured.samples() {
+        crc.update(&v.to_bits().to_le_bytes());
+    }
     let angles = measured.initial_angles();
-    let c = calibration;
-    let s = settings;
-    f32s(&[angles.motor, angles.user]);
-    f32s(&[
-        c.resistance_scale,
-        c.inductance_scale,
-        c.back_emf_scale,
-        c.friction_scale,
-        c.damping,
-        c.nominal_residual,
-    ]);
-    f32s(&[
-        s.tolerance,
-        s.crossover_alpha,
-        s.mutation_probability,
-        s.mutation_scale,
-        s.mutation_floor,
-        s.differential_probability,
-        s.differential_scale,
-    ]);
-    f32s(&s.initial_guess.unwrap_or([f32::NAN; crate::ga::GENES]));
-    for word in [s.max_evaluations, s.max_generations, s.stall_generations] {
-        crc.update(&word.to_le_bytes());
+    for v in [angles.motor, angles.user] {
+        crc.update(&v.to_bits().to_le_bytes());
     }
-    crc.update(&[s.tournament_size, u8::from(s.initial_guess.is_some())]);
-    for c in s.circular {
-        crc.update(&[u8::from(c)]);
-    }
+    // What an actuator record holds of this run, word for word as the record stores it.
+    crate::actuator::run_words(params, measured.test(), calibration, settings, |word| {
+        crc.update(&word.to_le_bytes())
+    });
     crc.update(&seed.to_le_bytes());
     crc.finish()
 }
