@@ -16,8 +16,7 @@ use defmt_semihosting as _;
 use embassy_executor::Spawner;
 use semihosting::process::exit;
 use shared::fitness::CurvatureRun;
-use shared::MonitorModel;
-use static_cell::StaticCell;
+use static_cell::ConstStaticCell;
 
 use core::ffi::CStr;
 
@@ -54,14 +53,15 @@ mod status {
 }
 
 /// The measured-current buffer (22 kB), in `.bss`.
-static MEASURED: StaticCell<OnboardMeasured> = StaticCell::new();
+static MEASURED: ConstStaticCell<OnboardMeasured> = ConstStaticCell::new(OnboardMeasured::ZEROED);
 
 /// The uncertainty's nine lockstep monitor-model runs (≈ 3 kB), in `.bss`.
-static CURVATURE: StaticCell<CurvatureRun> = StaticCell::new();
+static CURVATURE: ConstStaticCell<CurvatureRun> = ConstStaticCell::new(CurvatureRun::IDLE);
 
 /// The health store: a flash sector on the controller; RAM here, loaded from and saved to the
 /// `--health` file around each run.
-static HEALTH_STORE: StaticCell<RamStore<ONBOARD_RECORDS>> = StaticCell::new();
+static HEALTH_STORE: ConstStaticCell<RamStore<ONBOARD_RECORDS>> =
+    ConstStaticCell::new(RamStore::ZEROED);
 
 /// SysTick wraps of the 24-bit counter.
 static WRAPS: AtomicU32 = AtomicU32::new(0);
@@ -215,12 +215,13 @@ async fn preflight(spawner: Spawner) -> i32 {
             return status::START_UP;
         }
     };
-    let Some(measured) = MEASURED.try_init_with(|| OnboardMeasured::new(filter)) else {
+    // Both buffers are `.bss` statics taken in place: nothing this size passes the stack.
+    let Some(measured) = MEASURED.try_take() else {
         defmt::error!("measured-current buffer already in use");
         return status::START_UP;
     };
-    let model = MonitorModel::new(settings.actuator.params, &settings.actuator.calibration);
-    let Some(curvature) = CURVATURE.try_init_with(|| CurvatureRun::new(&model)) else {
+    measured.set_filter(filter);
+    let Some(curvature) = CURVATURE.try_take() else {
         defmt::error!("uncertainty buffer already in use");
         return status::START_UP;
     };
@@ -407,10 +408,11 @@ fn load_actuator(path: &CStr, trace_test: &PreflightTest) -> Result<PreflightSet
 #[inline(never)]
 fn record_health(path: &CStr, flight: Option<u32>, report: &Report) -> i32 {
     let path_text = path.to_str().unwrap_or("(not UTF-8)");
-    let Some(store) = HEALTH_STORE.try_init_with(RamStore::erased) else {
+    let Some(store) = HEALTH_STORE.try_take() else {
         defmt::error!("health store already in use");
         return status::START_UP;
     };
+    store.erase();
     match read_record_file(path, store.as_bytes_mut()) {
         Ok(true) => {}
         Ok(false) => defmt::println!("health log {=str}: new", path_text),
@@ -630,7 +632,11 @@ fn footprint() -> Footprint {
 
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
-    defmt::error!("panic: {}", defmt::Display2Format(info));
+    // Location and a literal message only: formatting the message would link `core::fmt`
+    // (≈ 2.5 kB of flash) for a path that never runs in flight.
+    let (file, line) = info.location().map_or(("?", 0), |l| (l.file(), l.line()));
+    let message = info.message().as_str().unwrap_or("(formatted message)");
+    defmt::error!("panic: {=str} at {=str}:{=u32}", message, file, line);
     exit(status::PANIC)
 }
 

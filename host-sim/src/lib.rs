@@ -29,6 +29,7 @@ pub mod prognostics;
 pub mod reference;
 pub mod rig;
 pub mod separability;
+pub mod stopping;
 pub mod trace_file;
 
 use indicatif::{ProgressBar, ProgressStyle};

@@ -396,6 +396,17 @@ enum Command {
         #[arg(long)]
         plot: Option<PathBuf>,
     },
+    /// Stop rules for the flown GA, replayed on recorded campaign identifications (Tables I
+    /// and II, the healthy noisy actuator, untuned random vectors): evaluations saved against
+    /// e_tot lost, per rule.
+    Stopping {
+        /// Seeds per case (reference-model seed r, GA seed 1 + r).
+        #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=100))]
+        seeds: u64,
+        /// Also write the table as Markdown to this file.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// Simulate N preflights of an actuator whose faults grow from --faults-start to
     /// --faults-end: per flight a reference-model test and the onboard identification; writes
     /// the history CSV (identified and true vectors, fitness, domain verdict).
@@ -654,6 +665,7 @@ fn main() -> ExitCode {
         } => actuator.built_in_only("optimisers").and_then(|()| {
             optimisers_command(seeds, cap, source, target, out.as_deref(), plot.as_deref())
         }),
+        Command::Stopping { seeds, out } => stopping_command(&actuator, seeds, out.as_deref()),
         Command::Domain { seeds, out, write } => {
             domain_command(&actuator, seeds, out.as_deref(), write.as_deref())
         }

@@ -76,6 +76,7 @@ impl CommandSource for ChirpCommand {
 /// `N` samples; beyond the table the chirp is evaluated. `4·N` bytes (20 kB for the 0.5 s
 /// test): the host keeps one per identification; the firmware, short of RAM, evaluates the
 /// chirp.
+#[cfg(feature = "command-table")]
 #[derive(Clone, Debug, PartialEq)]
 pub struct CommandTable<const N: usize> {
     command: ChirpCommand,
@@ -83,6 +84,7 @@ pub struct CommandTable<const N: usize> {
     samples: [f32; N],
 }
 
+#[cfg(feature = "command-table")]
 impl<const N: usize> CommandTable<N> {
     /// Samples `command` at `i · period` for `i` in `0..N`. O(N).
     pub fn new(command: ChirpCommand, period: f32) -> Self {
@@ -108,6 +110,7 @@ impl<const N: usize> CommandTable<N> {
     }
 }
 
+#[cfg(feature = "command-table")]
 impl<const N: usize> CommandSource for CommandTable<N> {
     #[inline(always)]
     fn position_at(&self, index: usize, time: f32) -> f32 {
@@ -146,6 +149,7 @@ mod tests {
         }
     }
 
+    #[cfg(feature = "command-table")]
     #[test]
     fn table_holds_the_chirps_bits() {
         let c = ChirpCommand::PREFLIGHT;

@@ -142,7 +142,22 @@ pub struct LowPassState {
     z2: f32,
 }
 
+impl LowPassState {
+    /// At rest.
+    pub const ZERO: Self = Self { z1: 0.0, z2: 0.0 };
+}
+
 impl LowPass {
+    /// Every coefficient zero (the output is 0): the placeholder of a buffer built in static
+    /// storage ([`MeasuredCurrent::ZEROED`]) until its filter is set.
+    pub const ZERO: Self = Self {
+        b0: 0.0,
+        b1: 0.0,
+        b2: 0.0,
+        a1: 0.0,
+        a2: 0.0,
+    };
+
     /// Default cutoff of the equivalent-current filter [Hz]: well above the chirp and the
     /// electrical-angle signatures of the faults (≤ ~300 Hz during the test), well below the
     /// switching ripple.
@@ -209,6 +224,23 @@ pub struct MeasuredCurrent<const N: usize> {
 impl<const N: usize> MeasuredCurrent<N> {
     /// Shortest trace the fitness accepts: 0.1 s at 10 kHz.
     pub const MIN_SAMPLES: usize = 1000;
+
+    /// An empty buffer whose every byte is zero (filter [`LowPass::ZERO`], a zero-length
+    /// test), so that a `static` holding it lives in `.bss` and is never built on the stack
+    /// (22 kB): give it its filter and test with [`set_filter`](Self::set_filter) and
+    /// [`clear_for`](Self::clear_for) before use.
+    pub const ZEROED: Self = Self::for_test(
+        LowPass::ZERO,
+        PreflightTest {
+            standstill: None,
+            motion: None,
+            chirp: crate::command::ChirpCommand {
+                amplitude: 0.0,
+                end_frequency: 0.0,
+                duration: 0.0,
+            },
+        },
+    );
 
     /// An empty buffer that conditions with `filter` the paper's test (the chirp alone).
     pub const fn new(filter: LowPass) -> Self {
@@ -349,6 +381,12 @@ impl<const N: usize> MeasuredCurrent<N> {
     pub fn clear_for(&mut self, test: PreflightTest) {
         self.clear();
         self.test = test;
+    }
+
+    /// Empties the buffer and conditions the next test with `filter`.
+    pub fn set_filter(&mut self, filter: LowPass) {
+        self.filter = filter;
+        self.clear();
     }
 
     /// Empties the buffer for a new test, keeping the filter.

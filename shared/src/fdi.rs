@@ -6,6 +6,7 @@
 //! [`Identification::run`].
 
 use crate::calibration::Calibration;
+#[cfg(feature = "command-table")]
 use crate::command::CommandTable;
 use crate::conditioning::{commutation_signs, AdcFrame, MeasuredCurrent};
 use crate::fault::FaultVector;
@@ -108,6 +109,7 @@ impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
 
     /// The same identification with the command read from `table` (see
     /// [`FitnessProblem::with_command_table`]): the same bits, faster where RAM allows.
+    #[cfg(feature = "command-table")]
     pub fn with_command_table(mut self, table: &'a CommandTable<N>) -> Result<Self, FdiError> {
         self.problem = self.problem.with_command_table(table)?;
         Ok(self)

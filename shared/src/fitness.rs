@@ -18,7 +18,9 @@
 use core::ops::ControlFlow;
 
 use crate::calibration::Calibration;
-use crate::command::{CommandSource, CommandTable};
+use crate::command::CommandSource;
+#[cfg(feature = "command-table")]
+use crate::command::CommandTable;
 use crate::conditioning::{ConditioningError, LowPassState, MeasuredCurrent};
 use crate::fault::{FaultVector, FAULT_COUNT};
 use crate::ga::Problem;
@@ -50,7 +52,10 @@ pub struct FitnessProblem<'a, const N: usize> {
     inv_kappa: f32,
     standstill_weight: f32,
     nominal_residual: f32,
+    #[cfg(feature = "command-table")]
     command_table: Option<&'a CommandTable<N>>,
+    #[cfg(not(feature = "command-table"))]
+    command_table: core::marker::PhantomData<&'a ()>,
 }
 
 /// Weight of the standstill segment's squared residual against the chirp's eq. (3) terms.
@@ -81,7 +86,10 @@ impl<'a, const N: usize> FitnessProblem<'a, N> {
             inv_kappa: measured.inv_kappa()?,
             standstill_weight: STANDSTILL_WEIGHT,
             nominal_residual: calibration.nominal_residual,
+            #[cfg(feature = "command-table")]
             command_table: None,
+            #[cfg(not(feature = "command-table"))]
+            command_table: core::marker::PhantomData,
         })
     }
 
@@ -98,6 +106,7 @@ impl<'a, const N: usize> FitnessProblem<'a, N> {
     /// Drives the monitor model with the precomputed `table` instead of evaluating the chirp
     /// at each step: the same bits, less work per step. Refused unless the table samples this
     /// model's command at its control period.
+    #[cfg(feature = "command-table")]
     pub fn with_command_table(mut self, table: &'a CommandTable<N>) -> Result<Self, FitnessError> {
         let period = self.model.params().control_period;
         if table.command() != self.model.command() || table.period().to_bits() != period.to_bits() {
@@ -128,6 +137,28 @@ impl<'a, const N: usize> FitnessProblem<'a, N> {
 
     /// The raw error, stopping once `partial·dt − residual ≥ bound`.
     fn raw_error_until(&self, k: &FaultVector, bound: f32) -> f32 {
+        #[cfg(feature = "command-table")]
+        if let Some(table) = self.command_table {
+            return self.raw_error_with(k, bound, table);
+        }
+        self.raw_error_with(k, bound, self.model.command())
+    }
+
+    /// The commanded user angle of chirp sample `index` at `time` [rad], from the table if
+    /// there is one. O(1).
+    fn command_at(&self, index: usize, time: f32) -> f32 {
+        #[cfg(feature = "command-table")]
+        if let Some(table) = self.command_table {
+            return table.position_at(index, time);
+        }
+        self.model.command().position_at(index, time)
+    }
+
+    /// [`raw_error_until`](Self::raw_error_until) reading the command from `command`. One
+    /// instance per command source, each with its own sink closure called from one place, so
+    /// that the compiler inlines the sink into the model's loop even when optimising for size.
+    #[inline(always)]
+    fn raw_error_with(&self, k: &FaultVector, bound: f32, command: &impl CommandSource) -> f32 {
         let reference = self.measured.samples();
         let filter = self.measured.filter();
         let dt = self.model.params().control_period;
@@ -164,12 +195,7 @@ impl<'a, const N: usize> FitnessProblem<'a, N> {
             ControlFlow::Continue(())
         };
         let start = self.measured.initial_angles();
-        match self.command_table {
-            Some(table) => self.model.run_with(k, start, reference.len(), table, sink),
-            None => self
-                .model
-                .run_with(k, start, reference.len(), self.model.command(), sink),
-        };
+        self.model.run_with(k, start, reference.len(), command, sink);
         let err = sum * dt;
         if err.is_finite() {
             err
@@ -235,10 +261,7 @@ impl<const N: usize> FitnessProblem<'_, N> {
             let command = match run.runs[0].next_command_index(&self.model) {
                 Some(c) => {
                     let time = c as f32 * self.model.params().control_period;
-                    match self.command_table {
-                        Some(table) => table.position_at(c, time),
-                        None => self.model.command().position_at(c, time),
-                    }
+                    self.command_at(c, time)
                 }
                 None => 0.0,
             };
@@ -319,6 +342,17 @@ pub struct CurvatureRun {
 }
 
 impl CurvatureRun {
+    /// Every field zero, to be restarted ([`FitnessProblem::restart_curvature`]) before use:
+    /// a `static` holding it lives in `.bss` and is never built on the stack (≈ 3.4 kB).
+    pub const IDLE: Self = Self {
+        runs: [MonitorRun::IDLE; FAULT_COUNT + 1],
+        filters: [LowPassState::ZERO; FAULT_COUNT + 1],
+        shifts: [0.0; FAULT_COUNT],
+        index: 0,
+        previous: 0.0,
+        sums: Curvature::EMPTY,
+    };
+
     /// A run to restart later ([`FitnessProblem::restart_curvature`]): for a buffer that
     /// lives in static storage. O(1).
     pub fn new(model: &MonitorModel) -> Self {

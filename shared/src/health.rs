@@ -267,6 +267,17 @@ impl<const S: usize> RamStore<S> {
     /// Bytes of the whole image (`S · RECORD_BYTES`).
     pub const IMAGE_BYTES: usize = S * RECORD_BYTES;
 
+    /// Every byte zero (not a valid erased sector): a `static` holding it lives in `.bss`
+    /// and is built in place; [`erase`](Self::erase) it before use.
+    pub const ZEROED: Self = Self {
+        slots: [[0; RECORD_BYTES]; S],
+    };
+
+    /// Erases every slot in place (every byte 0xFF). O(`S · 52`).
+    pub fn erase(&mut self) {
+        self.as_bytes_mut().fill(0xFF);
+    }
+
     /// An erased store (every byte 0xFF, as flash after erase).
     pub const fn erased() -> Self {
         Self {

@@ -31,7 +31,6 @@ use core::ops::ControlFlow;
 
 use crate::calibration::Calibration;
 use crate::command::{ChirpCommand, CommandSource};
-use crate::conditioning::commutation_sector;
 use crate::conditioning::ShaftAngles;
 use crate::fault::FaultEffects;
 use crate::fault::FaultVector;
@@ -117,13 +116,14 @@ struct FaultedConstants {
     static_friction_impulse: f32,
     dynamic_friction_impulse: f32,
     half_backlash: f32,
-    /// Resistance shape, eq. (1): mean healthy fraction of the two conducting phases, per
-    /// sector index mod 3.
-    sector_gain: [f32; 3],
-    /// Torque/back-EMF shape over one electrical turn in [`GAIN_BINS`] bins (eight per
-    /// sector, bin 0 starting at θ_e = −30°): mean over the two conducting phases of healthy
-    /// fraction × air-gap coupling factor ([`torque_gain_table`]).
-    torque_gain: [f32; GAIN_BINS],
+    /// Calibrated two-phase resistance [Ω] per commutation sector: the resistance shape of
+    /// eq. (1) (mean healthy fraction of the two conducting phases) times the nominal value.
+    sector_resistance: [f32; 6],
+    /// Calibrated torque/back-EMF constant [N·m/A] over one electrical turn in
+    /// [`GAIN_BINS`] bins (eight per sector, bin 0 starting at θ_e = −30°): the nominal value
+    /// times the mean over the two conducting phases of healthy fraction × air-gap coupling
+    /// factor ([`torque_gain_table`]).
+    bin_torque_constant: [f32; GAIN_BINS],
     /// Standstill pair circuits A→B, B→C, C→A: `i ← decay·i + gain·V` per period (the
     /// exact step response of R_pair, L_pair).
     pair_decay: [f32; 3],
@@ -256,8 +256,9 @@ impl MonitorModel {
                 * fx.friction_scale,
             half_backlash: 0.5 * p.nominal_backlash * fx.backlash_scale,
             // Sector j (mod 3) has phase j floating: the other two conduct.
-            sector_gain: [0.5 * (nb + nc), 0.5 * (nc + na), 0.5 * (na + nb)],
-            torque_gain: torque_gain_table(p, &fx),
+            sector_resistance: [nb + nc, nc + na, na + nb, nb + nc, nc + na, na + nb]
+                .map(|n| self.resistance * (0.5 * n)),
+            bin_torque_constant: torque_gain_table(p, &fx).map(|g| self.torque_constant * g),
             pair_decay: pairs.map(|(d, _)| d),
             pair_gain: pairs.map(|(_, g)| g),
         }
@@ -443,15 +444,18 @@ impl MonitorModel {
         // 2. Single-phase equivalent drive with the electrical shape functions, evaluated at
         //    the rotor angle of the previous sample: the drive commutates from the last
         //    position it sampled.
-        let theta_e = p.pole_pairs * s.previous_motor_angle;
-        let short_gain = match commutation_sector(theta_e) % 3 {
-            0 => f.sector_gain[0],
-            1 => f.sector_gain[1],
-            _ => f.sector_gain[2],
-        };
-        let kt =
-            self.torque_constant * f.torque_gain.get(gain_bin(theta_e)).copied().unwrap_or(1.0);
-        let r = self.resistance * short_gain;
+        //    One angle reduction serves both: the bin, and its sector (eight bins each).
+        let bin = gain_bin(p.pole_pairs * s.previous_motor_angle);
+        let r = f
+            .sector_resistance
+            .get(bin / BINS_PER_SECTOR)
+            .copied()
+            .unwrap_or(self.resistance);
+        let kt = f
+            .bin_torque_constant
+            .get(bin)
+            .copied()
+            .unwrap_or(self.torque_constant);
         let back_emf = kt * s.motor_speed;
         let sampled = (s.current, s.motor_angle, s.user_angle + s.user_offset);
         let voltage = r * s.current + back_emf + self.l_over_dt * (current_ref - s.current);
@@ -516,6 +520,38 @@ pub struct MonitorRun {
 }
 
 impl MonitorRun {
+    /// A run with every field zero, to be restarted ([`MonitorModel::restart_run`]) before
+    /// use: a `static` holding it lives in `.bss`, built in place. Stepping it unrestarted
+    /// gives zeros, not a panic.
+    pub const IDLE: Self = Self {
+        f: FaultedConstants {
+            kp: 0.0,
+            static_friction_impulse: 0.0,
+            dynamic_friction_impulse: 0.0,
+            half_backlash: 0.0,
+            sector_resistance: [0.0; 6],
+            bin_torque_constant: [0.0; GAIN_BINS],
+            pair_decay: [0.0; 3],
+            pair_gain: [0.0; 3],
+        },
+        state: MonitorState {
+            motor_angle: 0.0,
+            previous_motor_angle: 0.0,
+            motor_speed: 0.0,
+            user_angle: 0.0,
+            user_speed: 0.0,
+            user_offset: 0.0,
+            current: 0.0,
+            position_integral: 0.0,
+            previous_error: 0.0,
+            speed_integral: 0.0,
+            start_currents: [0.0; 3],
+        },
+        index: 0,
+        pair: 0,
+        pair_current: 0.0,
+    };
+
     /// Index of the next sample and, during the chirp, the index into the command (`None`
     /// during the standstill segment): what the caller reads the command at.
     pub fn next_command_index(&self, m: &MonitorModel) -> Option<usize> {
@@ -593,12 +629,16 @@ const BINS_PER_SECTOR: usize = GAIN_BINS / 6;
 
 /// Bin `0..GAIN_BINS` of an electrical angle [rad] (any value; NaN maps to bin 0). Bin `b`
 /// covers `θ_e ∈ (−30° + 7.5°·b, −30° + 7.5°·(b+1))` mod 360°, so that sector `j` is bins
-/// `8j … 8j+7`, as in [`commutation_sector`].
-#[inline]
+/// `8j … 8j+7`, as in [`commutation_sector`](crate::conditioning::commutation_sector).
+#[inline(always)]
 fn gain_bin(theta_e: f32) -> usize {
     let x = theta_e * (GAIN_BINS as f32 / TAU) + 0.5 * BINS_PER_SECTOR as f32;
-    // `as i32` saturates and maps NaN to 0: no panic for any input.
-    (floor(x) as i32).rem_euclid(GAIN_BINS as i32) as usize
+    // Branch-free floor: truncate, then step down where truncation rounded up (x < 0). `as
+    // i32` saturates and maps NaN to 0: no panic for any input. The same value as
+    // `floor(x) as i32` for every x.
+    let t = x as i32;
+    let floor = t.saturating_sub(i32::from(x < t as f32));
+    floor.rem_euclid(GAIN_BINS as i32) as usize
 }
 
 /// The torque/back-EMF gain of the two conducting phases over one electrical turn.

@@ -292,8 +292,15 @@ fn invert(m: &[[f64; FAULT_COUNT]; FAULT_COUNT]) -> Option<[[f64; FAULT_COUNT]; 
         if a[pivot][col].abs() < 1e-300 {
             return None;
         }
-        a.swap(col, pivot);
-        inv.swap(col, pivot);
+        // Element by element: a whole-row `swap` links a 1.6 kB `memmove` into the firmware.
+        for c in 0..N {
+            let t = a[col][c];
+            a[col][c] = a[pivot][c];
+            a[pivot][c] = t;
+            let t = inv[col][c];
+            inv[col][c] = inv[pivot][c];
+            inv[pivot][c] = t;
+        }
         let d = a[col][col];
         for c in 0..N {
             a[col][c] /= d;

@@ -291,3 +291,34 @@ pub(crate) fn optimisers_command(
     }
     Ok(())
 }
+
+/// `stopping`: the stall rules replayed on recorded campaign runs (docs/stopping.md).
+pub(crate) fn stopping_command(actuator: &Actuator, seeds: u64, out: Option<&Path>) -> Result<()> {
+    use host_sim::campaign::{untuned_random_cases, HEALTHY, TABLE_2};
+    use host_sim::stopping;
+    let record = actuator.record;
+    actuator.calibration_for(&record.test)?;
+    let rm = ReferenceModel::new(actuator.reference_settings()?).with_test(record.test);
+    let mut cases: Vec<(&'static str, host_sim::campaign::Case)> =
+        TABLE_1.iter().map(|&c| ("Table I", c)).collect();
+    cases.extend(TABLE_2.iter().map(|&c| ("Table II", c)));
+    cases.push(("healthy", HEALTHY));
+    cases.extend(untuned_random_cases(8).into_iter().map(|c| ("random", c)));
+    let started = Instant::now();
+    let runs = stopping::record_runs(&cases, seeds, &record, &rm, progress_wanted(false))?;
+    let summaries: Vec<_> = stopping::candidate_rules()
+        .into_iter()
+        .map(|rule| stopping::summarise(rule, &runs))
+        .collect();
+    let md = stopping::markdown(&summaries, runs.len(), seeds);
+    println!("{md}");
+    println!(
+        "({:.0} s wall on {} threads)",
+        started.elapsed().as_secs_f64(),
+        rayon::current_num_threads()
+    );
+    if let Some(path) = out {
+        std::fs::write(path, &md).with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(())
+}

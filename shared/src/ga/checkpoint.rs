@@ -211,8 +211,8 @@ impl<const P: usize> SteadyStateGa<P> {
         }
         w.u32(self.evaluations);
         w.u32(self.generations);
-        w.u32(self.stall_count);
-        w.f32(self.stall_reference);
+        w.u32(self.stall.generations);
+        w.f32(self.stall.reference);
         w.u16(self.filled);
         w.bytes(&[status_code(self.status), u8::from(self.pending.is_some())]);
         for g in self.pending.unwrap_or([0.0; GENES]) {
@@ -278,8 +278,8 @@ impl<const P: usize> SteadyStateGa<P> {
         ga.rng = Xoshiro128PlusPlus::from_state(state).ok_or(RecordError::Inconsistent)?;
         ga.evaluations = r.u32();
         ga.generations = r.u32();
-        ga.stall_count = r.u32();
-        ga.stall_reference = r.f32();
+        ga.stall.generations = r.u32();
+        ga.stall.reference = r.f32();
         ga.filled = r.u16();
         ga.status = status_from_code(r.u8()).ok_or(RecordError::Inconsistent)?;
         let has_pending = r.u8();
@@ -299,7 +299,7 @@ impl<const P: usize> SteadyStateGa<P> {
             && core::iter::once(&ga.best)
                 .chain(ga.population.iter())
                 .all(|ind| !ind.fitness.is_nan() && genes_sound(&ind.genes))
-            && !ga.stall_reference.is_nan();
+            && !ga.stall.reference.is_nan();
         if sound {
             Ok(ga)
         } else {
