@@ -231,8 +231,8 @@ pub fn candidate_rules() -> Vec<Rule> {
         window: 0,
         tolerance: 0.0,
     }];
-    for window in [10, 12, 15, 20, 25] {
-        for tolerance in [0.0, 3e-6, 1e-5, 2e-5, 3e-5, 5e-5] {
+    for window in [10, 15, 20, 25, 30] {
+        for tolerance in [0.0, 1e-5, 2e-5, 3e-5, 5e-5] {
             rules.push(Rule { window, tolerance });
         }
     }
