@@ -773,7 +773,11 @@ pub fn markdown(solvers: &[SolverRuns], target: f32, cap: usize, source: TraceSo
         let _ = write!(md, " e_tot @ {b} [%] |");
     }
     let _ = writeln!(md, " stops (cap / generations / stall) |");
-    let _ = writeln!(md, "|---|---:|---:|---:|---:|{}---|", "---:|".repeat(BUDGETS.len()));
+    let _ = writeln!(
+        md,
+        "|---|---:|---:|---:|---:|{}---|",
+        "---:|".repeat(BUDGETS.len())
+    );
     for s in solvers {
         let (n, reached) = s.evaluations_to(target);
         let (n_fine, reached_fine) = s.evaluations_to(fine);
@@ -798,19 +802,28 @@ pub fn markdown(solvers: &[SolverRuns], target: f32, cap: usize, source: TraceSo
             count(RunStop::Stalled)
         );
     }
-    if let Some(ours) = solvers.iter().find(|s| s.optimiser == Optimiser::SteadyState) {
+    if let Some(ours) = solvers
+        .iter()
+        .find(|s| s.optimiser == Optimiser::SteadyState)
+    {
         let (a, _) = ours.evaluations_to(target);
         let _ = writeln!(
             md,
             "\nEvaluations each solver needs to reach e_tot ≤ {target} % (median), as a multiple of ours ({}):\n",
             evaluations_text(a)
         );
-        for s in solvers.iter().filter(|s| s.optimiser != Optimiser::SteadyState) {
+        for s in solvers
+            .iter()
+            .filter(|s| s.optimiser != Optimiser::SteadyState)
+        {
             let (b, _) = s.evaluations_to(target);
             let ratio = if a.is_finite() && b.is_finite() {
                 format!("{:.1}×", b / a)
             } else if a.is_finite() {
-                format!("not reached in the median run within {cap} (≥ {:.1}×)", cap as f64 / a)
+                format!(
+                    "not reached in the median run within {cap} (≥ {:.1}×)",
+                    cap as f64 / a
+                )
             } else {
                 "no ratio: ours does not reach it in the median run".into()
             };

@@ -253,15 +253,16 @@ pub fn markdown(summaries: &[RuleSummary], runs: usize, seeds: u64) -> String {
         .first()
         .map(|s| s.group_means.iter().map(|g| g.0).collect())
         .unwrap_or_default();
-    let _ = write!(
-        md,
-        "| stall rule | evaluations: median | 90 % | max |"
-    );
+    let _ = write!(md, "| stall rule | evaluations: median | 90 % | max |");
     for g in &groups {
         let _ = write!(md, " {g} |");
     }
     let _ = writeln!(md, " worst e_tot increase [pp] (run) |");
-    let _ = writeln!(md, "|---|---:|---:|---:|{}---|", "---:|".repeat(groups.len()));
+    let _ = writeln!(
+        md,
+        "|---|---:|---:|---:|{}---|",
+        "---:|".repeat(groups.len())
+    );
     for s in summaries {
         let _ = write!(
             md,

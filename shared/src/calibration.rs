@@ -45,22 +45,22 @@ impl Calibration {
     /// noise-free reference trace (seed 0). The firmware carries it as data; `host-sim`
     /// checks it is still what the fit gives.
     pub const REFERENCE_ACTUATOR: Self = Self {
-        resistance_scale: 0.8280815,
-        inductance_scale: 1.1406101,
-        back_emf_scale: 1.0011379,
-        friction_scale: 0.9996323,
-        damping: 9.865397,
-        nominal_residual: 0.00077715336,
+        resistance_scale: 0.47267297,
+        inductance_scale: 0.860487,
+        back_emf_scale: 1.001137,
+        friction_scale: 0.99771225,
+        damping: 9.88454,
+        nominal_residual: 0.0007770943,
     };
 
     /// The same for the paper's test (the chirp alone).
     pub const REFERENCE_ACTUATOR_PAPER: Self = Self {
-        resistance_scale: 0.76799506,
-        inductance_scale: 0.8571639,
-        back_emf_scale: 0.9999629,
-        friction_scale: 0.97744757,
-        damping: 8.947216,
-        nominal_residual: 0.0011609145,
+        resistance_scale: 0.75073683,
+        inductance_scale: 0.8183919,
+        back_emf_scale: 0.99955827,
+        friction_scale: 0.9820077,
+        damping: 8.570111,
+        nominal_residual: 0.0011607918,
     };
 }
 

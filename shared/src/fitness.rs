@@ -18,9 +18,9 @@
 use core::ops::ControlFlow;
 
 use crate::calibration::Calibration;
-use crate::command::CommandSource;
 #[cfg(feature = "command-table")]
 use crate::command::CommandTable;
+use crate::command::{ChirpSampler, CommandSource};
 use crate::conditioning::{ConditioningError, LowPassState, MeasuredCurrent};
 use crate::fault::{FaultVector, FAULT_COUNT};
 use crate::ga::Problem;
@@ -141,17 +141,17 @@ impl<'a, const N: usize> FitnessProblem<'a, N> {
         if let Some(table) = self.command_table {
             return self.raw_error_with(k, bound, table);
         }
-        self.raw_error_with(k, bound, self.model.command())
+        self.raw_error_with(k, bound, &self.model.sampler())
     }
 
     /// The commanded user angle of chirp sample `index` at `time` [rad], from the table if
-    /// there is one. O(1).
-    fn command_at(&self, index: usize, time: f32) -> f32 {
+    /// there is one, else from `sampler`. O(1).
+    fn command_at(&self, sampler: &ChirpSampler, index: usize) -> f32 {
         #[cfg(feature = "command-table")]
         if let Some(table) = self.command_table {
-            return table.position_at(index, time);
+            return table.position_at(index);
         }
-        self.model.command().position_at(index, time)
+        sampler.at(index)
     }
 
     /// [`raw_error_until`](Self::raw_error_until) reading the command from `command`. One
@@ -195,7 +195,8 @@ impl<'a, const N: usize> FitnessProblem<'a, N> {
             ControlFlow::Continue(())
         };
         let start = self.measured.initial_angles();
-        self.model.run_with(k, start, reference.len(), command, sink);
+        self.model
+            .run_with(k, start, reference.len(), command, sink);
         let err = sum * dt;
         if err.is_finite() {
             err
@@ -253,16 +254,14 @@ impl<const N: usize> FitnessProblem<'_, N> {
         let standstill = self.measured.test().standstill;
         let lead = self.measured.lead_samples();
         let end = run.index.saturating_add(samples).min(reference.len());
+        let sampler = self.model.sampler();
         while run.index < end {
             let i = run.index;
             run.index += 1;
             let r = reference[i];
             // One command for all nine runs: they are at the same sample.
             let command = match run.runs[0].next_command_index(&self.model) {
-                Some(c) => {
-                    let time = c as f32 * self.model.params().control_period;
-                    self.command_at(c, time)
-                }
+                Some(c) => self.command_at(&sampler, c),
                 None => 0.0,
             };
             let mut m = [0.0f32; FAULT_COUNT + 1];

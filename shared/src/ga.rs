@@ -672,9 +672,21 @@ mod tests {
     fn stall_test_counts_only_improvements_beyond_the_tolerance() {
         let mut stall = StallTest::NEW;
         assert_eq!(stall.update(1.0, 0.1), 0, "the first finite best counts");
-        assert_eq!(stall.update(0.95, 0.1), 1, "0.05 better: within the tolerance");
-        assert_eq!(stall.update(0.91, 0.1), 2, "0.09 below the reference: still within");
-        assert_eq!(stall.update(0.85, 0.1), 0, "0.15 below the reference: progress");
+        assert_eq!(
+            stall.update(0.95, 0.1),
+            1,
+            "0.05 better: within the tolerance"
+        );
+        assert_eq!(
+            stall.update(0.91, 0.1),
+            2,
+            "0.09 below the reference: still within"
+        );
+        assert_eq!(
+            stall.update(0.85, 0.1),
+            0,
+            "0.15 below the reference: progress"
+        );
         assert_eq!(stall.reference, 0.85);
         // Negative fitness (the nominal residual is subtracted) works the same way.
         let mut stall = StallTest::NEW;

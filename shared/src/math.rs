@@ -15,6 +15,22 @@ pub fn sin(x: f32) -> f32 {
     F32Ext::sin(x)
 }
 
+/// `sin(2π·u)` for `u` in turns: micromath's parabolic approximation (absolute error
+/// ≤ 0.002, the same as [`sin`]) evaluated on turns directly, with a branch-free floor, so a
+/// phase kept in turns needs no multiplication by 2π and back. Any finite `u`; |u| < 2²³.
+#[inline(always)]
+pub fn sin_turns(u: f32) -> f32 {
+    // sin(2πu) = cos(2π(u − ¼)); micromath's cos on turns x: x − ¼ − ⌊x + ¼⌋, then the
+    // parabola and its correction.
+    let x = u - 0.25;
+    let y = x + 0.25;
+    let t = y as i32;
+    let floor = t.saturating_sub(i32::from(y < t as f32)) as f32;
+    let mut x = x - (0.25 + floor);
+    x *= 16.0 * (abs(x) - 0.5);
+    x + 0.225 * x * (abs(x) - 1.0)
+}
+
 #[inline]
 pub fn cos(x: f32) -> f32 {
     F32Ext::cos(x)
@@ -178,5 +194,22 @@ mod tests {
         assert_eq!(clamp(0.5, -1.0, 1.0), 0.5);
         assert!(clamp(f32::NAN, -1.0, 1.0).is_nan());
         assert_eq!(clamp(0.0, 1.0, -1.0), 1.0);
+    }
+}
+
+#[cfg(test)]
+mod sin_turns_check {
+    /// The same parabolic approximation as micromath's sine, within rounding of the two
+    /// reductions: within 1e-5 of the unit amplitude over 7.5 turns.
+    #[test]
+    fn sin_turns_is_micromaths_sine_on_turns() {
+        let mut worst = 0.0f32;
+        for k in 0..100_000 {
+            let u = k as f32 * 7.5e-5;
+            let a = super::sin_turns(u);
+            let b = super::sin(super::TAU * super::frac(u));
+            worst = worst.max((a - b).abs());
+        }
+        assert!(worst < 1e-5, "{worst}");
     }
 }

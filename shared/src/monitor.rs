@@ -30,7 +30,7 @@
 use core::ops::ControlFlow;
 
 use crate::calibration::Calibration;
-use crate::command::{ChirpCommand, CommandSource};
+use crate::command::{ChirpCommand, ChirpSampler, CommandSource};
 use crate::conditioning::ShaftAngles;
 use crate::fault::FaultEffects;
 use crate::fault::FaultVector;
@@ -212,6 +212,11 @@ impl MonitorModel {
         &self.command
     }
 
+    /// The chirp at this model's control period, as the model plays it. O(1).
+    pub fn sampler(&self) -> ChirpSampler {
+        self.command.sampler(self.dt)
+    }
+
     /// Number of samples in the whole test: the standstill segment and the chirp.
     pub fn test_samples(&self) -> usize {
         let n = self.command.duration * self.inv_dt + 0.5;
@@ -279,7 +284,7 @@ impl MonitorModel {
         samples: usize,
         mut sink: impl FnMut(&MonitorSample),
     ) {
-        self.run_with(k, start, samples, &self.command, |s| {
+        self.run_with(k, start, samples, &self.sampler(), |s| {
             sink(s);
             ControlFlow::Continue(())
         });
@@ -309,7 +314,7 @@ impl MonitorModel {
         };
         for i in 0..samples.saturating_sub(lead) {
             let time = i as f32 * self.dt;
-            let sample = self.step(&f, &mut state, time, command.position_at(i, time));
+            let sample = self.step(&f, &mut state, time, command.position_at(i));
             if sink(&sample).is_break() {
                 return lead + i + 1;
             }

@@ -63,7 +63,7 @@ pub(crate) fn bench(evaluations: u32, identifications: u64) -> Result<()> {
         start.elapsed().as_secs_f64() / f64::from(evaluations)
     };
     let mm_chirp =
-        per_evaluation(&mut |i| simulate_into(&model, pick(i), model.command(), &mut buffer));
+        per_evaluation(&mut |i| simulate_into(&model, pick(i), &model.sampler(), &mut buffer));
     let mm_table = per_evaluation(&mut |i| simulate_into(&model, pick(i), &*table, &mut buffer));
     let mut sink = 0.0f32;
     let fit_chirp = per_evaluation(&mut |i| sink += problem.error(pick(i)));
