@@ -196,7 +196,6 @@ mod tests {
         let table = CommandTable::<5000>::new(c, 1e-4);
         let sampler = c.sampler(1e-4);
         for i in 0..5100 {
-            let t = i as f32 * 1e-4;
             assert_eq!(
                 table.position_at(i).to_bits(),
                 sampler.at(i).to_bits(),
