@@ -342,7 +342,7 @@ pub struct CurvatureRun {
 
 impl CurvatureRun {
     /// Every field zero, to be restarted ([`FitnessProblem::restart_curvature`]) before use:
-    /// a `static` holding it lives in `.bss` and is never built on the stack (≈ 3.4 kB).
+    /// a `static` holding it lives in `.bss` and is never built on the stack (3.5 kB).
     pub const IDLE: Self = Self {
         runs: [MonitorRun::IDLE; FAULT_COUNT + 1],
         filters: [LowPassState::ZERO; FAULT_COUNT + 1],
