@@ -633,7 +633,7 @@ fn footprint() -> Footprint {
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
     // Location and a literal message only: formatting the message would link `core::fmt`
-    // (≈ 2.5 kB of flash) for a path that never runs in flight.
+    // (0.7 kB of flash, measured) for a path that never runs in flight.
     let (file, line) = info.location().map_or(("?", 0), |l| (l.file(), l.line()));
     let message = info.message().as_str().unwrap_or("(formatted message)");
     defmt::error!("panic: {=str} at {=str}:{=u32}", message, file, line);
