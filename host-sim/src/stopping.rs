@@ -283,3 +283,76 @@ pub fn markdown(summaries: &[RuleSummary], runs: usize, seeds: u64) -> String {
     }
     md
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A run whose best fitness improves by `steps[g]` at generation `g`, e_tot = 10 − g.
+    fn run(group: &'static str, steps: &[f32]) -> RunRecord {
+        let mut best = 1.0f32;
+        let generations = steps
+            .iter()
+            .enumerate()
+            .map(|(g, d)| {
+                best -= d;
+                Generation {
+                    evaluations: 32 * (g as u32 + 1),
+                    best_fitness: best,
+                    e_tot: 10.0 - g as f32,
+                }
+            })
+            .collect();
+        RunRecord {
+            case: "synthetic",
+            group,
+            seed: 0,
+            generations,
+        }
+    }
+
+    #[test]
+    fn a_rule_stops_where_the_flown_stall_test_would() {
+        // Progress of 0.1 for three generations, then creeping by 1e-4.
+        let r = run("A", &[0.1, 0.1, 0.1, 1e-4, 1e-4, 1e-4, 1e-4, 1e-4, 1e-4]);
+        let strict = Rule {
+            window: 3,
+            tolerance: 0.0,
+        };
+        assert_eq!(
+            strict.stop_index(&r),
+            8,
+            "creeping counts without a tolerance"
+        );
+        let tolerant = Rule {
+            window: 3,
+            tolerance: 1e-3,
+        };
+        // Last progress at index 2; three generations without it: index 5.
+        assert_eq!(tolerant.stop_index(&r), 5);
+        let none = Rule {
+            window: 0,
+            tolerance: 0.0,
+        };
+        assert_eq!(none.stop_index(&r), 8);
+    }
+
+    #[test]
+    fn the_summary_reads_the_stop_against_the_whole_run() {
+        let runs = [
+            run("A", &[0.1, 1e-4, 1e-4, 1e-4]),
+            run("B", &[0.1, 0.1, 0.1, 0.1]),
+        ];
+        let s = summarise(
+            Rule {
+                window: 2,
+                tolerance: 1e-3,
+            },
+            &runs,
+        );
+        // A stops at index 2 (96 evaluations, e_tot 8), B runs to its end (128, e_tot 7).
+        assert_eq!(s.max_evaluations, 128);
+        assert_eq!(s.group_means, vec![("A", 8.0), ("B", 7.0)]);
+        assert_eq!(s.worst_increase, 1.0);
+    }
+}
