@@ -388,7 +388,7 @@ fn a_power_loss_under_qemu_resumes_to_the_same_bits_and_a_damaged_record_restart
     let trace = trace.to_str().expect("UTF-8 temp path");
     let (measured, host) = host_identification(&bytes);
 
-    // Power lost after 1 234 evaluations (this run stalls at 1 536): exit 5, the record written.
+    // Power lost after 1 234 evaluations (this run stalls at 2 176): exit 5, the record written.
     let record_path = temp_trace("resume.ck", b"");
     std::fs::remove_file(&record_path).expect("no record yet");
     let record_arg = record_path.to_str().expect("UTF-8 temp path");
