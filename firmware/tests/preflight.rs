@@ -146,8 +146,7 @@ fn the_uncertainty_stage_is_bounded_and_gives_the_shared_bits() {
     let source = TraceSource::open(SliceBytes::new(&bytes)).expect("a valid trace");
     let s = settings();
     let mut buffer = empty_buffer();
-    let model = MonitorModel::new(s.actuator.params, &s.actuator.calibration);
-    let mut curvature = Box::new(CurvatureRun::new(&model));
+    let mut curvature = Box::new(CurvatureRun::IDLE);
     let mut preflight =
         Preflight::new(s, source, &mut buffer).with_curvature_buffer(&mut curvature);
     let mut uncertainty_polls = 0u32;

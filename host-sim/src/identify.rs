@@ -15,7 +15,7 @@ use shared::fdi::{
 };
 use shared::ga::RecordError;
 use shared::uncertainty::{Assessment, Uncertainty};
-use shared::{Calibration, Status};
+use shared::{Calibration, GaSettings, Status};
 
 /// Evaluations per slice (the firmware's bounded tick does the same kind of slicing).
 pub const SLICE: u32 = 32;
@@ -84,6 +84,33 @@ pub enum Outcome {
     },
 }
 
+/// The command table of `measured`'s chirp at `record`'s control period (20 kB): the firmware
+/// plays the chirp at every step, the host reads the same bits from this table.
+pub fn command_table(
+    measured: &OnboardMeasured,
+    record: &ActuatorRecord,
+) -> Box<CommandTable<TEST_SAMPLES>> {
+    Box::new(CommandTable::new(
+        measured.test().chirp,
+        record.params.control_period,
+    ))
+}
+
+/// The onboard identification of `measured` for `record`'s actuator (its parameters and
+/// calibration) with GA `settings` and `seed`, reading the command from `table`: the
+/// firmware's code, sizes and bits.
+pub fn onboard_identification<'a>(
+    measured: &'a OnboardMeasured,
+    record: &ActuatorRecord,
+    settings: GaSettings,
+    seed: u64,
+    table: &'a CommandTable<TEST_SAMPLES>,
+) -> Result<Identification<'a, TEST_SAMPLES, POPULATION>> {
+    Identification::new(measured, record.params, &record.calibration, settings, seed)
+        .and_then(|id| id.with_command_table(table))
+        .map_err(|e| anyhow::anyhow!("setting up the identification: {e:?}"))
+}
+
 /// Identifies the faults behind `measured` of the reference actuator with `calibration`.
 /// `progress` shows a bar on stderr.
 pub fn identify(
@@ -143,24 +170,10 @@ pub fn identify_checkpointed(
     checkpointing: Option<&Checkpointing>,
 ) -> Result<(Outcome, Resumption)> {
     let settings = record.ga;
-    let params = record.params;
-    let calibration = &record.calibration;
     let start = Instant::now();
-    // The firmware evaluates the chirp at every step; the host reads the same bits from a
-    // table (20 kB), built inside the timed span.
-    let table = Box::new(CommandTable::<TEST_SAMPLES>::new(
-        measured.test().chirp,
-        params.control_period,
-    ));
-    let mut id = Identification::<TEST_SAMPLES, POPULATION>::new(
-        measured,
-        params,
-        calibration,
-        settings,
-        seed,
-    )
-    .and_then(|id| id.with_command_table(&table))
-    .map_err(|e| anyhow::anyhow!("setting up the identification: {e:?}"))?;
+    // The table is built inside the timed span.
+    let table = command_table(measured, record);
+    let mut id = onboard_identification(measured, record, settings, seed, &table)?;
     let mut resumption = Resumption::Fresh;
     let mut record: OnboardRecord = [0; std::mem::size_of::<OnboardRecord>()];
     if let Some(c) = checkpointing {

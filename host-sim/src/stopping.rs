@@ -12,13 +12,13 @@
 use anyhow::{anyhow, Result};
 use rayon::prelude::*;
 use shared::actuator::ActuatorRecord;
-use shared::command::CommandTable;
-use shared::fdi::{Identification, POPULATION, TEST_SAMPLES};
+use shared::fdi::POPULATION;
 use shared::ga::StallTest;
 use shared::metrics::total_error;
 use shared::{FaultVector, GaSettings};
 
 use crate::campaign::Case;
+use crate::identify::{command_table, onboard_identification};
 use crate::reference::{ReferenceModel, Scenario};
 
 /// Evaluations recorded per run: the budget flown before this study.
@@ -117,25 +117,14 @@ fn record_run(
         seed,
     });
     let measured = sim.trace.measured(&record.params)?;
-    let table = Box::new(CommandTable::<TEST_SAMPLES>::new(
-        measured.test().chirp,
-        record.params.control_period,
-    ));
+    let table = command_table(&measured, record);
     let settings = GaSettings {
         max_evaluations: CAP,
         max_generations: u32::MAX,
         stall_generations: u32::MAX,
         ..record.ga
     };
-    let mut id = Identification::<TEST_SAMPLES, POPULATION>::new(
-        &measured,
-        record.params,
-        &record.calibration,
-        settings,
-        1 + seed,
-    )
-    .and_then(|id| id.with_command_table(&table))
-    .map_err(|e| anyhow!("setting up the identification: {e:?}"))?;
+    let mut id = onboard_identification(&measured, record, settings, 1 + seed, &table)?;
     let mut generations = Vec::new();
     loop {
         let status = id.step(POPULATION as u32);

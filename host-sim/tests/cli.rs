@@ -1,14 +1,10 @@
 //! The CLI end to end: bad input exits non-zero with a message naming the problem (never a
 //! panic); the demo and the footprint run and report.
 
-use std::process::{Command, Output};
+use std::process::Output;
 
-fn host_sim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .args(args)
-        .output()
-        .expect("host-sim runs")
-}
+mod common;
+use common::*;
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()

@@ -3,23 +3,15 @@
 //! RUL `prognose` reports follows the threshold and the growth it is given.
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
 use host_sim::health_file::{history_csv, HistoryRow};
 use shared::domain::{Domain, OutsideReason};
 use shared::health::HealthRecord;
 use shared::FaultVector;
 
-fn host_sim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .args(args)
-        .output()
-        .expect("host-sim runs")
-}
-
-fn text(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr)
-}
+mod common;
+use common::*;
 
 fn path_str(p: &Path) -> &str {
     p.to_str().expect("UTF-8 temp path")

@@ -54,8 +54,6 @@ pub struct FitnessProblem<'a, const N: usize> {
     nominal_residual: f32,
     #[cfg(feature = "command-table")]
     command_table: Option<&'a CommandTable<N>>,
-    #[cfg(not(feature = "command-table"))]
-    command_table: core::marker::PhantomData<&'a ()>,
 }
 
 /// Weight of the standstill segment's squared residual against the chirp's eq. (3) terms.
@@ -88,8 +86,6 @@ impl<'a, const N: usize> FitnessProblem<'a, N> {
             nominal_residual: calibration.nominal_residual,
             #[cfg(feature = "command-table")]
             command_table: None,
-            #[cfg(not(feature = "command-table"))]
-            command_table: core::marker::PhantomData,
         })
     }
 
@@ -212,7 +208,7 @@ impl<const N: usize> FitnessProblem<'_, N> {
     /// [0, 1]), to be stepped in lockstep through the same filter and weights as the fitness
     /// by [`continue_curvature`](Self::continue_curvature). O(1).
     pub fn start_curvature(&self, k: &FaultVector) -> CurvatureRun {
-        let mut run = CurvatureRun::new(&self.model);
+        let mut run = CurvatureRun::IDLE;
         self.restart_curvature(&mut run, k);
         run
     }
@@ -351,24 +347,6 @@ impl CurvatureRun {
         previous: 0.0,
         sums: Curvature::EMPTY,
     };
-
-    /// A run to restart later ([`FitnessProblem::restart_curvature`]): for a buffer that
-    /// lives in static storage. O(1).
-    pub fn new(model: &MonitorModel) -> Self {
-        Self {
-            runs: core::array::from_fn(|_| {
-                model.start_run(
-                    &FaultVector::NOMINAL,
-                    crate::conditioning::ShaftAngles::ZERO,
-                )
-            }),
-            filters: [LowPassState::default(); FAULT_COUNT + 1],
-            shifts: [STEP; FAULT_COUNT],
-            index: 0,
-            previous: 0.0,
-            sums: Curvature::EMPTY,
-        }
-    }
 }
 
 impl<const N: usize> Problem for FitnessProblem<'_, N> {

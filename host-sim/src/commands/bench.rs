@@ -263,15 +263,7 @@ pub(crate) fn optimisers_command(
     let started = Instant::now();
     let solvers = optimisers::compare(&TABLE_1, seeds, cap, source, progress_wanted(false))?;
     let md = optimisers::markdown(&solvers, target, cap, source);
-    println!("{md}");
-    println!(
-        "({:.0} s wall on {} threads)",
-        started.elapsed().as_secs_f64(),
-        rayon::current_num_threads()
-    );
-    if let Some(path) = out {
-        std::fs::write(path, &md).with_context(|| format!("writing {}", path.display()))?;
-    }
+    report_study(&md, started, out)?;
     if let Some(path) = plot {
         let curves: Vec<(&str, Vec<f64>)> = solvers
             .iter()
@@ -311,6 +303,11 @@ pub(crate) fn stopping_command(actuator: &Actuator, seeds: u64, out: Option<&Pat
         .map(|rule| stopping::summarise(rule, &runs))
         .collect();
     let md = stopping::markdown(&summaries, runs.len(), seeds);
+    report_study(&md, started, out)
+}
+
+/// A study's Markdown on stdout with its wall time, and into `out` if given.
+fn report_study(md: &str, started: Instant, out: Option<&Path>) -> Result<()> {
     println!("{md}");
     println!(
         "({:.0} s wall on {} threads)",
@@ -318,7 +315,7 @@ pub(crate) fn stopping_command(actuator: &Actuator, seeds: u64, out: Option<&Pat
         rayon::current_num_threads()
     );
     if let Some(path) = out {
-        std::fs::write(path, &md).with_context(|| format!("writing {}", path.display()))?;
+        std::fs::write(path, md).with_context(|| format!("writing {}", path.display()))?;
     }
     Ok(())
 }
