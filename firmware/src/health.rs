@@ -5,7 +5,7 @@
 //!
 //! Work bound: two store reads per slot ([`ONBOARD_RECORDS`]), one slot write, one trend
 //! update per record (O(records · faults · rates)) and one estimate per fault (O(rates ·
-//! horizon)). Stack: the log (≈ 1.4 KiB) and one fault's trend (680 B), held only during
+//! horizon)). Stack: the log (≈ 1.8 KiB) and one fault's trend (976 B), held only during
 //! the call.
 
 use shared::health::{
@@ -51,9 +51,14 @@ pub fn record_preflight<S: HealthStore>(
         report.result.faults,
         report.result.fitness,
         report.domain,
+    )
+    .with_std(
+        report
+            .uncertainty
+            .map_or([f32::NAN; FAULT_COUNT], |u| u.std),
     );
     let evicted = log.append(store, record)?;
-    // One fault at a time (680 bytes of trend state); the same bits as a `HealthTrend`.
+    // One fault at a time (976 bytes of trend state); the same bits as a `HealthTrend`.
     let mut estimates = [None; FAULT_COUNT];
     for (i, e) in estimates.iter_mut().enumerate() {
         if is_trended(i) {

@@ -29,7 +29,9 @@ use shared::health::{RamStore, ONBOARD_RECORDS};
 use shared::prognosis::TrendSettings;
 use shared::LowPass;
 
-use crate::emulation::{read_record_file, write_record_file, Command, Crash, HostFile};
+use crate::emulation::{
+    read_record_file, write_record_file, Command, Crash, HostFile, RecordFileError,
+};
 use shared::actuator::{ActuatorRecord, RECORD_BYTES};
 use shared::fdi::OnboardRecord;
 use shared::test_design::PreflightTest;
@@ -413,9 +415,24 @@ fn record_health(path: &CStr, flight: Option<u32>, report: &Report) -> i32 {
         return status::START_UP;
     };
     store.erase();
+    const V1_IMAGE: usize = ONBOARD_RECORDS * shared::health::RECORD_V1_BYTES;
     match read_record_file(path, store.as_bytes_mut()) {
         Ok(true) => {}
         Ok(false) => defmt::println!("health log {=str}: new", path_text),
+        // A log kept before record version 2: read it and carry its records over.
+        Err(RecordFileError::Length { bytes }) if bytes == V1_IMAGE as u64 => {
+            let v1 = store.as_bytes_mut().get_mut(..V1_IMAGE).unwrap_or(&mut []);
+            if let Err(e) = read_record_file(path, v1) {
+                defmt::error!("health log {=str} refused: {}", path_text, e);
+                return status::HEALTH_LOG;
+            }
+            let kept = store.upgrade_v1();
+            defmt::println!(
+                "health log {=str}: version 1, {=usize} records carried over",
+                path_text,
+                kept
+            );
+        }
         Err(e) => {
             defmt::error!("health log {=str} refused: {}", path_text, e);
             return status::HEALTH_LOG;
@@ -450,13 +467,14 @@ fn record_health(path: &CStr, flight: Option<u32>, report: &Report) -> i32 {
             upper: None,
         });
         defmt::println!(
-            "trend {=str} n={=u32} outliers={=u32} level={=f32} slope={=f32} rate={=f32} rul={} lower={} upper={} rul_bits={=u32:08x} lower_bits={=u32:08x} upper_bits={=u32:08x}",
+            "trend {=str} n={=u32} outliers={=u32} level={=f32} slope={=f32} growth={} weight={=f32} rul={} lower={} upper={} rul_bits={=u32:08x} lower_bits={=u32:08x} upper_bits={=u32:08x}",
             name,
             e.observations,
             e.outliers,
             e.level,
             e.slope,
-            e.rate,
+            e.growth,
+            e.weight,
             rul.rul,
             rul.lower,
             rul.upper,

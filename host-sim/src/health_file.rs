@@ -1,12 +1,16 @@
 //! The health log on the ground: a file-backed [`HealthStore`] (the same slots the controller
-//! keeps in flash, one 52-byte record each, slot `flight mod slots`), and the history CSV that
-//! `host-sim degrade` writes and `host-sim prognose` reads.
+//! keeps in flash, one 68-byte record each, slot `flight mod slots`; logs of 52-byte
+//! version-1 records are read too, and upgraded in place before anything is appended to
+//! them), and the history CSV that `host-sim degrade` writes and `host-sim prognose` reads.
 //!
 //! History CSV, one row per preflight, readable by `pandas.read_csv` as is:
 //!
 //! ```text
-//! flight,friction,backlash,short_a,short_b,short_c,eccentricity,ecc_phase,gain_drift,fitness,domain[,true_friction,…,true_gain_drift]
+//! flight,friction,backlash,short_a,short_b,short_c,eccentricity,ecc_phase,gain_drift,fitness,domain[,std_friction,…,std_gain_drift][,true_friction,…,true_gain_drift]
 //! ```
+//!
+//! `std_*` (empty where not determined) are the identification's standard deviations, as a
+//! version-2 record keeps them.
 //!
 //! `domain` is `within` or the reason (`no_motion`, `open_phase`, `command_mismatch`,
 //! `fitness_floor`); the `true_*` columns (simulated histories only) give the fault vector the
@@ -19,7 +23,8 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use shared::fault::{FAULT_COUNT, FAULT_NAMES};
 use shared::health::{
-    DomainCode, EncodedRecord, HealthLog, HealthRecord, HealthStore, LoadSummary, RECORD_BYTES,
+    ComponentStd, DomainCode, EncodedRecord, HealthLog, HealthRecord, HealthStore, LoadSummary,
+    RECORD_BYTES, RECORD_V1_BYTES,
 };
 use shared::FaultVector;
 
@@ -33,9 +38,20 @@ pub struct FileStore {
 
 impl FileStore {
     /// Opens `path`, creating it with `slots` zeroed (empty) slots when it does not exist. An
-    /// existing file keeps its own slot count and must hold whole records.
+    /// existing file keeps its own slot count and must hold whole records; a log of
+    /// version-1 slots is rewritten as version 2 first (its records kept, without standard
+    /// deviations).
     pub fn open(path: &Path, slots: usize) -> Result<Self> {
         let exists = path.exists();
+        if exists {
+            let bytes = std::fs::read(path)
+                .with_context(|| format!("reading health log {}", path.display()))?;
+            if !bytes.is_empty() && slot_bytes(&bytes)? == RECORD_V1_BYTES {
+                let upgraded = upgrade_v1(&bytes);
+                std::fs::write(path, upgraded)
+                    .with_context(|| format!("upgrading health log {}", path.display()))?;
+            }
+        }
         let file = OpenOptions::new()
             .read(true)
             .write(true)
@@ -45,12 +61,6 @@ impl FileStore {
             .with_context(|| format!("opening health log {}", path.display()))?;
         let len = file.metadata()?.len() as usize;
         let slots = if exists && len > 0 {
-            if len % RECORD_BYTES != 0 {
-                bail!(
-                    "{}: {len} bytes is not a whole number of {RECORD_BYTES}-byte health records",
-                    path.display()
-                );
-            }
             len / RECORD_BYTES
         } else {
             file.set_len((slots * RECORD_BYTES) as u64)?;
@@ -61,6 +71,96 @@ impl FileStore {
             file,
             slots,
         })
+    }
+}
+
+/// The slot size of a health-log image: 68 (version 2) or 52 (version 1). An image both
+/// divide is taken as the one whose slots decode more sound records.
+pub fn slot_bytes(image: &[u8]) -> Result<usize> {
+    let sound = |size: usize| {
+        image
+            .chunks_exact(size)
+            .filter(|c| HealthRecord::decode(c).is_ok())
+            .count()
+    };
+    match (
+        image.len() % RECORD_BYTES == 0,
+        image.len() % RECORD_V1_BYTES == 0,
+    ) {
+        (true, true) if sound(RECORD_V1_BYTES) > sound(RECORD_BYTES) => Ok(RECORD_V1_BYTES),
+        (true, _) => Ok(RECORD_BYTES),
+        (false, true) => Ok(RECORD_V1_BYTES),
+        (false, false) => bail!(
+            "{} bytes is not a whole number of health records ({RECORD_BYTES} bytes, or \
+             {RECORD_V1_BYTES} for version 1)",
+            image.len()
+        ),
+    }
+}
+
+/// A version-1 image (52-byte slots) as a version-2 image of as many slots: each sound
+/// record re-encoded in its slot, every other slot erased.
+fn upgrade_v1(image: &[u8]) -> Vec<u8> {
+    image
+        .chunks_exact(RECORD_V1_BYTES)
+        .flat_map(|c| match HealthRecord::decode(c) {
+            Ok(r) => r.encode(),
+            Err(_) => [0xFF; RECORD_BYTES],
+        })
+        .collect()
+}
+
+/// A health-log image in memory, of either record version (read-only).
+#[derive(Debug)]
+pub struct ImageStore<'a> {
+    image: &'a [u8],
+    slot_bytes: usize,
+}
+
+impl<'a> ImageStore<'a> {
+    /// The store in `image` ([`slot_bytes`] tells its version).
+    pub fn new(image: &'a [u8]) -> Result<Self> {
+        Ok(Self {
+            image,
+            slot_bytes: slot_bytes(image)?,
+        })
+    }
+
+    /// The record version of its slots (1 or 2).
+    pub fn version(&self) -> u8 {
+        if self.slot_bytes == RECORD_V1_BYTES {
+            1
+        } else {
+            2
+        }
+    }
+
+    /// Every slot's bytes, in slot order.
+    pub fn slots_bytes(&self) -> impl Iterator<Item = &'a [u8]> {
+        self.image.chunks_exact(self.slot_bytes)
+    }
+}
+
+impl HealthStore for ImageStore<'_> {
+    type Error = anyhow::Error;
+
+    fn slots(&self) -> usize {
+        self.image.len() / self.slot_bytes
+    }
+
+    fn read(&mut self, slot: usize, out: &mut EncodedRecord) -> Result<()> {
+        let at = slot * self.slot_bytes;
+        let src = self
+            .image
+            .get(at..at + self.slot_bytes)
+            .with_context(|| format!("no slot {slot}"))?;
+        out.fill(0xFF);
+        out[..self.slot_bytes].copy_from_slice(src);
+        Ok(())
+    }
+
+    fn write(&mut self, _slot: usize, _record: &EncodedRecord) -> Result<()> {
+        bail!("an image store is read-only")
     }
 }
 
@@ -102,14 +202,21 @@ pub struct HistoryRow {
     pub truth: Option<FaultVector>,
 }
 
-/// The CSV text of `rows`; `true_*` columns when every row has a truth.
+/// The CSV text of `rows`; `std_*` columns when a row has a standard deviation, `true_*`
+/// columns when every row has a truth.
 pub fn history_csv(rows: &[HistoryRow]) -> String {
     let with_truth = !rows.is_empty() && rows.iter().all(|r| r.truth.is_some());
+    let with_std = rows.iter().any(|r| r.record.std != ComponentStd::UNKNOWN);
     let mut out = String::from("flight");
     for n in FAULT_NAMES {
         out += &format!(",{n}");
     }
     out += ",fitness,domain";
+    if with_std {
+        for n in FAULT_NAMES {
+            out += &format!(",std_{n}");
+        }
+    }
     if with_truth {
         for n in FAULT_NAMES {
             out += &format!(",true_{n}");
@@ -122,6 +229,14 @@ pub fn history_csv(rows: &[HistoryRow]) -> String {
             out += &format!(",{k}");
         }
         out += &format!(",{},{}", r.record.fitness, r.record.domain.name());
+        if with_std {
+            for i in 0..FAULT_COUNT {
+                out.push(',');
+                if let Some(sd) = r.record.std.get(i) {
+                    out += &sd.to_string();
+                }
+            }
+        }
         if let (true, Some(t)) = (with_truth, r.truth) {
             for k in t.as_array() {
                 out += &format!(",{k}");
@@ -162,12 +277,14 @@ pub fn read_history(path: &Path) -> Result<Vec<HistoryRow>> {
     }
 }
 
-/// Loads the health log in `path` (a [`FileStore`] file) into a log of capacity `N`.
+/// Loads the health log in `path` (a [`FileStore`] file, either record version) into a log of
+/// capacity `N`.
 pub fn load_log<const N: usize>(path: &Path) -> Result<(Box<HealthLog<N>>, LoadSummary)> {
     if !path.exists() {
         bail!("{}: no such health log", path.display());
     }
-    let mut store = FileStore::open(path, 0)?;
+    let image = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    let mut store = ImageStore::new(&image).with_context(|| format!("{}", path.display()))?;
     let (log, summary) = HealthLog::<N>::load(&mut store)?;
     Ok((Box::new(log), summary))
 }
@@ -184,6 +301,10 @@ fn parse_history_csv(text: &str) -> Result<Vec<HistoryRow>> {
     let fault_cols: Vec<usize> = FAULT_NAMES.iter().map(|n| need(n)).collect::<Result<_>>()?;
     let fitness_col = need("fitness")?;
     let domain_col = column("domain");
+    let std_cols: Option<Vec<usize>> = FAULT_NAMES
+        .iter()
+        .map(|n| column(&format!("std_{n}")))
+        .collect();
     let truth_cols: Option<Vec<usize>> = FAULT_NAMES
         .iter()
         .map(|n| column(&format!("true_{n}")))
@@ -251,6 +372,21 @@ fn parse_history_csv(text: &str) -> Result<Vec<HistoryRow>> {
             shared::domain::Domain::Within,
         );
         record.domain = domain;
+        if let Some(cols) = &std_cols {
+            let mut sd = [f32::NAN; FAULT_COUNT];
+            for (v, &c) in sd.iter_mut().zip(cols) {
+                if !cell(c).is_empty() {
+                    *v = number(c)?;
+                    if *v < 0.0 {
+                        bail!(
+                            "line {line_no}, column \"{}\": a negative standard deviation",
+                            header[c]
+                        );
+                    }
+                }
+            }
+            record = record.with_std(sd);
+        }
         let truth = match &truth_cols {
             Some(cols) => Some(vector(cols)?),
             None => None,
@@ -280,7 +416,13 @@ mod tests {
 
     #[test]
     fn history_csv_round_trips() {
+        let mut with_std = row(2, 0.09, Domain::Within);
+        with_std.record =
+            with_std
+                .record
+                .with_std([0.01, f32::NAN, 0.02, 0.0, 0.5, 0.03, f32::NAN, 0.004]);
         let rows = vec![
+            with_std,
             row(3, 0.1, Domain::Within),
             row(
                 4,
@@ -290,9 +432,10 @@ mod tests {
         ];
         let text = history_csv(&rows);
         assert_eq!(parse_history_csv(&text).unwrap(), rows);
+        assert!(text.starts_with("flight,") && text.contains(",std_friction,"));
         let bad = text.replace(",0.125,", ",x,");
         let e = parse_history_csv(&bad).unwrap_err();
-        assert!(format!("{e:#}").contains("line 3"), "{e:#}");
+        assert!(format!("{e:#}").contains("line 4"), "{e:#}");
         let swapped = format!("{}\n{}", text.trim_end(), text.lines().nth(1).unwrap());
         assert!(
             format!("{:#}", parse_history_csv(&swapped).unwrap_err()).contains("does not follow")
@@ -311,7 +454,10 @@ mod tests {
                     .unwrap();
             }
         }
-        assert_eq!(std::fs::metadata(&path).unwrap().len(), 4 * 52);
+        assert_eq!(
+            std::fs::metadata(&path).unwrap().len(),
+            4 * RECORD_BYTES as u64
+        );
         let rows = read_history(&path).unwrap();
         assert_eq!(
             rows.iter().map(|r| r.record.flight).collect::<Vec<_>>(),
@@ -319,5 +465,43 @@ mod tests {
         );
         std::fs::write(&path, [0u8; 50]).unwrap();
         assert!(FileStore::open(&path, 4).is_err());
+    }
+
+    #[test]
+    fn a_version_1_log_is_read_and_upgraded_before_an_append() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("old.bin");
+        // Three version-1 slots holding flights 3, 4, 5 (slot = flight mod 3).
+        let mut image = vec![0xFF; 3 * RECORD_V1_BYTES];
+        for f in 3..6u32 {
+            let s = (f % 3) as usize * RECORD_V1_BYTES;
+            image[s..s + RECORD_V1_BYTES]
+                .copy_from_slice(&row(f, 0.1, Domain::Within).record.encode_v1());
+        }
+        std::fs::write(&path, &image).unwrap();
+        let rows = read_history(&path).unwrap();
+        assert_eq!(
+            rows.iter().map(|r| r.record.flight).collect::<Vec<_>>(),
+            [3, 4, 5]
+        );
+        assert!(rows.iter().all(|r| r.record.std == ComponentStd::UNKNOWN));
+        // Appending rewrites it as version 2 first: the old records stay.
+        let mut store = FileStore::open(&path, 3).unwrap();
+        let (mut log, _) = HealthLog::<3>::load(&mut store).unwrap();
+        let new = row(6, 0.2, Domain::Within)
+            .record
+            .with_std([0.01; FAULT_COUNT]);
+        log.append(&mut store, new).unwrap();
+        drop(store);
+        assert_eq!(
+            std::fs::metadata(&path).unwrap().len(),
+            3 * RECORD_BYTES as u64
+        );
+        let rows = read_history(&path).unwrap();
+        assert_eq!(
+            rows.iter().map(|r| r.record.flight).collect::<Vec<_>>(),
+            [4, 5, 6]
+        );
+        assert_eq!(rows[2].record, new);
     }
 }

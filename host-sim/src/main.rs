@@ -432,7 +432,7 @@ enum Command {
         /// History CSV to write.
         #[arg(long)]
         out: PathBuf,
-        /// Also append every record to this health-log file (the controller's 52-byte
+        /// Also append every record to this health-log file (the controller's 68-byte
         /// records, 32 slots: the newest 32 flights), as the firmware's --health reads it.
         #[arg(long)]
         log: Option<PathBuf>,

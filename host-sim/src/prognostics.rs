@@ -14,7 +14,7 @@ use rayon::prelude::*;
 use shared::domain::DomainLimits;
 use shared::fault::{FAULT_COUNT, FAULT_NAMES};
 use shared::health::HealthRecord;
-use shared::prognosis::{FaultTrend, HealthTrend, TrendEstimate, TrendSettings};
+use shared::prognosis::{FaultTrend, Growth, HealthTrend, TrendEstimate, TrendSettings};
 use shared::{ActuatorParams, Calibration, FaultVector};
 
 use crate::health_file::HistoryRow;
@@ -120,7 +120,11 @@ pub fn degrade(
                 .assess(&DomainLimits::REFERENCE_ACTUATOR, id.result.fitness);
             tick();
             Ok(HistoryRow {
-                record: HealthRecord::new(flight, id.result.faults, id.result.fitness, domain),
+                record: HealthRecord::new(flight, id.result.faults, id.result.fitness, domain)
+                    .with_std(
+                        id.uncertainty
+                            .map_or([f32::NAN; FAULT_COUNT], |(u, _)| u.std),
+                    ),
                 truth: Some(truth),
             })
         })
@@ -181,6 +185,15 @@ pub fn trend_of(rows: &[HistoryRow], until: Option<u32>, settings: &TrendSetting
     )
 }
 
+/// A growth shape as reports print it: `linear`, `exp 0.088` (rate per flight), `power 2`.
+pub fn growth_name(g: Growth) -> String {
+    match g {
+        Growth::Linear => "linear".into(),
+        Growth::Exponential(r) => format!("exp {r:.3}"),
+        Growth::PowerLaw(p) => format!("power {p}"),
+    }
+}
+
 fn fmt_flights(v: Option<f32>) -> String {
     match v {
         None => "beyond".into(),
@@ -194,7 +207,7 @@ pub fn report_text(
     settings: &TrendSettings,
 ) -> String {
     let mut out = format!(
-        "{:<13} {:>4} {:>4} {:>7} {:>9} {:>7} {:>7} {:>9} {:>9} {:>19}\n",
+        "{:<13} {:>4} {:>4} {:>7} {:>9} {:>16} {:>7} {:>9} {:>9} {:>19}\n",
         "fault",
         "n",
         "out",
@@ -208,11 +221,7 @@ pub fn report_text(
     );
     for (i, e) in estimates.iter().enumerate() {
         let Some(e) = e else { continue };
-        let shape = if e.rate == 0.0 {
-            "linear".to_string()
-        } else {
-            format!("e^{:.3}t", e.rate)
-        };
+        let shape = format!("{} {:.0}%", growth_name(e.growth), 100.0 * e.weight);
         let (thr, rul, interval) = match (settings.threshold(i), e.rul) {
             (Some(t), Some(r)) => (
                 format!("{t:.3}"),
@@ -222,7 +231,7 @@ pub fn report_text(
             _ => ("-".into(), "-".into(), "-".into()),
         };
         out += &format!(
-            "{:<13} {:>4} {:>4} {:>7.4} {:>9.5} {:>7} {:>7} {:>9.4} {:>9} {:>19}\n",
+            "{:<13} {:>4} {:>4} {:>7.4} {:>9.5} {:>16} {:>7} {:>9.4} {:>9} {:>19}\n",
             FAULT_NAMES[i],
             e.observations,
             e.outliers,
@@ -260,7 +269,8 @@ pub fn report_json(
                 "outliers": e.outliers,
                 "level": e.level,
                 "slope": e.slope,
-                "rate": e.rate,
+                "growth": growth_name(e.growth),
+                "growth_weight": e.weight,
                 "scatter": e.scatter,
                 "threshold": settings.threshold(i),
                 "rul": rul,

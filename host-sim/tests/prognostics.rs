@@ -157,13 +157,15 @@ fn degrade_simulates_each_flight_and_writes_history_and_log() {
         })
         .collect();
     assert_eq!(rows.len(), 3);
-    // Columns: flight, 8 identified, fitness, domain, 8 true.
+    // Columns: flight, 8 identified, fitness, domain, 8 standard deviations, 8 true.
     for (f, r) in rows.iter().enumerate() {
         assert_eq!(r[0], f as f64);
         let truth_friction = 0.1 + 0.1 * f as f64;
         let truth_short = 0.1 * f as f64;
-        assert!((r[11] - truth_friction).abs() < 1e-6, "{r:?}");
-        assert!((r[13] - truth_short).abs() < 1e-6, "{r:?}");
+        assert!((r[19] - truth_friction).abs() < 1e-6, "{r:?}");
+        assert!((r[21] - truth_short).abs() < 1e-6, "{r:?}");
+        // The identification's standard deviation of friction, as the record keeps it.
+        assert!(r[11] > 0.0 && r[11] < 0.1, "std of friction {r:?}");
         assert!(
             (r[1] - truth_friction).abs() < 0.03,
             "identified friction {r:?}"
@@ -175,7 +177,10 @@ fn degrade_simulates_each_flight_and_writes_history_and_log() {
     }
     assert!(csv.lines().skip(1).all(|l| l.contains(",within,")));
     // The log holds the same records, and prognose reads it.
-    assert_eq!(std::fs::metadata(&log).unwrap().len(), 32 * 52);
+    assert_eq!(
+        std::fs::metadata(&log).unwrap().len(),
+        32 * shared::health::RECORD_BYTES as u64
+    );
     let from_log = json(&host_sim(&["prognose", path_str(&log), "--json"]));
     let from_csv = json(&host_sim(&["prognose", path_str(&out), "--json"]));
     assert_eq!(from_log, from_csv);

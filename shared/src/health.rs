@@ -8,19 +8,24 @@
 //! [`HealthLog::push`] O(1); [`HealthLog::append`] one slot write; [`HealthLog::load`] reads
 //! every slot twice (find the newest, then walk the ring from it), O(slots).
 //!
-//! ## Record (52 bytes, little-endian)
+//! ## Record (version 2: 68 bytes, little-endian)
 //!
 //! | bytes | field |
 //! | --- | --- |
 //! | 0..4 | magic `EMAH` |
-//! | 4 | version (1) |
+//! | 4 | version (2) |
 //! | 5 | domain: 0 within, 1 no motion, 2 open phase, 3 command mismatch, 4 fitness floor |
 //! | 6 | detected faults: bit i set when component i is beyond the detection threshold |
 //! | 7 | reserved, 0 |
 //! | 8..12 | flight index (u32) |
 //! | 12..44 | fault vector, 8 × f32 |
 //! | 44..48 | best fitness (f32) |
-//! | 48..52 | CRC-32 of bytes 0..48 |
+//! | 48..64 | standard deviation per component ([`crate::uncertainty`]), 8 × u16 in units of 2⁻¹⁶; `ffff`: not determined |
+//! | 64..68 | CRC-32 of bytes 0..64 |
+//!
+//! Version 1 (52 bytes: bytes 0..48 as above with version 1, then the CRC-32 of bytes 0..48)
+//! carries no standard deviation; it is still read ([`HealthRecord::decode`] takes either,
+//! [`RamStore::upgrade_v1`] rewrites a store of 52-byte slots as version 2 in place).
 //!
 //! ## Slots
 //!
@@ -46,12 +51,19 @@ use crate::domain::{Domain, OutsideReason};
 use crate::fault::{FaultVector, Verdict, FAULT_COUNT};
 use crate::trace::Crc32;
 
-/// Bytes of one encoded record.
-pub const RECORD_BYTES: usize = 52;
+/// Bytes of one encoded record (version 2), and of one store slot.
+pub const RECORD_BYTES: usize = 68;
+
+/// Bytes of a version-1 record (no standard deviations).
+pub const RECORD_V1_BYTES: usize = 52;
 
 /// The record format's magic and version.
 pub const RECORD_MAGIC: [u8; 4] = *b"EMAH";
-pub const RECORD_VERSION: u8 = 1;
+pub const RECORD_VERSION: u8 = 2;
+
+/// A standard deviation as stored: units of 2⁻¹⁶ of the fault vector's range, `u16::MAX` for
+/// "not determined". Largest storable: 65 534 · 2⁻¹⁶ ≈ 0.99997.
+const STD_UNIT: f32 = 1.0 / 65_536.0;
 
 /// Records the controller keeps (its log and its store).
 pub const ONBOARD_RECORDS: usize = 32;
@@ -73,6 +85,48 @@ pub struct HealthRecord {
     pub domain: DomainCode,
     /// Bit i set: component i was beyond the detection threshold.
     pub detected: u8,
+    /// The identification's standard deviation per component, as stored.
+    pub std: ComponentStd,
+}
+
+/// The identification's standard deviation of each component as a record stores it: a
+/// multiple of 2⁻¹⁶ of the fault vector's range, or "not determined" (the test did not
+/// determine the component, or a version-1 record).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ComponentStd([u16; FAULT_COUNT]);
+
+impl ComponentStd {
+    /// Nothing determined.
+    pub const UNKNOWN: Self = Self([u16::MAX; FAULT_COUNT]);
+
+    /// `std` rounded to what is stored (NaN or negative: not determined; beyond 0.99997:
+    /// 0.99997).
+    pub fn new(std: [f32; FAULT_COUNT]) -> Self {
+        Self(std.map(|s| {
+            if s.is_nan() || s < 0.0 {
+                return u16::MAX;
+            }
+            let units = s / STD_UNIT + 0.5;
+            if units >= 65_534.0 {
+                65_534
+            } else {
+                units as u16
+            }
+        }))
+    }
+
+    /// Component `i`'s standard deviation, if determined.
+    pub fn get(&self, i: usize) -> Option<f32> {
+        match self.0.get(i) {
+            Some(&c) if c != u16::MAX => Some(f32::from(c) * STD_UNIT),
+            _ => None,
+        }
+    }
+
+    fn codes(&self) -> [u16; FAULT_COUNT] {
+        self.0
+    }
 }
 
 /// The domain verdict as stored (the reason without its measured value).
@@ -135,6 +189,7 @@ impl DomainCode {
 pub enum HealthRecordError {
     /// Not a record (an erased or never-written slot reads this way).
     BadMagic,
+    /// A version this code does not know (it reads 1 and 2).
     UnsupportedVersion(u8),
     BadChecksum,
     /// Sound checksum but a field out of its domain (a forged or buggy writer).
@@ -142,7 +197,8 @@ pub enum HealthRecordError {
 }
 
 impl HealthRecord {
-    /// The record of one preflight: `detected` follows from the fault vector.
+    /// The record of one preflight: `detected` follows from the fault vector; no standard
+    /// deviation (see [`Self::with_std`]).
     pub fn new(flight: u32, faults: FaultVector, fitness: f32, domain: Domain) -> Self {
         let mut detected = 0u8;
         for (i, v) in faults.verdicts().iter().enumerate() {
@@ -156,7 +212,14 @@ impl HealthRecord {
             fitness,
             domain: domain.into(),
             detected,
+            std: ComponentStd::UNKNOWN,
         }
+    }
+
+    /// The record with the identification's standard deviations (see [`ComponentStd::new`]).
+    pub fn with_std(mut self, std: [f32; FAULT_COUNT]) -> Self {
+        self.std = ComponentStd::new(std);
+        self
     }
 
     /// Whether this test can feed a trend (inside the monitor model's domain).
@@ -177,6 +240,9 @@ impl HealthRecord {
             w.put(&k.to_le_bytes());
         }
         w.put(&self.fitness.to_le_bytes());
+        for c in self.std.codes() {
+            w.put(&c.to_le_bytes());
+        }
         let mut crc = Crc32::new();
         crc.update(w.out.get(..RECORD_BYTES - 4).unwrap_or(&[]));
         let sum = crc.finish().to_le_bytes();
@@ -184,7 +250,10 @@ impl HealthRecord {
         out
     }
 
-    pub fn decode(bytes: &EncodedRecord) -> Result<Self, HealthRecordError> {
+    /// The record in `bytes`: version 2 ([`RECORD_BYTES`]) or version 1
+    /// ([`RECORD_V1_BYTES`]; every standard deviation NaN). Bytes beyond the record are
+    /// ignored.
+    pub fn decode(bytes: &[u8]) -> Result<Self, HealthRecordError> {
         let word = |at: usize| -> [u8; 4] {
             let mut w = [0u8; 4];
             if let Some(src) = bytes.get(at..at + 4) {
@@ -196,12 +265,17 @@ impl HealthRecord {
             return Err(HealthRecordError::BadMagic);
         }
         let [version, domain, detected, reserved] = word(4);
-        if version != RECORD_VERSION {
-            return Err(HealthRecordError::UnsupportedVersion(version));
-        }
+        let len = match version {
+            1 => RECORD_V1_BYTES,
+            RECORD_VERSION => RECORD_BYTES,
+            v => return Err(HealthRecordError::UnsupportedVersion(v)),
+        };
+        let (Some(body), Some(sum)) = (bytes.get(..len - 4), bytes.get(len - 4..len)) else {
+            return Err(HealthRecordError::BadChecksum);
+        };
         let mut crc = Crc32::new();
-        crc.update(bytes.get(..RECORD_BYTES - 4).unwrap_or(&[]));
-        if crc.finish() != u32::from_le_bytes(word(RECORD_BYTES - 4)) {
+        crc.update(body);
+        if crc.finish().to_le_bytes() != *sum {
             return Err(HealthRecordError::BadChecksum);
         }
         let mut k = [0f32; FAULT_COUNT];
@@ -209,6 +283,15 @@ impl HealthRecord {
             *v = f32::from_le_bytes(word(12 + 4 * i));
         }
         let fitness = f32::from_le_bytes(word(44));
+        let mut std = ComponentStd::UNKNOWN;
+        if version == RECORD_VERSION {
+            for (i, c) in std.0.iter_mut().enumerate() {
+                let at = 48 + 2 * i;
+                if let Some(&[lo, hi]) = bytes.get(at..at + 2) {
+                    *c = u16::from_le_bytes([lo, hi]);
+                }
+            }
+        }
         match (
             DomainCode::from_byte(domain),
             FaultVector::new(k),
@@ -221,9 +304,33 @@ impl HealthRecord {
                 fitness,
                 domain,
                 detected,
+                std,
             }),
             _ => Err(HealthRecordError::BadField),
         }
+    }
+
+    /// Version-1 bytes of this record (its standard deviations are dropped): what a controller
+    /// before version 2 wrote. For tests and tools that make old logs.
+    pub fn encode_v1(&self) -> [u8; RECORD_V1_BYTES] {
+        let mut out = [0u8; RECORD_V1_BYTES];
+        let v2 = self.encode();
+        if let (Some(dst), Some(src)) = (
+            out.get_mut(..RECORD_V1_BYTES - 4),
+            v2.get(..RECORD_V1_BYTES - 4),
+        ) {
+            dst.copy_from_slice(src);
+        }
+        if let Some(v) = out.get_mut(4) {
+            *v = 1;
+        }
+        let mut crc = Crc32::new();
+        crc.update(out.get(..RECORD_V1_BYTES - 4).unwrap_or(&[]));
+        let sum = crc.finish().to_le_bytes();
+        if let Some(dst) = out.get_mut(RECORD_V1_BYTES - 4..) {
+            dst.copy_from_slice(&sum);
+        }
+        out
     }
 }
 
@@ -241,7 +348,8 @@ impl Writer<'_> {
     }
 }
 
-/// Persistent slots of [`RECORD_BYTES`] each. `read` of a never-written slot returns whatever
+/// Persistent slots of [`RECORD_BYTES`] each (a store of version-1 slots reads its 52 bytes
+/// into the start of `out`). `read` of a never-written slot returns whatever
 /// the medium holds (erased flash: 0xFF); decoding tells records from the rest.
 pub trait HealthStore {
     type Error;
@@ -276,6 +384,36 @@ impl<const S: usize> RamStore<S> {
     /// Erases every slot in place (every byte 0xFF). O(`S · 52`).
     pub fn erase(&mut self) {
         self.as_bytes_mut().fill(0xFF);
+    }
+
+    /// Rewrites, in place, an image whose first `S · 52` bytes are `S` version-1 slots (what a
+    /// controller before version 2 kept) as `S` version-2 slots: each sound record is
+    /// re-encoded in its slot (without standard deviations), every other slot is erased.
+    /// Returns the records kept. Slots are taken last to first, so that no slot is
+    /// overwritten before it is read (a version-2 slot starts at or after its version-1
+    /// self). O(`S · 68`).
+    pub fn upgrade_v1(&mut self) -> usize {
+        let mut kept = 0;
+        for i in (0..S).rev() {
+            let mut old = [0u8; RECORD_V1_BYTES];
+            if let Some(src) = self
+                .as_bytes()
+                .get(i * RECORD_V1_BYTES..(i + 1) * RECORD_V1_BYTES)
+            {
+                old.copy_from_slice(src);
+            }
+            let new = match HealthRecord::decode(&old) {
+                Ok(r) if old.get(4) == Some(&1) => {
+                    kept += 1;
+                    r.encode()
+                }
+                _ => [0xFF; RECORD_BYTES],
+            };
+            if let Some(slot) = self.slots.get_mut(i) {
+                *slot = new;
+            }
+        }
+        kept
     }
 
     /// An erased store (every byte 0xFF, as flash after erase).
@@ -505,6 +643,63 @@ mod tests {
                 "byte {i} damage accepted"
             );
         }
+    }
+
+    #[test]
+    fn version_2_keeps_the_standard_deviations_and_version_1_is_still_read() {
+        let std = [0.012, 0.5, f32::NAN, 0.0, 2.0, 0.03, f32::NAN, -1.0];
+        let r = record(9, 0.3).with_std(std);
+        assert_eq!(r.std.get(0), Some(786.0 / 65_536.0)); // 0.012 rounded to 2⁻¹⁶
+        assert_eq!(r.std.get(1), Some(0.5));
+        assert_eq!(r.std.get(2), None);
+        assert_eq!(r.std.get(3), Some(0.0));
+        assert_eq!(r.std.get(4), Some(65_534.0 / 65_536.0));
+        assert_eq!(r.std.get(7), None);
+        let v2 = r.encode();
+        assert_eq!(v2[4], 2);
+        assert_eq!(HealthRecord::decode(&v2), Ok(r));
+        let v1 = r.encode_v1();
+        assert_eq!(v1[4], 1);
+        let old = HealthRecord::decode(&v1).unwrap();
+        assert_eq!(old.std, ComponentStd::UNKNOWN);
+        assert_eq!(
+            (old.flight, old.faults, old.fitness),
+            (r.flight, r.faults, r.fitness)
+        );
+        // A version-1 record in a 68-byte slot (the rest erased) reads the same.
+        let mut slot = [0xFF; RECORD_BYTES];
+        slot[..RECORD_V1_BYTES].copy_from_slice(&v1);
+        assert_eq!(HealthRecord::decode(&slot), Ok(old));
+        // An unknown version is named, not mistaken for damage.
+        let mut v3 = v2;
+        v3[4] = 3;
+        assert_eq!(
+            HealthRecord::decode(&v3),
+            Err(HealthRecordError::UnsupportedVersion(3))
+        );
+        // A version-1 record cut short fails its checksum.
+        assert_eq!(
+            HealthRecord::decode(&v1[..40]),
+            Err(HealthRecordError::BadChecksum)
+        );
+    }
+
+    #[test]
+    fn a_version_1_store_is_upgraded_in_place() {
+        let mut store = RamStore::<4>::ZEROED;
+        let image = store.as_bytes_mut();
+        image.fill(0xFF);
+        // Flights 4..7 in slots 0..3 as a version-1 controller kept them; slot 2 torn.
+        for f in 4..8u32 {
+            let s = (f % 4) as usize * RECORD_V1_BYTES;
+            image[s..s + RECORD_V1_BYTES].copy_from_slice(&record(f, 0.1 * f as f32).encode_v1());
+        }
+        image[2 * RECORD_V1_BYTES + 30] ^= 1;
+        assert_eq!(store.upgrade_v1(), 3);
+        let (log, summary) = HealthLog::<4>::load(&mut store).unwrap();
+        assert_eq!(log.iter().map(|r| r.flight).collect::<Vec<_>>(), [4, 5, 7]);
+        assert_eq!(log.latest(), Some(&record(7, 0.7)));
+        assert_eq!((summary.records, summary.empty, summary.damaged), (3, 1, 0));
     }
 
     #[test]

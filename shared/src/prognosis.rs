@@ -5,54 +5,156 @@
 //!
 //! ## Model
 //!
-//! Each fault's level is `y(t) = a + b·g_r(t − t₀) + ε`, with `g_0(Δ) = Δ` (linear) and
-//! `g_r(Δ) = (e^{rΔ} − 1)/r` (exponential growth at rate `r` per flight, the shape of MATLAB's
-//! `exponentialDegradationModel` with an offset), `t₀` the first flight seen. For each rate of
-//! the fixed grid [`GROWTH_RATES`] a recursive least-squares filter (the Bayesian linear
-//! update with a flat prior) refines `(a, b)` and its covariance once per observation, O(1).
-//! The estimate picks the slowest rate whose residual is within `1 + 1/(n − 2)` of the best
-//! (the simplest shape the data allow), and the RUL interval takes the union over every rate
-//! still plausible (`1 + 3/(n − 2)`), so that the uncertain shape widens the interval.
+//! Each fault's level is `y(t) = a + b·g(t − t₀) + ε`, `t₀` the first flight seen, for each
+//! growth shape `g` of [`GROWTH_MODELS`] (three families):
 //!
-//! * **Scatter.** The residual variance is estimated from the data, floored at
-//!   [`TrendSettings::noise_floor`] (the FDI's resolution); bands use Student's t at 90 %.
+//! * linear, `g(Δ) = Δ`;
+//! * exponential at rate `r` per flight, `g(Δ) = (e^{rΔ} − 1)/r` (MATLAB's
+//!   `exponentialDegradationModel` with an offset), 11 rates from 0.01 to 0.3;
+//! * power law of exponent `p`, `g(Δ) = Δ·(Δ/32)^{p−1}`, `p` ∈ {1.5, 2, 2.5, 3, 4}.
+//!
+//! Each observation `y_i` carries its own variance `v_i = max(σ_i, noise_floor)²`, `σ_i` the
+//! identification's standard deviation of that component from the health record
+//! ([`crate::uncertainty`]; `noise_floor` where the record has none, as a version-1 record).
+//! For each shape a weighted recursive least-squares filter (the Bayesian linear update with a
+//! flat prior) refines `(a, b)` and its covariance once per observation, O(1). The filter also
+//! sums the squared standardised prediction errors (`χ²`), from which the scale
+//! `ŝ² = max(1, χ²/(n − 2))` says how much more the levels scatter than their stated
+//! variances.
+//!
+//! * **Shape weights.** Each family has a third of the prior, shared evenly by its members;
+//!   the posterior weight of a shape is its prior times `exp(−χ²/(2ŝ²))` (`ŝ²` of the best
+//!   shape): the shapes the history explains equally well share the weight.
 //! * **Outliers.** From the fourth observation on, an observation whose standardised
-//!   prediction error `z` exceeds [`TrendSettings::outlier_z`] = c is down-weighted by
-//!   `(c/z)²`, so its pull is bounded whatever its size (it is counted in
+//!   prediction error `z` exceeds [`TrendSettings::outlier_z`] = c has its variance inflated
+//!   until `z = c`, so its pull is bounded whatever its size (counted in
 //!   [`TrendEstimate::outliers`]).
 //!
 //! ## RUL
 //!
-//! From the newest flight, the flights until the fitted level reaches the threshold
-//! (`rul`), until its upper 90 % band does (`lower`), and until its lower band does (`upper`).
-//! The crossing is searched flight by flight up to [`TrendSettings::horizon`] and refined by
-//! bisection: `None` means beyond the horizon, `0` means reached already.
+//! The true level at a future flight `t` under shape `m` is taken as normal, with mean the
+//! shape's fit and variance `ŝ²·φᵀPφ` (the fit's own uncertainty, widened to Student's t)
+//! plus `systematic²` ([`TrendSettings::systematic`]: the identification's error that does not
+//! average out over flights, seen in the campaigns). The probability that the level has
+//! reached the threshold by `t`, mixed over the shapes by their weights, is the distribution
+//! of the end of life; the RUL is its median, the 90 % interval its 5 % and 95 % points,
+//! counted in flights from the newest. The points are searched on a grid of
+//! `⌈horizon/64⌉`-flight steps and refined by bisection: `None` means beyond
+//! [`TrendSettings::horizon`], `0` means reached already.
 //!
-//! Work bounds: [`FaultTrend::update`] O([`RATE_COUNT`]); [`FaultTrend::estimate`]
-//! O(`RATE_COUNT · (horizon + 40)`) evaluations of one curve point. State: 680 bytes per
-//! fault. All in f64 from IEEE operations ([`crate::math::exp64`], [`crate::math::sqrt64`]):
-//! the same bits on the host and on the controller.
+//! Work bounds: [`FaultTrend::update`] O([`MODEL_COUNT`]); [`FaultTrend::estimate`]
+//! O(`MODEL_COUNT · (64 + 3·24)`) evaluations of one shape's level and normal tail. State:
+//! 976 bytes per fault. All in f64 from IEEE operations ([`crate::math::exp64`],
+//! [`crate::math::sqrt64`]): the same bits on the host and on the controller.
 
 use crate::fault::{CIRCULAR, FAULT_COUNT};
 use crate::health::HealthRecord;
 use crate::math::{exp64, sqrt64};
 
-/// Number of growth rates tried.
-pub const RATE_COUNT: usize = 12;
+/// A growth shape of the trend.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Growth {
+    Linear,
+    /// `(e^{rΔ} − 1)/r`, rate `r` per flight.
+    Exponential(f32),
+    /// `Δ·(Δ/32)^{p−1}`, exponent `p`.
+    PowerLaw(f32),
+}
 
-/// Growth rates tried [1/flight]: 0 (linear), then geometric from 0.01 to 0.3.
-pub const GROWTH_RATES: [f64; RATE_COUNT] = [
-    0.0, 0.01, 0.0136, 0.0186, 0.0254, 0.0346, 0.0472, 0.0644, 0.0879, 0.1199, 0.1636, 0.3,
+/// Number of growth shapes tried.
+pub const MODEL_COUNT: usize = 17;
+
+/// Flights that scale the power-law shapes (their slope at `Δ = 32` is `p`).
+const POWER_SCALE: f64 = 32.0;
+
+/// The growth shapes tried: linear, 11 exponential rates (geometric from 0.01 to 0.3 per
+/// flight), 5 power-law exponents.
+pub const GROWTH_MODELS: [Growth; MODEL_COUNT] = [
+    Growth::Linear,
+    Growth::Exponential(0.01),
+    Growth::Exponential(0.0136),
+    Growth::Exponential(0.0186),
+    Growth::Exponential(0.0254),
+    Growth::Exponential(0.0346),
+    Growth::Exponential(0.0472),
+    Growth::Exponential(0.0644),
+    Growth::Exponential(0.0879),
+    Growth::Exponential(0.1199),
+    Growth::Exponential(0.1636),
+    Growth::Exponential(0.3),
+    Growth::PowerLaw(1.5),
+    Growth::PowerLaw(2.0),
+    Growth::PowerLaw(2.5),
+    Growth::PowerLaw(3.0),
+    Growth::PowerLaw(4.0),
 ];
 
-/// Prior variance of `(a, b)` relative to the noise variance: flat.
+impl Growth {
+    /// `g(Δ)`: this shape after `delta` flights.
+    pub fn shape(self, delta: f64) -> f64 {
+        match self {
+            Self::Linear => delta,
+            Self::Exponential(r) => {
+                let r = f64::from(r);
+                (exp64(r * delta) - 1.0) / r
+            }
+            Self::PowerLaw(p) => {
+                let u = delta / POWER_SCALE;
+                let u = if u > 0.0 { u } else { 0.0 };
+                // Exponents are halves: u^(p−1) from whole powers and one square root.
+                let twice = (2.0 * f64::from(p) - 2.0) as u32;
+                let mut f = 1.0;
+                for _ in 0..twice / 2 {
+                    f *= u;
+                }
+                if twice % 2 == 1 {
+                    f *= sqrt64(u);
+                }
+                delta * f
+            }
+        }
+    }
+
+    /// `dg/dΔ` at `delta`.
+    fn slope(self, delta: f64) -> f64 {
+        match self {
+            Self::Linear => 1.0,
+            Self::Exponential(r) => exp64(f64::from(r) * delta),
+            Self::PowerLaw(p) => {
+                if delta > 0.0 {
+                    f64::from(p) * self.shape(delta) / delta
+                } else {
+                    0.0
+                }
+            }
+        }
+    }
+
+    /// Prior weight: a third per family, shared evenly by its members.
+    fn prior(self) -> f64 {
+        match self {
+            Self::Linear => 1.0 / 3.0,
+            Self::Exponential(_) => 1.0 / 33.0,
+            Self::PowerLaw(_) => 1.0 / 15.0,
+        }
+    }
+}
+
+/// Prior variance of `(a, b)` [level²]: flat.
 const PRIOR_VARIANCE: f64 = 1.0e6;
 
-/// Observations before outliers are judged (the residual variance needs some).
+/// Observations before outliers are judged (the scale needs some).
 const OUTLIER_AFTER: u32 = 4;
 
-/// Bisection steps that refine a crossing inside its flight (2⁻²⁴ flight).
+/// Bisection steps that refine a quantile inside its grid step.
 const BISECTION_STEPS: u32 = 24;
+
+/// Grid steps over the horizon on which the quantiles are first bracketed.
+const GRID_STEPS: u32 = 64;
+
+/// Shapes lighter than this share of the total weight are left out of the mixture.
+const NEGLIGIBLE_WEIGHT: f64 = 1.0e-6;
 
 /// How trends are judged and RUL computed.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -61,9 +163,12 @@ pub struct TrendSettings {
     /// Maintenance threshold on each component's deviation from nominal; NaN or ≤ 0: no RUL
     /// for that component (the eccentricity phase is never trended).
     pub thresholds: [f32; FAULT_COUNT],
-    /// Least residual standard deviation assumed: the FDI's own error on one test, which is
-    /// partly systematic (it does not average out along a history).
+    /// Least standard deviation of one observation, and the one assumed where the record
+    /// carries none (version 1).
     pub noise_floor: f64,
+    /// Standard deviation of the identification's error that does not average out over
+    /// flights (model mismatch, correlated with the level), added to every prediction.
+    pub systematic: f64,
     /// Standardised prediction error beyond which an observation is down-weighted.
     pub outlier_z: f64,
     /// Flights searched for a crossing.
@@ -77,6 +182,9 @@ impl TrendSettings {
         thresholds: [0.5, 0.5, 0.3, 0.3, 0.3, 0.5, f32::NAN, 0.25],
         // Single-fault identification errors reach ~0.01 (docs/accuracy.md, Table I).
         noise_floor: 0.01,
+        // Mean errors of 0.011–0.018 on the Table II and random multi-fault vectors
+        // (docs/accuracy.md): the level-correlated part of a test's error.
+        systematic: 0.015,
         outlier_z: 3.0,
         horizon: 500,
     };
@@ -96,23 +204,23 @@ pub fn is_trended(i: usize) -> bool {
     !CIRCULAR.get(i).copied().unwrap_or(true)
 }
 
-/// One rate's recursive least-squares state.
+/// One shape's weighted recursive least-squares state.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct RateFit {
+struct ShapeFit {
     /// `(a, b)`.
     theta: [f64; 2],
-    /// Covariance over the noise variance: `[p_aa, p_ab, p_bb]`.
+    /// Covariance [level²]: `[p_aa, p_ab, p_bb]`.
     p: [f64; 3],
-    /// Weighted sum of squared standardised prediction errors (the RLS residual sum).
-    sse: f64,
+    /// Sum of squared standardised prediction errors (`χ²`).
+    chi2: f64,
     outliers: u32,
 }
 
-impl RateFit {
+impl ShapeFit {
     const PRIOR: Self = Self {
         theta: [0.0, 0.0],
         p: [PRIOR_VARIANCE, 0.0, PRIOR_VARIANCE],
-        sse: 0.0,
+        chi2: 0.0,
         outliers: 0,
     };
 
@@ -125,32 +233,33 @@ impl RateFit {
         self.p[0] + 2.0 * self.p[1] * g + self.p[2] * g * g
     }
 
-    fn variance(&self, n: u32, floor: f64) -> f64 {
+    /// `ŝ²`: observed scatter over stated, at least 1.
+    fn scale(&self, n: u32) -> f64 {
         let dof = n.saturating_sub(2).max(1) as f64;
-        let v = self.sse / dof;
-        if v > floor * floor {
+        let v = self.chi2 / dof;
+        if v > 1.0 {
             v
         } else {
-            floor * floor
+            1.0
         }
     }
 
-    fn update(&mut self, g: f64, y: f64, n_before: u32, settings: &TrendSettings) {
+    fn update(&mut self, g: f64, y: f64, v: f64, n_before: u32, settings: &TrendSettings) {
         let s = self.spread(g);
         let e = y - self.mean(g);
-        let mut w = 1.0;
+        let mut v = v;
         if n_before >= OUTLIER_AFTER {
-            let var = self.variance(n_before, settings.noise_floor) * (1.0 + s);
-            let c = settings.outlier_z;
-            if e * e > c * c * var {
-                w = c * c * var / (e * e);
+            let limit = settings.outlier_z * settings.outlier_z * self.scale(n_before) * (v + s);
+            if e * e > limit {
+                // Inflate the variance until the error is c standard deviations.
+                v = (v + s) * (e * e / limit) - s;
                 self.outliers += 1;
             }
         }
-        // Gain K = Pφ / (1/w + φᵀPφ); P ← P − K φᵀP.
+        // Gain K = Pφ / (v + φᵀPφ); P ← P − K φᵀP.
         let pg0 = self.p[0] + self.p[1] * g;
         let pg1 = self.p[1] + self.p[2] * g;
-        let denom = 1.0 / w + s;
+        let denom = v + s;
         let k0 = pg0 / denom;
         let k1 = pg1 / denom;
         self.theta[0] += k0 * e;
@@ -160,16 +269,7 @@ impl RateFit {
             self.p[1] - k0 * pg1,
             self.p[2] - k1 * pg1,
         ];
-        self.sse += w * e * e / (1.0 + w * s);
-    }
-}
-
-/// `g_r(Δ)`: the growth shape at rate `r` after `Δ` flights.
-fn shape(rate: f64, delta: f64) -> f64 {
-    if rate == 0.0 {
-        delta
-    } else {
-        (exp64(rate * delta) - 1.0) / rate
+        self.chi2 += e * e / denom;
     }
 }
 
@@ -190,21 +290,39 @@ fn t90(dof: u32) -> f64 {
     }
 }
 
-/// Which curve a crossing is searched on.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Curve {
-    Level,
-    Upper,
-    Lower,
+/// The normal distribution's two-sided 90 % quantile.
+const Z90: f64 = 1.644_853_626_951_472_2;
+
+/// `P(Z ≤ x)` for a standard normal `Z` (complementary error function of Numerical Recipes'
+/// `erfcc`, relative error < 1.2·10⁻⁷).
+fn normal_cdf(x: f64) -> f64 {
+    let z = if x < 0.0 { -x } else { x } * core::f64::consts::FRAC_1_SQRT_2;
+    let t = 1.0 / (1.0 + 0.5 * z);
+    let poly = -z * z - 1.265_512_23
+        + t * (1.000_023_68
+            + t * (0.374_091_96
+                + t * (0.096_784_18
+                    + t * (-0.186_288_06
+                        + t * (0.278_868_07
+                            + t * (-1.135_203_98
+                                + t * (1.488_515_87 + t * (-0.822_152_23 + t * 0.170_872_77))))))));
+    let erfc = t * exp64(poly);
+    if x < 0.0 {
+        0.5 * erfc
+    } else {
+        1.0 - 0.5 * erfc
+    }
 }
 
-/// One fault's trend: every rate's filter.
+/// One fault's trend: every shape's filter.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FaultTrend {
     origin: u32,
     newest: u32,
     observations: u32,
-    fits: [RateFit; RATE_COUNT],
+    /// Sum of the observations' inverse variances (their typical variance for reports).
+    precision: f64,
+    fits: [ShapeFit; MODEL_COUNT],
 }
 
 impl Default for FaultTrend {
@@ -218,11 +336,11 @@ impl Default for FaultTrend {
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct RulEstimate {
-    /// Flights until the fitted level reaches the threshold.
+    /// Median of the end-of-life distribution.
     pub rul: Option<f32>,
-    /// 90 % interval: until the upper band reaches it (over every plausible rate)...
+    /// 90 % interval: its 5 % point...
     pub lower: Option<f32>,
-    /// ...and until the lower band does.
+    /// ...and its 95 % point.
     pub upper: Option<f32>,
 }
 
@@ -231,17 +349,20 @@ pub struct RulEstimate {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct TrendEstimate {
     pub observations: u32,
-    /// Observations down-weighted as outliers (by the chosen rate's filter).
+    /// Observations down-weighted as outliers (by the likeliest shape's filter).
     pub outliers: u32,
     /// Newest flight seen.
     pub newest: u32,
-    /// Chosen growth rate [1/flight]; 0 is linear.
-    pub rate: f32,
-    /// Fitted level at the newest flight.
+    /// The likeliest growth shape...
+    pub growth: Growth,
+    /// ...and its posterior weight (0..1).
+    pub weight: f32,
+    /// Fitted level at the newest flight (likeliest shape).
     pub level: f32,
-    /// Fitted growth per flight at the newest flight.
+    /// Fitted growth per flight at the newest flight (likeliest shape).
     pub slope: f32,
-    /// Residual standard deviation (floored).
+    /// Standard deviation of one observation as the history shows it: the typical stated
+    /// one times `ŝ`.
     pub scatter: f32,
     /// Set when the component has a threshold.
     pub rul: Option<RulEstimate>,
@@ -253,7 +374,8 @@ impl FaultTrend {
             origin: 0,
             newest: 0,
             observations: 0,
-            fits: [RateFit::PRIOR; RATE_COUNT],
+            precision: 0.0,
+            fits: [ShapeFit::PRIOR; MODEL_COUNT],
         }
     }
 
@@ -261,24 +383,39 @@ impl FaultTrend {
         self.observations
     }
 
-    /// Adds the level `value` observed at `flight`. Flights must increase; an older or
-    /// repeated flight, or a non-finite value, is ignored (returns false). O(RATE_COUNT).
-    pub fn update(&mut self, flight: u32, value: f32, settings: &TrendSettings) -> bool {
+    /// Adds the level `value` observed at `flight` with the identification's standard
+    /// deviation `std` (`None`: not known, [`TrendSettings::noise_floor`] is assumed).
+    /// Flights must increase; an older or repeated flight, or a non-finite value, is ignored
+    /// (returns false). O(MODEL_COUNT).
+    pub fn update(
+        &mut self,
+        flight: u32,
+        value: f32,
+        std: Option<f32>,
+        settings: &TrendSettings,
+    ) -> bool {
         if !value.is_finite() || (self.observations > 0 && flight <= self.newest) {
             return false;
         }
         if self.observations == 0 {
             self.origin = flight;
         }
+        let sd = match std {
+            Some(s) if f64::from(s) > settings.noise_floor => f64::from(s),
+            _ => settings.noise_floor,
+        };
+        let v = sd * sd;
         let delta = f64::from(flight - self.origin);
-        for (fit, &rate) in self.fits.iter_mut().zip(GROWTH_RATES.iter()) {
+        for (fit, growth) in self.fits.iter_mut().zip(GROWTH_MODELS.iter()) {
             fit.update(
-                shape(rate, delta),
+                growth.shape(delta),
                 f64::from(value),
+                v,
                 self.observations,
                 settings,
             );
         }
+        self.precision += 1.0 / v;
         self.newest = flight;
         self.observations += 1;
         true
@@ -286,7 +423,7 @@ impl FaultTrend {
 
     /// Component `i`'s trend over `records` (oldest first; records outside the monitor
     /// model's domain are left out): the replay the controller does one fault at a time, in
-    /// 680 bytes instead of a whole [`HealthTrend`].
+    /// 976 bytes instead of a whole [`HealthTrend`].
     pub fn from_records<'r>(
         records: impl IntoIterator<Item = &'r HealthRecord>,
         i: usize,
@@ -295,112 +432,126 @@ impl FaultTrend {
         let mut trend = Self::new();
         for r in records.into_iter().filter(|r| r.is_trusted()) {
             if let Some(Some(d)) = r.faults.deviations().get(i) {
-                trend.update(r.flight, *d, settings);
+                trend.update(r.flight, *d, r.std.get(i), settings);
             }
         }
         trend
     }
 
-    /// Index of the chosen rate and the plausibility bound on the residual.
-    fn choice(&self) -> (usize, f64) {
+    fn fit(&self, i: usize) -> ShapeFit {
+        self.fits.get(i).copied().unwrap_or(ShapeFit::PRIOR)
+    }
+
+    fn growth(i: usize) -> Growth {
+        GROWTH_MODELS.get(i).copied().unwrap_or(Growth::Linear)
+    }
+
+    /// Each shape's posterior weight (summing to 1), and the likeliest shape.
+    pub fn weights(&self) -> ([f64; MODEL_COUNT], usize) {
         let best = self
             .fits
             .iter()
-            .map(|f| f.sse)
+            .map(|f| f.chi2)
             .fold(f64::INFINITY, |m, s| if s < m { s } else { m });
         let dof = self.observations.saturating_sub(2).max(1) as f64;
-        let chosen = self
-            .fits
-            .iter()
-            .position(|f| f.sse <= best * (1.0 + 1.0 / dof))
-            .unwrap_or(0);
-        (chosen, best * (1.0 + 3.0 / dof))
+        let scale = if best / dof > 1.0 { best / dof } else { 1.0 };
+        let mut w = [0.0; MODEL_COUNT];
+        let mut total = 0.0;
+        for (i, (o, f)) in w.iter_mut().zip(self.fits.iter()).enumerate() {
+            *o = Self::growth(i).prior() * exp64(-0.5 * (f.chi2 - best) / scale);
+            total += *o;
+        }
+        let mut likeliest = 0;
+        let mut top = 0.0;
+        for (i, o) in w.iter_mut().enumerate() {
+            *o /= total;
+            if *o > top {
+                top = *o;
+                likeliest = i;
+            }
+        }
+        (w, likeliest)
     }
 
-    fn fit(&self, i: usize) -> RateFit {
-        self.fits.get(i).copied().unwrap_or(RateFit::PRIOR)
+    /// Shape `i`'s predicted level at `flight` and its standard deviation (fit, widened to
+    /// Student's t, and the systematic error).
+    fn predictive(&self, i: usize, flight: f64, settings: &TrendSettings) -> (f64, f64) {
+        let fit = self.fit(i);
+        let g = Self::growth(i).shape(flight - f64::from(self.origin));
+        let widen = t90(self.observations.saturating_sub(2)) / Z90;
+        let var = fit.scale(self.observations) * fit.spread(g) * widen * widen
+            + settings.systematic * settings.systematic;
+        (fit.mean(g), sqrt64(var))
     }
 
-    /// The chosen fit's level at `flight` and its 90 % half-width.
+    /// The likeliest shape's level at `flight` and its 90 % half-width.
     pub fn band(&self, flight: f64, settings: &TrendSettings) -> (f64, f64) {
-        let (chosen, _) = self.choice();
-        self.band_of(chosen, flight, settings)
+        let (_, likeliest) = self.weights();
+        let (m, sd) = self.predictive(likeliest, flight, settings);
+        (m, Z90 * sd)
     }
 
-    fn band_of(&self, i: usize, flight: f64, settings: &TrendSettings) -> (f64, f64) {
-        let fit = self.fit(i);
-        let rate = GROWTH_RATES.get(i).copied().unwrap_or(0.0);
-        let g = shape(rate, flight - f64::from(self.origin));
-        let var = fit.variance(self.observations, settings.noise_floor) * fit.spread(g);
-        let dof = self.observations.saturating_sub(2);
-        (fit.mean(g), t90(dof) * sqrt64(var))
-    }
-
-    /// Whether rate `i`'s growth coefficient is significantly positive (t > 2): a rate whose
-    /// fit shows no growth cannot vouch for exponential growth at that rate.
-    fn grows(&self, i: usize, settings: &TrendSettings) -> bool {
-        let fit = self.fit(i);
-        let var = fit.variance(self.observations, settings.noise_floor) * fit.p[2];
-        fit.theta[1] > 0.0 && fit.theta[1] * fit.theta[1] > 4.0 * var
-    }
-
-    /// The envelope of the 90 % bands of the chosen rate and of every other plausible rate
-    /// that shows growth, at `flight` (the RUL cone).
+    /// The envelope of the 90 % bands of every shape with at least 1 % of the weight, at
+    /// `flight` (the cone of the picture).
     pub fn envelope(&self, flight: f64, settings: &TrendSettings) -> (f64, f64) {
-        let (chosen, plausible) = self.choice();
+        let (w, _) = self.weights();
         let mut lo = f64::INFINITY;
         let mut hi = f64::NEG_INFINITY;
-        for (i, fit) in self.fits.iter().enumerate() {
-            if i == chosen || (fit.sse <= plausible && self.grows(i, settings)) {
-                let (m, h) = self.band_of(i, flight, settings);
-                lo = lo.min(m - h);
-                hi = hi.max(m + h);
+        for (i, &wi) in w.iter().enumerate() {
+            if wi >= 0.01 {
+                let (m, sd) = self.predictive(i, flight, settings);
+                lo = lo.min(m - Z90 * sd);
+                hi = hi.max(m + Z90 * sd);
             }
         }
         (lo, hi)
     }
 
-    /// The curve of rate `i` at `flight`: its fitted level, or its upper or lower 90 % band.
-    fn curve(&self, i: usize, curve: Curve, flight: f64, settings: &TrendSettings) -> f64 {
-        let (m, w) = self.band_of(i, flight, settings);
-        match curve {
-            Curve::Level => m,
-            Curve::Upper => m + w,
-            Curve::Lower => m - w,
+    /// Probability that the level has reached `threshold` at `flight`, mixed over the
+    /// shapes of weights `w`.
+    fn reached(
+        &self,
+        w: &[f64; MODEL_COUNT],
+        threshold: f64,
+        flight: f64,
+        s: &TrendSettings,
+    ) -> f64 {
+        let mut p = 0.0;
+        for (i, &wi) in w.iter().enumerate() {
+            if wi > NEGLIGIBLE_WEIGHT {
+                let (m, sd) = self.predictive(i, flight, s);
+                p += wi * normal_cdf((m - threshold) / sd);
+            }
         }
+        p
     }
 
-    /// Flights from the newest until rate `i`'s `curve` reaches `threshold` (module doc).
-    fn crossing(
+    /// Flights from the newest until the probability of having reached `threshold` is `q`,
+    /// given its values `grid` on the grid of `step` flights (module doc).
+    fn quantile(
         &self,
-        i: usize,
-        curve: Curve,
+        w: &[f64; MODEL_COUNT],
         threshold: f64,
+        q: f64,
+        grid: &[f64; GRID_STEPS as usize + 1],
+        step: f64,
         settings: &TrendSettings,
     ) -> Option<f64> {
-        let at = |x: f64| self.curve(i, curve, x, settings) >= threshold;
         let now = f64::from(self.newest);
-        if at(now) {
+        let k = grid.iter().position(|&p| p >= q)?;
+        if k == 0 {
             return Some(0.0);
         }
-        let mut before = now;
-        for step in 1..=settings.horizon {
-            let x = now + f64::from(step);
-            if at(x) {
-                let (mut lo, mut hi) = (before, x);
-                for _ in 0..BISECTION_STEPS {
-                    let mid = 0.5 * (lo + hi);
-                    if at(mid) {
-                        hi = mid;
-                    } else {
-                        lo = mid;
-                    }
-                }
-                return Some(hi - now);
+        let (mut lo, mut hi) = ((k - 1) as f64 * step, k as f64 * step);
+        for _ in 0..BISECTION_STEPS {
+            let mid = 0.5 * (lo + hi);
+            if self.reached(w, threshold, now + mid, settings) >= q {
+                hi = mid;
+            } else {
+                lo = mid;
             }
-            before = x;
         }
-        None
+        Some(hi)
     }
 
     /// The trend and, with a threshold, the RUL; `None` before three observations.
@@ -412,44 +563,44 @@ impl FaultTrend {
         if self.observations < 3 {
             return None;
         }
-        let (chosen, plausible) = self.choice();
-        let fit = self.fit(chosen);
-        let rate = GROWTH_RATES.get(chosen).copied().unwrap_or(0.0);
+        let (w, likeliest) = self.weights();
+        let fit = self.fit(likeliest);
+        let growth = Self::growth(likeliest);
         let delta = f64::from(self.newest - self.origin);
         let rul = threshold.map(|t| {
             let t = f64::from(t);
-            let rul = self.crossing(chosen, Curve::Level, t, settings);
-            let mut lower: Option<f64> = None;
-            let mut upper: Option<f64> = Some(0.0);
-            for (i, f) in self.fits.iter().enumerate() {
-                if i != chosen && !(f.sse <= plausible && self.grows(i, settings)) {
-                    continue;
-                }
-                let first = self.crossing(i, Curve::Upper, t, settings);
-                let last = self.crossing(i, Curve::Lower, t, settings);
-                lower = match (lower, first) {
-                    (Some(a), Some(b)) => Some(a.min(b)),
-                    (a, b) => a.or(b),
-                };
-                upper = match (upper, last) {
-                    (Some(a), Some(b)) => Some(a.max(b)),
-                    _ => None,
-                };
+            let step = f64::from(settings.horizon.div_ceil(GRID_STEPS).max(1));
+            let now = f64::from(self.newest);
+            let mut grid = [0.0; GRID_STEPS as usize + 1];
+            for (k, g) in grid.iter_mut().enumerate() {
+                *g = self.reached(&w, t, now + k as f64 * step, settings);
             }
+            let horizon = f64::from(settings.horizon);
+            let at = |q: f64| {
+                self.quantile(&w, t, q, &grid, step, settings)
+                    .filter(|&x| x <= horizon)
+                    .map(|x| x as f32)
+            };
             RulEstimate {
-                rul: rul.map(|r| r as f32),
-                lower: lower.map(|r| r as f32),
-                upper: upper.map(|r| r as f32),
+                rul: at(0.5),
+                lower: at(0.05),
+                upper: at(0.95),
             }
         });
+        let typical = if self.precision > 0.0 {
+            f64::from(self.observations) / self.precision
+        } else {
+            settings.noise_floor * settings.noise_floor
+        };
         Some(TrendEstimate {
             observations: self.observations,
             outliers: fit.outliers,
             newest: self.newest,
-            rate: rate as f32,
-            level: fit.mean(shape(rate, delta)) as f32,
-            slope: (fit.theta[1] * exp64(rate * delta)) as f32,
-            scatter: sqrt64(fit.variance(self.observations, settings.noise_floor)) as f32,
+            growth,
+            weight: w.get(likeliest).copied().unwrap_or(0.0) as f32,
+            level: fit.mean(growth.shape(delta)) as f32,
+            slope: (fit.theta[1] * growth.slope(delta)) as f32,
+            scatter: sqrt64(typical * fit.scale(self.observations)) as f32,
             rul,
         })
     }
@@ -489,17 +640,23 @@ impl HealthTrend {
         trend
     }
 
-    /// Adds one record: each fault's deviation from nominal feeds its trend. A record outside
-    /// the monitor model's domain is counted and ignored. O(FAULT_COUNT · RATE_COUNT).
+    /// Adds one record: each fault's deviation from nominal feeds its trend with the record's
+    /// standard deviation. A record outside the monitor model's domain is counted and
+    /// ignored. O(FAULT_COUNT · MODEL_COUNT).
     pub fn update(&mut self, record: &HealthRecord, settings: &TrendSettings) {
         if !record.is_trusted() {
             self.skipped += 1;
             return;
         }
         let mut taken = false;
-        for (trend, d) in self.faults.iter_mut().zip(record.faults.deviations()) {
+        for (i, (trend, d)) in self
+            .faults
+            .iter_mut()
+            .zip(record.faults.deviations())
+            .enumerate()
+        {
             if let Some(d) = d {
-                taken |= trend.update(record.flight, d, settings);
+                taken |= trend.update(record.flight, d, record.std.get(i), settings);
             }
         }
         if !taken {
@@ -540,58 +697,142 @@ mod tests {
     }
 
     fn feed(levels: impl Fn(u32) -> f32, flights: u32) -> FaultTrend {
-        let s = TrendSettings::DEFAULT;
+        feed_with(levels, |_| None, flights, &TrendSettings::DEFAULT)
+    }
+
+    /// Flights 100.. with levels `levels(f)` and standard deviations `std(f)`.
+    fn feed_with(
+        levels: impl Fn(u32) -> f32,
+        std: impl Fn(u32) -> Option<f32>,
+        flights: u32,
+        s: &TrendSettings,
+    ) -> FaultTrend {
         let mut t = FaultTrend::new();
         for f in 0..flights {
-            assert!(t.update(100 + f, levels(f), &s));
+            assert!(t.update(100 + f, levels(f), std(f), s));
         }
         t
     }
 
-    #[test]
-    fn exact_line_gives_the_exact_rul() {
-        // 0.01 per flight from 0.05: reaches 0.5 at flight 45; 20 flights seen (0..19).
-        let t = feed(|f| 0.05 + 0.01 * f as f32, 20);
-        let e = t.estimate(Some(0.5), &TrendSettings::DEFAULT).unwrap();
-        assert_eq!(e.rate, 0.0);
-        let r = e.rul.unwrap();
-        assert!((r.rul.unwrap() - 26.0).abs() < 0.05, "{r:?}");
-        assert!(
-            r.lower.unwrap() <= 26.0 && r.upper.unwrap() >= 26.0,
-            "{r:?}"
-        );
-        assert!((e.slope - 0.01).abs() < 1e-4 && (e.level - 0.24).abs() < 1e-3);
+    fn interval(t: &FaultTrend, s: &TrendSettings) -> (f32, f32, f32) {
+        let r = t.estimate(Some(0.5), s).unwrap().rul.unwrap();
+        (r.lower.unwrap(), r.rul.unwrap(), r.upper.unwrap())
     }
 
     #[test]
-    fn exponential_growth_is_recognised() {
+    fn a_line_gives_its_rul_and_a_precise_line_is_read_as_linear() {
+        // 0.01 per flight from 0.05: reaches 0.5 at flight 45; 20 flights seen (0..19).
+        let line = |f: u32| 0.05 + 0.01 * f as f32;
+        let s = TrendSettings::DEFAULT;
+        let e = feed(line, 20).estimate(Some(0.5), &s).unwrap();
+        assert_eq!(e.growth, Growth::Linear, "{e:?}");
+        assert!((e.slope - 0.01).abs() < 1e-4 && (e.level - 0.24).abs() < 1e-3);
+        // At the noise floor (0.01) slow accelerations explain 20 flights as well: they pull
+        // the median a little early, and the interval holds the truth.
+        let (lo, rul, hi) = interval(&feed(line, 20), &s);
+        assert!(
+            (rul - 26.0).abs() < 1.3 && lo <= 26.0 && hi >= 26.0,
+            "{lo} {rul} {hi}"
+        );
+        // Precise observations leave the line alone.
+        let precise = TrendSettings {
+            noise_floor: 1e-4,
+            systematic: 1e-3,
+            ..s
+        };
+        let t = feed_with(line, |_| Some(1e-4), 20, &precise);
+        let e = t.estimate(Some(0.5), &precise).unwrap();
+        assert!(e.weight > 0.9, "{e:?}");
+        let (lo, rul, hi) = interval(&t, &precise);
+        assert!(
+            (rul - 26.0).abs() < 0.05 && lo <= 26.0 && hi >= 26.0,
+            "{lo} {rul} {hi}"
+        );
+    }
+
+    #[test]
+    fn precise_exponential_and_power_law_growth_are_recognised() {
+        let s = TrendSettings {
+            noise_floor: 1e-4,
+            ..TrendSettings::DEFAULT
+        };
         // y = 0.02·e^{0.0879 f}: reaches 0.5 at f = ln(25)/0.0879 = 36.6; 25 flights seen.
         let y = |f: u32| 0.02 * (0.0879 * f as f64).exp() as f32;
-        let t = feed(y, 25);
-        let e = t.estimate(Some(0.5), &TrendSettings::DEFAULT).unwrap();
-        assert!(e.rate > 0.05, "{e:?}");
-        let truth = (25.0f64).ln() / 0.0879 - 24.0;
-        let rul = e.rul.unwrap().rul.unwrap() as f64;
-        assert!((rul - truth).abs() < 0.1 * truth, "rul {rul} truth {truth}");
+        let t = feed_with(y, |_| Some(0.002), 25, &s);
+        let e = t.estimate(Some(0.5), &s).unwrap();
+        assert!(
+            matches!(e.growth, Growth::Exponential(r) if r > 0.05),
+            "{e:?}"
+        );
+        let truth = (25.0f32).ln() / 0.0879 - 24.0;
+        let (lo, rul, hi) = interval(&t, &s);
+        assert!(
+            (rul - truth).abs() < 0.1 * truth && lo <= truth && hi >= truth,
+            "{lo} {rul} {hi} truth {truth}"
+        );
+        // At the default noise floor the same history leaves the shape open: the truth stays
+        // inside.
+        let (lo, _, hi) = interval(&feed(y, 25), &TrendSettings::DEFAULT);
+        assert!(lo <= truth && hi >= truth, "{lo}..{hi} truth {truth}");
+        // y = 0.05 + 0.25·(f/20)²: reaches 0.5 at f = 20·√1.8 = 26.8; 20 flights seen.
+        let q = |f: u32| 0.05 + 0.25 * (f as f32 / 20.0).powi(2);
+        let t = feed_with(q, |_| Some(0.002), 20, &s);
+        let e = t.estimate(Some(0.5), &s).unwrap();
+        assert_eq!(e.growth, Growth::PowerLaw(2.0), "{e:?}");
+        let truth = 20.0 * 1.8f32.sqrt() - 19.0;
+        let (lo, rul, hi) = interval(&t, &s);
+        assert!(
+            (rul - truth).abs() < 0.1 * truth && lo <= truth && hi >= truth,
+            "{lo} {rul} {hi} truth {truth}"
+        );
     }
 
     #[test]
-    fn scatter_widens_the_interval_and_the_truth_stays_inside() {
-        let clean = feed(|f| 0.1 + 0.01 * f as f32, 20);
-        let noisy = feed(|f| 0.1 + 0.01 * f as f32 + wiggle(f, 0.02), 20);
-        let s = TrendSettings::DEFAULT;
-        let width = |t: &FaultTrend| {
-            let r = t.estimate(Some(0.5), &s).unwrap().rul.unwrap();
-            (r.lower.unwrap(), r.upper.unwrap())
+    fn scatter_and_the_systematic_error_widen_the_interval() {
+        let no_bias = TrendSettings {
+            systematic: 0.0,
+            noise_floor: 0.002,
+            ..TrendSettings::DEFAULT
         };
-        let (cl, cu) = width(&clean);
-        let (nl, nu) = width(&noisy);
+        let line = |f: u32| 0.1 + 0.01 * f as f32;
+        let clean = feed_with(line, |_| None, 20, &no_bias);
+        let noisy = feed_with(|f| line(f) + wiggle(f, 0.02), |_| None, 20, &no_bias);
+        let (cl, _, cu) = interval(&clean, &no_bias);
+        let (nl, _, nu) = interval(&noisy, &no_bias);
         assert!(
-            nu - nl > 3.0 * (cu - cl),
+            nu - nl > 2.0 * (cu - cl),
             "clean {cl}..{cu}, noisy {nl}..{nu}"
         );
         // Truth: reaches 0.5 at flight 40, i.e. 21 flights after the newest (19).
         assert!(nl <= 21.0 && nu >= 21.0, "noisy {nl}..{nu}");
+        let biased = TrendSettings {
+            systematic: 0.015,
+            ..no_bias
+        };
+        let (bl, _, bu) = interval(&feed_with(line, |_| None, 20, &biased), &biased);
+        assert!(
+            bu - bl > 1.5 * (cu - cl),
+            "without {cl}..{cu}, with {bl}..{bu}"
+        );
+    }
+
+    #[test]
+    fn a_test_with_a_large_standard_deviation_pulls_less() {
+        // One flight reads 0.08 high: stated as uncertain (0.08) it moves the RUL less than
+        // stated as precise (0.01, the floor).
+        let s = TrendSettings::DEFAULT;
+        let base = |f: u32| 0.1 + 0.01 * f as f32 + wiggle(f, 0.003);
+        let high = |f: u32| if f == 17 { base(f) + 0.08 } else { base(f) };
+        let (_, truth, _) = interval(&feed(base, 20), &s);
+        let (_, trusted, _) = interval(&feed(high, 20), &s);
+        let (_, doubted, _) = interval(
+            &feed_with(high, |f| Some(if f == 17 { 0.08 } else { 0.01 }), 20, &s),
+            &s,
+        );
+        assert!(
+            (doubted - truth).abs() < 0.5 * (trusted - truth).abs(),
+            "clean {truth}, stated precise {trusted}, stated uncertain {doubted}"
+        );
     }
 
     #[test]
@@ -614,6 +855,7 @@ mod tests {
             t.update(
                 100 + f,
                 if f == 12 { base(f) + 0.4 } else { base(f) },
+                None,
                 &no_guard,
             );
         }
@@ -645,10 +887,10 @@ mod tests {
     fn the_past_and_non_finite_values_are_ignored() {
         let s = TrendSettings::DEFAULT;
         let mut t = FaultTrend::new();
-        assert!(t.update(5, 0.1, &s));
-        assert!(!t.update(5, 0.2, &s));
-        assert!(!t.update(4, 0.2, &s));
-        assert!(!t.update(6, f32::NAN, &s));
+        assert!(t.update(5, 0.1, None, &s));
+        assert!(!t.update(5, 0.2, None, &s));
+        assert!(!t.update(4, 0.2, None, &s));
+        assert!(!t.update(6, f32::NAN, None, &s));
         assert_eq!(t.observations(), 1);
     }
 
