@@ -14,7 +14,8 @@
 //!
 //! `domain` is `within` or the reason (`no_motion`, `open_phase`, `command_mismatch`,
 //! `fitness_floor`); the `true_*` columns (simulated histories only) give the fault vector the
-//! reference model played.
+//! reference model played, and a last column `intrusion` what the test met outside the fault
+//! vector (`jammed`, `open_phase`, `other_command`; empty for none).
 
 use std::fs::{File, OpenOptions};
 use std::io::{Read, Seek, SeekFrom, Write};
@@ -27,6 +28,8 @@ use shared::health::{
     RECORD_BYTES, RECORD_V1_BYTES,
 };
 use shared::FaultVector;
+
+use crate::prognostics::Intrusion;
 
 /// A [`HealthStore`] in a file of `slots · 52` bytes; each write is flushed to the disk.
 #[derive(Debug)]
@@ -200,6 +203,8 @@ pub struct HistoryRow {
     pub record: HealthRecord,
     /// The fault vector the reference model played (simulated histories).
     pub truth: Option<FaultVector>,
+    /// What the test met outside the fault vector (simulated histories).
+    pub intrusion: Option<Intrusion>,
 }
 
 /// The CSV text of `rows`; `std_*` columns when a row has a standard deviation, `true_*`
@@ -221,6 +226,7 @@ pub fn history_csv(rows: &[HistoryRow]) -> String {
         for n in FAULT_NAMES {
             out += &format!(",true_{n}");
         }
+        out += ",intrusion";
     }
     out.push('\n');
     for r in rows {
@@ -241,6 +247,8 @@ pub fn history_csv(rows: &[HistoryRow]) -> String {
             for k in t.as_array() {
                 out += &format!(",{k}");
             }
+            out.push(',');
+            out += r.intrusion.map_or("", Intrusion::name);
         }
         out.push('\n');
     }
@@ -272,6 +280,7 @@ pub fn read_history(path: &Path) -> Result<Vec<HistoryRow>> {
             .map(|&record| HistoryRow {
                 record,
                 truth: None,
+                intrusion: None,
             })
             .collect())
     }
@@ -301,6 +310,7 @@ fn parse_history_csv(text: &str) -> Result<Vec<HistoryRow>> {
     let fault_cols: Vec<usize> = FAULT_NAMES.iter().map(|n| need(n)).collect::<Result<_>>()?;
     let fitness_col = need("fitness")?;
     let domain_col = column("domain");
+    let intrusion_col = column("intrusion");
     let std_cols: Option<Vec<usize>> = FAULT_NAMES
         .iter()
         .map(|n| column(&format!("std_{n}")))
@@ -391,7 +401,18 @@ fn parse_history_csv(text: &str) -> Result<Vec<HistoryRow>> {
             Some(cols) => Some(vector(cols)?),
             None => None,
         };
-        rows.push(HistoryRow { record, truth });
+        let intrusion = match intrusion_col.map(cell) {
+            None | Some("") => None,
+            Some(name) => Some(
+                Intrusion::from_name(name)
+                    .with_context(|| format!("line {line_no}: unknown intrusion \"{name}\""))?,
+            ),
+        };
+        rows.push(HistoryRow {
+            record,
+            truth,
+            intrusion,
+        });
     }
     if rows.is_empty() {
         bail!("no rows");
@@ -411,6 +432,7 @@ mod tests {
         HistoryRow {
             record: HealthRecord::new(flight, v, 0.02, domain),
             truth: Some(v),
+            intrusion: (flight == 4).then_some(Intrusion::Jammed),
         }
     }
 

@@ -13,6 +13,7 @@
 //! * [`plot`] — SVG pictures of an identification.
 //! * [`health_file`] — the health log in a file, and history CSV files.
 //! * [`prognostics`] — simulated degradations, trend and RUL reports and pictures.
+//! * [`fleet`] — the fleet store (SQLite) of every controller's health log, and its report.
 //! * [`faults`] — parsing fault vectors from the command line.
 
 pub mod actuator_file;
@@ -20,6 +21,7 @@ pub mod calibration;
 pub mod campaign;
 pub mod domain;
 pub mod faults;
+pub mod fleet;
 pub mod health_file;
 pub mod identifiability;
 pub mod identify;

@@ -53,8 +53,8 @@ mod commands;
 
 #[allow(clippy::wildcard_imports)]
 use commands::{
-    actuator::*, bench::*, calibrate::*, campaign::*, domain::*, identify::*, import::*, plot::*,
-    prognostics::*, simulate::*, studies::*,
+    actuator::*, bench::*, calibrate::*, campaign::*, domain::*, fleet::*, identify::*, import::*,
+    plot::*, prognostics::*, simulate::*, studies::*,
 };
 
 #[derive(Parser)]
@@ -436,6 +436,10 @@ enum Command {
         /// records, 32 slots: the newest 32 flights), as the firmware's --health reads it.
         #[arg(long)]
         log: Option<PathBuf>,
+        /// Share of flights whose test meets something outside the fault vector (a jammed
+        /// shaft, an open phase, or a test run with twice the chirp amplitude, in turn).
+        #[arg(long, default_value_t = 0.0, value_parser = parse_share)]
+        out_of_domain: f64,
     },
     /// Trend and remaining useful life (RUL, in flights) of each fault from a history CSV or
     /// a health-log file: the onboard prognosis (shared::prognosis) run on the ground.
@@ -460,10 +464,12 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Evaluate the prognosis like ProgPy's metrics: simulated degradations (linear and
-    /// accelerating, single faults and pairs), the onboard trend replayed flight by flight,
-    /// α-λ accuracy, share within ±α after half of the life, interval coverage, prognostic
-    /// horizon. 8 scenarios × seeds × flights identifications (≈ 9 min for 3 seeds × 40).
+    /// Evaluate the prognosis like ProgPy's metrics: simulated degradations of every fault
+    /// family (each fault alone, two pairs) growing linearly, exponentially and by a power
+    /// law, at each I_ref noise level, with out-of-domain flights mixed in; the onboard trend
+    /// replayed flight by flight; α-λ accuracy, share within ±α after half of the life, 90 %
+    /// interval coverage, prognostic horizon. 21 scenarios × noise levels × seeds × flights
+    /// identifications (≈ 25 min for the defaults).
     Prognostics {
         /// Runs per scenario (seeds 0…N−1).
         #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..))]
@@ -471,18 +477,34 @@ enum Command {
         /// Flights per run.
         #[arg(long, default_value_t = 40, value_parser = clap::value_parser!(u32).range(10..=1000))]
         flights: u32,
-        /// Band-limited white noise on I_ref, RMS as a fraction of the nominal I_ref RMS.
-        #[arg(long, default_value_t = 0.0, value_parser = parse_noise)]
-        noise: f64,
+        /// I_ref noise levels (RMS as a fraction of the nominal I_ref RMS), comma-separated.
+        #[arg(long, default_value = "0,0.5", value_delimiter = ',', value_parser = parse_noise)]
+        noise: Vec<f64>,
+        /// Share of flights whose test is outside the monitor model's domain.
+        #[arg(long, default_value_t = 0.1, value_parser = parse_share)]
+        out_of_domain: f64,
+        /// Standard deviation of the identification's systematic error in the trend
+        /// (default: the controller's, 0.015).
+        #[arg(long)]
+        systematic: Option<f64>,
+        /// Keep each run's history CSV in this folder, and read it from there when present
+        /// (re-evaluate the trend without simulating again).
+        #[arg(long)]
+        histories: Option<PathBuf>,
         /// Accuracy bound α (relative).
         #[arg(long, default_value_t = 0.2)]
         alpha: f64,
-        /// Also write the table as Markdown to this file.
+        /// Also write the tables as Markdown to this file.
         #[arg(long)]
         out: Option<PathBuf>,
         /// Also draw the α-λ picture into this SVG.
         #[arg(long)]
         plot: Option<PathBuf>,
+    },
+    /// The fleet store of every controller's health log (SQLite) and its report.
+    Fleet {
+        #[command(subcommand)]
+        command: FleetCommand,
     },
     /// Bytes of the onboard FDI state (GA, measured-current buffer, monitor model).
     Footprint,
@@ -525,6 +547,18 @@ fn parse_noise(text: &str) -> Result<f64, String> {
         Err(format!(
             "{text} is outside [0, 10] (a fraction of the nominal I_ref RMS)"
         ))
+    }
+}
+
+fn parse_share(text: &str) -> Result<f64, String> {
+    let x: f64 = text
+        .trim()
+        .parse()
+        .map_err(|_| format!("{text:?} is not a number"))?;
+    if (0.0..=1.0).contains(&x) {
+        Ok(x)
+    } else {
+        Err(format!("{text} is outside [0, 1] (a share of the flights)"))
     }
 }
 
@@ -694,6 +728,7 @@ fn main() -> ExitCode {
             seed,
             out,
             log,
+            out_of_domain,
         } => actuator.built_in_only("degrade").and_then(|()| {
             degrade_command(
                 &DegradationPath {
@@ -704,6 +739,7 @@ fn main() -> ExitCode {
                 },
                 noise,
                 seed,
+                out_of_domain,
                 &out,
                 log.as_deref(),
             )
@@ -727,19 +763,40 @@ fn main() -> ExitCode {
             seeds,
             flights,
             noise,
+            out_of_domain,
+            systematic,
+            histories,
             alpha,
             out,
             plot,
         } => actuator.built_in_only("prognostics").and_then(|()| {
+            let mut settings = TrendSettings::DEFAULT;
+            if let Some(s) = systematic {
+                settings.systematic = s;
+            }
             prognostics_command(
-                seeds,
-                flights,
-                noise,
-                alpha,
+                &EvalRun {
+                    seeds,
+                    flights,
+                    noises: noise,
+                    intrusions: out_of_domain,
+                    settings,
+                    histories,
+                    alpha,
+                },
                 out.as_deref(),
                 plot.as_deref(),
             )
         }),
+        Command::Fleet { command } => {
+            return match fleet_command(command) {
+                Ok(code) => code,
+                Err(e) => {
+                    eprintln!("error: {e:#}");
+                    ExitCode::FAILURE
+                }
+            };
+        }
         Command::Footprint => {
             footprint();
             Ok(())

@@ -36,6 +36,7 @@ fn friction_history(n: u32) -> String {
             HistoryRow {
                 record: HealthRecord::new(f, FaultVector::new(k).unwrap(), 0.01, domain),
                 truth: Some(FaultVector::new(t).unwrap()),
+                intrusion: (f == 7).then_some(host_sim::prognostics::Intrusion::OtherCommand),
             }
         })
         .collect();

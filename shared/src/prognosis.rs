@@ -473,10 +473,27 @@ impl FaultTrend {
         (w, likeliest)
     }
 
+    /// Whether shape `i`'s growth coefficient is significantly positive (t > 2).
+    fn grows(&self, i: usize) -> bool {
+        let fit = self.fit(i);
+        let var = fit.scale(self.observations) * fit.p[2];
+        fit.theta[1] > 0.0 && fit.theta[1] * fit.theta[1] > 4.0 * var
+    }
+
     /// Shape `i`'s predicted level at `flight` and its standard deviation (fit, widened to
-    /// Student's t, and the systematic error).
+    /// Student's t, and the systematic error). A shape whose fit shows no significant growth
+    /// does not vouch for growth: beyond the newest flight it predicts the level stays
+    /// (a fast exponential of tiny amplitude explains a flat history as well as a line does,
+    /// and would otherwise put every healthy component a few dozen flights from its
+    /// threshold).
     fn predictive(&self, i: usize, flight: f64, settings: &TrendSettings) -> (f64, f64) {
         let fit = self.fit(i);
+        let newest = f64::from(self.newest);
+        let flight = if flight > newest && !self.grows(i) {
+            newest
+        } else {
+            flight
+        };
         let g = Self::growth(i).shape(flight - f64::from(self.origin));
         let widen = t90(self.observations.saturating_sub(2)) / Z90;
         let var = fit.scale(self.observations) * fit.spread(g) * widen * widen

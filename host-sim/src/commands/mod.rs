@@ -6,6 +6,7 @@ pub(crate) mod bench;
 pub(crate) mod calibrate;
 pub(crate) mod campaign;
 pub(crate) mod domain;
+pub(crate) mod fleet;
 pub(crate) mod identify;
 pub(crate) mod import;
 pub(crate) mod plot;

@@ -6,6 +6,7 @@ pub(crate) fn degrade_command(
     path: &DegradationPath,
     noise: f64,
     seed: u64,
+    intrusions: f64,
     out: &Path,
     log: Option<&Path>,
 ) -> Result<()> {
@@ -15,7 +16,7 @@ pub(crate) fn degrade_command(
         "{elapsed_precise} [{bar:40}] {pos}/{len} flights (ETA {eta})",
         std::io::stderr().is_terminal(),
     );
-    let rows = prognostics::degrade(path, noise, seed, &|| bar.inc(1))?;
+    let rows = prognostics::degrade(path, noise, seed, intrusions, &|| bar.inc(1))?;
     bar.finish_and_clear();
     std::fs::write(out, health_file::history_csv(&rows))
         .with_context(|| format!("writing {}", out.display()))?;
@@ -86,31 +87,58 @@ pub(crate) fn prognose_command(
     Ok(())
 }
 
+/// What `host-sim prognostics` evaluates.
+pub(crate) struct EvalRun {
+    pub seeds: u64,
+    pub flights: u32,
+    pub noises: Vec<f64>,
+    pub intrusions: f64,
+    pub settings: TrendSettings,
+    pub histories: Option<PathBuf>,
+    pub alpha: f64,
+}
+
 pub(crate) fn prognostics_command(
-    seeds: u64,
-    flights: u32,
-    noise: f64,
-    alpha: f64,
+    run: &EvalRun,
     out: Option<&Path>,
     plot_out: Option<&Path>,
 ) -> Result<()> {
     let start = Instant::now();
-    let scenarios = &prognostics::EVAL_SCENARIOS;
-    let total = scenarios.len() as u64 * seeds * u64::from(flights);
+    let scenarios = prognostics::eval_scenarios(&run.noises);
+    let total = scenarios.len() as u64 * run.seeds * u64::from(run.flights);
     let bar = host_sim::progress_bar(
         total,
         "{elapsed_precise} [{bar:40}] {pos}/{len} flights (ETA {eta})",
         std::io::stderr().is_terminal(),
     );
-    let settings = TrendSettings::DEFAULT;
-    let tracks =
-        prognostics::evaluate(scenarios, seeds, flights, noise, &settings, &|| bar.inc(1))?;
+    if let Some(dir) = &run.histories {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    let eval = prognostics::evaluate(
+        &scenarios,
+        run.seeds,
+        run.flights,
+        run.intrusions,
+        &run.settings,
+        run.histories.as_deref(),
+        &|n| bar.inc(n),
+    )?;
     bar.finish_and_clear();
-    let mut text = prognostics::eval_markdown(&tracks, alpha);
+    let mut text = prognostics::eval_markdown(&eval, run.alpha);
+    let t = &run.settings.thresholds;
     text += &format!(
-        "\n{} runs × {flights} flights, noise {noise}, thresholds 0.5 friction and backlash, 0.3 \
-         shorts, 0.25 gain drift; {:.0} s.\n",
-        scenarios.len() as u64 * seeds,
+        "\n{} runs × {} flights ({} simulated, {} read from the history folder); thresholds \
+         {} friction and backlash, {} shorts, {} eccentricity, {} gain drift; systematic error \
+         {}; {:.0} s.\n",
+        scenarios.len() as u64 * run.seeds,
+        run.flights,
+        eval.simulated,
+        eval.cached,
+        t[0],
+        t[2],
+        t[5],
+        t[7],
+        run.settings.systematic,
         start.elapsed().as_secs_f64()
     );
     print!("{text}");
@@ -118,7 +146,7 @@ pub(crate) fn prognostics_command(
         std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
     }
     if let Some(path) = plot_out {
-        prognostics::eval_svg(path, &tracks, alpha)?;
+        prognostics::eval_svg(path, &eval.tracks, run.alpha)?;
     }
     Ok(())
 }
