@@ -158,7 +158,6 @@ fn firmware_under_qemu_gives_the_hosts_bits() {
     println!("{}", run.output);
 
     let (_, host) = host_identification(&bytes);
-    health_matches_the_host(&run.output, &log_path, earlier, &host);
 
     let bits = list(field(&run.output, "bits ", "faults"));
     assert_eq!(bits.len(), FAULT_COUNT);
@@ -199,6 +198,7 @@ fn firmware_under_qemu_gives_the_hosts_bits() {
         );
     }
     assert!(u.std[0].is_finite() && u.std[0] > 0.0, "{u:?}");
+    health_matches_the_host(&run.output, &log_path, earlier, &host, &u);
     // The readable line says the same numbers.
     let shown: Vec<f32> = list(field(&run.output, "result ", "faults"))
         .iter()
@@ -292,12 +292,12 @@ fn a_too_long_trace_is_refused_not_truncated() {
 
 /// The firmware's `bits faults=… fitness=…` line as `u32`s (faults, then fitness).
 /// Writes flights 0..12 of a linear path from nominal to [`faulty_trace`]'s vector (reached at
-/// flight 12) into a new health log at `path`; returns how many.
+/// flight 12) into a new health log at `path`, as a controller before record version 2 kept
+/// it (32 slots of 52 bytes): the firmware must carry it over. Returns how many.
 fn earlier_flights(path: &Path) -> u32 {
     use shared::domain::Domain;
-    use shared::health::{HealthLog, HealthRecord, ONBOARD_RECORDS};
-    let mut store = host_sim::health_file::FileStore::open(path, ONBOARD_RECORDS).expect("log");
-    let mut log = HealthLog::<ONBOARD_RECORDS>::new();
+    use shared::health::{HealthRecord, ONBOARD_RECORDS, RECORD_V1_BYTES};
+    let mut image = vec![0xFFu8; ONBOARD_RECORDS * RECORD_V1_BYTES];
     let end = [0.2f32, 0.3, 0.15, 0.0, 0.0, 0.0, 0.5, 0.45];
     let nominal = FaultVector::NOMINAL;
     for f in 0..12u32 {
@@ -308,9 +308,11 @@ fn earlier_flights(path: &Path) -> u32 {
             .map(|(a, b)| a + (b - a) * f as f32 / 12.0)
             .collect();
         let k = FaultVector::new(k.try_into().expect("8")).expect("valid");
-        log.append(&mut store, HealthRecord::new(f, k, 0.001, Domain::Within))
-            .expect("appended");
+        let at = f as usize * RECORD_V1_BYTES;
+        image[at..at + RECORD_V1_BYTES]
+            .copy_from_slice(&HealthRecord::new(f, k, 0.001, Domain::Within).encode_v1());
     }
+    std::fs::write(path, image).expect("log written");
     12
 }
 
@@ -321,9 +323,14 @@ fn health_matches_the_host(
     log_path: &Path,
     earlier: u32,
     host: &shared::fdi::IdentificationResult,
+    host_uncertainty: &shared::uncertainty::Uncertainty,
 ) {
     use shared::health::ONBOARD_RECORDS;
     use shared::prognosis::{HealthTrend, TrendSettings};
+    assert!(
+        output.contains(&format!("version 1, {earlier} records carried over")),
+        "{output}"
+    );
     assert_eq!(number(output, "health ", "flight"), u64::from(earlier));
     assert_eq!(number(output, "health ", "records"), u64::from(earlier) + 1);
     let (log, summary) =
@@ -333,6 +340,23 @@ fn health_matches_the_host(
     assert_eq!(latest.flight, earlier);
     assert_eq!(latest.faults, host.faults);
     assert_eq!(latest.fitness.to_bits(), host.fitness.to_bits());
+    // The new record carries the identification's standard deviations, as stored (2⁻¹⁶).
+    let std = host_uncertainty.std;
+    for (i, &sd) in std.iter().enumerate() {
+        let kept = latest.std.get(i);
+        assert_eq!(kept, shared::health::ComponentStd::new(std).get(i), "{i}");
+        if sd.is_finite() {
+            assert!(
+                (kept.unwrap() - sd).abs() <= 1.0 / 131_072.0,
+                "{i}: {kept:?} {sd}"
+            );
+        }
+    }
+    assert_eq!(
+        std::fs::metadata(log_path).expect("log").len(),
+        (ONBOARD_RECORDS * shared::health::RECORD_BYTES) as u64,
+        "the log is rewritten as version 2"
+    );
     let settings = TrendSettings::DEFAULT;
     let estimates = HealthTrend::from_records(log.iter(), &settings).estimates(&settings);
     let bits = |v: Option<f32>| format!("{:08x}", v.map_or(u32::MAX, f32::to_bits));

@@ -428,7 +428,7 @@ fn record_health(path: &CStr, flight: Option<u32>, report: &Report) -> i32 {
             }
             let kept = store.upgrade_v1();
             defmt::println!(
-                "health log {=str}: version 1, {=usize} records carried over",
+                "upgraded health log {=str}: version 1, {=usize} records carried over",
                 path_text,
                 kept
             );
