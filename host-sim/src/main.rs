@@ -471,9 +471,12 @@ enum Command {
     /// interval coverage, prognostic horizon. 21 scenarios × noise levels × seeds × flights
     /// identifications (≈ 25 min for the defaults).
     Prognostics {
-        /// Runs per scenario (seeds 0…N−1).
+        /// Runs per scenario (seeds F…F+N−1).
         #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..))]
         seeds: u64,
+        /// The first seed F (another F gives runs no setting was chosen on).
+        #[arg(long, default_value_t = 0)]
+        first_seed: u64,
         /// Flights per run.
         #[arg(long, default_value_t = 40, value_parser = clap::value_parser!(u32).range(10..=1000))]
         flights: u32,
@@ -487,6 +490,10 @@ enum Command {
         /// (default: the controller's, 0.015).
         #[arg(long)]
         systematic: Option<f64>,
+        /// Least standard deviation of one flight's reading in the trend (default: the
+        /// controller's, 0.01).
+        #[arg(long)]
+        noise_floor: Option<f64>,
         /// Keep each run's history CSV in this folder, and read it from there when present
         /// (re-evaluate the trend without simulating again).
         #[arg(long)]
@@ -761,10 +768,12 @@ fn main() -> ExitCode {
         }
         Command::Prognostics {
             seeds,
+            first_seed,
             flights,
             noise,
             out_of_domain,
             systematic,
+            noise_floor,
             histories,
             alpha,
             out,
@@ -774,9 +783,13 @@ fn main() -> ExitCode {
             if let Some(s) = systematic {
                 settings.systematic = s;
             }
+            if let Some(f) = noise_floor {
+                settings.noise_floor = f;
+            }
             prognostics_command(
                 &EvalRun {
                     seeds,
+                    first_seed,
                     flights,
                     noises: noise,
                     intrusions: out_of_domain,

@@ -636,6 +636,9 @@ pub struct Track {
     pub fault: usize,
     /// True end of life (fractional flight).
     pub eol: f64,
+    /// Flight at which the true deviation reaches the detection threshold (0 when it starts
+    /// beyond it).
+    pub detected: f64,
     /// After each flight: the RUL estimate (`None` before three observations).
     pub predictions: Vec<(u32, Option<shared::prognosis::RulEstimate>)>,
 }
@@ -715,6 +718,9 @@ pub fn tracks_of(
                 (rec.flight, e.and_then(|e| e.rul))
             })
             .collect();
+        let detected = path
+            .end_of_life(i, shared::fault::DETECTION_THRESHOLD)
+            .unwrap_or(0.0);
         out.push(Track {
             scenario: sc.name(),
             family: sc.family,
@@ -723,19 +729,20 @@ pub fn tracks_of(
             seed,
             fault: i,
             eol,
+            detected,
             predictions,
         });
     }
     out
 }
 
-/// Runs every scenario for `seeds` seeds over `flights` flights, a share `intrusions` of
+/// Runs every scenario for the `seeds` over `flights` flights, a share `intrusions` of
 /// them out of the domain, and replays the onboard prognosis flight by flight. With `cache`,
 /// each run's history is read from that folder when there and written to it when simulated
 /// (the trend can then be re-evaluated without simulating again).
 pub fn evaluate(
     scenarios: &[EvalScenario],
-    seeds: u64,
+    seeds: std::ops::Range<u64>,
     flights: u32,
     intrusions: f64,
     settings: &TrendSettings,
@@ -750,7 +757,7 @@ pub fn evaluate(
             flights,
             shape: sc.shape,
         };
-        for seed in 0..seeds {
+        for seed in seeds.clone() {
             let file = cache.map(|c| c.join(sc.file_name(seed, flights, intrusions)));
             let rows = match &file {
                 Some(f) if f.exists() => {
@@ -774,6 +781,16 @@ pub fn evaluate(
         }
     }
     Ok(eval)
+}
+
+/// Where a track's prediction window starts (`t_P` of Saxena et al.'s metrics: the time
+/// `λ` is counted from, `t_λ = t_P + λ·(EOL − t_P)`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PredictionStart {
+    /// When the fault reaches the detection threshold (0.05): prognosis starts at detection.
+    Detection,
+    /// At the first flight (the evaluation before issue 20).
+    FirstFlight,
 }
 
 /// ProgPy-style metrics of one track with accuracy bound `alpha` (relative).
@@ -815,13 +832,19 @@ impl Track {
             .and_then(|p| p.1)
     }
 
-    pub fn metrics(&self, alpha: f64) -> TrackMetrics {
+    /// The metrics over the predictions from `start` to the end of life.
+    pub fn metrics(&self, alpha: f64, start: PredictionStart) -> TrackMetrics {
+        let t_p = match start {
+            PredictionStart::Detection => self.detected,
+            PredictionStart::FirstFlight => 0.0,
+        };
+        let t_lambda = |l: f64| (t_p + l * (self.eol - t_p)).floor() as u32;
         let lambda = |l: f64| {
-            let t = (l * self.eol).floor() as u32;
+            let t = t_lambda(l);
             let truth = self.eol - f64::from(t);
             within(self.at(t).and_then(|r| r.rul), truth, alpha * truth)
         };
-        let t_half = (0.5 * self.eol).floor() as u32;
+        let t_half = t_lambda(0.5);
         let error_half = self.at(t_half).and_then(|r| r.rul).map(|p| {
             (f64::from(p) - (self.eol - f64::from(t_half))) / (self.eol - f64::from(t_half))
         });
@@ -829,7 +852,7 @@ impl Track {
             .predictions
             .iter()
             .copied()
-            .filter(|p| f64::from(p.0) < self.eol)
+            .filter(|p| f64::from(p.0) < self.eol && f64::from(p.0) >= t_p.floor())
             .collect();
         let truth = |f: u32| self.eol - f64::from(f);
         let late: Vec<_> = before_eol.iter().filter(|p| p.0 >= t_half).collect();
@@ -887,9 +910,13 @@ pub struct Totals {
 }
 
 impl Totals {
-    pub fn of<'t>(tracks: impl IntoIterator<Item = &'t Track>, alpha: f64) -> Self {
+    pub fn of<'t>(
+        tracks: impl IntoIterator<Item = &'t Track>,
+        alpha: f64,
+        start: PredictionStart,
+    ) -> Self {
         let mut t = Self::default();
-        for m in tracks.into_iter().map(|x| x.metrics(alpha)) {
+        for m in tracks.into_iter().map(|x| x.metrics(alpha, start)) {
             t.tracks += 1;
             t.alpha_lambda_half += usize::from(m.alpha_lambda[0]);
             t.alpha_lambda_three_quarters += usize::from(m.alpha_lambda[1]);
@@ -961,11 +988,13 @@ pub fn eval_markdown(eval: &Evaluation, alpha: f64) -> String {
             Totals::HEADER
         );
         for (name, ts) in groups {
-            s += &Totals::of(ts, alpha).row(&name);
+            s += &Totals::of(ts, alpha, PredictionStart::Detection).row(&name);
         }
         s
     };
     out += &summary("", vec![("**all**".into(), tracks.iter().collect())]);
+    out += &Totals::of(tracks, alpha, PredictionStart::FirstFlight)
+        .row("all, counted from the first flight");
     let mut families: Vec<&str> = Vec::new();
     for t in tracks {
         if !families.contains(&t.family) {
@@ -1042,8 +1071,11 @@ pub fn eval_markdown(eval: &Evaluation, alpha: f64) -> String {
         a = pct(alpha)
     );
     for (name, fault, ts) in &groups {
-        let m: Vec<TrackMetrics> = ts.iter().map(|t| t.metrics(alpha)).collect();
-        let tot = Totals::of(ts.iter().copied(), alpha);
+        let m: Vec<TrackMetrics> = ts
+            .iter()
+            .map(|t| t.metrics(alpha, PredictionStart::Detection))
+            .collect();
+        let tot = Totals::of(ts.iter().copied(), alpha, PredictionStart::Detection);
         let n = m.len() as f64;
         let errors: Vec<String> = m
             .iter()

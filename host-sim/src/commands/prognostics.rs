@@ -90,6 +90,7 @@ pub(crate) fn prognose_command(
 /// What `host-sim prognostics` evaluates.
 pub(crate) struct EvalRun {
     pub seeds: u64,
+    pub first_seed: u64,
     pub flights: u32,
     pub noises: Vec<f64>,
     pub intrusions: f64,
@@ -116,7 +117,7 @@ pub(crate) fn prognostics_command(
     }
     let eval = prognostics::evaluate(
         &scenarios,
-        run.seeds,
+        run.first_seed..run.first_seed + run.seeds,
         run.flights,
         run.intrusions,
         &run.settings,
@@ -127,11 +128,13 @@ pub(crate) fn prognostics_command(
     let mut text = prognostics::eval_markdown(&eval, run.alpha);
     let t = &run.settings.thresholds;
     text += &format!(
-        "\n{} runs × {} flights ({} simulated, {} read from the history folder); thresholds \
+        "\n{} runs × {} flights (seeds {}–{}; {} simulated, {} read from the history folder); thresholds \
          {} friction and backlash, {} shorts, {} eccentricity, {} gain drift; systematic error \
          {}; {:.0} s.\n",
         scenarios.len() as u64 * run.seeds,
         run.flights,
+        run.first_seed,
+        run.first_seed + run.seeds - 1,
         eval.simulated,
         eval.cached,
         t[0],
