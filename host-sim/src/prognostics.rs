@@ -1179,3 +1179,99 @@ pub fn eval_svg(out: &Path, tracks: &[Track], alpha: f64) -> Result<()> {
     root.present().context("writing the plot")?;
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use shared::prognosis::RulEstimate;
+
+    fn path(shape: PathShape) -> DegradationPath {
+        DegradationPath {
+            start: FaultVector::new(H).unwrap(),
+            end: FaultVector::new(with(H, 0, 0.6)).unwrap(),
+            flights: 40,
+            shape,
+        }
+    }
+
+    #[test]
+    fn each_path_reaches_the_threshold_at_its_end_of_life() {
+        for shape in PathShape::ALL {
+            let p = path(shape);
+            let eol = p.end_of_life(0, 0.5).unwrap();
+            let level = |f: f64| 0.6 * p.progress(f);
+            assert!(
+                (level(eol) - 0.5).abs() < 1e-6,
+                "{shape:?} {eol} {}",
+                level(eol)
+            );
+            assert!(
+                level(eol - 0.5) < 0.5 && level(eol + 0.5) > 0.5,
+                "{shape:?}"
+            );
+        }
+        // The accelerating paths show little in their first half.
+        assert!(path(PathShape::Exponential).progress(19.5) < 0.2);
+        assert!(path(PathShape::PowerLaw).progress(19.5) < 0.25);
+    }
+
+    #[test]
+    fn intrusions_are_deterministic_and_about_their_share() {
+        let hits: Vec<bool> = (0..2000).map(|f| intrusion(7, f, 0.1).is_some()).collect();
+        let again: Vec<bool> = (0..2000).map(|f| intrusion(7, f, 0.1).is_some()).collect();
+        assert_eq!(hits, again);
+        let n = hits.iter().filter(|&&h| h).count();
+        assert!((150..250).contains(&n), "{n} of 2000");
+        assert!((0..2000).all(|f| intrusion(7, f, 0.0).is_none()));
+        let kinds: Vec<Intrusion> = (0..2000).filter_map(|f| intrusion(3, f, 1.0)).collect();
+        for k in Intrusion::ALL {
+            assert!(kinds.iter().filter(|&&x| x == k).count() > 500, "{k:?}");
+        }
+    }
+
+    fn track(predict: impl Fn(f64) -> RulEstimate) -> Track {
+        let eol = 30.0;
+        Track {
+            scenario: "test".into(),
+            family: "friction",
+            shape: PathShape::Linear,
+            noise: 0.0,
+            seed: 0,
+            fault: 0,
+            eol,
+            detected: 10.0,
+            predictions: (0..40)
+                .map(|f| (f, (f >= 3).then(|| predict(eol - f64::from(f)))))
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn metrics_count_what_the_predictions_say() {
+        let exact = track(|t| RulEstimate {
+            rul: Some(t as f32),
+            lower: Some(t as f32 - 1.0),
+            upper: Some(t as f32 + 1.0),
+        });
+        let m = exact.metrics(0.2, PredictionStart::Detection);
+        assert_eq!(m.alpha_lambda, [true, true]);
+        assert_eq!((m.all, m.all_covered), (20, 20)); // flights 10..29
+        assert_eq!((m.late, m.late_within, m.late_covered), (10, 10, 10)); // 20..29
+        assert_eq!(m.error_half, Some(0.0));
+        let m = exact.metrics(0.2, PredictionStart::FirstFlight);
+        assert_eq!((m.all, m.late), (27, 15)); // 3..29 made; 15..29
+                                               // 30 % late with an interval that misses on the late side.
+        let late = track(|t| RulEstimate {
+            rul: Some(1.3 * t as f32),
+            lower: Some(1.2 * t as f32),
+            upper: Some(1.4 * t as f32),
+        });
+        let m = late.metrics(0.2, PredictionStart::Detection);
+        assert_eq!(m.alpha_lambda, [false, false]);
+        assert_eq!((m.all_covered, m.all_late_misses), (0, 20));
+        assert!((m.error_half.unwrap() - 0.3).abs() < 1e-6);
+        let totals = Totals::of([&exact, &late], 0.2, PredictionStart::Detection);
+        assert_eq!((totals.tracks, totals.alpha_lambda_half), (2, 1));
+        assert!((totals.coverage() - 0.5).abs() < 1e-12);
+    }
+}
