@@ -409,6 +409,7 @@ fn load_actuator(path: &CStr, trace_test: &PreflightTest) -> Result<PreflightSet
 /// (`ffffffff` for none) for the comparison with the host.
 #[inline(never)]
 fn record_health(path: &CStr, flight: Option<u32>, report: &Report) -> i32 {
+    let started = cycles();
     let path_text = path.to_str().unwrap_or("(not UTF-8)");
     let Some(store) = HEALTH_STORE.try_take() else {
         defmt::error!("health store already in use");
@@ -483,6 +484,8 @@ fn record_health(path: &CStr, flight: Option<u32>, report: &Report) -> i32 {
             bits(rul.upper)
         );
     }
+    // Cycles of the whole step (instructions under QEMU's -icount: as `cycles` above).
+    defmt::println!("health cycles={=u64}", cycles().saturating_sub(started));
     status::SUCCESS
 }
 
