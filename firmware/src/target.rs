@@ -485,7 +485,11 @@ fn record_health(path: &CStr, flight: Option<u32>, report: &Report) -> i32 {
         );
     }
     // Cycles of the whole step (instructions under QEMU's -icount: as `cycles` above).
-    defmt::println!("health cycles={=u64}", cycles().saturating_sub(started));
+    defmt::println!(
+        "health cycles={=u64} stack_peak={=u32}",
+        cycles().saturating_sub(started),
+        stack_peak()
+    );
     status::SUCCESS
 }
 
