@@ -8,9 +8,7 @@
 //! horizon)). Stack: the log (≈ 1.8 KiB) and one fault's trend (976 B), held only during
 //! the call.
 
-use shared::health::{
-    HealthLog, HealthLogError, HealthRecord, HealthStore, LoadSummary, ONBOARD_RECORDS,
-};
+use shared::health::{self, HealthLogError, HealthRecord, HealthStore, LoadSummary, RECORD_BYTES};
 use shared::prognosis::{is_trended, FaultTrend, TrendEstimate, TrendSettings};
 use shared::FAULT_COUNT;
 
@@ -24,9 +22,9 @@ pub struct HealthUpdate {
     pub loaded: LoadSummary,
     /// This preflight's record.
     pub record: HealthRecord,
-    /// Records in the log now.
+    /// Records in the store now, in flight order (earlier laps of the ring not counted).
     pub records: u32,
-    /// The record that left the ring to make room, if any.
+    /// The record this one overwrote in its slot (`flight − slots` when the ring is full).
     pub evicted: Option<HealthRecord>,
     /// Records not used by the trend (outside the monitor model's domain).
     pub skipped: u32,
@@ -36,16 +34,24 @@ pub struct HealthUpdate {
 }
 
 /// Appends `report` as the record of `flight` (default: one after the newest in the store, 0
-/// for an empty store) and assesses the trend over the log.
+/// for an empty store) and assesses the trend over the store. No copy of the log is made:
+/// the store is surveyed once, the record written, and each fault's trend replays the store
+/// in flight order (one trend of 976 bytes, reused).
 pub fn record_preflight<S: HealthStore>(
     store: &mut S,
     flight: Option<u32>,
     report: &Report,
     settings: &TrendSettings,
 ) -> Result<HealthUpdate, HealthLogError<S::Error>> {
-    let (mut log, loaded) =
-        HealthLog::<ONBOARD_RECORDS>::load(store).map_err(HealthLogError::Store)?;
-    let flight = flight.unwrap_or_else(|| log.latest().map_or(0, |r| r.flight.saturating_add(1)));
+    let (loaded, newest) = health::survey(store).map_err(HealthLogError::Store)?;
+    let flight = flight.unwrap_or_else(|| newest.map_or(0, |(_, f)| f.saturating_add(1)));
+    if let Some((_, last)) = newest.filter(|&(_, last)| flight <= last) {
+        return Err(HealthLogError::NotNewer { last });
+    }
+    let slots = store.slots();
+    if slots == 0 {
+        return Err(HealthLogError::NoSlots);
+    }
     let record = HealthRecord::new(
         flight,
         report.result.faults,
@@ -57,21 +63,40 @@ pub fn record_preflight<S: HealthStore>(
             .uncertainty
             .map_or([f32::NAN; FAULT_COUNT], |u| u.std),
     );
-    let evicted = log.append(store, record)?;
-    // One fault at a time (976 bytes of trend state); the same bits as a `HealthTrend`.
+    let slot = flight as usize % slots;
+    let mut bytes = [0u8; RECORD_BYTES];
+    store
+        .read(slot, &mut bytes)
+        .map_err(HealthLogError::Store)?;
+    let evicted = HealthRecord::decode(&bytes).ok();
+    store
+        .write(slot, &record.encode())
+        .map_err(HealthLogError::Store)?;
+    // One fault at a time, in one trend; the same bits as a `HealthTrend` over the log.
     let mut estimates = [None; FAULT_COUNT];
+    let mut trend = FaultTrend::new();
+    let mut records = 0;
+    let mut skipped = 0;
     for (i, e) in estimates.iter_mut().enumerate() {
         if is_trended(i) {
-            *e = FaultTrend::from_records(log.iter(), i, settings)
-                .estimate(settings.threshold(i), settings);
+            trend.clear();
+            records = health::replay(store, slot, |r| {
+                if r.is_trusted() {
+                    trend.add(r, i, settings);
+                }
+            })
+            .map_err(HealthLogError::Store)?;
+            *e = trend.estimate(settings.threshold(i), settings);
         }
     }
+    health::replay(store, slot, |r| skipped += u32::from(!r.is_trusted()))
+        .map_err(HealthLogError::Store)?;
     Ok(HealthUpdate {
         loaded,
         record,
-        records: log.len() as u32,
+        records,
         evicted,
-        skipped: log.iter().filter(|r| !r.is_trusted()).count() as u32,
+        skipped,
         estimates,
     })
 }

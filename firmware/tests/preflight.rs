@@ -516,10 +516,17 @@ fn each_preflight_appends_its_record_and_reassesses_the_trend() {
     let again =
         HealthTrend::from_records(reloaded.iter(), &trend_settings).estimates(&trend_settings);
     assert_eq!(again, update.estimates);
-    // The next preflight evicts the oldest (flight 100).
+    // Flight 140 overwrites slot 140 mod 32 = 12 (flight 108); skipping flights 132..139
+    // leaves 100..=108 older than the last 32 flights: 109..=131 and 140 remain.
     let next = record_preflight(&mut store, Some(140), &report, &trend_settings).unwrap();
-    assert_eq!(next.evicted.map(|r| r.flight), Some(100));
-    assert_eq!(next.records, 32);
+    assert_eq!(next.evicted.map(|r| r.flight), Some(108));
+    assert_eq!(next.records, 24);
+    let (reloaded, _) = HealthLog::<ONBOARD_RECORDS>::load(&mut store).unwrap();
+    assert_eq!(reloaded.len(), 24);
+    assert_eq!(
+        HealthTrend::from_records(reloaded.iter(), &trend_settings).estimates(&trend_settings),
+        next.estimates
+    );
     // A record for the past is refused and the store is unchanged.
     let before = store.clone();
     assert!(record_preflight(&mut store, Some(120), &report, &trend_settings).is_err());

@@ -572,38 +572,77 @@ impl<const N: usize> HealthLog<N> {
     /// store's flights oldest first (a record left from an earlier lap of the ring, older
     /// than the last `slots` flights, is dropped).
     pub fn load<S: HealthStore>(store: &mut S) -> Result<(Self, LoadSummary), S::Error> {
-        let mut summary = LoadSummary::default();
-        let mut bytes = [0u8; RECORD_BYTES];
-        let slots = store.slots();
-        let mut newest: Option<(usize, u32)> = None;
-        for slot in 0..slots {
-            store.read(slot, &mut bytes)?;
-            match HealthRecord::decode(&bytes) {
-                Ok(r) => {
-                    summary.records = summary.records.saturating_add(1);
-                    if newest.is_none_or(|(_, f)| r.flight > f) {
-                        newest = Some((slot, r.flight));
-                    }
-                }
-                Err(HealthRecordError::BadMagic) if is_blank(&bytes) => {
-                    summary.empty = summary.empty.saturating_add(1);
-                }
-                Err(_) => summary.damaged = summary.damaged.saturating_add(1),
-            }
-        }
         let mut log = Self::new();
-        if let Some((last_slot, _)) = newest {
-            for k in 1..=slots {
-                store.read((last_slot + k) % slots, &mut bytes)?;
-                if let Ok(r) = HealthRecord::decode(&bytes) {
-                    // Refused when not newer than the last one kept (an earlier lap).
-                    let _ = log.push(r);
-                }
-            }
-        }
-        summary.dropped = summary.records.saturating_sub(log.len() as u16);
+        let summary = log.reload(store)?;
         Ok((log, summary))
     }
+
+    /// [`Self::load`] into this log, in place (its records are replaced).
+    pub fn reload<S: HealthStore>(&mut self, store: &mut S) -> Result<LoadSummary, S::Error> {
+        self.records.clear();
+        let (mut summary, newest) = survey(store)?;
+        if let Some((slot, _)) = newest {
+            replay(store, slot, |r| {
+                // The replay is in flight order: only the capacity can refuse.
+                let _ = self.push(*r);
+            })?;
+        }
+        summary.dropped = summary.records.saturating_sub(self.len() as u16);
+        Ok(summary)
+    }
+}
+
+/// What a store's slots hold: sound, empty and damaged slots (`dropped` left 0), and the
+/// newest record's slot and flight. One read of every slot.
+pub fn survey<S: HealthStore>(
+    store: &mut S,
+) -> Result<(LoadSummary, Option<(usize, u32)>), S::Error> {
+    let mut summary = LoadSummary::default();
+    let mut bytes = [0u8; RECORD_BYTES];
+    let mut newest: Option<(usize, u32)> = None;
+    for slot in 0..store.slots() {
+        store.read(slot, &mut bytes)?;
+        match HealthRecord::decode(&bytes) {
+            Ok(r) => {
+                summary.records = summary.records.saturating_add(1);
+                if newest.is_none_or(|(_, f)| r.flight > f) {
+                    newest = Some((slot, r.flight));
+                }
+            }
+            Err(HealthRecordError::BadMagic) if is_blank(&bytes) => {
+                summary.empty = summary.empty.saturating_add(1);
+            }
+            Err(_) => summary.damaged = summary.damaged.saturating_add(1),
+        }
+    }
+    Ok((summary, newest))
+}
+
+/// Calls `each` with the store's sound records oldest first, given the newest record's slot
+/// ([`survey`]): since flight `f` sits in slot `f mod slots`, walking the slots on from the
+/// newest meets the flights in order; a record from an earlier lap of the ring (older than
+/// the last `slots` flights) is skipped. Returns the records passed. One read of every slot,
+/// no copy of the log: the controller's trend replays its store this way.
+pub fn replay<S: HealthStore>(
+    store: &mut S,
+    newest_slot: usize,
+    mut each: impl FnMut(&HealthRecord),
+) -> Result<u32, S::Error> {
+    let mut bytes = [0u8; RECORD_BYTES];
+    let slots = store.slots();
+    let mut last: Option<u32> = None;
+    let mut passed = 0;
+    for k in 1..=slots {
+        store.read((newest_slot + k) % slots, &mut bytes)?;
+        if let Ok(r) = HealthRecord::decode(&bytes) {
+            if last.is_none_or(|l| r.flight > l) {
+                last = Some(r.flight);
+                passed += 1;
+                each(&r);
+            }
+        }
+    }
+    Ok(passed)
 }
 
 /// A never-written slot: all 0xFF (erased flash) or all zero (fresh RAM or file).

@@ -445,12 +445,43 @@ impl FaultTrend {
         settings: &TrendSettings,
     ) -> Self {
         let mut trend = Self::new();
-        for r in records.into_iter().filter(|r| r.is_trusted()) {
-            if let Some(Some(d)) = r.faults.deviations().get(i) {
-                trend.update(r.flight, *d, r.std.get(i), settings);
-            }
-        }
+        trend.replay(records, i, settings);
         trend
+    }
+
+    /// [`Self::from_records`] in place: this trend is emptied and fed `records`.
+    pub fn replay<'r>(
+        &mut self,
+        records: impl IntoIterator<Item = &'r HealthRecord>,
+        i: usize,
+        settings: &TrendSettings,
+    ) {
+        self.clear();
+        for r in records.into_iter().filter(|r| r.is_trusted()) {
+            self.add(r, i, settings);
+        }
+    }
+
+    /// Empties the trend in place (the controller reuses one trend for every fault instead
+    /// of building 976 bytes per fault).
+    pub fn clear(&mut self) {
+        self.origin = 0;
+        self.newest = 0;
+        self.observations = 0;
+        self.precision = 0.0;
+        for f in self.fits.iter_mut() {
+            *f = ShapeFit::PRIOR;
+        }
+    }
+
+    /// Adds component `i` of `record` (its deviation from nominal and its standard deviation);
+    /// whether the record is trusted is the caller's to judge. Returns false when ignored
+    /// (see [`Self::update`]).
+    pub fn add(&mut self, record: &HealthRecord, i: usize, settings: &TrendSettings) -> bool {
+        match record.faults.deviations().get(i) {
+            Some(Some(d)) => self.update(record.flight, *d, record.std.get(i), settings),
+            _ => false,
+        }
     }
 
     fn fit(&self, i: usize) -> ShapeFit {
