@@ -44,9 +44,9 @@ pub fn record_preflight<S: HealthStore>(
     settings: &TrendSettings,
 ) -> Result<HealthUpdate, HealthLogError<S::Error>> {
     let (loaded, newest) = health::survey(store).map_err(HealthLogError::Store)?;
-    let flight = flight.unwrap_or_else(|| newest.map_or(0, |(_, f)| f.saturating_add(1)));
-    if let Some((_, last)) = newest.filter(|&(_, last)| flight <= last) {
-        return Err(HealthLogError::NotNewer { last });
+    let flight = flight.unwrap_or_else(|| newest.map_or(0, |n| n.flight.saturating_add(1)));
+    if let Some(n) = newest.filter(|n| flight <= n.flight) {
+        return Err(HealthLogError::NotNewer { last: n.flight });
     }
     let slots = store.slots();
     if slots == 0 {

@@ -581,8 +581,8 @@ impl<const N: usize> HealthLog<N> {
     pub fn reload<S: HealthStore>(&mut self, store: &mut S) -> Result<LoadSummary, S::Error> {
         self.records.clear();
         let (mut summary, newest) = survey(store)?;
-        if let Some((slot, _)) = newest {
-            replay(store, slot, |r| {
+        if let Some(n) = newest {
+            replay(store, n.slot, |r| {
                 // The replay is in flight order: only the capacity can refuse.
                 let _ = self.push(*r);
             })?;
@@ -592,21 +592,29 @@ impl<const N: usize> HealthLog<N> {
     }
 }
 
+/// The newest record of a store: its slot and flight.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Newest {
+    pub slot: usize,
+    pub flight: u32,
+}
+
 /// What a store's slots hold: sound, empty and damaged slots (`dropped` left 0), and the
-/// newest record's slot and flight. One read of every slot.
-pub fn survey<S: HealthStore>(
-    store: &mut S,
-) -> Result<(LoadSummary, Option<(usize, u32)>), S::Error> {
+/// newest record. One read of every slot.
+pub fn survey<S: HealthStore>(store: &mut S) -> Result<(LoadSummary, Option<Newest>), S::Error> {
     let mut summary = LoadSummary::default();
     let mut bytes = [0u8; RECORD_BYTES];
-    let mut newest: Option<(usize, u32)> = None;
+    let mut newest: Option<Newest> = None;
     for slot in 0..store.slots() {
         store.read(slot, &mut bytes)?;
         match HealthRecord::decode(&bytes) {
             Ok(r) => {
                 summary.records = summary.records.saturating_add(1);
-                if newest.is_none_or(|(_, f)| r.flight > f) {
-                    newest = Some((slot, r.flight));
+                if newest.is_none_or(|n| r.flight > n.flight) {
+                    newest = Some(Newest {
+                        slot,
+                        flight: r.flight,
+                    });
                 }
             }
             Err(HealthRecordError::BadMagic) if is_blank(&bytes) => {
