@@ -294,7 +294,7 @@ pub fn report_text(
         "out",
         "level",
         "slope/fl",
-        "shape",
+        "growth (weight)",
         "thresh",
         "scatter",
         "RUL [fl]",
