@@ -3,10 +3,11 @@
 //! `shared::prognosis`). Host-tested; the binary keeps the store in RAM under emulation
 //! (loaded from and saved to a semihosting file) and would keep it in flash on hardware.
 //!
-//! Work bound: two store reads per slot ([`ONBOARD_RECORDS`]), one slot write, one trend
-//! update per record (O(records · faults · rates)) and one estimate per fault (O(rates ·
-//! horizon)). Stack: the log (≈ 1.8 KiB) and one fault's trend (976 B), held only during
-//! the call.
+//! Work bound: one survey of the store (a read per slot, `shared::health::ONBOARD_RECORDS`
+//! slots), one slot read and write, then per fault one replay of the store (a read and a
+//! trend update per slot, O(slots · shapes)) and one estimate (O(shapes · 136)); measured:
+//! 167.5 M instructions with 32 records (BENCHMARKS.md §1). Stack: one trend (976 B) and one
+//! slot's bytes, no copy of the log (15.1 kB peak with the caller's frames).
 
 use shared::health::{self, HealthLogError, HealthRecord, HealthStore, LoadSummary, RECORD_BYTES};
 use shared::prognosis::{is_trended, FaultTrend, TrendEstimate, TrendSettings};

@@ -34,7 +34,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use rusqlite::{params, Connection, OptionalExtension};
 use shared::fault::{FAULT_COUNT, FAULT_NAMES};
-use shared::health::{DomainCode, HealthRecord, HealthRecordError, RECORD_BYTES};
+use shared::health::{is_blank, DomainCode, HealthRecord, HealthRecordError, RECORD_BYTES};
 use shared::prognosis::{HealthTrend, TrendEstimate, TrendSettings};
 
 use crate::health_file::ImageStore;
@@ -277,12 +277,6 @@ impl FleetStore {
         }
         Ok(out)
     }
-}
-
-/// A never-written slot: all 0xFF or all zero.
-fn is_blank(bytes: &[u8]) -> bool {
-    let first = bytes.first().copied().unwrap_or(0);
-    (first == 0 || first == 0xFF) && bytes.iter().all(|&b| b == first)
 }
 
 /// The serial a log file stands for: its name without extension.

@@ -6,7 +6,8 @@
 //! Units: flight index (count), fault vector (normalised, [`FaultVector`]), fitness [A²·s].
 //! Work bounds: [`HealthRecord::encode`]/[`HealthRecord::decode`] O([`RECORD_BYTES`]);
 //! [`HealthLog::push`] O(1); [`HealthLog::append`] one slot write; [`HealthLog::load`] reads
-//! every slot twice (find the newest, then walk the ring from it), O(slots).
+//! every slot twice (find the newest, then walk the ring from it), O(slots); so do [`survey`]
+//! and [`replay`], which walk the store in flight order without a copy of the log.
 //!
 //! ## Record (version 2: 68 bytes, little-endian)
 //!
@@ -654,7 +655,7 @@ pub fn replay<S: HealthStore>(
 }
 
 /// A never-written slot: all 0xFF (erased flash) or all zero (fresh RAM or file).
-fn is_blank(bytes: &EncodedRecord) -> bool {
+pub fn is_blank(bytes: &[u8]) -> bool {
     let first = bytes.first().copied().unwrap_or(0);
     (first == 0 || first == 0xFF) && bytes.iter().all(|&b| b == first)
 }
