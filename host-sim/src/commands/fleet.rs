@@ -54,7 +54,8 @@ pub(crate) enum FleetCommand {
         actuators: u32,
         #[arg(long, default_value_t = 500, value_parser = clap::value_parser!(u32).range(2..=100_000))]
         flights: u32,
-        /// Folder for the logs, the store and the report (a temporary one when not given).
+        /// Folder for the logs, the store and the report (kept); without it a temporary folder
+        /// is used and removed.
         #[arg(long)]
         dir: Option<PathBuf>,
     },
@@ -198,13 +199,10 @@ fn report(
 }
 
 fn bench(actuators: u32, flights: u32, dir: Option<&Path>) -> Result<ExitCode> {
-    let tmp;
+    let temporary = dir.is_none();
     let dir = match dir {
         Some(d) => d.to_path_buf(),
-        None => {
-            tmp = tempfile_dir()?;
-            tmp.clone()
-        }
+        None => tempfile_dir()?,
     };
     let logs = dir.join("logs");
     let db = dir.join("fleet.sqlite");
@@ -233,6 +231,9 @@ fn bench(actuators: u32, flights: u32, dir: Option<&Path>) -> Result<ExitCode> {
         std::fs::metadata(&db)?.len() as f64 / 1e6,
         std::fs::metadata(&html)?.len() as f64 / 1e6,
     );
+    if temporary {
+        std::fs::remove_dir_all(&dir).with_context(|| format!("removing {}", dir.display()))?;
+    }
     Ok(status)
 }
 
