@@ -5,7 +5,7 @@
 //! through QEMU's semihosting command line; the trace is read with SYS_OPEN / SYS_FLEN /
 //! SYS_READ, one row (24 B) per read. The checkpoint file stands in for the flash page that
 //! keeps the GA record across a power loss; the health file for the flash that keeps the
-//! health log (the RAM store's image, `ONBOARD_RECORDS` × 52 bytes); the actuator file for
+//! health log (the RAM store's image, `ONBOARD_RECORDS` × 68 bytes, or × 52 for version 1); the actuator file for
 //! the flash sector that holds the actuator record (`host-sim actuator`, 300 bytes).
 
 use core::ffi::CStr;

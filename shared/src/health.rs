@@ -38,7 +38,7 @@
 //!
 //! The STM32F405 erases flash by sector (16–128 KiB) and programs it in words, 1 → 0 only.
 //! A `HealthStore` over two 16 KiB sectors (e.g. sectors 2 and 3) writes slot `s` at
-//! `sector(s) + RECORD_BYTES · (s mod per_sector)`: `read` copies the 52 bytes; `write`
+//! `sector(s) + RECORD_BYTES · (s mod per_sector)`: `read` copies the 68 bytes; `write`
 //! programs them when the slot is still erased (all 0xFF) and otherwise first erases the
 //! slot's sector (the other sector keeps its records; a flight whose record was lost that way
 //! is one missing point of the trend, never a wrong one). With embassy-stm32 this is
