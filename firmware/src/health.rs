@@ -4,12 +4,13 @@
 //! (loaded from and saved to a semihosting file) and would keep it in flash on hardware.
 //!
 //! Work bound: one survey of the store (a read per slot, `shared::health::ONBOARD_RECORDS`
-//! slots), one slot read and write, then per fault one replay of the store (a read and a
+//! slots), one slot read and write (`health::write_slot`), then per fault one replay of the store (a read and a
 //! trend update per slot, O(slots · shapes)) and one estimate (O(shapes · 136)); measured:
-//! 167.5 M instructions with 32 records (BENCHMARKS.md §1). Stack: one trend (976 B) and one
-//! slot's bytes, no copy of the log (15.1 kB peak with the caller's frames).
+//! 157.4 M instructions with 32 records (BENCHMARKS.md §1). Stack: one trend (976 B), one
+//! estimate's shared state and one slot's bytes, no copy of the log (15.2 kB peak with the
+//! caller's frames).
 
-use shared::health::{self, HealthLogError, HealthRecord, HealthStore, LoadSummary, RECORD_BYTES};
+use shared::health::{self, HealthLogError, HealthRecord, HealthStore, LoadSummary};
 use shared::prognosis::{is_trended, FaultTrend, TrendEstimate, TrendSettings};
 use shared::FAULT_COUNT;
 
@@ -49,10 +50,6 @@ pub fn record_preflight<S: HealthStore>(
     if let Some(n) = newest.filter(|n| flight <= n.flight) {
         return Err(HealthLogError::NotNewer { last: n.flight });
     }
-    let slots = store.slots();
-    if slots == 0 {
-        return Err(HealthLogError::NoSlots);
-    }
     let record = HealthRecord::new(
         flight,
         report.result.faults,
@@ -64,39 +61,32 @@ pub fn record_preflight<S: HealthStore>(
             .uncertainty
             .map_or([f32::NAN; FAULT_COUNT], |u| u.std),
     );
-    let slot = flight as usize % slots;
-    let mut bytes = [0u8; RECORD_BYTES];
-    store
-        .read(slot, &mut bytes)
-        .map_err(HealthLogError::Store)?;
-    let evicted = HealthRecord::decode(&bytes).ok();
-    store
-        .write(slot, &record.encode())
-        .map_err(HealthLogError::Store)?;
-    // One fault at a time, in one trend; the same bits as a `HealthTrend` over the log.
+    let written = health::write_slot(store, &record)?;
+    // One fault at a time, in one trend; the same bits as a `HealthTrend` over the log. Each
+    // replay also counts the records and those outside the domain.
     let mut estimates = [None; FAULT_COUNT];
     let mut trend = FaultTrend::new();
-    let mut records = 0;
-    let mut skipped = 0;
+    let (mut records, mut skipped) = (0, 0);
     for (i, e) in estimates.iter_mut().enumerate() {
         if is_trended(i) {
             trend.clear();
-            records = health::replay(store, slot, |r| {
+            skipped = 0;
+            records = health::replay(store, written.slot, |r| {
                 if r.is_trusted() {
                     trend.add(r, i, settings);
+                } else {
+                    skipped += 1;
                 }
             })
             .map_err(HealthLogError::Store)?;
             *e = trend.estimate(settings.threshold(i), settings);
         }
     }
-    health::replay(store, slot, |r| skipped += u32::from(!r.is_trusted()))
-        .map_err(HealthLogError::Store)?;
     Ok(HealthUpdate {
         loaded,
         record,
         records,
-        evicted,
+        evicted: written.replaced,
         skipped,
         estimates,
     })

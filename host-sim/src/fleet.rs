@@ -34,7 +34,9 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use rusqlite::{params, Connection, OptionalExtension};
 use shared::fault::{FAULT_COUNT, FAULT_NAMES};
-use shared::health::{is_blank, DomainCode, HealthRecord, HealthRecordError, RECORD_BYTES};
+use shared::health::{
+    is_blank, record_len, DomainCode, HealthRecord, HealthRecordError, RECORD_BYTES,
+};
 use shared::prognosis::{HealthTrend, TrendEstimate, TrendSettings};
 
 use crate::health_file::ImageStore;
@@ -204,11 +206,12 @@ impl FleetStore {
                 "INSERT INTO records (serial, flight, version, bytes) VALUES (?1, ?2, ?3, ?4)",
             )?;
             for (r, bytes) in &found {
-                let len = if bytes.get(4) == Some(&1) {
-                    shared::health::RECORD_V1_BYTES
-                } else {
-                    RECORD_BYTES
-                };
+                // The record without the slot's erased tail (a decoded record's version is
+                // one `record_len` knows).
+                let len = bytes
+                    .get(4)
+                    .and_then(|&v| record_len(v))
+                    .unwrap_or(bytes.len());
                 let bytes = bytes.get(..len).unwrap_or(bytes);
                 let stored: Option<Vec<u8>> = get
                     .query_row(params![serial, r.flight], |row| row.get(0))

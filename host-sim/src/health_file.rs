@@ -101,16 +101,14 @@ pub fn slot_bytes(image: &[u8]) -> Result<usize> {
     }
 }
 
-/// A version-1 image (52-byte slots) as a version-2 image of as many slots: each sound
-/// record re-encoded in its slot, every other slot erased.
+/// A version-1 image (52-byte slots) as a version-2 image of as many slots
+/// ([`shared::health::upgrade_v1_image`]).
 fn upgrade_v1(image: &[u8]) -> Vec<u8> {
-    image
-        .chunks_exact(RECORD_V1_BYTES)
-        .flat_map(|c| match HealthRecord::decode(c) {
-            Ok(r) => r.encode(),
-            Err(_) => [0xFF; RECORD_BYTES],
-        })
-        .collect()
+    let slots = image.len() / RECORD_V1_BYTES;
+    let mut out = image.to_vec();
+    out.resize(slots * RECORD_BYTES, 0xFF);
+    shared::health::upgrade_v1_image(&mut out, slots);
+    out
 }
 
 /// A health-log image in memory, of either record version (read-only).

@@ -446,17 +446,11 @@ enum Command {
     Prognose {
         /// History CSV (`degrade --out`) or health log (`degrade --log`, the firmware's).
         history: PathBuf,
-        /// Maintenance threshold on the deviation from nominal: one value for every fault, or
-        /// name=value pairs (friction, backlash, short_a, short_b, short_c, eccentricity,
-        /// gain_drift) over the defaults 0.5, 0.5, 0.3, 0.3, 0.3, 0.5, 0.25.
-        #[arg(long, value_parser = prognostics::parse_thresholds)]
-        threshold: Option<[f32; FAULT_COUNT]>,
+        #[command(flatten)]
+        trend: TrendArgs,
         /// Use only the flights up to and including this one.
         #[arg(long)]
         at: Option<u32>,
-        /// Flights searched ahead for the threshold crossing.
-        #[arg(long, default_value_t = 500, value_parser = clap::value_parser!(u32).range(1..=100_000))]
-        horizon: u32,
         /// Draw the history, the fit and the RUL cone into this SVG.
         #[arg(long)]
         plot: Option<PathBuf>,
@@ -753,19 +747,11 @@ fn main() -> ExitCode {
         }),
         Command::Prognose {
             history,
-            threshold,
+            trend,
             at,
-            horizon,
             plot,
             json,
-        } => {
-            let mut settings = TrendSettings::DEFAULT;
-            if let Some(t) = threshold {
-                settings.thresholds = t;
-            }
-            settings.horizon = horizon;
-            prognose_command(&history, &settings, at, plot.as_deref(), json)
-        }
+        } => prognose_command(&history, &trend.settings(), at, plot.as_deref(), json),
         Command::Prognostics {
             seeds,
             first_seed,

@@ -708,14 +708,11 @@ pub fn tracks_of(
         let predictions = rows
             .iter()
             .map(|r| {
-                let rec = &r.record;
-                if rec.is_trusted() {
-                    if let Some(Some(d)) = rec.faults.deviations().get(i) {
-                        trend.update(rec.flight, *d, rec.std.get(i), settings);
-                    }
+                if r.record.is_trusted() {
+                    trend.add(&r.record, i, settings);
                 }
                 let e = trend.estimate(Some(threshold), settings);
-                (rec.flight, e.and_then(|e| e.rul))
+                (r.record.flight, e.and_then(|e| e.rul))
             })
             .collect();
         let detected = path
@@ -977,6 +974,24 @@ impl Totals {
     const HEADER: &'static str = "| tracks | α-λ λ=0.5 | α-λ λ=0.75 | within ±α after half life | 90 % interval holds truth (every prediction) | (after half life) | misses that are optimistic |\n";
 }
 
+/// `tracks` grouped by `key`, groups in the order their first track comes, each named by
+/// `name`.
+fn grouped<'t, K: PartialEq + Copy>(
+    tracks: &'t [Track],
+    key: impl Fn(&'t Track) -> K,
+    name: impl Fn(K) -> String,
+) -> Vec<(String, Vec<&'t Track>)> {
+    let mut groups: Vec<(K, Vec<&Track>)> = Vec::new();
+    for t in tracks {
+        let k = key(t);
+        match groups.iter_mut().find(|g| g.0 == k) {
+            Some(g) => g.1.push(t),
+            None => groups.push((k, vec![t])),
+        }
+    }
+    groups.into_iter().map(|(k, ts)| (name(k), ts)).collect()
+}
+
 /// The evaluation report (Markdown): the totals, by family, by path shape and by noise, then
 /// one row per scenario and fault.
 pub fn eval_markdown(eval: &Evaluation, alpha: f64) -> String {
@@ -995,56 +1010,20 @@ pub fn eval_markdown(eval: &Evaluation, alpha: f64) -> String {
     out += &summary("", vec![("**all**".into(), tracks.iter().collect())]);
     out += &Totals::of(tracks, alpha, PredictionStart::FirstFlight)
         .row("all, counted from the first flight");
-    let mut families: Vec<&str> = Vec::new();
-    for t in tracks {
-        if !families.contains(&t.family) {
-            families.push(t.family);
-        }
-    }
     out += "\n";
     out += &summary(
         "fault family",
-        families
-            .iter()
-            .map(|f| {
-                (
-                    f.to_string(),
-                    tracks.iter().filter(|t| t.family == *f).collect(),
-                )
-            })
-            .collect(),
+        grouped(tracks, |t| t.family, |f| f.to_string()),
     );
     out += "\n";
     out += &summary(
         "growth",
-        PathShape::ALL
-            .iter()
-            .map(|s| {
-                (
-                    s.name().to_string(),
-                    tracks.iter().filter(|t| t.shape == *s).collect(),
-                )
-            })
-            .collect(),
+        grouped(tracks, |t| t.shape, |s| s.name().to_string()),
     );
-    let mut noises: Vec<f64> = Vec::new();
-    for t in tracks {
-        if !noises.contains(&t.noise) {
-            noises.push(t.noise);
-        }
-    }
     out += "\n";
     out += &summary(
         "I_ref noise",
-        noises
-            .iter()
-            .map(|n| {
-                (
-                    format!("{:.0} %", 100.0 * n),
-                    tracks.iter().filter(|t| t.noise == *n).collect(),
-                )
-            })
-            .collect(),
+        grouped(tracks, |t| t.noise, |n| format!("{:.0} %", 100.0 * n)),
     );
     let c = eval.intrusions;
     out += &format!(
@@ -1054,23 +1033,18 @@ pub fn eval_markdown(eval: &Evaluation, alpha: f64) -> String {
         c.injected, c.flagged, c.false_alarms
     );
     // Per scenario and fault.
-    let mut groups: Vec<(&str, usize, Vec<&Track>)> = Vec::new();
-    for t in tracks {
-        match groups
-            .iter_mut()
-            .find(|g| g.0 == t.scenario && g.1 == t.fault)
-        {
-            Some(g) => g.2.push(t),
-            None => groups.push((&t.scenario, t.fault, vec![t])),
-        }
-    }
+    let groups = grouped(
+        tracks,
+        |t| (t.scenario.as_str(), t.fault),
+        |(name, fault)| format!("{name} | {}", FAULT_NAMES[fault]),
+    );
     let pct = |x: f64| format!("{:.0} %", 100.0 * x);
     out += &format!(
         "\n| scenario | fault | runs | true EOL [flight] | α-λ λ=0.5 | RUL error at λ=0.5 (each run) | within ±{a} after half life | 90 % interval holds truth | prognostic horizon [flights] (PH/EOL) |\n\
          | --- | --- | ---: | ---: | ---: | --- | ---: | ---: | --- |\n",
         a = pct(alpha)
     );
-    for (name, fault, ts) in &groups {
+    for (name, ts) in &groups {
         let m: Vec<TrackMetrics> = ts
             .iter()
             .map(|t| t.metrics(alpha, PredictionStart::Detection))
@@ -1087,8 +1061,7 @@ pub fn eval_markdown(eval: &Evaluation, alpha: f64) -> String {
         let eol = ts.iter().map(|t| t.eol).sum::<f64>() / n;
         let ph: Vec<String> = m.iter().map(|x| format!("{:.0}", x.horizon)).collect();
         out += &format!(
-            "| {name} | {} | {} | {eol:.1} | {}/{} | {} | {} | {} | {} ({}) |\n",
-            FAULT_NAMES[*fault],
+            "| {name} | {} | {eol:.1} | {}/{} | {} | {} | {} | {} ({}) |\n",
             m.len(),
             tot.alpha_lambda_half,
             m.len(),

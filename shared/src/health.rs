@@ -62,6 +62,15 @@ pub const RECORD_V1_BYTES: usize = 52;
 pub const RECORD_MAGIC: [u8; 4] = *b"EMAH";
 pub const RECORD_VERSION: u8 = 2;
 
+/// Bytes of a record of `version` (the byte after the magic), if it is one this code reads.
+pub fn record_len(version: u8) -> Option<usize> {
+    match version {
+        1 => Some(RECORD_V1_BYTES),
+        RECORD_VERSION => Some(RECORD_BYTES),
+        _ => None,
+    }
+}
+
 /// A standard deviation as stored: units of 2⁻¹⁶ of the fault vector's range, `u16::MAX` for
 /// "not determined". Largest storable: 65 534 · 2⁻¹⁶ ≈ 0.99997.
 const STD_UNIT: f32 = 1.0 / 65_536.0;
@@ -266,10 +275,8 @@ impl HealthRecord {
             return Err(HealthRecordError::BadMagic);
         }
         let [version, domain, detected, reserved] = word(4);
-        let len = match version {
-            1 => RECORD_V1_BYTES,
-            RECORD_VERSION => RECORD_BYTES,
-            v => return Err(HealthRecordError::UnsupportedVersion(v)),
+        let Some(len) = record_len(version) else {
+            return Err(HealthRecordError::UnsupportedVersion(version));
         };
         let (Some(body), Some(sum)) = (bytes.get(..len - 4), bytes.get(len - 4..len)) else {
             return Err(HealthRecordError::BadChecksum);
@@ -394,27 +401,7 @@ impl<const S: usize> RamStore<S> {
     /// overwritten before it is read (a version-2 slot starts at or after its version-1
     /// self). O(`S · 68`).
     pub fn upgrade_v1(&mut self) -> usize {
-        let mut kept = 0;
-        for i in (0..S).rev() {
-            let mut old = [0u8; RECORD_V1_BYTES];
-            if let Some(src) = self
-                .as_bytes()
-                .get(i * RECORD_V1_BYTES..(i + 1) * RECORD_V1_BYTES)
-            {
-                old.copy_from_slice(src);
-            }
-            let new = match HealthRecord::decode(&old) {
-                Ok(r) if old.get(4) == Some(&1) => {
-                    kept += 1;
-                    r.encode()
-                }
-                _ => [0xFF; RECORD_BYTES],
-            };
-            if let Some(slot) = self.slots.get_mut(i) {
-                *slot = new;
-            }
-        }
-        kept
+        upgrade_v1_image(self.as_bytes_mut(), S)
     }
 
     /// An erased store (every byte 0xFF, as flash after erase).
@@ -556,13 +543,10 @@ impl<const N: usize> HealthLog<N> {
                 return Err(HealthLogError::NotNewer { last: last.flight });
             }
         }
-        let slots = store.slots();
-        if slots == 0 || N == 0 {
+        if N == 0 {
             return Err(HealthLogError::NoSlots);
         }
-        store
-            .write(record.flight as usize % slots, &record.encode())
-            .map_err(HealthLogError::Store)?;
+        write_slot(store, &record)?;
         // Checked above: newer than the newest, and N > 0.
         self.push(record).map_err(|_| HealthLogError::NoSlots)
     }
@@ -652,6 +636,62 @@ pub fn replay<S: HealthStore>(
         }
     }
     Ok(passed)
+}
+
+/// Where [`write_slot`] put a record, and the sound record the slot held before.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Written {
+    pub slot: usize,
+    pub replaced: Option<HealthRecord>,
+}
+
+/// Writes `record` to its slot of `store` (slot `flight mod slots`): one read (what the slot
+/// held) and one write. The caller has checked that the record is newer than the store's
+/// newest.
+pub fn write_slot<S: HealthStore>(
+    store: &mut S,
+    record: &HealthRecord,
+) -> Result<Written, HealthLogError<S::Error>> {
+    let slots = store.slots();
+    if slots == 0 {
+        return Err(HealthLogError::NoSlots);
+    }
+    let slot = record.flight as usize % slots;
+    let mut bytes = [0u8; RECORD_BYTES];
+    store
+        .read(slot, &mut bytes)
+        .map_err(HealthLogError::Store)?;
+    let replaced = HealthRecord::decode(&bytes).ok();
+    store
+        .write(slot, &record.encode())
+        .map_err(HealthLogError::Store)?;
+    Ok(Written { slot, replaced })
+}
+
+/// Rewrites, in place, the first `slots · 52` bytes of `image` (version-1 slots) as `slots`
+/// version-2 slots: each sound version-1 record re-encoded in its slot (without standard
+/// deviations), every other slot erased. Slots are taken last to first, so that none is
+/// overwritten before it is read (a version-2 slot starts at or after its version-1 self).
+/// Slots beyond the image are left out. Returns the records kept. O(`slots · 68`).
+pub fn upgrade_v1_image(image: &mut [u8], slots: usize) -> usize {
+    let mut kept = 0;
+    for i in (0..slots).rev() {
+        let mut old = [0u8; RECORD_V1_BYTES];
+        if let Some(src) = image.get(i * RECORD_V1_BYTES..(i + 1) * RECORD_V1_BYTES) {
+            old.copy_from_slice(src);
+        }
+        let new = match HealthRecord::decode(&old) {
+            Ok(r) if old.get(4) == Some(&1) => {
+                kept += 1;
+                r.encode()
+            }
+            _ => [0xFF; RECORD_BYTES],
+        };
+        if let Some(dst) = image.get_mut(i * RECORD_BYTES..(i + 1) * RECORD_BYTES) {
+            dst.copy_from_slice(&new);
+        }
+    }
+    kept
 }
 
 /// A never-written slot: all 0xFF (erased flash) or all zero (fresh RAM or file).

@@ -327,6 +327,14 @@ fn normal_cdf(x: f64) -> f64 {
     }
 }
 
+/// What every prediction of one estimate shares ([`FaultTrend::forecast`]).
+struct Forecast {
+    weights: [f64; MODEL_COUNT],
+    scale: [f64; MODEL_COUNT],
+    grows: [bool; MODEL_COUNT],
+    widen: f64,
+}
+
 /// One fault's trend: every shape's filter.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FaultTrend {
@@ -534,11 +542,27 @@ impl FaultTrend {
         (w, likeliest)
     }
 
-    /// Whether shape `i`'s growth coefficient is significantly positive (t > 2).
-    fn grows(&self, i: usize, settings: &TrendSettings) -> bool {
-        let fit = self.fit(i);
-        let var = fit.scale(self.observations, self.scale_floor(settings)) * fit.p[2];
-        fit.theta[1] > 0.0 && fit.theta[1] * fit.theta[1] > 4.0 * var
+    /// What every prediction of one estimate shares, computed once: each shape's weight and
+    /// scale, whether its growth coefficient is significantly positive (t > 2), and the
+    /// Student's t widening.
+    fn forecast(&self, settings: &TrendSettings) -> (Forecast, usize) {
+        let (weights, likeliest) = self.weights(settings);
+        let floor = self.scale_floor(settings);
+        let mut scale = [0.0; MODEL_COUNT];
+        let mut grows = [false; MODEL_COUNT];
+        for (i, (s, g)) in scale.iter_mut().zip(grows.iter_mut()).enumerate() {
+            let fit = self.fit(i);
+            *s = fit.scale(self.observations, floor);
+            let var = *s * fit.p[2];
+            *g = fit.theta[1] > 0.0 && fit.theta[1] * fit.theta[1] > 4.0 * var;
+        }
+        let forecast = Forecast {
+            weights,
+            scale,
+            grows,
+            widen: t90(self.observations.saturating_sub(2)) / Z90,
+        };
+        (forecast, likeliest)
     }
 
     /// Shape `i`'s predicted level at `flight` and its standard deviation (fit, widened to
@@ -547,40 +571,44 @@ impl FaultTrend {
     /// (a fast exponential of tiny amplitude explains a flat history as well as a line does,
     /// and would otherwise put every healthy component a few dozen flights from its
     /// threshold).
-    fn predictive(&self, i: usize, flight: f64, settings: &TrendSettings) -> (f64, f64) {
+    fn predictive(
+        &self,
+        f: &Forecast,
+        i: usize,
+        flight: f64,
+        settings: &TrendSettings,
+    ) -> (f64, f64) {
         let fit = self.fit(i);
         let newest = f64::from(self.newest);
-        let flight = if flight > newest && !self.grows(i, settings) {
+        let grows = f.grows.get(i).copied().unwrap_or(false);
+        let flight = if flight > newest && !grows {
             newest
         } else {
             flight
         };
         let g = Self::growth(i).shape(flight - f64::from(self.origin));
-        let widen = t90(self.observations.saturating_sub(2)) / Z90;
-        let var = fit.scale(self.observations, self.scale_floor(settings))
-            * fit.spread(g)
-            * widen
-            * widen
-            + settings.systematic * settings.systematic;
+        let scale = f.scale.get(i).copied().unwrap_or(1.0);
+        let var =
+            scale * fit.spread(g) * f.widen * f.widen + settings.systematic * settings.systematic;
         (fit.mean(g), sqrt64(var))
     }
 
     /// The likeliest shape's level at `flight` and its 90 % half-width.
     pub fn band(&self, flight: f64, settings: &TrendSettings) -> (f64, f64) {
-        let (_, likeliest) = self.weights(settings);
-        let (m, sd) = self.predictive(likeliest, flight, settings);
+        let (f, likeliest) = self.forecast(settings);
+        let (m, sd) = self.predictive(&f, likeliest, flight, settings);
         (m, Z90 * sd)
     }
 
     /// The envelope of the 90 % bands of every shape with at least 1 % of the weight, at
     /// `flight` (the cone of the picture).
     pub fn envelope(&self, flight: f64, settings: &TrendSettings) -> (f64, f64) {
-        let (w, _) = self.weights(settings);
+        let (f, _) = self.forecast(settings);
         let mut lo = f64::INFINITY;
         let mut hi = f64::NEG_INFINITY;
-        for (i, &wi) in w.iter().enumerate() {
+        for (i, &wi) in f.weights.iter().enumerate() {
             if wi >= 0.01 {
-                let (m, sd) = self.predictive(i, flight, settings);
+                let (m, sd) = self.predictive(&f, i, flight, settings);
                 lo = lo.min(m - Z90 * sd);
                 hi = hi.max(m + Z90 * sd);
             }
@@ -589,18 +617,12 @@ impl FaultTrend {
     }
 
     /// Probability that the level has reached `threshold` at `flight`, mixed over the
-    /// shapes of weights `w`.
-    fn reached(
-        &self,
-        w: &[f64; MODEL_COUNT],
-        threshold: f64,
-        flight: f64,
-        s: &TrendSettings,
-    ) -> f64 {
+    /// shapes by the weights of `f`.
+    fn reached(&self, f: &Forecast, threshold: f64, flight: f64, s: &TrendSettings) -> f64 {
         let mut p = 0.0;
-        for (i, &wi) in w.iter().enumerate() {
+        for (i, &wi) in f.weights.iter().enumerate() {
             if wi > NEGLIGIBLE_WEIGHT {
-                let (m, sd) = self.predictive(i, flight, s);
+                let (m, sd) = self.predictive(f, i, flight, s);
                 p += wi * normal_cdf((m - threshold) / sd);
             }
         }
@@ -611,7 +633,7 @@ impl FaultTrend {
     /// given its values `grid` on the grid of `step` flights (module doc).
     fn quantile(
         &self,
-        w: &[f64; MODEL_COUNT],
+        f: &Forecast,
         threshold: f64,
         q: f64,
         grid: &[f64; GRID_STEPS as usize + 1],
@@ -626,7 +648,7 @@ impl FaultTrend {
         let (mut lo, mut hi) = ((k - 1) as f64 * step, k as f64 * step);
         for _ in 0..BISECTION_STEPS {
             let mid = 0.5 * (lo + hi);
-            if self.reached(w, threshold, now + mid, settings) >= q {
+            if self.reached(f, threshold, now + mid, settings) >= q {
                 hi = mid;
             } else {
                 lo = mid;
@@ -644,7 +666,7 @@ impl FaultTrend {
         if self.observations < 3 {
             return None;
         }
-        let (w, likeliest) = self.weights(settings);
+        let (f, likeliest) = self.forecast(settings);
         let fit = self.fit(likeliest);
         let growth = Self::growth(likeliest);
         let delta = f64::from(self.newest - self.origin);
@@ -654,11 +676,11 @@ impl FaultTrend {
             let now = f64::from(self.newest);
             let mut grid = [0.0; GRID_STEPS as usize + 1];
             for (k, g) in grid.iter_mut().enumerate() {
-                *g = self.reached(&w, t, now + k as f64 * step, settings);
+                *g = self.reached(&f, t, now + k as f64 * step, settings);
             }
             let horizon = f64::from(settings.horizon);
             let at = |q: f64| {
-                self.quantile(&w, t, q, &grid, step, settings)
+                self.quantile(&f, t, q, &grid, step, settings)
                     .filter(|&x| x <= horizon)
                     .map(|x| x as f32)
             };
@@ -678,11 +700,10 @@ impl FaultTrend {
             outliers: fit.outliers,
             newest: self.newest,
             growth,
-            weight: w.get(likeliest).copied().unwrap_or(0.0) as f32,
+            weight: f.weights.get(likeliest).copied().unwrap_or(0.0) as f32,
             level: fit.mean(growth.shape(delta)) as f32,
             slope: (fit.theta[1] * growth.slope(delta)) as f32,
-            scatter: sqrt64(typical * fit.scale(self.observations, self.scale_floor(settings)))
-                as f32,
+            scatter: sqrt64(typical * f.scale.get(likeliest).copied().unwrap_or(1.0)) as f32,
             rul,
         })
     }
@@ -731,15 +752,8 @@ impl HealthTrend {
             return;
         }
         let mut taken = false;
-        for (i, (trend, d)) in self
-            .faults
-            .iter_mut()
-            .zip(record.faults.deviations())
-            .enumerate()
-        {
-            if let Some(d) = d {
-                taken |= trend.update(record.flight, d, record.std.get(i), settings);
-            }
+        for (i, trend) in self.faults.iter_mut().enumerate() {
+            taken |= trend.add(record, i, settings);
         }
         if !taken {
             self.skipped += 1;

@@ -38,13 +38,8 @@ pub(crate) enum FleetCommand {
         /// Actuators (from the top of the ranking) whose trends are drawn.
         #[arg(long, default_value_t = 20)]
         detail: usize,
-        /// Maintenance threshold on the deviation from nominal: one value for every fault, or
-        /// name=value pairs over the defaults (as `prognose --threshold`).
-        #[arg(long, value_parser = prognostics::parse_thresholds)]
-        threshold: Option<[f32; FAULT_COUNT]>,
-        /// Flights searched ahead for the threshold crossing.
-        #[arg(long, default_value_t = 500, value_parser = clap::value_parser!(u32).range(1..=100_000))]
-        horizon: u32,
+        #[command(flatten)]
+        trend: TrendArgs,
     },
     /// Benchmark: a synthetic fleet (no reference model: paths and scatter drawn at random)
     /// written as health logs, ingested into a new store and reported, on one thread; prints
@@ -73,15 +68,9 @@ pub(crate) fn fleet_command(command: FleetCommand) -> Result<ExitCode> {
             db,
             out,
             detail,
-            threshold,
-            horizon,
+            trend,
         } => {
-            let mut settings = TrendSettings::DEFAULT;
-            if let Some(t) = threshold {
-                settings.thresholds = t;
-            }
-            settings.horizon = horizon;
-            report(&db, &out, detail, &settings)?;
+            report(&db, &out, detail, &trend.settings())?;
             Ok(ExitCode::SUCCESS)
         }
         FleetCommand::Bench {

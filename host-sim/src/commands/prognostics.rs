@@ -2,6 +2,31 @@
 
 use crate::*;
 
+/// The trend's thresholds and horizon on the command line (`prognose`, `fleet report`).
+#[derive(clap::Args)]
+pub(crate) struct TrendArgs {
+    /// Maintenance threshold on the deviation from nominal: one value for every fault, or
+    /// name=value pairs (friction, backlash, short_a, short_b, short_c, eccentricity,
+    /// gain_drift) over the defaults 0.5, 0.5, 0.3, 0.3, 0.3, 0.5, 0.25.
+    #[arg(long, value_parser = prognostics::parse_thresholds)]
+    threshold: Option<[f32; FAULT_COUNT]>,
+    /// Flights searched ahead for the threshold crossing.
+    #[arg(long, default_value_t = 500, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    horizon: u32,
+}
+
+impl TrendArgs {
+    /// The controller's settings with these thresholds and this horizon.
+    pub(crate) fn settings(&self) -> TrendSettings {
+        let mut settings = TrendSettings::DEFAULT;
+        if let Some(t) = self.threshold {
+            settings.thresholds = t;
+        }
+        settings.horizon = self.horizon;
+        settings
+    }
+}
+
 pub(crate) fn degrade_command(
     path: &DegradationPath,
     noise: f64,
