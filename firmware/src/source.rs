@@ -2,12 +2,12 @@
 //!
 //! [`CurrentSource`] hands out one 10 kHz [`AdcFrame`] per call (O(1) work): on the
 //! controller, the timer-triggered ADC (`main.rs`, `hardware` feature, a documented sketch);
-//! under emulation and in tests, a binary trace v1 ([`shared::trace`]) read through
+//! under emulation and in tests, a binary trace of any version ([`shared::trace`]) read through
 //! [`TraceSource`], which checks header, length, sample rate and checksum the way
 //! `host-sim` does, so both sides refuse the same files.
 
 use shared::trace::{
-    Crc32, SaturationCheck, TraceError, TraceHeader, TraceRow, HEADER_BYTES, ROW_BYTES,
+    Crc32, SaturationCheck, TraceError, TraceHeader, TraceRow, HEADER_BYTES, MAX_ROW_BYTES,
     TRAILER_BYTES,
 };
 use shared::AdcFrame;
@@ -54,7 +54,7 @@ pub enum TraceSourceError<E> {
     SampleRate { found: u32 },
 }
 
-/// Frames from a binary trace v1. The checksum covers every row, so it is checked when the
+/// Frames from a binary trace (versions 1–3). The checksum covers every row, so it is checked when the
 /// last row has been read: [`Acquired::EndOfTest`] only follows a trace whose checksum matched.
 #[derive(Debug)]
 pub struct TraceSource<B> {
@@ -125,13 +125,12 @@ impl<B: TraceBytes> CurrentSource for TraceSource<B> {
             self.finished = true;
             return Ok(Acquired::EndOfTest);
         }
-        let mut row = [0u8; ROW_BYTES];
-        self.bytes
-            .read_exact(&mut row)
-            .map_err(TraceSourceError::Io)?;
-        self.crc.update(&row);
+        let mut bytes = [0u8; MAX_ROW_BYTES];
+        let row = bytes.get_mut(..self.header.row_bytes()).unwrap_or(&mut []);
+        self.bytes.read_exact(row).map_err(TraceSourceError::Io)?;
+        self.crc.update(row);
         self.rows_read = self.rows_read.saturating_add(1);
-        let frame = TraceRow::decode(&row).adc_frame();
+        let frame = TraceRow::decode(row).adc_frame();
         self.saturation
             .push(&frame)
             .map_err(TraceSourceError::Trace)?;

@@ -59,13 +59,14 @@ fn trace_bytes(rows: &[TraceRow], sample_rate_hz: u32) -> Vec<u8> {
         sample_rate_hz,
         rows: rows.len() as u32,
         test: PreflightTest::PAPER,
+        conditions: false,
     };
     let mut out = header
         .encode()
         .expect("the paper's test has a code")
         .to_vec();
     for r in rows {
-        out.extend_from_slice(&r.encode());
+        out.extend_from_slice(r.encode().as_slice());
     }
     let mut crc = Crc32::new();
     crc.update(&out);

@@ -42,6 +42,7 @@ fn sealed(rows: &[u8], min_rows: usize, test: PreflightTest) -> Vec<u8> {
         sample_rate_hz: SAMPLE_RATE_HZ,
         rows: n as u32,
         test,
+        conditions: false,
     };
     let Ok(head) = header.encode() else {
         return Vec::new();

@@ -26,6 +26,9 @@ use shared::domain::DomainLimits;
 use shared::test_design::{PreflightTest, StandstillSegment};
 use shared::{ActuatorParams, Calibration, GaSettings};
 
+use crate::bridge::{
+    BridgeSettings, ConditionSensors, OperatingConditions, ThermalLaws, FRICTION_POINTS,
+};
 use crate::reference::ReferenceSettings;
 
 /// One actuator as the ground tools use it: the record the firmware would load, what the
@@ -124,6 +127,10 @@ impl Actuator {
     pub fn parse(text: &str) -> Result<Self> {
         let d: Description = toml::from_str(text).map_err(|e| anyhow!("{e}"))?;
         let actuator = d.build();
+        if let Some(field) = actuator.reference.as_ref().and_then(check_day) {
+            let at = line_of(text, field).map_or(String::new(), |l| format!(" (line {l})"));
+            bail!("`{field}`{at}: {}", range_text(field));
+        }
         if let Err(e) = actuator.record.validate() {
             let ActuatorRecordError::OutOfRange { field } = e else {
                 bail!("{}", describe(e));
@@ -303,6 +310,34 @@ impl Actuator {
         self
     }
 
+    /// The simulated actuator on another day or drive (`--temperature`, `--bus-voltage`,
+    /// …): the reference model plays it; the FDI's record is unchanged. Refused for a
+    /// record (it has no reference model) and for values out of their range.
+    pub fn with_day(mut self, day: Day) -> Result<Self> {
+        if day == Day::default() {
+            return Ok(self);
+        }
+        let mut r = self.reference_settings()?;
+        if let Some(t) = day.temperature {
+            r.conditions.winding_temperature = t;
+            r.conditions.gear_temperature = t;
+        }
+        if let Some(t) = day.gear_temperature {
+            r.conditions.gear_temperature = t;
+        }
+        if let Some(v) = day.bus_voltage {
+            r.conditions.bus_voltage = Some(v);
+        }
+        if let Some(d) = day.dead_time {
+            r.bridge.dead_time = d;
+        }
+        if let Some(field) = check_day(&r) {
+            bail!("{field}: {}", range_text(field));
+        }
+        self.reference = Some(r);
+        Ok(self)
+    }
+
     /// Refuses a command that runs on the built-in reference actuator only.
     pub fn built_in_only(&self, command: &str) -> Result<()> {
         if self.built_in {
@@ -315,6 +350,82 @@ impl Actuator {
             .into())
         }
     }
+}
+
+/// Overrides of the day and drive a simulation plays (`None`: the actuator file's).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Day {
+    /// Winding and gear temperature [°C].
+    pub temperature: Option<f64>,
+    /// Gear temperature alone [°C].
+    pub gear_temperature: Option<f64>,
+    /// Mean bus voltage [V].
+    pub bus_voltage: Option<f64>,
+    /// Bridge dead time [s].
+    pub dead_time: Option<f64>,
+}
+
+/// The first `[drive]`, `[conditions]` or thermal value of `r` out of its range, named as
+/// the file names it.
+fn check_day(r: &ReferenceSettings) -> Option<&'static str> {
+    let b = &r.bridge;
+    let c = &r.conditions;
+    let t = &r.thermal;
+    let period = 1.0 / b.carrier_hz;
+    let checks: [(bool, &'static str); 14] = [
+        (
+            b.carrier_hz >= 1.0e3 && b.carrier_hz <= 2.0e5,
+            "drive.carrier_hz",
+        ),
+        (
+            b.timer_hz == 0.0 || b.timer_hz >= 2.0 * b.carrier_hz,
+            "drive.timer_hz",
+        ),
+        (
+            b.dead_time >= 0.0 && b.dead_time < 0.1 * period,
+            "drive.dead_time",
+        ),
+        (
+            b.compensation_threshold >= 0.0,
+            "drive.compensation_threshold",
+        ),
+        (
+            (0.0..1.0).contains(&b.switch_resistance),
+            "drive.switch_resistance",
+        ),
+        ((0.0..5.0).contains(&b.diode_drop), "drive.diode_drop"),
+        (
+            (0.0..1.0).contains(&b.harness_resistance),
+            "drive.harness_resistance",
+        ),
+        ((0.0..0.2).contains(&b.ripple), "drive.bus_ripple"),
+        (b.ripple_hz >= 0.0, "drive.bus_ripple_hz"),
+        (
+            (-80.0..=200.0).contains(&c.winding_temperature),
+            "conditions.temperature",
+        ),
+        (
+            (-80.0..=200.0).contains(&c.gear_temperature),
+            "conditions.gear_temperature",
+        ),
+        (
+            c.bus_voltage.is_none_or(|v| v > 0.0 && v < 2000.0),
+            "conditions.bus_voltage",
+        ),
+        (
+            t.friction.windows(2).all(|w| w[1][0] > w[0][0])
+                && t.friction.iter().all(|p| p[1] > 0.0),
+            "reference_model.friction_vs_temperature",
+        ),
+        (
+            t.copper.abs() < 0.02 && t.magnet.abs() < 0.02,
+            "reference_model.copper_coefficient",
+        ),
+    ];
+    checks
+        .into_iter()
+        .find(|(ok, _)| !ok)
+        .map(|(_, field)| field)
 }
 
 /// The actuator and what it is asked to do disagree (another test kind, no calibration):
@@ -363,6 +474,18 @@ fn range_text(field: &str) -> &'static str {
         "installation.encoder_offset" => "must be finite (|offset| ≤ 10⁴ rad)",
         "ga" => "GA settings the flown solver cannot run (rates in [0, 1], sizes ≥ 1)",
         "detection.threshold" => "must be in (0, 1)",
+        "drive.carrier_hz" => "must be from 1 kHz to 200 kHz",
+        "drive.timer_hz" => "must be 0 (continuous duty) or at least twice the carrier",
+        "drive.dead_time" => "must be at least 0 and below a tenth of the carrier period",
+        "drive.switch_resistance" | "drive.harness_resistance" => "must be in [0, 1) Ω",
+        "drive.diode_drop" => "must be in [0, 5) V",
+        "drive.bus_ripple" => "must be in [0, 0.2) of the bus",
+        "conditions.temperature" | "conditions.gear_temperature" => "must be from −80 °C to 200 °C",
+        "conditions.bus_voltage" => "must be positive and below 2 000 V",
+        "reference_model.friction_vs_temperature" => {
+            "must be 5 points [°C, factor] rising in temperature, factors positive"
+        }
+        "reference_model.copper_coefficient" => "coefficients must be below 0.02 /K in size",
         f if f.ends_with("_ki")
             || f.ends_with("_kd")
             || f.ends_with("damping")
@@ -434,7 +557,39 @@ struct Description {
     sensors: Sensors,
     #[serde(default)]
     reference_model: ReferenceModelExtra,
+    #[serde(default)]
+    drive: Drive,
+    #[serde(default)]
+    conditions: Conditions,
     rig: Option<RigColumns>,
+}
+
+/// The power bridge the reference model plays (`crate::bridge::BridgeSettings`).
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct Drive {
+    carrier_hz: Option<f64>,
+    timer_hz: Option<f64>,
+    dead_time: Option<f64>,
+    dead_time_compensation: Option<bool>,
+    compensation_threshold: Option<f64>,
+    switch_resistance: Option<f64>,
+    diode_drop: Option<f64>,
+    harness_resistance: Option<f64>,
+    bus_ripple: Option<f64>,
+    bus_ripple_hz: Option<f64>,
+}
+
+/// The day the reference model plays (`crate::bridge::OperatingConditions`).
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct Conditions {
+    /// Winding temperature [°C].
+    temperature: Option<f64>,
+    /// Gear temperature [°C] (default: the winding's).
+    gear_temperature: Option<f64>,
+    /// Mean bus voltage [V] (default: `[motor] dc_bus_voltage`).
+    bus_voltage: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -565,6 +720,12 @@ struct Sensors {
     user_bits: Option<u32>,
     user_offset: Option<f64>,
     user_noise: Option<f64>,
+    bus_gain_error: Option<f64>,
+    bus_noise: Option<f64>,
+    bus_lsb: Option<f64>,
+    temperature_bias: Option<f64>,
+    temperature_noise: Option<f64>,
+    temperature_lsb: Option<f64>,
 }
 
 /// Physics the reference model plays and the monitor model does not know.
@@ -583,6 +744,35 @@ struct ReferenceModelExtra {
     /// The installation's true rigging offset the simulator plays [rad, motor side]
     /// (default: what `[installation]` says the FDI believes).
     encoder_offset: Option<f64>,
+    /// Temperature the data sheet's R, k_e and friction are given at [°C].
+    reference_temperature: Option<f64>,
+    /// Copper resistance and magnet flux coefficients [1/K].
+    copper_coefficient: Option<f64>,
+    magnet_coefficient: Option<f64>,
+    /// Dry friction factor against gear temperature: `[[°C, factor], …]`, 5 points rising
+    /// in temperature.
+    friction_vs_temperature: Option<[[f64; 2]; FRICTION_POINTS]>,
+}
+
+impl Drive {
+    /// The file's bridge, each key left out taken from `default`.
+    fn settings(&self, default: BridgeSettings) -> BridgeSettings {
+        let d = default;
+        BridgeSettings {
+            carrier_hz: self.carrier_hz.unwrap_or(d.carrier_hz),
+            timer_hz: self.timer_hz.unwrap_or(d.timer_hz),
+            dead_time: self.dead_time.unwrap_or(d.dead_time),
+            compensation: self.dead_time_compensation.unwrap_or(d.compensation),
+            compensation_threshold: self
+                .compensation_threshold
+                .unwrap_or(d.compensation_threshold),
+            switch_resistance: self.switch_resistance.unwrap_or(d.switch_resistance),
+            diode_drop: self.diode_drop.unwrap_or(d.diode_drop),
+            harness_resistance: self.harness_resistance.unwrap_or(d.harness_resistance),
+            ripple: self.bus_ripple.unwrap_or(d.ripple),
+            ripple_hz: self.bus_ripple_hz.unwrap_or(d.ripple_hz),
+        }
+    }
 }
 
 impl Description {
@@ -701,6 +891,37 @@ impl Description {
                 .encoder_offset
                 .unwrap_or(f64::from(self.installation.encoder_offset)),
             pre_roll: x.pre_roll.unwrap_or(r.pre_roll),
+            bridge: self.drive.settings(r.bridge),
+            thermal: ThermalLaws {
+                reference_temperature: x
+                    .reference_temperature
+                    .unwrap_or(r.thermal.reference_temperature),
+                copper: x.copper_coefficient.unwrap_or(r.thermal.copper),
+                magnet: x.magnet_coefficient.unwrap_or(r.thermal.magnet),
+                friction: x.friction_vs_temperature.unwrap_or(r.thermal.friction),
+            },
+            conditions: {
+                let winding = self
+                    .conditions
+                    .temperature
+                    .unwrap_or(r.conditions.winding_temperature);
+                OperatingConditions {
+                    winding_temperature: winding,
+                    gear_temperature: self.conditions.gear_temperature.unwrap_or(winding),
+                    bus_voltage: self.conditions.bus_voltage,
+                }
+            },
+            condition_sensors: {
+                let c = r.condition_sensors;
+                ConditionSensors {
+                    bus_gain_error: s.bus_gain_error.unwrap_or(c.bus_gain_error),
+                    bus_noise: s.bus_noise.unwrap_or(c.bus_noise),
+                    bus_lsb: s.bus_lsb.unwrap_or(c.bus_lsb),
+                    temperature_bias: s.temperature_bias.unwrap_or(c.temperature_bias),
+                    temperature_noise: s.temperature_noise.unwrap_or(c.temperature_noise),
+                    temperature_lsb: s.temperature_lsb.unwrap_or(c.temperature_lsb),
+                }
+            },
         };
         Actuator {
             name: self.name,

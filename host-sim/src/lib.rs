@@ -17,6 +17,7 @@
 //! * [`faults`] — parsing fault vectors from the command line.
 
 pub mod actuator_file;
+pub mod bridge;
 pub mod calibration;
 pub mod campaign;
 pub mod domain;

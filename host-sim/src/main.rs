@@ -15,7 +15,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
-use host_sim::actuator_file::{Actuator, ActuatorRefused};
+use host_sim::actuator_file::{Actuator, ActuatorRefused, Day};
 use host_sim::calibration::{calibrate, CalibrationFile};
 use host_sim::campaign::{run_once, TABLE_1};
 use host_sim::faults;
@@ -130,6 +130,38 @@ struct ActuatorArgs {
     /// measured at rigging). Default: the actuator file's `[installation] encoder_offset`.
     #[arg(long, value_name = "RAD", allow_hyphen_values = true)]
     encoder_offset: Option<f64>,
+    #[command(flatten)]
+    day: DayArgs,
+}
+
+/// The day and the drive the reference model plays, over the actuator file's `[conditions]`
+/// and `[drive]`.
+#[derive(clap::Args, Clone, Copy, Debug, Default)]
+struct DayArgs {
+    /// Winding temperature of the simulated actuator [°C] (the gear's too, unless
+    /// --gear-temperature). Default: the file's `[conditions] temperature` (20 °C).
+    #[arg(long, value_name = "CELSIUS", allow_hyphen_values = true)]
+    temperature: Option<f64>,
+    /// Gear and bearing (grease) temperature [°C]: dry friction follows the file's law.
+    #[arg(long, value_name = "CELSIUS", allow_hyphen_values = true)]
+    gear_temperature: Option<f64>,
+    /// Mean DC bus voltage [V] (MIL-STD-704: 250–280 V on a 270 V bus).
+    #[arg(long, value_name = "VOLTS")]
+    bus_voltage: Option<f64>,
+    /// The bridge's dead time [s] (e.g. 1e-6), compensated as the file's `[drive]` says.
+    #[arg(long, value_name = "SECONDS")]
+    dead_time: Option<f64>,
+}
+
+impl DayArgs {
+    fn day(self) -> Day {
+        Day {
+            temperature: self.temperature,
+            gear_temperature: self.gear_temperature,
+            bus_voltage: self.bus_voltage,
+            dead_time: self.dead_time,
+        }
+    }
 }
 
 /// The preflight test designs the FDI plays end to end.
@@ -294,6 +326,8 @@ enum Command {
         /// The installation's rigging offset [rad, motor side] (see `simulate --help`).
         #[arg(long, value_name = "RAD", allow_hyphen_values = true)]
         encoder_offset: Option<f64>,
+        #[command(flatten)]
+        day: DayArgs,
     },
     /// Inverse check: simulate the monitor model at known faults, then identify them with the
     /// onboard FDI (same code, settings and sizes as the firmware).
@@ -572,11 +606,12 @@ fn main() -> ExitCode {
             return ExitCode::from(EXIT_ACTUATOR_REFUSED);
         }
     };
-    let with_test = |test: Option<TestChoice>, offset: Option<f64>| {
+    let with_test = |test: Option<TestChoice>, offset: Option<f64>, day: DayArgs| {
         actuator
             .clone()
             .with_encoder_offset(offset)
-            .with_test_choice(test.map(TestChoice::test))
+            .with_day(day.day())
+            .and_then(|a| a.with_test_choice(test.map(TestChoice::test)))
     };
     let outcome = match cli.command {
         Command::Preflight {
@@ -587,11 +622,12 @@ fn main() -> ExitCode {
                     seed,
                     test,
                     encoder_offset,
+                    day,
                 },
             ga_seed,
             trace_out,
             json,
-        } => with_test(test, encoder_offset).and_then(|actuator| {
+        } => with_test(test, encoder_offset, day).and_then(|actuator| {
             preflight(
                 &actuator,
                 faults,
@@ -610,10 +646,11 @@ fn main() -> ExitCode {
                     seed,
                     test,
                     encoder_offset,
+                    day,
                 },
             format,
             out,
-        } => with_test(test, encoder_offset)
+        } => with_test(test, encoder_offset, day)
             .and_then(|actuator| simulate(&actuator, faults, noise, seed, format, &out)),
         Command::Calibrate {
             nominal_trace,
@@ -677,7 +714,8 @@ fn main() -> ExitCode {
             plot,
             test,
             encoder_offset,
-        } => with_test(test, encoder_offset).and_then(|actuator| {
+            day,
+        } => with_test(test, encoder_offset, day).and_then(|actuator| {
             campaign_command(&actuator, table, runs, out.as_deref(), plot.as_deref())
         }),
         Command::Inverse { faults, seed, json } => actuator

@@ -37,6 +37,7 @@ use shared::conditioning::COMMUTATION_SIGNS;
 use shared::test_design::{Drive, PreflightTest};
 use shared::{ActuatorParams, ChirpCommand, FaultVector};
 
+use crate::bridge::{to_lsb, BridgeSettings, ConditionSensors, OperatingConditions, ThermalLaws};
 use crate::trace_file::{Trace, TraceSample};
 
 use std::f64::consts::{FRAC_PI_2, PI, SQRT_2, TAU};
@@ -98,6 +99,14 @@ pub struct ReferenceSettings {
     /// Closed-loop hold at zero command before the chirp starts [s]: the test begins from
     /// a regulated actuator (which sits at minus the transducer offset), as on the aircraft.
     pub pre_roll: f64,
+    /// The power bridge between the controller and the motor (`[drive]`).
+    pub bridge: BridgeSettings,
+    /// How R, flux and friction move with temperature (`[reference_model]`).
+    pub thermal: ThermalLaws,
+    /// The day the test runs on (`[conditions]`, `--temperature`, `--bus-voltage`).
+    pub conditions: OperatingConditions,
+    /// What the controller measures of its bus and temperature (`[sensors]`).
+    pub condition_sensors: ConditionSensors,
 }
 
 impl ReferenceSettings {
@@ -124,6 +133,10 @@ impl ReferenceSettings {
         user_noise: 5.0e-7,
         encoder_offset: 0.0,
         pre_roll: 0.01,
+        bridge: BridgeSettings::IDEAL,
+        thermal: ThermalLaws::NDFEB_GREASED,
+        conditions: OperatingConditions::REFERENCE,
+        condition_sensors: ConditionSensors::EXACT,
     };
 }
 
@@ -341,19 +354,26 @@ impl ReferenceModel {
         let samples = self.test_samples();
         let pre_roll = (s.pre_roll / ts).round().max(0.0) as usize;
 
-        // Faulted constants.
+        // The day: copper and magnets at the winding's temperature, grease at the gear's.
+        let day = &s.conditions;
+        let bridge = &s.bridge;
+        let copper = s.thermal.copper_scale(day.winding_temperature);
+        let flux = s.thermal.flux_scale(day.winding_temperature);
+        let grease = s.thermal.friction_scale(day.gear_temperature);
+        // Faulted constants; the harness is in series with each phase's copper.
         let phases: [Phase; 3] = core::array::from_fn(|x| {
             let n = f64::from(fx.healthy_turns[x]);
             Phase {
-                resistance: f64::from(p.phase_resistance) * n,
+                resistance: f64::from(p.phase_resistance) * n * copper + bridge.harness_resistance,
                 inductance: f64::from(p.phase_inductance) * n * n,
-                coupling: f64::from(p.back_emf_constant) * n,
+                coupling: f64::from(p.back_emf_constant) * n * flux,
             }
         });
         let shapes = self.coupling_shapes(&scenario.faults);
         let kp = f64::from(p.position_kp) * f64::from(fx.kp_scale);
-        let static_friction = f64::from(p.static_friction) * f64::from(fx.friction_scale);
-        let dynamic_friction = f64::from(p.dynamic_friction) * f64::from(fx.friction_scale);
+        let static_friction = f64::from(p.static_friction) * f64::from(fx.friction_scale) * grease;
+        let dynamic_friction =
+            f64::from(p.dynamic_friction) * f64::from(fx.friction_scale) * grease;
         let stribeck = f64::from(p.stick_speed);
         let half_backlash = 0.5 * f64::from(p.nominal_backlash) * f64::from(fx.backlash_scale);
         let gear = f64::from(p.gear_ratio);
@@ -362,7 +382,8 @@ impl ReferenceModel {
         let jm = f64::from(p.motor_inertia);
         let ju = f64::from(p.user_inertia);
         let aero = f64::from(p.aero_stiffness);
-        let vdc = f64::from(p.dc_bus_voltage);
+        let bus_mean = day.bus_voltage.unwrap_or(f64::from(p.dc_bus_voltage));
+        let carrier = bridge.period(ts);
         let pole_pairs = f64::from(p.pole_pairs);
         let jammed = self.anomaly == Some(Anomaly::Jammed);
         let open_phase = match self.anomaly {
@@ -372,6 +393,9 @@ impl ReferenceModel {
 
         // Random streams: sensors and process noise, independent, both from the seed.
         let mut sensor_rng = Gaussian::new(scenario.seed ^ 0x5E45_0125_u64);
+        // The bus and temperature readings draw from their own stream.
+        let mut condition_rng = Gaussian::new(scenario.seed ^ 0x0000_7E3B_u64);
+        let cs = &s.condition_sensors;
         let current_ref_noise = if scenario.current_ref_noise > 0.0 {
             let level = scenario.current_ref_noise * self.nominal_current_ref_rms();
             band_limited_noise(pre_roll + samples, level, scenario.seed ^ 0x0000_1F5E_u64)
@@ -430,6 +454,18 @@ impl ReferenceModel {
                 )
             });
             let encoder = quantise_angle(theta_m, encoder_lsb);
+            let now = (n * steps_per_tick) as f64 * dt;
+            let measured_bus = to_lsb(
+                bridge.bus(bus_mean, now) * (1.0 + cs.bus_gain_error)
+                    + cs.bus_noise * condition_rng.next(),
+                cs.bus_lsb,
+            );
+            let measured_temperature = to_lsb(
+                day.winding_temperature
+                    + cs.temperature_bias
+                    + cs.temperature_noise * condition_rng.next(),
+                cs.temperature_lsb,
+            );
             let user_sensed = quantise(
                 theta_u + s.user_offset + s.user_noise * sensor_rng.next(),
                 user_lsb,
@@ -450,6 +486,8 @@ impl ReferenceModel {
                     phase_currents: sensed_currents,
                     motor_angle: encoder,
                     user_angle: user_sensed,
+                    bus_voltage: Some(measured_bus),
+                    temperature: Some(measured_temperature),
                 });
             }
 
@@ -497,13 +535,14 @@ impl ReferenceModel {
                 });
             }
             let mut applied = [0.0f64; 3];
-            // Centre-aligned PWM of the standstill segment: leg x is high for the middle
-            // `duty_x` of each control period, duty = ½ ± V/(2·V_dc).
-            let pwm_window = pair_drive.map(|d| {
+            // Centre-aligned PWM of the standstill segment: leg x is commanded high for the
+            // middle `duty_x` of each carrier period, duty = ½ ± V/(2·V_bus,measured), plus
+            // the dead time by the measured current's sign, in whole counts.
+            let pwm_duty = pair_drive.map(|d| {
                 let signs = d.signs();
-                signs.map(|sign| {
-                    let duty = 0.5 + f64::from(sign) * f64::from(d.volts) / (2.0 * vdc);
-                    (0.5 * ts * (1.0 - duty), 0.5 * ts * (1.0 + duty))
+                core::array::from_fn::<f64, 3, _>(|x| {
+                    let leg = f64::from(signs[x]) * f64::from(d.volts) * 0.5;
+                    bridge.duty(leg, measured_bus, sensed_currents[x])
                 })
             });
 
@@ -543,6 +582,8 @@ impl ReferenceModel {
                             phase_currents,
                             motor_angle: quantise_angle(theta_m, encoder_lsb),
                             user_angle,
+                            bus_voltage: Some(measured_bus),
+                            temperature: Some(measured_temperature),
                         });
                     }
                 }
@@ -560,25 +601,18 @@ impl ReferenceModel {
                 let coupling: [f64; 3] = core::array::from_fn(|x| phases[x].coupling * shape[x]);
                 let emf = coupling.map(|k| k * omega_m);
 
-                // Leg voltages: hysteresis on the conducting phases, diodes on the open one.
+                // Leg voltages: hysteresis on the conducting phases, diodes on the open one,
+                // through the bridge's switches, dead time and bus ripple.
+                let vdc = bridge.bus(bus_mean, (n * steps_per_tick + fine) as f64 * dt);
                 let mut v = [0.0f64; 3];
                 for x in 0..3 {
                     if x == floating {
                         legs[x] = 0;
-                        v[x] = if i[x] > 0.0 {
-                            -0.5 * vdc
-                        } else if i[x] < 0.0 {
-                            0.5 * vdc
-                        } else {
-                            0.0
-                        };
-                    } else if let Some(windows) = pwm_window {
-                        // The share of this fine step the leg spends high.
-                        let (rise, fall) = windows[x];
-                        let t0 = fine as f64 * dt;
-                        let high = ((t0 + dt).min(fall) - t0.max(rise)).max(0.0) / dt;
+                        v[x] = bridge.diode_leg(vdc, i[x]);
+                    } else if let Some(duty) = pwm_duty {
                         legs[x] = 0;
-                        v[x] = (2.0 * high - 1.0) * 0.5 * vdc;
+                        let t0 = fine as f64 * dt;
+                        v[x] = bridge.leg_voltage(duty[x], carrier, t0, dt, vdc, i[x]);
                     } else {
                         let reference = f64::from(signs[x]) * current_ref;
                         if i[x] < reference - s.hysteresis_band {
@@ -588,7 +622,7 @@ impl ReferenceModel {
                         } else if legs[x] == 0 {
                             legs[x] = if i[x] < reference { 1 } else { -1 };
                         }
-                        v[x] = f64::from(legs[x]) * 0.5 * vdc;
+                        v[x] = bridge.switched_leg(legs[x], vdc, i[x]);
                     }
                 }
 

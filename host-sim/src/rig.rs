@@ -326,6 +326,8 @@ pub fn import(
             phase_currents: core::array::from_fn(|j| lerp(currents[j][i0], currents[j][i1])),
             motor_angle: lerp(rows[i0][5], rows[i1][5]),
             user_angle: lerp(rows[i0][6], rows[i1][6]),
+            bus_voltage: None,
+            temperature: None,
         });
     }
     Ok(trace)

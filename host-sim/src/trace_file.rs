@@ -23,36 +23,47 @@ use shared::domain::DomainMonitor;
 use shared::fdi::{OnboardMeasured, TEST_SAMPLES};
 use shared::test_design::PreflightTest;
 use shared::trace::{
-    Crc32, SaturationCheck, TraceError, TraceHeader, TraceRow, CURRENT_FULL_SCALE, HEADER_BYTES,
-    MAGIC, ROW_BYTES, SATURATION_RUN, TRAILER_BYTES,
+    ConditionReading, Crc32, SaturationCheck, TraceError, TraceHeader, TraceRow,
+    CURRENT_FULL_SCALE, HEADER_BYTES, MAGIC, SATURATION_RUN, TRAILER_BYTES,
 };
 use shared::{ActuatorParams, LowPass};
 
 /// The CSV header, column for column.
 pub const CSV_HEADER: [&str; 7] = ["t", "theta_cmd", "i_a", "i_b", "i_c", "theta_m", "theta_u"];
+/// The optional columns of version 3 (both or neither): what the controller measured of its
+/// day, the DC bus voltage [V] and a temperature [°C].
+pub const CONDITION_HEADER: [&str; 2] = ["v_bus", "temp"];
 
 /// Sample rate of every trace this project writes [Hz].
 pub const SAMPLE_RATE_HZ: u32 = 10_000;
 
 /// One row of a trace.
-#[derive(Clone, Copy, Debug, PartialEq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TraceSample {
     pub time: f64,
     pub command: f64,
     pub phase_currents: [f64; 3],
     pub motor_angle: f64,
     pub user_angle: f64,
+    /// DC bus voltage the controller measured [V], where the trace carries it.
+    pub bus_voltage: Option<f64>,
+    /// Temperature the controller measured [°C], where the trace carries it.
+    pub temperature: Option<f64>,
 }
 
 impl TraceSample {
     /// The stored fixed-point form (the firmware's view).
     pub fn row(&self) -> TraceRow {
-        TraceRow::from_f64(
+        let row = TraceRow::from_f64(
             self.command,
             self.phase_currents,
             self.motor_angle,
             self.user_angle,
-        )
+        );
+        match (self.bus_voltage, self.temperature) {
+            (Some(v), Some(t)) => row.with_conditions(ConditionReading::from_f64(v, t)),
+            _ => row,
+        }
     }
 }
 
@@ -99,6 +110,24 @@ impl Trace {
     pub fn with_test(mut self, test: PreflightTest) -> Self {
         self.test = test;
         self
+    }
+
+    /// The same trace without the bus and temperature readings (what versions 1 and 2 hold).
+    pub fn without_conditions(mut self) -> Self {
+        for s in &mut self.samples {
+            s.bus_voltage = None;
+            s.temperature = None;
+        }
+        self
+    }
+
+    /// Whether every sample carries the bus voltage and temperature (version 3).
+    pub fn has_conditions(&self) -> bool {
+        !self.samples.is_empty()
+            && self
+                .samples
+                .iter()
+                .all(|s| s.bus_voltage.is_some() && s.temperature.is_some())
     }
 
     /// The test design the samples come from.
@@ -175,24 +204,35 @@ impl Trace {
             let name = self.test.kind_name();
             let _ = writeln!(out, "# test: {name}");
         }
-        let _ = writeln!(out, "{}", CSV_HEADER.join(","));
+        let conditions = self.has_conditions();
+        let _ = write!(out, "{}", CSV_HEADER.join(","));
+        if conditions {
+            let _ = write!(out, ",{}", CONDITION_HEADER.join(","));
+        }
+        let _ = writeln!(out);
         for s in &self.samples {
             let [a, b, c] = s.phase_currents;
-            let _ = writeln!(
+            let _ = write!(
                 out,
                 "{},{},{},{},{},{},{}",
                 s.time, s.command, a, b, c, s.motor_angle, s.user_angle
             );
+            if let (true, Some(v), Some(t)) = (conditions, s.bus_voltage, s.temperature) {
+                let _ = write!(out, ",{v},{t}");
+            }
+            let _ = writeln!(out);
         }
         out
     }
 
     pub fn to_bin(&self) -> Result<Vec<u8>> {
         let rows = u32::try_from(self.samples.len()).context("too many rows for format v1")?;
+        let conditions = self.has_conditions();
         let header = TraceHeader {
             sample_rate_hz: SAMPLE_RATE_HZ,
             rows,
             test: self.test,
+            conditions,
         };
         let mut out = Vec::with_capacity(header.file_bytes() as usize);
         out.extend_from_slice(
@@ -201,7 +241,15 @@ impl Trace {
                 .map_err(|_| anyhow::anyhow!("this test design has no code in format v2"))?,
         );
         for s in &self.samples {
-            out.extend_from_slice(&s.row().encode());
+            let row = if conditions {
+                s.row()
+            } else {
+                TraceRow {
+                    conditions: None,
+                    ..s.row()
+                }
+            };
+            out.extend_from_slice(row.encode().as_slice());
         }
         let mut crc = Crc32::new();
         crc.update(&out);
@@ -280,18 +328,18 @@ impl Trace {
         }
         let rate = f64::from(header.sample_rate_hz);
         let samples = body[HEADER_BYTES..]
-            .chunks_exact(ROW_BYTES)
+            .chunks_exact(header.row_bytes())
             .enumerate()
             .map(|(k, chunk)| {
-                let mut raw = [0u8; ROW_BYTES];
-                raw.copy_from_slice(chunk);
-                let r = TraceRow::decode(&raw);
+                let r = TraceRow::decode(chunk);
                 TraceSample {
                     time: k as f64 / rate,
                     command: r.command.to_num(),
                     phase_currents: r.phase_currents.map(|x| x.to_num()),
                     motor_angle: r.motor_angle.to_num(),
                     user_angle: r.user_angle.to_num(),
+                    bus_voltage: r.conditions.map(|c| c.bus_voltage.to_num()),
+                    temperature: r.conditions.map(|c| c.temperature.to_num()),
                 }
             })
             .collect();
@@ -334,27 +382,31 @@ impl Trace {
                 })?;
             }
         };
-        // Where each CSV_HEADER column sits in the file.
+        // Where each CSV_HEADER (then CONDITION_HEADER) column sits in the file.
         let names: Vec<&str> = header.split(',').map(str::trim).collect();
-        let mut position = [usize::MAX; 7];
+        let all: Vec<&'static str> = CSV_HEADER
+            .iter()
+            .chain(&CONDITION_HEADER)
+            .copied()
+            .collect();
+        let mut position = [usize::MAX; 9];
         for (at, name) in names.iter().enumerate() {
-            let Some(j) = CSV_HEADER.iter().position(|c| c == name) else {
+            let Some(j) = all.iter().position(|c| c == name) else {
                 return Err(IngestError::UnknownColumn {
                     name: (*name).to_string(),
                     position: at + 1,
                 });
             };
             if position[j] != usize::MAX {
-                return Err(IngestError::DuplicateColumn {
-                    name: CSV_HEADER[j],
-                });
+                return Err(IngestError::DuplicateColumn { name: all[j] });
             }
             position[j] = at;
         }
-        if let Some(j) = position.iter().position(|&p| p == usize::MAX) {
-            return Err(IngestError::MissingColumn {
-                name: CSV_HEADER[j],
-            });
+        // The conditions come as a pair: one without the other is a missing column.
+        let conditions = position[7..].iter().any(|&p| p != usize::MAX);
+        let needed = if conditions { 9 } else { 7 };
+        if let Some(j) = position[..needed].iter().position(|&p| p == usize::MAX) {
+            return Err(IngestError::MissingColumn { name: all[j] });
         }
         let mut samples = Vec::new();
         for (line, text) in lines {
@@ -383,8 +435,8 @@ impl Trace {
                     expected: names.len(),
                 });
             }
-            let mut v = [0.0f64; 7];
-            for ((slot, &at), column) in v.iter_mut().zip(&position).zip(CSV_HEADER) {
+            let mut v = [0.0f64; 9];
+            for ((slot, &at), &column) in v.iter_mut().zip(&position[..needed]).zip(&all) {
                 let cell = cells[at];
                 let x: f64 = cell.parse().map_err(|_| IngestError::NotNumeric {
                     line,
@@ -406,6 +458,8 @@ impl Trace {
                 phase_currents: [v[2], v[3], v[4]],
                 motor_angle: v[5],
                 user_angle: v[6],
+                bus_voltage: conditions.then_some(v[7]),
+                temperature: conditions.then_some(v[8]),
             });
         }
         let trace = Self { samples, test };
@@ -840,24 +894,53 @@ mod tests {
     #[test]
     fn csv_round_trips_exactly_and_binary_to_the_fixed_point_bits() {
         let t = trace();
+        assert!(t.has_conditions());
         let csv = t.to_csv();
-        // Version 2: the design on a comment line, then the header.
-        assert!(csv.starts_with(b"# test: standstill\nt,theta_cmd,i_a,i_b,i_c,theta_m,theta_u\n"));
+        // Version 3: the design on a comment line, then the header with the day's columns.
+        assert!(csv.starts_with(
+            b"# test: standstill\nt,theta_cmd,i_a,i_b,i_c,theta_m,theta_u,v_bus,temp\n"
+        ));
         assert_eq!(Trace::from_csv(&csv).unwrap(), t);
         let bin = t.to_bin().unwrap();
-        assert_eq!(bin.len(), 16 + 24 * 5520 + 4);
-        assert_eq!(&bin[4..8], &[2, 0, 6, 1]);
+        assert_eq!(bin.len(), 16 + 32 * 5520 + 4);
+        assert_eq!(&bin[4..8], &[3, 0, 8, 1]);
         let back = Trace::from_bin(&bin).unwrap();
         assert_eq!(back.test(), t.test());
         for (a, b) in t.samples().iter().zip(back.samples()) {
             assert_eq!(a.row(), b.row());
             assert_eq!(a.time, b.time);
+            assert_eq!(b.bus_voltage, Some(270.0));
         }
-        // The paper's test is still written, and read, as version 1.
+        // Without the day's readings: version 2, as before.
+        let t = t.without_conditions();
+        let csv = t.to_csv();
+        assert!(csv.starts_with(b"# test: standstill\nt,theta_cmd,i_a,i_b,i_c,theta_m,theta_u\n"));
+        assert_eq!(Trace::from_csv(&csv).unwrap(), t);
+        let bin = t.to_bin().unwrap();
+        assert_eq!(bin.len(), 16 + 24 * 5520 + 4);
+        assert_eq!(&bin[4..8], &[2, 0, 6, 1]);
+        for (a, b) in t
+            .samples()
+            .iter()
+            .zip(Trace::from_bin(&bin).unwrap().samples())
+        {
+            assert_eq!(a.row(), b.row());
+            assert_eq!(b.bus_voltage, None);
+        }
+        // One condition column without the other is a missing column (named at the header).
+        let text = String::from_utf8(trace().to_csv()).unwrap();
+        let half = text.replacen(",temp\n", "\n", 1);
+        assert!(matches!(
+            Trace::from_csv(half.as_bytes()),
+            Err(IngestError::MissingColumn { name: "temp" })
+        ));
+        // The paper's test without the day's readings is still written, and read, as
+        // version 1.
         let paper = ReferenceModel::new(ReferenceSettings::REFERENCE)
             .with_test(PreflightTest::PAPER)
             .simulate(&Scenario::new(FaultVector::NOMINAL))
-            .trace;
+            .trace
+            .without_conditions();
         let csv = paper.to_csv();
         assert!(csv.starts_with(b"t,theta_cmd,i_a,i_b,i_c,theta_m,theta_u\n"));
         assert_eq!(Trace::from_csv(&csv).unwrap(), paper);

@@ -1,4 +1,4 @@
-//! The binary preflight trace, format versions 1 and 2: what `host-sim simulate --format bin`
+//! The binary preflight trace, format versions 1 to 3: what `host-sim simulate --format bin`
 //! writes and what the firmware reads under emulation. Decoding is O(1) per row, no
 //! allocation.
 //!
@@ -7,12 +7,12 @@
 //! | offset | bytes | field |
 //! | --- | --- | --- |
 //! | 0 | 4 | magic `b"EMAT"` |
-//! | 4 | 2 | format version, `u16`: 1 or 2 |
-//! | 6 | 1 | columns per row, `u8` = 6 |
-//! | 7 | 1 | version 2: the test design's code ([`PreflightTest::code`]); version 1: 0 |
+//! | 4 | 2 | format version, `u16`: 1, 2 or 3 |
+//! | 6 | 1 | columns per row, `u8`: 6 (versions 1, 2), 8 (version 3) |
+//! | 7 | 1 | versions 2, 3: the test design's kind ([`PreflightTest::kind`]); version 1: 0 |
 //! | 8 | 4 | sample rate [Hz], `u32` (10 000) |
 //! | 12 | 4 | number of rows, `u32` |
-//! | 16 | 24 · rows | rows, 6 × `i32` each (below) |
+//! | 16 | 24 or 32 · rows | rows, 6 or 8 × `i32` each (below) |
 //! | end | 4 | CRC-32 (IEEE 802.3) of every byte before it |
 //!
 //! Version 1 (a `u16` column count at offset 6, the same bytes as version 2 with code 0) is
@@ -24,6 +24,8 @@
 //! `i32` of their bits: commanded user angle θ_cmd [rad] as `I4F28`, phase currents i_a, i_b,
 //! i_c [A] as `I16F16`, motor-shaft angle θ_m [rad] as `I16F16`, user-shaft angle θ_u [rad] as
 //! `I4F28`. The currents and the two angles are exactly the controller's [`AdcFrame`].
+//! Version 3 adds what the controller measured of its day, both `I16F16`: the DC bus voltage
+//! [V] and a temperature [°C] (a winding thermistor, or the board).
 
 use fixed::types::{I16F16, I4F28};
 
@@ -32,14 +34,18 @@ use crate::test_design::PreflightTest;
 
 /// First four bytes of every binary trace.
 pub const MAGIC: [u8; 4] = *b"EMAT";
-/// The newest format version this code reads and writes (it reads 1 too).
-pub const VERSION: u16 = 2;
-/// Columns per row.
+/// The newest format version this code reads and writes (it reads 1 and 2 too).
+pub const VERSION: u16 = 3;
+/// Columns per row of versions 1 and 2.
 pub const COLUMNS: u16 = 6;
+/// Columns per row of version 3: the six, the bus voltage and the temperature.
+pub const CONDITION_COLUMNS: u16 = 8;
 /// Bytes of the header.
 pub const HEADER_BYTES: usize = 16;
-/// Bytes of one row.
+/// Bytes of one row of versions 1 and 2.
 pub const ROW_BYTES: usize = 4 * COLUMNS as usize;
+/// Bytes of one row of version 3 (the largest row).
+pub const MAX_ROW_BYTES: usize = 4 * CONDITION_COLUMNS as usize;
 /// Bytes of the checksum trailer.
 pub const TRAILER_BYTES: usize = 4;
 
@@ -122,6 +128,8 @@ pub struct TraceHeader {
     pub rows: u32,
     /// The test design the rows come from (version 1: the paper's).
     pub test: PreflightTest,
+    /// Whether each row carries the bus voltage and temperature (version 3).
+    pub conditions: bool,
 }
 
 impl TraceHeader {
@@ -129,12 +137,16 @@ impl TraceHeader {
     /// settings of another actuator come from its record).
     pub fn encode(&self) -> Result<[u8; HEADER_BYTES], TraceError> {
         let code = self.test.kind();
-        let version: u16 = if code == 0 { 1 } else { VERSION };
+        let (version, columns): (u16, u16) = match (self.conditions, code) {
+            (true, _) => (VERSION, CONDITION_COLUMNS),
+            (false, 0) => (1, COLUMNS),
+            (false, _) => (2, COLUMNS),
+        };
         let mut out = [0u8; HEADER_BYTES];
         let fields = [
             &MAGIC[..],
             &version.to_le_bytes(),
-            &[COLUMNS as u8, code],
+            &[columns as u8, code],
             &self.sample_rate_hz.to_le_bytes(),
             &self.rows.to_le_bytes(),
         ];
@@ -154,12 +166,18 @@ impl TraceHeader {
             return Err(TraceError::BadMagic);
         }
         let version = u16::from_le_bytes([v0, v1]);
-        let (columns, code) = match version {
-            1 => (u16::from_le_bytes([c0, c1]), 0),
-            2 => (u16::from(c0), c1),
+        let (columns, code, conditions) = match version {
+            1 => (u16::from_le_bytes([c0, c1]), 0, false),
+            2 => (u16::from(c0), c1, false),
+            3 => (u16::from(c0), c1, true),
             _ => return Err(TraceError::UnsupportedVersion { found: version }),
         };
-        if columns != COLUMNS {
+        let expected = if conditions {
+            CONDITION_COLUMNS
+        } else {
+            COLUMNS
+        };
+        if columns != expected {
             return Err(TraceError::BadColumns { found: columns });
         }
         let test = PreflightTest::from_code(code).ok_or(TraceError::UnknownTest { code })?;
@@ -167,12 +185,22 @@ impl TraceHeader {
             sample_rate_hz: u32::from_le_bytes([r0, r1, r2, r3]),
             rows: u32::from_le_bytes([n0, n1, n2, n3]),
             test,
+            conditions,
         })
+    }
+
+    /// Bytes of one row.
+    pub fn row_bytes(&self) -> usize {
+        if self.conditions {
+            MAX_ROW_BYTES
+        } else {
+            ROW_BYTES
+        }
     }
 
     /// Total file length this header announces [bytes].
     pub fn file_bytes(&self) -> u64 {
-        (HEADER_BYTES + TRAILER_BYTES) as u64 + ROW_BYTES as u64 * u64::from(self.rows)
+        (HEADER_BYTES + TRAILER_BYTES) as u64 + self.row_bytes() as u64 * u64::from(self.rows)
     }
 
     /// Checks a file length against the header.
@@ -200,6 +228,41 @@ pub struct TraceRow {
     pub motor_angle: I16F16,
     /// User-shaft angle [rad].
     pub user_angle: I4F28,
+    /// What the controller measured of its day, where the trace carries it (version 3).
+    pub conditions: Option<ConditionReading>,
+}
+
+/// The bus voltage and temperature the controller measured at one sample.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct ConditionReading {
+    /// DC bus voltage [V].
+    pub bus_voltage: I16F16,
+    /// Temperature [°C].
+    pub temperature: I16F16,
+}
+
+impl ConditionReading {
+    /// Converts, saturating (NaN becomes 0, as [`TraceRow::from_f64`] does).
+    pub fn from_f64(bus_voltage: f64, temperature: f64) -> Self {
+        let nan_to_zero = |x: f64| if x.is_nan() { 0.0 } else { x };
+        Self {
+            bus_voltage: I16F16::saturating_from_num(nan_to_zero(bus_voltage)),
+            temperature: I16F16::saturating_from_num(nan_to_zero(temperature)),
+        }
+    }
+}
+
+/// One encoded row: [`TraceRow::encode`]'s bytes, 24 or 32 of them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RowBytes {
+    bytes: [u8; MAX_ROW_BYTES],
+    len: usize,
+}
+
+impl RowBytes {
+    pub fn as_slice(&self) -> &[u8] {
+        self.bytes.get(..self.len).unwrap_or(&self.bytes)
+    }
 }
 
 impl TraceRow {
@@ -219,7 +282,14 @@ impl TraceRow {
             phase_currents: phase_currents.map(|x| I16F16::saturating_from_num(nan_to_zero(x))),
             motor_angle: I16F16::saturating_from_num(nan_to_zero(motor_angle)),
             user_angle: I4F28::saturating_from_num(nan_to_zero(user_angle)),
+            conditions: None,
         }
+    }
+
+    /// The same row carrying the controller's bus and temperature readings.
+    pub fn with_conditions(mut self, reading: ConditionReading) -> Self {
+        self.conditions = Some(reading);
+        self
     }
 
     /// What the controller's ADC holds for this sample.
@@ -231,7 +301,9 @@ impl TraceRow {
         }
     }
 
-    pub fn encode(&self) -> [u8; ROW_BYTES] {
+    /// The row's bytes: 24, or 32 with the conditions.
+    pub fn encode(&self) -> RowBytes {
+        let c = self.conditions.unwrap_or_default();
         let words = [
             self.command.to_bits(),
             self.phase_currents[0].to_bits(),
@@ -239,18 +311,29 @@ impl TraceRow {
             self.phase_currents[2].to_bits(),
             self.motor_angle.to_bits(),
             self.user_angle.to_bits(),
+            c.bus_voltage.to_bits(),
+            c.temperature.to_bits(),
         ];
-        let mut out = [0u8; ROW_BYTES];
+        let mut out = [0u8; MAX_ROW_BYTES];
         for (chunk, w) in out.chunks_exact_mut(4).zip(words) {
             for (dst, src) in chunk.iter_mut().zip(w.to_le_bytes()) {
                 *dst = src;
             }
         }
-        out
+        RowBytes {
+            bytes: out,
+            len: if self.conditions.is_some() {
+                MAX_ROW_BYTES
+            } else {
+                ROW_BYTES
+            },
+        }
     }
 
-    pub fn decode(bytes: &[u8; ROW_BYTES]) -> Self {
-        let mut words = [0i32; COLUMNS as usize];
+    /// A row from its bytes: 24 (versions 1, 2) or 32 (version 3, with the conditions);
+    /// other lengths read as far as they go, missing words as 0.
+    pub fn decode(bytes: &[u8]) -> Self {
+        let mut words = [0i32; CONDITION_COLUMNS as usize];
         for (w, chunk) in words.iter_mut().zip(bytes.chunks_exact(4)) {
             let mut b = [0u8; 4];
             for (dst, src) in b.iter_mut().zip(chunk) {
@@ -258,8 +341,12 @@ impl TraceRow {
             }
             *w = i32::from_le_bytes(b);
         }
-        let [cmd, a, b, c, m, u] = words;
+        let [cmd, a, b, c, m, u, bus, temperature] = words;
         Self {
+            conditions: (bytes.len() >= MAX_ROW_BYTES).then(|| ConditionReading {
+                bus_voltage: I16F16::from_bits(bus),
+                temperature: I16F16::from_bits(temperature),
+            }),
             command: I4F28::from_bits(cmd),
             phase_currents: [
                 I16F16::from_bits(a),
@@ -320,6 +407,7 @@ mod tests {
             sample_rate_hz: 10_000,
             rows: 5000,
             test: PreflightTest::PAPER,
+            conditions: false,
         };
         let bytes = h.encode().unwrap();
         // The paper's test is written as version 1.
@@ -339,10 +427,10 @@ mod tests {
         bad[0] = b'X';
         assert_eq!(TraceHeader::decode(&bad), Err(TraceError::BadMagic));
         let mut bad = bytes;
-        bad[4] = 3;
+        bad[4] = 4;
         assert_eq!(
             TraceHeader::decode(&bad),
-            Err(TraceError::UnsupportedVersion { found: 3 })
+            Err(TraceError::UnsupportedVersion { found: 4 })
         );
         // Version 1 has a u16 column count: a high byte is no design code there.
         let mut bad = bytes;
@@ -365,6 +453,7 @@ mod tests {
             sample_rate_hz: 10_000,
             rows: 5420,
             test: PreflightTest::STANDSTILL,
+            conditions: false,
         };
         let bytes = h.encode().unwrap();
         assert_eq!(&bytes[4..8], &[2, 0, 6, 1]);
@@ -418,9 +507,39 @@ mod tests {
     }
 
     #[test]
+    fn version_3_carries_the_bus_and_temperature_in_32_byte_rows() {
+        let h = TraceHeader {
+            sample_rate_hz: 10_000,
+            rows: 10,
+            test: PreflightTest::STANDSTILL,
+            conditions: true,
+        };
+        let bytes = h.encode().unwrap();
+        assert_eq!(&bytes[4..8], &[3, 0, 8, 1]);
+        assert_eq!(TraceHeader::decode(&bytes), Ok(h));
+        assert_eq!(h.file_bytes(), 16 + 4 + 32 * 10);
+        // A version 3 header must say 8 columns, a version 2 header 6.
+        let mut bad = bytes;
+        bad[6] = 6;
+        assert_eq!(
+            TraceHeader::decode(&bad),
+            Err(TraceError::BadColumns { found: 6 })
+        );
+        let r = TraceRow::from_f64(0.001, [1.0, -1.0, 0.0], 0.5, 0.0)
+            .with_conditions(ConditionReading::from_f64(268.25, -39.5));
+        let encoded = r.encode();
+        assert_eq!(encoded.as_slice().len(), MAX_ROW_BYTES);
+        assert_eq!(TraceRow::decode(encoded.as_slice()), r);
+        let c = r.conditions.unwrap();
+        assert_eq!(c.bus_voltage.to_num::<f32>(), 268.25);
+        assert_eq!(c.temperature.to_num::<f32>(), -39.5);
+    }
+
+    #[test]
     fn row_round_trips_bit_for_bit() {
         let r = TraceRow::from_f64(-0.004_321, [1.25, -3.5, 0.0078], 2.5, 0.0049);
-        assert_eq!(TraceRow::decode(&r.encode()), r);
+        assert_eq!(r.encode().as_slice().len(), ROW_BYTES);
+        assert_eq!(TraceRow::decode(r.encode().as_slice()), r);
         assert_eq!(r.adc_frame().phase_currents[1], I16F16::from_num(-3.5));
         // Saturation instead of wrap-around.
         let big = TraceRow::from_f64(100.0, [1e9, -1e9, f64::NAN], 0.0, -100.0);
