@@ -26,9 +26,7 @@ use shared::domain::DomainLimits;
 use shared::test_design::{PreflightTest, StandstillSegment};
 use shared::{ActuatorParams, Calibration, GaSettings};
 
-use crate::bridge::{
-    BridgeSettings, ConditionSensors, OperatingConditions, ThermalLaws, FRICTION_POINTS,
-};
+use crate::bridge::{BridgeSettings, ConditionSensors, OperatingConditions, ThermalLaws};
 use crate::reference::ReferenceSettings;
 
 /// One actuator as the ground tools use it: the record the firmware would load, what the
@@ -140,7 +138,10 @@ impl Actuator {
         }
         if let Some(rig) = &actuator.rig {
             for key in rig.columns.keys().chain(rig.scales.keys()) {
-                if !crate::trace_file::CSV_HEADER.contains(&key.as_str()) {
+                let ours = |h: &[&str]| h.contains(&key.as_str());
+                if !ours(&crate::trace_file::CSV_HEADER)
+                    && !ours(&crate::trace_file::CONDITION_HEADER)
+                {
                     let at =
                         line_of_key(text, key).map_or(String::new(), |l| format!(" (line {l})"));
                     bail!(
@@ -251,13 +252,23 @@ impl Actuator {
         out.push('\n');
         let c = calibration;
         out += &format!(
-            "\n[calibration]\n# Written by `host-sim calibrate`.\nresistance_scale = {:?}\ninductance_scale = {:?}\nback_emf_scale = {:?}\nfriction_scale = {:?}\ndamping = {:?}\nnominal_residual = {:?}\n",
+            "\n[calibration]\n# Written by `host-sim calibrate`.\nresistance_scale = {:?}\ninductance_scale = {:?}\nback_emf_scale = {:?}\nfriction_scale = {:?}\ndamping = {:?}\nnominal_residual = {:?}\npair_resistance_scale = {:?}\npair_inductance_scale = {:?}\ntemperature = {:?}              # °C, measured during the healthy trace\nmagnet_coefficient = {:?}       # 1/K, flux against temperature (the magnets' data sheet)\n# [°C, factor]: the healthy friction at other temperatures (`calibrate --at`).\nfriction_points = [{}]\n",
             c.resistance_scale,
             c.inductance_scale,
             c.back_emf_scale,
             c.friction_scale,
             c.damping,
-            c.nominal_residual
+            c.nominal_residual,
+            c.pair_resistance_scale,
+            c.pair_inductance_scale,
+            c.temperature,
+            c.magnet_coefficient,
+            c.friction_points
+                .iter()
+                .filter(|p| p[1] > 0.0)
+                .map(|p| format!("[{:?}, {:?}]", p[0], p[1]))
+                .collect::<Vec<_>>()
+                .join(", ")
         );
         out
     }
@@ -413,9 +424,9 @@ fn check_day(r: &ReferenceSettings) -> Option<&'static str> {
             "conditions.bus_voltage",
         ),
         (
-            t.friction.windows(2).all(|w| w[1][0] > w[0][0])
-                && t.friction.iter().all(|p| p[1] > 0.0),
-            "reference_model.friction_vs_temperature",
+            (0.0..1.0).contains(&t.friction_viscous_share)
+                && (0.0..10_000.0).contains(&t.friction_activation),
+            "reference_model.friction_viscous_share",
         ),
         (
             t.copper.abs() < 0.02 && t.magnet.abs() < 0.02,
@@ -482,8 +493,8 @@ fn range_text(field: &str) -> &'static str {
         "drive.bus_ripple" => "must be in [0, 0.2) of the bus",
         "conditions.temperature" | "conditions.gear_temperature" => "must be from −80 °C to 200 °C",
         "conditions.bus_voltage" => "must be positive and below 2 000 V",
-        "reference_model.friction_vs_temperature" => {
-            "must be 5 points [°C, factor] rising in temperature, factors positive"
+        "reference_model.friction_viscous_share" => {
+            "share must be in [0, 1) and the activation temperature in [0, 10 000) K"
         }
         "reference_model.copper_coefficient" => "coefficients must be below 0.02 /K in size",
         f if f.ends_with("_ki")
@@ -602,6 +613,10 @@ struct Motor {
     back_emf_constant: f32,
     max_current: f32,
     winding_group_angle_deg: [f64; 3],
+    /// Magnet flux coefficient [1/K] from the magnets' data sheet (−0.0011 NdFeB,
+    /// −0.00035 SmCo): the FDI's flux at the estimated winding temperature.
+    #[serde(default)]
+    magnet_coefficient: Option<f32>,
 }
 
 #[derive(Deserialize)]
@@ -642,6 +657,7 @@ struct Installation {
 #[derive(Deserialize, Clone, Copy, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
 enum Design {
+    Injection,
     Standstill,
     Paper,
 }
@@ -652,6 +668,9 @@ struct Test {
     design: Design,
     #[serde(default)]
     standstill_volts: Option<f32>,
+    /// The injection's tone [Hz] (`design = "injection"`).
+    #[serde(default)]
+    injection_frequency: Option<f32>,
     #[serde(default)]
     settle_samples: Option<u16>,
     #[serde(default)]
@@ -705,6 +724,12 @@ struct Cal {
     friction_scale: f32,
     damping: f32,
     nominal_residual: f32,
+    pair_resistance_scale: Option<f32>,
+    pair_inductance_scale: Option<f32>,
+    temperature: Option<f32>,
+    /// `[[°C, factor], …]`: the healthy friction measured at other temperatures.
+    friction_points: Option<Vec<[f32; 2]>>,
+    magnet_coefficient: Option<f32>,
 }
 
 /// What the simulator's sensors do (the FDI reads only their output).
@@ -749,9 +774,10 @@ struct ReferenceModelExtra {
     /// Copper resistance and magnet flux coefficients [1/K].
     copper_coefficient: Option<f64>,
     magnet_coefficient: Option<f64>,
-    /// Dry friction factor against gear temperature: `[[°C, factor], …]`, 5 points rising
-    /// in temperature.
-    friction_vs_temperature: Option<[[f64; 2]; FRICTION_POINTS]>,
+    /// Grease drag's share of dry friction at the reference temperature, and the grease's
+    /// activation temperature [K] (`crate::bridge::ThermalLaws`).
+    friction_viscous_share: Option<f64>,
+    friction_activation: Option<f64>,
 }
 
 impl Drive {
@@ -812,10 +838,17 @@ impl Description {
             control_period: c.control_period,
         };
         let t = &self.test;
-        let d = StandstillSegment::DEFAULT;
+        let d = match t.design {
+            Design::Injection => StandstillSegment::INJECTION,
+            _ => StandstillSegment::DEFAULT,
+        };
         let test = PreflightTest {
-            standstill: (t.design == Design::Standstill).then(|| StandstillSegment {
+            standstill: (t.design != Design::Paper).then(|| StandstillSegment {
                 volts: t.standstill_volts.unwrap_or(f32::NAN),
+                frequency: match t.design {
+                    Design::Injection => t.injection_frequency.unwrap_or(f32::NAN),
+                    _ => 0.0,
+                },
                 settle_samples: t.settle_samples.unwrap_or(d.settle_samples),
                 on_samples: t.on_samples.unwrap_or(d.on_samples),
                 off_samples: t.off_samples.unwrap_or(d.off_samples),
@@ -854,13 +887,26 @@ impl Description {
             max_tracking: o.max_tracking,
             max_fitness: o.max_fitness,
         };
-        let calibration = self.calibration.as_ref().map(|c| Calibration {
-            resistance_scale: c.resistance_scale,
-            inductance_scale: c.inductance_scale,
-            back_emf_scale: c.back_emf_scale,
-            friction_scale: c.friction_scale,
-            damping: c.damping,
-            nominal_residual: c.nominal_residual,
+        let calibration = self.calibration.as_ref().map(|c| {
+            let i = Calibration::IDENTITY;
+            Calibration {
+                resistance_scale: c.resistance_scale,
+                inductance_scale: c.inductance_scale,
+                back_emf_scale: c.back_emf_scale,
+                friction_scale: c.friction_scale,
+                damping: c.damping,
+                nominal_residual: c.nominal_residual,
+                pair_resistance_scale: c.pair_resistance_scale.unwrap_or(i.pair_resistance_scale),
+                pair_inductance_scale: c.pair_inductance_scale.unwrap_or(i.pair_inductance_scale),
+                temperature: c.temperature.unwrap_or(i.temperature),
+                friction_points: core::array::from_fn(|j| {
+                    c.friction_points
+                        .as_ref()
+                        .and_then(|p| p.get(j).copied())
+                        .unwrap_or([0.0, 0.0])
+                }),
+                magnet_coefficient: c.magnet_coefficient.unwrap_or(i.magnet_coefficient),
+            }
         });
         let r = ReferenceSettings::REFERENCE;
         let s = &self.sensors;
@@ -898,7 +944,12 @@ impl Description {
                     .unwrap_or(r.thermal.reference_temperature),
                 copper: x.copper_coefficient.unwrap_or(r.thermal.copper),
                 magnet: x.magnet_coefficient.unwrap_or(r.thermal.magnet),
-                friction: x.friction_vs_temperature.unwrap_or(r.thermal.friction),
+                friction_viscous_share: x
+                    .friction_viscous_share
+                    .unwrap_or(r.thermal.friction_viscous_share),
+                friction_activation: x
+                    .friction_activation
+                    .unwrap_or(r.thermal.friction_activation),
             },
             conditions: {
                 let winding = self
@@ -928,7 +979,12 @@ impl Description {
             record: ActuatorRecord {
                 params,
                 test,
-                calibration: calibration.unwrap_or(Calibration::IDENTITY),
+                calibration: Calibration {
+                    magnet_coefficient: m
+                        .magnet_coefficient
+                        .unwrap_or(calibration.map_or(0.0, |c| c.magnet_coefficient)),
+                    ..calibration.unwrap_or(Calibration::IDENTITY)
+                },
                 ga,
                 domain,
                 detection_threshold: self.detection.threshold,
@@ -963,8 +1019,10 @@ mod tests {
         assert_eq!(a.reference, built_in.reference);
         assert!(a.calibrated);
         // Rewriting the calibration keeps everything else and round-trips its bits.
+        // (The magnets' coefficient is the file's [motor] one.)
         let c = Calibration {
             damping: 1.25,
+            magnet_coefficient: built_in.record.calibration.magnet_coefficient,
             ..Calibration::REFERENCE_ACTUATOR_PAPER
         };
         let again =
@@ -1029,8 +1087,7 @@ mod tests {
             .collect();
         let e = refusal(&without);
         assert!(e.contains("missing field `gear_ratio`"), "{e}");
-        let e =
-            refusal(&reference_text().replace("design = \"standstill\"", "design = \"wobble\""));
+        let e = refusal(&reference_text().replace("design = \"injection\"", "design = \"wobble\""));
         assert!(e.contains("wobble") && e.contains("line"), "{e}");
     }
 
@@ -1048,8 +1105,9 @@ mod tests {
     fn a_file_of_another_test_kind_refuses_a_trace_of_the_other() {
         let a = Actuator::parse(&reference_text()).unwrap();
         assert!(a.test_for(&PreflightTest::PAPER).is_err());
+        assert!(a.test_for(&PreflightTest::STANDSTILL).is_err());
         assert_eq!(
-            a.test_for(&PreflightTest::STANDSTILL).unwrap(),
+            a.test_for(&PreflightTest::INJECTION).unwrap(),
             a.record.test
         );
     }

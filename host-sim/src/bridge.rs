@@ -207,30 +207,25 @@ pub struct ThermalLaws {
     pub copper: f64,
     /// Magnet flux coefficient [1/K] (−0.0011 NdFeB, −0.00035 SmCo).
     pub magnet: f64,
-    /// Dry friction factor against gear temperature: points `[°C, factor]`, increasing in
-    /// temperature, linear between them, held beyond the ends. `factor = 1` at the reference
-    /// temperature for a data sheet given there.
-    pub friction: [[f64; 2]; FRICTION_POINTS],
+    /// Dry friction against gear temperature: a Coulomb part that does not move and a
+    /// grease-drag part, `viscous_share` of it at the reference temperature, that follows the
+    /// grease's viscosity, `exp(activation · (1/T − 1/T_ref))` (Arrhenius, T in kelvin).
+    pub friction_viscous_share: f64,
+    /// The grease's activation temperature [K].
+    pub friction_activation: f64,
 }
-
-/// Points of the friction law's table.
-pub const FRICTION_POINTS: usize = 5;
 
 impl ThermalLaws {
     pub const REFERENCE_TEMPERATURE: f64 = 20.0;
-    /// Copper's 0.393 %/K, NdFeB magnets, and a greased gear train whose friction is 3× at
-    /// −40 °C, 1.8× at −20 °C, 1.25× at 0 °C and 0.85× at 80 °C.
+    /// Copper's 0.393 %/K, NdFeB magnets, and a greased gear train with 40 % grease drag at
+    /// 20 °C whose friction is 3.0× at −40 °C, 1.8× at −20 °C, 1.27× at 0 °C, 0.81× at
+    /// 50 °C and 0.72× at 80 °C (activation 2 040 K).
     pub const NDFEB_GREASED: Self = Self {
         reference_temperature: Self::REFERENCE_TEMPERATURE,
         copper: 0.00393,
         magnet: -0.0011,
-        friction: [
-            [-40.0, 3.0],
-            [-20.0, 1.8],
-            [0.0, 1.25],
-            [20.0, 1.0],
-            [80.0, 0.85],
-        ],
+        friction_viscous_share: 0.4,
+        friction_activation: 2040.0,
     };
 
     /// Copper resistance at `celsius` relative to the data sheet's.
@@ -245,17 +240,10 @@ impl ThermalLaws {
 
     /// Dry friction at gear temperature `celsius` relative to the data sheet's.
     pub fn friction_scale(&self, celsius: f64) -> f64 {
-        let t = &self.friction;
-        if celsius <= t[0][0] {
-            return t[0][1];
-        }
-        for w in t.windows(2) {
-            let ([x0, y0], [x1, y1]) = (w[0], w[1]);
-            if celsius <= x1 {
-                return y0 + (y1 - y0) * (celsius - x0) / (x1 - x0).max(1e-9);
-            }
-        }
-        t[FRICTION_POINTS - 1][1]
+        const KELVIN: f64 = 273.15;
+        let inverse = 1.0 / (celsius + KELVIN) - 1.0 / (self.reference_temperature + KELVIN);
+        let s = self.friction_viscous_share;
+        (1.0 - s) + s * (self.friction_activation * inverse).exp()
     }
 }
 
@@ -370,12 +358,13 @@ mod tests {
     }
 
     #[test]
-    fn friction_law_interpolates_and_holds_at_the_ends() {
+    fn grease_friction_is_threefold_at_minus_40_and_falls_towards_coulomb_when_hot() {
         let t = ThermalLaws::NDFEB_GREASED;
         assert_eq!(t.friction_scale(20.0), 1.0);
-        assert_eq!(t.friction_scale(-60.0), 3.0);
-        assert_eq!(t.friction_scale(120.0), 0.85);
-        assert!((t.friction_scale(-30.0) - 2.4).abs() < 1e-12);
+        assert!((t.friction_scale(-40.0) - 3.0).abs() < 0.01);
+        assert!((t.friction_scale(-20.0) - 1.8).abs() < 0.01);
+        assert!((t.friction_scale(80.0) - 0.72).abs() < 0.01);
+        assert!(t.friction_scale(200.0) > 0.6);
         assert!((t.copper_scale(-40.0) - (1.0 - 0.2358)).abs() < 1e-12);
         assert!((t.flux_scale(80.0) - 0.934).abs() < 1e-12);
     }

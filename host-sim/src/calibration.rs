@@ -12,6 +12,7 @@ use std::path::Path;
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
 use shared::conditioning::LowPassState;
+use shared::conditions::{pair_impedances, TestConditions, WindingEstimate};
 use shared::fdi::OnboardMeasured;
 use shared::{ActuatorParams, Calibration, FaultVector, FitnessProblem, MonitorModel};
 
@@ -35,12 +36,38 @@ pub struct CalibrationFile {
     pub damping: f32,
     /// Eq. (3) error of the nominal vector after calibration [A²·s].
     pub nominal_residual: f32,
+    /// The injection's pair circuits (1 without an injection segment).
+    #[serde(default = "one")]
+    pub pair_resistance_scale: f32,
+    #[serde(default = "one")]
+    pub pair_inductance_scale: f32,
+    /// Temperature measured during the healthy trace [°C].
+    #[serde(default = "reference_temperature")]
+    pub temperature: f32,
+    /// The healthy friction at other temperatures, `[°C, factor]` (factor 0: unused), and
+    /// the magnet coefficient [1/K] (see `shared::Calibration`).
+    #[serde(default)]
+    pub friction_points: [[f32; 2]; 4],
+    #[serde(default)]
+    pub magnet_coefficient: f32,
+    /// The installation's encoder offset, when `calibrate --estimate-offset` measured it
+    /// [rad, motor side]: `identify --calibration` uses it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub encoder_offset: Option<f32>,
     /// Relative RMS mismatch of the filtered equivalent current, nominal vector, before and
     /// after calibration [-].
     pub mismatch_before: f64,
     pub mismatch_after: f64,
     /// Monitor-model runs the fit took.
     pub evaluations: u32,
+}
+
+fn one() -> f32 {
+    1.0
+}
+
+fn reference_temperature() -> f32 {
+    shared::conditions::REFERENCE_TEMPERATURE
 }
 
 pub const FORMAT: &str = "ema-fdi calibration";
@@ -55,6 +82,11 @@ impl CalibrationFile {
             friction_scale: self.friction_scale,
             damping: self.damping,
             nominal_residual: self.nominal_residual,
+            pair_resistance_scale: self.pair_resistance_scale,
+            pair_inductance_scale: self.pair_inductance_scale,
+            temperature: self.temperature,
+            friction_points: self.friction_points,
+            magnet_coefficient: self.magnet_coefficient,
         }
     }
 
@@ -163,9 +195,46 @@ pub fn relative_mismatch(
     }
 }
 
-/// Fits the calibration to a healthy measured trace.
-pub fn calibrate(measured: &OnboardMeasured, params: ActuatorParams) -> Result<CalibrationFile> {
+/// Fits the calibration to a healthy measured trace. The injection's pair circuits come from
+/// its own regression (`shared::conditions::pair_impedances`: the installed R and L, bridge
+/// included, at this trace's temperature); the temperature is what the trace measured; the
+/// friction law and magnet coefficient are `prior`'s (the actuator's), as they are not seen
+/// at one temperature.
+pub fn calibrate(
+    measured: &OnboardMeasured,
+    params: ActuatorParams,
+    prior: &Calibration,
+) -> Result<CalibrationFile> {
     let nominal = FaultVector::NOMINAL;
+    let (pairs, winding) = pair_impedances(measured, params.control_period);
+    let (pair_resistance_scale, pair_inductance_scale) = match winding {
+        WindingEstimate::Injection => {
+            let r: f32 = pairs.iter().map(|p| p.resistance).sum::<f32>() / 3.0;
+            let l: f32 = pairs.iter().map(|p| p.inductance).sum::<f32>() / 3.0;
+            (
+                r / (2.0 * params.phase_resistance),
+                l / (2.0 * params.phase_inductance),
+            )
+        }
+        WindingEstimate::NoInjection => (1.0, 1.0),
+        WindingEstimate::PairCarriedNothing { pair } => bail!(
+            "the injection segment's pair {} carried less than {} A RMS (or no physical R, L): \
+             the trace cannot calibrate the pair circuits",
+            ["A→B", "B→C", "C→A"][usize::from(pair).min(2)],
+            shared::conditions::MIN_PAIR_CURRENT
+        ),
+    };
+    let base = Calibration {
+        pair_resistance_scale,
+        pair_inductance_scale,
+        temperature: measured
+            .conditions()
+            .temperature()
+            .unwrap_or(shared::conditions::REFERENCE_TEMPERATURE),
+        friction_points: prior.friction_points,
+        magnet_coefficient: prior.magnet_coefficient,
+        ..Calibration::IDENTITY
+    };
     const DAMPING_UNIT: f64 = 10.0;
     let in_bounds =
         |x: &[f64; 5]| x[..4].iter().all(|v| v.abs() <= LOG_BOUND) && (0.0..=10.0).contains(&x[4]);
@@ -176,21 +245,23 @@ pub fn calibrate(measured: &OnboardMeasured, params: ActuatorParams) -> Result<C
         friction_scale: x[3].clamp(-LOG_BOUND, LOG_BOUND).exp() as f32,
         damping: (DAMPING_UNIT * x[4].clamp(0.0, 10.0)) as f32,
         nominal_residual: 0.0,
+        ..base
     };
+    let day = TestConditions::CALIBRATION;
     let mut evaluations = 0u32;
     let mut cost = |x: &[f64; 5]| -> f64 {
         evaluations += 1;
         if !in_bounds(x) {
             return f64::INFINITY;
         }
-        match FitnessProblem::new(measured, params, &calibration_at(x)) {
+        match FitnessProblem::on_day(measured, params, &calibration_at(x), day) {
             Ok(problem) => f64::from(problem.raw_error(&nominal)),
             Err(_) => f64::INFINITY,
         }
     };
     let best = nelder_mead(&mut cost, [0.0, 0.0, 0.0, 0.0, 0.1], 0.1, MAX_EVALUATIONS);
     let mut calibration = calibration_at(&best);
-    let problem = FitnessProblem::new(measured, params, &calibration)
+    let problem = FitnessProblem::on_day(measured, params, &calibration, day)
         .map_err(|e| anyhow::anyhow!("the trace cannot be used for calibration: {e:?}"))?;
     calibration.nominal_residual = problem.raw_error(&nominal);
     if !calibration.nominal_residual.is_finite() {
@@ -205,10 +276,96 @@ pub fn calibrate(measured: &OnboardMeasured, params: ActuatorParams) -> Result<C
         friction_scale: calibration.friction_scale,
         damping: calibration.damping,
         nominal_residual: calibration.nominal_residual,
+        pair_resistance_scale: calibration.pair_resistance_scale,
+        pair_inductance_scale: calibration.pair_inductance_scale,
+        temperature: calibration.temperature,
+        friction_points: calibration.friction_points,
+        magnet_coefficient: calibration.magnet_coefficient,
+        encoder_offset: None,
         mismatch_before: relative_mismatch(measured, params, &Calibration::IDENTITY, &nominal),
         mismatch_after: relative_mismatch(measured, params, &calibration, &nominal),
         evaluations,
     })
+}
+
+/// The healthy actuator's friction at the temperature of another healthy trace, against the
+/// calibration's: the friction factor that best explains `measured` at the nominal vector,
+/// everything else from `calibration` and the day the trace shows (winding temperature from
+/// its injection). Returns `[measured °C, factor]`. At most 60 monitor-model runs.
+pub fn friction_point(
+    measured: &OnboardMeasured,
+    params: ActuatorParams,
+    calibration: &Calibration,
+) -> Result<[f32; 2]> {
+    let Some(celsius) = measured.conditions().temperature() else {
+        bail!("the trace carries no measured temperature (a version 3 trace has `temp`)");
+    };
+    let day = TestConditions::estimate(measured, &params, calibration);
+    let nominal = FaultVector::NOMINAL;
+    let cost = |log: f64| -> f64 {
+        let at = TestConditions {
+            friction_scale: log.exp() as f32,
+            ..day
+        };
+        FitnessProblem::on_day(measured, params, calibration, at)
+            .map_or(f64::INFINITY, |p| f64::from(p.raw_error(&nominal)))
+    };
+    // Golden-section search of ln(factor) over [ln ¼, ln 8].
+    let (mut lo, mut hi) = ((0.25f64).ln(), (8.0f64).ln());
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut a, mut b) = (hi - g * (hi - lo), lo + g * (hi - lo));
+    let (mut fa, mut fb) = (cost(a), cost(b));
+    for _ in 0..60 {
+        if fa < fb {
+            hi = b;
+            b = a;
+            fb = fa;
+            a = hi - g * (hi - lo);
+            fa = cost(a);
+        } else {
+            lo = a;
+            a = b;
+            fa = fb;
+            b = lo + g * (hi - lo);
+            fb = cost(b);
+        }
+    }
+    let factor = (0.5 * (lo + hi)).exp() as f32;
+    Ok([celsius, factor])
+}
+
+/// Temperatures of the reference actuator's climatic calibration [°C]: the healthy traces
+/// whose friction makes the built-in friction law (`calibrate --at`).
+pub const CLIMATIC_TEMPERATURES: [f64; 4] = [-45.0, -25.0, 0.0, 75.0];
+
+/// How a built-in calibration of the reference model `model` is made, for its test: the
+/// healthy trace (seed 0) at the model's day, calibrated with `prior`'s magnet coefficient;
+/// for an injection test also the friction law from healthy traces (seed 0) at
+/// [`CLIMATIC_TEMPERATURES`]. `host-sim calibrate … --at …` does the same from files.
+pub fn reference_calibration(
+    model: &crate::reference::ReferenceModel,
+    prior: &Calibration,
+) -> Result<Calibration> {
+    use crate::reference::{ReferenceModel, Scenario};
+    let params = model.settings().params;
+    let healthy = |m: &ReferenceModel| {
+        m.simulate(&Scenario::new(FaultVector::NOMINAL))
+            .trace
+            .measured(&params)
+    };
+    let mut calibration = calibrate(&*healthy(model)?, params, prior)?.calibration();
+    if model.test().standstill.is_some_and(|s| s.is_injection()) {
+        let mut points = [[0.0f32; 2]; 4];
+        for (slot, celsius) in points.iter_mut().zip(CLIMATIC_TEMPERATURES) {
+            let mut settings = *model.settings();
+            settings.conditions = settings.conditions.at_temperature(celsius);
+            let cold = ReferenceModel::new(settings).with_test(*model.test());
+            *slot = friction_point(&*healthy(&cold)?, params, &calibration)?;
+        }
+        points.sort_by(|a, b| a[0].total_cmp(&b[0]));
+        calibration.friction_points = points;
+    }
+    Ok(calibration)
 }
 
 /// Nelder–Mead simplex minimisation in `D` dimensions from `start` with initial step
@@ -300,23 +457,48 @@ mod reference_tests {
     use shared::test_design::PreflightTest;
 
     /// The calibrations the firmware and `identify` use by default are exactly what the fit
-    /// gives on the healthy reference trace (seed 0) of each test: stored tables, checked.
+    /// gives on the healthy reference traces (seed 0) of each test: stored tables, checked.
+    /// The default (injection) test on the real bridge with its climatic friction law; the
+    /// earlier designs on the ideal drive they were calibrated on.
     #[test]
     fn built_in_calibration_is_what_the_fit_gives() {
-        for test in [PreflightTest::STANDSTILL, PreflightTest::PAPER] {
-            let sim = ReferenceModel::new(ReferenceSettings::REFERENCE)
-                .with_test(test)
-                .simulate(&Scenario::new(FaultVector::NOMINAL));
-            let params = ActuatorParams::REFERENCE;
-            let measured = sim.trace.measured(&params).unwrap();
-            let fit = calibrate(&measured, params).unwrap();
+        // The reference actuator's NdFeB magnets (actuators/reference.toml [motor]).
+        let magnets = Calibration {
+            magnet_coefficient: -0.0011,
+            ..Calibration::IDENTITY
+        };
+        for (settings, test, prior) in [
+            (
+                ReferenceSettings::REFERENCE,
+                PreflightTest::INJECTION,
+                magnets,
+            ),
+            (
+                ReferenceSettings::IDEAL_DRIVE,
+                PreflightTest::STANDSTILL,
+                Calibration::IDENTITY,
+            ),
+            (
+                ReferenceSettings::IDEAL_DRIVE,
+                PreflightTest::PAPER,
+                Calibration::IDENTITY,
+            ),
+        ] {
+            let model = ReferenceModel::new(settings).with_test(test);
+            let fit = reference_calibration(&model, &prior).unwrap();
             assert_eq!(
-                fit.calibration(),
+                fit,
                 Calibration::reference_actuator(&test),
                 "{test:?}: {fit:?}"
             );
             // Calibration never makes the nominal fit worse.
-            assert!(fit.mismatch_after <= fit.mismatch_before);
+            let measured = model
+                .simulate(&Scenario::new(FaultVector::NOMINAL))
+                .trace
+                .measured(&ActuatorParams::REFERENCE)
+                .unwrap();
+            let file = calibrate(&measured, ActuatorParams::REFERENCE, &prior).unwrap();
+            assert!(file.mismatch_after <= file.mismatch_before);
         }
     }
 }

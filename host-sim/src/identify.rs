@@ -31,6 +31,8 @@ pub struct Identified {
     /// Standard deviation and 90 % interval per component, with the correlations
     /// (`shared::uncertainty`; `None` when the test determines no component).
     pub uncertainty: Option<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT])>,
+    /// The day the FDI estimated for the test (`shared::conditions`).
+    pub conditions: shared::conditions::TestConditions,
 }
 
 impl Identified {
@@ -231,6 +233,7 @@ pub fn identify_checkpointed(
             seconds,
             history,
             uncertainty,
+            conditions: *id.problem().conditions(),
         })),
         resumption,
     ))

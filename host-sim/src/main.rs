@@ -167,6 +167,7 @@ impl DayArgs {
 /// The preflight test designs the FDI plays end to end.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 enum TestChoice {
+    Injection,
     Standstill,
     Paper,
 }
@@ -174,6 +175,7 @@ enum TestChoice {
 impl TestChoice {
     fn test(self) -> PreflightTest {
         match self {
+            Self::Injection => PreflightTest::INJECTION,
             Self::Standstill => PreflightTest::STANDSTILL,
             Self::Paper => PreflightTest::PAPER,
         }
@@ -221,6 +223,12 @@ enum Command {
         /// (motor angle − gear ratio × surface angle) and write it into the record.
         #[arg(long)]
         estimate_offset: bool,
+        /// A healthy trace of the same actuator at another temperature (version 3: it
+        /// carries the measured temperature): its friction, against the calibration's,
+        /// becomes a point of the friction law. Up to 4 (e.g. from a climatic chamber at
+        /// −45, −25, 0 and +75 °C); between points the law interpolates.
+        #[arg(long = "at", value_name = "TRACE")]
+        at: Vec<PathBuf>,
     },
     /// Convert a rig recording (a data logger's CSV: any column names, units, delimiter and
     /// rate at or above the control rate, idle before the test) into a trace of the
@@ -656,7 +664,8 @@ fn main() -> ExitCode {
             nominal_trace,
             out,
             estimate_offset,
-        } => calibrate_command(&actuator, &nominal_trace, &out, estimate_offset),
+            at,
+        } => calibrate_command(&actuator, &nominal_trace, &out, estimate_offset, &at),
         Command::Actuator { file, out } => actuator_command(&file, out.as_deref()),
         Command::Import {
             recording,

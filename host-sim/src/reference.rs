@@ -27,9 +27,15 @@
 //!   and a Stribeck drop from static to dynamic level; a compliant gear train with backlash
 //!   (dead zone), contact damping and no sticking contact; user inertia with the aerodynamic
 //!   hinge moment (spring + damping) and end-of-travel stops.
-//! * **Sensors**: phase currents through a 12-bit ADC (±20 A) with white electrical noise;
-//!   a 20-bit absolute motor encoder; a 20-bit user-shaft transducer over ±0.5 rad with an
-//!   offset and noise. The trace holds what these sensors read at each control period.
+//! * **Sensors**: phase currents through a 12-bit ADC (±20 A) with white electrical noise,
+//!   latched at the carrier's centre (every leg low); a 20-bit absolute motor encoder; a
+//!   20-bit user-shaft transducer over ±0.5 rad with an offset and noise; the bus voltage
+//!   and a winding thermistor with their errors ([`ConditionSensors`]). The trace holds what
+//!   these sensors read at each control period.
+//! * **The bridge and the day** (`bridge.rs`): PWM in whole timer counts with dead time and
+//!   its compensation, switch and diode drops, harness, bus ripple for every segment that
+//!   commands a voltage, the same switches under the hysteresis control; copper, magnets and
+//!   grease at the day's temperatures.
 
 use rand_core::{RngCore, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -133,10 +139,19 @@ impl ReferenceSettings {
         user_noise: 5.0e-7,
         encoder_offset: 0.0,
         pre_roll: 0.01,
-        bridge: BridgeSettings::IDEAL,
+        bridge: BridgeSettings::TYPICAL,
         thermal: ThermalLaws::NDFEB_GREASED,
         conditions: OperatingConditions::REFERENCE,
+        condition_sensors: ConditionSensors::TYPICAL,
+    };
+
+    /// The reference actuator on an ideal drive with exact bus and temperature readings:
+    /// what the earlier designs (voltage steps, the paper's chirp) were calibrated and
+    /// measured on. For studies of what the bridge does, never a result's plant.
+    pub const IDEAL_DRIVE: Self = Self {
+        bridge: BridgeSettings::IDEAL,
         condition_sensors: ConditionSensors::EXACT,
+        ..Self::REFERENCE
     };
 }
 
@@ -256,7 +271,7 @@ impl ReferenceModel {
     pub fn new(settings: ReferenceSettings) -> Self {
         Self {
             settings,
-            test: PreflightTest::STANDSTILL,
+            test: PreflightTest::INJECTION,
             anomaly: None,
             recording_hz: None,
         }
@@ -541,7 +556,7 @@ impl ReferenceModel {
             let pwm_duty = pair_drive.map(|d| {
                 let signs = d.signs();
                 core::array::from_fn::<f64, 3, _>(|x| {
-                    let leg = f64::from(signs[x]) * f64::from(d.volts) * 0.5;
+                    let leg = f64::from(signs[x]) * f64::from(d.voltage(p.control_period)) * 0.5;
                     bridge.duty(leg, measured_bus, sensed_currents[x])
                 })
             });

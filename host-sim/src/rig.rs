@@ -21,7 +21,7 @@ use std::fmt;
 
 use shared::test_design::PreflightTest;
 
-use crate::trace_file::{Trace, TraceSample, CSV_HEADER};
+use crate::trace_file::{Trace, TraceSample, CONDITION_HEADER, CSV_HEADER};
 
 /// How one rig records.
 #[derive(Clone, Debug, PartialEq)]
@@ -80,10 +80,11 @@ fn pairs<T>(
             .split_once('=')
             .ok_or_else(|| format!("`{item}` is not our=theirs"))?;
         let k = k.trim();
-        if !CSV_HEADER.contains(&k) {
+        if !CSV_HEADER.contains(&k) && !CONDITION_HEADER.contains(&k) {
             return Err(format!(
-                "unknown column `{k}` (ours are {})",
-                CSV_HEADER.join(", ")
+                "unknown column `{k}` (ours are {}, and optionally {})",
+                CSV_HEADER.join(", "),
+                CONDITION_HEADER.join(", ")
             ));
         }
         out.insert(k.to_string(), value(v.trim())?);
@@ -212,7 +213,36 @@ pub fn import(
             .position(|h| h == theirs)
             .ok_or(RigError::MissingColumn { ours, theirs })?;
     }
+    // The day's channels (bus voltage, temperature): optional, both or neither.
+    let theirs_of = |ours: &str| {
+        format
+            .columns
+            .get(ours)
+            .cloned()
+            .unwrap_or_else(|| ours.to_string())
+    };
+    let found: Vec<Option<usize>> = CONDITION_HEADER
+        .iter()
+        .map(|ours| {
+            let theirs = theirs_of(ours);
+            headers.iter().position(|h| h == theirs)
+        })
+        .collect();
+    let conditions = match (found[0], found[1]) {
+        (Some(b), Some(t)) => Some([b, t]),
+        (None, None) => None,
+        _ => {
+            let j = if found[0].is_none() { 0 } else { 1 };
+            let ours = CONDITION_HEADER[j];
+            return Err(RigError::MissingColumn {
+                ours,
+                theirs: theirs_of(ours),
+            });
+        }
+    };
     let scale: [f64; 7] = CSV_HEADER.map(|c| format.scales.get(c).copied().unwrap_or(1.0));
+    let condition_scale = CONDITION_HEADER.map(|c| format.scales.get(c).copied().unwrap_or(1.0));
+    let mut day_rows: Vec<[f64; 2]> = Vec::new();
     let mut rows: Vec<[f64; 7]> = Vec::new();
     let mut lines: Vec<u64> = Vec::new();
     for record in reader.records() {
@@ -231,6 +261,23 @@ pub fn import(
                 return Err(RigError::NotFinite { line, column });
             }
             *x = parsed * scale[j];
+        }
+        if let Some(columns) = conditions {
+            let mut day = [0.0; 2];
+            for ((x, &at), k) in day.iter_mut().zip(&columns).zip(condition_scale) {
+                let column = headers.get(at).unwrap_or("").to_string();
+                let cell = record.get(at).unwrap_or("");
+                let parsed: f64 = cell.parse().map_err(|_| RigError::NotNumeric {
+                    line,
+                    column: column.clone(),
+                    cell: cell.to_string(),
+                })?;
+                if !parsed.is_finite() {
+                    return Err(RigError::NotFinite { line, column });
+                }
+                *x = parsed * k;
+            }
+            day_rows.push(day);
         }
         rows.push(v);
         lines.push(line);
@@ -326,8 +373,9 @@ pub fn import(
             phase_currents: core::array::from_fn(|j| lerp(currents[j][i0], currents[j][i1])),
             motor_angle: lerp(rows[i0][5], rows[i1][5]),
             user_angle: lerp(rows[i0][6], rows[i1][6]),
-            bus_voltage: None,
-            temperature: None,
+            // The bus and temperature readings are latched with the frame, as the command.
+            bus_voltage: day_rows.get(held).map(|d| d[0]),
+            temperature: day_rows.get(held).map(|d| d[1]),
         });
     }
     Ok(trace)

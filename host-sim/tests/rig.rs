@@ -12,7 +12,7 @@ use shared::metrics::total_error;
 use shared::test_design::PreflightTest;
 use shared::{Calibration, FaultVector};
 
-const NAMES: [&str; 7] = [
+const NAMES: [&str; 9] = [
     "Time [ms]",
     "Cmd",
     "Ia",
@@ -20,6 +20,8 @@ const NAMES: [&str; 7] = [
     "Ic",
     "MotorAngle",
     "SurfaceAngle",
+    "Vbus",
+    "Thermistor",
 ];
 
 fn rig_csv(rows: &[TraceSample]) -> String {
@@ -34,14 +36,16 @@ fn rig_csv(rows: &[TraceSample]) -> String {
     for r in rows {
         let _ = writeln!(
             out,
-            "{};{};{};{};{};{};{}",
+            "{};{};{};{};{};{};{};{};{}",
             r.time * 1e3,
             r.command,
             r.phase_currents[0],
             r.phase_currents[1],
             r.phase_currents[2],
             r.motor_angle,
-            r.user_angle
+            r.user_angle,
+            r.bus_voltage.unwrap_or(f64::NAN),
+            r.temperature.unwrap_or(f64::NAN)
         );
     }
     out
@@ -49,7 +53,7 @@ fn rig_csv(rows: &[TraceSample]) -> String {
 
 fn format() -> RigFormat {
     let columns =
-        "t=Time [ms],theta_cmd=Cmd,i_a=Ia,i_b=Ib,i_c=Ic,theta_m=MotorAngle,theta_u=SurfaceAngle";
+        "t=Time [ms],theta_cmd=Cmd,i_a=Ia,i_b=Ib,i_c=Ic,theta_m=MotorAngle,theta_u=SurfaceAngle,v_bus=Vbus,temp=Thermistor";
     RigFormat {
         columns: RigFormat::parse_columns(columns).unwrap(),
         scales: RigFormat::parse_scales("t=1e-3").unwrap(),
@@ -76,7 +80,7 @@ fn a_50_khz_recording_with_idle_and_renamed_columns_identifies_like_the_10_khz_t
     let (at_control_rate, rows) = recorded(truth, 4);
     assert!(rows.len() > 5 * at_control_rate.samples().len() + 9_000);
     let csv = rig_csv(&rows);
-    let imported = import(csv.as_bytes(), &format(), &PreflightTest::STANDSTILL, 1e-4)
+    let imported = import(csv.as_bytes(), &format(), &PreflightTest::INJECTION, 1e-4)
         .expect("imported")
         .checked()
         .expect("a sound trace");

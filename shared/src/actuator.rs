@@ -9,7 +9,7 @@
 //! nothing and never panic; a decoded record is range-checked ([`ActuatorRecord::validate`])
 //! before it is handed out.
 
-use crate::calibration::Calibration;
+use crate::calibration::{Calibration, FRICTION_POINTS};
 use crate::command::ChirpCommand;
 use crate::domain::DomainLimits;
 use crate::fault::{DETECTION_THRESHOLD, FAULT_COUNT};
@@ -21,12 +21,20 @@ use crate::trace::Crc32;
 
 /// First bytes of every actuator record.
 pub const RECORD_MAGIC: [u8; 4] = *b"EMAA";
-/// The version this code writes and reads.
-pub const RECORD_VERSION: u16 = 1;
+/// The version this code writes (it reads version 1 too: steps at standstill, the
+/// calibration without the day's terms).
+pub const RECORD_VERSION: u16 = 2;
+/// 32-bit words in the body of version 1.
+const BODY_WORDS_V1: usize = 72;
+/// Words version 2 adds at the end of [`run_words`]: the injection's frequency, the pair
+/// circuits' scales, the calibration's temperature, the friction law and the magnets.
+const DAY_WORDS: usize = 5 + 2 * FRICTION_POINTS;
 /// 32-bit words in the body.
-const BODY_WORDS: usize = 72;
+const BODY_WORDS: usize = BODY_WORDS_V1 + DAY_WORDS;
 /// Bytes of one record: magic, version, length, body, CRC-32.
 pub const RECORD_BYTES: usize = 8 + 4 * BODY_WORDS + 4;
+/// Bytes of a version 1 record.
+pub const RECORD_BYTES_V1: usize = 8 + 4 * BODY_WORDS_V1 + 4;
 
 /// Why a record was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -66,7 +74,7 @@ impl ActuatorRecord {
     /// This project's reference actuator with the default test.
     pub const REFERENCE: Self = Self {
         params: ActuatorParams::REFERENCE,
-        test: PreflightTest::STANDSTILL,
+        test: PreflightTest::INJECTION,
         calibration: Calibration::REFERENCE_ACTUATOR,
         ga: GaSettings::FDI,
         domain: DomainLimits::REFERENCE_ACTUATOR,
@@ -108,29 +116,36 @@ impl ActuatorRecord {
         w.out
     }
 
-    /// The record in `bytes` (at least [`RECORD_BYTES`]; any more are ignored), checked for
-    /// damage, version and ranges.
+    /// The record in `bytes` (at least one record of its version: [`RECORD_BYTES`], or
+    /// [`RECORD_BYTES_V1`]; any more are ignored), checked for damage, version and ranges.
     pub fn decode(bytes: &[u8]) -> Result<Self, ActuatorRecordError> {
-        let Some(bytes) = bytes.get(..RECORD_BYTES) else {
-            return Err(ActuatorRecordError::TooShort { found: bytes.len() });
+        let too_short = ActuatorRecordError::TooShort { found: bytes.len() };
+        let Some(head) = bytes.get(..8) else {
+            return Err(too_short);
         };
-        let mut r = Reader { bytes, at: 0 };
+        let mut r = Reader { bytes: head, at: 0 };
         if r.word() != RECORD_MAGIC {
             return Err(ActuatorRecordError::BadMagic);
         }
         let [v0, v1, l0, l1] = r.word();
         let version = u16::from_le_bytes([v0, v1]);
-        if version != RECORD_VERSION {
-            return Err(ActuatorRecordError::UnsupportedVersion { found: version });
-        }
+        let (body_words, total) = match version {
+            1 => (BODY_WORDS_V1, RECORD_BYTES_V1),
+            RECORD_VERSION => (BODY_WORDS, RECORD_BYTES),
+            _ => return Err(ActuatorRecordError::UnsupportedVersion { found: version }),
+        };
+        let Some(bytes) = bytes.get(..total) else {
+            return Err(too_short);
+        };
+        let mut r = Reader { bytes, at: 8 };
         let length = u16::from_le_bytes([l0, l1]);
-        if usize::from(length) != 4 * BODY_WORDS {
+        if usize::from(length) != 4 * body_words {
             return Err(ActuatorRecordError::BadLength { found: length });
         }
         let mut crc = Crc32::new();
-        crc.update(bytes.get(..RECORD_BYTES - 4).unwrap_or(&[]));
+        crc.update(bytes.get(..total - 4).unwrap_or(&[]));
         let stored = bytes
-            .get(RECORD_BYTES - 4..)
+            .get(total - 4..)
             .and_then(|b| <[u8; 4]>::try_from(b).ok())
             .map(u32::from_le_bytes);
         if stored != Some(crc.finish()) {
@@ -144,12 +159,13 @@ impl ActuatorRecord {
         let amplitude = r.f32();
         let [ramp, hold] = [r.u16()?, r.u16()?];
         let [chirp_amplitude, end_frequency, duration] = r.f32s::<3>();
-        if kind > 3 {
+        if kind > 7 || (version == 1 && kind > 3) {
             return Err(out_of_range("test.design"));
         }
-        let test = PreflightTest {
+        let mut test = PreflightTest {
             standstill: (kind & 1 != 0).then_some(StandstillSegment {
                 volts,
+                frequency: 0.0,
                 settle_samples: settle,
                 on_samples: on,
                 off_samples: off,
@@ -167,13 +183,14 @@ impl ActuatorRecord {
         };
         let [resistance_scale, inductance_scale, back_emf_scale, friction_scale, damping, nominal_residual] =
             r.f32s::<6>();
-        let calibration = Calibration {
+        let mut calibration = Calibration {
             resistance_scale,
             inductance_scale,
             back_emf_scale,
             friction_scale,
             damping,
             nominal_residual,
+            ..Calibration::IDENTITY
         };
         let [max_evaluations, max_generations, stall_generations] = [r.u32(), r.u32(), r.u32()];
         let tournament_size =
@@ -187,6 +204,22 @@ impl ActuatorRecord {
         }
         let has_guess = r.u32();
         let guess = r.f32s::<GENES>();
+        if version >= 2 {
+            let [frequency, pair_r, pair_l, temperature, magnet] = r.f32s::<5>();
+            for point in &mut calibration.friction_points {
+                *point = r.f32s::<2>();
+            }
+            if let Some(s) = &mut test.standstill {
+                s.frequency = frequency;
+            }
+            if (kind & 4 != 0) != test.standstill.is_some_and(|s| s.frequency > 0.0) {
+                return Err(out_of_range("test.injection_frequency"));
+            }
+            calibration.pair_resistance_scale = pair_r;
+            calibration.pair_inductance_scale = pair_l;
+            calibration.temperature = temperature;
+            calibration.magnet_coefficient = magnet;
+        }
         let ga = GaSettings {
             max_evaluations,
             max_generations,
@@ -233,7 +266,7 @@ impl ActuatorRecord {
         let d = &self.domain;
         let t = &self.test;
         let fail = |field| Err(ActuatorRecordError::OutOfRange { field });
-        let positive: [(f32, &'static str); 24] = [
+        let positive: [(f32, &'static str); 26] = [
             (p.dc_bus_voltage, "motor.dc_bus_voltage"),
             (p.phase_resistance, "motor.phase_resistance"),
             (p.phase_inductance, "motor.phase_inductance"),
@@ -255,6 +288,8 @@ impl ActuatorRecord {
             (t.chirp.end_frequency, "test.chirp_end_frequency"),
             (t.chirp.duration, "test.chirp_duration"),
             (c.resistance_scale, "calibration.resistance_scale"),
+            (c.pair_resistance_scale, "calibration.pair_resistance_scale"),
+            (c.pair_inductance_scale, "calibration.pair_inductance_scale"),
             (c.inductance_scale, "calibration.inductance_scale"),
             (c.back_emf_scale, "calibration.back_emf_scale"),
             (c.friction_scale, "calibration.friction_scale"),
@@ -282,7 +317,36 @@ impl ActuatorRecord {
             let n = p.pole_pairs as u32;
             n as f32 == p.pole_pairs
         };
-        let others: [(bool, &'static str); 11] = [
+        let others: [(bool, &'static str); 15] = [
+            (
+                t.standstill.is_none_or(|s| {
+                    s.frequency.is_finite()
+                        && s.frequency >= 0.0
+                        && s.frequency * p.control_period <= 0.125
+                }),
+                "test.injection_frequency",
+            ),
+            (
+                c.temperature.is_finite() && (-80.0..=200.0).contains(&c.temperature),
+                "calibration.temperature",
+            ),
+            (
+                // Rising in temperature, unused points (factor 0) last.
+                c.friction_points.windows(2).all(|w| match w {
+                    [[t0, f0], [t1, f1]] => *f1 == 0.0 || (*f0 > 0.0 && t1 > t0),
+                    _ => true,
+                }) && c.friction_points.iter().all(|[t, f]| {
+                    t.is_finite()
+                        && (-80.0..=200.0).contains(t)
+                        && f.is_finite()
+                        && (0.0..=20.0).contains(f)
+                }),
+                "calibration.friction_points",
+            ),
+            (
+                c.magnet_coefficient.is_finite() && c.magnet_coefficient.abs() <= 0.01,
+                "calibration.magnet_coefficient",
+            ),
             (whole_pole_pairs, "motor.pole_pairs"),
             (
                 p.winding_group_angle
@@ -410,6 +474,20 @@ pub(crate) fn run_words(
     );
     word(u32::from(g.initial_guess.is_some()));
     f32s(&g.initial_guess.unwrap_or([0.0; GENES]), &mut word);
+    // Version 2: the day's words.
+    f32s(
+        &[
+            s.frequency,
+            c.pair_resistance_scale,
+            c.pair_inductance_scale,
+            c.temperature,
+            c.magnet_coefficient,
+        ],
+        &mut word,
+    );
+    for point in &c.friction_points {
+        f32s(point, &mut word);
+    }
 }
 
 impl Default for ActuatorRecord {
@@ -503,6 +581,39 @@ mod tests {
     }
 
     #[test]
+    fn a_version_1_record_reads_as_steps_without_the_days_terms() {
+        // Version 1: the body without the day's words, its own length and CRC.
+        let steps = ActuatorRecord {
+            test: PreflightTest::STANDSTILL,
+            calibration: Calibration::REFERENCE_ACTUATOR_STEPS,
+            ..ActuatorRecord::REFERENCE
+        };
+        let v2 = steps.encode();
+        let mut v1 = [0u8; RECORD_BYTES_V1];
+        let split = 8 + 4 * (BODY_WORDS_V1 - 7); // the day's words come before 7 domain words
+        v1[..split].copy_from_slice(&v2[..split]);
+        let domain = 8 + 4 * (BODY_WORDS - 7);
+        v1[split..RECORD_BYTES_V1 - 4].copy_from_slice(&v2[domain..RECORD_BYTES - 4]);
+        v1[4..6].copy_from_slice(&1u16.to_le_bytes());
+        v1[6..8].copy_from_slice(&((4 * BODY_WORDS_V1) as u16).to_le_bytes());
+        let mut crc = Crc32::new();
+        crc.update(&v1[..RECORD_BYTES_V1 - 4]);
+        v1[RECORD_BYTES_V1 - 4..].copy_from_slice(&crc.finish().to_le_bytes());
+        let r = ActuatorRecord::decode(&v1).unwrap();
+        assert_eq!(r.params, ActuatorRecord::REFERENCE.params);
+        assert_eq!(r.test.standstill.map(|s| s.frequency), Some(0.0));
+        assert_eq!(
+            r.calibration.resistance_scale,
+            steps.calibration.resistance_scale
+        );
+        assert_eq!(r.calibration.pair_resistance_scale, 1.0);
+        assert_eq!(
+            ActuatorRecord::decode(&v1[..200]),
+            Err(ActuatorRecordError::TooShort { found: 200 })
+        );
+    }
+
+    #[test]
     fn every_flipped_bit_is_refused() {
         let bytes = ActuatorRecord::REFERENCE.encode();
         for i in 0..RECORD_BYTES * 8 {
@@ -520,10 +631,10 @@ mod tests {
             Err(ActuatorRecordError::TooShort { found: 100 })
         );
         let mut other = bytes;
-        other[4] = 2;
+        other[4] = 3;
         assert_eq!(
             ActuatorRecord::decode(&other),
-            Err(ActuatorRecordError::UnsupportedVersion { found: 2 })
+            Err(ActuatorRecordError::UnsupportedVersion { found: 3 })
         );
         let mut other = bytes;
         other[0] = b'X';

@@ -5,6 +5,11 @@
 
 use crate::test_design::PreflightTest;
 
+/// Temperatures besides the calibration's at which the friction law can be measured.
+pub const FRICTION_POINTS: usize = 4;
+// The field's type spells the 4 out (a named constant there trips rustc 1.9x's MIR check).
+const _: () = assert!(FRICTION_POINTS == 4);
+
 /// How the monitor model is fitted to one actuator: electrical scale factors found on a
 /// healthy trace, and the nominal residual error subtracted so that a healthy actuator scores
 /// 0 (paper §III.2). Plain data: the firmware carries it as a constant or a flash record.
@@ -25,6 +30,21 @@ pub struct Calibration {
     pub damping: f32,
     /// Fitness of the nominal fault vector against the healthy trace [A²·s].
     pub nominal_residual: f32,
+    /// Multipliers of the data sheet's phase R and L in the standstill segment's pair
+    /// circuits: the installed circuit (copper, harness, switches, what the bridge does to
+    /// the commanded volts) at the calibration's temperature.
+    pub pair_resistance_scale: f32,
+    pub pair_inductance_scale: f32,
+    /// Temperature the controller measured during the healthy trace [°C]
+    /// ([`crate::conditions::REFERENCE_TEMPERATURE`] when the trace carried none).
+    pub temperature: f32,
+    /// The healthy actuator's dry friction measured at other temperatures (`host-sim
+    /// calibrate --at`): `[°C, factor against the calibration's]`; a factor of 0 marks an
+    /// unused point. With the calibration's own `(temperature, 1)` they make the friction
+    /// law (`shared::conditions::friction_factor`); none: friction does not move.
+    pub friction_points: [[f32; 2]; 4],
+    /// Magnet flux coefficient [1/K] (−0.0011 NdFeB, −0.00035 SmCo; 0: not known).
+    pub magnet_coefficient: f32,
 }
 
 impl Calibration {
@@ -36,24 +56,53 @@ impl Calibration {
         friction_scale: 1.0,
         damping: 0.0,
         nominal_residual: 0.0,
+        pair_resistance_scale: 1.0,
+        pair_inductance_scale: 1.0,
+        temperature: crate::conditions::REFERENCE_TEMPERATURE,
+        friction_points: [[0.0; 2]; 4],
+        magnet_coefficient: 0.0,
     };
 }
 
 impl Calibration {
     /// The monitor model calibrated against this project's reference model with the default
-    /// test (standstill segment + chirp): what `host-sim calibrate` fits on the healthy,
-    /// noise-free reference trace (seed 0). The firmware carries it as data; `host-sim`
-    /// checks it is still what the fit gives.
+    /// test (injection at standstill + chirp) on its real bridge: what `host-sim calibrate`
+    /// fits on the healthy, noise-free reference trace (seed 0, 20 °C), with the friction
+    /// law from healthy traces at −45, −25, 0 and +75 °C (`calibrate --at`) and the NdFeB
+    /// magnets' coefficient. The firmware carries it as data; `host-sim` checks it is still
+    /// what the fit gives.
     pub const REFERENCE_ACTUATOR: Self = Self {
+        resistance_scale: 0.6658934,
+        inductance_scale: 0.729931,
+        back_emf_scale: 1.0002164,
+        friction_scale: 0.98318666,
+        damping: 8.465637,
+        nominal_residual: 0.013888541,
+        pair_resistance_scale: 1.1904732,
+        pair_inductance_scale: 1.0562423,
+        temperature: 21.998205,
+        friction_points: [
+            [-43.001793, 3.5424025],
+            [-23.001795, 2.0041304],
+            [1.9982052, 1.2847514],
+            [76.9982, 0.75159127],
+        ],
+        magnet_coefficient: -0.0011,
+    };
+
+    /// The same for the earlier default test (voltage steps at standstill), fitted on an
+    /// ideal drive (that test cannot run on a real bridge: docs/identifiability.md).
+    pub const REFERENCE_ACTUATOR_STEPS: Self = Self {
         resistance_scale: 0.47267297,
         inductance_scale: 0.860487,
         back_emf_scale: 1.001137,
         friction_scale: 0.99771225,
         damping: 9.88454,
         nominal_residual: 0.0007770943,
+        ..Self::IDENTITY
     };
 
-    /// The same for the paper's test (the chirp alone).
+    /// The same for the paper's test (the chirp alone), fitted on an ideal drive.
     pub const REFERENCE_ACTUATOR_PAPER: Self = Self {
         resistance_scale: 0.75073683,
         inductance_scale: 0.8183919,
@@ -61,17 +110,18 @@ impl Calibration {
         friction_scale: 0.9820077,
         damping: 8.570111,
         nominal_residual: 0.0011607918,
+        ..Self::IDENTITY
     };
 }
 
 impl Calibration {
-    /// The reference actuator's calibration for `test`: the paper's for a test without a
-    /// standstill segment, the default test's otherwise.
+    /// The reference actuator's calibration for `test`: the injection's, the steps', or the
+    /// paper's (a test without a standstill segment).
     pub fn reference_actuator(test: &PreflightTest) -> Self {
-        if test.standstill.is_some() {
-            Self::REFERENCE_ACTUATOR
-        } else {
-            Self::REFERENCE_ACTUATOR_PAPER
+        match test.standstill {
+            Some(s) if s.is_injection() => Self::REFERENCE_ACTUATOR,
+            Some(_) => Self::REFERENCE_ACTUATOR_STEPS,
+            None => Self::REFERENCE_ACTUATOR_PAPER,
         }
     }
 }

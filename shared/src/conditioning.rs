@@ -20,6 +20,7 @@
 use fixed::types::{I16F16, I4F28};
 use heapless::Vec;
 
+use crate::conditions::ConditionSums;
 use crate::math::{floor, tan};
 use crate::test_design::PreflightTest;
 
@@ -60,6 +61,29 @@ pub struct AdcFrame {
     pub phase_currents: [I16F16; 3],
     pub motor_angle: I16F16,
     pub user_angle: I4F28,
+    /// The bus and temperature readings latched with the frame, where the controller has
+    /// them (a trace of version 3, the board's channels).
+    pub conditions: Option<ConditionReading>,
+}
+
+/// The bus voltage and temperature the controller measured at one sample.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct ConditionReading {
+    /// DC bus voltage [V].
+    pub bus_voltage: I16F16,
+    /// Temperature [°C].
+    pub temperature: I16F16,
+}
+
+impl ConditionReading {
+    /// Converts, saturating (NaN becomes 0, as [`AdcFrame::from_f32`] does).
+    pub fn from_f64(bus_voltage: f64, temperature: f64) -> Self {
+        let nan_to_zero = |x: f64| if x.is_nan() { 0.0 } else { x };
+        Self {
+            bus_voltage: I16F16::saturating_from_num(nan_to_zero(bus_voltage)),
+            temperature: I16F16::saturating_from_num(nan_to_zero(temperature)),
+        }
+    }
 }
 
 impl AdcFrame {
@@ -72,6 +96,7 @@ impl AdcFrame {
             phase_currents: phase_currents.map(convert),
             motor_angle: convert(motor_angle),
             user_angle: I4F28::saturating_from_num(finite(user_angle)),
+            conditions: None,
         }
     }
 }
@@ -219,6 +244,8 @@ pub struct MeasuredCurrent<const N: usize> {
     test: PreflightTest,
     /// `1 / κ`, κ = mean of the squared sample-to-sample difference; `None` until finished.
     inv_kappa: Option<f32>,
+    /// The bus and temperature readings the frames carried.
+    conditions: ConditionSums,
 }
 
 impl<const N: usize> MeasuredCurrent<N> {
@@ -256,7 +283,13 @@ impl<const N: usize> MeasuredCurrent<N> {
             initial_angles: ShaftAngles::ZERO,
             test,
             inv_kappa: None,
+            conditions: ConditionSums::ZERO,
         }
+    }
+
+    /// Sums of the bus and temperature readings the frames carried.
+    pub fn conditions(&self) -> &ConditionSums {
+        &self.conditions
     }
 
     /// The test the buffer conditions.
@@ -273,6 +306,13 @@ impl<const N: usize> MeasuredCurrent<N> {
     /// frame also sets the [`initial_angles`](Self::initial_angles). During a standstill
     /// segment the current is the driven pair's, `½·Σ s_x·i_x` with the pair's signs.
     pub fn push_frame(&mut self, frame: AdcFrame, pole_pairs: f32) -> Result<(), AdcFrame> {
+        if self.samples.is_full() {
+            return Err(frame);
+        }
+        if let Some(c) = frame.conditions {
+            self.conditions
+                .push(c.bus_voltage.to_bits(), c.temperature.to_bits());
+        }
         let [a, b, c] = frame.phase_currents.map(|x| x.to_num::<f32>());
         let theta_e = pole_pairs * frame.motor_angle.to_num::<f32>();
         let index = self.samples.len();
@@ -395,6 +435,7 @@ impl<const N: usize> MeasuredCurrent<N> {
         self.initial_angles = ShaftAngles::ZERO;
         self.filter_state = LowPassState::default();
         self.inv_kappa = None;
+        self.conditions = ConditionSums::ZERO;
     }
 }
 

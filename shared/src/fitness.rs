@@ -22,6 +22,7 @@ use crate::calibration::Calibration;
 use crate::command::CommandTable;
 use crate::command::{ChirpSampler, CommandSource};
 use crate::conditioning::{ConditioningError, LowPassState, MeasuredCurrent};
+use crate::conditions::TestConditions;
 use crate::fault::{FaultVector, FAULT_COUNT};
 use crate::ga::Problem;
 use crate::monitor::{MonitorModel, MonitorRun, MonitorSample};
@@ -52,6 +53,7 @@ pub struct FitnessProblem<'a, const N: usize> {
     inv_kappa: f32,
     standstill_weight: f32,
     nominal_residual: f32,
+    conditions: TestConditions,
     #[cfg(feature = "command-table")]
     command_table: Option<&'a CommandTable<N>>,
 }
@@ -72,18 +74,34 @@ pub const BOUND_CHECK_INTERVAL: u32 = 100;
 
 impl<'a, const N: usize> FitnessProblem<'a, N> {
     /// The fitness of the monitor model of `params`, calibrated by `calibration`, against a
-    /// finished measured current.
+    /// finished measured current, on the test's day as [`TestConditions::estimate`] finds
+    /// it (winding temperature from the injection, friction from the measured temperature).
     pub fn new(
         measured: &'a MeasuredCurrent<N>,
         params: ActuatorParams,
         calibration: &Calibration,
     ) -> Result<Self, FitnessError> {
+        let conditions = TestConditions::estimate(measured, &params, calibration);
+        Self::on_day(measured, params, calibration, conditions)
+    }
+
+    /// The same problem on a day the caller gives (the calibration's own, for the fit that
+    /// makes the calibration).
+    pub fn on_day(
+        measured: &'a MeasuredCurrent<N>,
+        params: ActuatorParams,
+        calibration: &Calibration,
+        conditions: TestConditions,
+    ) -> Result<Self, FitnessError> {
         Ok(Self {
             measured,
-            model: MonitorModel::new(params, calibration).with_test(measured.test()),
+            model: MonitorModel::new(params, calibration)
+                .with_test(measured.test())
+                .with_conditions(&conditions),
             inv_kappa: measured.inv_kappa()?,
             standstill_weight: STANDSTILL_WEIGHT,
             nominal_residual: calibration.nominal_residual,
+            conditions,
             #[cfg(feature = "command-table")]
             command_table: None,
         })
@@ -91,6 +109,11 @@ impl<'a, const N: usize> FitnessProblem<'a, N> {
 
     pub fn model(&self) -> &MonitorModel {
         &self.model
+    }
+
+    /// The day the problem's model plays.
+    pub fn conditions(&self) -> &TestConditions {
+        &self.conditions
     }
 
     /// The same problem with another standstill weight (for studies of the weight).

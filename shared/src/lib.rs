@@ -8,6 +8,8 @@
 //! * [`fault`] — the 8-component fault vector and its physical mapping.
 //! * [`command`] — the preflight chirp.
 //! * [`conditioning`] — ADC frames → equivalent current → low-pass; the measured buffer.
+//! * [`conditions`] — the day of one test: winding temperature from the injection, friction
+//!   from the measured temperature, the measured bus.
 //! * [`monitor`] — the monitor model (single-phase equivalent, fixed step).
 //! * [`calibration`] — how the monitor model is fitted to one actuator (plain data).
 //! * [`fitness`] — eq. (3) (the problem).
@@ -39,6 +41,7 @@ pub mod actuator;
 pub mod calibration;
 pub mod command;
 pub mod conditioning;
+pub mod conditions;
 pub mod domain;
 pub mod fault;
 pub mod fdi;

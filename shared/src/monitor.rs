@@ -32,6 +32,7 @@ use core::ops::ControlFlow;
 use crate::calibration::Calibration;
 use crate::command::{ChirpCommand, ChirpSampler, CommandSource};
 use crate::conditioning::ShaftAngles;
+use crate::conditions::TestConditions;
 use crate::fault::FaultEffects;
 use crate::fault::FaultVector;
 use crate::math::{abs, clamp, cos, exp64, floor, TAU};
@@ -148,6 +149,10 @@ pub struct MonitorModel {
     dt_over_user_inertia: f32,
     friction_scale: f32,
     user_damping: f32,
+    /// One healthy phase's R [Ω] and L [H] in the standstill segment's pair circuits: the
+    /// calibrated installed circuit, R at the test's winding temperature.
+    pair_phase_resistance: f32,
+    pair_phase_inductance: f32,
     /// The standstill segment played before the chirp, if the test has one.
     standstill: Option<StandstillSegment>,
 }
@@ -172,8 +177,22 @@ impl MonitorModel {
             dt_over_user_inertia: dt / params.user_inertia,
             friction_scale: calibration.friction_scale,
             user_damping: calibration.damping,
+            pair_phase_resistance: params.phase_resistance * calibration.pair_resistance_scale,
+            pair_phase_inductance: params.phase_inductance * calibration.pair_inductance_scale,
             standstill: None,
         }
+    }
+
+    /// The same model on the day `conditions` describes: copper resistance (chirp and pair
+    /// circuits) at the estimated winding temperature, torque constant at its flux, healthy
+    /// friction at the measured temperature. The calibration's own day changes nothing.
+    pub fn with_conditions(mut self, conditions: &TestConditions) -> Self {
+        let copper = conditions.copper_scale;
+        self.resistance *= copper;
+        self.pair_phase_resistance *= copper;
+        self.torque_constant *= conditions.flux_scale;
+        self.friction_scale *= conditions.friction_scale;
+        self
     }
 
     /// The same model driven by another command.
@@ -243,8 +262,8 @@ impl MonitorModel {
                     n2 += n * n;
                 }
             }
-            let r = f64::from(p.phase_resistance * n1);
-            let l = f64::from(p.phase_inductance * n2);
+            let r = f64::from(self.pair_phase_resistance * n1);
+            let l = f64::from(self.pair_phase_inductance * n2);
             let decay = exp64(-f64::from(self.dt) * r / l);
             (decay as f32, ((1.0 - decay) / r) as f32)
         };
@@ -397,7 +416,7 @@ impl MonitorModel {
             if segment.fitted(i) {
                 let decay = f.pair_decay.get(pair).copied().unwrap_or(0.0);
                 let gain = f.pair_gain.get(pair).copied().unwrap_or(0.0);
-                current = decay * current + gain * drive.volts;
+                current = decay * current + gain * drive.voltage(self.dt);
             }
         }
         if samples <= lead {
@@ -574,6 +593,8 @@ impl MonitorRun {
             let drive = segment.at(i).unwrap_or(crate::test_design::PairDrive {
                 pair: self.pair,
                 volts: 0.0,
+                frequency: 0.0,
+                on_index: 0,
             });
             if drive.pair != self.pair {
                 let signs = PAIR_SIGNS.get(self.pair).copied().unwrap_or([0; 3]);
@@ -595,7 +616,7 @@ impl MonitorRun {
             if segment.fitted(i) {
                 let decay = self.f.pair_decay.get(self.pair).copied().unwrap_or(0.0);
                 let gain = self.f.pair_gain.get(self.pair).copied().unwrap_or(0.0);
-                self.pair_current = decay * self.pair_current + gain * drive.volts;
+                self.pair_current = decay * self.pair_current + gain * drive.voltage(m.dt);
             }
             return sample;
         }

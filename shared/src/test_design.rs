@@ -5,13 +5,19 @@
 //!
 //! A test is a sequence of segments, all optional but the chirp:
 //! 1. **Standstill** ([`StandstillSegment`]): the position loop is suspended and the drive
-//!    applies a small DC line voltage to each phase pair in turn (A→B, B→C, C→A), then lets
-//!    the pair freewheel at zero volts, as drives' motor-characterisation routines do. The
-//!    current rises with the pair's `R` and `L` and falls with `L/R`; the voltage is low
-//!    enough that the torque stays below the motor's breakaway friction, so the shaft does
-//!    not turn and no back-EMF hides the winding. A short of `N` healthy turns scales `R` by
-//!    `N` and `L` by `N²`; eccentricity leaves both alone: the three shorts become directly
-//!    observable.
+//!    applies a line voltage to each phase pair in turn (A→B, B→C, C→A), then lets the pair
+//!    freewheel at zero volts. Two forms:
+//!    * **Injection** ([`StandstillSegment::INJECTION`], the product's default): a tone of
+//!      `frequency` (hundreds of Hz) and amplitude `volts` (tens of volts) per pair, whole
+//!      periods, cosine from the first sample's centre so that the current starts and ends
+//!      near zero with no DC part. The pair impedance is `R + jωL` with `ωL ≫ R`: the current's
+//!      size is set by `L`, which a short of `N` healthy turns scales by `N²` and temperature
+//!      hardly moves; its phase carries `R` (the winding's temperature). The volts are large
+//!      against what a real bridge gets wrong (dead time, switch drops, one timer count),
+//!      and the torque alternates faster than the rotor can follow.
+//!    * **Steps** (`frequency` = 0, [`StandstillSegment::DEFAULT`], the earlier default): a
+//!      small DC voltage below break-away torque. The current rises with `R` and `L`; on a
+//!      real bridge the dead time swallows a step this small (docs/identifiability.md).
 //! 2. **Motion** ([`MotionSegment`], studied, not the default): smooth user-shaft moves to
 //!    `+A`, `−A` and back with plateaus, enough travel to turn the motor more than one
 //!    mechanical revolution.
@@ -34,11 +40,30 @@ pub const PAIR_SIGNS: [[i8; 3]; 3] = [[1, -1, 0], [0, 1, -1], [-1, 0, 1]];
 pub struct PairDrive {
     /// Index into [`PAIR_SIGNS`].
     pub pair: usize,
-    /// Line voltage across the pair, `+` phase minus `−` phase [V].
+    /// Line voltage across the pair, `+` phase minus `−` phase [V]: the step's, or the
+    /// tone's amplitude; 0 while the pair freewheels.
     pub volts: f32,
+    /// Tone frequency [Hz]; 0 for a step.
+    pub frequency: f32,
+    /// Control periods since the voltage came on (the tone's phase).
+    pub on_index: u16,
 }
 
 impl PairDrive {
+    /// The line voltage commanded over this control period [V], at control period `dt` [s]:
+    /// the step's volts, or `volts · cos(2π·f·(on_index + ½)·dt)` (the tone sampled at the
+    /// period's centre, so that the held value is the period's mean to second order). O(1).
+    #[inline(never)]
+    pub fn voltage(&self, dt: f32) -> f32 {
+        if self.frequency == 0.0 || self.volts == 0.0 {
+            return self.volts;
+        }
+        // Phase in turns, reduced before the cosine: the same bits on every target.
+        let turns = self.frequency * dt * (f32::from(self.on_index) + 0.5);
+        let turns = turns - crate::math::floor(turns);
+        self.volts * cos(2.0 * PI * turns)
+    }
+
     /// Signs of A, B, C for this pair.
     pub fn signs(&self) -> [i8; 3] {
         match PAIR_SIGNS.get(self.pair) {
@@ -48,12 +73,14 @@ impl PairDrive {
     }
 }
 
-/// Voltage steps on each phase pair at standstill.
+/// Voltage steps or tones on each phase pair at standstill.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct StandstillSegment {
-    /// Line voltage of the step [V].
+    /// Line voltage of the step, or amplitude of the tone [V].
     pub volts: f32,
+    /// Frequency of the tone [Hz]; 0 for steps.
+    pub frequency: f32,
     /// Control periods at zero volts on the first pair before the steps: the rotor, which
     /// the position hold may leave hunting inside the gear's play, comes to rest (the
     /// shorted pair brakes it, friction stops it). Not fitted: the shaft moves.
@@ -71,10 +98,28 @@ impl StandstillSegment {
     /// 4.2 ms) and 6 ms off per pair; 52 ms in all.
     pub const DEFAULT: Self = Self {
         volts: 0.24,
+        frequency: 0.0,
         settle_samples: 100,
         on_samples: 80,
         off_samples: 60,
     };
+
+    /// The product's injection for the reference actuator: 10 ms settle, then per pair
+    /// 20 V at 500 Hz for 10 ms (5 periods: ≈ 1.2 A through ωL = 15.7 Ω of a healthy pair,
+    /// 12 times the 2 × 0.8 V a 0.5 µs dead time costs the pair at 270 V) and 2 ms off;
+    /// 46 ms in all.
+    pub const INJECTION: Self = Self {
+        volts: 20.0,
+        frequency: 500.0,
+        settle_samples: 100,
+        on_samples: 100,
+        off_samples: 20,
+    };
+
+    /// Whether the segment plays tones rather than steps.
+    pub fn is_injection(&self) -> bool {
+        self.frequency > 0.0
+    }
 
     /// Control periods in the whole segment (settle and three pairs).
     pub const fn samples(&self) -> usize {
@@ -96,13 +141,18 @@ impl StandstillSegment {
             return Some(PairDrive {
                 pair: 0,
                 volts: 0.0,
+                frequency: self.frequency,
+                on_index: 0,
             });
         };
         let pair = index / per_pair;
-        let on = index % per_pair < self.on_samples as usize;
+        let within = index % per_pair;
+        let on = within < self.on_samples as usize;
         Some(PairDrive {
             pair,
             volts: if on { self.volts } else { 0.0 },
+            frequency: self.frequency,
+            on_index: if on { within as u16 } else { 0 },
         })
     }
 }
@@ -157,8 +207,18 @@ impl MotionSegment {
     }
 }
 
-/// Names of the coded designs, by code.
-pub const TEST_NAMES: [&str; 4] = ["paper", "standstill", "motion", "standstill+motion"];
+/// Names of the coded designs, by code (codes 4 and 6 name nothing: a tone needs a
+/// standstill segment).
+pub const TEST_NAMES: [&str; 8] = [
+    "paper",
+    "standstill",
+    "motion",
+    "standstill+motion",
+    "",
+    "injection",
+    "",
+    "injection+motion",
+];
 
 /// What the controller commands during one control period.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -187,7 +247,14 @@ impl PreflightTest {
         chirp: ChirpCommand::PREFLIGHT,
     };
 
-    /// The product's default: the standstill segment, then the paper's chirp.
+    /// The product's default: the injection at standstill, then the paper's chirp.
+    pub const INJECTION: Self = Self {
+        standstill: Some(StandstillSegment::INJECTION),
+        motion: None,
+        chirp: ChirpCommand::PREFLIGHT,
+    };
+
+    /// The earlier default: voltage steps at standstill, then the paper's chirp.
     pub const STANDSTILL: Self = Self {
         standstill: Some(StandstillSegment::DEFAULT),
         motion: None,
@@ -252,23 +319,26 @@ impl PreflightTest {
         Drive::Position(self.chirp.position(i as f32 * dt))
     }
 
-    /// A one-byte code of the design, stored in trace headers: 0 = paper, 1 = standstill +
-    /// chirp, 2 = motion + chirp, 3 = both; with the default segments and chirp only.
+    /// A one-byte code of the design, stored in trace headers: its [`kind`](Self::kind),
+    /// with the default segments and chirp only.
     pub fn code(&self) -> Option<u8> {
         let default_segments = self
             .standstill
-            .is_none_or(|s| s == StandstillSegment::DEFAULT)
+            .is_none_or(|s| s == StandstillSegment::DEFAULT || s == StandstillSegment::INJECTION)
             && self.motion.is_none_or(|m| m == MotionSegment::DEFAULT)
             && self.chirp == ChirpCommand::PREFLIGHT;
-        default_segments
-            .then_some(u8::from(self.standstill.is_some()) | (u8::from(self.motion.is_some()) << 1))
+        default_segments.then_some(self.kind())
     }
 
     /// Which segments the test has, as trace headers store it: 0 = chirp alone, +1 with a
-    /// standstill segment, +2 with a motion segment. Segments and chirp of another actuator
-    /// (from its record) keep the kind of the default design they follow.
-    pub const fn kind(&self) -> u8 {
-        (self.standstill.is_some() as u8) | ((self.motion.is_some() as u8) << 1)
+    /// standstill segment, +2 with a motion segment, +4 when the standstill segment plays
+    /// tones. Segments and chirp of another actuator (from its record) keep the kind of the
+    /// default design they follow.
+    pub fn kind(&self) -> u8 {
+        let tone = self.standstill.is_some_and(|s| s.is_injection());
+        (self.standstill.is_some() as u8)
+            | ((self.motion.is_some() as u8) << 1)
+            | ((tone as u8) << 2)
     }
 
     /// The name of [`Self::kind`], as CSV traces write it.
@@ -287,17 +357,26 @@ impl PreflightTest {
 
     /// The coded design of a name.
     pub fn from_name(name: &str) -> Option<Self> {
+        if name.is_empty() {
+            return None;
+        }
         let code = TEST_NAMES.iter().position(|n| *n == name)?;
         Self::from_code(code as u8)
     }
 
     /// The design of a header code.
     pub fn from_code(code: u8) -> Option<Self> {
-        if code > 3 {
+        let tone = code & 4 != 0;
+        if code > 7 || (tone && code & 1 == 0) {
             return None;
         }
+        let segment = if tone {
+            StandstillSegment::INJECTION
+        } else {
+            StandstillSegment::DEFAULT
+        };
         Some(Self {
-            standstill: (code & 1 != 0).then_some(StandstillSegment::DEFAULT),
+            standstill: (code & 1 != 0).then_some(segment),
             motion: (code & 2 != 0).then_some(MotionSegment::DEFAULT),
             chirp: ChirpCommand::PREFLIGHT,
         })
@@ -306,7 +385,7 @@ impl PreflightTest {
 
 impl Default for PreflightTest {
     fn default() -> Self {
-        Self::STANDSTILL
+        Self::INJECTION
     }
 }
 
@@ -317,19 +396,59 @@ mod tests {
     #[test]
     fn standstill_steps_each_pair_then_freewheels() {
         let s = StandstillSegment::DEFAULT;
-        let drive = |pair, volts| Some(PairDrive { pair, volts });
+        let drive = |pair, volts| {
+            Some(PairDrive {
+                pair,
+                volts,
+                frequency: 0.0,
+                on_index: 0,
+            })
+        };
         assert_eq!(s.samples(), 520);
         assert_eq!(s.at(0), drive(0, 0.0));
         assert!(!s.fitted(99) && s.fitted(100) && s.fitted(519) && !s.fitted(520));
         assert_eq!(s.at(100), drive(0, 0.24));
         assert_eq!(s.at(179).map(|d| d.volts), Some(0.24));
+        assert_eq!(s.at(179).map(|d| d.voltage(1e-4)), Some(0.24));
         assert_eq!(s.at(180), drive(0, 0.0));
         assert_eq!(s.at(240), drive(1, 0.24));
+        assert_eq!(s.at(241).map(|d| d.on_index), Some(1));
         assert_eq!(s.at(519).map(|d| d.pair), Some(2));
         assert_eq!(s.at(520), None);
         for signs in PAIR_SIGNS {
             assert_eq!(signs.iter().map(|&x| i32::from(x)).sum::<i32>(), 0);
         }
+    }
+
+    #[test]
+    fn the_injection_plays_whole_periods_of_a_zero_mean_tone_per_pair() {
+        let s = StandstillSegment::INJECTION;
+        assert!(s.is_injection());
+        assert_eq!(s.samples(), 460);
+        let dt = 1e-4;
+        for pair in 0..3 {
+            let start = 100 + pair * 120;
+            let volts: [f32; 100] = core::array::from_fn(|j| {
+                let d = s.at(start + j).unwrap();
+                assert_eq!(d.pair, pair);
+                d.voltage(dt)
+            });
+            // Five whole periods: zero mean, the amplitude reached, symmetric.
+            let mean: f32 = volts.iter().sum::<f32>() / 100.0;
+            assert!(mean.abs() < 1e-3, "{mean}");
+            let peak = volts.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+            assert!(peak > 19.7 && peak <= 20.0, "{peak}");
+            assert!((volts[0] - volts[19]).abs() < 1e-3);
+            // Off: nothing applied.
+            assert_eq!(s.at(start + 100).unwrap().voltage(dt), 0.0);
+        }
+        let t = PreflightTest::INJECTION;
+        assert_eq!(t.samples(1e-4), 5460);
+        assert_eq!(t.kind(), 5);
+        assert_eq!(t.name(), Some("injection"));
+        assert_eq!(PreflightTest::from_code(5), Some(t));
+        assert_eq!(PreflightTest::from_code(4), None);
+        assert_eq!(PreflightTest::from_name(""), None);
     }
 
     #[test]
@@ -385,11 +504,12 @@ mod tests {
             PreflightTest::PAPER,
             PreflightTest::STANDSTILL,
             PreflightTest::MOTION,
+            PreflightTest::INJECTION,
         ] {
             assert_eq!(PreflightTest::from_code(t.code().unwrap()), Some(t));
         }
-        assert_eq!(PreflightTest::from_code(4), None);
-        for name in TEST_NAMES {
+        assert_eq!(PreflightTest::from_code(8), None);
+        for name in TEST_NAMES.into_iter().filter(|n| !n.is_empty()) {
             assert_eq!(PreflightTest::from_name(name).unwrap().name(), Some(name));
         }
         assert_eq!(PreflightTest::from_name("chirp"), None);

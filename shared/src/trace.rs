@@ -30,6 +30,7 @@
 use fixed::types::{I16F16, I4F28};
 
 use crate::conditioning::AdcFrame;
+pub use crate::conditioning::ConditionReading;
 use crate::test_design::PreflightTest;
 
 /// First four bytes of every binary trace.
@@ -232,26 +233,6 @@ pub struct TraceRow {
     pub conditions: Option<ConditionReading>,
 }
 
-/// The bus voltage and temperature the controller measured at one sample.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub struct ConditionReading {
-    /// DC bus voltage [V].
-    pub bus_voltage: I16F16,
-    /// Temperature [°C].
-    pub temperature: I16F16,
-}
-
-impl ConditionReading {
-    /// Converts, saturating (NaN becomes 0, as [`TraceRow::from_f64`] does).
-    pub fn from_f64(bus_voltage: f64, temperature: f64) -> Self {
-        let nan_to_zero = |x: f64| if x.is_nan() { 0.0 } else { x };
-        Self {
-            bus_voltage: I16F16::saturating_from_num(nan_to_zero(bus_voltage)),
-            temperature: I16F16::saturating_from_num(nan_to_zero(temperature)),
-        }
-    }
-}
-
 /// One encoded row: [`TraceRow::encode`]'s bytes, 24 or 32 of them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RowBytes {
@@ -298,6 +279,7 @@ impl TraceRow {
             phase_currents: self.phase_currents,
             motor_angle: self.motor_angle,
             user_angle: self.user_angle,
+            conditions: self.conditions,
         }
     }
 

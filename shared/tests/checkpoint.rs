@@ -20,7 +20,10 @@ type Id<'a> = Identification<'a, TEST_SAMPLES, POPULATION>;
 fn measured() -> Box<OnboardMeasured> {
     let filter = LowPass::for_control_period(1.0e-4).unwrap();
     let mut m = Box::new(OnboardMeasured::new(filter));
-    let model = MonitorModel::new(ActuatorParams::REFERENCE, &Calibration::REFERENCE_ACTUATOR);
+    let model = MonitorModel::new(
+        ActuatorParams::REFERENCE,
+        &Calibration::REFERENCE_ACTUATOR_STEPS,
+    );
     let k = FaultVector::new([0.3, 0.2, 0.0, 0.1, 0.0, 0.0, 0.5, 0.6]).unwrap();
     record_monitor_trace(&model, &k, &mut m).unwrap();
     m
@@ -30,7 +33,7 @@ fn fresh(m: &OnboardMeasured, seed: u64) -> Id<'_> {
     Identification::new(
         m,
         ActuatorParams::REFERENCE,
-        &Calibration::REFERENCE_ACTUATOR,
+        &Calibration::REFERENCE_ACTUATOR_STEPS,
         SETTINGS,
         seed,
     )
@@ -185,7 +188,10 @@ fn foreign_erased_short_and_forged_records_are_refused() {
     // Another measured test is another run.
     let filter = LowPass::for_control_period(1.0e-4).unwrap();
     let mut m2 = Box::new(OnboardMeasured::new(filter));
-    let model = MonitorModel::new(ActuatorParams::REFERENCE, &Calibration::REFERENCE_ACTUATOR);
+    let model = MonitorModel::new(
+        ActuatorParams::REFERENCE,
+        &Calibration::REFERENCE_ACTUATOR_STEPS,
+    );
     record_monitor_trace(&model, &FaultVector::NOMINAL, &mut m2).unwrap();
     assert!(matches!(
         fresh(&m2, 1).resume(&record),
@@ -245,7 +251,7 @@ fn a_checkpoint_of_another_actuator_is_refused() {
         let mut other = Identification::<TEST_SAMPLES, POPULATION>::new(
             &m,
             params,
-            &Calibration::REFERENCE_ACTUATOR,
+            &Calibration::REFERENCE_ACTUATOR_STEPS,
             SETTINGS,
             1,
         )

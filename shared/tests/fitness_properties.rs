@@ -18,6 +18,7 @@ fn frame() -> impl Strategy<Value = AdcFrame> {
         phase_currents: c.map(I16F16::from_bits),
         motor_angle: I16F16::from_bits(m),
         user_angle: I4F28::from_bits(u),
+        conditions: None,
     });
     let ordinary = (
         prop::array::uniform3(-20.0f32..20.0),
@@ -68,7 +69,7 @@ proptest! {
         // Every frame holds finite fixed-point numbers, so conditioning always succeeds.
         prop_assert_eq!(m.finish(), Ok(()));
         let k = FaultVector::new(k).unwrap();
-        for calibration in [Calibration::REFERENCE_ACTUATOR, Calibration::IDENTITY] {
+        for calibration in [Calibration::REFERENCE_ACTUATOR_STEPS, Calibration::IDENTITY] {
             let problem = FitnessProblem::new(&m, ActuatorParams::REFERENCE, &calibration)
                 .unwrap();
             let f = problem.error(&k);
@@ -95,7 +96,7 @@ proptest! {
         let problem = FitnessProblem::new(
             &m,
             ActuatorParams::REFERENCE,
-            &Calibration::REFERENCE_ACTUATOR,
+            &Calibration::REFERENCE_ACTUATOR_STEPS,
         )
         .unwrap();
         let f = problem.error(&k);

@@ -13,7 +13,10 @@ fn filter() -> LowPass {
 }
 
 fn model() -> MonitorModel {
-    MonitorModel::new(ActuatorParams::REFERENCE, &Calibration::REFERENCE_ACTUATOR)
+    MonitorModel::new(
+        ActuatorParams::REFERENCE,
+        &Calibration::REFERENCE_ACTUATOR_STEPS,
+    )
 }
 
 /// A measured buffer recorded from the monitor model at `k` into `measured`.
@@ -56,7 +59,7 @@ fn an_idle_curvature_run_restarted_gives_the_sums_of_a_started_one() {
     let problem = FitnessProblem::new(
         &measured,
         ActuatorParams::REFERENCE,
-        &Calibration::REFERENCE_ACTUATOR,
+        &Calibration::REFERENCE_ACTUATOR_STEPS,
     )
     .unwrap();
     let samples = measured.samples().len();

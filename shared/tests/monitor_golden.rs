@@ -42,7 +42,7 @@ const START: ShaftAngles = ShaftAngles {
 };
 
 /// CRC-32 over every field of every sample of a 5 000-sample run of the paper's test from
-/// [`START`] with `Calibration::REFERENCE_ACTUATOR`, one per vector of [`VECTORS`]
+/// [`START`] with `Calibration::REFERENCE_ACTUATOR_STEPS`, one per vector of [`VECTORS`]
 /// (regenerated with that calibration's refit at the actuator-record change).
 const RUN_CRC: [u32; 8] = [
     0xd3e4367b, 0x420806d4, 0x1c592abd, 0x17674a54, 0x033f4c1c, 0x415a7dc8, 0x689630f7, 0x1e29dc9b,
@@ -61,7 +61,10 @@ const FITNESS_BITS: [u32; 8] = [
 ];
 
 fn model() -> MonitorModel {
-    MonitorModel::new(ActuatorParams::REFERENCE, &Calibration::REFERENCE_ACTUATOR)
+    MonitorModel::new(
+        ActuatorParams::REFERENCE,
+        &Calibration::REFERENCE_ACTUATOR_STEPS,
+    )
 }
 
 fn sample_bytes(s: &MonitorSample) -> [u8; 24] {
@@ -151,7 +154,7 @@ fn fitness_matches_the_stored_bits() {
     let problem = FitnessProblem::new(
         &measured,
         ActuatorParams::REFERENCE,
-        &Calibration::REFERENCE_ACTUATOR,
+        &Calibration::REFERENCE_ACTUATOR_STEPS,
     )
     .unwrap();
     let bits: Vec<u32> = VECTORS
@@ -184,7 +187,7 @@ fn table_and_bound_keep_the_bits() {
     ));
     let truth = FaultVector::new(VECTORS[7]).unwrap();
     record_monitor_trace(&m, &truth, &mut measured).unwrap();
-    let cal = Calibration::REFERENCE_ACTUATOR;
+    let cal = Calibration::REFERENCE_ACTUATOR_STEPS;
     let table = Box::new(CommandTable::<TEST_SAMPLES>::new(
         ChirpCommand::PREFLIGHT,
         params.control_period,

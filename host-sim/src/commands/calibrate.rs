@@ -8,7 +8,14 @@ pub(crate) fn calibrate_command(
     trace_path: &Path,
     out: &Path,
     estimate_offset: bool,
+    at: &[PathBuf],
 ) -> Result<()> {
+    if at.len() > shared::calibration::FRICTION_POINTS {
+        anyhow::bail!(
+            "--at takes at most {} traces (the record's friction law has that many points)",
+            shared::calibration::FRICTION_POINTS
+        );
+    }
     let trace = actuator.read_trace(trace_path)?;
     let mut record = ActuatorRecord {
         test: *trace.test(),
@@ -27,7 +34,32 @@ pub(crate) fn calibrate_command(
         );
     }
     let measured = trace.measured(&record.params)?;
-    let file = calibrate(&measured, record.params)?;
+    let mut file = calibrate(&measured, record.params, &actuator.record.calibration)?;
+    if estimate_offset {
+        file.encoder_offset = Some(record.params.encoder_offset);
+    }
+    if !at.is_empty() {
+        let mut points = [[0.0f32; 2]; 4];
+        for (slot, path) in points.iter_mut().zip(at) {
+            let other = actuator.read_trace(path)?;
+            let measured = other.measured(&record.params)?;
+            *slot = host_sim::calibration::friction_point(
+                &measured,
+                record.params,
+                &file.calibration(),
+            )
+            .with_context(|| format!("friction law from {}", path.display()))?;
+            println!(
+                "friction at {:>6.1} °C ×{:.3}  ({})",
+                slot[0],
+                slot[1],
+                path.display()
+            );
+        }
+        // The record keeps them rising in temperature (shared::conditions::friction_factor).
+        points.sort_by(|a, b| a[0].total_cmp(&b[0]));
+        file.friction_points = points;
+    }
     record.calibration = file.calibration();
     let extension = out
         .extension()

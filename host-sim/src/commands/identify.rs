@@ -28,14 +28,19 @@ pub(crate) fn load_record(
     test: &PreflightTest,
 ) -> Result<(ActuatorRecord, String)> {
     match path {
-        Some(p) => Ok((
-            ActuatorRecord {
-                calibration: CalibrationFile::read(p)?.calibration(),
+        Some(p) => {
+            let file = CalibrationFile::read(p)?;
+            let mut record = ActuatorRecord {
+                calibration: file.calibration(),
                 test: *test,
                 ..actuator.record
-            },
-            p.display().to_string(),
-        )),
+            };
+            // What `calibrate --estimate-offset` measured travels with the calibration.
+            if let Some(offset) = file.encoder_offset {
+                record.params.encoder_offset = offset;
+            }
+            Ok((record, p.display().to_string()))
+        }
         None => Ok((actuator.record_for(test)?, calibration_name(actuator, test))),
     }
 }
@@ -111,6 +116,15 @@ pub(crate) fn report(
         for (k, v) in heading {
             obj[k.as_str()] = json!(v);
         }
+        let c = &id.conditions;
+        obj["conditions"] = json!({
+            "winding_rise_k": c.winding_rise,
+            "winding_estimate": format!("{:?}", c.winding),
+            "flux_scale": c.flux_scale,
+            "friction_scale": c.friction_scale,
+            "measured_temperature_c": c.measured_temperature,
+            "bus_voltage_v": c.bus_voltage,
+        });
         println!("{obj}");
         return;
     }
@@ -163,6 +177,7 @@ pub(crate) fn report(
     if let Some(t) = truth {
         println!("e_tot         {:.3} %", total_error(&found, t));
     }
+    println!("{}", conditions_text(&id.conditions));
     println!(
         "fitness       {:.4e} A²·s (nominal residual subtracted)",
         id.result.fitness
@@ -172,6 +187,25 @@ pub(crate) fn report(
         id.result.evaluations, id.result.stop_reason
     );
     println!("seconds       {:.3}", id.seconds);
+}
+
+/// The day the FDI estimated, in one line.
+pub(crate) fn conditions_text(c: &shared::conditions::TestConditions) -> String {
+    let measured =
+        |x: Option<f32>, unit: &str| x.map_or("-".to_string(), |v| format!("{v:.1} {unit}"));
+    let winding = match c.winding {
+        shared::conditions::WindingEstimate::Injection => {
+            format!("{:+.1} K from calibration (estimated)", c.winding_rise)
+        }
+        other => format!("not estimated ({other:?})"),
+    };
+    format!(
+        "day           winding {winding}; flux ×{:.4}; healthy friction ×{:.3}; measured {} and {}",
+        c.flux_scale,
+        c.friction_scale,
+        measured(c.measured_temperature, "°C"),
+        measured(c.bus_voltage, "V")
+    )
 }
 
 pub(crate) fn identify_command(

@@ -1,0 +1,323 @@
+//! What the day changes, as the FDI estimates it from one test: the winding's temperature
+//! (hence its copper resistance and the magnets' flux) from the injection segment, the gear's
+//! friction from the measured temperature through the calibrated law, and the measured bus.
+//!
+//! Units: °C (K for differences), Ω, H, V. [`TestConditions::estimate`] is O(segment samples)
+//! (one pass, two 2 × 2 least-squares fits per pair), allocates nothing and never panics; a
+//! test without an injection segment, or whose segment carried too little current, keeps the
+//! calibration's temperature ([`WindingEstimate`] says why).
+//!
+//! Why the injection tells temperature from a short: each pair answers the tone as
+//! `i_{k+1} = a·i_k + b·v_k` with `a = exp(−R·dt/L)`, `b = (1 − a)/R` (the exact step response
+//! the monitor model plays). A short of `N` healthy turns scales a phase's `L` by `N²` and its
+//! `R` by `N`; temperature moves `R` alone (copper, 0.393 %/K). The three pairs' `L` give the
+//! three `N`; what is left of each pair's `R` is the copper's temperature.
+
+use crate::calibration::Calibration;
+use crate::conditioning::{LowPassState, MeasuredCurrent};
+use crate::math::{exp, ln};
+use crate::params::ActuatorParams;
+use crate::test_design::PAIR_SIGNS;
+
+/// Temperature the data sheet gives R, k_e and friction at [°C].
+pub const REFERENCE_TEMPERATURE: f32 = 20.0;
+/// Copper's resistance coefficient [1/K].
+pub const COPPER_COEFFICIENT: f32 = 0.00393;
+/// Least RMS pair current [A] under which a pair's fit is not trusted (a segment that
+/// carried nothing).
+pub const MIN_PAIR_CURRENT: f32 = 0.05;
+/// Samples skipped at the start of each pair's window: the conditioning filter's memory and
+/// the switch from the previous pair.
+const SKIP: usize = 10;
+
+/// Running sums of the controller's bus and temperature readings: exact (fixed-point bits
+/// summed as integers), so the means have the same bits on every target. 20 bytes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ConditionSums {
+    bus_bits: i64,
+    temperature_bits: i64,
+    count: u32,
+}
+
+impl ConditionSums {
+    pub const ZERO: Self = Self {
+        bus_bits: 0,
+        temperature_bits: 0,
+        count: 0,
+    };
+
+    /// Adds one reading (`I16F16` bits of the bus [V] and temperature [°C]). O(1).
+    pub fn push(&mut self, bus_bits: i32, temperature_bits: i32) {
+        self.bus_bits = self.bus_bits.saturating_add(i64::from(bus_bits));
+        self.temperature_bits = self
+            .temperature_bits
+            .saturating_add(i64::from(temperature_bits));
+        self.count = self.count.saturating_add(1);
+    }
+
+    fn mean(&self, bits: i64) -> Option<f32> {
+        // In f32 (no 64-bit division on the controller): the same bits on every target.
+        (self.count > 0).then(|| bits as f32 / (65_536.0 * self.count as f32))
+    }
+
+    /// Mean bus voltage over the test [V], if the test carried it.
+    pub fn bus_voltage(&self) -> Option<f32> {
+        self.mean(self.bus_bits)
+    }
+
+    /// Mean measured temperature over the test [°C], if the test carried it.
+    pub fn temperature(&self) -> Option<f32> {
+        self.mean(self.temperature_bits)
+    }
+}
+
+/// One pair's answer to the tone: resistance [Ω] and inductance [H] of the pair circuit, as
+/// seen through the commanded volts.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PairImpedance {
+    pub resistance: f32,
+    pub inductance: f32,
+    /// RMS of the pair's measured current over its window [A].
+    pub rms_current: f32,
+}
+
+/// How the winding temperature was found.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum WindingEstimate {
+    /// From the injection's pair resistances.
+    Injection,
+    /// The test has no injection segment: the calibration's temperature is assumed.
+    NoInjection,
+    /// A pair carried less than [`MIN_PAIR_CURRENT`] or its fit is not physical: assumed.
+    PairCarriedNothing { pair: u8 },
+}
+
+/// The day of one test, as the FDI uses it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct TestConditions {
+    /// Winding temperature minus the calibration's [K] (estimated).
+    pub winding_rise: f32,
+    /// Copper resistance against the calibration's [-].
+    pub copper_scale: f32,
+    /// Magnet flux against the calibration's [-].
+    pub flux_scale: f32,
+    /// Healthy dry friction against the calibration's, from the measured temperature [-].
+    pub friction_scale: f32,
+    /// What the controller measured: mean temperature [°C] and bus [V].
+    pub measured_temperature: Option<f32>,
+    pub bus_voltage: Option<f32>,
+    pub winding: WindingEstimate,
+    /// Each pair's fit (zero where there is none).
+    pub pairs: [PairImpedance; 3],
+}
+
+impl TestConditions {
+    /// The calibration's own day: nothing corrected.
+    pub const CALIBRATION: Self = Self {
+        winding_rise: 0.0,
+        copper_scale: 1.0,
+        flux_scale: 1.0,
+        friction_scale: 1.0,
+        measured_temperature: None,
+        bus_voltage: None,
+        winding: WindingEstimate::NoInjection,
+        pairs: [PairImpedance {
+            resistance: 0.0,
+            inductance: 0.0,
+            rms_current: 0.0,
+        }; 3],
+    };
+
+    /// The day of the test in `measured` (finished or not), for an actuator of `params`
+    /// calibrated by `calibration`. O(segment samples).
+    #[inline(never)]
+    pub fn estimate<const N: usize>(
+        measured: &MeasuredCurrent<N>,
+        params: &ActuatorParams,
+        calibration: &Calibration,
+    ) -> Self {
+        let sums = measured.conditions();
+        let measured_temperature = sums.temperature();
+        let friction_scale = measured_temperature.map_or(1.0, |t| friction_factor(calibration, t));
+        let mut out = Self {
+            friction_scale,
+            measured_temperature,
+            bus_voltage: sums.bus_voltage(),
+            ..Self::CALIBRATION
+        };
+        let (pairs, winding) = pair_impedances(measured, params.control_period);
+        out.pairs = pairs;
+        out.winding = winding;
+        if winding != WindingEstimate::Injection {
+            return out;
+        }
+        // The three pairs' L give the phases' healthy turns: q_p = N_y² + N_z².
+        let l0 = params.phase_inductance * calibration.pair_inductance_scale;
+        let q = pairs.map(|p| p.inductance / l0);
+        let [q_ab, q_bc, q_ca] = q;
+        let squares = [
+            0.5 * (q_ab + q_ca - q_bc),
+            0.5 * (q_ab + q_bc - q_ca),
+            0.5 * (q_bc + q_ca - q_ab),
+        ];
+        let turns = squares.map(|x| crate::math::sqrt(x.clamp(0.01, 4.0)));
+        // What is left of each pair's R is the copper's temperature.
+        let r0 = params.phase_resistance * calibration.pair_resistance_scale;
+        let mut ratio_sum = 0.0f32;
+        for (j, signs) in PAIR_SIGNS.iter().enumerate() {
+            let n: f32 = signs
+                .iter()
+                .zip(&turns)
+                .filter(|(s, _)| **s != 0)
+                .map(|(_, n)| *n)
+                .sum();
+            let r = pairs.get(j).map_or(0.0, |p| p.resistance);
+            ratio_sum += r / (r0 * n.max(0.05));
+        }
+        let ratio = ratio_sum / 3.0;
+        // The copper's share of the installed R at the calibration's temperature: the data
+        // sheet's R moved to that temperature, against the fitted installed R.
+        let copper_at_calibration =
+            1.0 + COPPER_COEFFICIENT * (calibration.temperature - REFERENCE_TEMPERATURE);
+        let share = (copper_at_calibration / calibration.pair_resistance_scale).clamp(0.05, 1.0);
+        let rise = (ratio - 1.0) / (share * COPPER_COEFFICIENT / copper_at_calibration);
+        let rise = rise.clamp(-150.0, 200.0);
+        out.winding_rise = rise;
+        out.copper_scale = 1.0 + COPPER_COEFFICIENT * rise / copper_at_calibration;
+        out.flux_scale = 1.0 + calibration.magnet_coefficient * rise;
+        out
+    }
+}
+
+/// The healthy dry friction at measured temperature `celsius` against the calibration's:
+/// `ln(factor)` linear in temperature between the calibration's points (its own at factor 1
+/// and [`Calibration::friction_points`], which the record keeps in rising temperature, unused
+/// ones last), held beyond the outermost. O(points), no allocation.
+#[inline(never)]
+pub fn friction_factor(calibration: &Calibration, celsius: f32) -> f32 {
+    let own = [calibration.temperature, 1.0];
+    // The calibration's own point, in its place among the measured ones.
+    let mut previous: Option<(f32, f32)> = None;
+    let mut own_placed = false;
+    let points = calibration.friction_points.iter().filter(|p| p[1] > 0.0);
+    let mut next = points.copied().peekable();
+    loop {
+        let point = match next.peek() {
+            Some(p) if own_placed || p[0] < own[0] => next.next(),
+            _ if !own_placed => {
+                own_placed = true;
+                Some(own)
+            }
+            _ => None,
+        };
+        let Some([t, factor]) = point else {
+            break;
+        };
+        let log = ln(factor);
+        match previous {
+            None if celsius <= t => return factor,
+            Some((t0, l0)) if celsius <= t => {
+                return exp(l0 + (log - l0) * (celsius - t0) / (t - t0).max(1e-3));
+            }
+            _ => previous = Some((t, log)),
+        }
+    }
+    previous.map_or(1.0, |(_, log)| exp(log))
+}
+
+/// Each pair's R and L from the injection segment of `measured` (control period `dt`): the
+/// regression `y_{k+1} = a·y_k + b·u_k` of the filtered measured pair current `y` on the
+/// commanded volts `u` through the same filter, over the pair's window past [`SKIP`]
+/// samples. O(segment samples), no allocation.
+#[inline(never)]
+pub fn pair_impedances<const N: usize>(
+    measured: &MeasuredCurrent<N>,
+    dt: f32,
+) -> ([PairImpedance; 3], WindingEstimate) {
+    let mut out = [PairImpedance::default(); 3];
+    let Some(segment) = measured.test().standstill.filter(|s| s.is_injection()) else {
+        return (out, WindingEstimate::NoInjection);
+    };
+    let samples = measured.samples();
+    let filter = measured.filter();
+    let mut state = LowPassState::default();
+    let settle = usize::from(segment.settle_samples);
+    let per_pair = usize::from(segment.on_samples) + usize::from(segment.off_samples);
+    // Normal equations per pair: [Σyy Σyu; Σyu Σuu]·[a b] = [Σy'y Σy'u], and Σy², n.
+    let mut sums = [[0.0f32; 7]; 3];
+    let mut previous: Option<(f32, f32)> = None;
+    for index in 0..segment.samples().min(samples.len()) {
+        let Some(drive) = segment.at(index) else {
+            break;
+        };
+        let u = filter.apply(&mut state, drive.voltage(dt));
+        let y = samples.get(index).copied().unwrap_or(0.0);
+        let within = index.checked_sub(settle).map(|i| i % per_pair);
+        if let (Some(w), Some((y0, u0)), Some(s)) = (within, previous, sums.get_mut(drive.pair)) {
+            if w > SKIP {
+                s[0] += y0 * y0;
+                s[1] += y0 * u0;
+                s[2] += u0 * u0;
+                s[3] += y * y0;
+                s[4] += y * u0;
+                s[5] += y * y;
+                s[6] += 1.0;
+            }
+        }
+        previous = Some((y, u));
+    }
+    for (j, (s, slot)) in sums.iter().zip(out.iter_mut()).enumerate() {
+        let det = s[0] * s[2] - s[1] * s[1];
+        let mean_square = if s[6] > 0.0 { s[5] / s[6] } else { 0.0 };
+        if mean_square < MIN_PAIR_CURRENT * MIN_PAIR_CURRENT
+            || det.abs() <= f32::EPSILON * s[0] * s[2]
+        {
+            return (out, WindingEstimate::PairCarriedNothing { pair: j as u8 });
+        }
+        let a = (s[3] * s[2] - s[4] * s[1]) / det;
+        let b = (s[0] * s[4] - s[1] * s[3]) / det;
+        if !(a > 0.0 && a < 1.0 && b > 0.0) {
+            return (out, WindingEstimate::PairCarriedNothing { pair: j as u8 });
+        }
+        let resistance = (1.0 - a) / b;
+        *slot = PairImpedance {
+            resistance,
+            inductance: -resistance * dt / ln(a),
+            rms_current: crate::math::sqrt(mean_square),
+        };
+    }
+    (out, WindingEstimate::Injection)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_friction_law_interpolates_its_logarithm_and_holds_at_the_ends() {
+        let mut c = Calibration::IDENTITY;
+        assert_eq!(friction_factor(&c, -40.0), 1.0);
+        c.friction_points = [[-40.0, 3.0], [80.0, 0.75], [0.0, 0.0], [0.0, 0.0]];
+        assert!((friction_factor(&c, 50.0) - 0.75f32.sqrt()).abs() < 1e-4);
+        assert!((friction_factor(&c, -40.0) - 3.0).abs() < 1e-5);
+        assert!((friction_factor(&c, -60.0) - 3.0).abs() < 1e-5);
+        assert!((friction_factor(&c, 20.0) - 1.0).abs() < 1e-6);
+        // Halfway between 20 °C (1) and −40 °C (3) in temperature: √3 in factor.
+        assert!((friction_factor(&c, -10.0) - 3.0f32.sqrt()).abs() < 1e-4);
+        assert!((friction_factor(&c, 100.0) - 0.75).abs() < 1e-5);
+    }
+
+    #[test]
+    fn sums_give_exact_means_and_none_without_readings() {
+        let mut s = ConditionSums::ZERO;
+        assert_eq!(s.bus_voltage(), None);
+        for (bus, t) in [(270.0f32, -40.0f32), (271.0, -39.0)] {
+            s.push((bus * 65_536.0) as i32, (t * 65_536.0) as i32);
+        }
+        assert_eq!(s.bus_voltage(), Some(270.5));
+        assert_eq!(s.temperature(), Some(-39.5));
+    }
+}
