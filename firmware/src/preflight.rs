@@ -15,6 +15,7 @@
 
 use shared::actuator::ActuatorRecord;
 use shared::conditioning::ConditioningError;
+use shared::conditions::TestConditions;
 use shared::domain::{Domain, DomainMonitor};
 use shared::fdi::TEST_SAMPLES;
 use shared::fdi::{FdiError, Identification, IdentificationResult, OnboardMeasured, POPULATION};
@@ -177,12 +178,19 @@ pub struct Preflight<'m, S> {
     /// one the Uncertainty stage is skipped and the report has no uncertainty.
     curvature: Option<&'m mut CurvatureRun>,
     domain: DomainMonitor,
+    /// The day the identification estimated (winding temperature, friction, bus).
+    day: TestConditions,
     frames: u32,
     identify_polls: u32,
     max_evaluations_per_poll: u32,
 }
 
 impl<'m, S: CurrentSource> Preflight<'m, S> {
+    /// The day the identification estimated (the calibration's until Identify starts).
+    pub fn day(&self) -> &TestConditions {
+        &self.day
+    }
+
     /// A self-test that fills `measured` (cleared first) from `source`.
     pub fn new(settings: PreflightSettings, source: S, measured: &'m mut OnboardMeasured) -> Self {
         measured.clear_for(settings.actuator.test);
@@ -191,6 +199,7 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
             source,
             state: State::Acquire { measured },
             curvature: None,
+            day: TestConditions::CALIBRATION,
             domain: DomainMonitor::new(
                 settings.actuator.test.chirp,
                 settings.actuator.params.control_period,
@@ -307,6 +316,7 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                     s.seed,
                 )
                 .map_err(PreflightError::Fdi)?;
+                self.day = *id.problem().conditions();
                 Ok(State::Identify { id })
             }
             State::Identify { mut id } => {
@@ -369,7 +379,8 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                 },
                 domain: self
                     .domain
-                    .assess(&self.settings.actuator.domain, result.fitness),
+                    .assess(&self.settings.actuator.domain, result.fitness)
+                    .with_day(&self.day),
                 verdicts: result
                     .faults
                     .verdicts_at(self.settings.actuator.detection_threshold),

@@ -334,6 +334,14 @@ async fn preflight(spawner: Spawner) -> i32 {
         }
     };
     let total_cycles = cycles().saturating_sub(started);
+    let day = preflight.day();
+    defmt::println!(
+        "day winding_rise={=f32} flux={=f32} friction={=f32} winding={}",
+        day.winding_rise,
+        day.flux_scale,
+        day.friction_scale,
+        day.winding
+    );
     print_report(&report, &observed, total_cycles);
     match command.health_path() {
         Some(path) => record_health(path, command.flight, &report),

@@ -54,7 +54,7 @@ mod commands;
 #[allow(clippy::wildcard_imports)]
 use commands::{
     actuator::*, bench::*, calibrate::*, campaign::*, domain::*, fleet::*, identify::*, import::*,
-    plot::*, prognostics::*, simulate::*, studies::*,
+    plot::*, prognostics::*, schedule::*, simulate::*, studies::*,
 };
 
 #[derive(Parser)]
@@ -551,6 +551,14 @@ enum Command {
     },
     /// Bytes of the onboard FDI state (GA, measured-current buffer, monitor model).
     Footprint,
+    /// Write the actuator's preflight test as the controller commands it, control period by
+    /// control period (CSV: sample, t, mode position|voltage|off, pair, value), for a bench
+    /// drive to play.
+    TestSchedule {
+        /// Output CSV.
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Time one monitor-model evaluation, one fitness evaluation and one reference-model test
     /// on one core.
     Bench {
@@ -847,6 +855,7 @@ fn main() -> ExitCode {
             footprint();
             Ok(())
         }
+        Command::TestSchedule { out } => test_schedule_command(&actuator, &out),
         Command::Bench {
             evaluations,
             identifications,

@@ -254,3 +254,47 @@ fn the_voltage_channel_conditions_the_study_better_than_currents_alone() {
     assert!(!healthy.components.contains(&6));
     assert_eq!(healthy.std_white[6], None);
 }
+
+#[test]
+fn an_injection_the_bridge_cannot_apply_is_named_not_identified() {
+    use shared::conditions::{TestConditions, WindingEstimate};
+    use shared::domain::{Domain, OutsideReason};
+    let params = shared::ActuatorParams::REFERENCE;
+    let calibration = shared::Calibration::REFERENCE_ACTUATOR;
+    let day = |test: PreflightTest, k: [f32; 8]| {
+        let sim = ReferenceModel::new(ReferenceSettings::REFERENCE)
+            .with_test(test)
+            .simulate(&Scenario::new(FaultVector::new(k).expect("valid")));
+        let measured = sim.trace.measured(&params).expect("conditions");
+        TestConditions::estimate(&measured, &params, &calibration)
+    };
+    let healthy = day(PreflightTest::INJECTION, HEALTHY);
+    assert_eq!(healthy.winding, WindingEstimate::Injection);
+    assert!(healthy.winding_rise.abs() < 8.0, "{healthy:?}");
+    assert_eq!(Domain::Within.with_day(&healthy), Domain::Within);
+    // A 0.3 V tone: less than what the dead time swallows on each edge.
+    let weak = PreflightTest {
+        standstill: Some(StandstillSegment {
+            volts: 0.3,
+            ..StandstillSegment::INJECTION
+        }),
+        ..PreflightTest::INJECTION
+    };
+    let nothing = day(weak, HEALTHY);
+    let WindingEstimate::PairCarriedNothing { pair } = nothing.winding else {
+        panic!("{nothing:?}")
+    };
+    assert_eq!(
+        Domain::Within.with_day(&nothing),
+        Domain::Outside(OutsideReason::SegmentCarriedNothing { pair })
+    );
+    // The day estimate of a cold morning: the winding reads cold, the friction law applies.
+    let mut cold = ReferenceSettings::REFERENCE;
+    cold.conditions = cold.conditions.at_temperature(-40.0);
+    let sim = ReferenceModel::new(cold).simulate(&Scenario::new(FaultVector::NOMINAL));
+    let measured = sim.trace.measured(&params).expect("conditions");
+    let c = TestConditions::estimate(&measured, &params, &calibration);
+    assert!((c.winding_rise + 60.0).abs() < 12.0, "{c:?}");
+    assert!(c.friction_scale > 2.5 && c.friction_scale < 3.5, "{c:?}");
+    assert!(c.flux_scale > 1.05, "{c:?}");
+}

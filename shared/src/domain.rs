@@ -10,6 +10,7 @@
 
 use crate::command::ChirpCommand;
 use crate::conditioning::{commutation_signs, AdcFrame};
+use crate::conditions::{TestConditions, WindingEstimate};
 
 /// Why a test lies outside the monitor model's domain.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -27,6 +28,10 @@ pub enum OutsideReason {
     /// Even the best fault vector leaves this much unexplained [A²·s]: the actuator does
     /// something the monitor model cannot.
     FitnessFloor { fitness: f32 },
+    /// The standstill injection's pair `pair` (0 = A→B) carried less current than its
+    /// design must produce ([`crate::conditions::MIN_PAIR_CURRENT`]), or no physical R and L:
+    /// the drive did not apply the test (a bridge that could not, an open leg).
+    SegmentCarriedNothing { pair: u8 },
 }
 
 /// The verdict on the whole test.
@@ -38,6 +43,19 @@ pub enum Domain {
     Within,
     /// Outside: the fault vector explains nothing, do not act on it.
     Outside(OutsideReason),
+}
+
+impl Domain {
+    /// The verdict with the test's day checked first: an injection segment that carried
+    /// nothing puts the test outside, whatever the rest says. O(1).
+    pub fn with_day(self, day: &TestConditions) -> Self {
+        match day.winding {
+            WindingEstimate::PairCarriedNothing { pair } => {
+                Self::Outside(OutsideReason::SegmentCarriedNothing { pair })
+            }
+            _ => self,
+        }
+    }
 }
 
 /// Where the domain ends: plain data, set from campaigns (see the constants' docs).

@@ -148,6 +148,7 @@ pub enum DomainCode {
     OpenPhase = 2,
     CommandMismatch = 3,
     FitnessFloor = 4,
+    SegmentCarriedNothing = 5,
 }
 
 impl From<Domain> for DomainCode {
@@ -158,18 +159,22 @@ impl From<Domain> for DomainCode {
             Domain::Outside(OutsideReason::OpenPhase { .. }) => Self::OpenPhase,
             Domain::Outside(OutsideReason::CommandMismatch { .. }) => Self::CommandMismatch,
             Domain::Outside(OutsideReason::FitnessFloor { .. }) => Self::FitnessFloor,
+            Domain::Outside(OutsideReason::SegmentCarriedNothing { .. }) => {
+                Self::SegmentCarriedNothing
+            }
         }
     }
 }
 
 impl DomainCode {
     /// Every code, in the order of its byte.
-    const ALL: [Self; 5] = [
+    const ALL: [Self; 6] = [
         Self::Within,
         Self::NoMotion,
         Self::OpenPhase,
         Self::CommandMismatch,
         Self::FitnessFloor,
+        Self::SegmentCarriedNothing,
     ];
 
     fn from_byte(b: u8) -> Option<Self> {
@@ -184,6 +189,7 @@ impl DomainCode {
             Self::OpenPhase => "open_phase",
             Self::CommandMismatch => "command_mismatch",
             Self::FitnessFloor => "fitness_floor",
+            Self::SegmentCarriedNothing => "segment_carried_nothing",
         }
     }
 

@@ -256,7 +256,8 @@ pub(crate) fn identify_command(
     let (line, verdict) = domain_heading(
         trace
             .domain_monitor(&record.params)
-            .assess(&record.domain, id.result.fitness),
+            .assess(&record.domain, id.result.fitness)
+            .with_day(&id.conditions),
     );
     heading.push(line);
     if checkpointing.is_some() {

@@ -95,7 +95,8 @@ pub(crate) fn preflight(
     let (line, verdict) = domain_heading(
         trace
             .domain_monitor(&record.params)
-            .assess(&record.domain, id.result.fitness),
+            .assess(&record.domain, id.result.fitness)
+            .with_day(&id.conditions),
     );
     heading.push(line);
     report(
