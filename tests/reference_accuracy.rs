@@ -1,11 +1,14 @@
-//! CI-sized accuracy check against the reference model with the default test (standstill
-//! segment + chirp): a few paper Table I cases and the Table II medium vector, each over
-//! three seeds (RM seed r, GA seed 1 + r, r = 0, 1, 2, as the campaigns run them), whose
-//! mean e_tot must be ≤ 2 % (the target for low and medium damage, a mean over runs). The
-//! full campaign is `host-sim campaign --table 1|2|random` (docs/accuracy.md).
+//! CI-sized accuracy check against the reference model with the default test (injection at
+//! standstill + chirp) on its real bridge: a few paper Table I cases and the Table II medium
+//! vector, each over three seeds (RM seed r, GA seed 1 + r, r = 0, 1, 2, as the campaigns run
+//! them), whose mean e_tot must be ≤ 2 % (the target for low and medium damage, a mean over
+//! runs); and a cold morning (−40 °C) and a hot actuator after a flight (+80 °C) against the
+//! 20 °C calibration. The full campaigns are `host-sim campaign --table 1|2|random` and
+//! `--conditions` (docs/accuracy.md, docs/robustness.md).
 
-use host_sim::actuator_file::Actuator;
-use host_sim::campaign::{run_once, TABLE_1, TABLE_2};
+use host_sim::actuator_file::{Actuator, Day};
+use host_sim::campaign::{run_once, HEALTHY_QUIET, TABLE_1, TABLE_2};
+use shared::uncertainty::Assessment;
 use host_sim::reference::ReferenceModel;
 use shared::actuator::ActuatorRecord;
 
@@ -113,4 +116,57 @@ fn eccentricity_medium() {
 #[test]
 fn multi_fault_medium() {
     check("medium");
+}
+
+/// The reference actuator with its windings and gear at `celsius` (calibrated at 20 °C).
+fn on_day(celsius: f64) -> Actuator {
+    Actuator::reference()
+        .with_day(Day {
+            temperature: Some(celsius),
+            ..Day::default()
+        })
+        .expect("a day in range")
+}
+
+/// The healthy actuator on `actuator`'s day: no component reads `FAULT`, none beyond 0.03.
+fn healthy_on(actuator: &Actuator) {
+    let rm = ReferenceModel::new(actuator.reference_settings().expect("a description"))
+        .with_test(actuator.record.test);
+    for run in 0..RUNS {
+        let r = run_once(&rm, &actuator.record, &HEALTHY_QUIET, run).expect("runs");
+        println!(
+            "healthy, seed {run}: largest {:.4}, found {:?}",
+            r.largest_component,
+            r.found.as_array()
+        );
+        assert!(
+            !r.assessments.contains(&Assessment::Faulty),
+            "seed {run}: {:?}",
+            r.assessments
+        );
+        assert!(
+            r.largest_component <= 0.03,
+            "seed {run}: a healthy component read {:.4}",
+            r.largest_component
+        );
+    }
+}
+
+/// −40 °C against a +20 °C calibration: copper −24 % (the size of a 20 % short on the old
+/// step test), grease friction 3×, flux +6.6 %.
+#[test]
+fn a_cold_morning() {
+    let cold = on_day(-40.0);
+    check_on(&cold, "short A k3 = 0.2");
+    check_on(&cold, "friction k1 = 0.4");
+    healthy_on(&cold);
+}
+
+/// +80 °C after a flight: copper +24 %, flux −6.6 %, grease friction 0.72×.
+#[test]
+fn a_hot_actuator_after_a_flight() {
+    let hot = on_day(80.0);
+    check_on(&hot, "short A k3 = 0.2");
+    check_on(&hot, "friction k1 = 0.4");
+    healthy_on(&hot);
 }

@@ -129,6 +129,13 @@ pub const HEALTHY: Case = Case {
     healthy: true,
 };
 
+/// The healthy actuator without process noise: the false-alarm row of the robustness grid.
+pub const HEALTHY_QUIET: Case = Case {
+    name: "healthy",
+    noise: 0.0,
+    ..HEALTHY
+};
+
 /// Largest allowed identified component on a healthy actuator.
 pub const FALSE_ALARM_LIMIT: f64 = 0.03;
 
@@ -207,6 +214,8 @@ pub struct RunResult {
     /// Verdicts with the uncertainty (`Faulty` only when the 90 % interval clears the
     /// detection threshold).
     pub assessments: [Assessment; FAULT_COUNT],
+    /// Whether the domain check found the test inside the monitor model's domain.
+    pub within: bool,
 }
 
 impl RunResult {
@@ -388,6 +397,12 @@ pub fn run_once(
         uncertainty,
         z_raw,
         assessments,
+        within: sim
+            .trace
+            .domain_monitor(&params)
+            .assess(&record.domain, id.result.fitness)
+            .with_day(&id.conditions)
+            == shared::domain::Domain::Within,
     })
 }
 

@@ -317,8 +317,13 @@ enum Command {
     Campaign {
         /// Which cases: 1 (paper Table I, single faults), 2 (Table II, multiple faults, plus
         /// the healthy actuator with noise), random (multi-fault vectors nobody tuned on).
-        #[arg(long, value_enum)]
-        table: CampaignTable,
+        #[arg(long, value_enum, required_unless_present = "conditions")]
+        table: Option<CampaignTable>,
+        /// Robustness: Table I, Table II and the healthy actuator over a grid of days and
+        /// drives (winding temperature −60 … +60 K from calibration with the friction law,
+        /// bus 250 / 280 V, two corners, 1 µs of dead time), one row per point.
+        #[arg(long, conflicts_with_all = ["table", "plot"])]
+        conditions: bool,
         /// Runs (seeds) per case.
         #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..=1000))]
         runs: u64,
@@ -726,14 +731,18 @@ fn main() -> ExitCode {
         } => plot_command(&actuator, &trace, calibration.as_deref(), seed, &out),
         Command::Campaign {
             table,
+            conditions,
             runs,
             out,
             plot,
             test,
             encoder_offset,
             day,
-        } => with_test(test, encoder_offset, day).and_then(|actuator| {
-            campaign_command(&actuator, table, runs, out.as_deref(), plot.as_deref())
+        } => with_test(test, encoder_offset, day).and_then(|actuator| match table {
+            Some(table) if !conditions => {
+                campaign_command(&actuator, table, runs, out.as_deref(), plot.as_deref())
+            }
+            _ => conditions_campaign_command(&actuator, runs, out.as_deref()),
         }),
         Command::Inverse { faults, seed, json } => actuator
             .built_in_only("inverse")

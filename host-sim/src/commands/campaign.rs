@@ -61,3 +61,176 @@ pub(crate) fn campaign_command(
     }
     Ok(())
 }
+
+/// One point of the robustness grid: the day and drive the reference model plays.
+struct GridPoint {
+    label: String,
+    day: Day,
+    /// Whether the drive differs from the calibration's (the calibration is redone on it:
+    /// dead time is a property of the installed controller, like the harness).
+    own_calibration: bool,
+}
+
+/// The robustness grid around the actuator's calibration day: the winding (and gear)
+/// temperature −60 … +60 K from it, the bus at 250 and 280 V (scaled for other buses), the
+/// two corners (cold and low bus, hot and high bus), and a drive with 1 µs of dead time.
+fn grid(actuator: &Actuator) -> Result<Vec<GridPoint>> {
+    let r = actuator.reference_settings()?;
+    let base = r.conditions.winding_temperature;
+    let nominal_bus = f64::from(actuator.params().dc_bus_voltage);
+    let bus = |v: f64| v / 270.0 * nominal_bus;
+    let point = |label: String, temperature: Option<f64>, bus_voltage: Option<f64>| GridPoint {
+        label,
+        day: Day {
+            temperature,
+            bus_voltage,
+            ..Day::default()
+        },
+        own_calibration: false,
+    };
+    let mut points: Vec<GridPoint> = [-60.0, -30.0, 0.0, 30.0, 60.0]
+        .into_iter()
+        .map(|dt: f64| {
+            point(
+                format!("{:+.0} K ({:.0} °C)", dt, base + dt),
+                (dt != 0.0).then_some(base + dt),
+                None,
+            )
+        })
+        .collect();
+    for v in [250.0, 280.0] {
+        points.push(point(format!("bus {:.1} V", bus(v)), None, Some(bus(v))));
+    }
+    points.push(point(
+        format!("−60 K, bus {:.1} V", bus(250.0)),
+        Some(base - 60.0),
+        Some(bus(250.0)),
+    ));
+    points.push(point(
+        format!("+60 K, bus {:.1} V", bus(280.0)),
+        Some(base + 60.0),
+        Some(bus(280.0)),
+    ));
+    points.push(GridPoint {
+        label: "dead time 1 µs (calibrated on that drive)".to_string(),
+        day: Day {
+            dead_time: Some(1.0e-6),
+            ..Day::default()
+        },
+        own_calibration: true,
+    });
+    Ok(points)
+}
+
+/// `campaign --conditions`: Table I, Table II and the healthy actuator at every point of the
+/// robustness grid, one row per point.
+pub(crate) fn conditions_campaign_command(
+    actuator: &Actuator,
+    runs: u64,
+    out: Option<&Path>,
+) -> Result<()> {
+    use host_sim::campaign::{self, HEALTHY, HEALTHY_QUIET, TABLE_2};
+    let mut cases = TABLE_1.to_vec();
+    cases.extend(TABLE_2);
+    cases.push(HEALTHY_QUIET);
+    cases.push(HEALTHY);
+    let start = Instant::now();
+    let mut text = format!(
+        "### Robustness: {} ({} test), {runs} runs per case\n\n\
+         Calibrated at {:.1} °C (measured) on the file's drive; each row plays another day or \
+         drive against that calibration (the dead-time row is calibrated on its own drive). \
+         e_tot in % (eq. 4); `healthy`: the largest component any run of the healthy \
+         actuator read, and its component-runs read `FAULT` / `suspect` (7 components × runs); \
+         then the same readings of the healthy components beside the faults of Table I and II; \
+         then the runs the domain check put outside.\n\n\
+         | conditions | Table I median | Table I worst case (mean) | low | medium | high | medium + noise | healthy: largest | healthy: FAULT / suspect | Table I+II healthy components FAULT / suspect | outside the domain |\n\
+         | --- | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n",
+        actuator.name,
+        actuator.record.test.kind_name(),
+        actuator.record.calibration.temperature
+    );
+    for point in grid(actuator)? {
+        let mut played = actuator.clone().with_day(point.day)?;
+        if point.own_calibration {
+            let model = ReferenceModel::new(played.reference_settings()?)
+                .with_test(played.record.test);
+            played.record.calibration =
+                host_sim::calibration::reference_calibration(&model, &played.record.calibration)?;
+        }
+        eprintln!("robustness: {}", point.label);
+        let summaries =
+            campaign::run_campaign(&cases, runs, &played, std::io::stderr().is_terminal())?;
+        let by_name = |name: &str| summaries.iter().find(|c| c.case.name == name);
+        let table_1: Vec<&campaign::CaseSummary> = summaries
+            .iter()
+            .filter(|c| TABLE_1.iter().any(|t| t.name == c.case.name))
+            .collect();
+        let mut means: Vec<f64> = table_1.iter().map(|c| c.mean()).collect();
+        means.sort_by(f64::total_cmp);
+        let median = means.get(means.len() / 2).copied().unwrap_or(f64::NAN);
+        let worst = table_1
+            .iter()
+            .max_by(|a, b| a.mean().total_cmp(&b.mean()))
+            .map_or("-".to_string(), |c| format!("{:.2} ({})", c.mean(), c.case.name));
+        let mean_of = |name: &str| by_name(name).map_or("-".to_string(), |c| format!("{:.2}", c.mean()));
+        let healthy = by_name(HEALTHY_QUIET.name);
+        let largest = healthy.map_or(f64::NAN, |c| {
+            c.runs.iter().map(|r| r.largest_component).fold(0.0, f64::max)
+        });
+        let readings = |c: &campaign::CaseSummary| {
+            let truth = shared::FaultVector::new(c.case.faults).unwrap_or(shared::FaultVector::NOMINAL);
+            let nominal = shared::FaultVector::NOMINAL;
+            let (mut fault, mut suspect, mut of) = (0usize, 0usize, 0usize);
+            for r in &c.runs {
+                for i in [0usize, 1, 2, 3, 4, 5, 7] {
+                    if truth.as_array()[i] != nominal.as_array()[i] {
+                        continue;
+                    }
+                    of += 1;
+                    match r.assessments[i] {
+                        shared::uncertainty::Assessment::Faulty => fault += 1,
+                        shared::uncertainty::Assessment::Suspect
+                        | shared::uncertainty::Assessment::Ambiguous { .. } => suspect += 1,
+                        _ => {}
+                    }
+                }
+            }
+            (fault, suspect, of)
+        };
+        let (hf, hs, _) = healthy.map_or((0, 0, 0), readings);
+        let (mut f, mut su, mut of) = (0, 0, 0);
+        for c in summaries.iter().filter(|c| c.case.name != HEALTHY.name) {
+            let (a, b, n) = readings(c);
+            f += a;
+            su += b;
+            of += n;
+        }
+        let outside: usize = summaries
+            .iter()
+            .map(|c| c.runs.iter().filter(|r| !r.within).count())
+            .sum();
+        let total: usize = summaries.iter().map(|c| c.runs.len()).sum();
+        text += &format!(
+            "| {} | {median:.2} | {worst} | {} | {} | {} | {} | {largest:.3} | {hf} / {hs} | {f} / {su} of {of} | {outside} of {total} |\n",
+            point.label,
+            mean_of("low"),
+            mean_of("medium"),
+            mean_of("high"),
+            mean_of("medium + noise 50 %"),
+        );
+        println!("{}", text.lines().last().unwrap_or(""));
+    }
+    text += &format!(
+        "\n({:.0} s wall time; `host-sim campaign --conditions --runs {runs}{}`)\n",
+        start.elapsed().as_secs_f64(),
+        if actuator.built_in {
+            String::new()
+        } else {
+            format!(" --actuator {}", actuator.source.as_ref().map_or("…".to_string(), |p| p.display().to_string()))
+        }
+    );
+    if let Some(path) = out {
+        std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(())
+}
