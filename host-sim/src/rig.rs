@@ -248,10 +248,10 @@ pub fn import(
     for record in reader.records() {
         let record = record.map_err(csv_error)?;
         let line = record.position().map_or(0, |p| p.line());
-        let mut v = [0.0; 7];
-        for (j, x) in v.iter_mut().enumerate() {
-            let column = headers.get(at[j]).unwrap_or("").to_string();
-            let cell = record.get(at[j]).unwrap_or("");
+        // One cell in SI units, refused with its line and column when not a finite number.
+        let cell_at = |at: usize, scale: f64| -> Result<f64, RigError> {
+            let column = headers.get(at).unwrap_or("").to_string();
+            let cell = record.get(at).unwrap_or("");
             let parsed: f64 = cell.parse().map_err(|_| RigError::NotNumeric {
                 line,
                 column: column.clone(),
@@ -260,22 +260,16 @@ pub fn import(
             if !parsed.is_finite() {
                 return Err(RigError::NotFinite { line, column });
             }
-            *x = parsed * scale[j];
+            Ok(parsed * scale)
+        };
+        let mut v = [0.0; 7];
+        for (j, x) in v.iter_mut().enumerate() {
+            *x = cell_at(at[j], scale[j])?;
         }
         if let Some(columns) = conditions {
             let mut day = [0.0; 2];
             for ((x, &at), k) in day.iter_mut().zip(&columns).zip(condition_scale) {
-                let column = headers.get(at).unwrap_or("").to_string();
-                let cell = record.get(at).unwrap_or("");
-                let parsed: f64 = cell.parse().map_err(|_| RigError::NotNumeric {
-                    line,
-                    column: column.clone(),
-                    cell: cell.to_string(),
-                })?;
-                if !parsed.is_finite() {
-                    return Err(RigError::NotFinite { line, column });
-                }
-                *x = parsed * k;
+                *x = cell_at(at, k)?;
             }
             day_rows.push(day);
         }

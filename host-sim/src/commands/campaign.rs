@@ -152,8 +152,8 @@ pub(crate) fn conditions_campaign_command(
     for point in grid(actuator)? {
         let mut played = actuator.clone().with_day(point.day)?;
         if point.own_calibration {
-            let model = ReferenceModel::new(played.reference_settings()?)
-                .with_test(played.record.test);
+            let model =
+                ReferenceModel::new(played.reference_settings()?).with_test(played.record.test);
             played.record.calibration =
                 host_sim::calibration::reference_calibration(&model, &played.record.calibration)?;
         }
@@ -171,14 +171,21 @@ pub(crate) fn conditions_campaign_command(
         let worst = table_1
             .iter()
             .max_by(|a, b| a.mean().total_cmp(&b.mean()))
-            .map_or("-".to_string(), |c| format!("{:.2} ({})", c.mean(), c.case.name));
-        let mean_of = |name: &str| by_name(name).map_or("-".to_string(), |c| format!("{:.2}", c.mean()));
+            .map_or("-".to_string(), |c| {
+                format!("{:.2} ({})", c.mean(), c.case.name)
+            });
+        let mean_of =
+            |name: &str| by_name(name).map_or("-".to_string(), |c| format!("{:.2}", c.mean()));
         let healthy = by_name(HEALTHY_QUIET.name);
         let largest = healthy.map_or(f64::NAN, |c| {
-            c.runs.iter().map(|r| r.largest_component).fold(0.0, f64::max)
+            c.runs
+                .iter()
+                .map(|r| r.largest_component)
+                .fold(0.0, f64::max)
         });
         let readings = |c: &campaign::CaseSummary| {
-            let truth = shared::FaultVector::new(c.case.faults).unwrap_or(shared::FaultVector::NOMINAL);
+            let truth =
+                shared::FaultVector::new(c.case.faults).unwrap_or(shared::FaultVector::NOMINAL);
             let nominal = shared::FaultVector::NOMINAL;
             let (mut fault, mut suspect, mut of) = (0usize, 0usize, 0usize);
             for r in &c.runs {
@@ -226,7 +233,13 @@ pub(crate) fn conditions_campaign_command(
         if actuator.built_in {
             String::new()
         } else {
-            format!(" --actuator {}", actuator.source.as_ref().map_or("…".to_string(), |p| p.display().to_string()))
+            format!(
+                " --actuator {}",
+                actuator
+                    .source
+                    .as_ref()
+                    .map_or("…".to_string(), |p| p.display().to_string())
+            )
         }
     );
     if let Some(path) = out {
