@@ -1,5 +1,6 @@
 //! What the day changes, as the FDI estimates it from one test: the winding's temperature
-//! (hence its copper resistance and the magnets' flux) from the injection segment, the gear's
+//! (hence its copper resistance and the magnets' flux) from the injection segment, averaged
+//! with the thermistor where the test carries its reading, the gear's
 //! friction from the measured temperature through the calibrated law, and the measured bus.
 //!
 //! Units: °C (K for differences), Ω, H, V. [`TestConditions::estimate`] is O(segment samples)
@@ -98,10 +99,14 @@ pub enum WindingEstimate {
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct TestConditions {
-    /// Winding temperature minus the calibration's [K] (estimated).
+    /// Winding temperature minus the calibration's [K] (estimated: the injection's copper,
+    /// averaged with the thermistor where the test carries one).
     pub winding_rise: f32,
     /// Copper resistance against the calibration's [-].
     pub copper_scale: f32,
+    /// The injection's installed pair resistance (copper, harness, switches) against the
+    /// calibration's [-]: the copper's change, diluted by what does not heat.
+    pub pair_resistance_ratio: f32,
     /// Magnet flux against the calibration's [-].
     pub flux_scale: f32,
     /// Healthy dry friction against the calibration's, from the measured temperature [-].
@@ -119,6 +124,7 @@ impl TestConditions {
     pub const CALIBRATION: Self = Self {
         winding_rise: 0.0,
         copper_scale: 1.0,
+        pair_resistance_ratio: 1.0,
         flux_scale: 1.0,
         friction_scale: 1.0,
         measured_temperature: None,
@@ -184,9 +190,17 @@ impl TestConditions {
             1.0 + COPPER_COEFFICIENT * (calibration.temperature - REFERENCE_TEMPERATURE);
         let share = (copper_at_calibration / calibration.pair_resistance_scale).clamp(0.05, 1.0);
         let rise = (ratio - 1.0) / (share * COPPER_COEFFICIENT / copper_at_calibration);
-        let rise = rise.clamp(-150.0, 200.0);
+        let from_injection = rise.clamp(-150.0, 200.0);
+        // With a thermistor reading, the mean of the two: the injection's estimate scatters
+        // by a few kelvin from test to test, the thermistor has its bias (both measured:
+        // docs/robustness.md).
+        let rise = match measured_temperature {
+            Some(t) => 0.5 * (from_injection + (t - calibration.temperature)),
+            None => from_injection,
+        };
         out.winding_rise = rise;
         out.copper_scale = 1.0 + COPPER_COEFFICIENT * rise / copper_at_calibration;
+        out.pair_resistance_ratio = 1.0 + share * COPPER_COEFFICIENT * rise / copper_at_calibration;
         out.flux_scale = 1.0 + calibration.magnet_coefficient * rise;
         out
     }

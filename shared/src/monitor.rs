@@ -187,9 +187,8 @@ impl MonitorModel {
     /// circuits) at the estimated winding temperature, torque constant at its flux, healthy
     /// friction at the measured temperature. The calibration's own day changes nothing.
     pub fn with_conditions(mut self, conditions: &TestConditions) -> Self {
-        let copper = conditions.copper_scale;
-        self.resistance *= copper;
-        self.pair_phase_resistance *= copper;
+        self.resistance *= conditions.copper_scale;
+        self.pair_phase_resistance *= conditions.pair_resistance_ratio;
         self.torque_constant *= conditions.flux_scale;
         self.friction_scale *= conditions.friction_scale;
         self
