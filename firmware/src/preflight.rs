@@ -377,10 +377,11 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                             Verdict::NotApplicable => Assessment::NotApplicable,
                         }),
                 },
-                domain: self
-                    .domain
-                    .assess(&self.settings.actuator.domain, result.fitness)
-                    .with_day(&self.day),
+                domain: self.domain.assess(
+                    &self.settings.actuator.domain,
+                    result.fitness,
+                    &self.day,
+                ),
                 verdicts: result
                     .faults
                     .verdicts_at(self.settings.actuator.detection_threshold),

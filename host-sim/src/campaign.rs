@@ -397,12 +397,11 @@ pub fn run_once(
         uncertainty,
         z_raw,
         assessments,
-        within: sim
-            .trace
-            .domain_monitor(&params)
-            .assess(&record.domain, id.result.fitness)
-            .with_day(&id.conditions)
-            == shared::domain::Domain::Within,
+        within: sim.trace.domain_monitor(&params).assess(
+            &record.domain,
+            id.result.fitness,
+            &id.conditions,
+        ) == shared::domain::Domain::Within,
     })
 }
 

@@ -201,19 +201,7 @@ pub fn import(
         message: e.to_string(),
     };
     let headers = reader.headers().map_err(csv_error)?.clone();
-    let mut at = [0usize; 7];
-    for (slot, ours) in at.iter_mut().zip(CSV_HEADER) {
-        let theirs = format
-            .columns
-            .get(ours)
-            .cloned()
-            .unwrap_or_else(|| ours.to_string());
-        *slot = headers
-            .iter()
-            .position(|h| h == theirs)
-            .ok_or(RigError::MissingColumn { ours, theirs })?;
-    }
-    // The day's channels (bus voltage, temperature): optional, both or neither.
+    // Where one of our columns sits in the recording, under the rig's name for it.
     let theirs_of = |ours: &str| {
         format
             .columns
@@ -221,13 +209,19 @@ pub fn import(
             .cloned()
             .unwrap_or_else(|| ours.to_string())
     };
-    let found: Vec<Option<usize>> = CONDITION_HEADER
-        .iter()
-        .map(|ours| {
-            let theirs = theirs_of(ours);
-            headers.iter().position(|h| h == theirs)
-        })
-        .collect();
+    let position = |ours: &str| {
+        let theirs = theirs_of(ours);
+        headers.iter().position(|h| h == theirs)
+    };
+    let mut at = [0usize; 7];
+    for (slot, ours) in at.iter_mut().zip(CSV_HEADER) {
+        *slot = position(ours).ok_or_else(|| RigError::MissingColumn {
+            ours,
+            theirs: theirs_of(ours),
+        })?;
+    }
+    // The day's channels (bus voltage, temperature): optional, both or neither.
+    let found = CONDITION_HEADER.map(position);
     let conditions = match (found[0], found[1]) {
         (Some(b), Some(t)) => Some([b, t]),
         (None, None) => None,

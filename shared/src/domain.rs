@@ -207,8 +207,23 @@ impl DomainMonitor {
     }
 
     /// The verdict, checks in order of how directly they see the failure: phases (while
-    /// current flows), motion, command, then the identification's best `fitness`.
-    pub fn assess(&self, limits: &DomainLimits, fitness: f32) -> Domain {
+    /// current flows), the test's day (an injection that carried nothing), motion, command,
+    /// then the identification's best `fitness`.
+    pub fn assess(&self, limits: &DomainLimits, fitness: f32, day: &TestConditions) -> Domain {
+        let test = self.assess_test(limits, fitness);
+        // An open phase starves its pairs' injection too: name the phase, the more direct
+        // reason; otherwise a segment that carried nothing comes before the rest.
+        if let Domain::Outside(OutsideReason::OpenPhase { .. }) = test {
+            return test;
+        }
+        match Domain::Within.with_day(day) {
+            Domain::Within => test,
+            outside => outside,
+        }
+    }
+
+    /// The checks of the test's frames and fitness, without the day's.
+    fn assess_test(&self, limits: &DomainLimits, fitness: f32) -> Domain {
         if self.largest_phase_mean(limits.min_phase_samples) >= limits.min_phase_current {
             let ratios = self.phase_ratios(limits.min_phase_samples);
             for (phase, ratio) in (0u8..).zip(ratios) {

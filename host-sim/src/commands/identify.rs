@@ -253,12 +253,11 @@ pub(crate) fn identify_command(
         ("calibration".to_string(), cal_name),
         ("ga_seed".to_string(), seed.to_string()),
     ];
-    let (line, verdict) = domain_heading(
-        trace
-            .domain_monitor(&record.params)
-            .assess(&record.domain, id.result.fitness)
-            .with_day(&id.conditions),
-    );
+    let (line, verdict) = domain_heading(trace.domain_monitor(&record.params).assess(
+        &record.domain,
+        id.result.fitness,
+        &id.conditions,
+    ));
     heading.push(line);
     if checkpointing.is_some() {
         let said = match resumption {

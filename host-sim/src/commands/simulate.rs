@@ -92,12 +92,11 @@ pub(crate) fn preflight(
         ("calibration".to_string(), calibration_name(actuator, &test)),
         ("ga_seed".to_string(), ga_seed.to_string()),
     ];
-    let (line, verdict) = domain_heading(
-        trace
-            .domain_monitor(&record.params)
-            .assess(&record.domain, id.result.fitness)
-            .with_day(&id.conditions),
-    );
+    let (line, verdict) = domain_heading(trace.domain_monitor(&record.params).assess(
+        &record.domain,
+        id.result.fitness,
+        &id.conditions,
+    ));
     heading.push(line);
     report(
         &id,
