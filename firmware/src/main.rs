@@ -30,6 +30,8 @@ mod emulation;
 mod hardware_adc;
 #[cfg(target_os = "none")]
 mod target;
+#[cfg(target_os = "none")]
+mod vectors;
 
 #[cfg(not(target_os = "none"))]
 fn main() {

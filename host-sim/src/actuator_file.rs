@@ -133,6 +133,7 @@ impl Actuator {
             let ActuatorRecordError::OutOfRange { field } = e else {
                 bail!("{}", describe(e));
             };
+            let field = field.key();
             let at = line_of(text, field).map_or(String::new(), |l| format!(" (line {l})"));
             bail!("`{field}`{at}: {}", range_text(field));
         }
@@ -468,7 +469,9 @@ pub fn describe(e: ActuatorRecordError) -> String {
             format!("body length {found} does not match its version")
         }
         ActuatorRecordError::BadChecksum => "damaged (CRC-32 mismatch)".to_string(),
-        ActuatorRecordError::OutOfRange { field } => format!("`{field}`: {}", range_text(field)),
+        ActuatorRecordError::OutOfRange { field } => {
+            format!("`{}`: {}", field.key(), range_text(field.key()))
+        }
     }
 }
 

@@ -52,7 +52,88 @@ pub enum ActuatorRecordError {
     BadChecksum,
     /// A value outside its physical or working range; names the field as the actuator
     /// description file does (`section.key`).
-    OutOfRange { field: &'static str },
+    OutOfRange { field: RecordField },
+}
+
+/// The fields [`ActuatorRecord::validate`] can refuse, named on the host as the actuator
+/// description file names them ([`RecordField::key`]). An enum rather than the key's text so
+/// that the firmware's flash holds no names: defmt prints the variant from the host's table.
+macro_rules! record_fields {
+    ($($variant:ident => $key:literal,)*) => {
+        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+        pub enum RecordField {
+            $($variant,)*
+        }
+
+        impl RecordField {
+            /// Every field, in declaration order.
+            pub const ALL: &'static [RecordField] = &[$(RecordField::$variant,)*];
+
+            /// `section.key` in the actuator description file (`ga`: the GA settings as a
+            /// whole; `test`: a segment's sample count beyond 65 535).
+            pub const fn key(self) -> &'static str {
+                match self {
+                    $(RecordField::$variant => $key,)*
+                }
+            }
+        }
+    };
+}
+
+record_fields! {
+    TestDesign => "test.design",
+    TestInjectionFrequency => "test.injection_frequency",
+    MotorDcBusVoltage => "motor.dc_bus_voltage",
+    MotorPhaseResistance => "motor.phase_resistance",
+    MotorPhaseInductance => "motor.phase_inductance",
+    MotorBackEmfConstant => "motor.back_emf_constant",
+    MotorMaxCurrent => "motor.max_current",
+    MechanicsMotorInertia => "mechanics.motor_inertia",
+    MechanicsUserInertia => "mechanics.user_inertia",
+    MechanicsGearRatio => "mechanics.gear_ratio",
+    MechanicsGearStiffness => "mechanics.gear_stiffness",
+    MechanicsNominalBacklash => "mechanics.nominal_backlash",
+    MechanicsStaticFriction => "mechanics.static_friction",
+    MechanicsDynamicFriction => "mechanics.dynamic_friction",
+    MechanicsStickSpeed => "mechanics.stick_speed",
+    ControllerPositionKp => "controller.position_kp",
+    ControllerMaxSpeed => "controller.max_speed",
+    ControllerSpeedKp => "controller.speed_kp",
+    ControllerControlPeriod => "controller.control_period",
+    TestChirpAmplitude => "test.chirp_amplitude",
+    TestChirpEndFrequency => "test.chirp_end_frequency",
+    TestChirpDuration => "test.chirp_duration",
+    CalibrationResistanceScale => "calibration.resistance_scale",
+    CalibrationPairResistanceScale => "calibration.pair_resistance_scale",
+    CalibrationPairInductanceScale => "calibration.pair_inductance_scale",
+    CalibrationInductanceScale => "calibration.inductance_scale",
+    CalibrationBackEmfScale => "calibration.back_emf_scale",
+    CalibrationFrictionScale => "calibration.friction_scale",
+    MechanicsGearDamping => "mechanics.gear_damping",
+    MechanicsAeroStiffness => "mechanics.aero_stiffness",
+    ControllerPositionKi => "controller.position_ki",
+    ControllerPositionKd => "controller.position_kd",
+    ControllerSpeedKi => "controller.speed_ki",
+    CalibrationDamping => "calibration.damping",
+    CalibrationNominalResidual => "calibration.nominal_residual",
+    DomainMinTravel => "domain.min_travel",
+    DomainMinPhaseRatio => "domain.min_phase_ratio",
+    DomainMinPhaseCurrent => "domain.min_phase_current",
+    DomainMaxTracking => "domain.max_tracking",
+    CalibrationTemperature => "calibration.temperature",
+    CalibrationFrictionPoints => "calibration.friction_points",
+    CalibrationMagnetCoefficient => "calibration.magnet_coefficient",
+    MotorPolePairs => "motor.pole_pairs",
+    MotorWindingGroupAngleDeg => "motor.winding_group_angle_deg",
+    InstallationEncoderOffset => "installation.encoder_offset",
+    TestStandstillVolts => "test.standstill_volts",
+    TestMotionAmplitude => "test.motion_amplitude",
+    DomainMaxFitness => "domain.max_fitness",
+    DetectionThreshold => "detection.threshold",
+    Ga => "ga",
+    GaTournamentSize => "ga.tournament_size",
+    TestSegmentSamples => "test",
 }
 
 /// One actuator, as the FDI needs it. Plain data.
@@ -160,7 +241,7 @@ impl ActuatorRecord {
         let [ramp, hold] = [r.u16()?, r.u16()?];
         let [chirp_amplitude, end_frequency, duration] = r.f32s::<3>();
         if kind > 7 || (version == 1 && kind > 3) {
-            return Err(out_of_range("test.design"));
+            return Err(out_of_range(RecordField::TestDesign));
         }
         let mut test = PreflightTest {
             standstill: (kind & 1 != 0).then_some(StandstillSegment {
@@ -194,7 +275,7 @@ impl ActuatorRecord {
         };
         let [max_evaluations, max_generations, stall_generations] = [r.u32(), r.u32(), r.u32()];
         let tournament_size =
-            u8::try_from(r.u32()).map_err(|_| out_of_range("ga.tournament_size"))?;
+            u8::try_from(r.u32()).map_err(|_| out_of_range(RecordField::GaTournamentSize))?;
         let [tolerance, crossover_alpha, mutation_probability, mutation_scale, mutation_floor, differential_probability, differential_scale] =
             r.f32s::<7>();
         let circular_mask = r.u32();
@@ -213,7 +294,7 @@ impl ActuatorRecord {
                 s.frequency = frequency;
             }
             if (kind & 4 != 0) != test.standstill.is_some_and(|s| s.frequency > 0.0) {
-                return Err(out_of_range("test.injection_frequency"));
+                return Err(out_of_range(RecordField::TestInjectionFrequency));
             }
             calibration.pair_resistance_scale = pair_r;
             calibration.pair_inductance_scale = pair_l;
@@ -266,49 +347,55 @@ impl ActuatorRecord {
         let d = &self.domain;
         let t = &self.test;
         let fail = |field| Err(ActuatorRecordError::OutOfRange { field });
-        let positive: [(f32, &'static str); 26] = [
-            (p.dc_bus_voltage, "motor.dc_bus_voltage"),
-            (p.phase_resistance, "motor.phase_resistance"),
-            (p.phase_inductance, "motor.phase_inductance"),
-            (p.back_emf_constant, "motor.back_emf_constant"),
-            (p.max_current, "motor.max_current"),
-            (p.motor_inertia, "mechanics.motor_inertia"),
-            (p.user_inertia, "mechanics.user_inertia"),
-            (p.gear_ratio, "mechanics.gear_ratio"),
-            (p.gear_stiffness, "mechanics.gear_stiffness"),
-            (p.nominal_backlash, "mechanics.nominal_backlash"),
-            (p.static_friction, "mechanics.static_friction"),
-            (p.dynamic_friction, "mechanics.dynamic_friction"),
-            (p.stick_speed, "mechanics.stick_speed"),
-            (p.position_kp, "controller.position_kp"),
-            (p.max_speed, "controller.max_speed"),
-            (p.speed_kp, "controller.speed_kp"),
-            (p.control_period, "controller.control_period"),
-            (t.chirp.amplitude, "test.chirp_amplitude"),
-            (t.chirp.end_frequency, "test.chirp_end_frequency"),
-            (t.chirp.duration, "test.chirp_duration"),
-            (c.resistance_scale, "calibration.resistance_scale"),
-            (c.pair_resistance_scale, "calibration.pair_resistance_scale"),
-            (c.pair_inductance_scale, "calibration.pair_inductance_scale"),
-            (c.inductance_scale, "calibration.inductance_scale"),
-            (c.back_emf_scale, "calibration.back_emf_scale"),
-            (c.friction_scale, "calibration.friction_scale"),
+        let positive: [(f32, RecordField); 26] = [
+            (p.dc_bus_voltage, RecordField::MotorDcBusVoltage),
+            (p.phase_resistance, RecordField::MotorPhaseResistance),
+            (p.phase_inductance, RecordField::MotorPhaseInductance),
+            (p.back_emf_constant, RecordField::MotorBackEmfConstant),
+            (p.max_current, RecordField::MotorMaxCurrent),
+            (p.motor_inertia, RecordField::MechanicsMotorInertia),
+            (p.user_inertia, RecordField::MechanicsUserInertia),
+            (p.gear_ratio, RecordField::MechanicsGearRatio),
+            (p.gear_stiffness, RecordField::MechanicsGearStiffness),
+            (p.nominal_backlash, RecordField::MechanicsNominalBacklash),
+            (p.static_friction, RecordField::MechanicsStaticFriction),
+            (p.dynamic_friction, RecordField::MechanicsDynamicFriction),
+            (p.stick_speed, RecordField::MechanicsStickSpeed),
+            (p.position_kp, RecordField::ControllerPositionKp),
+            (p.max_speed, RecordField::ControllerMaxSpeed),
+            (p.speed_kp, RecordField::ControllerSpeedKp),
+            (p.control_period, RecordField::ControllerControlPeriod),
+            (t.chirp.amplitude, RecordField::TestChirpAmplitude),
+            (t.chirp.end_frequency, RecordField::TestChirpEndFrequency),
+            (t.chirp.duration, RecordField::TestChirpDuration),
+            (c.resistance_scale, RecordField::CalibrationResistanceScale),
+            (
+                c.pair_resistance_scale,
+                RecordField::CalibrationPairResistanceScale,
+            ),
+            (
+                c.pair_inductance_scale,
+                RecordField::CalibrationPairInductanceScale,
+            ),
+            (c.inductance_scale, RecordField::CalibrationInductanceScale),
+            (c.back_emf_scale, RecordField::CalibrationBackEmfScale),
+            (c.friction_scale, RecordField::CalibrationFrictionScale),
         ];
         if let Some(field) = first_outside(&positive, false) {
             return fail(field);
         }
-        let non_negative: [(f32, &'static str); 11] = [
-            (p.gear_damping, "mechanics.gear_damping"),
-            (p.aero_stiffness, "mechanics.aero_stiffness"),
-            (p.position_ki, "controller.position_ki"),
-            (p.position_kd, "controller.position_kd"),
-            (p.speed_ki, "controller.speed_ki"),
-            (c.damping, "calibration.damping"),
-            (c.nominal_residual, "calibration.nominal_residual"),
-            (d.min_travel, "domain.min_travel"),
-            (d.min_phase_ratio, "domain.min_phase_ratio"),
-            (d.min_phase_current, "domain.min_phase_current"),
-            (d.max_tracking, "domain.max_tracking"),
+        let non_negative: [(f32, RecordField); 11] = [
+            (p.gear_damping, RecordField::MechanicsGearDamping),
+            (p.aero_stiffness, RecordField::MechanicsAeroStiffness),
+            (p.position_ki, RecordField::ControllerPositionKi),
+            (p.position_kd, RecordField::ControllerPositionKd),
+            (p.speed_ki, RecordField::ControllerSpeedKi),
+            (c.damping, RecordField::CalibrationDamping),
+            (c.nominal_residual, RecordField::CalibrationNominalResidual),
+            (d.min_travel, RecordField::DomainMinTravel),
+            (d.min_phase_ratio, RecordField::DomainMinPhaseRatio),
+            (d.min_phase_current, RecordField::DomainMinPhaseCurrent),
+            (d.max_tracking, RecordField::DomainMaxTracking),
         ];
         if let Some(field) = first_outside(&non_negative, true) {
             return fail(field);
@@ -317,18 +404,18 @@ impl ActuatorRecord {
             let n = p.pole_pairs as u32;
             n as f32 == p.pole_pairs
         };
-        let others: [(bool, &'static str); 15] = [
+        let others: [(bool, RecordField); 15] = [
             (
                 t.standstill.is_none_or(|s| {
                     s.frequency.is_finite()
                         && s.frequency >= 0.0
                         && s.frequency * p.control_period <= 0.125
                 }),
-                "test.injection_frequency",
+                RecordField::TestInjectionFrequency,
             ),
             (
                 c.temperature.is_finite() && (-80.0..=200.0).contains(&c.temperature),
-                "calibration.temperature",
+                RecordField::CalibrationTemperature,
             ),
             (
                 // Rising in temperature, unused points (factor 0) last.
@@ -341,28 +428,31 @@ impl ActuatorRecord {
                         && f.is_finite()
                         && (0.0..=20.0).contains(f)
                 }),
-                "calibration.friction_points",
+                RecordField::CalibrationFrictionPoints,
             ),
             (
                 c.magnet_coefficient.is_finite() && c.magnet_coefficient.abs() <= 0.01,
-                "calibration.magnet_coefficient",
+                RecordField::CalibrationMagnetCoefficient,
             ),
-            (whole_pole_pairs, "motor.pole_pairs"),
+            (whole_pole_pairs, RecordField::MotorPolePairs),
             (
                 p.winding_group_angle
                     .iter()
                     .all(|a| a.is_finite() && a.abs() <= 7.0),
-                "motor.winding_group_angle_deg",
+                RecordField::MotorWindingGroupAngleDeg,
             ),
             (
                 p.dynamic_friction <= p.static_friction,
-                "mechanics.dynamic_friction",
+                RecordField::MechanicsDynamicFriction,
             ),
             (
                 p.encoder_offset.is_finite() && p.encoder_offset.abs() <= 1.0e4,
-                "installation.encoder_offset",
+                RecordField::InstallationEncoderOffset,
             ),
-            (p.control_period <= 1.0e-2, "controller.control_period"),
+            (
+                p.control_period <= 1.0e-2,
+                RecordField::ControllerControlPeriod,
+            ),
             (
                 t.standstill.is_none_or(|s| {
                     s.volts.is_finite()
@@ -370,29 +460,29 @@ impl ActuatorRecord {
                         && s.volts <= p.dc_bus_voltage
                         && s.on_samples > 0
                 }),
-                "test.standstill_volts",
+                RecordField::TestStandstillVolts,
             ),
             (
                 t.motion.is_none_or(|m| {
                     m.amplitude.is_finite() && m.amplitude > 0.0 && m.ramp_samples > 0
                 }),
-                "test.motion_amplitude",
+                RecordField::TestMotionAmplitude,
             ),
             (
                 t.chirp.end_frequency * p.control_period < 0.1,
-                "test.chirp_end_frequency",
+                RecordField::TestChirpEndFrequency,
             ),
             (
                 t.samples(p.control_period) <= TEST_SAMPLES,
-                "test.chirp_duration",
+                RecordField::TestChirpDuration,
             ),
             (
                 d.max_fitness.is_finite() && d.max_fitness > 0.0,
-                "domain.max_fitness",
+                RecordField::DomainMaxFitness,
             ),
             (
                 self.detection_threshold > 0.0 && self.detection_threshold < 1.0,
-                "detection.threshold",
+                RecordField::DetectionThreshold,
             ),
         ];
         for (ok, field) in others {
@@ -401,7 +491,7 @@ impl ActuatorRecord {
             }
         }
         if self.ga.check(POPULATION).is_err() {
-            return fail("ga");
+            return fail(RecordField::Ga);
         }
         Ok(())
     }
@@ -501,7 +591,7 @@ const _: () = assert!(FAULT_COUNT == GENES);
 /// The first value that is not finite and positive (or zero, with `zero_allowed`). Kept out
 /// of line so that the checks stay a loop in flash, not 35 unrolled copies.
 #[inline(never)]
-fn first_outside(values: &[(f32, &'static str)], zero_allowed: bool) -> Option<&'static str> {
+fn first_outside(values: &[(f32, RecordField)], zero_allowed: bool) -> Option<RecordField> {
     values
         .iter()
         .find(|(v, _)| !(v.is_finite() && (*v > 0.0 || zero_allowed && *v == 0.0)))
@@ -544,11 +634,15 @@ impl Reader<'_> {
         self.at += 4;
         w
     }
+    /// Out of line: a record reads 85 words, and one copy keeps decoding small in flash.
+    #[inline(never)]
     fn u32(&mut self) -> u32 {
         u32::from_le_bytes(self.word())
     }
     fn u16(&mut self) -> Result<u16, ActuatorRecordError> {
-        u16::try_from(self.u32()).map_err(|_| ActuatorRecordError::OutOfRange { field: "test" })
+        u16::try_from(self.u32()).map_err(|_| ActuatorRecordError::OutOfRange {
+            field: RecordField::TestSegmentSamples,
+        })
     }
     fn f32(&mut self) -> f32 {
         f32::from_bits(self.u32())
@@ -614,6 +708,20 @@ mod tests {
     }
 
     #[test]
+    fn record_fields_have_distinct_keys() {
+        for (i, a) in RecordField::ALL.iter().enumerate() {
+            assert!(
+                a.key().split('.').all(|part| !part.is_empty()),
+                "{a:?}: {}",
+                a.key()
+            );
+            for b in &RecordField::ALL[i + 1..] {
+                assert_ne!(a.key(), b.key(), "{a:?} and {b:?}");
+            }
+        }
+    }
+
+    #[test]
     fn every_flipped_bit_is_refused() {
         let bytes = ActuatorRecord::REFERENCE.encode();
         for i in 0..RECORD_BYTES * 8 {
@@ -651,7 +759,7 @@ mod tests {
         assert_eq!(
             ActuatorRecord::decode(&r.encode()),
             Err(ActuatorRecordError::OutOfRange {
-                field: "mechanics.gear_ratio"
+                field: RecordField::MechanicsGearRatio
             })
         );
         let mut r = ActuatorRecord::REFERENCE;
@@ -659,7 +767,7 @@ mod tests {
         assert_eq!(
             r.validate(),
             Err(ActuatorRecordError::OutOfRange {
-                field: "mechanics.motor_inertia"
+                field: RecordField::MechanicsMotorInertia
             })
         );
         let mut r = ActuatorRecord::REFERENCE;
@@ -667,7 +775,7 @@ mod tests {
         assert_eq!(
             r.validate(),
             Err(ActuatorRecordError::OutOfRange {
-                field: "test.chirp_duration"
+                field: RecordField::TestChirpDuration
             })
         );
         let mut r = ActuatorRecord::REFERENCE;

@@ -55,6 +55,18 @@ pub fn commutation_signs(theta_e: f32) -> [i8; 3] {
 /// One acquisition, in fixed point as the controller holds it: the three phase currents [A]
 /// and the motor-shaft angle [rad], each `I16F16` (±32 768, resolution 15 µA / 15 µrad), and
 /// the user-shaft angle [rad] from the position transducer, `I4F28` (±8, resolution 3.7 nrad).
+/// An `I16F16` reading (a phase current [A], the motor-shaft angle [rad]) as `f32`: the bits
+/// rounded to nearest by the integer conversion, then the exact power-of-two scale — the value
+/// `fixed`'s `to_num::<f32>()` gives, without its generic helper in the firmware's flash.
+pub fn i16f16_to_f32(x: I16F16) -> f32 {
+    x.to_bits() as f32 * (1.0 / 65_536.0)
+}
+
+/// An `I4F28` reading (the user-shaft angle [rad]) as `f32`, as [`i16f16_to_f32`].
+pub fn i4f28_to_f32(x: I4F28) -> f32 {
+    x.to_bits() as f32 * (1.0 / 268_435_456.0)
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 // No defmt derive: `fixed` numbers do not implement `defmt::Format`.
 pub struct AdcFrame {
@@ -313,8 +325,8 @@ impl<const N: usize> MeasuredCurrent<N> {
             self.conditions
                 .push(c.bus_voltage.to_bits(), c.temperature.to_bits());
         }
-        let [a, b, c] = frame.phase_currents.map(|x| x.to_num::<f32>());
-        let theta_e = pole_pairs * frame.motor_angle.to_num::<f32>();
+        let [a, b, c] = frame.phase_currents.map(i16f16_to_f32);
+        let theta_e = pole_pairs * i16f16_to_f32(frame.motor_angle);
         let index = self.samples.len();
         let pair = self
             .test
@@ -342,8 +354,8 @@ impl<const N: usize> MeasuredCurrent<N> {
                     self.initial_angles.currents = [a, b, c];
                 }
                 if index == self.lead_samples() {
-                    self.initial_angles.motor = frame.motor_angle.to_num();
-                    self.initial_angles.user = frame.user_angle.to_num();
+                    self.initial_angles.motor = i16f16_to_f32(frame.motor_angle);
+                    self.initial_angles.user = i4f28_to_f32(frame.user_angle);
                 }
                 Ok(())
             }
@@ -571,5 +583,36 @@ mod tests {
         }
         // The filter spreads the infinity (as NaN/inf) from index 10 on.
         assert_eq!(m.finish(), Err(ConditioningError::NotFinite { index: 10 }));
+    }
+
+    #[test]
+    fn fixed_readings_convert_as_the_fixed_crate_does() {
+        let mut rng = crate::random::Xoshiro128PlusPlus::seed_from_u64(7);
+        let edges = [
+            0,
+            1,
+            -1,
+            i32::MAX,
+            i32::MIN,
+            16_777_217,
+            -16_777_217,
+            33_554_435,
+        ];
+        let bits = edges
+            .into_iter()
+            .chain((0..100_000).map(|_| rng.next_u32() as i32 >> (rng.next_u32() % 32)));
+        for b in bits {
+            let (x, y) = (I16F16::from_bits(b), I4F28::from_bits(b));
+            assert_eq!(
+                i16f16_to_f32(x).to_bits(),
+                x.to_num::<f32>().to_bits(),
+                "{b}"
+            );
+            assert_eq!(
+                i4f28_to_f32(y).to_bits(),
+                y.to_num::<f32>().to_bits(),
+                "{b}"
+            );
+        }
     }
 }

@@ -9,7 +9,7 @@
 //! the identification's best fitness against [`DomainLimits`] (O(1)).
 
 use crate::command::ChirpCommand;
-use crate::conditioning::{commutation_signs, AdcFrame};
+use crate::conditioning::{commutation_signs, i16f16_to_f32, i4f28_to_f32, AdcFrame};
 use crate::conditions::{TestConditions, WindingEstimate};
 
 /// Why a test lies outside the monitor model's domain.
@@ -127,7 +127,7 @@ impl DomainMonitor {
 
     /// Takes the next frame of the test. O(1).
     pub fn push(&mut self, frame: &AdcFrame) {
-        let user: f32 = frame.user_angle.to_num();
+        let user = i4f28_to_f32(frame.user_angle);
         if self.samples == 0 {
             self.first_user = user;
         }
@@ -139,7 +139,7 @@ impl DomainMonitor {
         self.command_energy += commanded * commanded;
         self.user_min = self.user_min.min(user);
         self.user_max = self.user_max.max(user);
-        let theta_e = self.pole_pairs * frame.motor_angle.to_num::<f32>();
+        let theta_e = self.pole_pairs * i16f16_to_f32(frame.motor_angle);
         let signs = commutation_signs(theta_e);
         for ((sum, count), (sign, current)) in self
             .phase_current
@@ -148,7 +148,7 @@ impl DomainMonitor {
             .zip(signs.iter().zip(frame.phase_currents))
         {
             if *sign != 0 {
-                let i: f32 = current.to_num();
+                let i = i16f16_to_f32(current);
                 *sum += if i < 0.0 { -i } else { i };
                 *count = count.saturating_add(1);
             }

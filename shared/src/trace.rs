@@ -105,7 +105,7 @@ impl SaturationCheck {
         let row = self.rows;
         self.rows = self.rows.saturating_add(1);
         for ((phase, run), current) in (0u8..).zip(self.run.iter_mut()).zip(frame.phase_currents) {
-            let magnitude = current.to_num::<f32>();
+            let magnitude = crate::conditioning::i16f16_to_f32(current);
             let clipped = magnitude >= SATURATION_LEVEL || magnitude <= -SATURATION_LEVEL;
             *run = if clipped { run.saturating_add(1) } else { 0 };
             if *run >= SATURATION_RUN {
