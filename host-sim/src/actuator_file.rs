@@ -488,6 +488,7 @@ fn range_text(field: &str) -> &'static str {
         "installation.encoder_offset" => "must be finite (|offset| ≤ 10⁴ rad)",
         "ga" => "GA settings the flown solver cannot run (rates in [0, 1], sizes ≥ 1)",
         "detection.threshold" => "must be in (0, 1)",
+        "domain.bus_voltage" | "domain.temperature" => "must be [low, high] with low ≤ high",
         "drive.carrier_hz" => "must be from 1 kHz to 200 kHz",
         "drive.timer_hz" => "must be 0 (continuous duty) or at least twice the carrier",
         "drive.dead_time" => "must be at least 0 and below a tenth of the carrier period",
@@ -716,6 +717,10 @@ struct Domain {
     min_phase_current: f32,
     max_tracking: f32,
     max_fitness: f32,
+    /// `[low, high]` V of the measured bus; absent: any bus.
+    bus_voltage: Option<[f32; 2]>,
+    /// `[low, high]` °C of the measured temperature; absent: any temperature.
+    temperature: Option<[f32; 2]>,
 }
 
 #[derive(Deserialize)]
@@ -889,6 +894,8 @@ impl Description {
             min_phase_current: o.min_phase_current,
             max_tracking: o.max_tracking,
             max_fitness: o.max_fitness,
+            bus_voltage: o.bus_voltage.unwrap_or(DomainLimits::ANY_DAY.0),
+            temperature: o.temperature.unwrap_or(DomainLimits::ANY_DAY.1),
         };
         let calibration = self.calibration.as_ref().map(|c| {
             let i = Calibration::IDENTITY;

@@ -154,3 +154,33 @@ fn what_is_wrong_with_a_recording_is_refused_by_name() {
     let e = refused(&rig_csv(&rows).replacen("\"Cmd\"", "\"Cmd", 1), &format());
     assert!(!e.to_string().is_empty());
 }
+
+#[test]
+fn a_recording_that_ends_at_the_tests_last_instant_is_whole() {
+    // Seen by a user: a 10 kHz recording whose last row is the test's last sample instant was
+    // refused as too short. The trace itself, written as a rig recording, is exactly that.
+    let (trace, _) = recorded([0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5], 2);
+    let rows = trace.samples();
+    let last = rows.last().unwrap().time;
+    assert!(
+        (last - (rows.len() - 1) as f64 * 1e-4).abs() < 1e-9,
+        "{last}"
+    );
+    let imported = import(
+        rig_csv(rows).as_bytes(),
+        &format(),
+        &PreflightTest::INJECTION,
+        1e-4,
+    )
+    .expect("a recording that ends at the last instant is whole");
+    assert_eq!(imported.samples().len(), rows.len());
+    // One row fewer is short.
+    let e = import(
+        rig_csv(&rows[..rows.len() - 1]).as_bytes(),
+        &format(),
+        &PreflightTest::INJECTION,
+        1e-4,
+    )
+    .unwrap_err();
+    assert!(matches!(e, RigError::TooShort { .. }), "{e}");
+}

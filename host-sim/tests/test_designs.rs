@@ -258,7 +258,8 @@ fn the_voltage_channel_conditions_the_study_better_than_currents_alone() {
 #[test]
 fn an_injection_the_bridge_cannot_apply_is_named_not_identified() {
     use shared::conditions::{TestConditions, WindingEstimate};
-    use shared::domain::{Domain, OutsideReason};
+    use shared::domain::{Domain, DomainLimits, OutsideReason};
+    let limits = DomainLimits::REFERENCE_ACTUATOR;
     let params = shared::ActuatorParams::REFERENCE;
     let calibration = shared::Calibration::REFERENCE_ACTUATOR;
     let day = |test: PreflightTest, k: [f32; 8]| {
@@ -271,7 +272,7 @@ fn an_injection_the_bridge_cannot_apply_is_named_not_identified() {
     let healthy = day(PreflightTest::INJECTION, HEALTHY);
     assert_eq!(healthy.winding, WindingEstimate::Injection);
     assert!(healthy.winding_rise.abs() < 8.0, "{healthy:?}");
-    assert_eq!(Domain::Within.with_day(&healthy), Domain::Within);
+    assert_eq!(Domain::Within.with_day(&limits, &healthy), Domain::Within);
     // A 0.3 V tone: less than what the dead time swallows on each edge.
     let weak = PreflightTest {
         standstill: Some(StandstillSegment {
@@ -285,7 +286,7 @@ fn an_injection_the_bridge_cannot_apply_is_named_not_identified() {
         panic!("{nothing:?}")
     };
     assert_eq!(
-        Domain::Within.with_day(&nothing),
+        Domain::Within.with_day(&limits, &nothing),
         Domain::Outside(OutsideReason::SegmentCarriedNothing { pair })
     );
     // The day estimate of a cold morning: the winding reads cold, the friction law applies.
@@ -297,4 +298,28 @@ fn an_injection_the_bridge_cannot_apply_is_named_not_identified() {
     assert!((c.winding_rise + 60.0).abs() < 12.0, "{c:?}");
     assert!(c.friction_scale > 2.5 && c.friction_scale < 3.5, "{c:?}");
     assert!(c.flux_scale > 1.05, "{c:?}");
+    // −40 °C is inside the reference actuator's range; −60 °C and a 230 V bus are not.
+    assert_eq!(Domain::Within.with_day(&limits, &c), Domain::Within);
+    let mut colder = ReferenceSettings::REFERENCE;
+    colder.conditions = colder.conditions.at_temperature(-60.0);
+    colder.conditions.bus_voltage = Some(230.0);
+    let sim = ReferenceModel::new(colder).simulate(&Scenario::new(FaultVector::NOMINAL));
+    let measured = sim.trace.measured(&params).expect("conditions");
+    let c = TestConditions::estimate(&measured, &params, &calibration);
+    let Domain::Outside(OutsideReason::BusOutOfRange { volts }) =
+        Domain::Within.with_day(&limits, &c)
+    else {
+        panic!("{c:?}")
+    };
+    assert!((volts - 230.0).abs() < 3.0, "{volts}");
+    let any_bus = DomainLimits {
+        bus_voltage: [0.0, 1000.0],
+        ..limits
+    };
+    let Domain::Outside(OutsideReason::TemperatureOutOfRange { celsius }) =
+        Domain::Within.with_day(&any_bus, &c)
+    else {
+        panic!("{c:?}")
+    };
+    assert!((celsius + 58.0).abs() < 1.0, "{celsius}");
 }

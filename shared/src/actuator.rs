@@ -5,7 +5,7 @@
 //!
 //! Layout (little endian): `"EMAA"`, version `u16`, body length `u16`, the body as 32-bit
 //! words in the order of [`ActuatorRecord::encode`], CRC-32 of everything before it.
-//! [`RECORD_BYTES`] in all. Encoding and decoding are O(1) (a fixed 300 bytes), allocate
+//! [`RECORD_BYTES`] in all. Encoding and decoding are O(1) (a fixed 368 bytes), allocate
 //! nothing and never panic; a decoded record is range-checked ([`ActuatorRecord::validate`])
 //! before it is handed out.
 
@@ -21,20 +21,28 @@ use crate::trace::Crc32;
 
 /// First bytes of every actuator record.
 pub const RECORD_MAGIC: [u8; 4] = *b"EMAA";
-/// The version this code writes (it reads version 1 too: steps at standstill, the
-/// calibration without the day's terms).
-pub const RECORD_VERSION: u16 = 2;
+/// The version this code writes (it reads versions 1 and 2 too: version 1 has steps at
+/// standstill and the calibration without the day's terms, neither has the domain's bus and
+/// temperature ranges, which read as [`DomainLimits::ANY_DAY`]).
+pub const RECORD_VERSION: u16 = 3;
 /// 32-bit words in the body of version 1.
 const BODY_WORDS_V1: usize = 72;
 /// Words version 2 adds at the end of [`run_words`]: the injection's frequency, the pair
 /// circuits' scales, the calibration's temperature, the friction law and the magnets.
 const DAY_WORDS: usize = 5 + 2 * FRICTION_POINTS;
+/// 32-bit words in the body of version 2.
+const BODY_WORDS_V2: usize = BODY_WORDS_V1 + DAY_WORDS;
+/// Words version 3 adds after the detection threshold: the domain's bus and temperature
+/// ranges.
+const RANGE_WORDS: usize = 4;
 /// 32-bit words in the body.
-const BODY_WORDS: usize = BODY_WORDS_V1 + DAY_WORDS;
+const BODY_WORDS: usize = BODY_WORDS_V2 + RANGE_WORDS;
 /// Bytes of one record: magic, version, length, body, CRC-32.
 pub const RECORD_BYTES: usize = 8 + 4 * BODY_WORDS + 4;
 /// Bytes of a version 1 record.
 pub const RECORD_BYTES_V1: usize = 8 + 4 * BODY_WORDS_V1 + 4;
+/// Bytes of a version 2 record.
+pub const RECORD_BYTES_V2: usize = 8 + 4 * BODY_WORDS_V2 + 4;
 
 /// Why a record was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -130,6 +138,8 @@ record_fields! {
     TestStandstillVolts => "test.standstill_volts",
     TestMotionAmplitude => "test.motion_amplitude",
     DomainMaxFitness => "domain.max_fitness",
+    DomainBusVoltage => "domain.bus_voltage",
+    DomainTemperature => "domain.temperature",
     DetectionThreshold => "detection.threshold",
     Ga => "ga",
     GaTournamentSize => "ga.tournament_size",
@@ -188,6 +198,10 @@ impl ActuatorRecord {
             d.max_tracking,
             d.max_fitness,
             self.detection_threshold,
+            d.bus_voltage[0],
+            d.bus_voltage[1],
+            d.temperature[0],
+            d.temperature[1],
         ] {
             w.f32(v);
         }
@@ -212,6 +226,7 @@ impl ActuatorRecord {
         let version = u16::from_le_bytes([v0, v1]);
         let (body_words, total) = match version {
             1 => (BODY_WORDS_V1, RECORD_BYTES_V1),
+            2 => (BODY_WORDS_V2, RECORD_BYTES_V2),
             RECORD_VERSION => (BODY_WORDS, RECORD_BYTES),
             _ => return Err(ActuatorRecordError::UnsupportedVersion { found: version }),
         };
@@ -319,6 +334,12 @@ impl ActuatorRecord {
         let [min_travel, min_phase_ratio] = r.f32s::<2>();
         let min_phase_samples = r.u32();
         let [min_phase_current, max_tracking, max_fitness, detection_threshold] = r.f32s::<4>();
+        let (bus_voltage, temperature) = if version >= 3 {
+            let [bus_low, bus_high, low, high] = r.f32s::<4>();
+            ([bus_low, bus_high], [low, high])
+        } else {
+            DomainLimits::ANY_DAY
+        };
         let record = Self {
             params,
             test,
@@ -331,6 +352,8 @@ impl ActuatorRecord {
                 min_phase_current,
                 max_tracking,
                 max_fitness,
+                bus_voltage,
+                temperature,
             },
             detection_threshold,
         };
@@ -404,7 +427,7 @@ impl ActuatorRecord {
             let n = p.pole_pairs as u32;
             n as f32 == p.pole_pairs
         };
-        let others: [(bool, RecordField); 15] = [
+        let others: [(bool, RecordField); 17] = [
             (
                 t.standstill.is_none_or(|s| {
                     s.frequency.is_finite()
@@ -479,6 +502,14 @@ impl ActuatorRecord {
             (
                 d.max_fitness.is_finite() && d.max_fitness > 0.0,
                 RecordField::DomainMaxFitness,
+            ),
+            (
+                d.bus_voltage[0] <= d.bus_voltage[1],
+                RecordField::DomainBusVoltage,
+            ),
+            (
+                d.temperature[0] <= d.temperature[1],
+                RecordField::DomainTemperature,
             ),
             (
                 self.detection_threshold > 0.0 && self.detection_threshold < 1.0,
@@ -674,25 +705,33 @@ mod tests {
         assert_eq!(back.encode(), bytes);
     }
 
+    /// A record of an older `version` whose body is `body`: header, body, CRC-32.
+    fn older_record(version: u16, body: &[u8]) -> Vec<u8> {
+        let mut out = RECORD_MAGIC.to_vec();
+        out.extend_from_slice(&version.to_le_bytes());
+        out.extend_from_slice(&(body.len() as u16).to_le_bytes());
+        out.extend_from_slice(body);
+        let mut crc = Crc32::new();
+        crc.update(&out);
+        out.extend_from_slice(&crc.finish().to_le_bytes());
+        out
+    }
+
     #[test]
     fn a_version_1_record_reads_as_steps_without_the_days_terms() {
-        // Version 1: the body without the day's words, its own length and CRC.
+        // Version 1: the body without the day's words and the ranges.
         let steps = ActuatorRecord {
             test: PreflightTest::STANDSTILL,
             calibration: Calibration::REFERENCE_ACTUATOR_STEPS,
             ..ActuatorRecord::REFERENCE
         };
-        let v2 = steps.encode();
-        let mut v1 = [0u8; RECORD_BYTES_V1];
+        let v3 = steps.encode();
         let split = 8 + 4 * (BODY_WORDS_V1 - 7); // the day's words come before 7 domain words
-        v1[..split].copy_from_slice(&v2[..split]);
-        let domain = 8 + 4 * (BODY_WORDS - 7);
-        v1[split..RECORD_BYTES_V1 - 4].copy_from_slice(&v2[domain..RECORD_BYTES - 4]);
-        v1[4..6].copy_from_slice(&1u16.to_le_bytes());
-        v1[6..8].copy_from_slice(&((4 * BODY_WORDS_V1) as u16).to_le_bytes());
-        let mut crc = Crc32::new();
-        crc.update(&v1[..RECORD_BYTES_V1 - 4]);
-        v1[RECORD_BYTES_V1 - 4..].copy_from_slice(&crc.finish().to_le_bytes());
+        let domain = 8 + 4 * (BODY_WORDS - RANGE_WORDS - 7);
+        let mut body = v3[8..split].to_vec();
+        body.extend_from_slice(&v3[domain..domain + 4 * 7]);
+        let v1 = older_record(1, &body);
+        assert_eq!(v1.len(), RECORD_BYTES_V1);
         let r = ActuatorRecord::decode(&v1).unwrap();
         assert_eq!(r.params, ActuatorRecord::REFERENCE.params);
         assert_eq!(r.test.standstill.map(|s| s.frequency), Some(0.0));
@@ -702,8 +741,50 @@ mod tests {
         );
         assert_eq!(r.calibration.pair_resistance_scale, 1.0);
         assert_eq!(
+            (r.domain.bus_voltage, r.domain.temperature),
+            DomainLimits::ANY_DAY
+        );
+        assert_eq!(
             ActuatorRecord::decode(&v1[..200]),
             Err(ActuatorRecordError::TooShort { found: 200 })
+        );
+    }
+
+    #[test]
+    fn a_version_2_record_reads_with_any_day() {
+        let v3 = ActuatorRecord::REFERENCE.encode();
+        let v2 = older_record(2, &v3[8..RECORD_BYTES - 4 - 4 * RANGE_WORDS]);
+        assert_eq!(v2.len(), RECORD_BYTES_V2);
+        let r = ActuatorRecord::decode(&v2).unwrap();
+        let (bus_voltage, temperature) = DomainLimits::ANY_DAY;
+        let expected = ActuatorRecord {
+            domain: DomainLimits {
+                bus_voltage,
+                temperature,
+                ..ActuatorRecord::REFERENCE.domain
+            },
+            ..ActuatorRecord::REFERENCE
+        };
+        assert_eq!(r, expected);
+    }
+
+    #[test]
+    fn an_inverted_range_is_refused() {
+        let mut r = ActuatorRecord::REFERENCE;
+        r.domain.temperature = [90.0, -40.0];
+        assert_eq!(
+            r.validate(),
+            Err(ActuatorRecordError::OutOfRange {
+                field: RecordField::DomainTemperature
+            })
+        );
+        r.domain.temperature = [-40.0, 90.0];
+        r.domain.bus_voltage = [f32::NAN, 300.0];
+        assert_eq!(
+            r.validate(),
+            Err(ActuatorRecordError::OutOfRange {
+                field: RecordField::DomainBusVoltage
+            })
         );
     }
 
@@ -739,10 +820,10 @@ mod tests {
             Err(ActuatorRecordError::TooShort { found: 100 })
         );
         let mut other = bytes;
-        other[4] = 3;
+        other[4] = 4;
         assert_eq!(
             ActuatorRecord::decode(&other),
-            Err(ActuatorRecordError::UnsupportedVersion { found: 3 })
+            Err(ActuatorRecordError::UnsupportedVersion { found: 4 })
         );
         let mut other = bytes;
         other[0] = b'X';

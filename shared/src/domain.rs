@@ -32,6 +32,13 @@ pub enum OutsideReason {
     /// design must produce ([`crate::conditions::MIN_PAIR_CURRENT`]), or no physical R and L:
     /// the drive did not apply the test (a bridge that could not, an open leg).
     SegmentCarriedNothing { pair: u8 },
+    /// The DC bus the controller measured over the test [V] lies outside
+    /// [`DomainLimits::bus_voltage`]: a drive the calibration and the campaigns never saw.
+    BusOutOfRange { volts: f32 },
+    /// The temperature the controller measured over the test [°C] lies outside
+    /// [`DomainLimits::temperature`]: beyond where the friction law and the winding's
+    /// correction were measured.
+    TemperatureOutOfRange { celsius: f32 },
 }
 
 /// The verdict on the whole test.
@@ -47,13 +54,19 @@ pub enum Domain {
 
 impl Domain {
     /// The verdict with the test's day checked first: an injection segment that carried
-    /// nothing puts the test outside, whatever the rest says. O(1).
-    pub fn with_day(self, day: &TestConditions) -> Self {
-        match day.winding {
-            WindingEstimate::PairCarriedNothing { pair } => {
-                Self::Outside(OutsideReason::SegmentCarriedNothing { pair })
-            }
-            _ => self,
+    /// nothing, or a measured bus or temperature outside `limits`' ranges (inclusive; a test
+    /// without the reading is not judged on it), puts the test outside, whatever the rest
+    /// says. O(1).
+    pub fn with_day(self, limits: &DomainLimits, day: &TestConditions) -> Self {
+        let outside = |v: Option<f32>, [lo, hi]: [f32; 2]| v.filter(|v| !(lo..=hi).contains(v));
+        if let WindingEstimate::PairCarriedNothing { pair } = day.winding {
+            Self::Outside(OutsideReason::SegmentCarriedNothing { pair })
+        } else if let Some(volts) = outside(day.bus_voltage, limits.bus_voltage) {
+            Self::Outside(OutsideReason::BusOutOfRange { volts })
+        } else if let Some(celsius) = outside(day.measured_temperature, limits.temperature) {
+            Self::Outside(OutsideReason::TemperatureOutOfRange { celsius })
+        } else {
+            self
         }
     }
 }
@@ -75,6 +88,11 @@ pub struct DomainLimits {
     pub max_tracking: f32,
     /// Largest best fitness of an actuator the monitor model explains [A²·s].
     pub max_fitness: f32,
+    /// The measured DC bus [V] the actuator was calibrated and verified over, `[low, high]`.
+    pub bus_voltage: [f32; 2],
+    /// The measured temperature [°C] the actuator was calibrated and verified over,
+    /// `[low, high]`.
+    pub temperature: [f32; 2],
 }
 
 impl DomainLimits {
@@ -89,7 +107,17 @@ impl DomainLimits {
         min_phase_current: 0.2,
         max_tracking: 0.33,
         max_fitness: 0.12,
+        // The robustness grid (docs/robustness.md): bus 250–280 V, winding −40 … +80 °C,
+        // widened by the bus divider's 0.5 % and the thermistor's 2 K.
+        bus_voltage: [245.0, 285.0],
+        temperature: [-45.0, 85.0],
     };
+
+    /// What a record of version 1 or 2 (before the ranges) reads as: any bus, any day.
+    pub const ANY_DAY: ([f32; 2], [f32; 2]) = (
+        [f32::NEG_INFINITY, f32::INFINITY],
+        [f32::NEG_INFINITY, f32::INFINITY],
+    );
 }
 
 /// Running statistics of one test (the settings are the command and the pole pairs).
@@ -216,7 +244,7 @@ impl DomainMonitor {
         if let Domain::Outside(OutsideReason::OpenPhase { .. }) = test {
             return test;
         }
-        match Domain::Within.with_day(day) {
+        match Domain::Within.with_day(limits, day) {
             Domain::Within => test,
             outside => outside,
         }

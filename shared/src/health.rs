@@ -15,7 +15,7 @@
 //! | --- | --- |
 //! | 0..4 | magic `EMAH` |
 //! | 4 | version (2) |
-//! | 5 | domain: 0 within, 1 no motion, 2 open phase, 3 command mismatch, 4 fitness floor |
+//! | 5 | domain: 0 within, 1 no motion, 2 open phase, 3 command mismatch, 4 fitness floor, 5 segment carried nothing, 6 bus out of range, 7 temperature out of range |
 //! | 6 | detected faults: bit i set when component i is beyond the detection threshold |
 //! | 7 | reserved, 0 |
 //! | 8..12 | flight index (u32) |
@@ -149,6 +149,8 @@ pub enum DomainCode {
     CommandMismatch = 3,
     FitnessFloor = 4,
     SegmentCarriedNothing = 5,
+    BusOutOfRange = 6,
+    TemperatureOutOfRange = 7,
 }
 
 impl From<Domain> for DomainCode {
@@ -162,19 +164,25 @@ impl From<Domain> for DomainCode {
             Domain::Outside(OutsideReason::SegmentCarriedNothing { .. }) => {
                 Self::SegmentCarriedNothing
             }
+            Domain::Outside(OutsideReason::BusOutOfRange { .. }) => Self::BusOutOfRange,
+            Domain::Outside(OutsideReason::TemperatureOutOfRange { .. }) => {
+                Self::TemperatureOutOfRange
+            }
         }
     }
 }
 
 impl DomainCode {
     /// Every code, in the order of its byte.
-    const ALL: [Self; 6] = [
+    const ALL: [Self; 8] = [
         Self::Within,
         Self::NoMotion,
         Self::OpenPhase,
         Self::CommandMismatch,
         Self::FitnessFloor,
         Self::SegmentCarriedNothing,
+        Self::BusOutOfRange,
+        Self::TemperatureOutOfRange,
     ];
 
     fn from_byte(b: u8) -> Option<Self> {
@@ -190,6 +198,8 @@ impl DomainCode {
             Self::CommandMismatch => "command_mismatch",
             Self::FitnessFloor => "fitness_floor",
             Self::SegmentCarriedNothing => "segment_carried_nothing",
+            Self::BusOutOfRange => "bus_out_of_range",
+            Self::TemperatureOutOfRange => "temperature_out_of_range",
         }
     }
 
