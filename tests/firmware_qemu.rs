@@ -179,14 +179,13 @@ fn firmware_under_qemu_gives_the_hosts_bits() {
         .expect("readable")
         .measured(&ActuatorParams::REFERENCE)
         .expect("conditioned");
-    let (u, _) = shared::FitnessProblem::new(
+    let problem = shared::FitnessProblem::new(
         &measured,
         ActuatorParams::REFERENCE,
         &Calibration::REFERENCE_ACTUATOR,
     )
-    .expect("a fitness")
-    .uncertainty(&host.faults)
-    .expect("determined");
+    .expect("a fitness");
+    let (u, _) = problem.uncertainty(&host.faults).expect("determined");
     for (key, host_values) in [("std", u.std), ("lower", u.lower), ("upper", u.upper)] {
         let fw: Vec<u32> = list(field(&run.output, "uncertainty_bits ", key))
             .iter()
@@ -199,7 +198,14 @@ fn firmware_under_qemu_gives_the_hosts_bits() {
         );
     }
     assert!(u.std[0].is_finite() && u.std[0] > 0.0, "{u:?}");
-    health_matches_the_host(&run.output, &log_path, earlier, &host, &u);
+    health_matches_the_host(
+        &run.output,
+        &log_path,
+        earlier,
+        &host,
+        &u,
+        problem.conditions(),
+    );
     // The readable line says the same numbers.
     let shown: Vec<f32> = list(field(&run.output, "result ", "faults"))
         .iter()
@@ -325,11 +331,12 @@ fn health_matches_the_host(
     earlier: u32,
     host: &shared::fdi::IdentificationResult,
     host_uncertainty: &shared::uncertainty::Uncertainty,
+    host_day: &shared::conditions::TestConditions,
 ) {
     use shared::health::ONBOARD_RECORDS;
     use shared::prognosis::{HealthTrend, TrendSettings};
     assert!(
-        output.contains(&format!("version 1, {earlier} records carried over")),
+        output.contains(&format!("52-byte slots, {earlier} records carried over")),
         "{output}"
     );
     assert_eq!(number(output, "health ", "flight"), u64::from(earlier));
@@ -358,8 +365,21 @@ fn health_matches_the_host(
     assert_eq!(
         std::fs::metadata(log_path).expect("log").len(),
         (ONBOARD_RECORDS * shared::health::RECORD_BYTES) as u64,
-        "the log is rewritten as version 2"
+        "the log is rewritten as version 3"
     );
+    // The new record carries the test's day: the measured bus and temperature, the winding's
+    // estimated rise, to 0.01.
+    let day = latest.day;
+    assert_eq!(day, shared::health::RecordedDay::of(host_day));
+    assert!(
+        day.bus_voltage().is_some_and(|v| (v - 270.0).abs() < 5.0),
+        "{day:?}"
+    );
+    assert!(
+        day.temperature().is_some_and(|t| (t - 22.0).abs() < 2.0),
+        "{day:?}"
+    );
+    assert!(day.winding_rise().is_some(), "{day:?}");
     let settings = TrendSettings::DEFAULT;
     let estimates = HealthTrend::from_records(log.iter(), &settings).estimates(&settings);
     let bits = |v: Option<f32>| format!("{:08x}", v.map_or(u32::MAX, f32::to_bits));

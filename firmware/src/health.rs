@@ -10,7 +10,7 @@
 //! estimate's shared state and one slot's bytes, no copy of the log (15.2 kB peak with the
 //! caller's frames).
 
-use shared::health::{self, HealthLogError, HealthRecord, HealthStore, LoadSummary};
+use shared::health::{self, HealthLogError, HealthRecord, HealthStore, LoadSummary, RecordedDay};
 use shared::prognosis::{is_trended, FaultTrend, TrendEstimate, TrendSettings};
 use shared::FAULT_COUNT;
 
@@ -35,7 +35,7 @@ pub struct HealthUpdate {
     pub estimates: [Option<TrendEstimate>; FAULT_COUNT],
 }
 
-/// Appends `report` as the record of `flight` (default: one after the newest in the store, 0
+/// Appends `report`, and the test's `day`, as the record of `flight` (default: one after the newest in the store, 0
 /// for an empty store) and assesses the trend over the store. No copy of the log is made:
 /// the store is surveyed once, the record written, and each fault's trend replays the store
 /// in flight order (one trend of 976 bytes, reused).
@@ -43,6 +43,7 @@ pub fn record_preflight<S: HealthStore>(
     store: &mut S,
     flight: Option<u32>,
     report: &Report,
+    day: RecordedDay,
     settings: &TrendSettings,
 ) -> Result<HealthUpdate, HealthLogError<S::Error>> {
     let (loaded, newest) = health::survey(store).map_err(HealthLogError::Store)?;
@@ -60,7 +61,8 @@ pub fn record_preflight<S: HealthStore>(
         report
             .uncertainty
             .map_or([f32::NAN; FAULT_COUNT], |u| u.std),
-    );
+    )
+    .with_day(day);
     let written = health::write_slot(store, &record)?;
     // One fault at a time, in one trend; the same bits as a `HealthTrend` over the log. Each
     // replay also counts the records and those outside the domain.

@@ -15,6 +15,7 @@ use cortex_m_rt::{exception, ExceptionFrame};
 use defmt_semihosting as _;
 use embassy_executor::Spawner;
 use semihosting::process::exit;
+use shared::conditions::TestConditions;
 use shared::fitness::CurvatureRun;
 use static_cell::ConstStaticCell;
 
@@ -25,7 +26,7 @@ use firmware::{Preflight, PreflightSettings, Progress, Report, Stage, TraceSourc
 use shared::domain::Domain;
 use shared::fault::FAULT_NAMES;
 use shared::fdi::OnboardMeasured;
-use shared::health::{RamStore, ONBOARD_RECORDS};
+use shared::health::{RamStore, RecordedDay, ONBOARD_RECORDS, RECORD_V1_BYTES, RECORD_V2_BYTES};
 use shared::prognosis::TrendSettings;
 use shared::LowPass;
 
@@ -180,7 +181,7 @@ async fn preflight(spawner: Spawner) -> i32 {
     match command.crash {
         // Deliberate: `--crash panic` proves the panic handler reports and exits (test).
         #[allow(clippy::panic)]
-        Some(Crash::Panic) => core::panic!("crash requested on the command line"),
+        Some(Crash::Panic) => core::panic!("--crash panic"),
         Some(Crash::HardFault) => {
             // An unmapped address: the bus fault escalates to HardFault.
             let word = unsafe { core::ptr::read_volatile(0xFFFF_FFF0 as *const u32) };
@@ -344,7 +345,7 @@ async fn preflight(spawner: Spawner) -> i32 {
     );
     print_report(&report, &observed, total_cycles);
     match command.health_path() {
-        Some(path) => record_health(path, command.flight, &report),
+        Some(path) => record_health(path, command.flight, &report, day),
         None => status::SUCCESS,
     }
 }
@@ -416,7 +417,7 @@ fn load_actuator(path: &CStr, trace_test: &PreflightTest) -> Result<PreflightSet
 /// trend and RUL (flights; `none` = beyond the horizon). `*_bits` give the f32 bits
 /// (`ffffffff` for none) for the comparison with the host.
 #[inline(never)]
-fn record_health(path: &CStr, flight: Option<u32>, report: &Report) -> i32 {
+fn record_health(path: &CStr, flight: Option<u32>, report: &Report, day: &TestConditions) -> i32 {
     let started = cycles();
     let path_text = path.to_str().unwrap_or("(not UTF-8)");
     let Some(store) = HEALTH_STORE.try_take() else {
@@ -424,21 +425,32 @@ fn record_health(path: &CStr, flight: Option<u32>, report: &Report) -> i32 {
         return status::START_UP;
     };
     store.erase();
-    const V1_IMAGE: usize = ONBOARD_RECORDS * shared::health::RECORD_V1_BYTES;
+    let image = |slot_bytes: usize| (ONBOARD_RECORDS * slot_bytes) as u64;
     match read_record_file(path, store.as_bytes_mut()) {
         Ok(true) => {}
         Ok(false) => defmt::println!("health log {=str}: new", path_text),
-        // A log kept before record version 2: read it and carry its records over.
-        Err(RecordFileError::Length { bytes }) if bytes == V1_IMAGE as u64 => {
-            let v1 = store.as_bytes_mut().get_mut(..V1_IMAGE).unwrap_or(&mut []);
-            if let Err(e) = read_record_file(path, v1) {
+        // A log kept before record version 3: read it and carry its records over.
+        Err(RecordFileError::Length { bytes })
+            if bytes == image(RECORD_V1_BYTES) || bytes == image(RECORD_V2_BYTES) =>
+        {
+            let old_bytes = if bytes == image(RECORD_V1_BYTES) {
+                RECORD_V1_BYTES
+            } else {
+                RECORD_V2_BYTES
+            };
+            let old = store
+                .as_bytes_mut()
+                .get_mut(..ONBOARD_RECORDS * old_bytes)
+                .unwrap_or(&mut []);
+            if let Err(e) = read_record_file(path, old) {
                 defmt::error!("health log {=str} refused: {}", path_text, e);
                 return status::HEALTH_LOG;
             }
-            let kept = store.upgrade_v1();
+            let kept = store.upgrade(old_bytes);
             defmt::println!(
-                "upgraded health log {=str}: version 1, {=usize} records carried over",
+                "upgraded health log {=str}: {=usize}-byte slots, {=usize} records carried over",
                 path_text,
+                old_bytes,
                 kept
             );
         }
@@ -448,7 +460,7 @@ fn record_health(path: &CStr, flight: Option<u32>, report: &Report) -> i32 {
         }
     }
     let settings = TrendSettings::DEFAULT;
-    let update = match record_preflight(store, flight, report, &settings) {
+    let update = match record_preflight(store, flight, report, RecordedDay::of(day), &settings) {
         Ok(u) => u,
         Err(e) => {
             defmt::error!("health record not appended: {}", e);

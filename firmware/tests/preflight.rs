@@ -501,8 +501,10 @@ fn each_preflight_appends_its_record_and_reassesses_the_trend() {
     }
     k[0] = 0.4;
     report.result.faults = FaultVector::new(k).unwrap();
-    let update = record_preflight(&mut store, None, &report, &trend_settings).unwrap();
+    let day = shared::health::RecordedDay::new(Some(268.4), Some(-21.5), None);
+    let update = record_preflight(&mut store, None, &report, day, &trend_settings).unwrap();
     assert_eq!(update.record.flight, 131, "one after the newest");
+    assert_eq!(update.record.day, day, "the record keeps the day");
     assert_eq!(update.loaded.records, 31);
     assert_eq!(update.records, 32);
     assert_eq!(update.evicted, None);
@@ -519,7 +521,7 @@ fn each_preflight_appends_its_record_and_reassesses_the_trend() {
     assert_eq!(again, update.estimates);
     // Flight 140 overwrites slot 140 mod 32 = 12 (flight 108); skipping flights 132..139
     // leaves 100..=108 older than the last 32 flights: 109..=131 and 140 remain.
-    let next = record_preflight(&mut store, Some(140), &report, &trend_settings).unwrap();
+    let next = record_preflight(&mut store, Some(140), &report, day, &trend_settings).unwrap();
     assert_eq!(next.evicted.map(|r| r.flight), Some(108));
     assert_eq!(next.records, 24);
     let (reloaded, _) = HealthLog::<ONBOARD_RECORDS>::load(&mut store).unwrap();
@@ -530,6 +532,6 @@ fn each_preflight_appends_its_record_and_reassesses_the_trend() {
     );
     // A record for the past is refused and the store is unchanged.
     let before = store.clone();
-    assert!(record_preflight(&mut store, Some(120), &report, &trend_settings).is_err());
+    assert!(record_preflight(&mut store, Some(120), &report, day, &trend_settings).is_err());
     assert_eq!(store, before);
 }

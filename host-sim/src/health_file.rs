@@ -1,19 +1,21 @@
 //! The health log on the ground: a file-backed [`HealthStore`] (the same slots the controller
-//! keeps in flash, one 68-byte record each, slot `flight mod slots`; logs of 52-byte
-//! version-1 records are read too, and upgraded in place before anything is appended to
-//! them), and the history CSV that `host-sim degrade` writes and `host-sim prognose` reads.
+//! keeps in flash, one 76-byte record each, slot `flight mod slots`; logs of older records —
+//! 68-byte version 2, 52-byte version 1 — are read too, and upgraded in place before
+//! anything is appended to them), and the history CSV that `host-sim degrade` writes and `host-sim prognose` reads.
 //!
 //! History CSV, one row per preflight, readable by `pandas.read_csv` as is:
 //!
 //! ```text
-//! flight,friction,backlash,short_a,short_b,short_c,eccentricity,ecc_phase,gain_drift,fitness,domain[,std_friction,…,std_gain_drift][,true_friction,…,true_gain_drift]
+//! flight,friction,backlash,short_a,short_b,short_c,eccentricity,ecc_phase,gain_drift,fitness,domain[,std_friction,…,std_gain_drift][,v_bus,temp,winding_rise][,true_friction,…,true_gain_drift]
 //! ```
 //!
 //! `std_*` (empty where not determined) are the identification's standard deviations, as a
-//! version-2 record keeps them.
+//! record keeps them; `v_bus` [V], `temp` [°C] and `winding_rise` [K] the test's day as a
+//! version-3 record keeps it (empty where not measured).
 //!
 //! `domain` is `within` or the reason (`no_motion`, `open_phase`, `command_mismatch`,
-//! `fitness_floor`); the `true_*` columns (simulated histories only) give the fault vector the
+//! `fitness_floor`, `segment_carried_nothing`, `bus_out_of_range`,
+//! `temperature_out_of_range`); the `true_*` columns (simulated histories only) give the fault vector the
 //! reference model played, and a last column `intrusion` what the test met outside the fault
 //! vector (`jammed`, `open_phase`, `other_command`; empty for none).
 
@@ -24,14 +26,14 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use shared::fault::{FAULT_COUNT, FAULT_NAMES};
 use shared::health::{
-    ComponentStd, DomainCode, EncodedRecord, HealthLog, HealthRecord, HealthStore, LoadSummary,
-    RECORD_BYTES, RECORD_V1_BYTES,
+    record_len, ComponentStd, DomainCode, EncodedRecord, HealthLog, HealthRecord, HealthStore,
+    LoadSummary, RecordedDay, RECORD_BYTES, RECORD_VERSION,
 };
 use shared::FaultVector;
 
 use crate::prognostics::Intrusion;
 
-/// A [`HealthStore`] in a file of `slots · 52` bytes; each write is flushed to the disk.
+/// A [`HealthStore`] in a file of `slots · 76` bytes; each write is flushed to the disk.
 #[derive(Debug)]
 pub struct FileStore {
     path: PathBuf,
@@ -41,16 +43,16 @@ pub struct FileStore {
 
 impl FileStore {
     /// Opens `path`, creating it with `slots` zeroed (empty) slots when it does not exist. An
-    /// existing file keeps its own slot count and must hold whole records; a log of
-    /// version-1 slots is rewritten as version 2 first (its records kept, without standard
-    /// deviations).
+    /// existing file keeps its own slot count and must hold whole records; a log of older
+    /// slots is rewritten as the current version first (its records kept, without what their
+    /// version lacks: standard deviations, the day).
     pub fn open(path: &Path, slots: usize) -> Result<Self> {
         let exists = path.exists();
         if exists {
             let bytes = std::fs::read(path)
                 .with_context(|| format!("reading health log {}", path.display()))?;
-            if !bytes.is_empty() && slot_bytes(&bytes)? == RECORD_V1_BYTES {
-                let upgraded = upgrade_v1(&bytes);
+            if !bytes.is_empty() && slot_bytes(&bytes)? != RECORD_BYTES {
+                let upgraded = upgrade(&bytes)?;
                 std::fs::write(path, upgraded)
                     .with_context(|| format!("upgrading health log {}", path.display()))?;
             }
@@ -77,8 +79,16 @@ impl FileStore {
     }
 }
 
-/// The slot size of a health-log image: 68 (version 2) or 52 (version 1). An image both
-/// divide is taken as the one whose slots decode more sound records.
+/// Every record version this code reads, newest first, with its slot size.
+fn versions() -> impl Iterator<Item = (u8, usize)> {
+    (1..=RECORD_VERSION)
+        .rev()
+        .filter_map(|v| record_len(v).map(|len| (v, len)))
+}
+
+/// The slot size of a health-log image: 76 (version 3), 68 (version 2) or 52 (version 1).
+/// An image several divide is taken as the one whose slots decode the most sound records
+/// (the newest version on a tie).
 pub fn slot_bytes(image: &[u8]) -> Result<usize> {
     let sound = |size: usize| {
         image
@@ -86,29 +96,35 @@ pub fn slot_bytes(image: &[u8]) -> Result<usize> {
             .filter(|c| HealthRecord::decode(c).is_ok())
             .count()
     };
-    match (
-        image.len() % RECORD_BYTES == 0,
-        image.len() % RECORD_V1_BYTES == 0,
-    ) {
-        (true, true) if sound(RECORD_V1_BYTES) > sound(RECORD_BYTES) => Ok(RECORD_V1_BYTES),
-        (true, _) => Ok(RECORD_BYTES),
-        (false, true) => Ok(RECORD_V1_BYTES),
-        (false, false) => bail!(
-            "{} bytes is not a whole number of health records ({RECORD_BYTES} bytes, or \
-             {RECORD_V1_BYTES} for version 1)",
-            image.len()
+    let mut best: Option<(usize, usize)> = None;
+    for (_, size) in versions().filter(|(_, size)| image.len() % size == 0) {
+        let n = sound(size);
+        if best.is_none_or(|(_, most)| n > most) {
+            best = Some((size, n));
+        }
+    }
+    match best {
+        Some((size, _)) => Ok(size),
+        None => bail!(
+            "{} bytes is not a whole number of health records ({})",
+            image.len(),
+            versions()
+                .map(|(v, size)| format!("{size} bytes for version {v}"))
+                .collect::<Vec<_>>()
+                .join(", ")
         ),
     }
 }
 
-/// A version-1 image (52-byte slots) as a version-2 image of as many slots
-/// ([`shared::health::upgrade_v1_image`]).
-fn upgrade_v1(image: &[u8]) -> Vec<u8> {
-    let slots = image.len() / RECORD_V1_BYTES;
+/// An image of older slots as a current image of as many slots
+/// ([`shared::health::upgrade_image`]).
+fn upgrade(image: &[u8]) -> Result<Vec<u8>> {
+    let old_bytes = slot_bytes(image)?;
+    let slots = image.len() / old_bytes;
     let mut out = image.to_vec();
     out.resize(slots * RECORD_BYTES, 0xFF);
-    shared::health::upgrade_v1_image(&mut out, slots);
-    out
+    shared::health::upgrade_image(&mut out, slots, old_bytes);
+    Ok(out)
 }
 
 /// A health-log image in memory, of either record version (read-only).
@@ -127,13 +143,11 @@ impl<'a> ImageStore<'a> {
         })
     }
 
-    /// The record version of its slots (1 or 2).
+    /// The record version of its slots (1, 2 or 3).
     pub fn version(&self) -> u8 {
-        if self.slot_bytes == RECORD_V1_BYTES {
-            1
-        } else {
-            2
-        }
+        versions()
+            .find(|(_, size)| *size == self.slot_bytes)
+            .map_or(RECORD_VERSION, |(v, _)| v)
     }
 
     /// Every slot's bytes, in slot order.
@@ -210,6 +224,7 @@ pub struct HistoryRow {
 pub fn history_csv(rows: &[HistoryRow]) -> String {
     let with_truth = !rows.is_empty() && rows.iter().all(|r| r.truth.is_some());
     let with_std = rows.iter().any(|r| r.record.std != ComponentStd::UNKNOWN);
+    let with_day = rows.iter().any(|r| r.record.day != RecordedDay::UNKNOWN);
     let mut out = String::from("flight");
     for n in FAULT_NAMES {
         out += &format!(",{n}");
@@ -219,6 +234,9 @@ pub fn history_csv(rows: &[HistoryRow]) -> String {
         for n in FAULT_NAMES {
             out += &format!(",std_{n}");
         }
+    }
+    if with_day {
+        out += ",v_bus,temp,winding_rise";
     }
     if with_truth {
         for n in FAULT_NAMES {
@@ -238,6 +256,15 @@ pub fn history_csv(rows: &[HistoryRow]) -> String {
                 out.push(',');
                 if let Some(sd) = r.record.std.get(i) {
                     out += &sd.to_string();
+                }
+            }
+        }
+        if with_day {
+            let d = &r.record.day;
+            for v in [d.bus_voltage(), d.temperature(), d.winding_rise()] {
+                out.push(',');
+                if let Some(v) = v {
+                    out += &v.to_string();
                 }
             }
         }
@@ -309,6 +336,7 @@ fn parse_history_csv(text: &str) -> Result<Vec<HistoryRow>> {
     let fitness_col = need("fitness")?;
     let domain_col = column("domain");
     let intrusion_col = column("intrusion");
+    let day_cols = [column("v_bus"), column("temp"), column("winding_rise")];
     let std_cols: Option<Vec<usize>> = FAULT_NAMES
         .iter()
         .map(|n| column(&format!("std_{n}")))
@@ -395,6 +423,11 @@ fn parse_history_csv(text: &str) -> Result<Vec<HistoryRow>> {
             }
             record = record.with_std(sd);
         }
+        let [bus, temp, rise] = day_cols.map(|c| match c.map(cell) {
+            None | Some("") => Ok(None),
+            Some(_) => c.map(&number).transpose(),
+        });
+        record = record.with_day(RecordedDay::new(bus?, temp?, rise?));
         let truth = match &truth_cols {
             Some(cols) => Some(vector(cols)?),
             None => None,
@@ -488,40 +521,66 @@ mod tests {
     }
 
     #[test]
-    fn a_version_1_log_is_read_and_upgraded_before_an_append() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("old.bin");
-        // Three version-1 slots holding flights 3, 4, 5 (slot = flight mod 3).
-        let mut image = vec![0xFF; 3 * RECORD_V1_BYTES];
-        for f in 3..6u32 {
-            let s = (f % 3) as usize * RECORD_V1_BYTES;
-            image[s..s + RECORD_V1_BYTES]
-                .copy_from_slice(&row(f, 0.1, Domain::Within).record.encode_v1());
+    fn older_logs_are_read_and_upgraded_before_an_append() {
+        use shared::health::{RECORD_V1_BYTES, RECORD_V2_BYTES};
+        let std = [0.02; FAULT_COUNT];
+        for (old_bytes, version) in [(RECORD_V1_BYTES, 1u8), (RECORD_V2_BYTES, 2)] {
+            let dir = tempfile::tempdir().unwrap();
+            let path = dir.path().join("old.bin");
+            // Three older slots holding flights 3, 4, 5 (slot = flight mod 3).
+            let mut image = vec![0xFF; 3 * old_bytes];
+            for f in 3..6u32 {
+                let s = (f % 3) as usize * old_bytes;
+                let r = row(f, 0.1, Domain::Within).record.with_std(std);
+                let bytes = if version == 1 {
+                    r.encode_v1().to_vec()
+                } else {
+                    r.encode_v2().to_vec()
+                };
+                image[s..s + old_bytes].copy_from_slice(&bytes);
+            }
+            std::fs::write(&path, &image).unwrap();
+            assert_eq!(ImageStore::new(&image).unwrap().version(), version);
+            let rows = read_history(&path).unwrap();
+            assert_eq!(
+                rows.iter().map(|r| r.record.flight).collect::<Vec<_>>(),
+                [3, 4, 5]
+            );
+            let kept_std = if version == 1 {
+                ComponentStd::UNKNOWN
+            } else {
+                ComponentStd::new(std)
+            };
+            assert!(rows.iter().all(|r| r.record.std == kept_std));
+            assert!(rows.iter().all(|r| r.record.day == RecordedDay::UNKNOWN));
+            // Appending rewrites it as the current version first: the old records stay.
+            let mut store = FileStore::open(&path, 3).unwrap();
+            let (mut log, _) = HealthLog::<3>::load(&mut store).unwrap();
+            let new = row(6, 0.2, Domain::Within)
+                .record
+                .with_std([0.01; FAULT_COUNT])
+                .with_day(RecordedDay::new(Some(270.5), Some(-12.25), Some(-33.0)));
+            log.append(&mut store, new).unwrap();
+            drop(store);
+            assert_eq!(
+                std::fs::metadata(&path).unwrap().len(),
+                3 * RECORD_BYTES as u64
+            );
+            let rows = read_history(&path).unwrap();
+            assert_eq!(
+                rows.iter().map(|r| r.record.flight).collect::<Vec<_>>(),
+                [4, 5, 6]
+            );
+            assert_eq!(rows[2].record, new);
+            assert_eq!(rows[0].record.std, kept_std);
+            // The history CSV carries the day and reads it back.
+            let csv = history_csv(&rows);
+            assert!(csv.contains(",v_bus,temp,winding_rise"), "{csv}");
+            let csv_path = dir.path().join("h.csv");
+            std::fs::write(&csv_path, &csv).unwrap();
+            let back = read_history(&csv_path).unwrap();
+            assert_eq!(back[2].record.day, new.day);
+            assert_eq!(back[0].record.day, RecordedDay::UNKNOWN);
         }
-        std::fs::write(&path, &image).unwrap();
-        let rows = read_history(&path).unwrap();
-        assert_eq!(
-            rows.iter().map(|r| r.record.flight).collect::<Vec<_>>(),
-            [3, 4, 5]
-        );
-        assert!(rows.iter().all(|r| r.record.std == ComponentStd::UNKNOWN));
-        // Appending rewrites it as version 2 first: the old records stay.
-        let mut store = FileStore::open(&path, 3).unwrap();
-        let (mut log, _) = HealthLog::<3>::load(&mut store).unwrap();
-        let new = row(6, 0.2, Domain::Within)
-            .record
-            .with_std([0.01; FAULT_COUNT]);
-        log.append(&mut store, new).unwrap();
-        drop(store);
-        assert_eq!(
-            std::fs::metadata(&path).unwrap().len(),
-            3 * RECORD_BYTES as u64
-        );
-        let rows = read_history(&path).unwrap();
-        assert_eq!(
-            rows.iter().map(|r| r.record.flight).collect::<Vec<_>>(),
-            [4, 5, 6]
-        );
-        assert_eq!(rows[2].record, new);
     }
 }

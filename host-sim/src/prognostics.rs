@@ -13,7 +13,7 @@ use plotters::prelude::*;
 use rayon::prelude::*;
 use shared::domain::DomainLimits;
 use shared::fault::{FAULT_COUNT, FAULT_NAMES};
-use shared::health::HealthRecord;
+use shared::health::{HealthRecord, RecordedDay};
 use shared::prognosis::{FaultTrend, Growth, HealthTrend, TrendEstimate, TrendSettings};
 use shared::{ActuatorParams, Calibration, FaultVector};
 
@@ -206,7 +206,8 @@ pub fn degrade(
                     .with_std(
                         id.uncertainty
                             .map_or([f32::NAN; FAULT_COUNT], |(u, _)| u.std),
-                    ),
+                    )
+                    .with_day(RecordedDay::of(&id.conditions)),
                 truth: Some(truth),
                 intrusion: intruded,
             })

@@ -323,3 +323,40 @@ fn an_injection_the_bridge_cannot_apply_is_named_not_identified() {
     };
     assert!((celsius + 58.0).abs() < 1.0, "{celsius}");
 }
+
+#[test]
+fn the_day_estimate_removes_what_a_cold_morning_would_cost() {
+    use host_sim::identifiability::{mismatch_bias_on, DayHandling};
+    // The linearised identification error of a healthy actuator 60 K below its calibration
+    // (friction law applied), with the day ignored and estimated (docs/identifiability.md §0).
+    let mut cold = ReferenceSettings::REFERENCE;
+    cold.conditions = cold
+        .conditions
+        .at_temperature(ReferenceSettings::REFERENCE.conditions.winding_temperature - 60.0);
+    let k = FaultVector::NOMINAL;
+    let weight = f64::from(shared::fitness::STANDSTILL_WEIGHT);
+    let bias = |day| {
+        mismatch_bias_on(
+            "healthy",
+            &k,
+            PreflightTest::INJECTION,
+            weight,
+            2,
+            0.02,
+            &cold,
+            day,
+        )
+        .expect("study")
+    };
+    let (ignored, estimated) = (bias(DayHandling::Ignored), bias(DayHandling::Estimated));
+    println!(
+        "−60 K: e_tot ignored {:.2} %, estimated {:.2} %; mismatch {:.2} → {:.2} %",
+        ignored.e_tot(&k),
+        estimated.e_tot(&k),
+        ignored.mismatch_rms,
+        estimated.mismatch_rms
+    );
+    assert!(ignored.e_tot(&k) > 10.0, "{ignored:?}");
+    assert!(estimated.e_tot(&k) < 2.0, "{estimated:?}");
+    assert!(estimated.mismatch_rms < 0.5 * ignored.mismatch_rms);
+}

@@ -131,15 +131,11 @@ impl GaSettings {
             None => true,
         };
         if population < 2 {
-            Err(GaError::InvalidSettings(
-                "population must hold at least 2 individuals",
-            ))
+            Err(GaError::InvalidSettings("population below 2"))
         } else if population > u16::MAX as usize {
             Err(GaError::InvalidSettings("population larger than 65535"))
         } else if self.tournament_size == 0 {
-            Err(GaError::InvalidSettings(
-                "tournament size must be at least 1",
-            ))
+            Err(GaError::InvalidSettings("tournament size 0"))
         } else if !probability_ok
             || !finite
             || self.crossover_alpha < 0.0
@@ -147,11 +143,9 @@ impl GaSettings {
             || self.mutation_floor < 0.0
             || self.tolerance < 0.0
         {
-            Err(GaError::InvalidSettings(
-                "rates and widths must be finite and non-negative, probability in [0, 1]",
-            ))
+            Err(GaError::InvalidSettings("rate or width out of range"))
         } else if !guess_ok {
-            Err(GaError::InvalidSettings("initial guess outside [0, 1]"))
+            Err(GaError::InvalidSettings("guess outside [0, 1]"))
         } else {
             Ok(())
         }

@@ -9,12 +9,12 @@
 //! every slot twice (find the newest, then walk the ring from it), O(slots); so do [`survey`]
 //! and [`replay`], which walk the store in flight order without a copy of the log.
 //!
-//! ## Record (version 2: 68 bytes, little-endian)
+//! ## Record (version 3: 76 bytes, little-endian)
 //!
 //! | bytes | field |
 //! | --- | --- |
 //! | 0..4 | magic `EMAH` |
-//! | 4 | version (2) |
+//! | 4 | version (3) |
 //! | 5 | domain: 0 within, 1 no motion, 2 open phase, 3 command mismatch, 4 fitness floor, 5 segment carried nothing, 6 bus out of range, 7 temperature out of range |
 //! | 6 | detected faults: bit i set when component i is beyond the detection threshold |
 //! | 7 | reserved, 0 |
@@ -22,11 +22,16 @@
 //! | 12..44 | fault vector, 8 × f32 |
 //! | 44..48 | best fitness (f32) |
 //! | 48..64 | standard deviation per component ([`crate::uncertainty`]), 8 × u16 in units of 2⁻¹⁶; `ffff`: not determined |
-//! | 64..68 | CRC-32 of bytes 0..64 |
+//! | 64..66 | the DC bus the controller measured over the test (u16, units of 0.01 V); `ffff`: not measured |
+//! | 66..68 | the temperature it measured (i16, units of 0.01 °C); `8000`: not measured |
+//! | 68..70 | the winding's estimated rise from the calibration's temperature (i16, units of 0.01 K); `8000`: not estimated |
+//! | 70..72 | reserved, 0 |
+//! | 72..76 | CRC-32 of bytes 0..72 |
 //!
-//! Version 1 (52 bytes: bytes 0..48 as above with version 1, then the CRC-32 of bytes 0..48)
-//! carries no standard deviation; it is still read ([`HealthRecord::decode`] takes either,
-//! [`RamStore::upgrade_v1`] rewrites a store of 52-byte slots as version 2 in place).
+//! Older versions are still read ([`HealthRecord::decode`] takes any; [`RamStore::upgrade`]
+//! rewrites a store of older slots as version 3 in place): version 2 (68 bytes: bytes 0..64
+//! as above, then the CRC-32 of bytes 0..64) carries no day; version 1 (52 bytes: bytes 0..48,
+//! then their CRC-32) no standard deviation either.
 //!
 //! ## Slots
 //!
@@ -38,7 +43,7 @@
 //!
 //! The STM32F405 erases flash by sector (16–128 KiB) and programs it in words, 1 → 0 only.
 //! A `HealthStore` over two 16 KiB sectors (e.g. sectors 2 and 3) writes slot `s` at
-//! `sector(s) + RECORD_BYTES · (s mod per_sector)`: `read` copies the 68 bytes; `write`
+//! `sector(s) + RECORD_BYTES · (s mod per_sector)`: `read` copies the 76 bytes; `write`
 //! programs them when the slot is still erased (all 0xFF) and otherwise first erases the
 //! slot's sector (the other sector keeps its records; a flight whose record was lost that way
 //! is one missing point of the trend, never a wrong one). With embassy-stm32 this is
@@ -48,24 +53,29 @@
 
 use heapless::Deque;
 
+use crate::conditions::{TestConditions, WindingEstimate};
 use crate::domain::{Domain, OutsideReason};
 use crate::fault::{FaultVector, Verdict, FAULT_COUNT};
 use crate::trace::Crc32;
 
-/// Bytes of one encoded record (version 2), and of one store slot.
-pub const RECORD_BYTES: usize = 68;
+/// Bytes of one encoded record (version 3), and of one store slot.
+pub const RECORD_BYTES: usize = 76;
+
+/// Bytes of a version-2 record (no day).
+pub const RECORD_V2_BYTES: usize = 68;
 
 /// Bytes of a version-1 record (no standard deviations).
 pub const RECORD_V1_BYTES: usize = 52;
 
 /// The record format's magic and version.
 pub const RECORD_MAGIC: [u8; 4] = *b"EMAH";
-pub const RECORD_VERSION: u8 = 2;
+pub const RECORD_VERSION: u8 = 3;
 
 /// Bytes of a record of `version` (the byte after the magic), if it is one this code reads.
 pub fn record_len(version: u8) -> Option<usize> {
     match version {
         1 => Some(RECORD_V1_BYTES),
+        2 => Some(RECORD_V2_BYTES),
         RECORD_VERSION => Some(RECORD_BYTES),
         _ => None,
     }
@@ -97,6 +107,69 @@ pub struct HealthRecord {
     pub detected: u8,
     /// The identification's standard deviation per component, as stored.
     pub std: ComponentStd,
+    /// What the controller measured and estimated of the test's day, as stored.
+    pub day: RecordedDay,
+}
+
+/// The test's day as a record stores it: the measured bus [V] and temperature [°C] and the
+/// winding's estimated rise from the calibration's temperature [K], each rounded to 0.01
+/// (bus 0 … 655.34 V, the others ±327.67) or absent (not measured, or a record before
+/// version 3).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RecordedDay {
+    bus: u16,
+    temperature: i16,
+    winding_rise: i16,
+}
+
+impl RecordedDay {
+    /// Nothing measured.
+    pub const UNKNOWN: Self = Self {
+        bus: u16::MAX,
+        temperature: i16::MIN,
+        winding_rise: i16::MIN,
+    };
+
+    /// The day rounded to what is stored; a value that is NaN or beyond the range is absent.
+    pub fn new(
+        bus_voltage: Option<f32>,
+        temperature: Option<f32>,
+        winding_rise: Option<f32>,
+    ) -> Self {
+        Self {
+            bus: hundredths(bus_voltage, 0, 65_534).unwrap_or(u16::MAX.into()) as u16,
+            temperature: hundredths(temperature, -32_767, 32_767).unwrap_or(i16::MIN.into()) as i16,
+            winding_rise: hundredths(winding_rise, -32_767, 32_767).unwrap_or(i16::MIN.into())
+                as i16,
+        }
+    }
+
+    /// What a test's day estimate keeps: the measured bus and temperature, and the winding's
+    /// rise where the injection estimated it.
+    pub fn of(day: &TestConditions) -> Self {
+        let estimated = matches!(day.winding, WindingEstimate::Injection);
+        Self::new(
+            day.bus_voltage,
+            day.measured_temperature,
+            estimated.then_some(day.winding_rise),
+        )
+    }
+
+    /// The measured bus [V].
+    pub fn bus_voltage(&self) -> Option<f32> {
+        (self.bus != u16::MAX).then(|| f32::from(self.bus) * 0.01)
+    }
+
+    /// The measured temperature [°C].
+    pub fn temperature(&self) -> Option<f32> {
+        (self.temperature != i16::MIN).then(|| f32::from(self.temperature) * 0.01)
+    }
+
+    /// The winding's estimated rise from the calibration's temperature [K].
+    pub fn winding_rise(&self) -> Option<f32> {
+        (self.winding_rise != i16::MIN).then(|| f32::from(self.winding_rise) * 0.01)
+    }
 }
 
 /// The identification's standard deviation of each component as a record stores it: a
@@ -137,6 +210,16 @@ impl ComponentStd {
     fn codes(&self) -> [u16; FAULT_COUNT] {
         self.0
     }
+}
+
+/// `v` in hundredths, rounded half away from zero, if it is finite and within `[lo, hi]`.
+/// One out-of-line copy for the three fields (flash).
+#[inline(never)]
+fn hundredths(v: Option<f32>, lo: i32, hi: i32) -> Option<i32> {
+    let h = v? * 100.0;
+    // Saturating: beyond i32 lands outside [lo, hi]; NaN gives 0, refused by the test.
+    let rounded = (h + if h < 0.0 { -0.5 } else { 0.5 }) as i32;
+    (!h.is_nan() && (lo..=hi).contains(&rounded)).then_some(rounded)
 }
 
 /// The domain verdict as stored (the reason without its measured value).
@@ -239,7 +322,14 @@ impl HealthRecord {
             domain: domain.into(),
             detected,
             std: ComponentStd::UNKNOWN,
+            day: RecordedDay::UNKNOWN,
         }
+    }
+
+    /// The record with the test's day (see [`RecordedDay::new`]).
+    pub fn with_day(mut self, day: RecordedDay) -> Self {
+        self.day = day;
+        self
     }
 
     /// The record with the identification's standard deviations (see [`ComponentStd::new`]).
@@ -269,6 +359,10 @@ impl HealthRecord {
         for c in self.std.codes() {
             w.put(&c.to_le_bytes());
         }
+        w.put(&self.day.bus.to_le_bytes());
+        w.put(&self.day.temperature.to_le_bytes());
+        w.put(&self.day.winding_rise.to_le_bytes());
+        w.put(&[0, 0]);
         let mut crc = Crc32::new();
         crc.update(w.out.get(..RECORD_BYTES - 4).unwrap_or(&[]));
         let sum = crc.finish().to_le_bytes();
@@ -276,9 +370,9 @@ impl HealthRecord {
         out
     }
 
-    /// The record in `bytes`: version 2 ([`RECORD_BYTES`]) or version 1
-    /// ([`RECORD_V1_BYTES`]; every standard deviation NaN). Bytes beyond the record are
-    /// ignored.
+    /// The record in `bytes`: version 3 ([`RECORD_BYTES`]), version 2 ([`RECORD_V2_BYTES`];
+    /// no day) or version 1 ([`RECORD_V1_BYTES`]; no standard deviation either). Bytes beyond
+    /// the record are ignored.
     pub fn decode(bytes: &[u8]) -> Result<Self, HealthRecordError> {
         let word = |at: usize| -> [u8; 4] {
             let mut w = [0u8; 4];
@@ -307,51 +401,71 @@ impl HealthRecord {
             *v = f32::from_le_bytes(word(12 + 4 * i));
         }
         let fitness = f32::from_le_bytes(word(44));
+        let half = |at: usize| match bytes.get(at..at + 2) {
+            Some(&[lo, hi]) => [lo, hi],
+            _ => [0; 2],
+        };
         let mut std = ComponentStd::UNKNOWN;
-        if version == RECORD_VERSION {
+        if version >= 2 {
             for (i, c) in std.0.iter_mut().enumerate() {
-                let at = 48 + 2 * i;
-                if let Some(&[lo, hi]) = bytes.get(at..at + 2) {
-                    *c = u16::from_le_bytes([lo, hi]);
-                }
+                *c = u16::from_le_bytes(half(48 + 2 * i));
             }
         }
+        let (day, reserved_day) = if version >= 3 {
+            let day = RecordedDay {
+                bus: u16::from_le_bytes(half(64)),
+                temperature: i16::from_le_bytes(half(66)),
+                winding_rise: i16::from_le_bytes(half(68)),
+            };
+            (day, u16::from_le_bytes(half(70)))
+        } else {
+            (RecordedDay::UNKNOWN, 0)
+        };
         match (
             DomainCode::from_byte(domain),
             FaultVector::new(k),
-            reserved,
+            (reserved, reserved_day),
             fitness.is_finite(),
         ) {
-            (Some(domain), Ok(faults), 0, true) => Ok(Self {
+            (Some(domain), Ok(faults), (0, 0), true) => Ok(Self {
                 flight: u32::from_le_bytes(word(8)),
                 faults,
                 fitness,
                 domain,
                 detected,
                 std,
+                day,
             }),
             _ => Err(HealthRecordError::BadField),
         }
     }
 
-    /// Version-1 bytes of this record (its standard deviations are dropped): what a controller
-    /// before version 2 wrote. For tests and tools that make old logs.
+    /// Version-1 bytes of this record (its standard deviations and day are dropped): what a
+    /// controller before version 2 wrote. For tests and tools that make old logs.
     pub fn encode_v1(&self) -> [u8; RECORD_V1_BYTES] {
-        let mut out = [0u8; RECORD_V1_BYTES];
-        let v2 = self.encode();
-        if let (Some(dst), Some(src)) = (
-            out.get_mut(..RECORD_V1_BYTES - 4),
-            v2.get(..RECORD_V1_BYTES - 4),
-        ) {
+        self.encode_older(1)
+    }
+
+    /// Version-2 bytes of this record (its day is dropped): what a controller before version
+    /// 3 wrote. For tests and tools that make old logs.
+    pub fn encode_v2(&self) -> [u8; RECORD_V2_BYTES] {
+        self.encode_older(2)
+    }
+
+    /// The first `N − 4` bytes of the current encoding as `version`, then their CRC-32.
+    fn encode_older<const N: usize>(&self, version: u8) -> [u8; N] {
+        let mut out = [0u8; N];
+        let current = self.encode();
+        if let (Some(dst), Some(src)) = (out.get_mut(..N - 4), current.get(..N - 4)) {
             dst.copy_from_slice(src);
         }
         if let Some(v) = out.get_mut(4) {
-            *v = 1;
+            *v = version;
         }
         let mut crc = Crc32::new();
-        crc.update(out.get(..RECORD_V1_BYTES - 4).unwrap_or(&[]));
+        crc.update(out.get(..N - 4).unwrap_or(&[]));
         let sum = crc.finish().to_le_bytes();
-        if let Some(dst) = out.get_mut(RECORD_V1_BYTES - 4..) {
+        if let Some(dst) = out.get_mut(N - 4..) {
             dst.copy_from_slice(&sum);
         }
         out
@@ -405,19 +519,17 @@ impl<const S: usize> RamStore<S> {
         slots: [[0; RECORD_BYTES]; S],
     };
 
-    /// Erases every slot in place (every byte 0xFF). O(`S · 52`).
+    /// Erases every slot in place (every byte 0xFF). O(`S · 76`).
     pub fn erase(&mut self) {
         self.as_bytes_mut().fill(0xFF);
     }
 
-    /// Rewrites, in place, an image whose first `S · 52` bytes are `S` version-1 slots (what a
-    /// controller before version 2 kept) as `S` version-2 slots: each sound record is
-    /// re-encoded in its slot (without standard deviations), every other slot is erased.
-    /// Returns the records kept. Slots are taken last to first, so that no slot is
-    /// overwritten before it is read (a version-2 slot starts at or after its version-1
-    /// self). O(`S · 68`).
-    pub fn upgrade_v1(&mut self) -> usize {
-        upgrade_v1_image(self.as_bytes_mut(), S)
+    /// Rewrites, in place, an image whose first `S · old_bytes` bytes are `S` slots of an
+    /// older version ([`RECORD_V1_BYTES`] or [`RECORD_V2_BYTES`]: what a controller before
+    /// version 3 kept) as `S` current slots (see [`upgrade_image`]). Returns the records kept.
+    /// O(`S · 76`).
+    pub fn upgrade(&mut self, old_bytes: usize) -> usize {
+        upgrade_image(self.as_bytes_mut(), S, old_bytes)
     }
 
     /// An erased store (every byte 0xFF, as flash after erase).
@@ -427,7 +539,7 @@ impl<const S: usize> RamStore<S> {
         }
     }
 
-    /// The store from an image: slot `i` is bytes `52·i..52·(i+1)`; a short image leaves the
+    /// The store from an image: slot `i` is bytes `76·i..76·(i+1)`; a short image leaves the
     /// remaining slots erased, bytes beyond `IMAGE_BYTES` are ignored.
     pub fn from_image(image: &[u8]) -> Self {
         let mut store = Self::erased();
@@ -684,20 +796,28 @@ pub fn write_slot<S: HealthStore>(
     Ok(Written { slot, replaced })
 }
 
-/// Rewrites, in place, the first `slots · 52` bytes of `image` (version-1 slots) as `slots`
-/// version-2 slots: each sound version-1 record re-encoded in its slot (without standard
-/// deviations), every other slot erased. Slots are taken last to first, so that none is
-/// overwritten before it is read (a version-2 slot starts at or after its version-1 self).
-/// Slots beyond the image are left out. Returns the records kept. O(`slots · 68`).
-pub fn upgrade_v1_image(image: &mut [u8], slots: usize) -> usize {
+/// Rewrites, in place, the first `slots · old_bytes` bytes of `image` (slots of an older
+/// version: [`RECORD_V1_BYTES`] or [`RECORD_V2_BYTES`]) as `slots` current slots: each sound
+/// record of that version re-encoded in its slot (what the old version lacks left unknown),
+/// every other slot erased. Slots are taken last to first, so that none is overwritten
+/// before it is read (a current slot starts at or after its older self). Slots beyond the
+/// image are left out; `old_bytes` of no older version keeps nothing. Returns the records
+/// kept. O(`slots · 76`).
+pub fn upgrade_image(image: &mut [u8], slots: usize, old_bytes: usize) -> usize {
+    let Some(version) = (1..RECORD_VERSION).find(|v| record_len(*v) == Some(old_bytes)) else {
+        return 0;
+    };
     let mut kept = 0;
     for i in (0..slots).rev() {
-        let mut old = [0u8; RECORD_V1_BYTES];
-        if let Some(src) = image.get(i * RECORD_V1_BYTES..(i + 1) * RECORD_V1_BYTES) {
-            old.copy_from_slice(src);
+        let mut old = [0u8; RECORD_V2_BYTES];
+        if let (Some(dst), Some(src)) = (
+            old.get_mut(..old_bytes),
+            image.get(i * old_bytes..(i + 1) * old_bytes),
+        ) {
+            dst.copy_from_slice(src);
         }
         let new = match HealthRecord::decode(&old) {
-            Ok(r) if old.get(4) == Some(&1) => {
+            Ok(r) if old.get(4) == Some(&version) => {
                 kept += 1;
                 r.encode()
             }
@@ -759,9 +879,12 @@ mod tests {
         assert_eq!(r.std.get(3), Some(0.0));
         assert_eq!(r.std.get(4), Some(65_534.0 / 65_536.0));
         assert_eq!(r.std.get(7), None);
-        let v2 = r.encode();
+        let v3 = r.encode();
+        assert_eq!(v3[4], 3);
+        assert_eq!(HealthRecord::decode(&v3), Ok(r));
+        let v2 = r.encode_v2();
         assert_eq!(v2[4], 2);
-        assert_eq!(HealthRecord::decode(&v2), Ok(r));
+        assert_eq!(HealthRecord::decode(&v2), Ok(r)); // no day either way
         let v1 = r.encode_v1();
         assert_eq!(v1[4], 1);
         let old = HealthRecord::decode(&v1).unwrap();
@@ -770,16 +893,16 @@ mod tests {
             (old.flight, old.faults, old.fitness),
             (r.flight, r.faults, r.fitness)
         );
-        // A version-1 record in a 68-byte slot (the rest erased) reads the same.
+        // A version-1 record in a 76-byte slot (the rest erased) reads the same.
         let mut slot = [0xFF; RECORD_BYTES];
         slot[..RECORD_V1_BYTES].copy_from_slice(&v1);
         assert_eq!(HealthRecord::decode(&slot), Ok(old));
         // An unknown version is named, not mistaken for damage.
-        let mut v3 = v2;
-        v3[4] = 3;
+        let mut v4 = v3;
+        v4[4] = 4;
         assert_eq!(
-            HealthRecord::decode(&v3),
-            Err(HealthRecordError::UnsupportedVersion(3))
+            HealthRecord::decode(&v4),
+            Err(HealthRecordError::UnsupportedVersion(4))
         );
         // A version-1 record cut short fails its checksum.
         assert_eq!(
@@ -789,21 +912,54 @@ mod tests {
     }
 
     #[test]
-    fn a_version_1_store_is_upgraded_in_place() {
-        let mut store = RamStore::<4>::ZEROED;
-        let image = store.as_bytes_mut();
-        image.fill(0xFF);
-        // Flights 4..7 in slots 0..3 as a version-1 controller kept them; slot 2 torn.
-        for f in 4..8u32 {
-            let s = (f % 4) as usize * RECORD_V1_BYTES;
-            image[s..s + RECORD_V1_BYTES].copy_from_slice(&record(f, 0.1 * f as f32).encode_v1());
+    fn version_3_keeps_the_day() {
+        let day = RecordedDay::new(Some(271.337), Some(-40.004), Some(-58.5));
+        assert_eq!(day.bus_voltage(), Some(27_134.0 * 0.01));
+        assert_eq!(day.temperature(), Some(-4_000.0 * 0.01));
+        assert_eq!(day.winding_rise(), Some(-5_850.0 * 0.01));
+        let r = record(3, 0.2).with_day(day);
+        assert_eq!(HealthRecord::decode(&r.encode()), Ok(r));
+        let none = RecordedDay::new(None, Some(f32::NAN), Some(400.0));
+        assert_eq!(none, RecordedDay::UNKNOWN);
+        assert_eq!(
+            (none.bus_voltage(), none.temperature(), none.winding_rise()),
+            (None, None, None)
+        );
+        // The reserved bytes must stay 0 (CRC made good again).
+        let mut b = r.encode();
+        b[70] = 1;
+        let mut crc = Crc32::new();
+        crc.update(&b[..RECORD_BYTES - 4]);
+        b[RECORD_BYTES - 4..].copy_from_slice(&crc.finish().to_le_bytes());
+        assert_eq!(HealthRecord::decode(&b), Err(HealthRecordError::BadField));
+    }
+
+    #[test]
+    fn older_stores_are_upgraded_in_place() {
+        for (old_bytes, encode) in [
+            (
+                RECORD_V1_BYTES,
+                (|r: &HealthRecord| r.encode_v1().to_vec()) as fn(&HealthRecord) -> Vec<u8>,
+            ),
+            (RECORD_V2_BYTES, |r: &HealthRecord| r.encode_v2().to_vec()),
+        ] {
+            let mut store = RamStore::<4>::ZEROED;
+            let image = store.as_bytes_mut();
+            image.fill(0xFF);
+            // Flights 4..7 in slots 0..3 as an older controller kept them; slot 2 torn.
+            for f in 4..8u32 {
+                let s = (f % 4) as usize * old_bytes;
+                image[s..s + old_bytes].copy_from_slice(&encode(&record(f, 0.1 * f as f32)));
+            }
+            image[2 * old_bytes + 30] ^= 1;
+            assert_eq!(store.upgrade(old_bytes), 3, "{old_bytes}");
+            let (log, summary) = HealthLog::<4>::load(&mut store).unwrap();
+            assert_eq!(log.iter().map(|r| r.flight).collect::<Vec<_>>(), [4, 5, 7]);
+            assert_eq!(log.latest(), Some(&record(7, 0.7)));
+            assert_eq!((summary.records, summary.empty, summary.damaged), (3, 1, 0));
         }
-        image[2 * RECORD_V1_BYTES + 30] ^= 1;
-        assert_eq!(store.upgrade_v1(), 3);
-        let (log, summary) = HealthLog::<4>::load(&mut store).unwrap();
-        assert_eq!(log.iter().map(|r| r.flight).collect::<Vec<_>>(), [4, 5, 7]);
-        assert_eq!(log.latest(), Some(&record(7, 0.7)));
-        assert_eq!((summary.records, summary.empty, summary.damaged), (3, 1, 0));
+        // A slot size of no version keeps nothing.
+        assert_eq!(RamStore::<4>::erased().upgrade(60), 0);
     }
 
     #[test]

@@ -130,6 +130,27 @@ pub(crate) fn identifiability_command(
     Ok(())
 }
 
+pub(crate) fn day_study_command(seeds: u64, step: f32, out: Option<&Path>) -> Result<()> {
+    use host_sim::identifiability::{day_markdown, day_nuisances, day_study, points};
+    let points = points();
+    let bar = host_sim::progress_bar(
+        (day_nuisances().len() * points.len()) as u64,
+        "{elapsed_precise} [{bar:40}] {pos}/{len} nuisance × point {msg}",
+        std::io::stderr().is_terminal(),
+    );
+    let rows = day_study(PreflightTest::INJECTION, &points, seeds, step, |what| {
+        bar.set_message(what.to_string());
+        bar.inc(1);
+    })?;
+    bar.finish_and_clear();
+    let text = day_markdown(&rows, &points, seeds);
+    print!("{text}");
+    if let Some(path) = out {
+        std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(())
+}
+
 pub(crate) fn separability_command(a: &FaultVector, b: &FaultVector, seeds: u64) -> Result<()> {
     let s = host_sim::separability::separability(a, b, seeds)?;
     println!("A: {:?}", a.as_array());
