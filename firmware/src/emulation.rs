@@ -5,12 +5,14 @@
 //! through QEMU's semihosting command line; the trace is read with SYS_OPEN / SYS_FLEN /
 //! SYS_READ, one row (24 B) per read. The checkpoint file stands in for the flash page that
 //! keeps the GA record across a power loss; the health file for the flash that keeps the
-//! health log (the RAM store's image, `ONBOARD_RECORDS` × 68 bytes, or × 52 for version 1); the actuator file for
-//! the flash sector that holds the actuator record (`host-sim actuator`, 300 bytes).
+//! health log (the RAM store's image, `ONBOARD_RECORDS` × 76 bytes, or × 68 / × 52 for
+//! versions 2 and 1); the actuator file for the flash sector that holds the actuator record
+//! (`host-sim actuator`, 368 bytes). The command line is split at blanks (QEMU joins its
+//! `arg=`s with spaces): paths cannot hold one.
 
 use core::ffi::CStr;
+use core::mem::MaybeUninit;
 
-use semihosting::experimental::env;
 use semihosting::fs::File;
 use semihosting::io::Read;
 
@@ -57,7 +59,6 @@ pub enum UsageError {
     /// No trace path.
     MissingTrace,
     PathTooLong,
-    NotUtf8,
     /// `--seed` without a number, or an unknown option.
     BadOption,
 }
@@ -66,8 +67,13 @@ impl Command {
     /// Reads the command line (module doc; plus `--crash panic|hard-fault`) from the semihosting
     /// command line.
     pub fn from_host() -> Result<Self, UsageError> {
-        let args = env::args::<CMDLINE_BYTES>().map_err(|_| UsageError::NoCommandLine)?;
-        let mut words = (&args).skip(1);
+        let mut line = [MaybeUninit::uninit(); CMDLINE_BYTES];
+        let line = semihosting::sys::arm_compat::sys_get_cmdline_uninit(&mut line)
+            .map_err(|_| UsageError::NoCommandLine)?;
+        let mut words = line
+            .split(|b| *b == b' ' || *b == b'\t')
+            .filter(|w| !w.is_empty())
+            .skip(1);
         let mut paths = Paths {
             bytes: [0; PATHS_BYTES],
             used: 0,
@@ -81,41 +87,26 @@ impl Command {
         let mut actuator = None;
         let mut flight = None;
         while let Some(word) = words.next() {
-            let word = word.map_err(|_| UsageError::NotUtf8)?;
-            if word == "--seed" {
-                seed = Some(
-                    option_value(&mut words)?
-                        .parse()
-                        .map_err(|_| UsageError::BadOption)?,
-                );
-            } else if word == "--stop-after" {
-                stop_after = Some(
-                    option_value(&mut words)?
-                        .parse()
-                        .map_err(|_| UsageError::BadOption)?,
-                );
-            } else if word == "--flight" {
-                flight = Some(
-                    option_value(&mut words)?
-                        .parse()
-                        .map_err(|_| UsageError::BadOption)?,
-                );
-            } else if word == "--actuator" {
-                actuator = Some(paths.push(option_value(&mut words)?)?);
-            } else if word == "--health" {
-                health = Some(paths.push(option_value(&mut words)?)?);
-            } else if word == "--checkpoint" {
-                checkpoint = Some(paths.push(option_value(&mut words)?)?);
-            } else if word == "--crash" {
-                crash = match option_value(&mut words)? {
-                    "panic" => Some(Crash::Panic),
-                    "hard-fault" => Some(Crash::HardFault),
-                    _ => return Err(UsageError::BadOption),
-                };
-            } else if word.starts_with("--") || path.is_some() {
-                return Err(UsageError::BadOption);
-            } else {
-                path = Some(paths.push(word)?);
+            let mut value = || option_value(&mut words);
+            let number32 = |w: &[u8]| u32::try_from(number(w)?).map_err(|_| UsageError::BadOption);
+            match word {
+                b"--seed" => seed = Some(number(value()?)?),
+                b"--stop-after" => stop_after = Some(number32(value()?)?),
+                b"--flight" => flight = Some(number32(value()?)?),
+                b"--actuator" => actuator = Some(paths.push(value()?)?),
+                b"--health" => health = Some(paths.push(value()?)?),
+                b"--checkpoint" => checkpoint = Some(paths.push(value()?)?),
+                b"--crash" => {
+                    crash = match value()? {
+                        b"panic" => Some(Crash::Panic),
+                        b"hard-fault" => Some(Crash::HardFault),
+                        _ => return Err(UsageError::BadOption),
+                    }
+                }
+                _ if word.starts_with(b"--") || path.is_some() => {
+                    return Err(UsageError::BadOption)
+                }
+                _ => path = Some(paths.push(word)?),
             }
         }
         if path.is_none() && crash.is_none() {
@@ -171,8 +162,7 @@ struct Paths {
 
 impl Paths {
     /// Stores `word` and its NUL; returns where it starts.
-    fn push(&mut self, word: &str) -> Result<u16, UsageError> {
-        let bytes = word.as_bytes();
+    fn push(&mut self, bytes: &[u8]) -> Result<u16, UsageError> {
         let end = self.used + bytes.len() + 1;
         if bytes.len() > MAX_PATH || end > PATHS_BYTES {
             return Err(UsageError::PathTooLong);
@@ -195,14 +185,21 @@ impl Paths {
     }
 }
 
-/// The word after an option (`--seed N`): missing or not UTF-8 is a usage error.
-fn option_value<'a, E>(
-    words: &mut impl Iterator<Item = Result<&'a str, E>>,
-) -> Result<&'a str, UsageError> {
-    words
-        .next()
-        .and_then(|w| w.ok())
-        .ok_or(UsageError::BadOption)
+/// The word after an option (`--seed N`): missing is a usage error.
+fn option_value<'a>(words: &mut impl Iterator<Item = &'a [u8]>) -> Result<&'a [u8], UsageError> {
+    words.next().ok_or(UsageError::BadOption)
+}
+
+/// A decimal number of at most 19 digits (any `u64` below 10¹⁹); anything else is a usage
+/// error. Written out rather than `str::parse`, whose generic radix code costs flash.
+fn number(word: &[u8]) -> Result<u64, UsageError> {
+    if word.is_empty() || word.len() > 19 {
+        return Err(UsageError::BadOption);
+    }
+    word.iter().try_fold(0u64, |n, &b| match b {
+        b'0'..=b'9' => Ok(n * 10 + u64::from(b - b'0')),
+        _ => Err(UsageError::BadOption),
+    })
 }
 
 /// Reads the record file at `path` (the GA checkpoint, or the health store's image) into

@@ -190,18 +190,18 @@ async fn preflight(spawner: Spawner) -> i32 {
         None => {}
     }
     let path = command.trace_path();
-    let path_text = path.to_str().unwrap_or("(not UTF-8)");
+    let path_text = path.to_bytes();
     let file = match HostFile::open(path) {
         Ok(f) => f,
         Err(e) => {
-            defmt::error!("cannot read trace {=str}: {}", path_text, e);
+            defmt::error!("cannot read trace {=[u8]:a}: {}", path_text, e);
             return status::BAD_TRACE;
         }
     };
     let source = match TraceSource::open(file) {
         Ok(s) => s,
         Err(e) => {
-            defmt::error!("trace {=str} refused: {}", path_text, e);
+            defmt::error!("trace {=[u8]:a} refused: {}", path_text, e);
             return status::BAD_TRACE;
         }
     };
@@ -236,7 +236,7 @@ async fn preflight(spawner: Spawner) -> i32 {
         }
     }
     defmt::info!(
-        "preflight on {=str}: {=u32} rows, GA seed {=u64}, {=u32} evaluations per tick",
+        "preflight on {=[u8]:a}: {=u32} rows, GA seed {=u64}, {=u32} evaluations per tick",
         path_text,
         source.header().rows,
         settings.seed,
@@ -374,28 +374,28 @@ fn preflight_settings(
 /// The settings for the actuator record at `path`, or the exit status that refuses it.
 fn load_actuator(path: &CStr, trace_test: &PreflightTest) -> Result<PreflightSettings, i32> {
     let mut bytes = [0u8; RECORD_BYTES];
-    let name = path.to_str().unwrap_or("(not UTF-8)");
+    let name = path.to_bytes();
     match read_record_file(path, &mut bytes) {
         Ok(true) => {}
         Ok(false) => {
-            defmt::error!("actuator record {=str} not found", name);
+            defmt::error!("actuator record {=[u8]:a} not found", name);
             return Err(status::ACTUATOR_RECORD);
         }
         Err(e) => {
-            defmt::error!("actuator record {=str} refused: {}", name, e);
+            defmt::error!("actuator record {=[u8]:a} refused: {}", name, e);
             return Err(status::ACTUATOR_RECORD);
         }
     }
     let record = match ActuatorRecord::decode(&bytes) {
         Ok(r) => r,
         Err(e) => {
-            defmt::error!("actuator record {=str} refused: {}", name, e);
+            defmt::error!("actuator record {=[u8]:a} refused: {}", name, e);
             return Err(status::ACTUATOR_RECORD);
         }
     };
     if record.test.kind() != trace_test.kind() {
         defmt::error!(
-            "actuator record {=str} is for the {=str} test, the trace played {=str}",
+            "actuator record {=[u8]:a} is for the {=str} test, the trace played {=str}",
             name,
             record.test.kind_name(),
             trace_test.kind_name()
@@ -403,7 +403,7 @@ fn load_actuator(path: &CStr, trace_test: &PreflightTest) -> Result<PreflightSet
         return Err(status::ACTUATOR_RECORD);
     }
     defmt::info!(
-        "actuator record {=str}: {=f32} V, {=f32} pole pairs, gear {=f32}, {=str} test",
+        "actuator record {=[u8]:a}: {=f32} V, {=f32} pole pairs, gear {=f32}, {=str} test",
         name,
         record.params.dc_bus_voltage,
         record.params.pole_pairs,
@@ -419,7 +419,7 @@ fn load_actuator(path: &CStr, trace_test: &PreflightTest) -> Result<PreflightSet
 #[inline(never)]
 fn record_health(path: &CStr, flight: Option<u32>, report: &Report, day: &TestConditions) -> i32 {
     let started = cycles();
-    let path_text = path.to_str().unwrap_or("(not UTF-8)");
+    let path_text = path.to_bytes();
     let Some(store) = HEALTH_STORE.try_take() else {
         defmt::error!("health store already in use");
         return status::START_UP;
@@ -428,7 +428,7 @@ fn record_health(path: &CStr, flight: Option<u32>, report: &Report, day: &TestCo
     let image = |slot_bytes: usize| (ONBOARD_RECORDS * slot_bytes) as u64;
     match read_record_file(path, store.as_bytes_mut()) {
         Ok(true) => {}
-        Ok(false) => defmt::println!("health log {=str}: new", path_text),
+        Ok(false) => defmt::println!("health log {=[u8]:a}: new", path_text),
         // A log kept before record version 3: read it and carry its records over.
         Err(RecordFileError::Length { bytes })
             if bytes == image(RECORD_V1_BYTES) || bytes == image(RECORD_V2_BYTES) =>
@@ -443,19 +443,19 @@ fn record_health(path: &CStr, flight: Option<u32>, report: &Report, day: &TestCo
                 .get_mut(..ONBOARD_RECORDS * old_bytes)
                 .unwrap_or(&mut []);
             if let Err(e) = read_record_file(path, old) {
-                defmt::error!("health log {=str} refused: {}", path_text, e);
+                defmt::error!("health log {=[u8]:a} refused: {}", path_text, e);
                 return status::HEALTH_LOG;
             }
             let kept = store.upgrade(old_bytes);
             defmt::println!(
-                "upgraded health log {=str}: {=usize}-byte slots, {=usize} records carried over",
+                "upgraded health log {=[u8]:a}: {=usize}-byte slots, {=usize} records carried over",
                 path_text,
                 old_bytes,
                 kept
             );
         }
         Err(e) => {
-            defmt::error!("health log {=str} refused: {}", path_text, e);
+            defmt::error!("health log {=[u8]:a} refused: {}", path_text, e);
             return status::HEALTH_LOG;
         }
     }
@@ -468,7 +468,7 @@ fn record_health(path: &CStr, flight: Option<u32>, report: &Report, day: &TestCo
         }
     };
     if let Err(e) = write_record_file(path, store.as_bytes()) {
-        defmt::error!("health log {=str} not written: {}", path_text, e);
+        defmt::error!("health log {=[u8]:a} not written: {}", path_text, e);
         return status::HEALTH_LOG;
     }
     defmt::println!(
