@@ -268,6 +268,29 @@ pub struct CaseSummary {
     pub runs: Vec<RunResult>,
 }
 
+/// Every run of `summaries` as CSV: `case,run,e_tot,fitness,fitness_at_truth,evaluations,
+/// within,k1…k8` (the run index is its seed offset).
+pub fn runs_csv(summaries: &[CaseSummary]) -> String {
+    let mut out = String::from("case,run,e_tot,fitness,fitness_at_truth,evaluations,within");
+    for n in shared::fault::FAULT_NAMES {
+        out += &format!(",{n}");
+    }
+    out.push('\n');
+    for s in summaries {
+        for (i, r) in s.runs.iter().enumerate() {
+            out += &format!(
+                "{},{i},{},{},{},{},{}",
+                s.case.name, r.e_tot, r.fitness, r.fitness_at_truth, r.evaluations, r.within
+            );
+            for k in r.found.as_array() {
+                out += &format!(",{k}");
+            }
+            out.push('\n');
+        }
+    }
+    out
+}
+
 impl CaseSummary {
     fn values(&self) -> Vec<f64> {
         self.runs

@@ -330,6 +330,11 @@ enum Command {
         /// Also write the table as Markdown to this file.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Also write every run as a CSV row to this file (case, run, e_tot, fitness, fitness
+        /// at the truth, evaluations, domain, the found vector): the distribution behind the
+        /// table, e.g. of evaluations per identification.
+        #[arg(long, value_name = "FILE.csv")]
+        runs_csv: Option<PathBuf>,
         /// Also draw e_tot per case (ours vs paper) into this SVG.
         #[arg(long)]
         plot: Option<PathBuf>,
@@ -741,14 +746,20 @@ fn main() -> ExitCode {
             conditions,
             runs,
             out,
+            runs_csv,
             plot,
             test,
             encoder_offset,
             day,
         } => with_test(test, encoder_offset, day).and_then(|actuator| match table {
-            Some(table) if !conditions => {
-                campaign_command(&actuator, table, runs, out.as_deref(), plot.as_deref())
-            }
+            Some(table) if !conditions => campaign_command(
+                &actuator,
+                table,
+                runs,
+                out.as_deref(),
+                runs_csv.as_deref(),
+                plot.as_deref(),
+            ),
             _ => conditions_campaign_command(&actuator, runs, out.as_deref()),
         }),
         Command::Inverse { faults, seed, json } => actuator

@@ -251,3 +251,38 @@ fn missing_or_broken_files_are_refused_by_name() {
         );
     }
 }
+
+#[test]
+fn a_campaign_writes_every_run_as_a_csv_row() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = path(&dir, "runs.csv");
+    let o = host_sim(&[
+        "campaign",
+        "--table",
+        "1",
+        "--runs",
+        "1",
+        "--runs-csv",
+        &csv,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    assert!(lines
+        .next()
+        .unwrap()
+        .starts_with("case,run,e_tot,fitness,fitness_at_truth,evaluations,within,friction,"));
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(
+        rows.len(),
+        host_sim::campaign::TABLE_1.len(),
+        "one row per Table I case: {text}"
+    );
+    for r in &rows {
+        assert_eq!(r.len(), 15, "{r:?}");
+        let e_tot: f64 = r[2].parse().unwrap();
+        let evaluations: u32 = r[5].parse().unwrap();
+        assert!(e_tot >= 0.0 && e_tot < 20.0, "{r:?}");
+        assert!(evaluations >= 32 && evaluations <= 6000, "{r:?}");
+    }
+}

@@ -7,6 +7,7 @@ pub(crate) fn campaign_command(
     table: CampaignTable,
     runs: u64,
     out: Option<&Path>,
+    runs_csv: Option<&Path>,
     plot: Option<&Path>,
 ) -> Result<()> {
     use host_sim::campaign::{self, HEALTHY, TABLE_2};
@@ -48,6 +49,10 @@ pub(crate) fn campaign_command(
         }
     }
     print!("{text}");
+    if let Some(path) = runs_csv {
+        std::fs::write(path, campaign::runs_csv(&summaries))
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
     println!(
         "\n({} identifications in {:.1} s wall time)",
         summaries.iter().map(|c| c.runs.len()).sum::<usize>(),
