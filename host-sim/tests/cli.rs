@@ -282,7 +282,7 @@ fn a_campaign_writes_every_run_as_a_csv_row() {
         assert_eq!(r.len(), 15, "{r:?}");
         let e_tot: f64 = r[2].parse().unwrap();
         let evaluations: u32 = r[5].parse().unwrap();
-        assert!(e_tot >= 0.0 && e_tot < 20.0, "{r:?}");
-        assert!(evaluations >= 32 && evaluations <= 6000, "{r:?}");
+        assert!((0.0..20.0).contains(&e_tot), "{r:?}");
+        assert!((32..=6000).contains(&evaluations), "{r:?}");
     }
 }
