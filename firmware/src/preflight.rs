@@ -21,9 +21,10 @@ use shared::fdi::TEST_SAMPLES;
 use shared::fdi::{FdiError, Identification, IdentificationResult, OnboardMeasured, POPULATION};
 use shared::fitness::CurvatureRun;
 use shared::ga::RecordError;
+use shared::polish::{Polish, PolishAsk, PolishSettings};
 use shared::test_design::PreflightTest;
 use shared::uncertainty::{Assessment, Uncertainty};
-use shared::{Calibration, Status, Verdict, FAULT_COUNT};
+use shared::{Calibration, FaultVector, Status, Verdict, FAULT_COUNT};
 
 use crate::source::{Acquired, CurrentSource};
 
@@ -40,9 +41,13 @@ pub struct PreflightSettings {
     pub frames_per_poll: u32,
     /// Monitor-model evaluations per poll during Identify.
     pub evaluations_per_poll: u32,
-    /// Samples per poll of the uncertainty's 9 lockstep runs (200 ≈ a third of one
-    /// evaluation's work: 9 model steps and 36 f64 multiply-adds per sample).
+    /// Samples per poll of the Gauss–Newton sums' 9 lockstep runs, in the polish and the
+    /// uncertainty (200 ≈ a third of one evaluation's work: 9 model steps and 45 f32
+    /// multiply-adds per sample).
     pub uncertainty_samples_per_poll: u32,
+    /// The polish after the GA ([`shared::polish`]); it needs the curvature runs, like the
+    /// uncertainty.
+    pub polish: PolishSettings,
 }
 
 impl PreflightSettings {
@@ -69,6 +74,7 @@ impl PreflightSettings {
         frames_per_poll: 500,
         evaluations_per_poll: 1,
         uncertainty_samples_per_poll: 200,
+        polish: PolishSettings::FDI,
     };
 }
 
@@ -79,6 +85,8 @@ pub enum Stage {
     Acquire,
     Condition,
     Identify,
+    /// Gauss–Newton steps from the GA's best and from the probes ([`shared::polish`]).
+    Polish,
     /// A standard deviation and a 90 % interval per component ([`shared::uncertainty`]).
     Uncertainty,
     Report,
@@ -135,6 +143,8 @@ pub enum CheckpointError {
 
 /// The outcome of one poll.
 #[derive(Clone, Copy, Debug, PartialEq)]
+// The report (≈ 204 bytes) by value, once, when the self-test ends: no heap to box it in.
+#[allow(clippy::large_enum_variant)]
 pub enum Progress {
     /// Work remains; `stage` is where the next poll continues.
     Working { stage: Stage },
@@ -152,13 +162,17 @@ enum State<'m> {
     Condition {
         measured: &'m mut OnboardMeasured,
     },
-    Identify {
-        id: Identification<'m, TEST_SAMPLES, POPULATION>,
+    /// The identification itself stays in place in [`Preflight::id`] from here on.
+    Identify,
+    /// The polish itself stays in place in [`Preflight::polish`] and its sums run in
+    /// [`Preflight::curvature`] like the uncertainty's. The same fields as `Uncertainty`:
+    /// moving the identification between the two costs no copy code.
+    Polish {
+        result: IdentificationResult,
     },
     /// The runs themselves stay in place in [`Preflight::curvature`] (≈ 3 kB, not moved
     /// from poll to poll).
     Uncertainty {
-        id: Identification<'m, TEST_SAMPLES, POPULATION>,
         result: IdentificationResult,
     },
     Report {
@@ -177,6 +191,12 @@ pub struct Preflight<'m, S> {
     /// The uncertainty's lockstep runs (≈ 3 kB), lent in like the measured buffer; without
     /// one the Uncertainty stage is skipped and the report has no uncertainty.
     curvature: Option<&'m mut CurvatureRun>,
+    /// The identification, from Condition on (kept in place: never moved from poll to poll).
+    id: Option<Identification<'m, TEST_SAMPLES, POPULATION>>,
+    /// The polish after the GA (≈ 0.7 kB, kept in place from poll to poll).
+    polish: Polish,
+    /// Whether the polish's current Gauss–Newton sums are under way in `curvature`.
+    summing: bool,
     domain: DomainMonitor,
     /// The day the identification estimated (winding temperature, friction, bus).
     day: TestConditions,
@@ -199,6 +219,9 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
             source,
             state: State::Acquire { measured },
             curvature: None,
+            id: None,
+            polish: Polish::new(PolishSettings::NONE, FaultVector::NOMINAL, f32::INFINITY),
+            summing: false,
             day: TestConditions::CALIBRATION,
             domain: DomainMonitor::new(
                 settings.actuator.test.chirp,
@@ -222,6 +245,7 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
             State::Acquire { .. } => Stage::Acquire,
             State::Condition { .. } => Stage::Condition,
             State::Identify { .. } => Stage::Identify,
+            State::Polish { .. } => Stage::Polish,
             State::Uncertainty { .. } => Stage::Uncertainty,
             State::Report { .. } => Stage::Report,
             State::Done(_) | State::Failed => Stage::Done,
@@ -231,7 +255,10 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
     /// Evaluations done so far (0 before Identify).
     pub fn evaluations(&self) -> u32 {
         match &self.state {
-            State::Identify { id } | State::Uncertainty { id, .. } => id.ga().evaluations(),
+            State::Identify | State::Uncertainty { .. } => {
+                self.id.as_ref().map_or(0, |id| id.ga().evaluations())
+            }
+            State::Polish { result, .. } => result.evaluations,
             State::Report { result, .. } => result.evaluations,
             State::Done(report) => report.result.evaluations,
             _ => 0,
@@ -242,7 +269,8 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
     /// resume after a power loss; returns the evaluations it holds. O(`POPULATION`).
     pub fn checkpoint(&self, record: &mut [u8]) -> Result<u32, CheckpointError> {
         match &self.state {
-            State::Identify { id } => {
+            State::Identify => {
+                let id = self.id.as_ref().ok_or(CheckpointError::NotIdentifying)?;
                 id.save(record).map_err(CheckpointError::Record)?;
                 Ok(id.ga().evaluations())
             }
@@ -256,9 +284,12 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
     /// preflight restarts cleanly. O(`POPULATION`).
     pub fn resume(&mut self, record: &[u8]) -> Result<u32, CheckpointError> {
         match &mut self.state {
-            State::Identify { id } if id.ga().evaluations() == 0 => {
-                id.resume(record).map_err(CheckpointError::Record)
-            }
+            State::Identify => match self.id.as_mut() {
+                Some(id) if id.ga().evaluations() == 0 => {
+                    id.resume(record).map_err(CheckpointError::Record)
+                }
+                _ => Err(CheckpointError::NotIdentifying),
+            },
             _ => Err(CheckpointError::NotIdentifying),
         }
     }
@@ -317,22 +348,31 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                 )
                 .map_err(PreflightError::Fdi)?;
                 self.day = *id.problem().conditions();
-                Ok(State::Identify { id })
+                self.id = Some(id);
+                Ok(State::Identify)
             }
-            State::Identify { mut id } => {
+            State::Identify => {
+                let Some(id) = self.id.as_mut() else {
+                    return Err(PreflightError::AlreadyFailed);
+                };
                 let before = id.ga().evaluations();
                 let status = id.step(self.settings.evaluations_per_poll);
                 let done = id.ga().evaluations().saturating_sub(before);
                 self.identify_polls = self.identify_polls.saturating_add(1);
                 self.max_evaluations_per_poll = self.max_evaluations_per_poll.max(done);
                 Ok(match status {
-                    Status::Running => State::Identify { id },
+                    Status::Running => State::Identify,
                     Status::Done(_) => {
                         let result = id.result_so_far();
-                        match self.curvature.as_deref_mut() {
-                            Some(run) => {
-                                id.problem().restart_curvature(run, &result.faults);
-                                State::Uncertainty { id, result }
+                        match self.curvature {
+                            Some(_) => {
+                                self.polish = Polish::new(
+                                    self.settings.polish,
+                                    result.faults,
+                                    result.fitness,
+                                );
+                                self.summing = false;
+                                State::Polish { result }
                             }
                             None => State::Report {
                                 result,
@@ -342,14 +382,54 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                     }
                 })
             }
-            State::Uncertainty { id, result } => {
+            State::Polish { mut result } => {
+                let Some(id) = self.id.as_ref() else {
+                    return Err(PreflightError::AlreadyFailed);
+                };
+                let polish = &mut self.polish;
+                let Some(run) = self.curvature.as_deref_mut() else {
+                    return Ok(State::Report {
+                        result,
+                        uncertainty: None,
+                    });
+                };
+                match polish.ask() {
+                    PolishAsk::Curvature(k) => {
+                        if !self.summing {
+                            id.problem().restart_curvature(run, &k);
+                            result.curvatures = result.curvatures.saturating_add(1);
+                            self.summing = true;
+                        }
+                        let samples = self.settings.uncertainty_samples_per_poll as usize;
+                        if let Some(c) = id.problem().continue_curvature(run, samples) {
+                            polish.tell_curvature(&c);
+                            self.summing = false;
+                        }
+                    }
+                    PolishAsk::Fitness { k, bound } => {
+                        result.evaluations = result.evaluations.saturating_add(1);
+                        polish.tell_fitness(id.problem().error_below(&k, bound));
+                    }
+                    PolishAsk::Done { k, fitness } => {
+                        result.faults = k;
+                        result.fitness = fitness;
+                        id.problem().restart_curvature(run, &result.faults);
+                        return Ok(State::Uncertainty { result });
+                    }
+                }
+                Ok(State::Polish { result })
+            }
+            State::Uncertainty { result } => {
+                let Some(id) = self.id.as_ref() else {
+                    return Err(PreflightError::AlreadyFailed);
+                };
                 let samples = self.settings.uncertainty_samples_per_poll as usize;
                 let done = match self.curvature.as_deref_mut() {
                     Some(run) => id.problem().continue_curvature(run, samples),
                     None => Some(shared::uncertainty::Curvature::EMPTY),
                 };
                 Ok(match done {
-                    None => State::Uncertainty { id, result },
+                    None => State::Uncertainty { result },
                     Some(curvature) => State::Report {
                         result,
                         uncertainty: curvature.uncertainty(&result.faults).ok(),

@@ -285,7 +285,10 @@ async fn preflight(spawner: Spawner) -> i32 {
                             next_checkpoint =
                                 preflight.evaluations().saturating_add(CHECKPOINT_EVERY);
                         }
-                    } else if stage == Stage::Identify {
+                    } else if matches!(stage, Stage::Identify | Stage::Polish)
+                        && !matches!(next, Stage::Identify | Stage::Polish)
+                    {
+                        // The identification: the GA and its polish.
                         observed.identify_cycles =
                             now.saturating_sub(observed.identify_start_cycles);
                     }
@@ -326,7 +329,7 @@ async fn preflight(spawner: Spawner) -> i32 {
         // rounds, so one yield can hand the CPU straight back to this task.
         yield_now().await;
         yield_now().await;
-        if stage == Stage::Identify {
+        if matches!(stage, Stage::Identify | Stage::Polish) {
             let beats = BEATS.load(Ordering::Relaxed).wrapping_sub(beats_after_poll);
             observed.beats_during_identify = observed.beats_during_identify.saturating_add(beats);
             if beats == 0 {
@@ -522,10 +525,11 @@ fn print_report(report: &Report, observed: &Observed, total_cycles: u64) {
     let r = &report.result;
     let faults = r.faults.as_array();
     defmt::println!(
-        "result faults={} fitness={=f32} evaluations={=u32}",
+        "result faults={} fitness={=f32} evaluations={=u32} curvatures={=u32}",
         faults,
         r.fitness,
-        r.evaluations
+        r.evaluations,
+        r.curvatures
     );
     defmt::println!(
         "bits faults={:08x} fitness={=u32:08x}",

@@ -205,6 +205,8 @@ pub struct RunResult {
     /// missed; above means the model prefers a wrong vector.
     pub fitness_at_truth: f32,
     pub evaluations: u32,
+    /// Gauss–Newton sums of the polish (nine monitor-model runs each).
+    pub curvatures: u32,
     pub seconds: f64,
     /// The identification's uncertainty (`None` if this test determines no component).
     pub uncertainty: Option<Uncertainty>,
@@ -271,7 +273,8 @@ pub struct CaseSummary {
 /// Every run of `summaries` as CSV: `case,run,e_tot,fitness,fitness_at_truth,evaluations,
 /// within,k1…k8` (the run index is its seed offset).
 pub fn runs_csv(summaries: &[CaseSummary]) -> String {
-    let mut out = String::from("case,run,e_tot,fitness,fitness_at_truth,evaluations,within");
+    let mut out =
+        String::from("case,run,e_tot,fitness,fitness_at_truth,evaluations,curvatures,within");
     for n in shared::fault::FAULT_NAMES {
         out += &format!(",{n}");
     }
@@ -279,8 +282,14 @@ pub fn runs_csv(summaries: &[CaseSummary]) -> String {
     for s in summaries {
         for (i, r) in s.runs.iter().enumerate() {
             out += &format!(
-                "{},{i},{},{},{},{},{}",
-                s.case.name, r.e_tot, r.fitness, r.fitness_at_truth, r.evaluations, r.within
+                "{},{i},{},{},{},{},{},{}",
+                s.case.name,
+                r.e_tot,
+                r.fitness,
+                r.fitness_at_truth,
+                r.evaluations,
+                r.curvatures,
+                r.within
             );
             for k in r.found.as_array() {
                 out += &format!(",{k}");
@@ -416,6 +425,7 @@ pub fn run_once(
         fitness: id.result.fitness,
         fitness_at_truth: problem.error(&truth),
         evaluations: id.result.evaluations,
+        curvatures: id.result.curvatures,
         seconds: id.seconds,
         uncertainty,
         z_raw,

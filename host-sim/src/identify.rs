@@ -223,9 +223,10 @@ pub fn identify_checkpointed(
             break;
         }
     }
+    let mut run = Box::new(shared::fitness::CurvatureRun::IDLE);
+    let result = id.polished(shared::polish::PolishSettings::FDI, &mut run);
     let seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
-    let result = id.result_so_far();
     let uncertainty = id.problem().uncertainty(&result.faults).ok();
     Ok((
         Outcome::Finished(Box::new(Identified {

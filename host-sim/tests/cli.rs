@@ -268,10 +268,9 @@ fn a_campaign_writes_every_run_as_a_csv_row() {
     assert!(o.status.success(), "{}", stderr(&o));
     let text = std::fs::read_to_string(&csv).unwrap();
     let mut lines = text.lines();
-    assert!(lines
-        .next()
-        .unwrap()
-        .starts_with("case,run,e_tot,fitness,fitness_at_truth,evaluations,within,friction,"));
+    assert!(lines.next().unwrap().starts_with(
+        "case,run,e_tot,fitness,fitness_at_truth,evaluations,curvatures,within,friction,"
+    ));
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     assert_eq!(
         rows.len(),
@@ -279,7 +278,7 @@ fn a_campaign_writes_every_run_as_a_csv_row() {
         "one row per Table I case: {text}"
     );
     for r in &rows {
-        assert_eq!(r.len(), 15, "{r:?}");
+        assert_eq!(r.len(), 16, "{r:?}");
         let e_tot: f64 = r[2].parse().unwrap();
         let evaluations: u32 = r[5].parse().unwrap();
         assert!((0.0..20.0).contains(&e_tot), "{r:?}");

@@ -10,10 +10,11 @@ use crate::calibration::Calibration;
 use crate::command::CommandTable;
 use crate::conditioning::{commutation_signs, AdcFrame, MeasuredCurrent};
 use crate::fault::FaultVector;
-use crate::fitness::{FitnessError, FitnessProblem};
+use crate::fitness::{CurvatureRun, FitnessError, FitnessProblem};
 use crate::ga::{GaError, GaSettings, RecordError, Status, SteadyStateGa, StopReason};
 use crate::monitor::MonitorModel;
 use crate::params::ActuatorParams;
+use crate::polish::{Polish, PolishAsk, PolishSettings};
 use crate::trace::Crc32;
 
 /// Capacity of the measured buffer: the longest test the controller runs, the standstill
@@ -42,6 +43,8 @@ pub struct IdentificationResult {
     pub fitness: f32,
     pub evaluations: u32,
     pub stop_reason: StopReason,
+    /// Gauss–Newton sums the polish computed (nine monitor-model runs each; 0 before it).
+    pub curvatures: u32,
 }
 
 /// Why an identification could not start.
@@ -145,6 +148,44 @@ impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
                 Status::Done(reason) => reason,
                 Status::Running => StopReason::EvaluationBudget,
             },
+            curvatures: 0,
+        }
+    }
+
+    /// The GA's result so far, polished to the end ([`crate::polish`]) with whole curvature
+    /// runs in `run`: the host's executor (the firmware polls the same [`Polish`] in chunks).
+    /// Work: bounded by [`PolishSettings::max_curvatures`] and
+    /// [`PolishSettings::max_evaluations`].
+    pub fn polished(
+        &self,
+        settings: PolishSettings,
+        run: &mut CurvatureRun,
+    ) -> IdentificationResult {
+        let ga = self.result_so_far();
+        let mut polish = Polish::new(settings, ga.faults, ga.fitness);
+        let mut out = ga;
+        loop {
+            match polish.ask() {
+                PolishAsk::Curvature(k) => {
+                    self.problem.restart_curvature(run, &k);
+                    out.curvatures = out.curvatures.saturating_add(1);
+                    loop {
+                        if let Some(c) = self.problem.continue_curvature(run, usize::MAX) {
+                            polish.tell_curvature(&c);
+                            break;
+                        }
+                    }
+                }
+                PolishAsk::Fitness { k, bound } => {
+                    out.evaluations = out.evaluations.saturating_add(1);
+                    polish.tell_fitness(self.problem.error_below(&k, bound));
+                }
+                PolishAsk::Done { k, fitness } => {
+                    out.faults = k;
+                    out.fitness = fitness;
+                    return out;
+                }
+            }
         }
     }
 }

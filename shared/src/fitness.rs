@@ -242,9 +242,10 @@ impl<const N: usize> FitnessProblem<'_, N> {
     pub fn restart_curvature(&self, run: &mut CurvatureRun, k: &FaultVector) {
         let base = *k.as_array();
         let start = self.measured.initial_angles();
-        for (a, slot) in run.shifts.iter_mut().enumerate() {
+        for (a, (slot, inv)) in run.shifts.iter_mut().zip(&mut run.inv_shifts).enumerate() {
             let x = base.get(a).copied().unwrap_or(0.0);
             *slot = if x + STEP <= 1.0 { STEP } else { -STEP };
+            *inv = 1.0 / *slot;
         }
         for (j, slot) in run.runs.iter_mut().enumerate() {
             let mut g = base;
@@ -261,6 +262,8 @@ impl<const N: usize> FitnessProblem<'_, N> {
         run.index = 0;
         run.previous = 0.0;
         run.sums = Curvature::EMPTY;
+        run.block = BlockSums::ZERO;
+        run.in_block = 0;
     }
 
     /// Advances `run` by at most `samples` samples (9 monitor-model steps and 36 f64
@@ -302,22 +305,31 @@ impl<const N: usize> FitnessProblem<'_, N> {
             if w <= 0.0 {
                 continue;
             }
-            let w = f64::from(w);
-            let e = f64::from(r - m[0]);
-            run.sums.rss += w * e * e;
-            run.sums.fitted = run.sums.fitted.saturating_add(1);
-            let d: [f64; FAULT_COUNT] =
-                core::array::from_fn(|a| f64::from(m[a + 1] - m[0]) / f64::from(run.shifts[a]));
+            // f32 products summed in blocks of BLOCK samples, each block added to the f64
+            // totals: the FPU's single precision per sample (no soft f64 on the Cortex-M4F),
+            // the block sums' rounding bounded by BLOCK terms.
+            let e = r - m[0];
+            let d: [f32; FAULT_COUNT] =
+                core::array::from_fn(|a| (m[a + 1] - m[0]) * run.inv_shifts[a]);
+            let block = &mut run.block;
+            block.rss += w * e * e;
             for a in 0..FAULT_COUNT {
                 let wa = w * d[a];
+                block.gradient[a] += wa * e;
                 for b in a..FAULT_COUNT {
-                    run.sums.normal[a][b] += wa * d[b];
+                    block.normal[a][b] += wa * d[b];
                 }
+            }
+            run.sums.fitted = run.sums.fitted.saturating_add(1);
+            run.in_block += 1;
+            if run.in_block == CURVATURE_BLOCK {
+                run.flush_block();
             }
         }
         if run.index < reference.len() {
             return None;
         }
+        run.flush_block();
         let mut out = run.sums;
         for a in 0..FAULT_COUNT {
             for b in 0..a {
@@ -354,9 +366,32 @@ pub struct CurvatureRun {
     runs: [MonitorRun; FAULT_COUNT + 1],
     filters: [LowPassState; FAULT_COUNT + 1],
     shifts: [f32; FAULT_COUNT],
+    inv_shifts: [f32; FAULT_COUNT],
     index: usize,
     previous: f32,
     sums: Curvature,
+    /// The current block's sums in f32 ([`CURVATURE_BLOCK`] fitted samples at most).
+    block: BlockSums,
+    in_block: u32,
+}
+
+/// Fitted samples summed in f32 before they join the f64 totals.
+const CURVATURE_BLOCK: u32 = 64;
+
+/// One block of the curvature's sums, in f32.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct BlockSums {
+    normal: [[f32; FAULT_COUNT]; FAULT_COUNT],
+    gradient: [f32; FAULT_COUNT],
+    rss: f32,
+}
+
+impl BlockSums {
+    const ZERO: Self = Self {
+        normal: [[0.0; FAULT_COUNT]; FAULT_COUNT],
+        gradient: [0.0; FAULT_COUNT],
+        rss: 0.0,
+    };
 }
 
 impl CurvatureRun {
@@ -366,10 +401,29 @@ impl CurvatureRun {
         runs: [MonitorRun::IDLE; FAULT_COUNT + 1],
         filters: [LowPassState::ZERO; FAULT_COUNT + 1],
         shifts: [0.0; FAULT_COUNT],
+        inv_shifts: [0.0; FAULT_COUNT],
         index: 0,
         previous: 0.0,
         sums: Curvature::EMPTY,
+        block: BlockSums::ZERO,
+        in_block: 0,
     };
+
+    /// Adds the block's f32 sums to the f64 totals and starts a new block (upper triangle
+    /// of the normal matrix only). O(8²).
+    #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // a, b < FAULT_COUNT
+    fn flush_block(&mut self) {
+        let (sums, block) = (&mut self.sums, &self.block);
+        sums.rss += f64::from(block.rss);
+        for a in 0..FAULT_COUNT {
+            sums.gradient[a] += f64::from(block.gradient[a]);
+            for b in a..FAULT_COUNT {
+                sums.normal[a][b] += f64::from(block.normal[a][b]);
+            }
+        }
+        self.block = BlockSums::ZERO;
+        self.in_block = 0;
+    }
 }
 
 impl<const N: usize> Problem for FitnessProblem<'_, N> {

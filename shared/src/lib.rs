@@ -52,6 +52,7 @@ pub mod math;
 pub mod metrics;
 pub mod monitor;
 pub mod params;
+pub mod polish;
 pub mod prognosis;
 pub mod random;
 pub mod test_design;

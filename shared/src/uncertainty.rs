@@ -159,6 +159,9 @@ pub struct Curvature {
     pub normal: [[f64; FAULT_COUNT]; FAULT_COUNT],
     /// Weighted residual sum of squares at the identified vector [A²].
     pub rss: f64,
+    /// `JᵀW r`, `r` = measured − modelled at the identified vector [A² per unit]: with
+    /// `normal`, a Gauss–Newton step ([`Curvature::gauss_newton_step`]).
+    pub gradient: [f64; FAULT_COUNT],
     /// Samples with a non-zero weight.
     pub fitted: u32,
 }
@@ -176,8 +179,68 @@ impl Curvature {
     pub const EMPTY: Self = Self {
         normal: [[0.0; FAULT_COUNT]; FAULT_COUNT],
         rss: 0.0,
+        gradient: [0.0; FAULT_COUNT],
         fitted: 0,
     };
+
+    /// `(JᵀWJ + λ·diag)⁻¹` over the determined components (diagonal above [`FLAT`] of the
+    /// largest), the others given an identity row and column so that they do not couple;
+    /// with which components are determined. `None` when none is, or the matrix is
+    /// singular. One copy for the uncertainty (λ = 0) and the polish. O(8³).
+    #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 8×8 arrays
+    #[inline(never)]
+    fn inverse(
+        &self,
+        damping: f64,
+    ) -> Option<([[f64; FAULT_COUNT]; FAULT_COUNT], [bool; FAULT_COUNT])> {
+        let largest = (0..FAULT_COUNT)
+            .map(|i| self.normal[i][i])
+            .fold(0.0f64, f64::max);
+        let determined: [bool; FAULT_COUNT] =
+            core::array::from_fn(|i| self.normal[i][i] > FLAT * largest && self.normal[i][i] > 0.0);
+        if !determined.contains(&true) {
+            return None;
+        }
+        let mut m = self.normal;
+        for i in 0..FAULT_COUNT {
+            for j in 0..FAULT_COUNT {
+                if !(determined[i] && determined[j]) {
+                    m[i][j] = if i == j { 1.0 } else { 0.0 };
+                } else if i == j {
+                    m[i][j] *= 1.0 + damping;
+                }
+            }
+        }
+        Some((invert(&m)?, determined))
+    }
+
+    /// The damped Gauss–Newton (Levenberg–Marquardt) step from `k`: `δ` solving
+    /// `(JᵀWJ + λ·diag(JᵀWJ)) δ = JᵀW r` over the determined components (the others stay),
+    /// then bounded components clamped to [0, 1] and the phase wrapped. `None` when no
+    /// component is determined. O(8³).
+    #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 8×8 arrays
+    pub fn gauss_newton_step(&self, k: &FaultVector, damping: f64) -> Option<FaultVector> {
+        let (inverse, determined) = self.inverse(damping)?;
+        let mut out = *k.as_array();
+        for i in 0..FAULT_COUNT {
+            if !determined[i] {
+                continue;
+            }
+            let mut d = 0.0;
+            for j in 0..FAULT_COUNT {
+                if determined[j] {
+                    d += inverse[i][j] * self.gradient[j];
+                }
+            }
+            let x = out[i] + d as f32;
+            out[i] = if CIRCULAR[i] {
+                crate::ga::wrap_unit(x)
+            } else {
+                x.clamp(0.0, 1.0)
+            };
+        }
+        Some(FaultVector::saturating(out))
+    }
 
     /// Standard deviations, intervals and correlations for the identified `k`. O(8³).
     #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 8×8 arrays
@@ -186,40 +249,11 @@ impl Curvature {
         &self,
         k: &FaultVector,
     ) -> Result<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT]), UncertaintyError> {
-        let largest = (0..FAULT_COUNT)
-            .map(|i| {
-                self.normal
-                    .get(i)
-                    .and_then(|r| r.get(i))
-                    .copied()
-                    .unwrap_or(0.0)
-            })
-            .fold(0.0f64, f64::max);
-        let determined: [bool; FAULT_COUNT] = core::array::from_fn(|i| {
-            let d = self
-                .normal
-                .get(i)
-                .and_then(|r| r.get(i))
-                .copied()
-                .unwrap_or(0.0);
-            d > FLAT * largest && d > 0.0
-        });
+        let (inverse, determined) = self.inverse(0.0).ok_or(UncertaintyError::Undetermined)?;
         let p = determined.iter().filter(|&&x| x).count();
-        if p == 0 || (self.fitted as usize) <= p {
+        if (self.fitted as usize) <= p {
             return Err(UncertaintyError::Undetermined);
         }
-        // Undetermined components get an identity row and column (they do not couple).
-        let mut m = self.normal;
-        for i in 0..FAULT_COUNT {
-            for j in 0..FAULT_COUNT {
-                if !(determined[i] && determined[j]) {
-                    if let Some(x) = m.get_mut(i).and_then(|r| r.get_mut(j)) {
-                        *x = if i == j { 1.0 } else { 0.0 };
-                    }
-                }
-            }
-        }
-        let inverse = invert(&m).ok_or(UncertaintyError::Undetermined)?;
         let s2 = self.rss / (self.fitted as usize - p) as f64;
         let c = f64::from(INFLATION);
         let variance = |i: usize| {
@@ -337,6 +371,7 @@ mod tests {
     fn a_diagonal_curvature_gives_its_standard_deviations() {
         // s² = rss / (n − p) = 8 / (108 − 8) = 0.08; std_i = √(0.08 / d_i).
         let c = Curvature {
+            gradient: [0.0; FAULT_COUNT],
             normal: diagonal([8.0, 2.0, 0.5, 8.0, 8.0, 8.0, 8.0, 0.08]),
             rss: 8.0,
             fitted: 108,
@@ -368,6 +403,7 @@ mod tests {
         normal[2][4] = 3.96;
         normal[4][2] = 3.96;
         let c = Curvature {
+            gradient: [0.0; FAULT_COUNT],
             normal,
             rss: 1.0,
             fitted: 1000,
@@ -388,6 +424,7 @@ mod tests {
     #[test]
     fn faulty_needs_the_interval_beyond_the_threshold() {
         let c = Curvature {
+            gradient: [0.0; FAULT_COUNT],
             normal: diagonal([1.0e4; FAULT_COUNT]),
             rss: 1.0,
             fitted: 10_008,
@@ -402,6 +439,7 @@ mod tests {
         let (u, corr) = wide.uncertainty(&k).unwrap();
         assert_eq!(u.assess(&k, &corr)[1], Assessment::Suspect);
         assert!(Curvature {
+            gradient: [0.0; FAULT_COUNT],
             normal: [[0.0; FAULT_COUNT]; FAULT_COUNT],
             rss: 1.0,
             fitted: 10
