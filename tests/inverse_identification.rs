@@ -46,7 +46,11 @@ fn identify(truth: [f32; 8], seed: u64) -> (f32, u32, f32) {
 fn single_fault_short_circuit_is_identified() {
     let (e_tot, evaluations, _) = identify([0.0, 0.0, 0.4, 0.0, 0.0, 0.0, 0.5, 0.5], 1);
     assert!(e_tot <= 0.5, "e_tot {e_tot} %");
-    assert!(evaluations <= GaSettings::FDI.max_evaluations);
+    assert!(
+        evaluations
+            <= GaSettings::FDI.max_evaluations
+                + shared::polish::PolishSettings::FDI.max_evaluations()
+    );
 }
 
 #[test]

@@ -211,6 +211,21 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
         &self.day
     }
 
+    /// The most work the settings allow the identification: fitness evaluations (the GA's
+    /// budget and the polish's) and Gauss–Newton sums (nine monitor-model runs each). With
+    /// the measured cost of each, the preflight's worst case (BENCHMARKS.md §1).
+    pub fn work_bound(&self) -> (u32, u32) {
+        let p = &self.settings.polish;
+        (
+            self.settings
+                .actuator
+                .ga
+                .max_evaluations
+                .saturating_add(p.max_evaluations()),
+            p.max_curvatures(),
+        )
+    }
+
     /// A self-test that fills `measured` (cleared first) from `source`.
     pub fn new(settings: PreflightSettings, source: S, measured: &'m mut OnboardMeasured) -> Self {
         measured.clear_for(settings.actuator.test);

@@ -346,6 +346,12 @@ async fn preflight(spawner: Spawner) -> i32 {
         day.friction_scale,
         day.winding
     );
+    let (evaluations, curvatures) = preflight.work_bound();
+    defmt::println!(
+        "bound evaluations={=u32} curvatures={=u32}",
+        evaluations,
+        curvatures
+    );
     print_report(&report, &observed, total_cycles);
     match command.health_path() {
         Some(path) => record_health(path, command.flight, &report, day),

@@ -123,10 +123,13 @@ impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
         self.ga.step(&mut self.problem, budget)
     }
 
-    /// Runs to the end (bounded by the GA settings).
+    /// Runs to the end: the GA (bounded by its settings), then the flown polish
+    /// ([`PolishSettings::FDI`]) with its curvature runs on the stack (≈ 3.8 kB; the host's
+    /// executor — the firmware lends a static buffer and polls the polish in chunks).
     pub fn run(&mut self) -> IdentificationResult {
         self.ga.run(&mut self.problem);
-        self.result_so_far()
+        let mut curvature = CurvatureRun::IDLE;
+        self.polished(PolishSettings::FDI, &mut curvature)
     }
 
     pub fn ga(&self) -> &SteadyStateGa<P> {

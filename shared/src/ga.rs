@@ -96,7 +96,7 @@ impl GaSettings {
     /// every campaign within seed noise of the full 6 000 (`host-sim stopping`,
     /// docs/stopping.md). The budget stays as the bound on the work.
     pub const FDI: Self = Self {
-        max_evaluations: 720,
+        max_evaluations: 1400,
         max_generations: 300,
         stall_generations: 25,
         tolerance: 2.0e-5,

@@ -351,9 +351,9 @@ mod tests {
             let (fa, fb) = (d(&a) + floor_a, d(&b));
             let (f, centre) = if fa <= fb { (fa, a) } else { (fb, b) };
             let mut c = Curvature::EMPTY;
-            for i in 0..FAULT_COUNT {
+            for (i, (g, x)) in c.gradient.iter_mut().zip(k.as_array()).enumerate() {
+                *g = f64::from(centre[i] - x);
                 c.normal[i][i] = 1.0;
-                c.gradient[i] = f64::from(centre[i] - k.as_array()[i]);
             }
             c.fitted = 1000;
             (f, c)
