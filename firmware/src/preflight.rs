@@ -45,9 +45,6 @@ pub struct PreflightSettings {
     /// uncertainty (200 ≈ a third of one evaluation's work: 9 model steps and 45 f32
     /// multiply-adds per sample).
     pub uncertainty_samples_per_poll: u32,
-    /// The polish after the GA ([`shared::polish`]); it needs the curvature runs, like the
-    /// uncertainty.
-    pub polish: PolishSettings,
 }
 
 impl PreflightSettings {
@@ -74,7 +71,6 @@ impl PreflightSettings {
         frames_per_poll: 500,
         evaluations_per_poll: 1,
         uncertainty_samples_per_poll: 200,
-        polish: PolishSettings::FDI,
     };
 }
 
@@ -215,7 +211,7 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
     /// budget and the polish's) and Gauss–Newton sums (nine monitor-model runs each). With
     /// the measured cost of each, the preflight's worst case (BENCHMARKS.md §1).
     pub fn work_bound(&self) -> (u32, u32) {
-        let p = &self.settings.polish;
+        let p = &self.settings.actuator.polish;
         (
             self.settings
                 .actuator
@@ -381,8 +377,10 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                         let result = id.result_so_far();
                         match self.curvature {
                             Some(_) => {
+                                // The actuator's polish (its record); it needs the curvature
+                                // runs, like the uncertainty.
                                 self.polish = Polish::new(
-                                    self.settings.polish,
+                                    self.settings.actuator.polish,
                                     result.faults,
                                     result.fitness,
                                 );

@@ -23,6 +23,7 @@ use serde::Deserialize;
 use shared::actuator::{ActuatorRecord, ActuatorRecordError, RECORD_MAGIC};
 use shared::command::ChirpCommand;
 use shared::domain::DomainLimits;
+use shared::polish::{PolishSettings, Probe, MAX_PROBES};
 use shared::test_design::{PreflightTest, StandstillSegment};
 use shared::{ActuatorParams, Calibration, GaSettings};
 
@@ -489,6 +490,11 @@ fn range_text(field: &str) -> &'static str {
         "ga" => "GA settings the flown solver cannot run (rates in [0, 1], sizes ≥ 1)",
         "detection.threshold" => "must be in (0, 1)",
         "domain.bus_voltage" | "domain.temperature" => "must be [low, high] with low ≤ high",
+        "polish" => {
+            "at most 64 steps per leg and 6 probes, each a fault component other than ecc_phase \
+             (friction, backlash, short_a, short_b, short_c, eccentricity, gain_drift) at a level \
+             in [0, 1] from \"best\" or \"nominal\"; damping positive"
+        }
         "drive.carrier_hz" => "must be from 1 kHz to 200 kHz",
         "drive.timer_hz" => "must be 0 (continuous duty) or at least twice the carrier",
         "drive.dead_time" => "must be at least 0 and below a tenth of the carrier period",
@@ -565,6 +571,8 @@ struct Description {
     test: Test,
     #[serde(default)]
     ga: Ga,
+    #[serde(default)]
+    polish: PolishSection,
     detection: Detection,
     domain: Domain,
     calibration: Option<Cal>,
@@ -723,6 +731,68 @@ struct Domain {
     temperature: Option<[f32; 2]>,
 }
 
+/// `[polish]`: the Gauss–Newton polish after the GA (a key left out keeps the flown
+/// default, `PolishSettings::FDI`).
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct PolishSection {
+    iterations: Option<u8>,
+    probe_iterations: Option<u8>,
+    damping: Option<f32>,
+    /// Probe starts, e.g. `{ component = "backlash", level = 0.5, from = "nominal" }`
+    /// (`from`: "best", the GA's best with the component moved, or "nominal").
+    probes: Option<Vec<ProbeEntry>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ProbeEntry {
+    component: String,
+    level: f32,
+    from: String,
+}
+
+impl PolishSection {
+    /// The settings; an unknown component or `from`, or more probes than fit, become values
+    /// `ActuatorRecord::validate` refuses as `polish`.
+    fn settings(&self) -> PolishSettings {
+        let f = PolishSettings::FDI;
+        let mut p = PolishSettings {
+            iterations: self.iterations.unwrap_or(f.iterations),
+            probe_iterations: self.probe_iterations.unwrap_or(f.probe_iterations),
+            damping: self.damping.unwrap_or(f.damping),
+            ..f
+        };
+        if let Some(probes) = &self.probes {
+            p.probe_count = u8::try_from(probes.len()).unwrap_or(u8::MAX);
+            p.probes = [Probe::backlash(0.0, true); MAX_PROBES];
+            for (slot, e) in p.probes.iter_mut().zip(probes) {
+                let component = shared::fault::FAULT_NAMES
+                    .iter()
+                    .position(|n| *n == e.component);
+                let from_nominal = match e.from.as_str() {
+                    "nominal" => Some(true),
+                    "best" => Some(false),
+                    _ => None,
+                };
+                *slot = match (component, from_nominal) {
+                    (Some(c), Some(n)) => Probe {
+                        component: c as u8,
+                        level: e.level,
+                        from_nominal: n,
+                    },
+                    _ => Probe {
+                        component: u8::MAX,
+                        level: e.level,
+                        from_nominal: false,
+                    },
+                };
+            }
+        }
+        p
+    }
+}
+
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct Cal {
@@ -868,6 +938,7 @@ impl Description {
                 duration: t.chirp_duration,
             },
         };
+        let polish = self.polish.settings();
         let f = GaSettings::FDI;
         let g = &self.ga;
         let ga = GaSettings {
@@ -996,6 +1067,7 @@ impl Description {
                     ..calibration.unwrap_or(Calibration::IDENTITY)
                 },
                 ga,
+                polish,
                 domain,
                 detection_threshold: self.detection.threshold,
             },
@@ -1109,6 +1181,39 @@ mod tests {
         );
         let e = refusal(&text);
         assert!(e.contains("i_d"), "{e}");
+    }
+
+    #[test]
+    fn the_polish_comes_from_the_file_and_a_bad_probe_is_refused() {
+        let a = Actuator::parse(&reference_text()).unwrap();
+        assert_eq!(a.record.polish, PolishSettings::FDI);
+        let text = reference_text().replace(
+            "{ component = \"backlash\", level = 1.0, from = \"nominal\" },",
+            "{ component = \"eccentricity\", level = 0.3, from = \"nominal\" },",
+        );
+        let p = Actuator::parse(&text).unwrap().record.polish;
+        assert_eq!(
+            p.probes[5],
+            Probe {
+                component: 5,
+                level: 0.3,
+                from_nominal: true
+            }
+        );
+        for (from, to) in [
+            (
+                "component = \"backlash\", level = 0.25, from = \"best\"",
+                "component = \"ecc_phase\", level = 0.25, from = \"best\"",
+            ),
+            (
+                "component = \"backlash\", level = 0.25, from = \"best\"",
+                "component = \"backlash\", level = 0.25, from = \"worst\"",
+            ),
+            ("iterations = 8", "iterations = 200"),
+        ] {
+            let e = refusal(&reference_text().replacen(from, to, 1));
+            assert!(e.contains("`polish`"), "{e}");
+        }
     }
 
     #[test]

@@ -172,6 +172,7 @@ pub fn identify_checkpointed(
     checkpointing: Option<&Checkpointing>,
 ) -> Result<(Outcome, Resumption)> {
     let settings = record.ga;
+    let polish = record.polish;
     let start = Instant::now();
     // The table is built inside the timed span.
     let table = command_table(measured, record);
@@ -224,7 +225,7 @@ pub fn identify_checkpointed(
         }
     }
     let mut run = Box::new(shared::fitness::CurvatureRun::IDLE);
-    let result = id.polished(shared::polish::PolishSettings::FDI, &mut run);
+    let result = id.polished(polish, &mut run);
     let seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
     let uncertainty = id.problem().uncertainty(&result.faults).ok();

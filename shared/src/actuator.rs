@@ -5,7 +5,7 @@
 //!
 //! Layout (little endian): `"EMAA"`, version `u16`, body length `u16`, the body as 32-bit
 //! words in the order of [`ActuatorRecord::encode`], CRC-32 of everything before it.
-//! [`RECORD_BYTES`] in all. Encoding and decoding are O(1) (a fixed 368 bytes), allocate
+//! [`RECORD_BYTES`] in all. Encoding and decoding are O(1) (a fixed 432 bytes), allocate
 //! nothing and never panic; a decoded record is range-checked ([`ActuatorRecord::validate`])
 //! before it is handed out.
 
@@ -16,15 +16,17 @@ use crate::fault::{DETECTION_THRESHOLD, FAULT_COUNT};
 use crate::fdi::{POPULATION, TEST_SAMPLES};
 use crate::ga::{GaSettings, GENES};
 use crate::params::{ActuatorParams, PARAM_WORDS};
+use crate::polish::{PolishSettings, MAX_PROBES};
 use crate::test_design::{MotionSegment, PreflightTest, StandstillSegment};
 use crate::trace::Crc32;
 
 /// First bytes of every actuator record.
 pub const RECORD_MAGIC: [u8; 4] = *b"EMAA";
-/// The version this code writes (it reads versions 1 and 2 too: version 1 has steps at
-/// standstill and the calibration without the day's terms, neither has the domain's bus and
-/// temperature ranges, which read as [`DomainLimits::ANY_DAY`]).
-pub const RECORD_VERSION: u16 = 3;
+/// The version this code writes (it reads versions 1 to 3 too: version 1 has steps at
+/// standstill and the calibration without the day's terms, versions 1 and 2 have no domain
+/// bus and temperature ranges, which read as [`DomainLimits::ANY_DAY`], and none before 4
+/// has the polish's settings, which read as [`PolishSettings::FDI`]).
+pub const RECORD_VERSION: u16 = 4;
 /// 32-bit words in the body of version 1.
 const BODY_WORDS_V1: usize = 72;
 /// Words version 2 adds at the end of [`run_words`]: the injection's frequency, the pair
@@ -35,14 +37,21 @@ const BODY_WORDS_V2: usize = BODY_WORDS_V1 + DAY_WORDS;
 /// Words version 3 adds after the detection threshold: the domain's bus and temperature
 /// ranges.
 const RANGE_WORDS: usize = 4;
+/// 32-bit words in the body of version 3.
+const BODY_WORDS_V3: usize = BODY_WORDS_V2 + RANGE_WORDS;
+/// Words version 4 adds at the end: the polish's steps, probe count and damping, then per
+/// probe its component (bit 8: from nominal) and level.
+const POLISH_WORDS: usize = 4 + 2 * MAX_PROBES;
 /// 32-bit words in the body.
-const BODY_WORDS: usize = BODY_WORDS_V2 + RANGE_WORDS;
+const BODY_WORDS: usize = BODY_WORDS_V3 + POLISH_WORDS;
 /// Bytes of one record: magic, version, length, body, CRC-32.
 pub const RECORD_BYTES: usize = 8 + 4 * BODY_WORDS + 4;
 /// Bytes of a version 1 record.
 pub const RECORD_BYTES_V1: usize = 8 + 4 * BODY_WORDS_V1 + 4;
 /// Bytes of a version 2 record.
 pub const RECORD_BYTES_V2: usize = 8 + 4 * BODY_WORDS_V2 + 4;
+/// Bytes of a version 3 record.
+pub const RECORD_BYTES_V3: usize = 8 + 4 * BODY_WORDS_V3 + 4;
 
 /// Why a record was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -140,6 +149,7 @@ record_fields! {
     DomainMaxFitness => "domain.max_fitness",
     DomainBusVoltage => "domain.bus_voltage",
     DomainTemperature => "domain.temperature",
+    Polish => "polish",
     DetectionThreshold => "detection.threshold",
     Ga => "ga",
     GaTournamentSize => "ga.tournament_size",
@@ -156,6 +166,8 @@ pub struct ActuatorRecord {
     /// The monitor model fitted to this actuator (`host-sim calibrate`).
     pub calibration: Calibration,
     pub ga: GaSettings,
+    /// The Gauss–Newton polish after the GA: its steps and probe starts.
+    pub polish: PolishSettings,
     pub domain: DomainLimits,
     /// Deviation from nominal above which a component reads as a fault.
     pub detection_threshold: f32,
@@ -168,6 +180,7 @@ impl ActuatorRecord {
         test: PreflightTest::INJECTION,
         calibration: Calibration::REFERENCE_ACTUATOR,
         ga: GaSettings::FDI,
+        polish: PolishSettings::FDI,
         domain: DomainLimits::REFERENCE_ACTUATOR,
         detection_threshold: DETECTION_THRESHOLD,
     };
@@ -205,6 +218,15 @@ impl ActuatorRecord {
         ] {
             w.f32(v);
         }
+        let p = &self.polish;
+        for v in [p.iterations, p.probe_iterations, p.probe_count] {
+            w.u32(u32::from(v));
+        }
+        w.f32(p.damping);
+        for probe in &p.probes {
+            w.u32(u32::from(probe.component) | u32::from(probe.from_nominal) << 8);
+            w.f32(probe.level);
+        }
         let mut crc = Crc32::new();
         crc.update(w.out.get(..RECORD_BYTES - 4).unwrap_or(&[]));
         w.bytes(&crc.finish().to_le_bytes());
@@ -227,6 +249,7 @@ impl ActuatorRecord {
         let (body_words, total) = match version {
             1 => (BODY_WORDS_V1, RECORD_BYTES_V1),
             2 => (BODY_WORDS_V2, RECORD_BYTES_V2),
+            3 => (BODY_WORDS_V3, RECORD_BYTES_V3),
             RECORD_VERSION => (BODY_WORDS, RECORD_BYTES),
             _ => return Err(ActuatorRecordError::UnsupportedVersion { found: version }),
         };
@@ -340,11 +363,31 @@ impl ActuatorRecord {
         } else {
             DomainLimits::ANY_DAY
         };
+        let polish = if version >= 4 {
+            let small = |v: u32| u8::try_from(v).map_err(|_| out_of_range(RecordField::Polish));
+            let mut p = PolishSettings {
+                iterations: small(r.u32())?,
+                probe_iterations: small(r.u32())?,
+                probe_count: small(r.u32())?,
+                damping: r.f32(),
+                ..PolishSettings::NONE
+            };
+            for probe in &mut p.probes {
+                let word = r.u32();
+                probe.component = (word & 0xFF) as u8;
+                probe.from_nominal = word & 0x100 != 0;
+                probe.level = r.f32();
+            }
+            p
+        } else {
+            PolishSettings::FDI
+        };
         let record = Self {
             params,
             test,
             calibration,
             ga,
+            polish,
             domain: DomainLimits {
                 min_travel,
                 min_phase_ratio,
@@ -427,7 +470,7 @@ impl ActuatorRecord {
             let n = p.pole_pairs as u32;
             n as f32 == p.pole_pairs
         };
-        let others: [(bool, RecordField); 17] = [
+        let others: [(bool, RecordField); 18] = [
             (
                 t.standstill.is_none_or(|s| {
                     s.frequency.is_finite()
@@ -507,6 +550,7 @@ impl ActuatorRecord {
                 d.bus_voltage[0] <= d.bus_voltage[1],
                 RecordField::DomainBusVoltage,
             ),
+            (self.polish.check(), RecordField::Polish),
             (
                 d.temperature[0] <= d.temperature[1],
                 RecordField::DomainTemperature,
@@ -727,7 +771,7 @@ mod tests {
         };
         let v3 = steps.encode();
         let split = 8 + 4 * (BODY_WORDS_V1 - 7); // the day's words come before 7 domain words
-        let domain = 8 + 4 * (BODY_WORDS - RANGE_WORDS - 7);
+        let domain = 8 + 4 * (BODY_WORDS_V2 - 7);
         let mut body = v3[8..split].to_vec();
         body.extend_from_slice(&v3[domain..domain + 4 * 7]);
         let v1 = older_record(1, &body);
@@ -752,8 +796,8 @@ mod tests {
 
     #[test]
     fn a_version_2_record_reads_with_any_day() {
-        let v3 = ActuatorRecord::REFERENCE.encode();
-        let v2 = older_record(2, &v3[8..RECORD_BYTES - 4 - 4 * RANGE_WORDS]);
+        let v4 = ActuatorRecord::REFERENCE.encode();
+        let v2 = older_record(2, &v4[8..8 + 4 * BODY_WORDS_V2]);
         assert_eq!(v2.len(), RECORD_BYTES_V2);
         let r = ActuatorRecord::decode(&v2).unwrap();
         let (bus_voltage, temperature) = DomainLimits::ANY_DAY;
@@ -766,6 +810,33 @@ mod tests {
             ..ActuatorRecord::REFERENCE
         };
         assert_eq!(r, expected);
+    }
+
+    #[test]
+    fn a_version_3_record_reads_with_the_flown_polish() {
+        let custom = ActuatorRecord {
+            polish: PolishSettings {
+                iterations: 3,
+                probe_count: 1,
+                ..PolishSettings::FDI
+            },
+            ..ActuatorRecord::REFERENCE
+        };
+        let v4 = custom.encode();
+        assert_eq!(ActuatorRecord::decode(&v4), Ok(custom));
+        let v3 = older_record(3, &v4[8..8 + 4 * BODY_WORDS_V3]);
+        assert_eq!(v3.len(), RECORD_BYTES_V3);
+        let r = ActuatorRecord::decode(&v3).unwrap();
+        assert_eq!(r.polish, PolishSettings::FDI);
+        assert_eq!(r.domain, custom.domain);
+        let mut bad = custom;
+        bad.polish.probes[0].component = 6; // the phase is no probe
+        assert_eq!(
+            bad.validate(),
+            Err(ActuatorRecordError::OutOfRange {
+                field: RecordField::Polish
+            })
+        );
     }
 
     #[test]

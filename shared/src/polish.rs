@@ -75,6 +75,23 @@ impl PolishSettings {
         damping: 1.0e-3,
     };
 
+    /// Whether a polish can run these: at most 64 steps per leg, at most [`MAX_PROBES`]
+    /// probes, a positive finite damping, each used probe a fault component (not the phase)
+    /// at a level in [0, 1]. O(probes).
+    pub fn check(&self) -> bool {
+        let probes_ok = self
+            .probes
+            .iter()
+            .take(usize::from(self.probe_count))
+            .all(|p| p.component < 8 && p.component != 6 && (0.0..=1.0).contains(&p.level));
+        self.iterations <= 64
+            && self.probe_iterations <= 64
+            && usize::from(self.probe_count) <= MAX_PROBES
+            && self.damping.is_finite()
+            && self.damping > 0.0
+            && probes_ok
+    }
+
     /// Upper bound on the Gauss–Newton sums a polish computes.
     pub fn max_curvatures(&self) -> u32 {
         2 * u32::from(self.iterations)
