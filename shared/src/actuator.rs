@@ -891,10 +891,10 @@ mod tests {
             Err(ActuatorRecordError::TooShort { found: 100 })
         );
         let mut other = bytes;
-        other[4] = 4;
+        other[4] = 5;
         assert_eq!(
             ActuatorRecord::decode(&other),
-            Err(ActuatorRecordError::UnsupportedVersion { found: 4 })
+            Err(ActuatorRecordError::UnsupportedVersion { found: 5 })
         );
         let mut other = bytes;
         other[0] = b'X';
