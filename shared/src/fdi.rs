@@ -170,14 +170,8 @@ impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
         loop {
             match polish.ask() {
                 PolishAsk::Curvature(k) => {
-                    self.problem.restart_curvature(run, &k);
                     out.curvatures = out.curvatures.saturating_add(1);
-                    loop {
-                        if let Some(c) = self.problem.continue_curvature(run, usize::MAX) {
-                            polish.tell_curvature(&c);
-                            break;
-                        }
-                    }
+                    polish.tell_curvature(&self.problem.curvature_in(run, &k));
                 }
                 PolishAsk::Fitness { k, bound } => {
                     out.evaluations = out.evaluations.saturating_add(1);

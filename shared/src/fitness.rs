@@ -341,9 +341,15 @@ impl<const N: usize> FitnessProblem<'_, N> {
 
     /// The Gauss–Newton sums at `k` in one go: 9 monitor-model runs, O(N · 8²).
     pub fn curvature(&self, k: &FaultVector) -> Curvature {
-        let mut run = self.start_curvature(k);
+        let mut run = CurvatureRun::IDLE;
+        self.curvature_in(&mut run, k)
+    }
+
+    /// [`curvature`](Self::curvature) in the caller's `run` (no 3.8 kB temporary).
+    pub fn curvature_in(&self, run: &mut CurvatureRun, k: &FaultVector) -> Curvature {
+        self.restart_curvature(run, k);
         loop {
-            if let Some(c) = self.continue_curvature(&mut run, usize::MAX) {
+            if let Some(c) = self.continue_curvature(run, usize::MAX) {
                 return c;
             }
         }

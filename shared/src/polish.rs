@@ -157,9 +157,8 @@ pub struct Polish {
     settings: PolishSettings,
     /// Best over every leg.
     best: (FaultVector, f32),
-    /// The main leg's best fitness (the probes are compared against it).
-    main_end: Option<f32>,
-    /// The main leg's best vector (the probes from it keep its other faults).
+    /// The best when the main leg ended: the probes from it keep its other faults, and a
+    /// probe that beats it earns the final leg.
     main: (FaultVector, f32),
     leg: Leg,
     step: Step,
@@ -177,7 +176,6 @@ impl Polish {
         let mut p = Self {
             settings,
             best: (k, fitness),
-            main_end: None,
             main: (k, fitness),
             leg: Leg::Main,
             step: Step::Sums,
@@ -291,7 +289,9 @@ impl Polish {
             && self.taken >= self.leg_steps()
             && !matches!(self.step, Step::StartFitness(_) | Step::Candidate(_))
         {
-            let main_best = self.best;
+            if self.leg == Leg::Main {
+                self.main = self.best;
+            }
             self.leg = match self.leg {
                 Leg::Main => self.probe_leg(0),
                 Leg::Probe(i) => self.probe_leg(i + 1),
@@ -305,7 +305,7 @@ impl Polish {
                     self.step = Step::StartFitness(start);
                 }
                 Leg::Final => {
-                    self.at = main_best;
+                    self.at = self.best;
                     self.step = Step::Sums;
                 }
                 _ => {}
@@ -315,14 +315,10 @@ impl Polish {
 
     /// Probe `i` if there is one, else the final leg when a probe found a better basin than
     /// the main leg's end, else the end.
-    fn probe_leg(&mut self, i: u8) -> Leg {
+    fn probe_leg(&self, i: u8) -> Leg {
         if i < self.settings.probe_count.min(MAX_PROBES as u8) {
-            if i == 0 {
-                self.main_end = Some(self.best.1);
-                self.main = self.best;
-            }
             Leg::Probe(i)
-        } else if self.main_end.is_some_and(|f| self.best.1 < f) && self.settings.iterations > 0 {
+        } else if self.best.1 < self.main.1 && self.settings.iterations > 0 {
             Leg::Final
         } else {
             Leg::Over
