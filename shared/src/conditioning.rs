@@ -229,7 +229,7 @@ impl LowPass {
     }
 
     /// Filters one sample (O(1)).
-    #[inline]
+    #[inline(always)]
     pub fn apply(&self, state: &mut LowPassState, x: f32) -> f32 {
         let y = self.b0 * x + state.z1;
         state.z1 = self.b1 * x - self.a1 * y + state.z2;

@@ -25,7 +25,7 @@ use crate::conditioning::{ConditioningError, LowPassState, MeasuredCurrent};
 use crate::conditions::TestConditions;
 use crate::fault::{FaultVector, FAULT_COUNT};
 use crate::ga::Problem;
-use crate::monitor::{MonitorModel, MonitorRun, MonitorSample};
+use crate::monitor::{MonitorModel, MonitorRun, MonitorSample, SampleSink};
 use crate::params::ActuatorParams;
 use crate::uncertainty::{Curvature, Uncertainty, UncertaintyError, STEP};
 
@@ -179,49 +179,85 @@ impl<'a, const N: usize> FitnessProblem<'a, N> {
     #[inline(always)]
     fn raw_error_with(&self, k: &FaultVector, bound: f32, command: &impl CommandSource) -> f32 {
         let reference = self.measured.samples();
-        let filter = self.measured.filter();
         let dt = self.model.params().control_period;
-        let mut filter_state = LowPassState::default();
-        let mut previous = 0.0f32;
-        let mut sum = 0.0f32;
-        let mut reference_iter = reference.iter();
-        let mut until_check = BOUND_CHECK_INTERVAL;
-        let standstill = self.measured.test().standstill;
-        let lead = self.measured.lead_samples();
-        let mut index = 0usize;
-        let sink = |s: &MonitorSample| {
-            let modelled = filter.apply(&mut filter_state, s.current);
-            if let Some(&r) = reference_iter.next() {
-                let e = r - modelled;
-                if index < lead {
-                    if standstill.is_some_and(|segment| segment.fitted(index)) {
-                        sum += self.standstill_weight * e * e;
-                    }
-                    index += 1;
-                } else {
-                    let d = r - previous;
-                    previous = r;
-                    sum += e * e / (d * d * self.inv_kappa + 1.0);
-                }
-            }
-            until_check -= 1;
-            if until_check == 0 {
-                until_check = BOUND_CHECK_INTERVAL;
-                if sum * dt - self.nominal_residual >= bound {
-                    return ControlFlow::Break(());
-                }
-            }
-            ControlFlow::Continue(())
+        let mut sum = EquationThreeSum {
+            filter: self.measured.filter(),
+            filter_state: LowPassState::default(),
+            reference: reference.iter(),
+            previous: 0.0,
+            sum: 0.0,
+            until_check: BOUND_CHECK_INTERVAL,
+            standstill: self.measured.test().standstill,
+            lead: self.measured.lead_samples(),
+            index: 0,
+            standstill_weight: self.standstill_weight,
+            inv_kappa: self.inv_kappa,
+            // `sum·dt − residual ≥ bound`, as the sum is checked.
+            dt,
+            nominal_residual: self.nominal_residual,
+            bound,
         };
         let start = self.measured.initial_angles();
         self.model
-            .run_with(k, start, reference.len(), command, sink);
-        let err = sum * dt;
+            .run_with(k, start, reference.len(), command, &mut sum);
+        let err = sum.sum * dt;
         if err.is_finite() {
             err
         } else {
             f32::INFINITY
         }
+    }
+}
+
+/// The running sum of eq. (3) over a run, fed sample by sample: the standstill segment's
+/// weighted squares, then the chirp's normalised ones; every [`BOUND_CHECK_INTERVAL`] samples
+/// it breaks the run once `sum·dt − residual ≥ bound`. A struct rather than a closure so that
+/// its `take` is inlined into both of the run's loops and its state kept in registers.
+struct EquationThreeSum<'r> {
+    filter: &'r crate::conditioning::LowPass,
+    filter_state: LowPassState,
+    reference: core::slice::Iter<'r, f32>,
+    previous: f32,
+    sum: f32,
+    until_check: u32,
+    standstill: Option<crate::test_design::StandstillSegment>,
+    lead: usize,
+    index: usize,
+    standstill_weight: f32,
+    inv_kappa: f32,
+    dt: f32,
+    nominal_residual: f32,
+    bound: f32,
+}
+
+impl SampleSink for &mut EquationThreeSum<'_> {
+    #[inline(always)]
+    fn take(&mut self, s: &MonitorSample) -> ControlFlow<()> {
+        let modelled = self.filter.apply(&mut self.filter_state, s.current);
+        if let Some(&r) = self.reference.next() {
+            let e = r - modelled;
+            if self.index < self.lead {
+                if self
+                    .standstill
+                    .is_some_and(|segment| segment.fitted(self.index))
+                {
+                    self.sum += self.standstill_weight * e * e;
+                }
+                self.index += 1;
+            } else {
+                let d = r - self.previous;
+                self.previous = r;
+                self.sum += e * e / (d * d * self.inv_kappa + 1.0);
+            }
+        }
+        self.until_check -= 1;
+        if self.until_check == 0 {
+            self.until_check = BOUND_CHECK_INTERVAL;
+            if self.sum * self.dt - self.nominal_residual >= self.bound {
+                return ControlFlow::Break(());
+            }
+        }
+        ControlFlow::Continue(())
     }
 }
 

@@ -58,6 +58,22 @@ pub struct MonitorSample {
     pub user_angle: f32,
 }
 
+/// What a run hands each sample to ([`MonitorModel::run_with`]): any
+/// `FnMut(&MonitorSample) -> ControlFlow<()>`, or a type whose `take` the compiler inlines into
+/// both of the run's loops (the fitness's sum: a closure called from two places stays a call
+/// when optimising for size, and its captures stay in memory).
+pub trait SampleSink {
+    /// Takes one sample; `Break` ends the run. O(1).
+    fn take(&mut self, sample: &MonitorSample) -> ControlFlow<()>;
+}
+
+impl<F: FnMut(&MonitorSample) -> ControlFlow<()>> SampleSink for F {
+    #[inline(always)]
+    fn take(&mut self, sample: &MonitorSample) -> ControlFlow<()> {
+        self(sample)
+    }
+}
+
 /// Running state of one simulation. Plain data, a few dozen bytes.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -302,7 +318,7 @@ impl MonitorModel {
         samples: usize,
         mut sink: impl FnMut(&MonitorSample),
     ) {
-        self.run_with(k, start, samples, &self.sampler(), |s| {
+        self.run_with(k, start, samples, &self.sampler(), |s: &MonitorSample| {
             sink(s);
             ControlFlow::Continue(())
         });
@@ -318,7 +334,7 @@ impl MonitorModel {
         start: ShaftAngles,
         samples: usize,
         command: &impl CommandSource,
-        mut sink: impl FnMut(&MonitorSample) -> ControlFlow<()>,
+        mut sink: impl SampleSink,
     ) -> usize {
         let f = self.faulted(k);
         let mut state =
@@ -333,7 +349,7 @@ impl MonitorModel {
         for i in 0..samples.saturating_sub(lead) {
             let time = i as f32 * self.dt;
             let sample = self.step(&f, &mut state, time, command.position_at(i));
-            if sink(&sample).is_break() {
+            if sink.take(&sample).is_break() {
                 return lead + i + 1;
             }
         }
@@ -384,7 +400,7 @@ impl MonitorModel {
         segment: &StandstillSegment,
         state: &MonitorState,
         samples: usize,
-        sink: &mut impl FnMut(&MonitorSample) -> ControlFlow<()>,
+        sink: &mut impl SampleSink,
     ) -> ControlFlow<usize, usize> {
         let lead = segment.samples();
         let mut pair = 0usize;
@@ -407,7 +423,7 @@ impl MonitorModel {
                 motor_angle: state.motor_angle,
                 user_angle: state.user_angle + state.user_offset,
             };
-            if sink(&sample).is_break() {
+            if sink.take(&sample).is_break() {
                 return ControlFlow::Break(i + 1);
             }
             // Held through the settle (not fitted: the rotor may still move, and its

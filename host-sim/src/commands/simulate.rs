@@ -54,12 +54,18 @@ pub(crate) fn simulate_into(
     buffer: &mut [f32],
 ) {
     let mut slots = buffer.iter_mut();
-    model.run_with(k, ShaftAngles::ZERO, slots.len(), command, |s| {
-        if let Some(slot) = slots.next() {
-            *slot = s.current;
-        }
-        ControlFlow::Continue(())
-    });
+    model.run_with(
+        k,
+        ShaftAngles::ZERO,
+        slots.len(),
+        command,
+        |s: &shared::monitor::MonitorSample| {
+            if let Some(slot) = slots.next() {
+                *slot = s.current;
+            }
+            ControlFlow::Continue(())
+        },
+    );
     std::hint::black_box(buffer);
 }
 
