@@ -1,10 +1,13 @@
 //! Optimiser comparison on the FDI's own problem: the same fitness (eq. 3 against one measured
 //! test, calibrated monitor model), the same genes in `[0, 1]⁸` (the eccentricity phase wraps,
-//! the others reflect at the bounds), the same nominal starting guess, three solvers:
+//! the others reflect at the bounds), the same nominal starting guess, seven solvers:
 //!
+//! * [`Optimiser::Flown`] — the solver the controller flies: the GA with `GaSettings::FDI`
+//!   (its budget and stall rule), then the Gauss–Newton polish (`PolishSettings::FDI`), each
+//!   of the polish's sums recorded as the nine monitor-model runs it costs.
 //! * [`Optimiser::SteadyState`] — ours, `GaSettings::FDI` as flown, with only the evaluation
 //!   budget raised to the comparison's cap and the stall stop removed, so that its error can
-//!   be read at every budget. Up to its flown budget (6 000) it takes the flown decisions.
+//!   be read at every budget. Up to its flown budget (1 400) it takes the flown decisions.
 //! * [`Optimiser::MatlabGa`] — a generational GA configured as the paper's MATLAB `ga`
 //!   ([`MatlabGaSettings::PAPER`]): population 200, 10 elites, crossover fraction 0.8, rank
 //!   fitness scaling, stochastic-uniform selection, scattered crossover, adaptive feasible
