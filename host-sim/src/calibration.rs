@@ -67,7 +67,7 @@ fn one() -> f32 {
 }
 
 fn reference_temperature() -> f32 {
-    shared::conditions::REFERENCE_TEMPERATURE
+    shared::params::REFERENCE_TEMPERATURE
 }
 
 pub const FORMAT: &str = "ema-fdi calibration";
@@ -230,7 +230,7 @@ pub fn calibrate(
         temperature: measured
             .conditions()
             .temperature()
-            .unwrap_or(shared::conditions::REFERENCE_TEMPERATURE),
+            .unwrap_or(shared::params::REFERENCE_TEMPERATURE),
         friction_points: prior.friction_points,
         magnet_coefficient: prior.magnet_coefficient,
         ..Calibration::IDENTITY

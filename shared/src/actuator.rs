@@ -10,10 +10,10 @@
 //! before it is handed out.
 
 use crate::calibration::{Calibration, FRICTION_POINTS};
+use crate::capacity::{POPULATION, TEST_SAMPLES};
 use crate::command::ChirpCommand;
 use crate::domain::DomainLimits;
 use crate::fault::{DETECTION_THRESHOLD, FAULT_COUNT};
-use crate::fdi::{POPULATION, TEST_SAMPLES};
 use crate::ga::{GaSettings, GENES};
 use crate::params::{ActuatorParams, PARAM_WORDS};
 use crate::polish::{PolishSettings, MAX_PROBES};

@@ -36,7 +36,7 @@ pub struct Calibration {
     pub pair_resistance_scale: f32,
     pub pair_inductance_scale: f32,
     /// Temperature the controller measured during the healthy trace [°C]
-    /// ([`crate::conditions::REFERENCE_TEMPERATURE`] when the trace carried none).
+    /// ([`crate::params::REFERENCE_TEMPERATURE`] when the trace carried none).
     pub temperature: f32,
     /// The healthy actuator's dry friction measured at other temperatures (`host-sim
     /// calibrate --at`): `[°C, factor against the calibration's]`; a factor of 0 marks an
@@ -58,7 +58,7 @@ impl Calibration {
         nominal_residual: 0.0,
         pair_resistance_scale: 1.0,
         pair_inductance_scale: 1.0,
-        temperature: crate::conditions::REFERENCE_TEMPERATURE,
+        temperature: crate::params::REFERENCE_TEMPERATURE,
         friction_points: [[0.0; 2]; 4],
         magnet_coefficient: 0.0,
     };

@@ -20,7 +20,6 @@
 use fixed::types::{I16F16, I4F28};
 use heapless::Vec;
 
-use crate::conditions::ConditionSums;
 use crate::math::{floor, tan};
 use crate::test_design::PreflightTest;
 
@@ -235,6 +234,47 @@ impl LowPass {
         state.z1 = self.b1 * x - self.a1 * y + state.z2;
         state.z2 = self.b2 * x - self.a2 * y;
         y
+    }
+}
+
+/// Running sums of the controller's bus and temperature readings: exact (fixed-point bits
+/// summed as integers), so the means have the same bits on every target. 20 bytes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ConditionSums {
+    bus_bits: i64,
+    temperature_bits: i64,
+    count: u32,
+}
+
+impl ConditionSums {
+    pub const ZERO: Self = Self {
+        bus_bits: 0,
+        temperature_bits: 0,
+        count: 0,
+    };
+
+    /// Adds one reading (`I16F16` bits of the bus [V] and temperature [°C]). O(1).
+    pub fn push(&mut self, bus_bits: i32, temperature_bits: i32) {
+        self.bus_bits = self.bus_bits.saturating_add(i64::from(bus_bits));
+        self.temperature_bits = self
+            .temperature_bits
+            .saturating_add(i64::from(temperature_bits));
+        self.count = self.count.saturating_add(1);
+    }
+
+    fn mean(&self, bits: i64) -> Option<f32> {
+        // In f32 (no 64-bit division on the controller): the same bits on every target.
+        (self.count > 0).then(|| bits as f32 / (65_536.0 * self.count as f32))
+    }
+
+    /// Mean bus voltage over the test [V], if the test carried it.
+    pub fn bus_voltage(&self) -> Option<f32> {
+        self.mean(self.bus_bits)
+    }
+
+    /// Mean measured temperature over the test [°C], if the test carried it.
+    pub fn temperature(&self) -> Option<f32> {
+        self.mean(self.temperature_bits)
     }
 }
 
@@ -454,6 +494,17 @@ impl<const N: usize> MeasuredCurrent<N> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sums_give_exact_means_and_none_without_readings() {
+        let mut s = ConditionSums::ZERO;
+        assert_eq!(s.bus_voltage(), None);
+        for (bus, t) in [(270.0f32, -40.0f32), (271.0, -39.0)] {
+            s.push((bus * 65_536.0) as i32, (t * 65_536.0) as i32);
+        }
+        assert_eq!(s.bus_voltage(), Some(270.5));
+        assert_eq!(s.temperature(), Some(-39.5));
+    }
 
     #[test]
     fn sectors_follow_the_table() {

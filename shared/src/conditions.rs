@@ -17,11 +17,9 @@
 use crate::calibration::Calibration;
 use crate::conditioning::{LowPassState, MeasuredCurrent};
 use crate::math::{exp, ln};
-use crate::params::ActuatorParams;
+use crate::params::{ActuatorParams, REFERENCE_TEMPERATURE};
 use crate::test_design::PAIR_SIGNS;
 
-/// Temperature the data sheet gives R, k_e and friction at [°C].
-pub const REFERENCE_TEMPERATURE: f32 = 20.0;
 /// Copper's resistance coefficient [1/K].
 pub const COPPER_COEFFICIENT: f32 = 0.00393;
 /// Least RMS pair current [A] under which a pair's fit is not trusted (a segment that
@@ -30,47 +28,6 @@ pub const MIN_PAIR_CURRENT: f32 = 0.05;
 /// Samples skipped at the start of each pair's window: the conditioning filter's memory and
 /// the switch from the previous pair.
 const SKIP: usize = 10;
-
-/// Running sums of the controller's bus and temperature readings: exact (fixed-point bits
-/// summed as integers), so the means have the same bits on every target. 20 bytes.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct ConditionSums {
-    bus_bits: i64,
-    temperature_bits: i64,
-    count: u32,
-}
-
-impl ConditionSums {
-    pub const ZERO: Self = Self {
-        bus_bits: 0,
-        temperature_bits: 0,
-        count: 0,
-    };
-
-    /// Adds one reading (`I16F16` bits of the bus [V] and temperature [°C]). O(1).
-    pub fn push(&mut self, bus_bits: i32, temperature_bits: i32) {
-        self.bus_bits = self.bus_bits.saturating_add(i64::from(bus_bits));
-        self.temperature_bits = self
-            .temperature_bits
-            .saturating_add(i64::from(temperature_bits));
-        self.count = self.count.saturating_add(1);
-    }
-
-    fn mean(&self, bits: i64) -> Option<f32> {
-        // In f32 (no 64-bit division on the controller): the same bits on every target.
-        (self.count > 0).then(|| bits as f32 / (65_536.0 * self.count as f32))
-    }
-
-    /// Mean bus voltage over the test [V], if the test carried it.
-    pub fn bus_voltage(&self) -> Option<f32> {
-        self.mean(self.bus_bits)
-    }
-
-    /// Mean measured temperature over the test [°C], if the test carried it.
-    pub fn temperature(&self) -> Option<f32> {
-        self.mean(self.temperature_bits)
-    }
-}
 
 /// One pair's answer to the tone: resistance [Ω] and inductance [H] of the pair circuit, as
 /// seen through the commanded volts.
@@ -322,16 +279,5 @@ mod tests {
         // Halfway between 20 °C (1) and −40 °C (3) in temperature: √3 in factor.
         assert!((friction_factor(&c, -10.0) - 3.0f32.sqrt()).abs() < 1e-4);
         assert!((friction_factor(&c, 100.0) - 0.75).abs() < 1e-5);
-    }
-
-    #[test]
-    fn sums_give_exact_means_and_none_without_readings() {
-        let mut s = ConditionSums::ZERO;
-        assert_eq!(s.bus_voltage(), None);
-        for (bus, t) in [(270.0f32, -40.0f32), (271.0, -39.0)] {
-            s.push((bus * 65_536.0) as i32, (t * 65_536.0) as i32);
-        }
-        assert_eq!(s.bus_voltage(), Some(270.5));
-        assert_eq!(s.temperature(), Some(-39.5));
     }
 }

@@ -17,12 +17,7 @@ use crate::params::ActuatorParams;
 use crate::polish::{Polish, PolishAsk, PolishSettings};
 use crate::trace::Crc32;
 
-/// Capacity of the measured buffer: the longest test the controller runs, the standstill
-/// segment (52 ms) and the chirp (0.5 s) at 10 kHz.
-pub const TEST_SAMPLES: usize = 5520;
-
-/// Individuals in the onboard GA population.
-pub const POPULATION: usize = 32;
+pub use crate::capacity::{POPULATION, TEST_SAMPLES};
 
 /// The measured-current buffer the controller fills during the test.
 pub type OnboardMeasured = MeasuredCurrent<TEST_SAMPLES>;

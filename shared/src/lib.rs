@@ -39,6 +39,7 @@
 
 pub mod actuator;
 pub mod calibration;
+pub mod capacity;
 pub mod command;
 pub mod conditioning;
 pub mod conditions;

@@ -10,6 +10,9 @@
 //! user shaft, 0 → 15 Hz) is tracked closely while drawing currents well above ripple and noise:
 //! a spring-like aerodynamic load dominates at low frequency, motor inertia at high frequency.
 
+/// Temperature the data sheet gives R, k_e and friction at [°C].
+pub const REFERENCE_TEMPERATURE: f32 = 20.0;
+
 /// Number of `f32` words in [`ActuatorParams::to_words`].
 pub const PARAM_WORDS: usize = 27;
 
