@@ -12,9 +12,9 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
 
-use host_sim::identify::identify;
-use host_sim::reference::{ReferenceModel, ReferenceSettings, Scenario};
-use host_sim::trace_file::Trace;
+use host_sim::fdi::identify::identify;
+use host_sim::files::trace::Trace;
+use host_sim::plant::reference::{ReferenceModel, ReferenceSettings, Scenario};
 use shared::fdi::TEST_SAMPLES;
 use shared::test_design::PreflightTest;
 use shared::{ActuatorParams, Calibration, FaultVector, FAULT_COUNT};
@@ -344,7 +344,7 @@ fn health_matches_the_host(
     assert_eq!(number(output, "health ", "flight"), u64::from(earlier));
     assert_eq!(number(output, "health ", "records"), u64::from(earlier) + 1);
     let (log, summary) =
-        host_sim::health_file::load_log::<ONBOARD_RECORDS>(log_path).expect("the log reads");
+        host_sim::files::health::load_log::<ONBOARD_RECORDS>(log_path).expect("the log reads");
     assert_eq!(summary.damaged, 0);
     let latest = log.latest().expect("a record");
     assert_eq!(latest.flight, earlier);
@@ -430,7 +430,7 @@ fn host_bits(r: &shared::fdi::IdentificationResult) -> Vec<u32> {
 
 #[test]
 fn a_power_loss_under_qemu_resumes_to_the_same_bits_and_a_damaged_record_restarts() {
-    use host_sim::identify::{identify_checkpointed, Checkpointing, Outcome, Resumption};
+    use host_sim::fdi::identify::{identify_checkpointed, Checkpointing, Outcome, Resumption};
 
     let bytes = faulty_trace().to_bin().expect("encodable");
     let trace = temp_trace("resume.bin", &bytes);
@@ -501,7 +501,7 @@ fn a_power_loss_under_qemu_resumes_to_the_same_bits_and_a_damaged_record_restart
 /// stays short; the bits are compared, not the accuracy.
 #[test]
 fn firmware_with_an_actuator_record_gives_the_hosts_bits_for_both_actuators() {
-    use host_sim::actuator_file::Actuator;
+    use host_sim::files::actuator::Actuator;
     for (file, faults) in [
         ("reference.toml", [0.0, 0.2, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]),
         ("light-28v.toml", [0.3, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5]),
@@ -524,7 +524,7 @@ fn firmware_with_an_actuator_record_gives_the_hosts_bits_for_both_actuators() {
             .with_test(record.test)
             .measured(&record.params)
             .expect("conditioned");
-        let host = host_sim::identify::identify_for(&measured, &record, 1, false)
+        let host = host_sim::fdi::identify::identify_for(&measured, &record, 1, false)
             .expect("host identification")
             .result;
         let polish = shared::polish::PolishSettings::FDI.max_evaluations();

@@ -6,9 +6,9 @@
 //! 20 °C calibration. The full campaigns are `host-sim campaign --table 1|2|random` and
 //! `--conditions` (docs/accuracy.md, docs/robustness.md).
 
-use host_sim::actuator_file::{Actuator, Day};
-use host_sim::campaign::{run_once, HEALTHY_QUIET, TABLE_1, TABLE_2};
-use host_sim::reference::ReferenceModel;
+use host_sim::files::actuator::{Actuator, Day};
+use host_sim::plant::reference::ReferenceModel;
+use host_sim::studies::campaign::{run_once, HEALTHY_QUIET, TABLE_1, TABLE_2};
 use shared::actuator::ActuatorRecord;
 use shared::uncertainty::Assessment;
 

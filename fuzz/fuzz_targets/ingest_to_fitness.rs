@@ -12,7 +12,7 @@
 
 use firmware::source::{SliceBytes, SAMPLE_RATE_HZ};
 use firmware::{Acquired, CurrentSource, TraceSource};
-use host_sim::trace_file::Trace;
+use host_sim::files::trace::Trace;
 use libfuzzer_sys::fuzz_target;
 use shared::fdi::{OnboardMeasured, TEST_SAMPLES};
 use shared::test_design::PreflightTest;

@@ -1,39 +1,21 @@
 //! `host-sim`: the ground tools of ema-fdi, as a library (the CLI in `main.rs` and the
-//! workspace tests use it).
+//! workspace tests use it). One folder per concern; no two modules import each other.
 //!
-//! * [`actuator_file`] — the actuator description file (TOML) and the record it becomes.
-//! * [`reference`] — the high-fidelity reference model (the "real actuator").
-//! * [`trace_file`] — CSV and binary trace files.
-//! * [`rig`] — recordings from a real rig (any column names, units and rate) → traces.
-//! * [`calibration`] — fitting the monitor model to a healthy trace.
-//! * [`campaign`] — accuracy campaigns over the paper's fault cases.
-//! * [`domain`] — the survey behind the "outside the monitor model's domain" limits.
-//! * [`identifiability`] — which test design can tell every fault apart (sensitivity study).
-//! * [`identify`] — the onboard FDI driven on the host, with progress and history.
-//! * [`plot`] — SVG pictures of an identification.
-//! * [`health_file`] — the health log in a file, and history CSV files.
-//! * [`prognostics`] — simulated degradations, trend and RUL reports and pictures.
+//! * [`plant`] — the actuator the FDI is tested against: the high-fidelity reference model
+//!   and its power bridge and operating day.
+//! * [`files`] — what is read and written: the actuator description file and its record,
+//!   trace files, rig recordings, the health log and history CSV files.
+//! * [`fdi`] — the onboard FDI run on the ground: identification with progress and
+//!   checkpoints, the calibration fit, the identification picture.
+//! * [`studies`] — campaigns and studies: accuracy campaigns, the domain survey,
+//!   identifiability, separability, the optimiser comparison, the stop rule, prognostics.
 //! * [`fleet`] — the fleet store (SQLite) of every controller's health log, and its report.
-//! * [`faults`] — parsing fault vectors from the command line.
 
-pub mod actuator_file;
-pub mod bridge;
-pub mod calibration;
-pub mod campaign;
-pub mod domain;
-pub mod faults;
+pub mod fdi;
+pub mod files;
 pub mod fleet;
-pub mod health_file;
-pub mod identifiability;
-pub mod identify;
-pub mod optimisers;
-pub mod plot;
-pub mod prognostics;
-pub mod reference;
-pub mod rig;
-pub mod separability;
-pub mod stopping;
-pub mod trace_file;
+pub mod plant;
+pub mod studies;
 
 use indicatif::{ProgressBar, ProgressStyle};
 

@@ -7,49 +7,11 @@
 //! FDI core on its own. This file holds the command line and the dispatch; each command's
 //! body is in `commands/`.
 
-use std::io::IsTerminal;
-use std::ops::ControlFlow;
-use std::path::{Path, PathBuf};
-use std::process::ExitCode;
-use std::time::Instant;
-
-use anyhow::{Context, Result};
-use clap::{Parser, Subcommand};
-use host_sim::actuator_file::{Actuator, ActuatorRefused, Day};
-use host_sim::calibration::{calibrate, CalibrationFile};
-use host_sim::campaign::{run_once, TABLE_1};
-use host_sim::faults;
-use host_sim::health_file;
-use host_sim::identify::{
-    identify_checkpointed, identify_for, Checkpointing, Identified, Outcome, Resumption,
-};
-use host_sim::median;
-use host_sim::optimisers::{self, TraceSource};
-use host_sim::plot;
-use host_sim::prognostics::{self, DegradationPath, PathShape};
-use host_sim::reference::{ReferenceModel, ReferenceSettings, Scenario};
-use host_sim::rig::RigFormat;
-use host_sim::trace_file::{IngestError, Trace, TraceFormat};
-use serde_json::json;
-use shared::actuator::ActuatorRecord;
-use shared::command::{CommandSource, CommandTable};
-use shared::domain::Domain;
-use shared::fault::{Verdict, FAULT_COUNT, FAULT_NAMES};
-use shared::fdi::{
-    record_monitor_trace, Identification, OnboardGa, OnboardMeasured, POPULATION, TEST_SAMPLES,
-};
-use shared::health::{HealthLog, ONBOARD_RECORDS};
-use shared::metrics::{component_errors, total_error};
-use shared::monitor::MonitorState;
-use shared::prognosis::TrendSettings;
-use shared::test_design::PreflightTest;
-use shared::uncertainty::Assessment;
-use shared::{
-    ActuatorParams, Calibration, ChirpCommand, FaultVector, FitnessProblem, GaSettings, LowPass,
-    MonitorModel, ShaftAngles, SteadyStateGa,
-};
-
+mod cli;
 mod commands;
+mod faults;
+
+use cli::*;
 
 #[allow(clippy::wildcard_imports)]
 use commands::{
@@ -72,114 +34,6 @@ struct Cli {
     /// actuator. Used by the reference model and by the FDI.
     #[arg(long, global = true, value_name = "FILE")]
     actuator: Option<PathBuf>,
-}
-
-const EXIT_HELP: &str = "Exit status: 0 done; 1 error; 2 usage; 3 trace refused (the message \
-names the field and the line or row); 4 identify/preflight: the actuator is outside the monitor \
-model's domain (jammed, open phase, another command, unexplained residual; the result is \
-printed but must not be acted on); 5 identify stopped by --stop-after (checkpoint written); \
-7 the --actuator file was refused (the message names the key and its line).";
-
-/// Exit status when the actuator file or record is refused.
-const EXIT_ACTUATOR_REFUSED: u8 = 7;
-
-/// Exit status when a trace file is refused.
-const EXIT_TRACE_REFUSED: u8 = 3;
-/// Exit status of `identify --stop-after` (the simulated power loss).
-const EXIT_INTERRUPTED: u8 = 5;
-
-/// Exit status of `identify`/`preflight` when the actuator lies outside the monitor model's
-/// domain (the result was printed, marked as not to be acted on).
-const EXIT_OUTSIDE_DOMAIN: u8 = 4;
-
-/// A command that said what it had to and ends with this exit status (no error message).
-#[derive(Debug)]
-struct ExitWith(u8);
-
-impl std::fmt::Display for ExitWith {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "exit status {}", self.0)
-    }
-}
-
-impl std::error::Error for ExitWith {}
-
-const FAULTS_HELP: &str = "eight comma-separated values in [0, 1]: friction, backlash, \
-short A, short B, short C, eccentricity, eccentricity phase, gain drift (nominal \
-0,0,0,0,0,0,0.5,0.5)";
-
-/// The simulated actuator: its faults, process noise and seed.
-#[derive(clap::Args)]
-struct ActuatorArgs {
-    /// True fault vector of the simulated actuator.
-    #[arg(long, value_parser = faults::parse_fault_vector, allow_hyphen_values = true, long_help = FAULTS_HELP)]
-    faults: FaultVector,
-    /// Band-limited white noise on I_ref, RMS as a fraction of the nominal I_ref RMS.
-    #[arg(long, default_value_t = 0.0, value_parser = parse_noise)]
-    noise: f64,
-    /// Seed of every random draw of the reference model (sensor and process noise).
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
-    /// Preflight test design of the built-in actuator: `standstill` (default: voltage
-    /// steps on each phase pair at standstill, then the chirp) or `paper` (the paper's chirp
-    /// alone, currents only). An actuator file carries its own test.
-    #[arg(long, value_enum)]
-    test: Option<TestChoice>,
-    /// The installation's rigging: what the motor encoder reads with the surface at zero
-    /// [rad, motor side]. The reference model plays it and the FDI's record carries it (as
-    /// measured at rigging). Default: the actuator file's `[installation] encoder_offset`.
-    #[arg(long, value_name = "RAD", allow_hyphen_values = true)]
-    encoder_offset: Option<f64>,
-    #[command(flatten)]
-    day: DayArgs,
-}
-
-/// The day and the drive the reference model plays, over the actuator file's `[conditions]`
-/// and `[drive]`.
-#[derive(clap::Args, Clone, Copy, Debug, Default)]
-struct DayArgs {
-    /// Winding temperature of the simulated actuator [°C] (the gear's too, unless
-    /// --gear-temperature). Default: the file's `[conditions] temperature` (20 °C).
-    #[arg(long, value_name = "CELSIUS", allow_hyphen_values = true)]
-    temperature: Option<f64>,
-    /// Gear and bearing (grease) temperature [°C]: dry friction follows the file's law.
-    #[arg(long, value_name = "CELSIUS", allow_hyphen_values = true)]
-    gear_temperature: Option<f64>,
-    /// Mean DC bus voltage [V] (MIL-STD-704: 250–280 V on a 270 V bus).
-    #[arg(long, value_name = "VOLTS")]
-    bus_voltage: Option<f64>,
-    /// The bridge's dead time [s] (e.g. 1e-6), compensated as the file's `[drive]` says.
-    #[arg(long, value_name = "SECONDS")]
-    dead_time: Option<f64>,
-}
-
-impl DayArgs {
-    fn day(self) -> Day {
-        Day {
-            temperature: self.temperature,
-            gear_temperature: self.gear_temperature,
-            bus_voltage: self.bus_voltage,
-            dead_time: self.dead_time,
-        }
-    }
-}
-
-/// The preflight test designs the FDI plays end to end.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-enum TestChoice {
-    Injection,
-    Standstill,
-    Paper,
-}
-
-impl TestChoice {
-    fn test(self) -> PreflightTest {
-        match self {
-            Self::Injection => PreflightTest::INJECTION,
-            Self::Standstill => PreflightTest::STANDSTILL,
-            Self::Paper => PreflightTest::PAPER,
-        }
-    }
 }
 
 #[derive(Subcommand)]
@@ -381,7 +235,7 @@ enum Command {
     Identifiability {
         /// Designs to study (default: all).
         #[arg(long, value_delimiter = ',')]
-        designs: Vec<host_sim::identifiability::Design>,
+        designs: Vec<host_sim::studies::identifiability::Design>,
         /// Noise seeds per point (each costs 1 + 2 × 8 reference-model runs).
         #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u64).range(3..=200))]
         seeds: u64,
@@ -539,13 +393,17 @@ enum Command {
         /// Share of flights whose test is outside the monitor model's domain.
         #[arg(long, default_value_t = 0.1, value_parser = parse_share)]
         out_of_domain: f64,
-        /// Standard deviation of the identification's systematic error in the trend
-        /// (default: the controller's, 0.015).
-        #[arg(long)]
+        #[arg(long, help = format!(
+            "Standard deviation of the identification's systematic error in the trend \
+             (default: the controller's, {})",
+            TrendSettings::DEFAULT.systematic
+        ))]
         systematic: Option<f64>,
-        /// Least standard deviation of one flight's reading in the trend (default: the
-        /// controller's, 0.01).
-        #[arg(long)]
+        #[arg(long, help = format!(
+            "Least standard deviation of one flight's reading in the trend (default: the \
+             controller's, {})",
+            TrendSettings::DEFAULT.noise_floor
+        ))]
         noise_floor: Option<f64>,
         /// Keep each run's history CSV in this folder, and read it from there when present
         /// (re-evaluate the trend without simulating again).
@@ -587,47 +445,6 @@ enum Command {
         #[arg(long, default_value_t = 10)]
         identifications: u64,
     },
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-enum SourceArg {
-    Reference,
-    Monitor,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-enum CampaignTable {
-    #[value(name = "1")]
-    One,
-    #[value(name = "2")]
-    Two,
-    Random,
-}
-
-fn parse_noise(text: &str) -> Result<f64, String> {
-    let x: f64 = text
-        .trim()
-        .parse()
-        .map_err(|_| format!("{text:?} is not a number"))?;
-    if x.is_finite() && (0.0..=10.0).contains(&x) {
-        Ok(x)
-    } else {
-        Err(format!(
-            "{text} is outside [0, 10] (a fraction of the nominal I_ref RMS)"
-        ))
-    }
-}
-
-fn parse_share(text: &str) -> Result<f64, String> {
-    let x: f64 = text
-        .trim()
-        .parse()
-        .map_err(|_| format!("{text:?} is not a number"))?;
-    if (0.0..=1.0).contains(&x) {
-        Ok(x)
-    } else {
-        Err(format!("{text} is outside [0, 1] (a share of the flights)"))
-    }
 }
 
 fn main() -> ExitCode {
@@ -905,7 +722,7 @@ fn main() -> ExitCode {
                 ExitCode::from(EXIT_ACTUATOR_REFUSED)
             } else if e
                 .chain()
-                .any(|c| c.is::<IngestError>() || c.is::<host_sim::rig::RigError>())
+                .any(|c| c.is::<IngestError>() || c.is::<host_sim::files::rig::RigError>())
             {
                 ExitCode::from(EXIT_TRACE_REFUSED)
             } else {
@@ -913,8 +730,4 @@ fn main() -> ExitCode {
             }
         }
     }
-}
-
-fn progress_wanted(json: bool) -> bool {
-    !json && std::io::stderr().is_terminal()
 }

@@ -5,8 +5,8 @@
 use std::path::PathBuf;
 use std::process::Command;
 
-use host_sim::reference::{ReferenceModel, ReferenceSettings, Scenario};
-use host_sim::trace_file::{IngestError, Trace, CSV_HEADER};
+use host_sim::files::trace::{IngestError, Trace, CSV_HEADER};
+use host_sim::plant::reference::{ReferenceModel, ReferenceSettings, Scenario};
 use shared::trace::{Crc32, TRAILER_BYTES};
 use shared::FaultVector;
 

@@ -30,6 +30,27 @@ fn value_outside_unit_range_is_refused_by_name() {
 }
 
 #[test]
+fn prognostics_help_gives_the_controllers_trend_defaults() {
+    let o = host_sim(&["prognostics", "--help"]);
+    assert!(o.status.success());
+    let help = String::from_utf8_lossy(&o.stdout).into_owned();
+    let flown = shared::prognosis::TrendSettings::DEFAULT;
+    for (option, value) in [
+        ("--noise-floor", flown.noise_floor),
+        ("--systematic", flown.systematic),
+    ] {
+        let line = help
+            .lines()
+            .find(|l| l.contains(option))
+            .unwrap_or_else(|| panic!("no {option} in\n{help}"));
+        assert!(
+            line.contains(&format!("the controller's, {value})")),
+            "{line}"
+        );
+    }
+}
+
+#[test]
 fn every_command_has_help() {
     for cmd in [
         vec!["--help"],
@@ -274,7 +295,7 @@ fn a_campaign_writes_every_run_as_a_csv_row() {
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     assert_eq!(
         rows.len(),
-        host_sim::campaign::TABLE_1.len(),
+        host_sim::studies::campaign::TABLE_1.len(),
         "one row per Table I case: {text}"
     );
     for r in &rows {

@@ -5,9 +5,9 @@
 
 use std::process::Command;
 
-use host_sim::domain::assess;
-use host_sim::reference::{Anomaly, ReferenceModel, ReferenceSettings, Scenario};
-use host_sim::trace_file::{Trace, TraceFormat};
+use host_sim::files::trace::{Trace, TraceFormat};
+use host_sim::plant::reference::{Anomaly, ReferenceModel, ReferenceSettings, Scenario};
+use host_sim::studies::domain::assess;
 use shared::domain::{Domain, DomainLimits, OutsideReason};
 use shared::{ChirpCommand, FaultVector};
 

@@ -1,11 +1,11 @@
 //! The optimiser comparison's solvers and bookkeeping, on a monitor-model trace (where the
 //! truth is the optimum) with small caps.
 
-use host_sim::campaign::TABLE_1;
-use host_sim::optimisers::{
+use host_sim::plant::reference::{ReferenceModel, ReferenceSettings};
+use host_sim::studies::campaign::TABLE_1;
+use host_sim::studies::optimisers::{
     self, run_matlab_ga, MatlabGaSettings, Optimiser, RunStop, TraceSource, Trajectory,
 };
-use host_sim::reference::{ReferenceModel, ReferenceSettings};
 use shared::command::CommandTable;
 use shared::fdi::TEST_SAMPLES;
 use shared::{ActuatorParams, Calibration, ChirpCommand, FaultVector, FitnessProblem};

@@ -5,7 +5,7 @@
 use std::path::Path;
 use std::process::Output;
 
-use host_sim::health_file::{history_csv, HistoryRow};
+use host_sim::files::health::{history_csv, HistoryRow};
 use shared::domain::{Domain, OutsideReason};
 use shared::health::HealthRecord;
 use shared::FaultVector;
@@ -36,7 +36,7 @@ fn friction_history(n: u32) -> String {
             HistoryRow {
                 record: HealthRecord::new(f, FaultVector::new(k).unwrap(), 0.01, domain),
                 truth: Some(FaultVector::new(t).unwrap()),
-                intrusion: (f == 7).then_some(host_sim::prognostics::Intrusion::OtherCommand),
+                intrusion: (f == 7).then_some(host_sim::files::health::Intrusion::OtherCommand),
             }
         })
         .collect();

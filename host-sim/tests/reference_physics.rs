@@ -2,7 +2,7 @@
 //! fault alone moves the equivalent current the way physics says, energy is conserved, signs
 //! are right, and a seed fixes every bit.
 
-use host_sim::reference::{ReferenceModel, ReferenceSettings, Scenario, Simulation};
+use host_sim::plant::reference::{ReferenceModel, ReferenceSettings, Scenario, Simulation};
 use shared::conditioning::commutation_signs;
 use shared::test_design::PreflightTest;
 use shared::FaultVector;

@@ -4,10 +4,10 @@
 
 use std::fmt::Write as _;
 
-use host_sim::identify::identify;
-use host_sim::reference::{ReferenceModel, ReferenceSettings, Scenario};
-use host_sim::rig::{import, RigError, RigFormat};
-use host_sim::trace_file::TraceSample;
+use host_sim::fdi::identify::identify;
+use host_sim::files::rig::{import, RigError, RigFormat};
+use host_sim::files::trace::TraceSample;
+use host_sim::plant::reference::{ReferenceModel, ReferenceSettings, Scenario};
 use shared::metrics::total_error;
 use shared::test_design::PreflightTest;
 use shared::{Calibration, FaultVector};
@@ -61,7 +61,7 @@ fn format() -> RigFormat {
     }
 }
 
-fn recorded(faults: [f32; 8], seed: u64) -> (host_sim::trace_file::Trace, Vec<TraceSample>) {
+fn recorded(faults: [f32; 8], seed: u64) -> (host_sim::files::trace::Trace, Vec<TraceSample>) {
     let settings = ReferenceSettings {
         pre_roll: 0.21, // 0.2 s of idle in the recording before the usual 10 ms hold
         ..ReferenceSettings::REFERENCE
@@ -95,7 +95,7 @@ fn a_50_khz_recording_with_idle_and_renamed_columns_identifies_like_the_10_khz_t
         );
     }
     let truth = FaultVector::new(truth).unwrap();
-    let e_tot = |t: &host_sim::trace_file::Trace| {
+    let e_tot = |t: &host_sim::files::trace::Trace| {
         let measured = t.measured(&shared::ActuatorParams::REFERENCE).unwrap();
         let id = identify(&measured, &Calibration::REFERENCE_ACTUATOR, 1, false).unwrap();
         f64::from(total_error(&id.result.faults, &truth))

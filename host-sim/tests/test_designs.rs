@@ -4,8 +4,8 @@
 //! not, the anti-alias stage removes the ripple the ADC would alias, and the applied-voltage
 //! channel conditions the study better than the paper's currents alone.
 
-use host_sim::identifiability::{points, study, Design};
-use host_sim::reference::{ReferenceModel, ReferenceSettings, Scenario, Simulation};
+use host_sim::plant::reference::{ReferenceModel, ReferenceSettings, Scenario, Simulation};
+use host_sim::studies::identifiability::{points, study, Design};
 use shared::conditioning::commutation_signs;
 use shared::test_design::{PreflightTest, StandstillSegment};
 use shared::FaultVector;
@@ -326,7 +326,7 @@ fn an_injection_the_bridge_cannot_apply_is_named_not_identified() {
 
 #[test]
 fn the_day_estimate_removes_what_a_cold_morning_would_cost() {
-    use host_sim::identifiability::{mismatch_bias_on, DayHandling};
+    use host_sim::studies::identifiability::{mismatch_bias_on, DayHandling};
     // The linearised identification error of a healthy actuator 60 K below its calibration
     // (friction law applied), with the day ignored and estimated (docs/identifiability.md §0).
     let mut cold = ReferenceSettings::REFERENCE;

@@ -1,6 +1,6 @@
 //! `actuator`: checks an actuator description and writes the record the firmware loads.
 
-use crate::*;
+use crate::cli::*;
 
 pub(crate) fn actuator_command(file: &Path, out: Option<&Path>) -> Result<()> {
     let actuator = Actuator::load(file).map_err(|e| ActuatorRefused(format!("{e:#}")))?;

@@ -1,6 +1,8 @@
 //! `footprint`, `bench` and `optimisers`: the FDI's cost on the host and the optimiser comparison.
 
-use crate::*;
+use crate::cli::*;
+use crate::commands::simulate::simulate_into;
+use crate::commands::studies::measured_from_monitor;
 
 pub(crate) fn footprint() {
     use core::mem::size_of;
@@ -286,12 +288,12 @@ pub(crate) fn optimisers_command(
 
 /// `stopping`: the stall rules replayed on recorded campaign runs (docs/stopping.md).
 pub(crate) fn stopping_command(actuator: &Actuator, seeds: u64, out: Option<&Path>) -> Result<()> {
-    use host_sim::campaign::{untuned_random_cases, HEALTHY, TABLE_2};
-    use host_sim::stopping;
+    use host_sim::studies::campaign::{untuned_random_cases, HEALTHY, TABLE_2};
+    use host_sim::studies::stopping;
     let record = actuator.record;
     actuator.calibration_for(&record.test)?;
     let rm = ReferenceModel::new(actuator.reference_settings()?).with_test(record.test);
-    let mut cases: Vec<(&'static str, host_sim::campaign::Case)> =
+    let mut cases: Vec<(&'static str, host_sim::studies::campaign::Case)> =
         TABLE_1.iter().map(|&c| ("Table I", c)).collect();
     cases.extend(TABLE_2.iter().map(|&c| ("Table II", c)));
     cases.push(("healthy", HEALTHY));

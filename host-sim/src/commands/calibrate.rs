@@ -1,7 +1,7 @@
 //! `calibrate`: fits the monitor model to a healthy trace and writes the calibration, alone
 //! (JSON) or into the actuator's record (`.rec`).
 
-use crate::*;
+use crate::cli::*;
 
 pub(crate) fn calibrate_command(
     actuator: &Actuator,
@@ -43,7 +43,7 @@ pub(crate) fn calibrate_command(
         for (slot, path) in points.iter_mut().zip(at) {
             let other = actuator.read_trace(path)?;
             let measured = other.measured(&record.params)?;
-            *slot = host_sim::calibration::friction_point(
+            *slot = host_sim::fdi::calibration::friction_point(
                 &measured,
                 record.params,
                 &file.calibration(),
@@ -87,7 +87,7 @@ pub(crate) fn calibrate_command(
     } else if as_record {
         record
             .validate()
-            .map_err(|e| ActuatorRefused(host_sim::actuator_file::describe(e)))?;
+            .map_err(|e| ActuatorRefused(host_sim::files::actuator::describe(e)))?;
         std::fs::write(out, record.encode())
             .with_context(|| format!("writing {}", out.display()))?;
     } else {

@@ -1,6 +1,6 @@
 //! `campaign`: accuracy campaigns over the paper's fault cases.
 
-use crate::*;
+use crate::cli::*;
 
 pub(crate) fn campaign_command(
     actuator: &Actuator,
@@ -10,7 +10,7 @@ pub(crate) fn campaign_command(
     runs_csv: Option<&Path>,
     plot: Option<&Path>,
 ) -> Result<()> {
-    use host_sim::campaign::{self, HEALTHY, TABLE_2};
+    use host_sim::studies::campaign::{self, HEALTHY, TABLE_2};
     let (title, cases) = match table {
         CampaignTable::One => ("Table I: single faults", TABLE_1.to_vec()),
         CampaignTable::Two => ("Table II: multiple faults, and the healthy actuator", {
@@ -134,7 +134,7 @@ pub(crate) fn conditions_campaign_command(
     runs: u64,
     out: Option<&Path>,
 ) -> Result<()> {
-    use host_sim::campaign::{self, HEALTHY, HEALTHY_QUIET, TABLE_2};
+    use host_sim::studies::campaign::{self, HEALTHY, HEALTHY_QUIET, TABLE_2};
     let mut cases = TABLE_1.to_vec();
     cases.extend(TABLE_2);
     cases.push(HEALTHY_QUIET);
@@ -159,8 +159,10 @@ pub(crate) fn conditions_campaign_command(
         if point.own_calibration {
             let model =
                 ReferenceModel::new(played.reference_settings()?).with_test(played.record.test);
-            played.record.calibration =
-                host_sim::calibration::reference_calibration(&model, &played.record.calibration)?;
+            played.record.calibration = host_sim::fdi::calibration::reference_calibration(
+                &model,
+                &played.record.calibration,
+            )?;
         }
         eprintln!("robustness: {}", point.label);
         let summaries =

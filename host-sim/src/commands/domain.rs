@@ -1,7 +1,7 @@
 //! `domain`: the survey behind the monitor model's domain limits; for an actuator file, also
 //! the limits it suggests, written into the file with `--write`.
 
-use crate::*;
+use crate::cli::*;
 
 pub(crate) fn domain_command(
     actuator: &Actuator,
@@ -11,9 +11,14 @@ pub(crate) fn domain_command(
 ) -> Result<()> {
     let limits = actuator.record.domain;
     let start = Instant::now();
-    let rows = host_sim::domain::survey(actuator, seeds, &limits, std::io::stderr().is_terminal())?;
-    let mut text = host_sim::domain::markdown(&rows, &limits);
-    let suggested = host_sim::domain::suggested_limits(&rows, &limits);
+    let rows = host_sim::studies::domain::survey(
+        actuator,
+        seeds,
+        &limits,
+        std::io::stderr().is_terminal(),
+    )?;
+    let mut text = host_sim::studies::domain::markdown(&rows, &limits);
+    let suggested = host_sim::studies::domain::suggested_limits(&rows, &limits);
     let keys = [
         ("domain.min_travel", format!("{:?}", suggested.min_travel)),
         (

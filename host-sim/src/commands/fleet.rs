@@ -1,6 +1,7 @@
 //! `fleet ingest`, `fleet report` and `fleet bench`: the fleet store and its report.
 
-use crate::*;
+use crate::cli::*;
+use crate::commands::prognostics::TrendArgs;
 use host_sim::fleet::{self, FleetStore};
 
 #[derive(clap::Subcommand)]

@@ -1,6 +1,6 @@
 //! `identify`: the onboard FDI on a trace file, and the report (table or JSON) shared with `preflight`.
 
-use crate::*;
+use crate::cli::*;
 
 /// The domain verdict as a heading line, and the exit status it calls for.
 pub(crate) fn domain_heading(domain: Domain) -> ((String, String), Result<()>) {

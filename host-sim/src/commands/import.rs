@@ -1,6 +1,7 @@
 //! `import`: a rig recording → a trace of the actuator's test at the control rate.
 
-use crate::*;
+use crate::cli::*;
+use crate::commands::simulate::format_from_extension;
 
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn import_command(
@@ -34,7 +35,7 @@ pub(crate) fn import_command(
         std::fs::read(recording).with_context(|| format!("reading {}", recording.display()))?;
     let test = actuator.record.test;
     let period = f64::from(actuator.params().control_period);
-    let trace = host_sim::rig::import(&bytes, &format, &test, period)
+    let trace = host_sim::files::rig::import(&bytes, &format, &test, period)
         .map_err(anyhow::Error::new)
         .and_then(|t| t.checked().map_err(anyhow::Error::new))
         .with_context(|| format!("recording {} refused", recording.display()))?;

@@ -1,6 +1,7 @@
 //! `plot`: measured against fitted current, and the GA history, as SVG.
 
-use crate::*;
+use crate::cli::*;
+use crate::commands::identify::load_record;
 
 pub(crate) fn plot_command(
     actuator: &Actuator,
@@ -25,7 +26,7 @@ pub(crate) fn plot_command(
             .collect::<Vec<_>>()
             .join(", ")
     );
-    host_sim::plot::identification_svg(
+    host_sim::fdi::plot::identification_svg(
         out,
         &measured,
         record.params,

@@ -1,6 +1,7 @@
 //! `degrade`, `prognose` and `prognostics`: degradation histories, trends and RUL.
 
-use crate::*;
+use crate::cli::*;
+use host_sim::files::health as health_file;
 
 /// The trend's thresholds and horizon on the command line (`prognose`, `fleet report`).
 #[derive(clap::Args)]

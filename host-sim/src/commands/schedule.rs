@@ -1,7 +1,7 @@
 //! `test-schedule`: what the controller commands during the actuator's preflight test,
 //! control period by control period, as a CSV a rig engineer can play on a bench drive.
 
-use crate::*;
+use crate::cli::*;
 
 use shared::test_design::{Drive, PAIR_SIGNS};
 

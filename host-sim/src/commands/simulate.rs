@@ -1,6 +1,7 @@
 //! `simulate` and `preflight`: the reference model plays an actuator through a test and writes its trace, or hands it straight to the onboard FDI.
 
-use crate::*;
+use crate::cli::*;
+use crate::commands::identify::{calibration_name, domain_heading, report};
 
 pub(crate) fn simulate_scenario(
     actuator: &Actuator,

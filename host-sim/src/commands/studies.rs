@@ -1,6 +1,6 @@
 //! `identifiability`, `separability` and `inverse`: what one test can tell apart, and the FDI checked on traces the monitor model made.
 
-use crate::*;
+use crate::cli::*;
 
 pub(crate) fn measured_from_monitor(
     model: &MonitorModel,
@@ -16,14 +16,14 @@ pub(crate) fn measured_from_monitor(
 }
 
 pub(crate) fn mismatch_bias_command(
-    designs: &[host_sim::identifiability::Design],
+    designs: &[host_sim::studies::identifiability::Design],
     weights: &[f64],
     seeds: u64,
     step: f32,
     out: Option<&Path>,
 ) -> Result<()> {
-    use host_sim::campaign::{random_cases, TABLE_2};
-    use host_sim::identifiability::{mismatch_bias, Design};
+    use host_sim::studies::campaign::{random_cases, TABLE_2};
+    use host_sim::studies::identifiability::{mismatch_bias, Design};
     use std::fmt::Write;
     let designs = if designs.is_empty() {
         vec![Design::Paper, Design::Standstill]
@@ -93,14 +93,14 @@ pub(crate) fn mismatch_bias_command(
 }
 
 pub(crate) fn identifiability_command(
-    designs: &[host_sim::identifiability::Design],
+    designs: &[host_sim::studies::identifiability::Design],
     seeds: u64,
     step: f32,
     anti_alias_hz: f64,
     noise: f64,
     out: Option<&Path>,
 ) -> Result<()> {
-    use host_sim::identifiability::{markdown, points, study, Design};
+    use host_sim::studies::identifiability::{markdown, points, study, Design};
     let designs = if designs.is_empty() {
         Design::ALL.to_vec()
     } else {
@@ -131,7 +131,7 @@ pub(crate) fn identifiability_command(
 }
 
 pub(crate) fn day_study_command(seeds: u64, step: f32, out: Option<&Path>) -> Result<()> {
-    use host_sim::identifiability::{day_markdown, day_nuisances, day_study, points};
+    use host_sim::studies::identifiability::{day_markdown, day_nuisances, day_study, points};
     let points = points();
     let bar = host_sim::progress_bar(
         (day_nuisances().len() * points.len()) as u64,
@@ -152,7 +152,7 @@ pub(crate) fn day_study_command(seeds: u64, step: f32, out: Option<&Path>) -> Re
 }
 
 pub(crate) fn separability_command(a: &FaultVector, b: &FaultVector, seeds: u64) -> Result<()> {
-    let s = host_sim::separability::separability(a, b, seeds)?;
+    let s = host_sim::studies::separability::separability(a, b, seeds)?;
     println!("A: {:?}", a.as_array());
     println!("B: {:?}", b.as_array());
     println!(

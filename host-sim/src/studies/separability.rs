@@ -13,7 +13,7 @@ use anyhow::{anyhow, Result};
 use rayon::prelude::*;
 use shared::{ActuatorParams, FaultVector};
 
-use crate::reference::{ReferenceModel, ReferenceSettings, Scenario};
+use crate::plant::reference::{ReferenceModel, ReferenceSettings, Scenario};
 
 /// What [`separability`] measured, in % of the signal RMS.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -27,8 +27,8 @@ use shared::polish::{PolishSettings, Probe, MAX_PROBES};
 use shared::test_design::{PreflightTest, StandstillSegment};
 use shared::{ActuatorParams, Calibration, GaSettings};
 
-use crate::bridge::{BridgeSettings, ConditionSensors, OperatingConditions, ThermalLaws};
-use crate::reference::ReferenceSettings;
+use crate::plant::bridge::{BridgeSettings, ConditionSensors, OperatingConditions, ThermalLaws};
+use crate::plant::reference::ReferenceSettings;
 
 /// One actuator as the ground tools use it: the record the firmware would load, what the
 /// reference model needs beyond it, and the rig's column names.
@@ -141,14 +141,14 @@ impl Actuator {
         if let Some(rig) = &actuator.rig {
             for key in rig.columns.keys().chain(rig.scales.keys()) {
                 let ours = |h: &[&str]| h.contains(&key.as_str());
-                if !ours(&crate::trace_file::CSV_HEADER)
-                    && !ours(&crate::trace_file::CONDITION_HEADER)
+                if !ours(&crate::files::trace::CSV_HEADER)
+                    && !ours(&crate::files::trace::CONDITION_HEADER)
                 {
                     let at =
                         line_of_key(text, key).map_or(String::new(), |l| format!(" (line {l})"));
                     bail!(
                         "`rig`{at}: unknown column `{key}` (ours are {})",
-                        crate::trace_file::CSV_HEADER.join(", ")
+                        crate::files::trace::CSV_HEADER.join(", ")
                     );
                 }
             }
@@ -295,8 +295,8 @@ impl Actuator {
     }
 
     /// The trace at `path`, its test resolved against this actuator ([`Self::test_for`]).
-    pub fn read_trace(&self, path: &Path) -> Result<crate::trace_file::Trace> {
-        let trace = crate::trace_file::Trace::read(path)?;
+    pub fn read_trace(&self, path: &Path) -> Result<crate::files::trace::Trace> {
+        let trace = crate::files::trace::Trace::read(path)?;
         let test = self.test_for(trace.test())?;
         Ok(trace.with_test(test))
     }
@@ -587,7 +587,7 @@ struct Description {
     rig: Option<RigColumns>,
 }
 
-/// The power bridge the reference model plays (`crate::bridge::BridgeSettings`).
+/// The power bridge the reference model plays (`crate::plant::bridge::BridgeSettings`).
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 struct Drive {
@@ -603,7 +603,7 @@ struct Drive {
     bus_ripple_hz: Option<f64>,
 }
 
-/// The day the reference model plays (`crate::bridge::OperatingConditions`).
+/// The day the reference model plays (`crate::plant::bridge::OperatingConditions`).
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 struct Conditions {
@@ -853,7 +853,7 @@ struct ReferenceModelExtra {
     copper_coefficient: Option<f64>,
     magnet_coefficient: Option<f64>,
     /// Grease drag's share of dry friction at the reference temperature, and the grease's
-    /// activation temperature [K] (`crate::bridge::ThermalLaws`).
+    /// activation temperature [K] (`crate::plant::bridge::ThermalLaws`).
     friction_viscous_share: Option<f64>,
     friction_activation: Option<f64>,
 }

@@ -25,8 +25,8 @@ use shared::fault::{FAULT_COUNT, FAULT_NAMES};
 use shared::test_design::{Drive, PreflightTest};
 use shared::{ActuatorParams, FaultVector, LowPass};
 
-use crate::campaign::TABLE_2;
-use crate::reference::{ReferenceModel, ReferenceSettings, Scenario, Simulation};
+use crate::plant::reference::{ReferenceModel, ReferenceSettings, Scenario, Simulation};
+use crate::studies::campaign::TABLE_2;
 
 /// A test design of the study.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]

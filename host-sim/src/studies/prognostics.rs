@@ -17,9 +17,9 @@ use shared::health::{HealthRecord, RecordedDay};
 use shared::prognosis::{FaultTrend, Growth, HealthTrend, TrendEstimate, TrendSettings};
 use shared::{ActuatorParams, Calibration, FaultVector};
 
-use crate::health_file::HistoryRow;
-use crate::identify::identify;
-use crate::reference::{Anomaly, ReferenceModel, ReferenceSettings, Scenario};
+use crate::fdi::identify::identify;
+use crate::files::health::{HistoryRow, Intrusion};
+use crate::plant::reference::{Anomaly, ReferenceModel, ReferenceSettings, Scenario};
 
 /// How the faults grow from the start vector to the end vector over the flights.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -112,42 +112,15 @@ fn flight_seeds(seed: u64, flight: u32) -> (u64, u64) {
     (rm, rm.wrapping_add(1))
 }
 
-/// What a flight's preflight test met outside the fault vector (simulated histories).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Intrusion {
-    /// The user shaft seized where it started.
-    Jammed,
-    /// Phase B disconnected.
-    OpenPhase,
-    /// The test was run with twice the chirp's amplitude (another test, or a wrong record).
-    OtherCommand,
-}
-
-impl Intrusion {
-    pub const ALL: [Self; 3] = [Self::Jammed, Self::OpenPhase, Self::OtherCommand];
-
-    /// Name in the history CSV's `intrusion` column.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Jammed => "jammed",
-            Self::OpenPhase => "open_phase",
-            Self::OtherCommand => "other_command",
-        }
-    }
-
-    pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|i| i.name() == name)
-    }
-
-    fn model(self, rm: ReferenceModel) -> ReferenceModel {
-        match self {
-            Self::Jammed => rm.with_anomaly(Anomaly::Jammed),
-            Self::OpenPhase => rm.with_anomaly(Anomaly::OpenPhase(1)),
-            Self::OtherCommand => {
-                let mut chirp = rm.test().chirp;
-                chirp.amplitude *= 2.0;
-                rm.with_command(chirp)
-            }
+/// The reference model that plays intrusion `intrusion`.
+fn intrusion_model(intrusion: Intrusion, rm: ReferenceModel) -> ReferenceModel {
+    match intrusion {
+        Intrusion::Jammed => rm.with_anomaly(Anomaly::Jammed),
+        Intrusion::OpenPhase => rm.with_anomaly(Anomaly::OpenPhase(1)),
+        Intrusion::OtherCommand => {
+            let mut chirp = rm.test().chirp;
+            chirp.amplitude *= 2.0;
+            rm.with_command(chirp)
         }
     }
 }
@@ -184,7 +157,7 @@ pub fn degrade(
             let truth = path.at(flight);
             let (rm_seed, ga_seed) = flight_seeds(seed, flight);
             let intruded = intrusion(seed, flight, intrusions);
-            let model = intruded.map_or(rm, |i| i.model(rm));
+            let model = intruded.map_or(rm, |i| intrusion_model(i, rm));
             let trace = model
                 .simulate(&Scenario {
                     faults: truth,
@@ -763,13 +736,13 @@ pub fn evaluate(
                 Some(f) if f.exists() => {
                     eval.cached += 1;
                     tick(u64::from(flights));
-                    crate::health_file::read_history(f)?
+                    crate::files::health::read_history(f)?
                 }
                 _ => {
                     eval.simulated += 1;
                     let rows = degrade(&path, sc.noise, seed, intrusions, &|| tick(1))?;
                     if let Some(f) = &file {
-                        std::fs::write(f, crate::health_file::history_csv(&rows))
+                        std::fs::write(f, crate::files::health::history_csv(&rows))
                             .with_context(|| format!("writing {}", f.display()))?;
                     }
                     rows

@@ -17,9 +17,9 @@ use shared::ga::StallTest;
 use shared::metrics::total_error;
 use shared::{FaultVector, GaSettings};
 
-use crate::campaign::Case;
-use crate::identify::{command_table, onboard_identification};
-use crate::reference::{ReferenceModel, Scenario};
+use crate::fdi::identify::{command_table, onboard_identification};
+use crate::plant::reference::{ReferenceModel, Scenario};
+use crate::studies::campaign::Case;
 
 /// Evaluations recorded per run: the budget flown before this study.
 pub const CAP: u32 = 6_000;

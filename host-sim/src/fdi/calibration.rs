@@ -343,10 +343,10 @@ pub const CLIMATIC_TEMPERATURES: [f64; 4] = [-45.0, -25.0, 0.0, 75.0];
 /// for an injection test also the friction law from healthy traces (seed 0) at
 /// [`CLIMATIC_TEMPERATURES`]. `host-sim calibrate … --at …` does the same from files.
 pub fn reference_calibration(
-    model: &crate::reference::ReferenceModel,
+    model: &crate::plant::reference::ReferenceModel,
     prior: &Calibration,
 ) -> Result<Calibration> {
-    use crate::reference::{ReferenceModel, Scenario};
+    use crate::plant::reference::{ReferenceModel, Scenario};
     let params = model.settings().params;
     let healthy = |m: &ReferenceModel| {
         m.simulate(&Scenario::new(FaultVector::NOMINAL))
@@ -453,7 +453,7 @@ mod tests {
 #[cfg(test)]
 mod reference_tests {
     use super::*;
-    use crate::reference::{ReferenceModel, ReferenceSettings, Scenario};
+    use crate::plant::reference::{ReferenceModel, ReferenceSettings, Scenario};
     use shared::test_design::PreflightTest;
 
     /// The calibrations the firmware and `identify` use by default are exactly what the fit

@@ -16,9 +16,9 @@ use shared::metrics::total_error;
 use shared::uncertainty::{Assessment, Uncertainty};
 use shared::FaultVector;
 
-use crate::actuator_file::Actuator;
-use crate::identify::identify_for;
-use crate::reference::{ReferenceModel, Scenario};
+use crate::fdi::identify::identify_for;
+use crate::files::actuator::Actuator;
+use crate::plant::reference::{ReferenceModel, Scenario};
 
 /// What the paper reports for a case.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -667,7 +667,7 @@ pub fn plot(out: &Path, title: &str, summaries: &[CaseSummary]) -> Result<()> {
         .map_err(e)?
         .label("our target")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
-    crate::plot::draw_legend(&mut chart, out, SeriesLabelPosition::UpperLeft)?;
+    crate::fdi::plot::draw_legend(&mut chart, out, SeriesLabelPosition::UpperLeft)?;
     root.present().map_err(e)?;
     Ok(())
 }

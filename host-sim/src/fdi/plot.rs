@@ -8,7 +8,7 @@ use plotters::prelude::*;
 use shared::fdi::OnboardMeasured;
 use shared::{ActuatorParams, Calibration, FaultVector};
 
-use crate::calibration::filtered_model_current;
+use crate::fdi::calibration::filtered_model_current;
 
 /// Draws the two panels into `out`.
 pub fn identification_svg(

@@ -39,8 +39,8 @@ use shared::health::{
 };
 use shared::prognosis::{HealthTrend, TrendEstimate, TrendSettings};
 
-use crate::health_file::ImageStore;
-use crate::prognostics::growth_name;
+use crate::files::health::ImageStore;
+use crate::studies::prognostics::growth_name;
 
 /// The store's schema version (table `meta`).
 const SCHEMA: i64 = 1;

@@ -21,7 +21,7 @@ use std::fmt;
 
 use shared::test_design::PreflightTest;
 
-use crate::trace_file::{Trace, TraceSample, CONDITION_HEADER, CSV_HEADER};
+use crate::files::trace::{Trace, TraceSample, CONDITION_HEADER, CSV_HEADER};
 
 /// How one rig records.
 #[derive(Clone, Debug, PartialEq)]

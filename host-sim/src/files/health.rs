@@ -31,7 +31,33 @@ use shared::health::{
 };
 use shared::FaultVector;
 
-use crate::prognostics::Intrusion;
+/// What a flight's preflight test met outside the fault vector (simulated histories).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Intrusion {
+    /// The user shaft seized where it started.
+    Jammed,
+    /// Phase B disconnected.
+    OpenPhase,
+    /// The test was run with twice the chirp's amplitude (another test, or a wrong record).
+    OtherCommand,
+}
+
+impl Intrusion {
+    pub const ALL: [Self; 3] = [Self::Jammed, Self::OpenPhase, Self::OtherCommand];
+
+    /// Name in the history CSV's `intrusion` column.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Jammed => "jammed",
+            Self::OpenPhase => "open_phase",
+            Self::OtherCommand => "other_command",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|i| i.name() == name)
+    }
+}
 
 /// A [`HealthStore`] in a file of `slots · 76` bytes; each write is flushed to the disk.
 #[derive(Debug)]

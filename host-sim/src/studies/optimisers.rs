@@ -45,9 +45,9 @@ use shared::{
     MonitorModel, SteadyStateGa, StopReason,
 };
 
-use crate::campaign::Case;
 use crate::median;
-use crate::reference::{ReferenceModel, ReferenceSettings, Scenario};
+use crate::plant::reference::{ReferenceModel, ReferenceSettings, Scenario};
+use crate::studies::campaign::Case;
 
 /// The nominal fault vector, the starting guess every solver receives.
 const GUESS: Genes = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5];

@@ -43,8 +43,10 @@ use shared::conditioning::COMMUTATION_SIGNS;
 use shared::test_design::{Drive, PreflightTest};
 use shared::{ActuatorParams, ChirpCommand, FaultVector};
 
-use crate::bridge::{to_lsb, BridgeSettings, ConditionSensors, OperatingConditions, ThermalLaws};
-use crate::trace_file::{Trace, TraceSample};
+use crate::files::trace::{Trace, TraceSample};
+use crate::plant::bridge::{
+    to_lsb, BridgeSettings, ConditionSensors, OperatingConditions, ThermalLaws,
+};
 
 use std::f64::consts::{FRAC_PI_2, PI, SQRT_2, TAU};
 
@@ -496,7 +498,7 @@ impl ReferenceModel {
             };
             if let Some(k) = tick {
                 trace.push(TraceSample {
-                    time: k as f64 / f64::from(crate::trace_file::SAMPLE_RATE_HZ),
+                    time: k as f64 / f64::from(crate::files::trace::SAMPLE_RATE_HZ),
                     command,
                     phase_currents: sensed_currents,
                     motor_angle: encoder,

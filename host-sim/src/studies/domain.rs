@@ -12,11 +12,11 @@ use shared::{Calibration, ChirpCommand, FaultVector};
 
 use shared::actuator::ActuatorRecord;
 
-use crate::actuator_file::Actuator;
-use crate::campaign::{HEALTHY, TABLE_1, TABLE_2};
-use crate::identify::identify_for;
-use crate::reference::{Anomaly, ReferenceModel, Scenario};
-use crate::trace_file::Trace;
+use crate::fdi::identify::identify_for;
+use crate::files::actuator::Actuator;
+use crate::files::trace::Trace;
+use crate::plant::reference::{Anomaly, ReferenceModel, Scenario};
+use crate::studies::campaign::{HEALTHY, TABLE_1, TABLE_2};
 
 /// One surveyed test.
 #[derive(Clone, Debug)]

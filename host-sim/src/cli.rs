@@ -1,0 +1,204 @@
+//! What the command line and every command share: the exit statuses, the argument groups
+//! several commands flatten in (the simulated actuator, its day, the test), small parsers, and
+//! the imports the commands use (`use crate::cli::*`). Imports nothing from `main.rs` or
+//! `commands/`.
+
+#![allow(unused_imports)]
+
+pub(crate) use std::io::IsTerminal;
+pub(crate) use std::ops::ControlFlow;
+pub(crate) use std::path::{Path, PathBuf};
+pub(crate) use std::process::ExitCode;
+pub(crate) use std::time::Instant;
+
+pub(crate) use anyhow::{Context, Result};
+pub(crate) use clap::{Parser, Subcommand};
+pub(crate) use host_sim::fdi::calibration::{calibrate, CalibrationFile};
+pub(crate) use host_sim::files::actuator::{Actuator, ActuatorRefused, Day};
+pub(crate) use host_sim::studies::campaign::{run_once, TABLE_1};
+
+pub(crate) use host_sim::fdi::identify::{
+    identify_checkpointed, identify_for, Checkpointing, Identified, Outcome, Resumption,
+};
+pub(crate) use host_sim::fdi::plot;
+pub(crate) use host_sim::files::health;
+pub(crate) use host_sim::files::rig::RigFormat;
+pub(crate) use host_sim::files::trace::{IngestError, Trace, TraceFormat};
+pub(crate) use host_sim::median;
+pub(crate) use host_sim::plant::reference::{ReferenceModel, ReferenceSettings, Scenario};
+pub(crate) use host_sim::studies::optimisers::{self, TraceSource};
+pub(crate) use host_sim::studies::prognostics::{self, DegradationPath, PathShape};
+pub(crate) use serde_json::json;
+pub(crate) use shared::actuator::ActuatorRecord;
+pub(crate) use shared::command::{CommandSource, CommandTable};
+pub(crate) use shared::domain::Domain;
+pub(crate) use shared::fault::{Verdict, FAULT_COUNT, FAULT_NAMES};
+pub(crate) use shared::fdi::{
+    record_monitor_trace, Identification, OnboardGa, OnboardMeasured, POPULATION, TEST_SAMPLES,
+};
+pub(crate) use shared::health::{HealthLog, ONBOARD_RECORDS};
+pub(crate) use shared::metrics::{component_errors, total_error};
+pub(crate) use shared::monitor::MonitorState;
+pub(crate) use shared::prognosis::TrendSettings;
+pub(crate) use shared::test_design::PreflightTest;
+pub(crate) use shared::uncertainty::Assessment;
+pub(crate) use shared::{
+    ActuatorParams, Calibration, ChirpCommand, FaultVector, FitnessProblem, GaSettings, LowPass,
+    MonitorModel, ShaftAngles, SteadyStateGa,
+};
+
+pub(crate) use crate::faults;
+
+pub(crate) const EXIT_HELP: &str =
+    "Exit status: 0 done; 1 error; 2 usage; 3 trace refused (the message \
+names the field and the line or row); 4 identify/preflight: the actuator is outside the monitor \
+model's domain (jammed, open phase, another command, unexplained residual; the result is \
+printed but must not be acted on); 5 identify stopped by --stop-after (checkpoint written); \
+7 the --actuator file was refused (the message names the key and its line).";
+
+/// Exit status when the actuator file or record is refused.
+pub(crate) const EXIT_ACTUATOR_REFUSED: u8 = 7;
+
+/// Exit status when a trace file is refused.
+pub(crate) const EXIT_TRACE_REFUSED: u8 = 3;
+/// Exit status of `identify --stop-after` (the simulated power loss).
+pub(crate) const EXIT_INTERRUPTED: u8 = 5;
+
+/// Exit status of `identify`/`preflight` when the actuator lies outside the monitor model's
+/// domain (the result was printed, marked as not to be acted on).
+pub(crate) const EXIT_OUTSIDE_DOMAIN: u8 = 4;
+
+/// A command that said what it had to and ends with this exit status (no error message).
+#[derive(Debug)]
+pub(crate) struct ExitWith(pub(crate) u8);
+
+impl std::fmt::Display for ExitWith {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "exit status {}", self.0)
+    }
+}
+
+impl std::error::Error for ExitWith {}
+
+pub(crate) const FAULTS_HELP: &str = "eight comma-separated values in [0, 1]: friction, backlash, \
+short A, short B, short C, eccentricity, eccentricity phase, gain drift (nominal \
+0,0,0,0,0,0,0.5,0.5)";
+
+/// The simulated actuator: its faults, process noise and seed.
+#[derive(clap::Args)]
+pub(crate) struct ActuatorArgs {
+    /// True fault vector of the simulated actuator.
+    #[arg(long, value_parser = faults::parse_fault_vector, allow_hyphen_values = true, long_help = FAULTS_HELP)]
+    pub(crate) faults: FaultVector,
+    /// Band-limited white noise on I_ref, RMS as a fraction of the nominal I_ref RMS.
+    #[arg(long, default_value_t = 0.0, value_parser = parse_noise)]
+    pub(crate) noise: f64,
+    /// Seed of every random draw of the reference model (sensor and process noise).
+    #[arg(long, default_value_t = 0)]
+    pub(crate) seed: u64,
+    /// Preflight test design of the built-in actuator: `standstill` (default: voltage
+    /// steps on each phase pair at standstill, then the chirp) or `paper` (the paper's chirp
+    /// alone, currents only). An actuator file carries its own test.
+    #[arg(long, value_enum)]
+    pub(crate) test: Option<TestChoice>,
+    /// The installation's rigging: what the motor encoder reads with the surface at zero
+    /// [rad, motor side]. The reference model plays it and the FDI's record carries it (as
+    /// measured at rigging). Default: the actuator file's `[installation] encoder_offset`.
+    #[arg(long, value_name = "RAD", allow_hyphen_values = true)]
+    pub(crate) encoder_offset: Option<f64>,
+    #[command(flatten)]
+    pub(crate) day: DayArgs,
+}
+
+/// The day and the drive the reference model plays, over the actuator file's `[conditions]`
+/// and `[drive]`.
+#[derive(clap::Args, Clone, Copy, Debug, Default)]
+pub(crate) struct DayArgs {
+    /// Winding temperature of the simulated actuator [°C] (the gear's too, unless
+    /// --gear-temperature). Default: the file's `[conditions] temperature` (20 °C).
+    #[arg(long, value_name = "CELSIUS", allow_hyphen_values = true)]
+    pub(crate) temperature: Option<f64>,
+    /// Gear and bearing (grease) temperature [°C]: dry friction follows the file's law.
+    #[arg(long, value_name = "CELSIUS", allow_hyphen_values = true)]
+    pub(crate) gear_temperature: Option<f64>,
+    /// Mean DC bus voltage [V] (MIL-STD-704: 250–280 V on a 270 V bus).
+    #[arg(long, value_name = "VOLTS")]
+    pub(crate) bus_voltage: Option<f64>,
+    /// The bridge's dead time [s] (e.g. 1e-6), compensated as the file's `[drive]` says.
+    #[arg(long, value_name = "SECONDS")]
+    pub(crate) dead_time: Option<f64>,
+}
+
+impl DayArgs {
+    pub(crate) fn day(self) -> Day {
+        Day {
+            temperature: self.temperature,
+            gear_temperature: self.gear_temperature,
+            bus_voltage: self.bus_voltage,
+            dead_time: self.dead_time,
+        }
+    }
+}
+
+/// The preflight test designs the FDI plays end to end.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum TestChoice {
+    Injection,
+    Standstill,
+    Paper,
+}
+
+impl TestChoice {
+    pub(crate) fn test(self) -> PreflightTest {
+        match self {
+            Self::Injection => PreflightTest::INJECTION,
+            Self::Standstill => PreflightTest::STANDSTILL,
+            Self::Paper => PreflightTest::PAPER,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum SourceArg {
+    Reference,
+    Monitor,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum CampaignTable {
+    #[value(name = "1")]
+    One,
+    #[value(name = "2")]
+    Two,
+    Random,
+}
+
+pub(crate) fn parse_noise(text: &str) -> Result<f64, String> {
+    let x: f64 = text
+        .trim()
+        .parse()
+        .map_err(|_| format!("{text:?} is not a number"))?;
+    if x.is_finite() && (0.0..=10.0).contains(&x) {
+        Ok(x)
+    } else {
+        Err(format!(
+            "{text} is outside [0, 10] (a fraction of the nominal I_ref RMS)"
+        ))
+    }
+}
+
+pub(crate) fn parse_share(text: &str) -> Result<f64, String> {
+    let x: f64 = text
+        .trim()
+        .parse()
+        .map_err(|_| format!("{text:?} is not a number"))?;
+    if (0.0..=1.0).contains(&x) {
+        Ok(x)
+    } else {
+        Err(format!("{text} is outside [0, 1] (a share of the flights)"))
+    }
+}
+
+pub(crate) fn progress_wanted(json: bool) -> bool {
+    !json && std::io::stderr().is_terminal()
+}

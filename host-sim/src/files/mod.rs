@@ -1,0 +1,11 @@
+//! File formats the ground tools read and write.
+//!
+//! * [`actuator`] — the actuator description file (TOML) and the record it becomes.
+//! * [`trace`] — CSV and binary trace files.
+//! * [`rig`] — recordings from a real rig (any column names, units and rate) → traces.
+//! * [`health`] — the health log in a file, and history CSV files.
+
+pub mod actuator;
+pub mod health;
+pub mod rig;
+pub mod trace;

@@ -1,0 +1,17 @@
+//! Campaigns and studies over the reference model and the FDI.
+//!
+//! * [`campaign`] — accuracy campaigns over the paper's fault cases and the robustness grid.
+//! * [`domain`] — the survey behind the "outside the monitor model's domain" limits.
+//! * [`identifiability`] — which test design can tell every fault apart (sensitivity study).
+//! * [`separability`] — whether one test tells two fault vectors apart at all.
+//! * [`optimisers`] — the flown solver against other optimisers.
+//! * [`stopping`] — choosing the GA's stop rule on the campaigns.
+//! * [`prognostics`] — simulated degradations, trend and RUL reports and their evaluation.
+
+pub mod campaign;
+pub mod domain;
+pub mod identifiability;
+pub mod optimisers;
+pub mod prognostics;
+pub mod separability;
+pub mod stopping;
