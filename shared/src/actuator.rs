@@ -933,5 +933,15 @@ mod tests {
         let mut r = ActuatorRecord::REFERENCE;
         r.params.pole_pairs = 4.5;
         assert!(r.validate().is_err());
+        // Found by fuzzing: a chirp too long to count (usize::MAX samples) beside a standstill
+        // segment overflowed the sum instead of being refused.
+        let mut r = ActuatorRecord::REFERENCE;
+        r.test.chirp.duration = 3.0e38;
+        assert_eq!(
+            ActuatorRecord::decode(&r.encode()),
+            Err(ActuatorRecordError::OutOfRange {
+                field: RecordField::TestChirpDuration
+            })
+        );
     }
 }

@@ -281,22 +281,27 @@ impl PreflightTest {
 
     /// Control periods before the chirp starts.
     pub fn lead_samples(&self) -> usize {
-        self.standstill_samples() + self.motion.map_or(0, |m| m.samples())
+        self.standstill_samples()
+            .saturating_add(self.motion.map_or(0, |m| m.samples()))
     }
 
     /// Control periods of the chirp at control period `dt` [s].
+    /// A chirp too long to count (`duration / dt` beyond `usize`, or infinite) reads as
+    /// `usize::MAX`, never as 0; NaN or a negative duration is 0.
     pub fn chirp_samples(&self, dt: f32) -> usize {
         let n = self.chirp.duration / dt + 0.5;
-        if n.is_finite() && n > 0.0 {
+        if n > 0.0 {
+            // `as` saturates: +∞ and anything beyond usize::MAX give usize::MAX.
             n as usize
         } else {
             0
         }
     }
 
-    /// Control periods of the whole test.
+    /// Control periods of the whole test (saturating: a chirp too long to count reads as
+    /// `usize::MAX`, which every capacity refuses).
     pub fn samples(&self, dt: f32) -> usize {
-        self.lead_samples() + self.chirp_samples(dt)
+        self.lead_samples().saturating_add(self.chirp_samples(dt))
     }
 
     /// What the controller commands during sample `index` of the test, at control period
