@@ -19,6 +19,7 @@
 pub mod health;
 pub mod preflight;
 pub mod source;
+pub mod storage;
 
 pub use preflight::{
     CheckpointError, Preflight, PreflightError, PreflightSettings, Progress, Report, Stage,

@@ -1,0 +1,391 @@
+//! Records in NOR flash that survive power loss: the actuator record, the GA checkpoint and the
+//! health log, through `sequential-storage` (power-fail-safe by design: an item is written
+//! whole, with its CRC, before the one it replaces is let go, and a torn page is repaired on
+//! the next open).
+//!
+//! * The actuator record and the checkpoint each live in a key-value map of their own
+//!   (`MapStorage`, key 0), so that the often-written checkpoint never moves the record. A
+//!   finished preflight stores an empty checkpoint (no erase-in-place needed).
+//! * The health log is a FIFO queue (`QueueStorage`) of whole health records; when its pages
+//!   are full the oldest records make room.
+//!
+//! Generic over any `embedded-storage-async` [`NorFlash`]: the board's sectors, or a
+//! RAM-backed flash ([`RamFlash`]) under emulation and in the host's power-cut tests. Every
+//! call is one bounded flash operation sequence: O(items in the range) reads without a cache
+//! (uncached), at most one page erase per store. No allocation; the caller lends the item
+//! buffer.
+
+use core::ops::Range;
+
+use embedded_storage_async::nor_flash::{
+    ErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash,
+};
+use sequential_storage::cache::{Cache, Uncached};
+use sequential_storage::map::{MapConfig, MapStorage};
+use sequential_storage::queue::{QueueConfig, QueueStorage};
+
+/// A store without a cache: every operation reads what it needs from the flash.
+type NoCache<K> = Cache<Uncached, Uncached, Uncached, K>;
+
+/// Key of the one item in each map.
+const KEY: u8 = 0;
+
+/// Where each store lives, as byte offsets into the flash; each range whole pages, the maps
+/// at least two (one is always kept free for the copy a page migration makes).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct StorageLayout {
+    pub record: Range<u32>,
+    pub checkpoint: Range<u32>,
+    pub health: Range<u32>,
+}
+
+impl StorageLayout {
+    /// The STM32F405's 1 MiB flash, offsets from 0x0800_0000: the firmware in sectors 0–4,
+    /// then two 128 KiB sectors each for the record (5–6), the checkpoint (7–8) and the
+    /// health log (9–10); sector 11 is spare.
+    pub const STM32F405: Self = Self {
+        record: 0x0002_0000..0x0006_0000,
+        checkpoint: 0x0006_0000..0x000A_0000,
+        health: 0x000A_0000..0x000E_0000,
+    };
+}
+
+/// Why a store operation failed.
+#[derive(Debug, PartialEq)]
+pub enum StorageError<E> {
+    /// The layout does not fit the flash's pages (`which` names the range).
+    Layout { which: &'static str },
+    /// The flash or the store failed (a power cut mid-operation ends here too).
+    Store(sequential_storage::Error<E>),
+    /// The lent buffer cannot hold the item.
+    BufferTooSmall,
+}
+
+impl<E> From<sequential_storage::Error<E>> for StorageError<E> {
+    fn from(e: sequential_storage::Error<E>) -> Self {
+        Self::Store(e)
+    }
+}
+
+/// The three stores on one flash.
+pub struct RecordStore<F: NorFlash> {
+    flash: F,
+    layout: StorageLayout,
+}
+
+impl<F: NorFlash> RecordStore<F> {
+    /// Opens the stores of `layout` on `flash` (nothing is read until asked). O(1).
+    pub fn new(flash: F, layout: StorageLayout) -> Result<Self, StorageError<F::Error>> {
+        if MapConfig::<F>::try_new(layout.record.clone()).is_err() {
+            return Err(StorageError::Layout { which: "record" });
+        }
+        if MapConfig::<F>::try_new(layout.checkpoint.clone()).is_err() {
+            return Err(StorageError::Layout {
+                which: "checkpoint",
+            });
+        }
+        if QueueConfig::<F>::try_new(layout.health.clone()).is_err() {
+            return Err(StorageError::Layout { which: "health" });
+        }
+        Ok(Self { flash, layout })
+    }
+
+    /// The flash, to look at (its wear, in tests).
+    pub fn flash(&self) -> &F {
+        &self.flash
+    }
+
+    /// The flash back (e.g. to reopen the stores after a reset).
+    pub fn into_flash(self) -> F {
+        self.flash
+    }
+
+    fn map(&mut self, range: Range<u32>) -> MapStorage<u8, &mut F, NoCache<u8>> {
+        // The range was checked in `new`; a checked config cannot fail here.
+        MapStorage::new(
+            &mut self.flash,
+            MapConfig::new(range),
+            Cache::new_uncached(),
+        )
+    }
+
+    async fn store(
+        &mut self,
+        range: Range<u32>,
+        item: &[u8],
+        buffer: &mut [u8],
+    ) -> Result<(), StorageError<F::Error>> {
+        if buffer.len() < item.len() + 8 {
+            return Err(StorageError::BufferTooSmall);
+        }
+        self.map(range).store_item(buffer, &KEY, &item).await?;
+        Ok(())
+    }
+
+    async fn fetch<'b>(
+        &mut self,
+        range: Range<u32>,
+        buffer: &'b mut [u8],
+    ) -> Result<Option<&'b [u8]>, StorageError<F::Error>> {
+        let item: Option<&[u8]> = self.map(range).fetch_item(buffer, &KEY).await?;
+        Ok(item.filter(|b| !b.is_empty()))
+    }
+
+    /// Stores the actuator record (its bytes as the record format writes them); the previous
+    /// one stays readable until this one is whole. `buffer`: the record + 8 bytes.
+    pub async fn store_record(
+        &mut self,
+        record: &[u8],
+        buffer: &mut [u8],
+    ) -> Result<(), StorageError<F::Error>> {
+        self.store(self.layout.record.clone(), record, buffer).await
+    }
+
+    /// The last actuator record stored whole, if any.
+    pub async fn record<'b>(
+        &mut self,
+        buffer: &'b mut [u8],
+    ) -> Result<Option<&'b [u8]>, StorageError<F::Error>> {
+        self.fetch(self.layout.record.clone(), buffer).await
+    }
+
+    /// Stores a GA checkpoint; an empty one says "no run to resume".
+    pub async fn store_checkpoint(
+        &mut self,
+        checkpoint: &[u8],
+        buffer: &mut [u8],
+    ) -> Result<(), StorageError<F::Error>> {
+        self.store(self.layout.checkpoint.clone(), checkpoint, buffer)
+            .await
+    }
+
+    /// The last checkpoint stored whole, unless it was emptied.
+    pub async fn checkpoint<'b>(
+        &mut self,
+        buffer: &'b mut [u8],
+    ) -> Result<Option<&'b [u8]>, StorageError<F::Error>> {
+        self.fetch(self.layout.checkpoint.clone(), buffer).await
+    }
+
+    fn queue(&mut self) -> QueueStorage<&mut F, NoCache<()>> {
+        QueueStorage::new(
+            &mut self.flash,
+            QueueConfig::new(self.layout.health.clone()),
+            Cache::new_uncached(),
+        )
+    }
+
+    /// Appends one health record; when the log's pages are full, the oldest records go.
+    pub async fn append_health(&mut self, record: &[u8]) -> Result<(), StorageError<F::Error>> {
+        self.queue().push(record, true).await?;
+        Ok(())
+    }
+
+    /// Hands every health record, oldest first, to `each`; returns how many. `buffer`: one
+    /// record.
+    pub async fn health_records(
+        &mut self,
+        buffer: &mut [u8],
+        mut each: impl FnMut(&[u8]),
+    ) -> Result<usize, StorageError<F::Error>> {
+        let mut queue = self.queue();
+        let mut iter = queue.iter().await?;
+        let mut n = 0;
+        while let Some(entry) = iter.next(buffer).await? {
+            each(&entry[..]);
+            n += 1;
+        }
+        Ok(n)
+    }
+}
+
+/// A NOR flash in RAM: `PAGES` pages of `PAGE` bytes, written in 4-byte words, erased to
+/// 0xFF. It keeps NOR's rules: a word is written at most once between erases (a second write
+/// is refused), and writing only clears bits. Optionally it loses power: after
+/// `cut_after` more words written or erased, the operation stops there — the word being
+/// written is left half-programmed and the page being erased half-erased — and every later
+/// operation fails until [`RamFlash::power_up`].
+pub struct RamFlash<const PAGES: usize, const PAGE: usize> {
+    bytes: [[u8; PAGE]; PAGES],
+    written: [[bool; PAGE]; PAGES],
+    /// Words left before the power is cut (`None`: never).
+    pub cut_after: Option<u32>,
+    powered: bool,
+    /// Words written and erased so far, and pages erased, over the flash's life.
+    pub words: u64,
+    pub erases: [u32; PAGES],
+}
+
+/// What a [`RamFlash`] refuses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RamFlashError {
+    NotAligned,
+    OutOfBounds,
+    /// The word was written since its page was last erased.
+    WrittenTwice,
+    /// The power was cut.
+    PowerLost,
+}
+
+impl NorFlashError for RamFlashError {
+    fn kind(&self) -> NorFlashErrorKind {
+        match self {
+            Self::NotAligned => NorFlashErrorKind::NotAligned,
+            Self::OutOfBounds => NorFlashErrorKind::OutOfBounds,
+            Self::WrittenTwice | Self::PowerLost => NorFlashErrorKind::Other,
+        }
+    }
+}
+
+impl<const PAGES: usize, const PAGE: usize> RamFlash<PAGES, PAGE> {
+    /// Erased, powered, never cut.
+    pub const ERASED: Self = Self {
+        bytes: [[0xFF; PAGE]; PAGES],
+        written: [[false; PAGE]; PAGES],
+        cut_after: None,
+        powered: true,
+        words: 0,
+        erases: [0; PAGES],
+    };
+
+    /// Makes this flash a copy of `other` (contents, wear and power), in place: no
+    /// page-sized temporaries.
+    pub fn copy_from(&mut self, other: &Self) {
+        self.bytes.clone_from(&other.bytes);
+        self.written.clone_from(&other.written);
+        self.cut_after = other.cut_after;
+        self.powered = other.powered;
+        self.words = other.words;
+        self.erases = other.erases;
+    }
+
+    /// Power back on (the contents are what the cut left).
+    pub fn power_up(&mut self) {
+        self.powered = true;
+        self.cut_after = None;
+    }
+
+    /// One more word of work; `false` when the power goes now.
+    fn tick(&mut self) -> bool {
+        if !self.powered {
+            return false;
+        }
+        self.words += 1;
+        match self.cut_after.as_mut() {
+            Some(0) => {
+                self.powered = false;
+                false
+            }
+            Some(n) => {
+                *n -= 1;
+                true
+            }
+            None => true,
+        }
+    }
+
+    fn check(
+        &self,
+        offset: u32,
+        len: usize,
+        align: usize,
+    ) -> Result<(usize, usize), RamFlashError> {
+        let offset = offset as usize;
+        if offset % align != 0 || len % align != 0 {
+            return Err(RamFlashError::NotAligned);
+        }
+        if offset + len > PAGES * PAGE {
+            return Err(RamFlashError::OutOfBounds);
+        }
+        Ok((offset, len))
+    }
+
+    /// A half-done word: some of the bits the write would clear, chosen by the cut's place.
+    fn torn(old: u8, new: u8, at: usize) -> u8 {
+        let mask = (at as u8).wrapping_mul(0x9D) ^ 0x5A;
+        old & (new | mask)
+    }
+}
+
+impl<const PAGES: usize, const PAGE: usize> ErrorType for RamFlash<PAGES, PAGE> {
+    type Error = RamFlashError;
+}
+
+// Every index below is inside `check`'s bounds (offset + len ≤ PAGES · PAGE, word-aligned).
+#[allow(clippy::indexing_slicing)]
+impl<const PAGES: usize, const PAGE: usize> ReadNorFlash for RamFlash<PAGES, PAGE> {
+    const READ_SIZE: usize = 1;
+
+    async fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Self::Error> {
+        if !self.powered {
+            return Err(RamFlashError::PowerLost);
+        }
+        let (offset, len) = self.check(offset, bytes.len(), 1)?;
+        for (i, b) in bytes.iter_mut().enumerate().take(len) {
+            let at = offset + i;
+            *b = self.bytes[at / PAGE][at % PAGE];
+        }
+        Ok(())
+    }
+
+    fn capacity(&self) -> usize {
+        PAGES * PAGE
+    }
+}
+
+#[allow(clippy::indexing_slicing)]
+impl<const PAGES: usize, const PAGE: usize> NorFlash for RamFlash<PAGES, PAGE> {
+    const WRITE_SIZE: usize = 4;
+    const ERASE_SIZE: usize = PAGE;
+
+    async fn erase(&mut self, from: u32, to: u32) -> Result<(), Self::Error> {
+        if to < from {
+            return Err(RamFlashError::OutOfBounds);
+        }
+        let (from, len) = self.check(from, (to - from) as usize, PAGE)?;
+        for page in from / PAGE..(from + len) / PAGE {
+            self.erases[page] += 1;
+            for word in 0..PAGE / 4 {
+                let at = word * 4;
+                if !self.tick() {
+                    // Power lost mid-erase: this word garbage, the rest as they were.
+                    for b in &mut self.bytes[page][at..at + 4] {
+                        *b = Self::torn(0xFF, *b ^ 0xA5, at);
+                    }
+                    return Err(RamFlashError::PowerLost);
+                }
+                self.bytes[page][at..at + 4].fill(0xFF);
+                self.written[page][at..at + 4].fill(false);
+            }
+        }
+        Ok(())
+    }
+
+    async fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Self::Error> {
+        let (offset, len) = self.check(offset, bytes.len(), 4)?;
+        if !self.powered {
+            return Err(RamFlashError::PowerLost);
+        }
+        for word in 0..len / 4 {
+            let at = offset + word * 4;
+            let (page, within) = (at / PAGE, at % PAGE);
+            if self.written[page][within] {
+                return Err(RamFlashError::WrittenTwice);
+            }
+            let new = &bytes[word * 4..word * 4 + 4];
+            if !self.tick() {
+                for (i, &n) in new.iter().enumerate() {
+                    let old = self.bytes[page][within + i];
+                    self.bytes[page][within + i] = Self::torn(old, n, at + i);
+                }
+                self.written[page][within..within + 4].fill(true);
+                return Err(RamFlashError::PowerLost);
+            }
+            for (i, &n) in new.iter().enumerate() {
+                self.bytes[page][within + i] &= n;
+            }
+            self.written[page][within..within + 4].fill(true);
+        }
+        Ok(())
+    }
+}
