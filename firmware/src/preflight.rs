@@ -234,11 +234,7 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
             polish: Polish::new(PolishSettings::NONE, FaultVector::NOMINAL, f32::INFINITY),
             summing: false,
             day: TestConditions::CALIBRATION,
-            domain: DomainMonitor::new(
-                settings.actuator.test.chirp,
-                settings.actuator.params.control_period,
-                settings.actuator.params.pole_pairs,
-            ),
+            domain: DomainMonitor::new(settings.actuator.test.chirp, &settings.actuator.params),
             frames: 0,
             identify_polls: 0,
             max_evaluations_per_poll: 0,

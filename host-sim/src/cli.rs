@@ -25,7 +25,9 @@ pub(crate) use host_sim::files::health;
 pub(crate) use host_sim::files::rig::RigFormat;
 pub(crate) use host_sim::files::trace::{IngestError, Trace, TraceFormat};
 pub(crate) use host_sim::median;
-pub(crate) use host_sim::plant::reference::{ReferenceModel, ReferenceSettings, Scenario};
+pub(crate) use host_sim::plant::reference::{
+    ReferenceModel, ReferenceSettings, Scenario, SensorFault,
+};
 pub(crate) use host_sim::studies::optimisers::{self, TraceSource};
 pub(crate) use host_sim::studies::prognostics::{self, DegradationPath, PathShape};
 pub(crate) use serde_json::json;
@@ -108,6 +110,13 @@ pub(crate) struct ActuatorArgs {
     pub(crate) encoder_offset: Option<f64>,
     #[command(flatten)]
     pub(crate) day: DayArgs,
+    /// A faulty sensor between the simulated actuator and the controller:
+    /// `encoder-stuck[:SECONDS]` (0.01), `encoder-glitch[:RAD]` (1.0),
+    /// `current-offset[:AMPS]` (0.2, phase A), `current-gain[:GAIN]` (1.1, phase A) or
+    /// `transducer-slip[:RAD]` (0.005); time-bound ones 0.25 s into the chirp. The FDI
+    /// should name it (`outside the domain`), not read it as an actuator fault.
+    #[arg(long, value_name = "KIND[:SIZE]", value_parser = SensorFault::parse)]
+    pub(crate) sensor_fault: Option<SensorFault>,
 }
 
 /// The day and the drive the reference model plays, over the actuator file's `[conditions]`

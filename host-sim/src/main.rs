@@ -473,20 +473,19 @@ fn main() -> ExitCode {
                     test,
                     encoder_offset,
                     day,
+                    sensor_fault,
                 },
             ga_seed,
             trace_out,
             json,
         } => with_test(test, encoder_offset, day).and_then(|actuator| {
-            preflight(
-                &actuator,
+            let sim = Simulated {
                 faults,
                 noise,
                 seed,
-                ga_seed,
-                trace_out.as_deref(),
-                json,
-            )
+                sensor_fault,
+            };
+            preflight(&actuator, &sim, ga_seed, trace_out.as_deref(), json)
         }),
         Command::Simulate {
             actuator:
@@ -497,11 +496,19 @@ fn main() -> ExitCode {
                     test,
                     encoder_offset,
                     day,
+                    sensor_fault,
                 },
             format,
             out,
-        } => with_test(test, encoder_offset, day)
-            .and_then(|actuator| simulate(&actuator, faults, noise, seed, format, &out)),
+        } => with_test(test, encoder_offset, day).and_then(|actuator| {
+            let sim = Simulated {
+                faults,
+                noise,
+                seed,
+                sensor_fault,
+            };
+            simulate(&actuator, &sim, format, &out)
+        }),
         Command::Calibrate {
             nominal_trace,
             out,

@@ -39,6 +39,22 @@ pub enum OutsideReason {
     /// [`DomainLimits::temperature`]: beyond where the friction law and the winding's
     /// correction were measured.
     TemperatureOutOfRange { celsius: f32 },
+    /// A sensor, not the actuator: the motor encoder read the same count for `samples`
+    /// control periods in a row while the chirp drove the motor (stuck).
+    EncoderStuck { samples: u32 },
+    /// A sensor: the motor encoder jumped `step` rad between two control periods, beyond what
+    /// the motor can turn in one at its speed limit (a glitch).
+    EncoderGlitch { step: f32 },
+    /// A sensor: the three phase currents summed to `amps` on average — a star winding's
+    /// sum is 0 — so a current sense has an offset.
+    CurrentSenseOffset { amps: f32 },
+    /// A sensor: the phase currents' sum varied by `amps` RMS about its mean, beyond the
+    /// ADC's noise: one current sense's gain has drifted from the others'.
+    CurrentSenseGain { amps: f32 },
+    /// A sensor: the surface transducer and the motor encoder (through the gear ratio)
+    /// disagreed over `spread` rad, more than the largest play and compliance the fault
+    /// vector can explain.
+    TransducerDisagrees { spread: f32 },
 }
 
 /// The verdict on the whole test.
@@ -134,14 +150,57 @@ pub struct DomainMonitor {
     command_energy: f32,
     phase_current: [f32; 3],
     phase_samples: [u32; 3],
+    sensors: SensorStats,
 }
 
+/// The sensors' plausibility statistics of one test (the chirp's frames): O(1) per frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct SensorStats {
+    /// 1 / gear ratio, and the rigging's encoder offset [rad], to see the motor through the
+    /// gear.
+    inv_gear_ratio: f32,
+    encoder_offset: f32,
+    /// The largest play the fault vector expresses [rad] and the speed limit [rad/s].
+    max_play: f32,
+    max_speed: f32,
+    /// Encoder bits of the previous frame, the current run of equal readings, the longest.
+    previous_motor: i32,
+    run: u32,
+    longest_run: u32,
+    /// Largest |Δθ_m| between consecutive frames [encoder bits, 2⁻¹⁶ rad], and the equal
+    /// readings before it.
+    largest_step: u32,
+    hold_before_step: u32,
+    /// Σ and Σ² of i_a + i_b + i_c [A, A²].
+    sum: f32,
+    sum_square: f32,
+    /// Extremes of θ_u − (θ_m − offset)/N [rad].
+    disagreement_min: f32,
+    disagreement_max: f32,
+}
+
+/// Sensor limits, from the actuator's parameters and the controller's ADC. The encoder: a
+/// step over twice the speed limit's reach in one period is a glitch, or, after at least
+/// [`ENCODER_HOLD_LIMIT`] equal readings, a stuck encoder catching up (a motor held by its
+/// friction at a reversal reads equal counts for up to ≈ 11 ms on the campaigns, then moves
+/// on smoothly: never more than 0.022 rad a period). Equal readings alone prove nothing — a
+/// jammed surface or an open phase holds the motor still too — so an encoder frozen to the
+/// end of the test shows as the transducer's disagreement instead. The phase currents' mean sum over 0.08 A or its RMS about the
+/// mean over 0.06 A ([`CURRENT_SUM_LIMITS`]: the 12-bit ±20 A ADC's noise sums to ≈ 0.018 A
+/// RMS). A transducer disagreement over 1.5 × the largest play the fault vector expresses
+/// (100 × the nominal backlash) plus 0.5 mrad ([`TRANSDUCER_MARGIN`]).
+pub const ENCODER_HOLD_LIMIT: u32 = 10;
+/// Mean and RMS limits of the phase currents' sum [A] (see [`ENCODER_HOLD_LIMIT`]).
+pub const CURRENT_SUM_LIMITS: [f32; 2] = [0.08, 0.06];
+/// Margin of the transducer check [rad] (see [`ENCODER_HOLD_LIMIT`]).
+pub const TRANSDUCER_MARGIN: f32 = 5.0e-4;
+
 impl DomainMonitor {
-    pub fn new(command: ChirpCommand, control_period: f32, pole_pairs: f32) -> Self {
+    pub fn new(command: ChirpCommand, params: &crate::params::ActuatorParams) -> Self {
         Self {
             command,
-            control_period,
-            pole_pairs,
+            control_period: params.control_period,
+            pole_pairs: params.pole_pairs,
             samples: 0,
             first_user: 0.0,
             user_min: f32::INFINITY,
@@ -150,6 +209,21 @@ impl DomainMonitor {
             command_energy: 0.0,
             phase_current: [0.0; 3],
             phase_samples: [0; 3],
+            sensors: SensorStats {
+                inv_gear_ratio: 1.0 / params.gear_ratio,
+                encoder_offset: params.encoder_offset,
+                max_play: params.nominal_backlash * crate::fault::BACKLASH_SCALE_MAX,
+                max_speed: params.max_speed,
+                previous_motor: 0,
+                run: 0,
+                longest_run: 0,
+                largest_step: 0,
+                hold_before_step: 0,
+                sum: 0.0,
+                sum_square: 0.0,
+                disagreement_min: f32::INFINITY,
+                disagreement_max: f32::NEG_INFINITY,
+            },
         }
     }
 
@@ -167,7 +241,32 @@ impl DomainMonitor {
         self.command_energy += commanded * commanded;
         self.user_min = self.user_min.min(user);
         self.user_max = self.user_max.max(user);
-        let theta_e = self.pole_pairs * i16f16_to_f32(frame.motor_angle);
+        let motor = i16f16_to_f32(frame.motor_angle);
+        let z = &mut self.sensors;
+        let bits = frame.motor_angle.to_bits();
+        if self.samples > 0 {
+            // The step in encoder bits (I16F16): exact, no float work per frame.
+            let step = bits.wrapping_sub(z.previous_motor).unsigned_abs();
+            if step > z.largest_step {
+                z.largest_step = step;
+                z.hold_before_step = z.run + 1;
+            }
+            z.run = if step == 0 {
+                z.run.saturating_add(1)
+            } else {
+                0
+            };
+            z.longest_run = z.longest_run.max(z.run);
+        }
+        z.previous_motor = bits;
+        let [a, b, c] = frame.phase_currents.map(i16f16_to_f32);
+        let sum = a + b + c;
+        z.sum += sum;
+        z.sum_square += sum * sum;
+        let d = user - (motor - z.encoder_offset) * z.inv_gear_ratio;
+        z.disagreement_min = z.disagreement_min.min(d);
+        z.disagreement_max = z.disagreement_max.max(d);
+        let theta_e = self.pole_pairs * motor;
         let signs = commutation_signs(theta_e);
         for ((sum, count), (sign, current)) in self
             .phase_current
@@ -250,8 +349,78 @@ impl DomainMonitor {
         }
     }
 
+    /// The sensors' statistics so far: the longest run of equal encoder readings (frames),
+    /// the largest encoder step [rad], the phase currents' mean sum and its RMS about the
+    /// mean [A], the transducer's disagreement with the encoder through the gear [rad].
+    pub fn sensor_statistics(&self) -> (u32, f32, f32, f32, f32) {
+        // (the equal readings before the largest step: `hold_before_step`)
+        let z = &self.sensors;
+        let n = (self.samples.max(1)) as f32;
+        let mean = z.sum / n;
+        let spread_square = z.sum_square / n - mean * mean;
+        let rms = if spread_square > 0.0 {
+            crate::math::sqrt(spread_square)
+        } else {
+            0.0
+        };
+        let identical = if self.samples > 0 {
+            z.longest_run + 1
+        } else {
+            0
+        };
+        (
+            identical,
+            z.largest_step as f32 * (1.0 / 65_536.0),
+            mean,
+            rms,
+            z.disagreement_max - z.disagreement_min,
+        )
+    }
+
+    /// The sensors' verdict alone (`None`: plausible). O(1).
+    // `!(x <= limit)`: a NaN statistic is outside too.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    #[inline(never)]
+    pub fn sensor_fault(&self) -> Option<OutsideReason> {
+        let z = &self.sensors;
+        let n = self.samples as f32;
+        // The sum's mean and its variance about it, compared squared (no root unless named).
+        let mean = z.sum / n;
+        let variance = z.sum_square / n - mean * mean;
+        let [mean_limit, rms_limit] = CURRENT_SUM_LIMITS;
+        let disagreement = z.disagreement_max - z.disagreement_min;
+        let step = z.largest_step as f32 * (1.0 / 65_536.0);
+        let jump = step > 2.0 * z.max_speed * self.control_period;
+        if self.samples < 2 {
+            None
+        } else if jump && z.hold_before_step >= ENCODER_HOLD_LIMIT {
+            Some(OutsideReason::EncoderStuck {
+                samples: z.hold_before_step,
+            })
+        } else if jump {
+            Some(OutsideReason::EncoderGlitch { step })
+        } else if !(mean * mean <= mean_limit * mean_limit) {
+            Some(OutsideReason::CurrentSenseOffset { amps: mean })
+        } else if !(variance <= rms_limit * rms_limit) {
+            Some(OutsideReason::CurrentSenseGain {
+                amps: crate::math::sqrt(variance),
+            })
+        } else if !(disagreement <= 1.5 * z.max_play + TRANSDUCER_MARGIN) {
+            Some(OutsideReason::TransducerDisagrees {
+                spread: disagreement,
+            })
+        } else {
+            None
+        }
+    }
+
     /// The checks of the test's frames and fitness, without the day's.
     fn assess_test(&self, limits: &DomainLimits, fitness: f32) -> Domain {
+        // A sensor fault first: it would otherwise read as an actuator fault or another
+        // reason.
+        if let Some(reason) = self.sensor_fault() {
+            return Domain::Outside(reason);
+        }
         if self.largest_phase_mean(limits.min_phase_samples) >= limits.min_phase_current {
             let ratios = self.phase_ratios(limits.min_phase_samples);
             for (phase, ratio) in (0u8..).zip(ratios) {

@@ -13,6 +13,9 @@
 
 use crate::math::{abs, TAU};
 
+/// The gear's play at full backlash fault (k2 = 1), in multiples of the nominal play.
+pub const BACKLASH_SCALE_MAX: f32 = 100.0;
+
 /// Number of components of the fault vector.
 pub const FAULT_COUNT: usize = 8;
 
@@ -121,7 +124,7 @@ impl FaultVector {
         let turns = |k: f32| (1.0 - k).max(MIN_HEALTHY_TURNS);
         FaultEffects {
             friction_scale: 1.0 + 2.0 * self.friction(),
-            backlash_scale: 1.0 + 99.0 * self.backlash(),
+            backlash_scale: 1.0 + (BACKLASH_SCALE_MAX - 1.0) * self.backlash(),
             healthy_turns: [turns(sa), turns(sb), turns(sc)],
             eccentricity_z: ECCENTRICITY_Z_MAX * self.eccentricity(),
             eccentricity_phase: -core::f32::consts::PI + TAU * self.eccentricity_phase(),

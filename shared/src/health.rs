@@ -234,6 +234,11 @@ pub enum DomainCode {
     SegmentCarriedNothing = 5,
     BusOutOfRange = 6,
     TemperatureOutOfRange = 7,
+    EncoderStuck = 8,
+    EncoderGlitch = 9,
+    CurrentSenseOffset = 10,
+    CurrentSenseGain = 11,
+    TransducerDisagrees = 12,
 }
 
 impl From<Domain> for DomainCode {
@@ -251,13 +256,18 @@ impl From<Domain> for DomainCode {
             Domain::Outside(OutsideReason::TemperatureOutOfRange { .. }) => {
                 Self::TemperatureOutOfRange
             }
+            Domain::Outside(OutsideReason::EncoderStuck { .. }) => Self::EncoderStuck,
+            Domain::Outside(OutsideReason::EncoderGlitch { .. }) => Self::EncoderGlitch,
+            Domain::Outside(OutsideReason::CurrentSenseOffset { .. }) => Self::CurrentSenseOffset,
+            Domain::Outside(OutsideReason::CurrentSenseGain { .. }) => Self::CurrentSenseGain,
+            Domain::Outside(OutsideReason::TransducerDisagrees { .. }) => Self::TransducerDisagrees,
         }
     }
 }
 
 impl DomainCode {
     /// Every code, in the order of its byte.
-    const ALL: [Self; 8] = [
+    const ALL: [Self; 13] = [
         Self::Within,
         Self::NoMotion,
         Self::OpenPhase,
@@ -266,6 +276,11 @@ impl DomainCode {
         Self::SegmentCarriedNothing,
         Self::BusOutOfRange,
         Self::TemperatureOutOfRange,
+        Self::EncoderStuck,
+        Self::EncoderGlitch,
+        Self::CurrentSenseOffset,
+        Self::CurrentSenseGain,
+        Self::TransducerDisagrees,
     ];
 
     fn from_byte(b: u8) -> Option<Self> {
@@ -283,6 +298,11 @@ impl DomainCode {
             Self::SegmentCarriedNothing => "segment_carried_nothing",
             Self::BusOutOfRange => "bus_out_of_range",
             Self::TemperatureOutOfRange => "temperature_out_of_range",
+            Self::EncoderStuck => "encoder_stuck",
+            Self::EncoderGlitch => "encoder_glitch",
+            Self::CurrentSenseOffset => "current_sense_offset",
+            Self::CurrentSenseGain => "current_sense_gain",
+            Self::TransducerDisagrees => "transducer_disagrees",
         }
     }
 

@@ -3,13 +3,26 @@
 use crate::cli::*;
 use crate::commands::identify::{calibration_name, domain_heading, report};
 
-pub(crate) fn simulate_scenario(
-    actuator: &Actuator,
-    faults: FaultVector,
-    noise: f64,
-    seed: u64,
-) -> Result<(Trace, f64)> {
-    let rm = ReferenceModel::new(actuator.reference_settings()?).with_test(actuator.record.test);
+/// The simulated actuator of `simulate` and `preflight`: its faults, process noise, seed and
+/// sensor fault.
+#[derive(Clone, Copy)]
+pub(crate) struct Simulated {
+    pub(crate) faults: FaultVector,
+    pub(crate) noise: f64,
+    pub(crate) seed: u64,
+    pub(crate) sensor_fault: Option<SensorFault>,
+}
+
+pub(crate) fn simulate_scenario(actuator: &Actuator, sim: &Simulated) -> Result<(Trace, f64)> {
+    let Simulated {
+        faults,
+        noise,
+        seed,
+        sensor_fault,
+    } = *sim;
+    let rm = ReferenceModel::new(actuator.reference_settings()?)
+        .with_test(actuator.record.test)
+        .with_sensor_fault(sensor_fault);
     let start = Instant::now();
     let sim = rm.simulate(&Scenario {
         faults,
@@ -28,13 +41,11 @@ pub(crate) fn format_from_extension(path: &Path) -> TraceFormat {
 
 pub(crate) fn simulate(
     actuator: &Actuator,
-    faults: FaultVector,
-    noise: f64,
-    seed: u64,
+    sim: &Simulated,
     format: TraceFormat,
     out: &Path,
 ) -> Result<()> {
-    let (trace, seconds) = simulate_scenario(actuator, faults, noise, seed)?;
+    let (trace, seconds) = simulate_scenario(actuator, sim)?;
     trace.write(out, format)?;
     println!(
         "wrote {} ({format}, {} samples at {:.0} Hz, {}; reference model {seconds:.3} s)",
@@ -72,16 +83,20 @@ pub(crate) fn simulate_into(
 
 pub(crate) fn preflight(
     actuator: &Actuator,
-    faults: FaultVector,
-    noise: f64,
-    seed: u64,
+    sim: &Simulated,
     ga_seed: u64,
     trace_out: Option<&Path>,
     json: bool,
 ) -> Result<()> {
     let test = actuator.record.test;
     let record = actuator.record_for(&test)?;
-    let (trace, rm_seconds) = simulate_scenario(actuator, faults, noise, seed)?;
+    let (trace, rm_seconds) = simulate_scenario(actuator, sim)?;
+    let Simulated {
+        faults,
+        noise,
+        seed,
+        ..
+    } = *sim;
     if let Some(path) = trace_out {
         trace.write(path, format_from_extension(path))?;
     }

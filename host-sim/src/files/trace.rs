@@ -152,8 +152,7 @@ impl Trace {
     /// The domain statistics of this test ([`shared::domain`]), as the controller gathers
     /// them frame by frame against the test's chirp.
     pub fn domain_monitor(&self, params: &ActuatorParams) -> DomainMonitor {
-        let mut monitor =
-            DomainMonitor::new(self.test.chirp, params.control_period, params.pole_pairs);
+        let mut monitor = DomainMonitor::new(self.test.chirp, params);
         for s in self.chirp_samples() {
             monitor.push(&s.row().adc_frame());
         }

@@ -260,12 +260,127 @@ pub enum Anomaly {
     OpenPhase(usize),
 }
 
+/// A fault of the controller's sensors, not of the actuator: the reference model plays it on
+/// what the controller reads, so its control loops act on the faulty reading too. Times are
+/// from the start of the test's chirp [s]; phase 0 is A.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SensorFault {
+    /// The motor encoder holds its reading for `seconds` from `at`.
+    EncoderStuck { at: f64, seconds: f64 },
+    /// The motor encoder reads `rad` more for one control period at `at`.
+    EncoderGlitch { at: f64, rad: f64 },
+    /// A phase's current sense reads `amps` more, the whole test.
+    CurrentOffset { phase: usize, amps: f64 },
+    /// A phase's current sense reads `gain` times the current, the whole test.
+    CurrentGain { phase: usize, gain: f64 },
+    /// The surface transducer slips: from `at` on it reads `rad` more.
+    TransducerSlip { at: f64, rad: f64 },
+}
+
+impl SensorFault {
+    /// Where the time-bound faults happen by default: mid-chirp, the motor moving fast.
+    pub const AT: f64 = 0.25;
+
+    /// `KIND[:SIZE]`: `encoder-stuck[:SECONDS]` (0.01), `encoder-glitch[:RAD]` (1.0),
+    /// `current-offset[:AMPS]` (0.2, phase A), `current-gain[:GAIN]` (1.1, phase A),
+    /// `transducer-slip[:RAD]` (0.005).
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let (kind, size) = match text.split_once(':') {
+            Some((k, v)) => {
+                let v: f64 = v
+                    .trim()
+                    .parse()
+                    .map_err(|_| format!("size {v:?} of {k} is not a number"))?;
+                if !v.is_finite() {
+                    return Err(format!("size of {k} must be finite"));
+                }
+                (k.trim(), Some(v))
+            }
+            None => (text.trim(), None),
+        };
+        let at = Self::AT;
+        Ok(match kind {
+            "encoder-stuck" => Self::EncoderStuck {
+                at,
+                seconds: size.unwrap_or(0.01).max(0.0),
+            },
+            "encoder-glitch" => Self::EncoderGlitch {
+                at,
+                rad: size.unwrap_or(1.0),
+            },
+            "current-offset" => Self::CurrentOffset {
+                phase: 0,
+                amps: size.unwrap_or(0.2),
+            },
+            "current-gain" => Self::CurrentGain {
+                phase: 0,
+                gain: size.unwrap_or(1.1),
+            },
+            "transducer-slip" => Self::TransducerSlip {
+                at,
+                rad: size.unwrap_or(0.005),
+            },
+            other => {
+                return Err(format!(
+                    "unknown sensor fault {other:?}: encoder-stuck, encoder-glitch, \
+                     current-offset, current-gain or transducer-slip[:SIZE]"
+                ))
+            }
+        })
+    }
+
+    /// What the controller reads at chirp time `t` (`None` before the chirp; control period
+    /// `dt`) of the true readings; `held` keeps a stuck encoder's reading.
+    fn apply(
+        &self,
+        t: Option<f64>,
+        dt: f64,
+        currents: &mut [f64; 3],
+        encoder: &mut f64,
+        held: &mut Option<f64>,
+        user: &mut f64,
+    ) {
+        // Periods whose sample instant falls in [at, at + len), half a period of rounding
+        // allowed either side.
+        let within =
+            |at: f64, len: f64| t.is_some_and(|t| t >= at - 0.5 * dt && t < at + len - 0.5 * dt);
+        match *self {
+            Self::EncoderStuck { at, seconds } => {
+                if within(at, seconds) {
+                    *encoder = *held.get_or_insert(*encoder);
+                }
+            }
+            Self::EncoderGlitch { at, rad } => {
+                if within(at, dt) {
+                    *encoder += rad;
+                }
+            }
+            Self::CurrentOffset { phase, amps } => {
+                if let Some(i) = currents.get_mut(phase) {
+                    *i += amps;
+                }
+            }
+            Self::CurrentGain { phase, gain } => {
+                if let Some(i) = currents.get_mut(phase) {
+                    *i *= gain;
+                }
+            }
+            Self::TransducerSlip { at, rad } => {
+                if within(at, f64::INFINITY) {
+                    *user += rad;
+                }
+            }
+        }
+    }
+}
+
 /// The reference model: settings plus the command.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ReferenceModel {
     settings: ReferenceSettings,
     test: PreflightTest,
     anomaly: Option<Anomaly>,
+    sensor_fault: Option<SensorFault>,
     recording_hz: Option<f64>,
 }
 
@@ -275,8 +390,15 @@ impl ReferenceModel {
             settings,
             test: PreflightTest::INJECTION,
             anomaly: None,
+            sensor_fault: None,
             recording_hz: None,
         }
+    }
+
+    /// The same actuator read through a faulty sensor.
+    pub fn with_sensor_fault(mut self, fault: Option<SensorFault>) -> Self {
+        self.sensor_fault = fault;
+        self
     }
 
     /// Also records the sensors at `rate_hz` (a multiple-step period of the fine step, at or
@@ -432,6 +554,8 @@ impl ReferenceModel {
         let (mut theta_m, mut omega_m, mut theta_u, mut omega_u) = (rigging, 0.0, 0.0, 0.0);
         let (mut position_integral, mut previous_error, mut speed_integral) = (0.0f64, 0.0, 0.0);
         let mut previous_encoder: Option<f64> = None;
+        let mut held_encoder: Option<f64> = None;
+        let lead = self.test.lead_samples();
         let mut ledger = EnergyLedger::default();
         // Anti-alias filter of each current-sense channel: output and its derivative.
         let aa_omega = TAU * s.anti_alias_hz;
@@ -458,11 +582,27 @@ impl ReferenceModel {
             let tick = n.checked_sub(pre_roll);
 
             // ---- sensors (what the ADC latches at this instant) ----
-            let analogue = if s.anti_alias_hz > 0.0 {
+            let mut analogue = if s.anti_alias_hz > 0.0 {
                 sensed_filter.map(|[x, _]| x)
             } else {
                 i
             };
+            let mut encoder = quantise_angle(theta_m, encoder_lsb);
+            // A faulty sensor between the actuator and the controller (none: no change).
+            let mut user_slip = 0.0;
+            if let Some(fault) = &self.sensor_fault {
+                let chirp_time = tick
+                    .and_then(|k| k.checked_sub(lead))
+                    .map(|j| j as f64 * f64::from(p.control_period));
+                fault.apply(
+                    chirp_time,
+                    f64::from(p.control_period),
+                    &mut analogue,
+                    &mut encoder,
+                    &mut held_encoder,
+                    &mut user_slip,
+                );
+            }
             let sensed_currents = analogue.map(|x| {
                 quantise(
                     x + s.current_noise * sensor_rng.next(),
@@ -470,7 +610,6 @@ impl ReferenceModel {
                     s.current_full_scale,
                 )
             });
-            let encoder = quantise_angle(theta_m, encoder_lsb);
             let now = (n * steps_per_tick) as f64 * dt;
             let measured_bus = to_lsb(
                 bridge.bus(bus_mean, now) * (1.0 + cs.bus_gain_error)
@@ -484,7 +623,7 @@ impl ReferenceModel {
                 cs.temperature_lsb,
             );
             let user_sensed = quantise(
-                theta_u + s.user_offset + s.user_noise * sensor_rng.next(),
+                theta_u + s.user_offset + s.user_noise * sensor_rng.next() + user_slip,
                 user_lsb,
                 s.user_full_scale,
             );
