@@ -177,6 +177,7 @@ fn the_actuator_record_survives_a_cut_anywhere() {
     }
     assert!(flash.erases[..2].iter().any(|&e| e > 0), "no page change");
     assert_eq!(contents(&mut flash).record, Some(item(12, RECORD_LEN)));
+    println!("record: {cuts} cut points");
     assert!(cuts > 12 * 110, "{cuts}");
 }
 
@@ -196,6 +197,7 @@ fn the_checkpoint_survives_a_cut_anywhere_including_page_changes() {
     cuts += every_cut(&mut flash, Op::EmptyCheckpoint);
     assert_eq!(contents(&mut flash).checkpoint, None);
     assert!(flash.erases[2..4].iter().any(|&e| e > 0), "no page change");
+    println!("checkpoint: {cuts} cut points");
     assert!(cuts > 7 * 320, "{cuts}");
 }
 
@@ -227,6 +229,7 @@ fn the_health_log_survives_a_cut_anywhere_including_rotation() {
         .map(|r| u32::from_le_bytes(r[..4].try_into().unwrap()))
         .collect();
     assert!(numbers.windows(2).all(|w| w[1] == w[0] + 1), "{numbers:?}");
+    println!("health log: {cuts} cut points");
     assert!(cuts > 63 * 20, "{cuts}");
 }
 
