@@ -18,6 +18,7 @@
 
 pub mod health;
 pub mod preflight;
+pub mod sequencer;
 pub mod source;
 pub mod storage;
 

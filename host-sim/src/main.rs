@@ -16,7 +16,7 @@ use cli::*;
 #[allow(clippy::wildcard_imports)]
 use commands::{
     actuator::*, bench::*, calibrate::*, campaign::*, domain::*, fleet::*, identify::*, import::*,
-    plot::*, prognostics::*, schedule::*, simulate::*, studies::*,
+    plot::*, prognostics::*, simulate::*, studies::*,
 };
 
 #[derive(Parser)]
@@ -709,7 +709,7 @@ fn main() -> ExitCode {
             footprint();
             Ok(())
         }
-        Command::TestSchedule { out } => test_schedule_command(&actuator, &out),
+        Command::TestSchedule { out } => host_sim::files::schedule::write_schedule(&actuator, &out),
         Command::Bench {
             evaluations,
             identifications,

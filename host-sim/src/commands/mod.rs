@@ -11,6 +11,5 @@ pub(crate) mod identify;
 pub(crate) mod import;
 pub(crate) mod plot;
 pub(crate) mod prognostics;
-pub(crate) mod schedule;
 pub(crate) mod simulate;
 pub(crate) mod studies;

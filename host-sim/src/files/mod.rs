@@ -4,8 +4,10 @@
 //! * [`trace`] — CSV and binary trace files.
 //! * [`rig`] — recordings from a real rig (any column names, units and rate) → traces.
 //! * [`health`] — the health log in a file, and history CSV files.
+//! * [`schedule`] — the preflight test's schedule as a CSV, control period by control period.
 
 pub mod actuator;
 pub mod health;
 pub mod rig;
+pub mod schedule;
 pub mod trace;

@@ -1,15 +1,19 @@
-//! `test-schedule`: what the controller commands during the actuator's preflight test,
-//! control period by control period, as a CSV a rig engineer can play on a bench drive.
+//! The test schedule (`host-sim test-schedule`): what the controller commands during the
+//! actuator's preflight test, control period by control period, as a CSV a rig engineer can
+//! play on a bench drive. The firmware's `TestSequencer` plays the same rows.
 
-use crate::cli::*;
+use std::path::Path;
 
-use shared::test_design::{Drive, PAIR_SIGNS};
+use anyhow::{Context, Result};
+use shared::test_design::{Drive, PreflightTest, PAIR_SIGNS};
+
+use crate::files::actuator::Actuator;
 
 /// The schedule's CSV header.
-pub(crate) const SCHEDULE_HEADER: &str = "sample,t,mode,pair,value";
+pub const SCHEDULE_HEADER: &str = "sample,t,mode,pair,value";
 
 /// The schedule of `test` at control period `dt` [s]: one row per control period.
-pub(crate) fn schedule_csv(test: &PreflightTest, dt: f32) -> String {
+pub fn schedule_csv(test: &PreflightTest, dt: f32) -> String {
     let mut out = String::new();
     out += "# ema-fdi preflight test schedule: what the controller commands over each control period\n";
     out += &format!(
@@ -49,7 +53,7 @@ pub(crate) fn schedule_csv(test: &PreflightTest, dt: f32) -> String {
     out
 }
 
-pub(crate) fn test_schedule_command(actuator: &Actuator, out: &Path) -> Result<()> {
+pub fn write_schedule(actuator: &Actuator, out: &Path) -> Result<()> {
     let test = actuator.record.test;
     let dt = actuator.params().control_period;
     let text = schedule_csv(&test, dt);
