@@ -119,6 +119,28 @@ pub(crate) struct ActuatorArgs {
     pub(crate) sensor_fault: Option<SensorFault>,
 }
 
+/// The simulated actuator of `simulate` and `preflight`: its faults, process noise, seed and
+/// sensor fault.
+#[derive(Clone, Copy)]
+pub(crate) struct Simulated {
+    pub(crate) faults: FaultVector,
+    pub(crate) noise: f64,
+    pub(crate) seed: u64,
+    pub(crate) sensor_fault: Option<SensorFault>,
+}
+
+impl ActuatorArgs {
+    /// What the reference model simulates.
+    pub(crate) fn simulated(&self) -> Simulated {
+        Simulated {
+            faults: self.faults,
+            noise: self.noise,
+            seed: self.seed,
+            sensor_fault: self.sensor_fault,
+        }
+    }
+}
+
 /// The day and the drive the reference model plays, over the actuator file's `[conditions]`
 /// and `[drive]`.
 #[derive(clap::Args, Clone, Copy, Debug, Default)]

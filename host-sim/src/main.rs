@@ -465,50 +465,25 @@ fn main() -> ExitCode {
     };
     let outcome = match cli.command {
         Command::Preflight {
-            actuator:
-                ActuatorArgs {
-                    faults,
-                    noise,
-                    seed,
-                    test,
-                    encoder_offset,
-                    day,
-                    sensor_fault,
-                },
+            actuator,
             ga_seed,
             trace_out,
             json,
-        } => with_test(test, encoder_offset, day).and_then(|actuator| {
-            let sim = Simulated {
-                faults,
-                noise,
-                seed,
-                sensor_fault,
-            };
-            preflight(&actuator, &sim, ga_seed, trace_out.as_deref(), json)
+        } => with_test(actuator.test, actuator.encoder_offset, actuator.day).and_then(|a| {
+            preflight(
+                &a,
+                &actuator.simulated(),
+                ga_seed,
+                trace_out.as_deref(),
+                json,
+            )
         }),
         Command::Simulate {
-            actuator:
-                ActuatorArgs {
-                    faults,
-                    noise,
-                    seed,
-                    test,
-                    encoder_offset,
-                    day,
-                    sensor_fault,
-                },
+            actuator,
             format,
             out,
-        } => with_test(test, encoder_offset, day).and_then(|actuator| {
-            let sim = Simulated {
-                faults,
-                noise,
-                seed,
-                sensor_fault,
-            };
-            simulate(&actuator, &sim, format, &out)
-        }),
+        } => with_test(actuator.test, actuator.encoder_offset, actuator.day)
+            .and_then(|a| simulate(&a, &actuator.simulated(), format, &out)),
         Command::Calibrate {
             nominal_trace,
             out,

@@ -3,16 +3,6 @@
 use crate::cli::*;
 use crate::commands::identify::{calibration_name, domain_heading, report};
 
-/// The simulated actuator of `simulate` and `preflight`: its faults, process noise, seed and
-/// sensor fault.
-#[derive(Clone, Copy)]
-pub(crate) struct Simulated {
-    pub(crate) faults: FaultVector,
-    pub(crate) noise: f64,
-    pub(crate) seed: u64,
-    pub(crate) sensor_fault: Option<SensorFault>,
-}
-
 pub(crate) fn simulate_scenario(actuator: &Actuator, sim: &Simulated) -> Result<(Trace, f64)> {
     let Simulated {
         faults,
