@@ -2,11 +2,13 @@
 //! friction, backlash, partial stator shorts, eccentricity and gain drift of an actuator that
 //! follows the preflight chirp. A jammed actuator, an open phase or a test run with another
 //! command lies outside it: the GA would still return its best vector, a confident wrong
-//! answer. These checks turn that into the verdict [`Domain::Outside`].
+//! answer. These checks turn that into the verdict [`Domain::Outside`]. So does a faulty
+//! sensor (a stuck or glitching encoder, a current sense's offset or gain drift, a surface
+//! transducer that disagrees with the encoder through the gear): named, never identified.
 //!
 //! [`DomainMonitor::push`] takes each ADC frame of the test (O(1): one chirp sample, a few
-//! compares and sums; 48 bytes of state); [`DomainMonitor::assess`] judges the statistics and
-//! the identification's best fitness against [`DomainLimits`] (O(1)).
+//! compares and sums; ≈ 110 bytes of state); [`DomainMonitor::assess`] judges the statistics
+//! and the identification's best fitness against [`DomainLimits`] (O(1)).
 
 use crate::command::ChirpCommand;
 use crate::conditioning::{commutation_signs, i16f16_to_f32, i4f28_to_f32, AdcFrame};
@@ -185,8 +187,8 @@ struct SensorStats {
 /// friction at a reversal reads equal counts for up to ≈ 11 ms on the campaigns, then moves
 /// on smoothly: never more than 0.022 rad a period). Equal readings alone prove nothing — a
 /// jammed surface or an open phase holds the motor still too — so an encoder frozen to the
-/// end of the test shows as the transducer's disagreement instead. The phase currents' mean sum over 0.08 A or its RMS about the
-/// mean over 0.06 A ([`CURRENT_SUM_LIMITS`]: the 12-bit ±20 A ADC's noise sums to ≈ 0.018 A
+/// end of the test shows as the transducer's disagreement instead. The phase currents' mean
+/// sum over 0.08 A or its RMS about the mean over 0.06 A ([`CURRENT_SUM_LIMITS`]: the 12-bit ±20 A ADC's noise sums to ≈ 0.018 A
 /// RMS). A transducer disagreement over 1.5 × the largest play the fault vector expresses
 /// (100 × the nominal backlash) plus 0.5 mrad ([`TRANSDUCER_MARGIN`]).
 pub const ENCODER_HOLD_LIMIT: u32 = 10;
