@@ -446,11 +446,14 @@ fn a_preflight_cut_by_power_loss_resumes_to_the_same_report() {
 
 #[test]
 fn a_jammed_actuator_is_reported_outside_the_models_domain() {
-    // The user shaft stands still whatever the command; the motor trace is the model's.
+    // The user shaft stands still whatever the command, and the motor with it through the
+    // gear; the currents are the model's. (The surface alone frozen while the motor turns is
+    // a transducer or a broken linkage: `TransducerDisagrees`, below.)
     let mut rows = monitor_rows(FAULTS, TEST_SAMPLES);
-    let stuck = rows[0].user_angle;
+    let (stuck, motor) = (rows[0].user_angle, rows[0].motor_angle);
     for row in rows.iter_mut() {
         row.user_angle = stuck;
+        row.motor_angle = motor;
     }
     let bytes = trace_bytes(&rows, SAMPLE_RATE_HZ);
     let (report, _) = run_preflight(&bytes, None, None);
@@ -462,6 +465,20 @@ fn a_jammed_actuator_is_reported_outside_the_models_domain() {
         ),
         "{:?}",
         report.domain
+    );
+    // The surface alone frozen: a sensor (or linkage) fault, named as such.
+    let mut rows = monitor_rows(FAULTS, TEST_SAMPLES);
+    let stuck = rows[0].user_angle;
+    for row in rows.iter_mut() {
+        row.user_angle = stuck;
+    }
+    let (report, _) = run_preflight(&trace_bytes(&rows, SAMPLE_RATE_HZ), None, None);
+    assert!(
+        matches!(
+            report.expect("a report").domain,
+            Domain::Outside(OutsideReason::TransducerDisagrees { .. })
+        ),
+        "the surface frozen under a turning motor"
     );
     // The untouched trace moves and is not refused for lack of motion.
     let bytes = trace_bytes(&monitor_rows(FAULTS, TEST_SAMPLES), SAMPLE_RATE_HZ);
