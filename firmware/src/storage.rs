@@ -199,6 +199,183 @@ impl<F: NorFlash> RecordStore<F> {
     }
 }
 
+/// One item (the actuator record or the GA checkpoint) in an A/B pair of erase pages, for a
+/// controller whose flash cannot hold a general store: each write goes to the page not holding
+/// the newest item — erased first, then the header (magic, sequence, length), the item and its
+/// CRC-32, and last a commit word, the CRC's complement — so that a cut anywhere leaves that
+/// page unreadable and the other page's item standing. A read takes the sound page with the
+/// higher sequence. O(item) per operation, one page erase per write; no allocation.
+pub struct AbStore<F: NorFlash> {
+    flash: F,
+    pages: [u32; 2],
+}
+
+/// First word of an [`AbStore`] page.
+const AB_MAGIC: u32 = u32::from_le_bytes(*b"EMAB");
+/// Header words before the item.
+const AB_HEADER: u32 = 12;
+
+/// Why an [`AbStore`] operation failed.
+#[derive(Debug, PartialEq)]
+pub enum AbError<E> {
+    /// The two pages are not distinct whole erase pages.
+    Layout,
+    /// The item does not fit a page, or the buffer does not hold the item.
+    TooLarge,
+    /// The flash failed (a power cut mid-operation ends here).
+    Flash(E),
+}
+
+impl<F: NorFlash> AbStore<F> {
+    /// The pair of pages starting at `a` and `b` [byte offsets].
+    pub fn new(flash: F, a: u32, b: u32) -> Result<Self, AbError<F::Error>> {
+        let page = F::ERASE_SIZE as u32;
+        let fits = |x: u32| x % page == 0 && (x as usize) + F::ERASE_SIZE <= flash.capacity();
+        if a == b || !fits(a) || !fits(b) {
+            return Err(AbError::Layout);
+        }
+        Ok(Self {
+            flash,
+            pages: [a, b],
+        })
+    }
+
+    /// The flash back.
+    pub fn into_flash(self) -> F {
+        self.flash
+    }
+
+    /// The sequence and length of the item page `at` holds, if it is whole; `buffer` receives
+    /// the item.
+    async fn sound(
+        &mut self,
+        at: u32,
+        buffer: &mut [u8],
+    ) -> Result<Option<(u32, usize)>, AbError<F::Error>> {
+        let mut head = [0u8; AB_HEADER as usize];
+        self.flash
+            .read(at, &mut head)
+            .await
+            .map_err(AbError::Flash)?;
+        let word = |i: usize| {
+            let mut w = [0u8; 4];
+            if let Some(b) = head.get(i..i + 4) {
+                w.copy_from_slice(b);
+            }
+            u32::from_le_bytes(w)
+        };
+        let (magic, sequence, len) = (word(0), word(4), word(8) as usize);
+        let padded = len.div_ceil(4) * 4;
+        if magic != AB_MAGIC
+            || AB_HEADER as usize + padded + 8 > F::ERASE_SIZE
+            || padded > buffer.len()
+        {
+            return Ok(None);
+        }
+        let Some(data) = buffer.get_mut(..padded) else {
+            return Ok(None);
+        };
+        self.flash
+            .read(at + AB_HEADER, data)
+            .await
+            .map_err(AbError::Flash)?;
+        let mut tail = [0u8; 8];
+        self.flash
+            .read(at + AB_HEADER + padded as u32, &mut tail)
+            .await
+            .map_err(AbError::Flash)?;
+        let mut crc = shared::trace::Crc32::new();
+        crc.update(&head);
+        crc.update(data);
+        let sum = crc.finish();
+        let [s0, s1, s2, s3, c0, c1, c2, c3] = tail;
+        let stored = u32::from_le_bytes([s0, s1, s2, s3]);
+        let commit = u32::from_le_bytes([c0, c1, c2, c3]);
+        Ok((stored == sum && commit == !sum).then_some((sequence, len)))
+    }
+
+    /// The page holding the newest whole item, its sequence and length.
+    async fn newest(
+        &mut self,
+        buffer: &mut [u8],
+    ) -> Result<Option<(usize, u32, usize)>, AbError<F::Error>> {
+        let mut best: Option<(usize, u32, usize)> = None;
+        for (i, at) in self.pages.into_iter().enumerate() {
+            if let Some((sequence, len)) = self.sound(at, buffer).await? {
+                if best.is_none_or(|(_, s, _)| sequence.wrapping_sub(s) as i32 > 0) {
+                    best = Some((i, sequence, len));
+                }
+            }
+        }
+        Ok(best)
+    }
+
+    /// The newest item stored whole, if any.
+    pub async fn read<'b>(
+        &mut self,
+        buffer: &'b mut [u8],
+    ) -> Result<Option<&'b [u8]>, AbError<F::Error>> {
+        let Some((i, _, len)) = self.newest(buffer).await? else {
+            return Ok(None);
+        };
+        // Read the winner again: the other page's check may have overwritten the buffer.
+        let at = self.pages.get(i).copied().unwrap_or(0);
+        if self.sound(at, buffer).await?.is_none() {
+            return Ok(None);
+        }
+        Ok(buffer.get(..len))
+    }
+
+    /// Stores `item` in the page not holding the newest one. `buffer`: at least the item's
+    /// length rounded up to 4 bytes.
+    pub async fn write(&mut self, item: &[u8], buffer: &mut [u8]) -> Result<(), AbError<F::Error>> {
+        let padded = item.len().div_ceil(4) * 4;
+        if AB_HEADER as usize + padded + 8 > F::ERASE_SIZE || buffer.len() < padded {
+            return Err(AbError::TooLarge);
+        }
+        let (target, sequence) = match self.newest(buffer).await? {
+            Some((i, s, _)) => (1 - i, s.wrapping_add(1)),
+            None => (0, 0),
+        };
+        let at = self.pages.get(target).copied().unwrap_or(0);
+        self.flash
+            .erase(at, at + F::ERASE_SIZE as u32)
+            .await
+            .map_err(AbError::Flash)?;
+        let mut head = [0u8; AB_HEADER as usize];
+        for (slot, word) in head
+            .chunks_exact_mut(4)
+            .zip([AB_MAGIC, sequence, item.len() as u32])
+        {
+            slot.copy_from_slice(&word.to_le_bytes());
+        }
+        let data = buffer.get_mut(..padded).ok_or(AbError::TooLarge)?;
+        data.fill(0);
+        data.get_mut(..item.len())
+            .ok_or(AbError::TooLarge)?
+            .copy_from_slice(item);
+        let mut crc = shared::trace::Crc32::new();
+        crc.update(&head);
+        crc.update(data);
+        let sum = crc.finish();
+        self.flash.write(at, &head).await.map_err(AbError::Flash)?;
+        self.flash
+            .write(at + AB_HEADER, data)
+            .await
+            .map_err(AbError::Flash)?;
+        let end = at + AB_HEADER + padded as u32;
+        self.flash
+            .write(end, &sum.to_le_bytes())
+            .await
+            .map_err(AbError::Flash)?;
+        // Last: the commit word. Until it is whole the page reads as unsound.
+        self.flash
+            .write(end + 4, &(!sum).to_le_bytes())
+            .await
+            .map_err(AbError::Flash)
+    }
+}
+
 /// A NOR flash in RAM: `PAGES` pages of `PAGE` bytes, written in 4-byte words, erased to
 /// 0xFF. It keeps NOR's rules: a word is written at most once between erases (a second write
 /// is refused), and writing only clears bits. Optionally it loses power: after

@@ -304,3 +304,59 @@ fn twenty_years_of_flights_wear_each_sector_far_below_its_rating() {
     );
     assert!(erases.iter().all(|&e| e < 10_000.0 / 4.0), "{erases:?}");
 }
+
+/// The A/B pair (`AbStore`, the compact store for the actuator record and the checkpoint):
+/// a cut at every word of every erase and write of 6 checkpoint stores leaves the previous
+/// checkpoint readable (or, once the commit word is whole, the new one), never a torn one,
+/// and the next store works.
+#[test]
+fn the_ab_pair_survives_a_cut_anywhere() {
+    use firmware::storage::AbStore;
+    type Small = RamFlash<2, PAGE>;
+    fn open(f: &mut Small) -> AbStore<&mut Small> {
+        AbStore::new(f, 0, PAGE as u32).expect("two pages")
+    }
+    let read = |f: &mut Small| -> Option<Vec<u8>> {
+        let mut buffer = vec![0u8; 2048];
+        block_on(open(f).read(&mut buffer))
+            .expect("readable")
+            .map(<[u8]>::to_vec)
+    };
+    let store = |f: &mut Small, n: u32| {
+        let mut buffer = vec![0u8; 2048];
+        block_on(open(f).write(&item(n, CHECKPOINT_LEN), &mut buffer)).is_ok()
+    };
+    let mut flash = Box::new(Small::ERASED);
+    let mut cuts = 0u64;
+    for n in 1..=6u32 {
+        let before = read(&mut flash);
+        let mut whole = Box::new(Small::ERASED);
+        whole.copy_from(&flash);
+        let start = whole.words;
+        assert!(store(&mut whole, n));
+        let length = whole.words - start;
+        assert_eq!(read(&mut whole), Some(item(n, CHECKPOINT_LEN)));
+        for cut in 0..length {
+            let mut copy = Box::new(Small::ERASED);
+            copy.copy_from(&flash);
+            copy.cut_after = Some(cut as u32);
+            assert!(!store(&mut copy, n), "store {n} ignored a cut at {cut}");
+            copy.power_up();
+            let after = read(&mut copy);
+            assert!(
+                after == before || after == Some(item(n, CHECKPOINT_LEN)),
+                "store {n} cut at word {cut} of {length}: read {:?}",
+                after.as_ref().map(|a| &a[..4])
+            );
+            assert!(store(&mut copy, 9_999), "no next write after a cut at {cut}");
+            assert_eq!(read(&mut copy), Some(item(9_999, CHECKPOINT_LEN)));
+            cuts += 1;
+        }
+        flash = whole;
+    }
+    println!("A/B pair: {cuts} cut points");
+    assert!(cuts > 6 * 1000, "{cuts}");
+    // A layout of one page twice is refused.
+    let mut f = Small::ERASED;
+    assert!(AbStore::new(&mut f, 0, 0).is_err());
+}
