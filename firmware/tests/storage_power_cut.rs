@@ -348,7 +348,10 @@ fn the_ab_pair_survives_a_cut_anywhere() {
                 "store {n} cut at word {cut} of {length}: read {:?}",
                 after.as_ref().map(|a| &a[..4])
             );
-            assert!(store(&mut copy, 9_999), "no next write after a cut at {cut}");
+            assert!(
+                store(&mut copy, 9_999),
+                "no next write after a cut at {cut}"
+            );
             assert_eq!(read(&mut copy), Some(item(9_999, CHECKPOINT_LEN)));
             cuts += 1;
         }
