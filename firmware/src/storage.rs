@@ -8,6 +8,9 @@
 //!   finished preflight stores an empty checkpoint (no erase-in-place needed).
 //! * The health log is a FIFO queue (`QueueStorage`) of whole health records; when its pages
 //!   are full the oldest records make room.
+//! * [`AbStore`]: the compact alternative for one item (record or checkpoint), an A/B pair of
+//!   pages with a commit word, for a controller whose flash cannot hold `sequential-storage`
+//!   (it adds ≈ 17 kB to the image; README, "Records in flash").
 //!
 //! Generic over any `embedded-storage-async` [`NorFlash`]: the board's sectors, or a
 //! RAM-backed flash ([`RamFlash`]) under emulation and in the host's power-cut tests. Every
