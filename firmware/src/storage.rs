@@ -233,7 +233,12 @@ impl<F: NorFlash> AbStore<F> {
     /// The pair of pages starting at `a` and `b` [byte offsets].
     pub fn new(flash: F, a: u32, b: u32) -> Result<Self, AbError<F::Error>> {
         let page = F::ERASE_SIZE as u32;
-        let fits = |x: u32| x % page == 0 && (x as usize) + F::ERASE_SIZE <= flash.capacity();
+        let fits = |x: u32| {
+            x % page == 0
+                && (x as usize)
+                    .checked_add(F::ERASE_SIZE)
+                    .is_some_and(|end| end <= flash.capacity())
+        };
         if a == b || !fits(a) || !fits(b) {
             return Err(AbError::Layout);
         }
@@ -268,9 +273,12 @@ impl<F: NorFlash> AbStore<F> {
             u32::from_le_bytes(w)
         };
         let (magic, sequence, len) = (word(0), word(4), word(8) as usize);
-        let padded = len.div_ceil(4) * 4;
+        // A damaged length may be anything: rounded up without overflow, then bounded.
+        let Some(padded) = len.checked_next_multiple_of(4) else {
+            return Ok(None);
+        };
         if magic != AB_MAGIC
-            || AB_HEADER as usize + padded + 8 > F::ERASE_SIZE
+            || padded > F::ERASE_SIZE.saturating_sub(AB_HEADER as usize + 8)
             || padded > buffer.len()
         {
             return Ok(None);
@@ -332,8 +340,10 @@ impl<F: NorFlash> AbStore<F> {
     /// Stores `item` in the page not holding the newest one. `buffer`: at least the item's
     /// length rounded up to 4 bytes.
     pub async fn write(&mut self, item: &[u8], buffer: &mut [u8]) -> Result<(), AbError<F::Error>> {
-        let padded = item.len().div_ceil(4) * 4;
-        if AB_HEADER as usize + padded + 8 > F::ERASE_SIZE || buffer.len() < padded {
+        let Some(padded) = item.len().checked_next_multiple_of(4) else {
+            return Err(AbError::TooLarge);
+        };
+        if padded > F::ERASE_SIZE.saturating_sub(AB_HEADER as usize + 8) || buffer.len() < padded {
             return Err(AbError::TooLarge);
         }
         let (target, sequence) = match self.newest(buffer).await? {
@@ -474,7 +484,7 @@ impl<const PAGES: usize, const PAGE: usize> RamFlash<PAGES, PAGE> {
         if offset % align != 0 || len % align != 0 {
             return Err(RamFlashError::NotAligned);
         }
-        if offset + len > PAGES * PAGE {
+        if offset.checked_add(len).is_none_or(|end| end > PAGES * PAGE) {
             return Err(RamFlashError::OutOfBounds);
         }
         Ok((offset, len))

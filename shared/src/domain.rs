@@ -351,17 +351,28 @@ impl DomainMonitor {
         }
     }
 
+    /// The phase currents' sum over the frames: its mean [A] and its variance about the mean
+    /// [A²] (NaN before any frame).
+    fn current_sum_moments(&self) -> (f32, f32) {
+        let z = &self.sensors;
+        let n = self.samples as f32;
+        let mean = z.sum / n;
+        (mean, z.sum_square / n - mean * mean)
+    }
+
+    /// The largest encoder step between two frames [rad].
+    fn largest_encoder_step(&self) -> f32 {
+        self.sensors.largest_step as f32 * (1.0 / 65_536.0)
+    }
+
     /// The sensors' statistics so far: the longest run of equal encoder readings (frames),
     /// the largest encoder step [rad], the phase currents' mean sum and its RMS about the
     /// mean [A], the transducer's disagreement with the encoder through the gear [rad].
     pub fn sensor_statistics(&self) -> (u32, f32, f32, f32, f32) {
-        // (the equal readings before the largest step: `hold_before_step`)
         let z = &self.sensors;
-        let n = (self.samples.max(1)) as f32;
-        let mean = z.sum / n;
-        let spread_square = z.sum_square / n - mean * mean;
-        let rms = if spread_square > 0.0 {
-            crate::math::sqrt(spread_square)
+        let (mean, variance) = self.current_sum_moments();
+        let rms = if variance > 0.0 {
+            crate::math::sqrt(variance)
         } else {
             0.0
         };
@@ -372,30 +383,29 @@ impl DomainMonitor {
         };
         (
             identical,
-            z.largest_step as f32 * (1.0 / 65_536.0),
+            self.largest_encoder_step(),
             mean,
             rms,
             z.disagreement_max - z.disagreement_min,
         )
     }
 
-    /// The sensors' verdict alone (`None`: plausible). O(1).
+    /// The sensors' verdict alone (`None`: plausible, or fewer than two frames). O(1).
     // `!(x <= limit)`: a NaN statistic is outside too.
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     #[inline(never)]
     pub fn sensor_fault(&self) -> Option<OutsideReason> {
+        if self.samples < 2 {
+            return None;
+        }
         let z = &self.sensors;
-        let n = self.samples as f32;
-        // The sum's mean and its variance about it, compared squared (no root unless named).
-        let mean = z.sum / n;
-        let variance = z.sum_square / n - mean * mean;
+        // The sum's mean and variance, compared squared (no root unless named).
+        let (mean, variance) = self.current_sum_moments();
         let [mean_limit, rms_limit] = CURRENT_SUM_LIMITS;
         let disagreement = z.disagreement_max - z.disagreement_min;
-        let step = z.largest_step as f32 * (1.0 / 65_536.0);
+        let step = self.largest_encoder_step();
         let jump = step > 2.0 * z.max_speed * self.control_period;
-        if self.samples < 2 {
-            None
-        } else if jump && z.hold_before_step >= ENCODER_HOLD_LIMIT {
+        if jump && z.hold_before_step >= ENCODER_HOLD_LIMIT {
             Some(OutsideReason::EncoderStuck {
                 samples: z.hold_before_step,
             })
