@@ -7,7 +7,7 @@
 //! keeps the GA record across a power loss; the health file for the flash that keeps the
 //! health log (the RAM store's image, `ONBOARD_RECORDS` × 76 bytes, or × 68 / × 52 for
 //! versions 2 and 1); the actuator file for the flash sector that holds the actuator record
-//! (`host-sim actuator`, 432 bytes). The command line is split at blanks (QEMU joins its
+//! (`host-sim actuator`, 448 bytes). The command line is split at blanks (QEMU joins its
 //! `arg=`s with spaces): paths cannot hold one.
 
 use core::ffi::CStr;

@@ -44,6 +44,7 @@ pub mod command;
 pub mod conditioning;
 pub mod conditions;
 pub mod domain;
+pub mod drive;
 pub mod fault;
 pub mod fdi;
 pub mod fitness;

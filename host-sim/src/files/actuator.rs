@@ -1069,6 +1069,7 @@ impl Description {
                 ga,
                 polish,
                 domain,
+                drive: reference.bridge.drive(),
                 detection_threshold: self.detection.threshold,
             },
             calibrated: calibration.is_some(),

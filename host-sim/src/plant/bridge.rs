@@ -46,6 +46,17 @@ pub struct BridgeSettings {
 }
 
 impl BridgeSettings {
+    /// What the actuator record carries of this bridge for the controller's board: the
+    /// carrier, the dead time and its compensation.
+    pub fn drive(&self) -> shared::drive::DriveSettings {
+        shared::drive::DriveSettings {
+            carrier_hz: self.carrier_hz as f32,
+            dead_time: self.dead_time as f32,
+            compensation: self.compensation,
+            compensation_threshold: self.compensation_threshold as f32,
+        }
+    }
+
     /// A bridge that applies exactly what it is told: no counts, no dead time, no drops.
     /// For studies of what the bridge does; never the plant a result is claimed on.
     pub const IDEAL: Self = Self {
