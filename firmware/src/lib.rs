@@ -16,7 +16,9 @@
     )
 )]
 
+pub mod bridge;
 pub mod health;
+pub mod position_loop;
 pub mod preflight;
 pub mod sequencer;
 pub mod source;

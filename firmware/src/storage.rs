@@ -8,9 +8,10 @@
 //!   finished preflight stores an empty checkpoint (no erase-in-place needed).
 //! * The health log is a FIFO queue (`QueueStorage`) of whole health records; when its pages
 //!   are full the oldest records make room.
-//! * [`AbStore`]: the compact alternative for one item (record or checkpoint), an A/B pair of
-//!   pages with a commit word, for a controller whose flash cannot hold `sequential-storage`
-//!   (it adds ≈ 17 kB to the image; README, "Records in flash").
+//! * [`AbStore`]: the compact store the board uses (`sequential-storage` adds ≈ 17 kB to
+//!   an image that has 64 KiB in all; README, "Records in flash"): the newest of a sequence
+//!   of items in an A/B pair of pages, appended with a commit word, one pair each for the
+//!   actuator record, the checkpoint and the health log's whole image.
 //!
 //! Generic over any `embedded-storage-async` [`NorFlash`]: the board's sectors, or a
 //! RAM-backed flash ([`RamFlash`]) under emulation and in the host's power-cut tests. Every
@@ -202,21 +203,31 @@ impl<F: NorFlash> RecordStore<F> {
     }
 }
 
-/// One item (the actuator record or the GA checkpoint) in an A/B pair of erase pages, for a
-/// controller whose flash cannot hold a general store: each write goes to the page not holding
-/// the newest item — erased first, then the header (magic, sequence, length), the item and its
-/// CRC-32, and last a commit word, the CRC's complement — so that a cut anywhere leaves that
-/// page unreadable and the other page's item standing. A read takes the sound page with the
-/// higher sequence. O(item) per operation, one page erase per write; no allocation.
+/// The newest of a sequence of items (the actuator record, the GA checkpoint, the health
+/// log's image) in an A/B pair of erase pages, for a controller whose flash cannot hold a
+/// general store. Items are appended to the page holding the newest one, each as a header
+/// (magic, sequence, length), the item, its CRC-32 and last a commit word (the CRC's
+/// complement), so that a cut anywhere leaves that entry unsound and the older ones
+/// standing. When the page is full (or its free space is not cleanly erased) the other page
+/// is erased and the item goes there: a page is erased only while the other one holds the
+/// newest item, and once per page-full of items (wear). A read takes the sound entry with the
+/// highest sequence.
+///
+/// Work: a scan reads both pages' entries in 64-byte chunks, O(page); a write adds one item
+/// and at most one page erase. No allocation; the caller lends the item buffer.
 pub struct AbStore<F: NorFlash> {
     flash: F,
     pages: [u32; 2],
 }
 
-/// First word of an [`AbStore`] page.
+/// First word of an [`AbStore`] entry.
 const AB_MAGIC: u32 = u32::from_le_bytes(*b"EMAB");
-/// Header words before the item.
+/// Header bytes before the item.
 const AB_HEADER: u32 = 12;
+/// CRC and commit word after the item.
+const AB_TRAILER: u32 = 8;
+/// Bytes read at once while checking an entry.
+const AB_CHUNK: usize = 64;
 
 /// Why an [`AbStore`] operation failed.
 #[derive(Debug, PartialEq)]
@@ -227,6 +238,30 @@ pub enum AbError<E> {
     TooLarge,
     /// The flash failed (a power cut mid-operation ends here).
     Flash(E),
+}
+
+/// What one position of a page holds.
+enum AbSlot {
+    /// Erased header: the page's free space starts here.
+    Erased,
+    /// Neither erased nor a header: the page takes no more entries.
+    Garbage,
+    /// An entry (sound if its CRC and commit word are whole) and where the next one starts.
+    Entry {
+        sequence: u32,
+        len: u32,
+        sound: bool,
+        next: u32,
+    },
+}
+
+/// The newest sound entry: page index, offset, sequence, length.
+#[derive(Clone, Copy)]
+struct AbNewest {
+    page: usize,
+    at: u32,
+    sequence: u32,
+    len: u32,
 }
 
 impl<F: NorFlash> AbStore<F> {
@@ -253,72 +288,131 @@ impl<F: NorFlash> AbStore<F> {
         self.flash
     }
 
-    /// The sequence and length of the item page `at` holds, if it is whole; `buffer` receives
-    /// the item.
-    async fn sound(
-        &mut self,
-        at: u32,
-        buffer: &mut [u8],
-    ) -> Result<Option<(u32, usize)>, AbError<F::Error>> {
+    /// The largest item a page takes [bytes].
+    pub fn capacity(&self) -> usize {
+        F::ERASE_SIZE.saturating_sub((AB_HEADER + AB_TRAILER) as usize)
+    }
+
+    /// The CRC-32 of `len` bytes at `at` after `head`, read in chunks.
+    async fn crc(&mut self, head: &[u8], at: u32, len: u32) -> Result<u32, AbError<F::Error>> {
+        let mut crc = shared::trace::Crc32::new();
+        crc.update(head);
+        let mut chunk = [0u8; AB_CHUNK];
+        let mut done = 0;
+        while done < len {
+            let n = (len - done).min(AB_CHUNK as u32);
+            let part = chunk.get_mut(..n as usize).unwrap_or(&mut []);
+            self.flash
+                .read(at + done, part)
+                .await
+                .map_err(AbError::Flash)?;
+            crc.update(part);
+            done += n;
+        }
+        Ok(crc.finish())
+    }
+
+    /// Whether `len` bytes from `at` read erased (0xFF).
+    async fn erased(&mut self, at: u32, len: u32) -> Result<bool, AbError<F::Error>> {
+        let mut chunk = [0u8; AB_CHUNK];
+        let mut done = 0;
+        while done < len {
+            let n = (len - done).min(AB_CHUNK as u32);
+            let part = chunk.get_mut(..n as usize).unwrap_or(&mut []);
+            self.flash
+                .read(at + done, part)
+                .await
+                .map_err(AbError::Flash)?;
+            if part.iter().any(|&b| b != 0xFF) {
+                return Ok(false);
+            }
+            done += n;
+        }
+        Ok(true)
+    }
+
+    /// What the page ending at `end` holds at `at`.
+    async fn slot(&mut self, at: u32, end: u32) -> Result<AbSlot, AbError<F::Error>> {
+        if end.saturating_sub(at) < AB_HEADER + AB_TRAILER {
+            return Ok(AbSlot::Garbage);
+        }
         let mut head = [0u8; AB_HEADER as usize];
         self.flash
             .read(at, &mut head)
             .await
             .map_err(AbError::Flash)?;
-        let word = |i: usize| {
-            let mut w = [0u8; 4];
-            if let Some(b) = head.get(i..i + 4) {
-                w.copy_from_slice(b);
-            }
-            u32::from_le_bytes(w)
-        };
-        let (magic, sequence, len) = (word(0), word(4), word(8) as usize);
-        // A damaged length may be anything: rounded up without overflow, then bounded.
-        let Some(padded) = len.checked_next_multiple_of(4) else {
-            return Ok(None);
-        };
-        if magic != AB_MAGIC
-            || padded > F::ERASE_SIZE.saturating_sub(AB_HEADER as usize + 8)
-            || padded > buffer.len()
-        {
-            return Ok(None);
+        if head.iter().all(|&b| b == 0xFF) {
+            return Ok(AbSlot::Erased);
         }
-        let Some(data) = buffer.get_mut(..padded) else {
-            return Ok(None);
+        let [m0, m1, m2, m3, s0, s1, s2, s3, l0, l1, l2, l3] = head;
+        let (magic, sequence, len) = (
+            u32::from_le_bytes([m0, m1, m2, m3]),
+            u32::from_le_bytes([s0, s1, s2, s3]),
+            u32::from_le_bytes([l0, l1, l2, l3]),
+        );
+        // A damaged length may be anything: rounded up without overflow, then bounded.
+        let room = end - at - AB_HEADER - AB_TRAILER;
+        let Some(padded) = len.checked_next_multiple_of(4).filter(|&p| p <= room) else {
+            return Ok(AbSlot::Garbage);
         };
+        if magic != AB_MAGIC {
+            return Ok(AbSlot::Garbage);
+        }
+        let sum = self.crc(&head, at + AB_HEADER, padded).await?;
+        let mut tail = [0u8; AB_TRAILER as usize];
         self.flash
-            .read(at + AB_HEADER, data)
+            .read(at + AB_HEADER + padded, &mut tail)
             .await
             .map_err(AbError::Flash)?;
-        let mut tail = [0u8; 8];
-        self.flash
-            .read(at + AB_HEADER + padded as u32, &mut tail)
-            .await
-            .map_err(AbError::Flash)?;
-        let mut crc = shared::trace::Crc32::new();
-        crc.update(&head);
-        crc.update(data);
-        let sum = crc.finish();
-        let [s0, s1, s2, s3, c0, c1, c2, c3] = tail;
-        let stored = u32::from_le_bytes([s0, s1, s2, s3]);
-        let commit = u32::from_le_bytes([c0, c1, c2, c3]);
-        Ok((stored == sum && commit == !sum).then_some((sequence, len)))
+        let [c0, c1, c2, c3, k0, k1, k2, k3] = tail;
+        let sound = u32::from_le_bytes([c0, c1, c2, c3]) == sum
+            && u32::from_le_bytes([k0, k1, k2, k3]) == !sum;
+        Ok(AbSlot::Entry {
+            sequence,
+            len,
+            sound,
+            next: at + AB_HEADER + padded + AB_TRAILER,
+        })
     }
 
-    /// The page holding the newest whole item, its sequence and length.
-    async fn newest(
-        &mut self,
-        buffer: &mut [u8],
-    ) -> Result<Option<(usize, u32, usize)>, AbError<F::Error>> {
-        let mut best: Option<(usize, u32, usize)> = None;
-        for (i, at) in self.pages.into_iter().enumerate() {
-            if let Some((sequence, len)) = self.sound(at, buffer).await? {
-                if best.is_none_or(|(_, s, _)| sequence.wrapping_sub(s) as i32 > 0) {
-                    best = Some((i, sequence, len));
+    /// The newest sound entry, and where each page's free space starts (`None`: the page
+    /// takes no more entries).
+    async fn scan(&mut self) -> Result<(Option<AbNewest>, [Option<u32>; 2]), AbError<F::Error>> {
+        let mut newest: Option<AbNewest> = None;
+        let mut free = [None; 2];
+        for (page, (start, free)) in self.pages.into_iter().zip(&mut free).enumerate() {
+            let end = start + F::ERASE_SIZE as u32;
+            let mut at = start;
+            // Each entry takes at least header and trailer: the walk ends within the page.
+            while at < end {
+                match self.slot(at, end).await? {
+                    AbSlot::Erased => {
+                        *free = Some(at);
+                        break;
+                    }
+                    AbSlot::Garbage => break,
+                    AbSlot::Entry {
+                        sequence,
+                        len,
+                        sound,
+                        next,
+                    } => {
+                        let newer =
+                            newest.is_none_or(|n| sequence.wrapping_sub(n.sequence) as i32 > 0);
+                        if sound && newer {
+                            newest = Some(AbNewest {
+                                page,
+                                at,
+                                sequence,
+                                len,
+                            });
+                        }
+                        at = next;
+                    }
                 }
             }
         }
-        Ok(best)
+        Ok((newest, free))
     }
 
     /// The newest item stored whole, if any.
@@ -326,35 +420,56 @@ impl<F: NorFlash> AbStore<F> {
         &mut self,
         buffer: &'b mut [u8],
     ) -> Result<Option<&'b [u8]>, AbError<F::Error>> {
-        let Some((i, _, len)) = self.newest(buffer).await? else {
+        let (Some(n), _) = self.scan().await? else {
             return Ok(None);
         };
-        // Read the winner again: the other page's check may have overwritten the buffer.
-        let at = self.pages.get(i).copied().unwrap_or(0);
-        if self.sound(at, buffer).await?.is_none() {
-            return Ok(None);
-        }
-        Ok(buffer.get(..len))
-    }
-
-    /// Stores `item` in the page not holding the newest one. `buffer`: at least the item's
-    /// length rounded up to 4 bytes.
-    pub async fn write(&mut self, item: &[u8], buffer: &mut [u8]) -> Result<(), AbError<F::Error>> {
-        let Some(padded) = item.len().checked_next_multiple_of(4) else {
-            return Err(AbError::TooLarge);
-        };
-        if padded > F::ERASE_SIZE.saturating_sub(AB_HEADER as usize + 8) || buffer.len() < padded {
-            return Err(AbError::TooLarge);
-        }
-        let (target, sequence) = match self.newest(buffer).await? {
-            Some((i, s, _)) => (1 - i, s.wrapping_add(1)),
-            None => (0, 0),
-        };
-        let at = self.pages.get(target).copied().unwrap_or(0);
+        let item = buffer.get_mut(..n.len as usize).ok_or(AbError::TooLarge)?;
         self.flash
-            .erase(at, at + F::ERASE_SIZE as u32)
+            .read(n.at + AB_HEADER, item)
             .await
             .map_err(AbError::Flash)?;
+        Ok(Some(item))
+    }
+
+    /// Appends `item` as the newest. `buffer`: at least the item's length rounded up to 4
+    /// bytes.
+    pub async fn write(&mut self, item: &[u8], buffer: &mut [u8]) -> Result<(), AbError<F::Error>> {
+        let Some(padded) = item
+            .len()
+            .checked_next_multiple_of(4)
+            .filter(|&p| p <= self.capacity() && p <= buffer.len())
+        else {
+            return Err(AbError::TooLarge);
+        };
+        let need = AB_HEADER + padded as u32 + AB_TRAILER;
+        let (newest, free) = self.scan().await?;
+        // The page of the newest item, if its free space takes this one and reads erased;
+        // otherwise the other page, erased (the first page when nothing is stored).
+        let current = newest.map_or(0, |n| n.page);
+        let end = |page: usize| self.pages.get(page).map_or(0, |s| s + F::ERASE_SIZE as u32);
+        let mut target = None;
+        if let Some(at) = free.get(current).copied().flatten() {
+            if at + need <= end(current) && self.erased(at, need).await? {
+                target = Some(at);
+            }
+        }
+        let at = match target {
+            Some(at) => at,
+            None => {
+                let other = if newest.is_some() {
+                    1 - current
+                } else {
+                    current
+                };
+                let start = self.pages.get(other).copied().unwrap_or(0);
+                self.flash
+                    .erase(start, start + F::ERASE_SIZE as u32)
+                    .await
+                    .map_err(AbError::Flash)?;
+                start
+            }
+        };
+        let sequence = newest.map_or(0, |n| n.sequence.wrapping_add(1));
         let mut head = [0u8; AB_HEADER as usize];
         for (slot, word) in head
             .chunks_exact_mut(4)
@@ -376,14 +491,14 @@ impl<F: NorFlash> AbStore<F> {
             .write(at + AB_HEADER, data)
             .await
             .map_err(AbError::Flash)?;
-        let end = at + AB_HEADER + padded as u32;
+        let tail = at + AB_HEADER + padded as u32;
         self.flash
-            .write(end, &sum.to_le_bytes())
+            .write(tail, &sum.to_le_bytes())
             .await
             .map_err(AbError::Flash)?;
-        // Last: the commit word. Until it is whole the page reads as unsound.
+        // Last: the commit word. Until it is whole the entry reads as unsound.
         self.flash
-            .write(end + 4, &(!sum).to_le_bytes())
+            .write(tail + 4, &(!sum).to_le_bytes())
             .await
             .map_err(AbError::Flash)
     }

@@ -1,0 +1,325 @@
+//! The three-phase bridge as the board's timer drives it, without the timer: the timer's
+//! settings from the actuator record's drive ([`BridgeTiming`]), and a [`Drive`] for the test
+//! sequencer ([`BridgeDrive`]) that turns its commands into leg states ([`Leg`]) through
+//! the position loop, the bus the board measured and the record's dead-time compensation.
+//!
+//! Units: volts, amperes, radians, seconds; duties in timer counts of a centre-aligned
+//! carrier (0 = the high switch never on, `counts` = always on). O(1) per call, no
+//! allocation. The board (`board.rs`, feature `hardware`) writes the legs into TIM1; the host
+//! tests them with a recording [`Legs`].
+
+use shared::drive::DriveSettings;
+use shared::math::{abs, clamp, floor};
+use shared::params::ActuatorParams;
+
+use crate::position_loop::{Feedback, PositionLoop};
+use crate::sequencer::Drive;
+
+/// Why the record's drive cannot run on this timer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum BridgeError {
+    /// The carrier needs more than 16 bits of counts, or fewer than 100 (duty resolution).
+    CarrierCounts { counts: u32 },
+    /// The control period is not a whole number (1 to 128) of carrier periods within 0.1 %:
+    /// the ADC trigger would not keep the record's sample time.
+    ControlPeriod { carriers_per_period_milli: u32 },
+    /// The dead time needs more than the timer's dead-time generator holds (1 008 ticks).
+    DeadTime { ticks: u32 },
+}
+
+/// What the bridge timer is set to: an advanced timer counting up and down (centre-aligned)
+/// from its clock `timer_hz`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BridgeTiming {
+    /// Auto-reload: counts from the carrier's bottom to its top (the duty's full scale).
+    pub counts: u16,
+    /// Repetition counter: the update event (the ADC trigger) every `repetition + 1` counter
+    /// turns, two per carrier, so once per control period at the carrier's top.
+    pub repetition: u8,
+    /// Dead time in timer clock ticks, rounded up (never shorter than the record's).
+    pub dead_time_ticks: u16,
+    /// Carrier periods per control period.
+    pub carriers_per_period: u8,
+}
+
+/// The dead-time generator's longest setting [ticks of an undivided clock]: DTG = 0xFF,
+/// (32 + 31) × 16.
+const MAX_DEAD_TIME_TICKS: u32 = 1_008;
+
+impl BridgeTiming {
+    /// The timer's settings for `drive` at `control_period` [s] on a timer clocked at
+    /// `timer_hz`. Refuses a drive the timer cannot play exactly.
+    pub fn new(
+        drive: &DriveSettings,
+        timer_hz: u32,
+        control_period: f32,
+    ) -> Result<Self, BridgeError> {
+        let counts = floor(timer_hz as f32 / (2.0 * drive.carrier_hz) + 0.5);
+        // Float to int saturates (NaN → 0), so the range check sees every case.
+        let whole = counts as u32;
+        let Ok(counts) = u16::try_from(whole) else {
+            return Err(BridgeError::CarrierCounts { counts: whole });
+        };
+        if counts < 100 {
+            return Err(BridgeError::CarrierCounts { counts: whole });
+        }
+        // The carrier the timer really plays, and how many fit one control period.
+        let carrier = timer_hz as f32 / (2.0 * f32::from(counts));
+        let per_period = carrier * control_period;
+        let carriers = floor(per_period + 0.5);
+        let milli = (per_period * 1000.0) as u32;
+        if !(1.0..=128.0).contains(&carriers) || abs(per_period - carriers) > 1.0e-3 * carriers {
+            return Err(BridgeError::ControlPeriod {
+                carriers_per_period_milli: milli,
+            });
+        }
+        let carriers = carriers as u8;
+        let exact = drive.dead_time * timer_hz as f32;
+        let ticks = -floor(-exact) as u32;
+        let Ok(dead_time_ticks) = u16::try_from(ticks) else {
+            return Err(BridgeError::DeadTime { ticks });
+        };
+        if ticks > MAX_DEAD_TIME_TICKS {
+            return Err(BridgeError::DeadTime { ticks });
+        }
+        Ok(Self {
+            counts,
+            // Two counter turns (overflow, underflow) per carrier; an odd value written
+            // before the counter starts puts the update on the overflow (RM0090 §17.3.3).
+            repetition: 2 * carriers - 1,
+            dead_time_ticks,
+            carriers_per_period: carriers,
+        })
+    }
+}
+
+/// One leg of the bridge for the next control period.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Leg {
+    /// Both switches off: the leg floats (its current freewheels through the diodes).
+    Off,
+    /// Complementary switching, the high switch on for `counts` of [`BridgeTiming::counts`]
+    /// around the carrier's bottom (every leg low at its top, where the ADC samples).
+    Duty(u16),
+}
+
+/// The bridge's three legs, as the board's timer takes them.
+pub trait Legs {
+    /// Applies `legs` (phases a, b, c) from the next update on.
+    fn set(&mut self, legs: [Leg; 3]);
+}
+
+/// The legs of phase pair `pair` (`shared::test_design::PAIR_SIGNS`): (+ leg, − leg, open
+/// leg). `None` beyond 2.
+fn pair_legs(pair: u8) -> Option<(usize, usize, usize)> {
+    match pair {
+        0 => Some((0, 1, 2)),
+        1 => Some((1, 2, 0)),
+        2 => Some((2, 0, 1)),
+        _ => None,
+    }
+}
+
+/// The sequencer's [`Drive`] on a real bridge: position commands through the position loop,
+/// pair voltages and pauses as leg states. Feed it each frame's measurements
+/// ([`BridgeDrive::measured`]) before the sequencer ticks it.
+pub struct BridgeDrive<L> {
+    legs: L,
+    timing: BridgeTiming,
+    drive: DriveSettings,
+    position_loop: PositionLoop,
+    feedback: Feedback,
+}
+
+impl<L: Legs> BridgeDrive<L> {
+    pub fn new(
+        legs: L,
+        timing: BridgeTiming,
+        drive: DriveSettings,
+        params: &ActuatorParams,
+    ) -> Self {
+        Self {
+            legs,
+            timing,
+            drive,
+            position_loop: PositionLoop::new(params),
+            feedback: Feedback::default(),
+        }
+    }
+
+    /// This period's measurements (the frame the ADC and the encoder latched at the trigger).
+    pub fn measured(&mut self, feedback: Feedback) {
+        self.feedback = feedback;
+    }
+
+    /// The legs, for the board to stop (all [`Leg::Off`]) when the test ends.
+    pub fn legs_mut(&mut self) -> &mut L {
+        &mut self.legs
+    }
+
+    /// The duty for a leg voltage `volts` from the bus midpoint, with the measured bus and
+    /// the leg's measured current (dead-time compensation by its sign beyond the threshold);
+    /// the same law as the reference model's controller (`host-sim` `plant::bridge`).
+    pub fn duty(&self, volts: f32, current: f32) -> u16 {
+        let bus = self.feedback.bus_voltage.max(1.0e-3);
+        let mut duty = 0.5 + volts / bus;
+        let d = &self.drive;
+        if d.compensation && abs(current) > d.compensation_threshold {
+            duty += if current > 0.0 { 1.0 } else { -1.0 } * d.dead_time * d.carrier_hz;
+        }
+        let n = f32::from(self.timing.counts);
+        // Saturating float-to-int: NaN → 0 (leg low), beyond the top → the top.
+        clamp(floor(duty * n + 0.5), 0.0, n) as u16
+    }
+}
+
+impl<L: Legs> Drive for BridgeDrive<L> {
+    fn position(&mut self, rad: f32) {
+        let volts = self.position_loop.step(rad, &self.feedback);
+        let i = self.feedback.phase_currents;
+        let legs = [
+            Leg::Duty(self.duty(volts[0], i[0])),
+            Leg::Duty(self.duty(volts[1], i[1])),
+            Leg::Duty(self.duty(volts[2], i[2])),
+        ];
+        self.legs.set(legs);
+    }
+
+    fn pair_voltage(&mut self, pair: u8, volts: f32) {
+        self.position_loop.suspend();
+        let Some((plus, minus, open)) = pair_legs(pair) else {
+            self.legs.set([Leg::Off; 3]);
+            return;
+        };
+        let i = self.feedback.phase_currents;
+        let mut legs = [Leg::Off; 3];
+        let current = |k: usize| i.get(k).copied().unwrap_or(0.0);
+        if let Some(l) = legs.get_mut(plus) {
+            *l = Leg::Duty(self.duty(0.5 * volts, current(plus)));
+        }
+        if let Some(l) = legs.get_mut(minus) {
+            *l = Leg::Duty(self.duty(-0.5 * volts, current(minus)));
+        }
+        if let Some(l) = legs.get_mut(open) {
+            *l = Leg::Off;
+        }
+        self.legs.set(legs);
+    }
+
+    fn off(&mut self, _pair: u8) {
+        self.position_loop.suspend();
+        self.legs.set([Leg::Off; 3]);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use super::*;
+    use std::vec;
+    use std::vec::Vec;
+
+    #[test]
+    fn the_reference_drive_on_a_168_mhz_timer() {
+        let t = BridgeTiming::new(&DriveSettings::TYPICAL, 168_000_000, 1.0e-4).unwrap();
+        // 168 MHz / (2 · 20 kHz) = 4 200 counts; two carriers per 100 µs; 0.5 µs = 84 ticks.
+        assert_eq!(t.counts, 4_200);
+        assert_eq!(t.carriers_per_period, 2);
+        assert_eq!(t.repetition, 3);
+        assert_eq!(t.dead_time_ticks, 84);
+    }
+
+    #[test]
+    fn a_drive_the_timer_cannot_play_is_refused() {
+        let t = DriveSettings::TYPICAL;
+        let odd = DriveSettings {
+            carrier_hz: 15_000.0,
+            ..t
+        };
+        // 1.5 carriers per control period.
+        assert!(matches!(
+            BridgeTiming::new(&odd, 168_000_000, 1.0e-4),
+            Err(BridgeError::ControlPeriod {
+                carriers_per_period_milli: 1_500
+            })
+        ));
+        assert!(matches!(
+            BridgeTiming::new(&t, 1_000_000, 1.0e-4),
+            Err(BridgeError::CarrierCounts { counts: 25 })
+        ));
+        let long = DriveSettings {
+            dead_time: 7.0e-6,
+            ..t
+        };
+        assert_eq!(
+            BridgeTiming::new(&long, 168_000_000, 1.0e-4),
+            Err(BridgeError::DeadTime { ticks: 1_176 })
+        );
+        let nan = DriveSettings {
+            carrier_hz: f32::NAN,
+            ..t
+        };
+        assert!(BridgeTiming::new(&nan, 168_000_000, 1.0e-4).is_err());
+    }
+
+    #[derive(Default)]
+    struct Recorder(Vec<[Leg; 3]>);
+    impl Legs for Recorder {
+        fn set(&mut self, legs: [Leg; 3]) {
+            self.0.push(legs);
+        }
+    }
+
+    fn drive(compensation: bool) -> BridgeDrive<Recorder> {
+        let d = DriveSettings {
+            compensation,
+            ..DriveSettings::TYPICAL
+        };
+        let timing = BridgeTiming::new(&d, 168_000_000, 1.0e-4).unwrap();
+        let mut b = BridgeDrive::new(Recorder::default(), timing, d, &ActuatorParams::REFERENCE);
+        b.measured(Feedback {
+            bus_voltage: 270.0,
+            ..Feedback::default()
+        });
+        b
+    }
+
+    #[test]
+    fn a_pair_voltage_splits_across_its_legs_and_leaves_the_third_open() {
+        let mut b = drive(false);
+        // 27 V across pair 1 (b+, c−): ±13.5 V from the midpoint, 0.5 ± 0.05 of 4 200.
+        b.pair_voltage(1, 27.0);
+        b.off(1);
+        b.pair_voltage(7, 27.0);
+        assert_eq!(
+            b.legs.0,
+            vec![
+                [Leg::Off, Leg::Duty(2_310), Leg::Duty(1_890)],
+                [Leg::Off; 3],
+                [Leg::Off; 3],
+            ]
+        );
+    }
+
+    #[test]
+    fn dead_time_compensation_follows_the_measured_current_beyond_its_threshold() {
+        let mut b = drive(true);
+        // 0.5 µs · 20 kHz = 1 % of the period = 42 counts, by the current's sign.
+        b.measured(Feedback {
+            bus_voltage: 270.0,
+            phase_currents: [2.0, -2.0, 0.01],
+            ..Feedback::default()
+        });
+        assert_eq!(b.duty(0.0, 2.0), 2_142);
+        assert_eq!(b.duty(0.0, -2.0), 2_058);
+        assert_eq!(b.duty(0.0, 0.01), 2_100);
+        assert_eq!(drive(false).duty(0.0, 2.0), 2_100);
+        // Beyond the bus: the top, never a wrapped count; NaN: leg low.
+        assert_eq!(b.duty(1.0e6, 0.0), 4_200);
+        assert_eq!(b.duty(-1.0e6, 0.0), 0);
+        assert_eq!(b.duty(f32::NAN, 0.0), 0);
+    }
+}
