@@ -17,6 +17,13 @@ fn main() {
         .expect("firmware/ sits in the workspace root");
     println!("cargo:rerun-if-changed={}", root.join("memory.x").display());
     println!("cargo:rustc-link-search={}", root.display());
+    println!("cargo:rustc-link-arg-bins=-Tlink.x");
+    // defmt's interned-string sections; the firmware binary always logs with defmt.
+    println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
+    // The board image's vector table and `device.x` come from embassy-stm32 (stm32-metapac).
+    if env::var_os("CARGO_FEATURE_HARDWARE").is_some() {
+        return;
+    }
     // cortex-m-rt's `device` feature includes `device.x` (the device crate's weak handler
     // names); our vector table (src/vectors.rs) names `DefaultHandler` itself, so it is empty.
     let out = PathBuf::from(env::var("OUT_DIR").expect("cargo sets OUT_DIR"));
@@ -26,7 +33,4 @@ fn main() {
     )
     .expect("OUT_DIR is writable");
     println!("cargo:rustc-link-search={}", out.display());
-    println!("cargo:rustc-link-arg-bins=-Tlink.x");
-    // defmt's interned-string sections; the firmware binary always logs with defmt.
-    println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
 }

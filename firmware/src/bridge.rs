@@ -17,7 +17,7 @@ use crate::sequencer::Drive;
 
 /// Why the record's drive cannot run on this timer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(any(feature = "defmt", target_os = "none"), derive(defmt::Format))]
 pub enum BridgeError {
     /// The carrier needs more than 16 bits of counts, or fewer than 100 (duty resolution).
     CarrierCounts { counts: u32 },
@@ -31,7 +31,7 @@ pub enum BridgeError {
 /// What the bridge timer is set to: an advanced timer counting up and down (centre-aligned)
 /// from its clock `timer_hz`.
 #[derive(Clone, Copy, Debug, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(any(feature = "defmt", target_os = "none"), derive(defmt::Format))]
 pub struct BridgeTiming {
     /// Auto-reload: counts from the carrier's bottom to its top (the duty's full scale).
     pub counts: u16,
@@ -95,9 +95,40 @@ impl BridgeTiming {
     }
 }
 
+impl BridgeTiming {
+    /// The dead-time generator's DTG byte for [`Self::dead_time_ticks`] at an undivided
+    /// clock (CKD = 1), rounded up to the generator's next step (RM0090 §17.4.18): 0–127
+    /// ticks in steps of 1, then to 254 in steps of 2, to 504 in steps of 8, to 1 008 in
+    /// steps of 16.
+    pub fn dead_time_register(&self) -> u8 {
+        let t = u32::from(self.dead_time_ticks);
+        let code = if t <= 127 {
+            t
+        } else if t <= 254 {
+            0x80 | (t.div_ceil(2) - 64)
+        } else if t <= 504 {
+            0xC0 | (t.div_ceil(8) - 32)
+        } else {
+            0xE0 | (t.div_ceil(16).min(63) - 32)
+        };
+        code as u8
+    }
+
+    /// The dead time a DTG byte `dtg` makes [ticks of an undivided clock].
+    pub fn dead_time_of(dtg: u8) -> u32 {
+        let d = u32::from(dtg);
+        match dtg >> 5 {
+            0..=3 => d,
+            4 | 5 => (64 + (d & 0x3F)) * 2,
+            6 => (32 + (d & 0x1F)) * 8,
+            _ => (32 + (d & 0x1F)) * 16,
+        }
+    }
+}
+
 /// One leg of the bridge for the next control period.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(any(feature = "defmt", target_os = "none"), derive(defmt::Format))]
 pub enum Leg {
     /// Both switches off: the leg floats (its current freewheels through the diodes).
     Off,
@@ -230,6 +261,36 @@ mod tests {
         assert_eq!(t.carriers_per_period, 2);
         assert_eq!(t.repetition, 3);
         assert_eq!(t.dead_time_ticks, 84);
+    }
+
+    #[test]
+    fn the_dead_time_register_never_shortens_the_dead_time() {
+        let mut previous = 0;
+        for ticks in 0..=1_008u16 {
+            let t = BridgeTiming {
+                dead_time_ticks: ticks,
+                ..BridgeTiming::new(&DriveSettings::TYPICAL, 168_000_000, 1.0e-4).unwrap()
+            };
+            let dtg = t.dead_time_register();
+            let made = BridgeTiming::dead_time_of(dtg);
+            assert!(
+                made >= u32::from(ticks),
+                "{ticks} ticks: DTG {dtg:#04x} makes {made}"
+            );
+            // Within one step of the generator, and never going back.
+            let step = match ticks {
+                0..=127 => 0,
+                128..=254 => 1,
+                255..=504 => 7,
+                _ => 15,
+            };
+            assert!(made <= u32::from(ticks) + step, "{ticks}: {made}");
+            assert!(made >= previous);
+            previous = made;
+        }
+        // The reference drive's 84 ticks (0.5 µs) are exact.
+        let t = BridgeTiming::new(&DriveSettings::TYPICAL, 168_000_000, 1.0e-4).unwrap();
+        assert_eq!(t.dead_time_register(), 84);
     }
 
     #[test]

@@ -16,6 +16,7 @@
     )
 )]
 
+pub mod acquisition;
 pub mod bridge;
 pub mod health;
 pub mod position_loop;

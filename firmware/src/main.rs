@@ -11,6 +11,10 @@
 //! `qemu-run` (QEMU `-icount shift=0`: one instruction = 1 ns of virtual time) a cycle count
 //! converts to instructions as `cycles · 10⁹ / 168·10⁶`.
 //!
+//! With feature `hardware` the same binary is the board image instead (`board.rs`): the test
+//! commanded through the bridge timer, frames from the timer-triggered ADC and encoder,
+//! records in flash, the report over RTT.
+//!
 //! On the host the crate compiles to a stub so that `cargo test --workspace` stays runnable.
 #![cfg_attr(target_os = "none", no_std)]
 #![cfg_attr(target_os = "none", no_main)]
@@ -23,15 +27,16 @@
     clippy::indexing_slicing
 )]
 
-#[cfg(target_os = "none")]
+// The emulation image (QEMU, semihosting): traces in, report and exit status out.
+#[cfg(all(target_os = "none", not(feature = "hardware")))]
 mod emulation;
-#[cfg(all(target_os = "none", feature = "hardware"))]
-#[allow(dead_code)] // A documented sketch, not wired in (see its module docs).
-mod hardware_adc;
-#[cfg(target_os = "none")]
+#[cfg(all(target_os = "none", not(feature = "hardware")))]
 mod target;
-#[cfg(target_os = "none")]
+#[cfg(all(target_os = "none", not(feature = "hardware")))]
 mod vectors;
+// The board image (feature `hardware`): the STM32F405's peripherals through embassy-stm32.
+#[cfg(all(target_os = "none", feature = "hardware"))]
+mod board;
 
 #[cfg(not(target_os = "none"))]
 fn main() {

@@ -20,7 +20,7 @@ pub trait Drive {
 
 /// Where the sequencer stands after a tick.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(any(feature = "defmt", target_os = "none"), derive(defmt::Format))]
 pub enum Sequenced {
     /// Control period `index` was commanded.
     Commanded { index: usize },

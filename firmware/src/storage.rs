@@ -21,6 +21,7 @@
 
 use core::ops::Range;
 
+use embedded_storage::nor_flash as blocking;
 use embedded_storage_async::nor_flash::{
     ErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash,
 };
@@ -214,8 +215,9 @@ impl<F: NorFlash> RecordStore<F> {
 /// highest sequence.
 ///
 /// Work: a scan reads both pages' entries in 64-byte chunks, O(page); a write adds one item
-/// and at most one page erase. No allocation; the caller lends the item buffer.
-pub struct AbStore<F: NorFlash> {
+/// and at most one page erase. No allocation: items are written from the caller's bytes
+/// and read into the caller's buffer.
+pub struct AbStore<F: blocking::NorFlash> {
     flash: F,
     pages: [u32; 2],
 }
@@ -232,9 +234,10 @@ const AB_CHUNK: usize = 64;
 /// Why an [`AbStore`] operation failed.
 #[derive(Debug, PartialEq)]
 pub enum AbError<E> {
-    /// The two pages are not distinct whole erase pages.
+    /// The two pages are not distinct whole erase pages, or the flash writes in units that
+    /// do not divide a 4-byte word.
     Layout,
-    /// The item does not fit a page, or the buffer does not hold the item.
+    /// The item does not fit a page, or the read's destination does not hold the item.
     TooLarge,
     /// The flash failed (a power cut mid-operation ends here).
     Flash(E),
@@ -255,6 +258,10 @@ enum AbSlot {
     },
 }
 
+/// The newest sound entry, and where each page's free space starts (`None`: the page takes
+/// no more entries).
+type AbScan = (Option<AbNewest>, [Option<u32>; 2]);
+
 /// The newest sound entry: page index, offset, sequence, length.
 #[derive(Clone, Copy)]
 struct AbNewest {
@@ -264,7 +271,7 @@ struct AbNewest {
     len: u32,
 }
 
-impl<F: NorFlash> AbStore<F> {
+impl<F: blocking::NorFlash> AbStore<F> {
     /// The pair of pages starting at `a` and `b` [byte offsets].
     pub fn new(flash: F, a: u32, b: u32) -> Result<Self, AbError<F::Error>> {
         let page = F::ERASE_SIZE as u32;
@@ -274,7 +281,8 @@ impl<F: NorFlash> AbStore<F> {
                     .checked_add(F::ERASE_SIZE)
                     .is_some_and(|end| end <= flash.capacity())
         };
-        if a == b || !fits(a) || !fits(b) {
+        // Entries are laid out in 4-byte words.
+        if a == b || !fits(a) || !fits(b) || 4 % F::WRITE_SIZE != 0 {
             return Err(AbError::Layout);
         }
         Ok(Self {
@@ -294,7 +302,7 @@ impl<F: NorFlash> AbStore<F> {
     }
 
     /// The CRC-32 of `len` bytes at `at` after `head`, read in chunks.
-    async fn crc(&mut self, head: &[u8], at: u32, len: u32) -> Result<u32, AbError<F::Error>> {
+    fn crc(&mut self, head: &[u8], at: u32, len: u32) -> Result<u32, AbError<F::Error>> {
         let mut crc = shared::trace::Crc32::new();
         crc.update(head);
         let mut chunk = [0u8; AB_CHUNK];
@@ -302,10 +310,7 @@ impl<F: NorFlash> AbStore<F> {
         while done < len {
             let n = (len - done).min(AB_CHUNK as u32);
             let part = chunk.get_mut(..n as usize).unwrap_or(&mut []);
-            self.flash
-                .read(at + done, part)
-                .await
-                .map_err(AbError::Flash)?;
+            self.flash.read(at + done, part).map_err(AbError::Flash)?;
             crc.update(part);
             done += n;
         }
@@ -313,16 +318,13 @@ impl<F: NorFlash> AbStore<F> {
     }
 
     /// Whether `len` bytes from `at` read erased (0xFF).
-    async fn erased(&mut self, at: u32, len: u32) -> Result<bool, AbError<F::Error>> {
+    fn erased(&mut self, at: u32, len: u32) -> Result<bool, AbError<F::Error>> {
         let mut chunk = [0u8; AB_CHUNK];
         let mut done = 0;
         while done < len {
             let n = (len - done).min(AB_CHUNK as u32);
             let part = chunk.get_mut(..n as usize).unwrap_or(&mut []);
-            self.flash
-                .read(at + done, part)
-                .await
-                .map_err(AbError::Flash)?;
+            self.flash.read(at + done, part).map_err(AbError::Flash)?;
             if part.iter().any(|&b| b != 0xFF) {
                 return Ok(false);
             }
@@ -332,15 +334,12 @@ impl<F: NorFlash> AbStore<F> {
     }
 
     /// What the page ending at `end` holds at `at`.
-    async fn slot(&mut self, at: u32, end: u32) -> Result<AbSlot, AbError<F::Error>> {
+    fn slot(&mut self, at: u32, end: u32) -> Result<AbSlot, AbError<F::Error>> {
         if end.saturating_sub(at) < AB_HEADER + AB_TRAILER {
             return Ok(AbSlot::Garbage);
         }
         let mut head = [0u8; AB_HEADER as usize];
-        self.flash
-            .read(at, &mut head)
-            .await
-            .map_err(AbError::Flash)?;
+        self.flash.read(at, &mut head).map_err(AbError::Flash)?;
         if head.iter().all(|&b| b == 0xFF) {
             return Ok(AbSlot::Erased);
         }
@@ -358,11 +357,10 @@ impl<F: NorFlash> AbStore<F> {
         if magic != AB_MAGIC {
             return Ok(AbSlot::Garbage);
         }
-        let sum = self.crc(&head, at + AB_HEADER, padded).await?;
+        let sum = self.crc(&head, at + AB_HEADER, padded)?;
         let mut tail = [0u8; AB_TRAILER as usize];
         self.flash
             .read(at + AB_HEADER + padded, &mut tail)
-            .await
             .map_err(AbError::Flash)?;
         let [c0, c1, c2, c3, k0, k1, k2, k3] = tail;
         let sound = u32::from_le_bytes([c0, c1, c2, c3]) == sum
@@ -377,7 +375,7 @@ impl<F: NorFlash> AbStore<F> {
 
     /// The newest sound entry, and where each page's free space starts (`None`: the page
     /// takes no more entries).
-    async fn scan(&mut self) -> Result<(Option<AbNewest>, [Option<u32>; 2]), AbError<F::Error>> {
+    fn scan(&mut self) -> Result<AbScan, AbError<F::Error>> {
         let mut newest: Option<AbNewest> = None;
         let mut free = [None; 2];
         for (page, (start, free)) in self.pages.into_iter().zip(&mut free).enumerate() {
@@ -385,7 +383,7 @@ impl<F: NorFlash> AbStore<F> {
             let mut at = start;
             // Each entry takes at least header and trailer: the walk ends within the page.
             while at < end {
-                match self.slot(at, end).await? {
+                match self.slot(at, end)? {
                     AbSlot::Erased => {
                         *free = Some(at);
                         break;
@@ -415,41 +413,38 @@ impl<F: NorFlash> AbStore<F> {
         Ok((newest, free))
     }
 
-    /// The newest item stored whole, if any.
-    pub async fn read<'b>(
-        &mut self,
-        buffer: &'b mut [u8],
-    ) -> Result<Option<&'b [u8]>, AbError<F::Error>> {
-        let (Some(n), _) = self.scan().await? else {
+    /// The newest item stored whole, read into the start of `out`: its length, or `None`
+    /// when nothing is stored. `out` must hold the item.
+    pub fn read(&mut self, out: &mut [u8]) -> Result<Option<usize>, AbError<F::Error>> {
+        let (Some(n), _) = self.scan()? else {
             return Ok(None);
         };
-        let item = buffer.get_mut(..n.len as usize).ok_or(AbError::TooLarge)?;
+        let item = out.get_mut(..n.len as usize).ok_or(AbError::TooLarge)?;
         self.flash
             .read(n.at + AB_HEADER, item)
-            .await
             .map_err(AbError::Flash)?;
-        Ok(Some(item))
+        Ok(Some(item.len()))
     }
 
-    /// Appends `item` as the newest. `buffer`: at least the item's length rounded up to 4
-    /// bytes.
-    pub async fn write(&mut self, item: &[u8], buffer: &mut [u8]) -> Result<(), AbError<F::Error>> {
+    /// Appends `item` as the newest, written straight from `item` (its last partial word
+    /// padded with zeros).
+    pub fn write(&mut self, item: &[u8]) -> Result<(), AbError<F::Error>> {
         let Some(padded) = item
             .len()
             .checked_next_multiple_of(4)
-            .filter(|&p| p <= self.capacity() && p <= buffer.len())
+            .filter(|&p| p <= self.capacity())
         else {
             return Err(AbError::TooLarge);
         };
         let need = AB_HEADER + padded as u32 + AB_TRAILER;
-        let (newest, free) = self.scan().await?;
+        let (newest, free) = self.scan()?;
         // The page of the newest item, if its free space takes this one and reads erased;
         // otherwise the other page, erased (the first page when nothing is stored).
         let current = newest.map_or(0, |n| n.page);
         let end = |page: usize| self.pages.get(page).map_or(0, |s| s + F::ERASE_SIZE as u32);
         let mut target = None;
         if let Some(at) = free.get(current).copied().flatten() {
-            if at + need <= end(current) && self.erased(at, need).await? {
+            if at + need <= end(current) && self.erased(at, need)? {
                 target = Some(at);
             }
         }
@@ -464,7 +459,6 @@ impl<F: NorFlash> AbStore<F> {
                 let start = self.pages.get(other).copied().unwrap_or(0);
                 self.flash
                     .erase(start, start + F::ERASE_SIZE as u32)
-                    .await
                     .map_err(AbError::Flash)?;
                 start
             }
@@ -477,29 +471,32 @@ impl<F: NorFlash> AbStore<F> {
         {
             slot.copy_from_slice(&word.to_le_bytes());
         }
-        let data = buffer.get_mut(..padded).ok_or(AbError::TooLarge)?;
-        data.fill(0);
-        data.get_mut(..item.len())
-            .ok_or(AbError::TooLarge)?
-            .copy_from_slice(item);
+        let whole = item.len() - item.len() % 4;
+        let (words, rest) = item.split_at(whole);
+        let mut last = [0u8; 4];
+        if let Some(l) = last.get_mut(..rest.len()) {
+            l.copy_from_slice(rest);
+        }
+        let last = last.get(..padded - whole).unwrap_or(&[]);
         let mut crc = shared::trace::Crc32::new();
         crc.update(&head);
-        crc.update(data);
+        crc.update(words);
+        crc.update(last);
         let sum = crc.finish();
-        self.flash.write(at, &head).await.map_err(AbError::Flash)?;
+        self.flash.write(at, &head).map_err(AbError::Flash)?;
         self.flash
-            .write(at + AB_HEADER, data)
-            .await
+            .write(at + AB_HEADER, words)
+            .map_err(AbError::Flash)?;
+        self.flash
+            .write(at + AB_HEADER + whole as u32, last)
             .map_err(AbError::Flash)?;
         let tail = at + AB_HEADER + padded as u32;
         self.flash
             .write(tail, &sum.to_le_bytes())
-            .await
             .map_err(AbError::Flash)?;
         // Last: the commit word. Until it is whole the entry reads as unsound.
         self.flash
             .write(tail + 4, &(!sum).to_le_bytes())
-            .await
             .map_err(AbError::Flash)
     }
 }
@@ -618,10 +615,10 @@ impl<const PAGES: usize, const PAGE: usize> ErrorType for RamFlash<PAGES, PAGE> 
 
 // Every index below is inside `check`'s bounds (offset + len ≤ PAGES · PAGE, word-aligned).
 #[allow(clippy::indexing_slicing)]
-impl<const PAGES: usize, const PAGE: usize> ReadNorFlash for RamFlash<PAGES, PAGE> {
+impl<const PAGES: usize, const PAGE: usize> blocking::ReadNorFlash for RamFlash<PAGES, PAGE> {
     const READ_SIZE: usize = 1;
 
-    async fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Self::Error> {
+    fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Self::Error> {
         if !self.powered {
             return Err(RamFlashError::PowerLost);
         }
@@ -639,11 +636,11 @@ impl<const PAGES: usize, const PAGE: usize> ReadNorFlash for RamFlash<PAGES, PAG
 }
 
 #[allow(clippy::indexing_slicing)]
-impl<const PAGES: usize, const PAGE: usize> NorFlash for RamFlash<PAGES, PAGE> {
+impl<const PAGES: usize, const PAGE: usize> blocking::NorFlash for RamFlash<PAGES, PAGE> {
     const WRITE_SIZE: usize = 4;
     const ERASE_SIZE: usize = PAGE;
 
-    async fn erase(&mut self, from: u32, to: u32) -> Result<(), Self::Error> {
+    fn erase(&mut self, from: u32, to: u32) -> Result<(), Self::Error> {
         if to < from {
             return Err(RamFlashError::OutOfBounds);
         }
@@ -666,7 +663,7 @@ impl<const PAGES: usize, const PAGE: usize> NorFlash for RamFlash<PAGES, PAGE> {
         Ok(())
     }
 
-    async fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Self::Error> {
+    fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Self::Error> {
         let (offset, len) = self.check(offset, bytes.len(), 4)?;
         if !self.powered {
             return Err(RamFlashError::PowerLost);
@@ -692,5 +689,31 @@ impl<const PAGES: usize, const PAGE: usize> NorFlash for RamFlash<PAGES, PAGE> {
             self.written[page][within..within + 4].fill(true);
         }
         Ok(())
+    }
+}
+
+/// The same flash through the async interface (`sequential-storage`'s stores take it).
+impl<const PAGES: usize, const PAGE: usize> ReadNorFlash for RamFlash<PAGES, PAGE> {
+    const READ_SIZE: usize = 1;
+
+    async fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Self::Error> {
+        blocking::ReadNorFlash::read(self, offset, bytes)
+    }
+
+    fn capacity(&self) -> usize {
+        PAGES * PAGE
+    }
+}
+
+impl<const PAGES: usize, const PAGE: usize> NorFlash for RamFlash<PAGES, PAGE> {
+    const WRITE_SIZE: usize = 4;
+    const ERASE_SIZE: usize = PAGE;
+
+    async fn erase(&mut self, from: u32, to: u32) -> Result<(), Self::Error> {
+        blocking::NorFlash::erase(self, from, to)
+    }
+
+    async fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Self::Error> {
+        blocking::NorFlash::write(self, offset, bytes)
     }
 }

@@ -1,0 +1,516 @@
+//! The board image (feature `hardware`): the preflight on the STM32F405's own peripherals,
+//! through embassy-stm32, with its report over RTT (defmt).
+//!
+//! - Clocks: 8 MHz crystal, PLL to 168 MHz; APB2 84 MHz (timers 168 MHz), APB1 42 MHz
+//!   (timers 84 MHz).
+//! - Bridge: TIM1, complementary PWM on PA8/PB13, PA9/PB14, PA10/PB15, counting up and down
+//!   at the record's carrier with its dead time ([`firmware::bridge::BridgeTiming`]); the
+//!   update event once per control period at the counter's top, every leg low there; TRGO =
+//!   update. Legs off: both outputs at their inactive level (OSSR).
+//! - ADC trigger: TIM1 TRGO starts ADC1's injected ranks (PA0–PA2 the phase currents, PA3 the
+//!   surface transducer) and ADC2's (PC0 the bus divider, PC1 the winding thermistor), 15
+//!   cycles each at 21 MHz: 5 µs after the trigger both are done.
+//! - Encoder: TIM3 in encoder mode on PA6/PA7; channel 3 captures its count on TIM1 TRGO (TRC
+//!   = ITR0), the same instant as the ADC.
+//! - Trigger count: TIM2 counts TIM1 TRGO (external clock mode 1 on ITR0), so a frame taken
+//!   late is an overrun, never a silent gap ([`firmware::acquisition::pace`]).
+//! - Flash: the actuator record, the GA checkpoint and the health log's image each in an A/B
+//!   pair of 128 KiB sectors ([`firmware::storage::AbStore`], `StorageLayout::STM32F405`:
+//!   sectors 5–10).
+//!
+//! Work per executor turn: one preflight poll (during the test: the frames due, each O(1)
+//! with one sequencer tick; then ≤ `evaluations_per_poll` evaluations) and one heartbeat.
+//! The test's frames must be taken within one control period of their trigger: an overrun
+//! ends the test with the bridge off. Nothing here has run on a board (QEMU's STM32F405 has
+//! none of these peripherals); the library parts it drives are tested on the host.
+
+use core::future::Future;
+use core::pin::Pin;
+use core::sync::atomic::{AtomicU32, Ordering};
+use core::task::{Context, Poll};
+
+use defmt_rtt as _;
+use embassy_executor::Spawner;
+use embassy_stm32::flash::Flash;
+use embassy_stm32::gpio::Flex;
+use embassy_stm32::gpio::OutputType;
+use embassy_stm32::pac;
+use embassy_stm32::pac::adc::vals::{Exten, SampleTime};
+use embassy_stm32::pac::timer::vals::{CcmrInputCcs, Ckd, Mms, Ossr, Sms, Ts};
+use embassy_stm32::peripherals::TIM1;
+use embassy_stm32::time::Hertz;
+use embassy_stm32::timer::complementary_pwm::ComplementaryPwmPin;
+use embassy_stm32::timer::low_level::{CountingMode, OutputCompareMode, Timer};
+use embassy_stm32::timer::qei::Qei;
+use embassy_stm32::timer::simple_pwm::PwmPin;
+use embassy_stm32::timer::{Ch1, Ch2, Ch3, Channel};
+use embassy_stm32::Config;
+use static_cell::ConstStaticCell;
+
+use firmware::acquisition::{pace, Converter, Counts, Pace, SensorScaling};
+use firmware::bridge::{BridgeDrive, BridgeTiming, Leg, Legs};
+use firmware::health::record_preflight;
+use firmware::sequencer::{Sequenced, TestSequencer};
+use firmware::storage::{AbStore, StorageLayout};
+use firmware::{Acquired, CurrentSource, Preflight, PreflightSettings, Progress, Stage};
+use shared::actuator::{ActuatorRecord, RECORD_BYTES};
+use shared::fdi::{OnboardMeasured, OnboardRecord};
+use shared::fitness::CurvatureRun;
+use shared::health::{RamStore, RecordedDay, ONBOARD_RECORDS};
+use shared::prognosis::TrendSettings;
+use shared::LowPass;
+
+/// The bridge timer's clock [Hz] (APB2 × 2).
+const TIMER_HZ: u32 = 168_000_000;
+/// GA evaluations between two checkpoints (a page of the checkpoint pair takes 100).
+const CHECKPOINT_EVERY: u32 = 500;
+
+static MEASURED: ConstStaticCell<OnboardMeasured> = ConstStaticCell::new(OnboardMeasured::ZEROED);
+static CURVATURE: ConstStaticCell<CurvatureRun> = ConstStaticCell::new(CurvatureRun::IDLE);
+static HEALTH_STORE: ConstStaticCell<RamStore<ONBOARD_RECORDS>> =
+    ConstStaticCell::new(RamStore::ZEROED);
+
+/// Heartbeat task runs (the flight software's share of the CPU).
+static BEATS: AtomicU32 = AtomicU32::new(0);
+
+/// The board's flash (blocking: the F405's single bank stalls code fetch while it writes).
+type BoardFlash = Flash<'static, embassy_stm32::flash::Blocking>;
+
+/// Why the board stopped before or during the test.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]
+enum BoardError {
+    /// The frames fell behind the trigger: `missed` conversions were not taken.
+    Overrun { missed: u32 },
+    /// The first update event did not come at the counter's top.
+    TriggerPhase,
+}
+
+/// The bridge's legs in TIM1: a duty in CCRx with both outputs enabled, or both disabled
+/// (inactive level, OSSR = 1). Takes effect at the next update (preload).
+struct TimerLegs;
+
+impl Legs for TimerLegs {
+    fn set(&mut self, legs: [Leg; 3]) {
+        let tim = pac::TIM1;
+        for (channel, leg) in legs.into_iter().enumerate() {
+            let (on, duty) = match leg {
+                Leg::Off => (false, 0),
+                Leg::Duty(d) => (true, d),
+            };
+            tim.ccr(channel).write(|w| w.set_ccr(duty));
+            tim.ccer().modify(|w| {
+                w.set_cce(channel, on);
+                w.set_ccne(channel, on);
+            });
+        }
+    }
+}
+
+/// Every leg off, the main output disabled: the safe state after the test or a fault.
+fn bridge_off() {
+    TimerLegs.set([Leg::Off; 3]);
+    pac::TIM1.bdtr().modify(|w| w.set_moe(false));
+}
+
+/// Frames from the board's converters, commanding the test one control period per frame.
+struct BoardSource {
+    sequencer: TestSequencer,
+    drive: BridgeDrive<TimerLegs>,
+    converter: Converter,
+    frames: u32,
+}
+
+impl BoardSource {
+    fn counts() -> Counts {
+        let adc1 = pac::ADC1;
+        let adc2 = pac::ADC2;
+        let counts = Counts {
+            currents_and_transducer: core::array::from_fn(|i| adc1.jdr(i).read().jdata()),
+            bus_and_temperature: core::array::from_fn(|i| adc2.jdr(i).read().jdata()),
+            encoder: pac::TIM3.ccr(2).read().ccr(),
+        };
+        for adc in [adc1, adc2] {
+            adc.sr().modify(|w| {
+                w.set_jeoc(false);
+                w.set_jstrt(false);
+            });
+        }
+        counts
+    }
+}
+
+impl CurrentSource for BoardSource {
+    type Error = BoardError;
+
+    fn next_frame(&mut self) -> Result<Acquired, BoardError> {
+        if self.frames as usize >= self.sequencer.samples() {
+            bridge_off();
+            return Ok(Acquired::EndOfTest);
+        }
+        match pace(pac::TIM2.cnt().read(), self.frames) {
+            Pace::Wait => return Ok(Acquired::NotYet),
+            Pace::Overrun { missed } => {
+                bridge_off();
+                return Err(BoardError::Overrun { missed });
+            }
+            Pace::Due => {}
+        }
+        if !(pac::ADC1.sr().read().jeoc() && pac::ADC2.sr().read().jeoc()) {
+            return Ok(Acquired::NotYet);
+        }
+        let (frame, feedback) = self.converter.convert(&Self::counts());
+        self.drive.measured(feedback);
+        if self.sequencer.tick(&mut self.drive) == Sequenced::Done {
+            bridge_off();
+        }
+        self.frames += 1;
+        Ok(Acquired::Frame(frame))
+    }
+}
+
+/// Peripherals set up for the test.
+struct Hardware {
+    flash: BoardFlash,
+    /// Kept: dropping them would release their pins and clocks.
+    _bridge: Timer<'static, embassy_stm32::peripherals::TIM1>,
+    _encoder: Qei<'static, embassy_stm32::peripherals::TIM3>,
+    _trigger_count: Timer<'static, embassy_stm32::peripherals::TIM2>,
+}
+
+fn clocks() -> Config {
+    use embassy_stm32::rcc::{
+        AHBPrescaler, APBPrescaler, Hse, HseMode, Pll, PllMul, PllPDiv, PllPreDiv, PllQDiv,
+        PllSource, Sysclk,
+    };
+    let mut config = Config::default();
+    config.rcc.hse = Some(Hse {
+        freq: Hertz(8_000_000),
+        mode: HseMode::Oscillator,
+    });
+    config.rcc.pll_src = PllSource::HSE;
+    config.rcc.pll = Some(Pll {
+        prediv: PllPreDiv::DIV4,
+        mul: PllMul::MUL168,
+        divp: Some(PllPDiv::DIV2),
+        divq: Some(PllQDiv::DIV7),
+        divr: None,
+    });
+    config.rcc.ahb_pre = AHBPrescaler::DIV1;
+    config.rcc.apb1_pre = APBPrescaler::DIV4;
+    config.rcc.apb2_pre = APBPrescaler::DIV2;
+    config.rcc.sys = Sysclk::PLL1_P;
+    config
+}
+
+/// Starts the clocks, reads the actuator record from its flash pair, sets up the converters,
+/// the encoder, the trigger count and the bridge (outputs off) for the record's drive, and
+/// starts the carrier.
+fn start() -> Result<(ActuatorRecord, BridgeTiming, Hardware), Stop> {
+    let p = embassy_stm32::init(clocks());
+    let mut flash = Flash::new_blocking(p.FLASH);
+    let (a, b) = sectors(&StorageLayout::STM32F405.record);
+    let record = {
+        let mut bytes = [0u8; RECORD_BYTES];
+        let mut records = AbStore::new(&mut flash, a, b).map_err(|_| Stop::Flash)?;
+        let n = records
+            .read(&mut bytes)
+            .map_err(|_| Stop::Flash)?
+            .ok_or(Stop::NoRecord)?;
+        ActuatorRecord::decode(bytes.get(..n).unwrap_or(&[])).map_err(Stop::RecordRefused)?
+    };
+    let timing = BridgeTiming::new(&record.drive, TIMER_HZ, record.params.control_period)
+        .map_err(Stop::Bridge)?;
+
+    converters_on();
+    // ADC1: the phase currents and the transducer; ADC2: bus and temperature; both on TRGO.
+    // Through the PAC: the HAL's ADC start-up links 1 kB of 64-bit division for a delay.
+    for mut pin in [
+        Flex::new(p.PA0),
+        Flex::new(p.PA1),
+        Flex::new(p.PA2),
+        Flex::new(p.PA3),
+        Flex::new(p.PC0),
+        Flex::new(p.PC1),
+    ] {
+        pin.set_as_analog();
+        // Analog from here on; dropping the handle would disconnect the pin.
+        core::mem::forget(pin);
+    }
+    injected_ranks(pac::ADC1, &[0, 1, 2, 3]);
+    injected_ranks(pac::ADC2, &[10, 11]);
+
+    // Encoder on TIM3, its count captured on channel 3 from TRC = ITR0 (TIM1 TRGO).
+    let encoder = Qei::new(p.TIM3, p.PA6, p.PA7, Default::default());
+    let tim3 = pac::TIM3;
+    tim3.smcr().modify(|w| w.set_ts(Ts::ITR0));
+    tim3.ccmr_input(1)
+        .modify(|w| w.set_ccs(0, CcmrInputCcs::TRC));
+    tim3.ccer().modify(|w| w.set_cce(2, true));
+
+    // TIM2 counts the triggers.
+    let trigger_count = Timer::new(p.TIM2);
+    let tim2 = pac::TIM2;
+    tim2.smcr().modify(|w| {
+        w.set_ts(Ts::ITR0);
+        w.set_sms(Sms::EXT_CLOCK_MODE);
+    });
+    tim2.cnt().write_value(0);
+    tim2.cr1().modify(|w| w.set_cen(true));
+
+    // The bridge: the pins in their timer function (kept so from here on), the timer
+    // centre-aligned, PWM mode 1 with preload on every channel, the record's dead time.
+    let push_pull = OutputType::PushPull;
+    core::mem::forget(PwmPin::<TIM1, Ch1>::new(p.PA8, push_pull));
+    core::mem::forget(ComplementaryPwmPin::<TIM1, Ch1>::new(p.PB13, push_pull));
+    core::mem::forget(PwmPin::<TIM1, Ch2>::new(p.PA9, push_pull));
+    core::mem::forget(ComplementaryPwmPin::<TIM1, Ch2>::new(p.PB14, push_pull));
+    core::mem::forget(PwmPin::<TIM1, Ch3>::new(p.PA10, push_pull));
+    core::mem::forget(ComplementaryPwmPin::<TIM1, Ch3>::new(p.PB15, push_pull));
+    let bridge = Timer::new(p.TIM1);
+    bridge.set_counting_mode(CountingMode::CenterAlignedDownInterrupts);
+    for channel in [Channel::Ch1, Channel::Ch2, Channel::Ch3] {
+        bridge.set_output_compare_mode(channel, OutputCompareMode::PwmMode1);
+        bridge.set_output_compare_preload(channel, true);
+    }
+    bridge.set_autoreload_preload(true);
+    bridge.set_dead_time_clock_division(Ckd::DIV1);
+    bridge.set_dead_time_value(timing.dead_time_register());
+    let tim1 = pac::TIM1;
+    // Stop, set the carrier's counts and the repetition before the counter starts (so the
+    // update falls on the overflow), reload, start.
+    tim1.cr1().modify(|w| w.set_cen(false));
+    TimerLegs.set([Leg::Off; 3]);
+    tim1.arr().write(|w| w.set_arr(timing.counts));
+    tim1.rcr()
+        .write(|w| w.set_rep(u16::from(timing.repetition)));
+    tim1.cr2().modify(|w| w.set_mms(Mms::UPDATE));
+    tim1.bdtr().modify(|w| {
+        w.set_ossr(Ossr::IDLE_LEVEL);
+        w.set_moe(true);
+    });
+    tim1.cnt().write(|w| w.set_cnt(0));
+    tim1.egr().write(|w| w.set_ug(true));
+    tim1.sr().modify(|w| w.set_uif(false));
+    tim2.cnt().write_value(0);
+    tim1.cr1().modify(|w| w.set_cen(true));
+    // The first update: the counter must be turning down (at its top).
+    while !tim1.sr().read().uif() {}
+    if tim1.cr1().read().dir() != pac::timer::vals::Dir::DOWN {
+        bridge_off();
+        return Err(Stop::Board(BoardError::TriggerPhase));
+    }
+    let hardware = Hardware {
+        flash,
+        _bridge: bridge,
+        _encoder: encoder,
+        _trigger_count: trigger_count,
+    };
+    Ok((record, timing, hardware))
+}
+
+/// ADC clock: APB2 (84 MHz) / 4 = 21 MHz, within the converter's 36 MHz.
+fn converters_on() {
+    pac::RCC.apb2enr().modify(|w| {
+        w.set_adc1en(true);
+        w.set_adc2en(true);
+    });
+    pac::ADC123_COMMON
+        .ccr()
+        .modify(|w| w.set_adcpre(pac::adccommon::vals::Adcpre::DIV4));
+}
+
+/// `adc`'s injected ranks: `channels` in order (at most 4), 15 cycles each, converted on
+/// TIM1 TRGO's rising edge, read from JDR1 on.
+fn injected_ranks(adc: pac::adc::Adc, channels: &[u8]) {
+    let n = channels.len().min(4);
+    adc.cr2().modify(|w| w.set_adon(true));
+    // tSTAB: 3 µs at 168 MHz.
+    cortex_m::asm::delay(3 * 168);
+    adc.cr1().modify(|w| w.set_scan(true));
+    adc.jsqr().modify(|w| w.set_jl(n.saturating_sub(1) as u8));
+    for (rank, &channel) in channels.iter().take(n).enumerate() {
+        let at = usize::from(channel);
+        if at < 10 {
+            adc.smpr2().modify(|w| w.set_smp(at, SampleTime::CYCLES15));
+        } else {
+            adc.smpr1()
+                .modify(|w| w.set_smp(at - 10, SampleTime::CYCLES15));
+        }
+        // With fewer than 4 ranks the sequence sits at the top of JSQR (RM0090 §13.13.12).
+        adc.jsqr().modify(|w| w.set_jsq(rank + (4 - n), channel));
+    }
+    adc.cr2().modify(|w| {
+        w.set_jextsel(TIM1_TRGO_INJECTED);
+        w.set_jexten(Exten::RISING_EDGE);
+    });
+}
+
+/// JEXTSEL of TIM1 TRGO (RM0090 §13.13.3).
+const TIM1_TRGO_INJECTED: u8 = 0b0001;
+
+/// The A/B pair of 128 KiB sectors at the start of `range` [flash offsets].
+fn sectors(range: &core::ops::Range<u32>) -> (u32, u32) {
+    (range.start, range.start + 128 * 1024)
+}
+
+/// Yields once to the executor.
+struct YieldNow(bool);
+
+impl Future for YieldNow {
+    type Output = ();
+    fn poll(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<()> {
+        if self.0 {
+            Poll::Ready(())
+        } else {
+            self.0 = true;
+            cx.waker().wake_by_ref();
+            Poll::Pending
+        }
+    }
+}
+
+#[embassy_executor::task]
+async fn heartbeat() {
+    loop {
+        BEATS.fetch_add(1, Ordering::Relaxed);
+        YieldNow(false).await;
+    }
+}
+
+#[embassy_executor::main]
+async fn main(spawner: Spawner) {
+    let outcome = preflight(spawner).await;
+    bridge_off();
+    match outcome {
+        Ok(()) => defmt::println!("preflight done"),
+        Err(e) => defmt::error!("preflight not done: {}", e),
+    }
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+/// Why the preflight did not report.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]
+enum Stop {
+    NoRecord,
+    RecordRefused(shared::actuator::ActuatorRecordError),
+    Bridge(firmware::bridge::BridgeError),
+    Board(BoardError),
+    Preflight,
+    Flash,
+    StartUp,
+}
+
+async fn preflight(spawner: Spawner) -> Result<(), Stop> {
+    let (Some(measured), Some(curvature), Some(store)) = (
+        MEASURED.try_take(),
+        CURVATURE.try_take(),
+        HEALTH_STORE.try_take(),
+    ) else {
+        return Err(Stop::StartUp);
+    };
+    let (record, timing, mut hw) = start()?;
+    let layout = StorageLayout::STM32F405;
+    let params = record.params;
+    let settings = PreflightSettings::ONBOARD.for_actuator(&record);
+    let filter = LowPass::for_control_period(params.control_period).map_err(|_| Stop::StartUp)?;
+    measured.set_filter(filter);
+    let sequencer = TestSequencer::new(record.test, params.control_period);
+    let source = BoardSource {
+        sequencer,
+        drive: BridgeDrive::new(TimerLegs, timing, record.drive, &params),
+        converter: Converter::new(SensorScaling::REFERENCE_BOARD),
+        frames: 0,
+    };
+    spawner.spawn(heartbeat().map_err(|_| Stop::StartUp)?);
+    defmt::info!(
+        "preflight: {=usize} frames, carrier {=u16} counts, dead time {=u16} ticks",
+        sequencer.samples(),
+        timing.counts,
+        timing.dead_time_ticks
+    );
+
+    // The checkpoint of a preflight the power cut, if any.
+    let (a, b) = sectors(&layout.checkpoint);
+    let mut checkpoint: OnboardRecord = [0; core::mem::size_of::<OnboardRecord>()];
+    let have_checkpoint = {
+        let mut pair = AbStore::new(&mut hw.flash, a, b).map_err(|_| Stop::Flash)?;
+        // A finished preflight left an empty one; anything else of another length is none.
+        matches!(pair.read(&mut checkpoint), Ok(Some(n)) if n == checkpoint.len())
+    };
+
+    let mut preflight = Preflight::new(settings, source, measured).with_curvature_buffer(curvature);
+    let mut stage = preflight.stage();
+    let mut next_checkpoint = CHECKPOINT_EVERY;
+    let report = loop {
+        match preflight.poll() {
+            Ok(Progress::Finished(report)) => break report,
+            Ok(Progress::Working { stage: next }) => {
+                if next != stage && next == Stage::Identify && have_checkpoint {
+                    if let Ok(n) = preflight.resume(&checkpoint) {
+                        defmt::println!("checkpoint resumed evaluations={=u32}", n);
+                        next_checkpoint = n.saturating_add(CHECKPOINT_EVERY);
+                    }
+                }
+                stage = next;
+            }
+            Err(_) => {
+                bridge_off();
+                return Err(Stop::Preflight);
+            }
+        }
+        if stage == Stage::Identify && preflight.evaluations() >= next_checkpoint {
+            next_checkpoint = preflight.evaluations().saturating_add(CHECKPOINT_EVERY);
+            if preflight.checkpoint(&mut checkpoint).is_ok() {
+                let mut pair = AbStore::new(&mut hw.flash, a, b).map_err(|_| Stop::Flash)?;
+                if pair.write(&checkpoint).is_err() {
+                    defmt::error!("checkpoint not written");
+                }
+            }
+        }
+        // During the test the frames are due every control period: yield once only then.
+        YieldNow(false).await;
+    };
+    // The preflight is over: an empty checkpoint, so that the next one starts afresh.
+    let mut pair = AbStore::new(&mut hw.flash, a, b).map_err(|_| Stop::Flash)?;
+    pair.write(&[]).map_err(|_| Stop::Flash)?;
+
+    let r = &report.result;
+    defmt::println!(
+        "result faults={} fitness={=f32} domain={}",
+        r.faults,
+        r.fitness,
+        report.domain
+    );
+    defmt::println!("verdicts={}", report.verdicts);
+
+    // The health log: its image from the pair, this preflight appended, the image back.
+    let (a, b) = sectors(&layout.health);
+    let mut pair = AbStore::new(&mut hw.flash, a, b).map_err(|_| Stop::Flash)?;
+    // Nothing stored: a new log. A pair that cannot be read is left as it is (no record
+    // appended) rather than replaced by a log of one.
+    store.erase();
+    pair.read(store.as_bytes_mut()).map_err(|_| Stop::Flash)?;
+    let day = RecordedDay::of(preflight.day());
+    let update = record_preflight(store, None, &report, day, &TrendSettings::DEFAULT)
+        .map_err(|_| Stop::Flash)?;
+    pair.write(store.as_bytes()).map_err(|_| Stop::Flash)?;
+    defmt::println!(
+        "health flight={=u32} records={=u32} beats={=u32}",
+        update.record.flight,
+        update.records,
+        BEATS.load(Ordering::Relaxed)
+    );
+    Ok(())
+}
+
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    bridge_off();
+    let (file, line) = info.location().map_or(("?", 0), |l| (l.file(), l.line()));
+    defmt::error!("panic at {=str}:{=u32}", file, line);
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
