@@ -1,7 +1,8 @@
 //! The three-phase bridge as the board's timer drives it, without the timer: the timer's
 //! settings from the actuator record's drive ([`BridgeTiming`]), and a [`Drive`] for the test
 //! sequencer ([`BridgeDrive`]) that turns its commands into leg states ([`Leg`]) through
-//! the position loop, the bus the board measured and the record's dead-time compensation.
+//! the position loop (six-step: a pair voltage on the rotor's conducting phases), the bus the
+//! board measured and the record's dead-time compensation.
 //!
 //! Units: volts, amperes, radians, seconds; duties in timer counts of a centre-aligned
 //! carrier (0 = the high switch never on, `counts` = always on). O(1) per call, no
@@ -11,6 +12,7 @@
 use shared::drive::DriveSettings;
 use shared::math::{abs, clamp, floor};
 use shared::params::ActuatorParams;
+use shared::test_design::PAIR_SIGNS;
 
 use crate::position_loop::{Feedback, PositionLoop};
 use crate::sequencer::Drive;
@@ -143,17 +145,6 @@ pub trait Legs {
     fn set(&mut self, legs: [Leg; 3]);
 }
 
-/// The legs of phase pair `pair` (`shared::test_design::PAIR_SIGNS`): (+ leg, − leg, open
-/// leg). `None` beyond 2.
-fn pair_legs(pair: u8) -> Option<(usize, usize, usize)> {
-    match pair {
-        0 => Some((0, 1, 2)),
-        1 => Some((1, 2, 0)),
-        2 => Some((2, 0, 1)),
-        _ => None,
-    }
-}
-
 /// The sequencer's [`Drive`] on a real bridge: position commands through the position loop,
 /// pair voltages and pauses as leg states. Feed it each frame's measurements
 /// ([`BridgeDrive::measured`]) before the sequencer ticks it.
@@ -207,37 +198,33 @@ impl<L: Legs> BridgeDrive<L> {
     }
 }
 
+impl<L: Legs> BridgeDrive<L> {
+    /// `volts` across the legs `signs` marks (+1 high, −1 low), ±½ of it each from the bus
+    /// midpoint with its own leg current's compensation; the leg marked 0 off.
+    fn drive_pair(&mut self, signs: [i8; 3], volts: f32) {
+        let currents = self.feedback.phase_currents;
+        let mut legs = [Leg::Off; 3];
+        for ((leg, &sign), &current) in legs.iter_mut().zip(&signs).zip(&currents) {
+            if sign != 0 {
+                *leg = Leg::Duty(self.duty(f32::from(sign) * 0.5 * volts, current));
+            }
+        }
+        self.legs.set(legs);
+    }
+}
+
 impl<L: Legs> Drive for BridgeDrive<L> {
     fn position(&mut self, rad: f32) {
-        let volts = self.position_loop.step(rad, &self.feedback);
-        let i = self.feedback.phase_currents;
-        let legs = [
-            Leg::Duty(self.duty(volts[0], i[0])),
-            Leg::Duty(self.duty(volts[1], i[1])),
-            Leg::Duty(self.duty(volts[2], i[2])),
-        ];
-        self.legs.set(legs);
+        let pair = self.position_loop.step(rad, &self.feedback);
+        self.drive_pair(pair.signs, pair.volts);
     }
 
     fn pair_voltage(&mut self, pair: u8, volts: f32) {
         self.position_loop.suspend();
-        let Some((plus, minus, open)) = pair_legs(pair) else {
-            self.legs.set([Leg::Off; 3]);
-            return;
-        };
-        let i = self.feedback.phase_currents;
-        let mut legs = [Leg::Off; 3];
-        let current = |k: usize| i.get(k).copied().unwrap_or(0.0);
-        if let Some(l) = legs.get_mut(plus) {
-            *l = Leg::Duty(self.duty(0.5 * volts, current(plus)));
+        match PAIR_SIGNS.get(usize::from(pair)) {
+            Some(&signs) => self.drive_pair(signs, volts),
+            None => self.legs.set([Leg::Off; 3]),
         }
-        if let Some(l) = legs.get_mut(minus) {
-            *l = Leg::Duty(self.duty(-0.5 * volts, current(minus)));
-        }
-        if let Some(l) = legs.get_mut(open) {
-            *l = Leg::Off;
-        }
-        self.legs.set(legs);
     }
 
     fn off(&mut self, _pair: u8) {

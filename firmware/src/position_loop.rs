@@ -1,14 +1,18 @@
-//! The actuator's position loop on the board: the cascade the monitor model's controller
-//! describes (SPEC §3: position PID → speed PI with conditional integration → current), with
-//! the current loop in rotor coordinates (field-oriented: d-axis current held at 0, the
-//! q-axis current driven to the speed loop's demand in one period, as the monitor model's
-//! current law does) and the phase voltages it needs.
+//! The actuator's position loop on the board: the ACE controller the monitor model describes
+//! (SPEC §3) — position PID → speed PI with conditional integration → current — driving the
+//! brushless motor by six-step commutation: the sector of the electrical angle picks the two
+//! conducting phases and their signs (`shared::conditioning::COMMUTATION_SIGNS`, the third
+//! floats), and their pair voltage takes the equivalent current to the speed loop's demand in
+//! one control period, with the monitor model's current law
+//! `V = 2R·i + k_t·ω + (2L/dt)·(i_ref − i)`.
 //!
 //! Units: rad (user shaft for the command and the transducer, motor shaft for the encoder),
 //! rad/s, A, V; one call per control period `params.control_period`; O(1), no allocation.
-//! The encoder is taken as zeroed on the rotor's d-axis (the board's alignment at assembly).
+//! The encoder is taken as zeroed where the electrical angle is 0 (the board's alignment at
+//! assembly).
 
-use shared::math::{clamp, cos, sin};
+use shared::conditioning::{commutation_signs, equivalent_current};
+use shared::math::clamp;
 use shared::params::ActuatorParams;
 
 /// What the loop reads each control period.
@@ -24,6 +28,15 @@ pub struct Feedback {
     pub bus_voltage: f32,
 }
 
+/// A voltage across the two conducting phases: `signs[x]` +1 for the leg driven high, −1 for
+/// the one driven low, 0 for the floating one.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PairVoltage {
+    pub signs: [i8; 3],
+    /// [V], within ± the measured bus.
+    pub volts: f32,
+}
+
 /// The cascade's state and gains.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PositionLoop {
@@ -34,11 +47,6 @@ pub struct PositionLoop {
     /// The previous period's motor angle; `None` after a suspension (no speed yet).
     previous_motor_angle: Option<f32>,
 }
-
-/// √3 / 2.
-const HALF_SQRT3: f32 = 0.866_025_4;
-/// 1 / √3.
-const INV_SQRT3: f32 = 0.577_350_3;
 
 impl PositionLoop {
     pub fn new(params: &ActuatorParams) -> Self {
@@ -52,15 +60,14 @@ impl PositionLoop {
     }
 
     /// The loop is not driving (pair voltages, pauses): its integrators restart from 0 and
-    /// its speed estimate from the next angle.
+    /// its speed estimate from the next angle, as the actuator's controller does when the
+    /// position loop closes again.
     pub fn suspend(&mut self) {
         *self = Self::new(&self.params);
     }
 
-    /// The phase voltages from the bus midpoint [V] (a, b, c) that take the user shaft to
-    /// `command` [rad], within what the bus can give (sine-triangle with min-max injection:
-    /// a line voltage of at most the bus).
-    pub fn step(&mut self, command: f32, f: &Feedback) -> [f32; 3] {
+    /// The pair voltage that takes the user shaft to `command` [rad].
+    pub fn step(&mut self, command: f32, f: &Feedback) -> PairVoltage {
         let p = &self.params;
         let dt = p.control_period;
         // Position PID.
@@ -85,45 +92,17 @@ impl PositionLoop {
         if unsaturated == current_ref || (unsaturated > current_ref) != (speed_error > 0.0) {
             self.speed_integral = integral;
         }
-        // Clarke and Park at the electrical angle.
-        let [ia, ib, _] = f.phase_currents;
-        let alpha = ia;
-        let beta = (ia + 2.0 * ib) * INV_SQRT3;
-        let angle = p.pole_pairs * f.motor_angle;
-        let (sin, cos) = (sin(angle), cos(angle));
-        let id = alpha * cos + beta * sin;
-        let iq = -alpha * sin + beta * cos;
-        // The current law in one period (as the monitor model's), with the rotation's
-        // cross terms and the back-EMF on q.
-        let l = p.phase_inductance;
-        let r = p.phase_resistance;
-        let electrical_speed = p.pole_pairs * speed;
-        let l_over_dt = l / dt;
-        let vd = r * id + l_over_dt * (0.0 - id) - electrical_speed * l * iq;
-        let vq = r * iq
-            + l_over_dt * (current_ref - iq)
-            + electrical_speed * l * id
-            + p.back_emf_constant * speed;
-        // Inverse Park and Clarke.
-        let v_alpha = vd * cos - vq * sin;
-        let v_beta = vd * sin + vq * cos;
-        let v = [
-            v_alpha,
-            -0.5 * v_alpha + HALF_SQRT3 * v_beta,
-            -0.5 * v_alpha - HALF_SQRT3 * v_beta,
-        ];
-        // Min-max injection centres the three on the midpoint; then scale into the bus.
-        let high = v[0].max(v[1]).max(v[2]);
-        let low = v[0].min(v[1]).min(v[2]);
-        let centre = 0.5 * (high + low);
-        let span = high - low;
+        // Six-step commutation and the pair's current law.
+        let theta_e = p.pole_pairs * f.motor_angle;
+        let current = equivalent_current(f.phase_currents, theta_e);
+        let volts = 2.0 * p.phase_resistance * current
+            + p.torque_constant() * speed
+            + (2.0 * p.phase_inductance / dt) * (current_ref - current);
         let bus = f.bus_voltage.max(0.0);
-        let scale = if span > bus && span > 0.0 {
-            bus / span
-        } else {
-            1.0
-        };
-        v.map(|x| (x - centre) * scale)
+        PairVoltage {
+            signs: commutation_signs(theta_e),
+            volts: clamp(volts, -bus, bus),
+        }
     }
 }
 
@@ -140,17 +119,18 @@ mod tests {
     }
 
     #[test]
-    fn voltages_are_centred_on_the_midpoint_and_stay_within_the_bus() {
-        let mut l = PositionLoop::new(&ActuatorParams::REFERENCE);
+    fn the_conducting_pair_follows_the_rotor_and_the_voltage_stays_within_the_bus() {
+        let p = ActuatorParams::REFERENCE;
+        let mut l = PositionLoop::new(&p);
         let mut saturated = 0;
         for k in 0..200 {
-            let angle = 0.05 * k as f32;
+            let angle = 0.01 * k as f32;
             let v = l.step(0.01, &feedback(angle));
-            let high = v.iter().copied().fold(f32::MIN, f32::max);
-            let low = v.iter().copied().fold(f32::MAX, f32::min);
-            assert!((high + low).abs() < 1.0e-3, "{v:?}");
-            assert!(high - low <= 270.0 * (1.0 + 1.0e-5), "{v:?}");
-            if high - low > 269.0 {
+            // One phase floats, the other two carry opposite signs: the rotor's sector's.
+            assert_eq!(v.signs, commutation_signs(p.pole_pairs * angle));
+            assert_eq!(v.signs.iter().map(|&s| i32::from(s)).sum::<i32>(), 0);
+            assert!(v.volts.abs() <= 270.0, "{v:?}");
+            if v.volts.abs() == 270.0 {
                 saturated += 1;
             }
         }
@@ -159,19 +139,24 @@ mod tests {
     }
 
     #[test]
-    fn a_positive_error_asks_for_torque_along_q() {
-        // At rest, aligned (angle 0), a small positive error: the q-axis voltage is
-        // positive and along β (phase b leads c), d stays near 0.
-        let mut l = PositionLoop::new(&ActuatorParams::REFERENCE);
-        let v = l.step(1.0e-4, &feedback(0.0));
-        let v_alpha = v[0];
-        let v_beta = (v[1] - v[2]) / (2.0 * HALF_SQRT3);
-        assert!(v_beta > 1.0, "{v:?}");
-        assert!(v_alpha.abs() < 1.0e-3 * v_beta, "{v:?}");
-        // The opposite error, the opposite voltage.
-        let mut l = PositionLoop::new(&ActuatorParams::REFERENCE);
-        let w = l.step(-1.0e-4, &feedback(0.0));
-        assert!(((w[1] - w[2]) + (v[1] - v[2])).abs() < 1.0e-3);
+    fn the_voltage_pushes_towards_the_command() {
+        // At rest, no current: a positive error asks for a positive pair voltage (motoring
+        // torque in the positive direction), a negative one for a negative voltage.
+        let p = ActuatorParams::REFERENCE;
+        let up = PositionLoop::new(&p).step(1.0e-6, &feedback(0.0)).volts;
+        let down = PositionLoop::new(&p).step(-1.0e-6, &feedback(0.0)).volts;
+        assert!(up > 0.0 && down < 0.0, "{up} {down}");
+        assert!((up + down).abs() < 1.0e-3 * up);
+        // The cascade by hand: speed demand kp·e, current demand from the speed PI's first
+        // step, and at rest (no current, no speed) only the inductive term of the law.
+        let dt = p.control_period;
+        let speed_ref = p.position_kp * 1.0e-6;
+        let current_ref = p.speed_kp * speed_ref + p.speed_ki * speed_ref * dt;
+        let expected = 2.0 * p.phase_inductance / dt * current_ref;
+        assert!(
+            (up - expected).abs() < 1.0e-4 * expected,
+            "{up} against {expected}"
+        );
     }
 
     #[test]
