@@ -550,6 +550,11 @@ impl<const PAGES: usize, const PAGE: usize> RamFlash<PAGES, PAGE> {
         erases: [0; PAGES],
     };
 
+    /// The flash's bytes, page after page (an image to write to a real flash).
+    pub fn bytes(&self) -> &[u8] {
+        self.bytes.as_flattened()
+    }
+
     /// Makes this flash a copy of `other` (contents, wear and power), in place: no
     /// page-sized temporaries.
     pub fn copy_from(&mut self, other: &Self) {

@@ -21,6 +21,7 @@ pub(crate) use host_sim::fdi::identify::{
     identify_checkpointed, identify_for, Checkpointing, Identified, Outcome, Resumption,
 };
 pub(crate) use host_sim::fdi::plot;
+pub(crate) use host_sim::files::flash_pair;
 pub(crate) use host_sim::files::health;
 pub(crate) use host_sim::files::rig::RigFormat;
 pub(crate) use host_sim::files::trace::{IngestError, Trace, TraceFormat};
@@ -185,6 +186,24 @@ impl TestChoice {
             Self::Injection => PreflightTest::INJECTION,
             Self::Standstill => PreflightTest::STANDSTILL,
             Self::Paper => PreflightTest::PAPER,
+        }
+    }
+}
+
+/// The board's flash pairs (`flash-pair --store`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum PairStore {
+    Record,
+    Checkpoint,
+    Health,
+}
+
+impl PairStore {
+    pub(crate) fn store(self) -> flash_pair::Store {
+        match self {
+            Self::Record => flash_pair::Store::Record,
+            Self::Checkpoint => flash_pair::Store::Checkpoint,
+            Self::Health => flash_pair::Store::Health,
         }
     }
 }

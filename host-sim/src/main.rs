@@ -434,6 +434,25 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// The board's records as flash images: an A/B pair of 128 KiB sectors holding one item
+    /// (--write: the actuator record from `actuator --out`, to flash at the address printed),
+    /// or the newest item of a pair read back from the board (--read: a 256 KiB dump of the
+    /// health pair gives the health log's image for `fleet ingest`).
+    FlashPair {
+        /// Which pair: the record (sectors 5–6, 0x08020000), the checkpoint (7–8,
+        /// 0x08060000) or the health log (9–10, 0x080A0000).
+        #[arg(long, value_enum)]
+        store: PairStore,
+        /// Make the pair's image holding this item.
+        #[arg(long, conflicts_with = "read", required_unless_present = "read")]
+        write: Option<PathBuf>,
+        /// Take the newest item from this dump of the pair.
+        #[arg(long)]
+        read: Option<PathBuf>,
+        /// The image (--write) or the item (--read).
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Time one monitor-model evaluation, one fitness evaluation and one reference-model test
     /// on one core.
     Bench {
@@ -685,6 +704,19 @@ fn main() -> ExitCode {
             Ok(())
         }
         Command::TestSchedule { out } => host_sim::files::schedule::write_schedule(&actuator, &out),
+        Command::FlashPair {
+            store,
+            write,
+            read,
+            out,
+        } => {
+            let store = store.store();
+            match (write, read) {
+                (Some(item), _) => flash_pair::write_pair_image(store, &item, &out),
+                (None, Some(dump)) => flash_pair::read_pair_dump(store, &dump, &out),
+                (None, None) => Err(anyhow::anyhow!("flash-pair: --write ITEM or --read DUMP")),
+            }
+        }
         Command::Bench {
             evaluations,
             identifications,

@@ -56,6 +56,7 @@ fn every_command_has_help() {
         vec!["--help"],
         vec!["inverse", "--help"],
         vec!["footprint", "--help"],
+        vec!["flash-pair", "--help"],
         vec!["bench", "--help"],
         vec!["preflight", "--help"],
         vec!["simulate", "--help"],
@@ -305,4 +306,71 @@ fn a_campaign_writes_every_run_as_a_csv_row() {
         assert!((0.0..20.0).contains(&e_tot), "{r:?}");
         assert!((32..=6000).contains(&evaluations), "{r:?}");
     }
+}
+
+/// The board's record pair: the image `flash-pair --write` makes from `actuator --out`'s
+/// record reads back (`--read`, as from a dump of the pair) to the same record bytes; a dump
+/// of the wrong size and one with no item are refused by name.
+#[test]
+fn a_record_goes_to_a_flash_pair_image_and_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let record = path(&dir, "light.rec");
+    let image = path(&dir, "record-pair.bin");
+    let back = path(&dir, "back.rec");
+    let o = host_sim(&["actuator", "../actuators/light-28v.toml", "--out", &record]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = host_sim(&[
+        "flash-pair",
+        "--store",
+        "record",
+        "--write",
+        &record,
+        "--out",
+        &image,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("flash it at 0x08020000"));
+    assert_eq!(std::fs::metadata(&image).unwrap().len(), 256 * 1024);
+    let o = host_sim(&[
+        "flash-pair",
+        "--store",
+        "record",
+        "--read",
+        &image,
+        "--out",
+        &back,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read(&back).unwrap(),
+        std::fs::read(&record).unwrap()
+    );
+    // Half a pair, and an erased pair.
+    let half = path(&dir, "half.bin");
+    std::fs::write(&half, vec![0xFFu8; 128 * 1024]).unwrap();
+    let o = host_sim(&[
+        "flash-pair",
+        "--store",
+        "health",
+        "--read",
+        &half,
+        "--out",
+        &back,
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("two 128 KiB sectors"), "{}", stderr(&o));
+    let erased = path(&dir, "erased.bin");
+    std::fs::write(&erased, vec![0xFFu8; 256 * 1024]).unwrap();
+    let o = host_sim(&[
+        "flash-pair",
+        "--store",
+        "health",
+        "--read",
+        &erased,
+        "--out",
+        &back,
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("no whole item"), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("panicked"));
 }
