@@ -1,7 +1,8 @@
 //! The actuator's health log: one fixed-size, versioned, checksummed [`HealthRecord`] per
 //! preflight test, kept in a bounded ring ([`HealthLog`]) and persisted slot by slot in a
-//! [`HealthStore`] (RAM under emulation: [`RamStore`]; a file on the host; flash on the
-//! controller, see the sketch below).
+//! [`HealthStore`] (RAM under emulation: [`RamStore`]; a file on the host). On the board the
+//! [`RamStore`]'s whole image is kept in flash as the newest item of an A/B pair of sectors
+//! (`firmware::storage::AbStore`): loaded before the health step, written back after it.
 //!
 //! Units: flight index (count), fault vector (normalised, [`FaultVector`]), fitness [A²·s].
 //! Work bounds: [`HealthRecord::encode`]/[`HealthRecord::decode`] O([`RECORD_BYTES`]);
@@ -39,17 +40,6 @@
 //! `S` flight indices, a torn or erased slot costs that one record (its checksum fails, it is
 //! skipped at load), and no head pointer has to be persisted.
 //!
-//! ## Flash on the controller (sketch, not built)
-//!
-//! The STM32F405 erases flash by sector (16–128 KiB) and programs it in words, 1 → 0 only.
-//! A `HealthStore` over two 16 KiB sectors (e.g. sectors 2 and 3) writes slot `s` at
-//! `sector(s) + RECORD_BYTES · (s mod per_sector)`: `read` copies the 76 bytes; `write`
-//! programs them when the slot is still erased (all 0xFF) and otherwise first erases the
-//! slot's sector (the other sector keeps its records; a flight whose record was lost that way
-//! is one missing point of the trend, never a wrong one). With embassy-stm32 this is
-//! `Flash::blocking_read`/`blocking_write`/`blocking_erase`, which implement
-//! `embedded_storage::nor_flash::NorFlash`. An erased slot decodes as
-//! [`HealthRecordError::BadMagic`] and counts as empty.
 
 use heapless::Deque;
 
