@@ -393,12 +393,20 @@ async fn main(spawner: Spawner) {
 /// Why the preflight did not report.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]
 enum Stop {
+    /// The record pair holds no record (`host-sim flash-pair --store record --write`).
     NoRecord,
+    /// The record is damaged, of another version or out of range.
     RecordRefused(shared::actuator::ActuatorRecordError),
+    /// The record's drive cannot run on the bridge timer.
     Bridge(firmware::bridge::BridgeError),
     Board(BoardError),
+    /// The preflight failed (logged with its stage and reason).
     Preflight,
+    /// A flash pair could not be opened, read or written.
     Flash,
+    /// The health step refused the record (e.g. the log already holds a later flight).
+    Health,
+    /// A static buffer was taken twice, or the heartbeat could not be spawned.
     StartUp,
 }
 
@@ -455,8 +463,9 @@ async fn preflight(spawner: Spawner) -> Result<(), Stop> {
                 }
                 stage = next;
             }
-            Err(_) => {
+            Err(e) => {
                 bridge_off();
+                defmt::error!("preflight failed in stage {}: {}", stage, e);
                 return Err(Stop::Preflight);
             }
         }
@@ -493,8 +502,13 @@ async fn preflight(spawner: Spawner) -> Result<(), Stop> {
     store.erase();
     pair.read(store.as_bytes_mut()).map_err(|_| Stop::Flash)?;
     let day = RecordedDay::of(preflight.day());
-    let update = record_preflight(store, None, &report, day, &TrendSettings::DEFAULT)
-        .map_err(|_| Stop::Flash)?;
+    let update = match record_preflight(store, None, &report, day, &TrendSettings::DEFAULT) {
+        Ok(u) => u,
+        Err(e) => {
+            defmt::error!("health record not appended: {}", e);
+            return Err(Stop::Health);
+        }
+    };
     pair.write(store.as_bytes()).map_err(|_| Stop::Flash)?;
     defmt::println!(
         "health flight={=u32} records={=u32} beats={=u32}",
