@@ -24,10 +24,7 @@
 //! ends the test with the bridge off. Nothing here has run on a board (QEMU's STM32F405 has
 //! none of these peripherals); the library parts it drives are tested on the host.
 
-use core::future::Future;
-use core::pin::Pin;
 use core::sync::atomic::{AtomicU32, Ordering};
-use core::task::{Context, Poll};
 
 use defmt_rtt as _;
 use embassy_executor::Spawner;
@@ -49,6 +46,7 @@ use static_cell::ConstStaticCell;
 
 use firmware::acquisition::{pace, Converter, Counts, Pace, SensorScaling};
 use firmware::bridge::{BridgeDrive, BridgeTiming, Leg, Legs};
+use firmware::cooperate::yield_now;
 use firmware::health::record_preflight;
 use firmware::sequencer::{Sequenced, TestSequencer};
 use firmware::storage::{AbStore, StorageLayout};
@@ -353,27 +351,12 @@ fn sectors(range: &core::ops::Range<u32>) -> (u32, u32) {
     (range.start, range.start + 128 * 1024)
 }
 
-/// Yields once to the executor.
-struct YieldNow(bool);
-
-impl Future for YieldNow {
-    type Output = ();
-    fn poll(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<()> {
-        if self.0 {
-            Poll::Ready(())
-        } else {
-            self.0 = true;
-            cx.waker().wake_by_ref();
-            Poll::Pending
-        }
-    }
-}
-
+/// Stands in for the flight software's other tasks: counts its turns (reported at the end).
 #[embassy_executor::task]
 async fn heartbeat() {
     loop {
         BEATS.fetch_add(1, Ordering::Relaxed);
-        YieldNow(false).await;
+        yield_now().await;
     }
 }
 
@@ -479,7 +462,7 @@ async fn preflight(spawner: Spawner) -> Result<(), Stop> {
             }
         }
         // During the test the frames are due every control period: yield once only then.
-        YieldNow(false).await;
+        yield_now().await;
     };
     // The preflight is over: an empty checkpoint, so that the next one starts afresh.
     let mut pair = AbStore::new(&mut hw.flash, a, b).map_err(|_| Stop::Flash)?;

@@ -18,6 +18,7 @@
 
 pub mod acquisition;
 pub mod bridge;
+pub mod cooperate;
 pub mod health;
 pub mod position_loop;
 pub mod preflight;

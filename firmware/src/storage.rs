@@ -301,36 +301,42 @@ impl<F: blocking::NorFlash> AbStore<F> {
         F::ERASE_SIZE.saturating_sub((AB_HEADER + AB_TRAILER) as usize)
     }
 
-    /// The CRC-32 of `len` bytes at `at` after `head`, read in chunks.
-    fn crc(&mut self, head: &[u8], at: u32, len: u32) -> Result<u32, AbError<F::Error>> {
-        let mut crc = shared::trace::Crc32::new();
-        crc.update(head);
+    /// Reads `len` bytes from `at` in chunks, handing each to `each` until it says stop;
+    /// whether every chunk was taken.
+    fn chunks(
+        &mut self,
+        at: u32,
+        len: u32,
+        mut each: impl FnMut(&[u8]) -> bool,
+    ) -> Result<bool, AbError<F::Error>> {
         let mut chunk = [0u8; AB_CHUNK];
         let mut done = 0;
         while done < len {
             let n = (len - done).min(AB_CHUNK as u32);
             let part = chunk.get_mut(..n as usize).unwrap_or(&mut []);
             self.flash.read(at + done, part).map_err(AbError::Flash)?;
-            crc.update(part);
-            done += n;
-        }
-        Ok(crc.finish())
-    }
-
-    /// Whether `len` bytes from `at` read erased (0xFF).
-    fn erased(&mut self, at: u32, len: u32) -> Result<bool, AbError<F::Error>> {
-        let mut chunk = [0u8; AB_CHUNK];
-        let mut done = 0;
-        while done < len {
-            let n = (len - done).min(AB_CHUNK as u32);
-            let part = chunk.get_mut(..n as usize).unwrap_or(&mut []);
-            self.flash.read(at + done, part).map_err(AbError::Flash)?;
-            if part.iter().any(|&b| b != 0xFF) {
+            if !each(part) {
                 return Ok(false);
             }
             done += n;
         }
         Ok(true)
+    }
+
+    /// The CRC-32 of `len` bytes at `at` after `head`.
+    fn crc(&mut self, head: &[u8], at: u32, len: u32) -> Result<u32, AbError<F::Error>> {
+        let mut crc = shared::trace::Crc32::new();
+        crc.update(head);
+        self.chunks(at, len, |part| {
+            crc.update(part);
+            true
+        })?;
+        Ok(crc.finish())
+    }
+
+    /// Whether `len` bytes from `at` read erased (0xFF).
+    fn erased(&mut self, at: u32, len: u32) -> Result<bool, AbError<F::Error>> {
+        self.chunks(at, len, |part| part.iter().all(|&b| b == 0xFF))
     }
 
     /// What the page ending at `end` holds at `at`.

@@ -4,10 +4,7 @@
 //! Work per executor turn: one [`Preflight::poll`] (≤ `evaluations_per_poll` monitor-model
 //! evaluations, ≤ `frames_per_poll` frames) and one heartbeat; the SysTick exception does O(1).
 
-use core::future::Future;
-use core::pin::Pin;
 use core::sync::atomic::{AtomicU32, Ordering};
-use core::task::{Context, Poll};
 
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
@@ -21,6 +18,7 @@ use static_cell::ConstStaticCell;
 
 use core::ffi::CStr;
 
+use firmware::cooperate::yield_now;
 use firmware::health::record_preflight;
 use firmware::{Preflight, PreflightSettings, Progress, Report, Stage, TraceSource};
 use shared::domain::Domain;
@@ -107,26 +105,6 @@ fn cycles() -> u64 {
 #[exception]
 fn SysTick() {
     WRAPS.fetch_add(1, Ordering::AcqRel);
-}
-
-/// Gives the executor back once.
-struct YieldNow(bool);
-
-impl Future for YieldNow {
-    type Output = ();
-    fn poll(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<()> {
-        if self.0 {
-            Poll::Ready(())
-        } else {
-            self.0 = true;
-            cx.waker().wake_by_ref();
-            Poll::Pending
-        }
-    }
-}
-
-fn yield_now() -> YieldNow {
-    YieldNow(false)
 }
 
 /// Stands in for the control loop and the bus traffic: runs once per executor turn and

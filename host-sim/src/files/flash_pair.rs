@@ -78,10 +78,14 @@ pub fn newest_item(dump: &[u8]) -> Result<Option<Vec<u8>>> {
         );
     }
     let mut flash = Box::new(Pair::ERASED);
-    // Every word as read; an erased word stays erased (writing 0xFF clears no bit).
-    flash
-        .write(0, dump)
-        .map_err(|e| anyhow::anyhow!("loading the dump: {e:?}"))?;
+    // The programmed words as read; an erased word stays erased.
+    for (i, word) in dump.chunks_exact(4).enumerate() {
+        if word != [0xFF; 4] {
+            flash
+                .write(4 * i as u32, word)
+                .map_err(|e| anyhow::anyhow!("loading the dump: {e:?}"))?;
+        }
+    }
     let mut store = pair_store(&mut flash)?;
     let mut out = vec![0u8; SECTOR];
     let n = store
