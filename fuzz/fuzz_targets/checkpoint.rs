@@ -31,12 +31,17 @@ fuzz_target!(|data: &[u8]| {
         return;
     };
     let mut again = vec![0u8; record.len()];
-    ga.save(fingerprint, &mut again).expect("a record of the right length");
+    ga.save(fingerprint, &mut again)
+        .expect("a record of the right length");
     let back = SteadyStateGa::<POPULATION>::restore(GaSettings::FDI, fingerprint, &again)
         .expect("our own record restores");
     assert!(back == ga, "save then restore changed the GA");
     for m in ga.population() {
-        assert!(m.genes.iter().all(|g| (0.0..=1.0).contains(g)), "{:?}", m.genes);
+        assert!(
+            m.genes.iter().all(|g| (0.0..=1.0).contains(g)),
+            "{:?}",
+            m.genes
+        );
     }
     if let Ok(genes) = ga.ask() {
         assert!(genes.iter().all(|g| (0.0..=1.0).contains(g)), "{genes:?}");

@@ -33,15 +33,22 @@ fuzz_target!(|data: &[u8]| {
     // Programmed words as given; erased words left erased (still writable, as on a chip).
     for (i, word) in image.chunks_exact(4).enumerate() {
         if word != [0xFF; 4] {
-            flash.write(4 * i as u32, word).expect("a word inside the flash");
+            flash
+                .write(4 * i as u32, word)
+                .expect("a word inside the flash");
         }
     }
     let mut store = AbStore::new(&mut *flash, 0, PAGE as u32).expect("two pages");
     let mut out = vec![0u8; PAGE];
-    let before = store.read(&mut out).expect("reading never fails on a RAM flash");
+    let before = store
+        .read(&mut out)
+        .expect("reading never fails on a RAM flash");
     let item: Vec<u8> = (0..usize::from(len)).map(|i| i as u8 ^ len).collect();
     store.write(&item).expect("a write fits one page");
-    let after = store.read(&mut out).expect("readable").expect("the item just written");
+    let after = store
+        .read(&mut out)
+        .expect("readable")
+        .expect("the item just written");
     if before.is_none() {
         assert_eq!(&out[..after], &item[..]);
     }
