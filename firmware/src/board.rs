@@ -14,9 +14,11 @@
 //!   = ITR0), the same instant as the ADC.
 //! - Trigger count: TIM2 counts TIM1 TRGO (external clock mode 1 on ITR0), so a frame taken
 //!   late is an overrun, never a silent gap ([`firmware::acquisition::pace`]).
-//! - Flash: the actuator record, the GA checkpoint and the health log's image each in an A/B
-//!   pair of 128 KiB sectors ([`firmware::storage::AbStore`], `StorageLayout::STM32F405`:
-//!   sectors 5–10).
+//! - Flash: the actuator record and the health log's image each in an A/B pair of 128 KiB
+//!   sectors ([`firmware::storage::AbStore`], `StorageLayout::STM32F405`: sectors 5–6 and
+//!   9–10). The checkpoint pair (7–8) is not used: a GA checkpoint resumes only on the same
+//!   measured test, and the board re-runs the test after a power cut (the 22 kB measurement is
+//!   not kept in flash).
 //!
 //! Work per executor turn: one preflight poll (during the test: the frames due, each O(1)
 //! with one sequencer tick; then ≤ `evaluations_per_poll` evaluations) and one heartbeat.
@@ -50,9 +52,9 @@ use firmware::cooperate::yield_now;
 use firmware::health::record_preflight;
 use firmware::sequencer::{Sequenced, TestSequencer};
 use firmware::storage::{AbStore, StorageLayout};
-use firmware::{Acquired, CurrentSource, Preflight, PreflightSettings, Progress, Stage};
+use firmware::{Acquired, CurrentSource, Preflight, PreflightSettings, Progress};
 use shared::actuator::{ActuatorRecord, RECORD_BYTES};
-use shared::fdi::{OnboardMeasured, OnboardRecord};
+use shared::fdi::OnboardMeasured;
 use shared::fitness::CurvatureRun;
 use shared::health::{RamStore, RecordedDay, ONBOARD_RECORDS};
 use shared::prognosis::TrendSettings;
@@ -60,8 +62,6 @@ use shared::LowPass;
 
 /// The bridge timer's clock [Hz] (APB2 × 2).
 const TIMER_HZ: u32 = 168_000_000;
-/// GA evaluations between two checkpoints (a page of the checkpoint pair takes 100).
-const CHECKPOINT_EVERY: u32 = 500;
 
 static MEASURED: ConstStaticCell<OnboardMeasured> = ConstStaticCell::new(OnboardMeasured::ZEROED);
 static CURVATURE: ConstStaticCell<CurvatureRun> = ConstStaticCell::new(CurvatureRun::IDLE);
@@ -422,51 +422,24 @@ async fn preflight(spawner: Spawner) -> Result<(), Stop> {
         timing.dead_time_ticks
     );
 
-    // The checkpoint of a preflight the power cut, if any.
-    let (a, b) = sectors(&layout.checkpoint);
-    let mut checkpoint: OnboardRecord = [0; core::mem::size_of::<OnboardRecord>()];
-    let have_checkpoint = {
-        let mut pair = AbStore::new(&mut hw.flash, a, b).map_err(|_| Stop::Flash)?;
-        // A finished preflight left an empty one; anything else of another length is none.
-        matches!(pair.read(&mut checkpoint), Ok(Some(n)) if n == checkpoint.len())
-    };
-
+    // No GA checkpoint here: a power cut re-runs the test, and a checkpoint resumes only on
+    // the same measured test (its fingerprint), which the board does not keep in flash.
     let mut preflight = Preflight::new(settings, source, measured).with_curvature_buffer(curvature);
     let mut stage = preflight.stage();
-    let mut next_checkpoint = CHECKPOINT_EVERY;
     let report = loop {
         match preflight.poll() {
             Ok(Progress::Finished(report)) => break report,
-            Ok(Progress::Working { stage: next }) => {
-                if next != stage && next == Stage::Identify && have_checkpoint {
-                    if let Ok(n) = preflight.resume(&checkpoint) {
-                        defmt::println!("checkpoint resumed evaluations={=u32}", n);
-                        next_checkpoint = n.saturating_add(CHECKPOINT_EVERY);
-                    }
-                }
-                stage = next;
-            }
+            Ok(Progress::Working { stage: next }) => stage = next,
             Err(e) => {
                 bridge_off();
                 defmt::error!("preflight failed in stage {}: {}", stage, e);
                 return Err(Stop::Preflight);
             }
         }
-        if stage == Stage::Identify && preflight.evaluations() >= next_checkpoint {
-            next_checkpoint = preflight.evaluations().saturating_add(CHECKPOINT_EVERY);
-            if preflight.checkpoint(&mut checkpoint).is_ok() {
-                let mut pair = AbStore::new(&mut hw.flash, a, b).map_err(|_| Stop::Flash)?;
-                if pair.write(&checkpoint).is_err() {
-                    defmt::error!("checkpoint not written");
-                }
-            }
-        }
-        // During the test the frames are due every control period: yield once only then.
+        // One yield per poll: during the test a frame is due every control period, so the
+        // other tasks' turns must stay short.
         yield_now().await;
     };
-    // The preflight is over: an empty checkpoint, so that the next one starts afresh.
-    let mut pair = AbStore::new(&mut hw.flash, a, b).map_err(|_| Stop::Flash)?;
-    pair.write(&[]).map_err(|_| Stop::Flash)?;
 
     let r = &report.result;
     defmt::println!(
