@@ -196,9 +196,7 @@ impl<L: Legs> BridgeDrive<L> {
         // Saturating float-to-int: NaN → 0 (leg low), beyond the top → the top.
         clamp(floor(duty * n + 0.5), 0.0, n) as u16
     }
-}
 
-impl<L: Legs> BridgeDrive<L> {
     /// `volts` across the legs `signs` marks (+1 high, −1 low), ±½ of it each from the bus
     /// midpoint with its own leg current's compensation; the leg marked 0 off.
     fn drive_pair(&mut self, signs: [i8; 3], volts: f32) {
