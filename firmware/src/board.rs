@@ -206,7 +206,7 @@ fn clocks() -> Config {
 fn start() -> Result<(ActuatorRecord, BridgeTiming, Hardware), Stop> {
     let p = embassy_stm32::init(clocks());
     let mut flash = Flash::new_blocking(p.FLASH);
-    let (a, b) = sectors(&StorageLayout::STM32F405.record);
+    let (a, b) = StorageLayout::pair(&StorageLayout::STM32F405.record);
     let record = {
         let mut bytes = [0u8; RECORD_BYTES];
         let mut records = AbStore::new(&mut flash, a, b).map_err(|_| Stop::Flash)?;
@@ -346,11 +346,6 @@ fn injected_ranks(adc: pac::adc::Adc, channels: &[u8]) {
 /// JEXTSEL of TIM1 TRGO (RM0090 §13.13.3).
 const TIM1_TRGO_INJECTED: u8 = 0b0001;
 
-/// The A/B pair of 128 KiB sectors at the start of `range` [flash offsets].
-fn sectors(range: &core::ops::Range<u32>) -> (u32, u32) {
-    (range.start, range.start + 128 * 1024)
-}
-
 /// Stands in for the flight software's other tasks: counts its turns (reported at the end).
 #[embassy_executor::task]
 async fn heartbeat() {
@@ -451,7 +446,7 @@ async fn preflight(spawner: Spawner) -> Result<(), Stop> {
     defmt::println!("verdicts={}", report.verdicts);
 
     // The health log: its image from the pair, this preflight appended, the image back.
-    let (a, b) = sectors(&layout.health);
+    let (a, b) = StorageLayout::pair(&layout.health);
     let mut pair = AbStore::new(&mut hw.flash, a, b).map_err(|_| Stop::Flash)?;
     // Nothing stored: a new log. A pair that cannot be read is left as it is (no record
     // appended) rather than replaced by a log of one.

@@ -77,7 +77,9 @@ impl BridgeTiming {
                 carriers_per_period_milli: milli,
             });
         }
+        // 1 to 128 carriers: the repetition, 2·n − 1, fits the timer's 8-bit counter.
         let carriers = carriers as u8;
+        let repetition = u8::try_from(2 * u16::from(carriers) - 1).unwrap_or(u8::MAX);
         let exact = drive.dead_time * timer_hz as f32;
         let ticks = -floor(-exact) as u32;
         let Ok(dead_time_ticks) = u16::try_from(ticks) else {
@@ -90,7 +92,7 @@ impl BridgeTiming {
             counts,
             // Two counter turns (overflow, underflow) per carrier; an odd value written
             // before the counter starts puts the update on the overflow (RM0090 §17.3.3).
-            repetition: 2 * carriers - 1,
+            repetition,
             dead_time_ticks,
             carriers_per_period: carriers,
         })
@@ -177,7 +179,7 @@ impl<L: Legs> BridgeDrive<L> {
         self.feedback = feedback;
     }
 
-    /// The legs, for the board to stop (all [`Leg::Off`]) when the test ends.
+    /// The legs (what was last set on them).
     pub fn legs_mut(&mut self) -> &mut L {
         &mut self.legs
     }
@@ -246,6 +248,13 @@ mod tests {
         assert_eq!(t.carriers_per_period, 2);
         assert_eq!(t.repetition, 3);
         assert_eq!(t.dead_time_ticks, 84);
+        // The most carriers a control period takes: 128, the repetition counter's top.
+        let slow = DriveSettings {
+            carrier_hz: 12_800.0,
+            ..DriveSettings::TYPICAL
+        };
+        let t = BridgeTiming::new(&slow, 168_000_000, 1.0e-2).unwrap();
+        assert_eq!((t.carriers_per_period, t.repetition), (128, 255));
     }
 
     #[test]

@@ -53,6 +53,13 @@ impl StorageLayout {
         checkpoint: 0x0006_0000..0x000A_0000,
         health: 0x000A_0000..0x000E_0000,
     };
+
+    /// The two halves of a store's range: the pages of an [`AbStore`] pair (one sector each
+    /// on the STM32F405) [byte offsets].
+    pub fn pair(range: &Range<u32>) -> (u32, u32) {
+        let half = (range.end.saturating_sub(range.start)) / 2;
+        (range.start, range.start + half)
+    }
 }
 
 /// Why a store operation failed.
@@ -282,7 +289,7 @@ impl<F: blocking::NorFlash> AbStore<F> {
                     .is_some_and(|end| end <= flash.capacity())
         };
         // Entries are laid out in 4-byte words.
-        if a == b || !fits(a) || !fits(b) || 4 % F::WRITE_SIZE != 0 {
+        if a == b || !fits(a) || !fits(b) || F::WRITE_SIZE == 0 || 4 % F::WRITE_SIZE != 0 {
             return Err(AbError::Layout);
         }
         Ok(Self {
@@ -450,7 +457,7 @@ impl<F: blocking::NorFlash> AbStore<F> {
         let end = |page: usize| self.pages.get(page).map_or(0, |s| s + F::ERASE_SIZE as u32);
         let mut target = None;
         if let Some(at) = free.get(current).copied().flatten() {
-            if at + need <= end(current) && self.erased(at, need)? {
+            if at.saturating_add(need) <= end(current) && self.erased(at, need)? {
                 target = Some(at);
             }
         }
@@ -546,8 +553,17 @@ impl NorFlashError for RamFlashError {
 }
 
 impl<const PAGES: usize, const PAGE: usize> RamFlash<PAGES, PAGE> {
+    /// Pages of whole words: every index and division below relies on it (checked when
+    /// [`RamFlash::ERASED`] is built, at compile time).
+    const WHOLE_WORDS: () = assert!(PAGE >= 4 && PAGE % 4 == 0, "RamFlash pages are whole words");
+
     /// Erased, powered, never cut.
-    pub const ERASED: Self = Self {
+    pub const ERASED: Self = {
+        let () = Self::WHOLE_WORDS;
+        Self::BLANK
+    };
+
+    const BLANK: Self = Self {
         bytes: [[0xFF; PAGE]; PAGES],
         written: [[false; PAGE]; PAGES],
         cut_after: None,

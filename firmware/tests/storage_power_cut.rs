@@ -428,3 +428,11 @@ fn twenty_years_on_the_boards_ab_pairs_wear_each_sector_far_below_its_rating() {
         "{erases:?}"
     );
 }
+
+/// The board's pairs are the halves of the layout's ranges: one 128 KiB sector each.
+#[test]
+fn the_board_pairs_are_one_sector_each() {
+    let l = StorageLayout::STM32F405;
+    assert_eq!(StorageLayout::pair(&l.record), (0x0002_0000, 0x0004_0000));
+    assert_eq!(StorageLayout::pair(&l.health), (0x000A_0000, 0x000C_0000));
+}
