@@ -220,7 +220,10 @@ async fn preflight(spawner: Spawner) -> i32 {
         settings.seed,
         settings.evaluations_per_poll
     );
-    defmt::info!("calibration {}", settings.actuator.calibration);
+    defmt::info!(
+        "calibration at {=f32} C",
+        settings.actuator.calibration.temperature
+    );
 
     // The GA record (the flash page on the controller; the --checkpoint file here).
     let mut record: OnboardRecord = [0; core::mem::size_of::<OnboardRecord>()];

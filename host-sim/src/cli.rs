@@ -27,7 +27,7 @@ pub(crate) use host_sim::files::rig::RigFormat;
 pub(crate) use host_sim::files::trace::{IngestError, Trace, TraceFormat};
 pub(crate) use host_sim::median;
 pub(crate) use host_sim::plant::reference::{
-    ReferenceModel, ReferenceSettings, Scenario, SensorFault,
+    EccentricityPhysics, ReferenceModel, ReferenceSettings, Scenario, SensorFault,
 };
 pub(crate) use host_sim::studies::optimisers::{self, TraceSource};
 pub(crate) use host_sim::studies::prognostics::{self, DegradationPath, PathShape};
@@ -99,9 +99,10 @@ pub(crate) struct ActuatorArgs {
     /// Seed of every random draw of the reference model (sensor and process noise).
     #[arg(long, default_value_t = 0)]
     pub(crate) seed: u64,
-    /// Preflight test design of the built-in actuator: `standstill` (default: voltage
-    /// steps on each phase pair at standstill, then the chirp) or `paper` (the paper's chirp
-    /// alone, currents only). An actuator file carries its own test.
+    /// Preflight test design of the built-in actuator: `injection` (default: a 500 Hz tone
+    /// on each phase pair at standstill, then the chirp), `standstill` (the earlier voltage
+    /// steps at standstill, then the chirp; an ideal drive only) or `paper` (the paper's
+    /// chirp alone, currents only). An actuator file carries its own test.
     #[arg(long, value_enum)]
     pub(crate) test: Option<TestChoice>,
     /// The installation's rigging: what the motor encoder reads with the surface at zero
@@ -159,6 +160,19 @@ pub(crate) struct DayArgs {
     /// The bridge's dead time [s] (e.g. 1e-6), compensated as the file's `[drive]` says.
     #[arg(long, value_name = "SECONDS")]
     pub(crate) dead_time: Option<f64>,
+    /// The controller's timing [s]: each period's duties and current reference take effect
+    /// this long after the sample they were computed from (0 … one control period; e.g.
+    /// 5e-5, one 20 kHz carrier). Default: the file's `[drive] duty_delay` (0).
+    #[arg(long, value_name = "SECONDS")]
+    pub(crate) duty_delay: Option<f64>,
+    /// How the simulated eccentricity changes the back-EMF: `permeance` (the air gap over
+    /// each coil, the reference actuator) or `phase-gain` (a constant gain per phase).
+    #[arg(long, value_name = "PHYSICS")]
+    pub(crate) eccentricity_physics: Option<EccentricityPhysics>,
+    /// The grease as two things: a viscous drag ×10 at −40 °C and dry friction ×2.95,
+    /// each by its own law (where the file's grease is one factor on dry friction).
+    #[arg(long)]
+    pub(crate) two_part_grease: bool,
 }
 
 impl DayArgs {
@@ -168,6 +182,9 @@ impl DayArgs {
             gear_temperature: self.gear_temperature,
             bus_voltage: self.bus_voltage,
             dead_time: self.dead_time,
+            duty_delay: self.duty_delay,
+            eccentricity: self.eccentricity_physics,
+            two_part_grease: self.two_part_grease,
         }
     }
 }

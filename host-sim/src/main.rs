@@ -68,9 +68,11 @@ enum Command {
     Calibrate {
         /// Trace of the healthy actuator (CSV or binary).
         nominal_trace: PathBuf,
-        /// Output: an actuator record with the calibration in it (`.rec`, what the firmware
-        /// loads: the --actuator file's record) or the calibration alone (JSON, any other
-        /// extension).
+        /// Output, by its extension: `.toml`, the --actuator description rewritten with this
+        /// calibration in its `[calibration]` section (what a user keeps and edits);
+        /// `.rec`, the actuator record with the calibration in it (what the firmware loads
+        /// and flashes: the --actuator file's record); any other extension, the calibration
+        /// alone as JSON (for `identify --calibration`).
         #[arg(long)]
         out: PathBuf,
         /// Also estimate the installation's encoder offset from the trace's first frame
@@ -80,7 +82,11 @@ enum Command {
         /// A healthy trace of the same actuator at another temperature (version 3: it
         /// carries the measured temperature): its friction, against the calibration's,
         /// becomes a point of the friction law. Up to 4 (e.g. from a climatic chamber at
-        /// −45, −25, 0 and +75 °C); between points the law interpolates.
+        /// −45, −25, 0 and +75 °C), each within the file's `[domain] temperature`, at least
+        /// 2 K from the calibration's and from each other; between points the law
+        /// interpolates. Without --at the calibration has no friction law (friction does not
+        /// move with temperature), unless the --actuator description's own `[calibration]`
+        /// has one, which is kept.
         #[arg(long = "at", value_name = "TRACE")]
         at: Vec<PathBuf>,
     },

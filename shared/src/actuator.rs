@@ -27,8 +27,10 @@ pub const RECORD_MAGIC: [u8; 4] = *b"EMAA";
 /// standstill and the calibration without the day's terms, versions 1 and 2 have no domain
 /// bus and temperature ranges, which read as [`DomainLimits::ANY_DAY`], none before 4
 /// has the polish's settings, which read as [`PolishSettings::FDI`], and none before 5 has
-/// the drive, which reads as [`DriveSettings::TYPICAL`]).
-pub const RECORD_VERSION: u16 = 5;
+/// the drive, which reads as [`DriveSettings::TYPICAL`]; none before 6 has the
+/// calibration's duty delay, which reads as 0: the controller of those records applied
+/// each period's volts at its sample).
+pub const RECORD_VERSION: u16 = 6;
 /// 32-bit words in the body of version 1.
 const BODY_WORDS_V1: usize = 72;
 /// Words version 2 adds at the end of [`run_words`]: the injection's frequency, the pair
@@ -49,8 +51,12 @@ const BODY_WORDS_V4: usize = BODY_WORDS_V3 + POLISH_WORDS;
 /// Words version 5 adds at the end: the drive's carrier, dead time, compensation (0 or 1)
 /// and compensation threshold.
 const DRIVE_WORDS: usize = 4;
+/// 32-bit words in the body of version 5.
+const BODY_WORDS_V5: usize = BODY_WORDS_V4 + DRIVE_WORDS;
+/// Words version 6 adds at the end: the calibration's duty delay.
+const TIMING_WORDS: usize = 1;
 /// 32-bit words in the body.
-const BODY_WORDS: usize = BODY_WORDS_V4 + DRIVE_WORDS;
+const BODY_WORDS: usize = BODY_WORDS_V5 + TIMING_WORDS;
 /// Bytes of one record: magic, version, length, body, CRC-32.
 pub const RECORD_BYTES: usize = 8 + 4 * BODY_WORDS + 4;
 /// Bytes of a version 1 record.
@@ -61,6 +67,8 @@ pub const RECORD_BYTES_V2: usize = 8 + 4 * BODY_WORDS_V2 + 4;
 pub const RECORD_BYTES_V3: usize = 8 + 4 * BODY_WORDS_V3 + 4;
 /// Bytes of a version 4 record.
 pub const RECORD_BYTES_V4: usize = 8 + 4 * BODY_WORDS_V4 + 4;
+/// Bytes of a version 5 record.
+pub const RECORD_BYTES_V5: usize = 8 + 4 * BODY_WORDS_V5 + 4;
 
 /// Why a record was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -150,6 +158,7 @@ record_fields! {
     CalibrationTemperature => "calibration.temperature",
     CalibrationFrictionPoints => "calibration.friction_points",
     CalibrationMagnetCoefficient => "calibration.magnet_coefficient",
+    CalibrationDutyDelay => "calibration.duty_delay",
     MotorPolePairs => "motor.pole_pairs",
     MotorWindingGroupAngleDeg => "motor.winding_group_angle_deg",
     InstallationEncoderOffset => "installation.encoder_offset",
@@ -247,6 +256,7 @@ impl ActuatorRecord {
         w.f32(v.dead_time);
         w.u32(u32::from(v.compensation));
         w.f32(v.compensation_threshold);
+        w.f32(self.calibration.duty_delay);
         let mut crc = Crc32::new();
         crc.update(w.out.get(..RECORD_BYTES - 4).unwrap_or(&[]));
         w.bytes(&crc.finish().to_le_bytes());
@@ -273,6 +283,7 @@ impl ActuatorRecord {
             2 => (BODY_WORDS_V2, RECORD_BYTES_V2),
             3 => (BODY_WORDS_V3, RECORD_BYTES_V3),
             4 => (BODY_WORDS_V4, RECORD_BYTES_V4),
+            5 => (BODY_WORDS_V5, RECORD_BYTES_V5),
             RECORD_VERSION => (BODY_WORDS, RECORD_BYTES),
             _ => return Err(ActuatorRecordError::UnsupportedVersion { found: version }),
         };
@@ -420,6 +431,9 @@ impl ActuatorRecord {
         } else {
             DriveSettings::TYPICAL
         };
+        if version >= 6 {
+            calibration.duty_delay = r.f32();
+        }
         let record = Self {
             params,
             test,
@@ -514,7 +528,7 @@ impl ActuatorRecord {
             n as f32 == p.pole_pairs
         };
         let v = &self.drive;
-        let others: [(bool, RecordField); 20] = [
+        let others: [(bool, RecordField); 21] = [
             (
                 t.standstill.is_none_or(|s| {
                     s.frequency.is_finite()
@@ -543,6 +557,10 @@ impl ActuatorRecord {
             (
                 c.magnet_coefficient.is_finite() && c.magnet_coefficient.abs() <= 0.01,
                 RecordField::CalibrationMagnetCoefficient,
+            ),
+            (
+                c.duty_delay >= 0.0 && c.duty_delay <= p.control_period,
+                RecordField::CalibrationDutyDelay,
             ),
             (whole_pole_pairs, RecordField::MotorPolePairs),
             (
@@ -896,16 +914,16 @@ mod tests {
             },
             ..ActuatorRecord::REFERENCE
         };
-        let v5 = custom.encode();
-        assert_eq!(ActuatorRecord::decode(&v5), Ok(custom));
-        let v4 = older_record(4, &v5[8..8 + 4 * BODY_WORDS_V4]);
+        let v6 = custom.encode();
+        assert_eq!(ActuatorRecord::decode(&v6), Ok(custom));
+        let v4 = older_record(4, &v6[8..8 + 4 * BODY_WORDS_V4]);
         assert_eq!(v4.len(), RECORD_BYTES_V4);
         let r = ActuatorRecord::decode(&v4).unwrap();
         assert_eq!(r.drive, DriveSettings::TYPICAL);
         assert_eq!(r.polish, custom.polish);
         // A compensation word other than 0 or 1, re-sealed: refused, not read as "on".
-        let mut flag = v5;
-        let at = RECORD_BYTES - 4 - 8;
+        let mut flag = v6;
+        let at = RECORD_BYTES - 4 - 12;
         flag[at..at + 4].copy_from_slice(&7u32.to_le_bytes());
         let mut crc = Crc32::new();
         crc.update(&flag[..RECORD_BYTES - 4]);
@@ -932,6 +950,39 @@ mod tests {
                 field: RecordField::DriveDeadTime
             })
         );
+    }
+
+    #[test]
+    fn a_version_5_record_reads_with_a_controller_that_applies_its_volts_at_the_sample() {
+        let mut custom = ActuatorRecord::REFERENCE;
+        custom.calibration.duty_delay = 5.0e-5;
+        let v6 = custom.encode();
+        assert_eq!(ActuatorRecord::decode(&v6), Ok(custom));
+        let v5 = older_record(5, &v6[8..8 + 4 * BODY_WORDS_V5]);
+        assert_eq!(v5.len(), RECORD_BYTES_V5);
+        let r = ActuatorRecord::decode(&v5).unwrap();
+        assert_eq!(r.calibration.duty_delay, 0.0);
+        assert_eq!(r.drive, custom.drive);
+        assert_eq!(
+            r,
+            ActuatorRecord {
+                calibration: ActuatorRecord::REFERENCE.calibration,
+                ..custom
+            }
+        );
+        // One control period is the latest a controller loads its volts; later is refused.
+        custom.calibration.duty_delay = custom.params.control_period;
+        assert_eq!(custom.validate(), Ok(()));
+        for late in [1.5e-4, -1.0e-6, f32::NAN] {
+            custom.calibration.duty_delay = late;
+            assert_eq!(
+                custom.validate(),
+                Err(ActuatorRecordError::OutOfRange {
+                    field: RecordField::CalibrationDutyDelay
+                }),
+                "{late}"
+            );
+        }
     }
 
     #[test]
@@ -986,10 +1037,10 @@ mod tests {
             Err(ActuatorRecordError::TooShort { found: 100 })
         );
         let mut other = bytes;
-        other[4] = 6;
+        other[4] = 7;
         assert_eq!(
             ActuatorRecord::decode(&other),
-            Err(ActuatorRecordError::UnsupportedVersion { found: 6 })
+            Err(ActuatorRecordError::UnsupportedVersion { found: 7 })
         );
         let mut other = bytes;
         other[0] = b'X';

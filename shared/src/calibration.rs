@@ -45,6 +45,12 @@ pub struct Calibration {
     pub friction_points: [[f32; 2]; 4],
     /// Magnet flux coefficient [1/K] (−0.0011 NdFeB, −0.00035 SmCo; 0: not known).
     pub magnet_coefficient: f32,
+    /// The installed controller's timing [s]: how long after a sample the voltages computed
+    /// from it take effect (0 … one control period; a controller that loads each duty at
+    /// the next PWM update has one carrier period). `host-sim calibrate` measures it on the
+    /// healthy trace's injection; the injection's fit and the monitor model's pair circuits
+    /// apply each period's volts that much late.
+    pub duty_delay: f32,
 }
 
 impl Calibration {
@@ -61,6 +67,7 @@ impl Calibration {
         temperature: crate::params::REFERENCE_TEMPERATURE,
         friction_points: [[0.0; 2]; 4],
         magnet_coefficient: 0.0,
+        duty_delay: 0.0,
     };
 }
 
@@ -88,6 +95,7 @@ impl Calibration {
             [76.9982, 0.74194986],
         ],
         magnet_coefficient: -0.0011,
+        duty_delay: 0.0,
     };
 
     /// The same for the earlier default test (voltage steps at standstill), fitted on an
@@ -115,6 +123,17 @@ impl Calibration {
 }
 
 impl Calibration {
+    /// The duty delay as a share of the control period `dt`, within [0, 1]: the weight of
+    /// the previous period's volts in each period's mean. O(1).
+    pub fn delay_share(&self, dt: f32) -> f32 {
+        let share = self.duty_delay / dt;
+        if share > 0.0 {
+            share.min(1.0)
+        } else {
+            0.0
+        }
+    }
+
     /// The reference actuator's calibration for `test`: the injection's, the steps', or the
     /// paper's (a test without a standstill segment).
     pub fn reference_actuator(test: &PreflightTest) -> Self {

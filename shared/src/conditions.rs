@@ -22,6 +22,17 @@ use crate::test_design::PAIR_SIGNS;
 
 /// Copper's resistance coefficient [1/K].
 pub const COPPER_COEFFICIENT: f32 = 0.00393;
+/// Largest square of a phase's healthy turns the injection's inductances may show [-]: a
+/// short takes turns away (N < 1), nothing adds them. Measured over the robustness grid
+/// (docs/robustness.md): at most 1.049 on either example actuator, shorts included; the
+/// reference actuator on a drive with 1 µs of dead time instead of 0.5 µs reads up to 1.15.
+pub const MAX_TURNS_SQUARED: f32 = 1.10;
+
+/// Largest disagreement between the injection's winding temperature and the thermistor's
+/// [K] of an installation the calibration still describes. Measured over the robustness
+/// grid (docs/robustness.md): at most 13.4 K on either example actuator, shorts included,
+/// 3 seeds; a controller 25 µs later than its record reads −150 K (the fit's bound).
+pub const MAX_WINDING_DISAGREEMENT: f32 = 20.0;
 /// Least RMS pair current [A] under which a pair's fit is not trusted (a segment that
 /// carried nothing).
 pub const MIN_PAIR_CURRENT: f32 = 0.05;
@@ -48,8 +59,13 @@ pub enum WindingEstimate {
     Injection,
     /// The test has no injection segment: the calibration's temperature is assumed.
     NoInjection,
-    /// A pair carried less than [`MIN_PAIR_CURRENT`] or its fit is not physical: assumed.
+    /// A pair carried less than [`MIN_PAIR_CURRENT`]: assumed.
     PairCarriedNothing { pair: u8 },
+    /// A pair carried current but its fit is no R–L circuit (a resistance or inductance
+    /// of zero or less), or (`pair` 3) the three pairs' inductances give a phase more turns
+    /// than it has ([`MAX_TURNS_SQUARED`]): the bridge, harness or controller timing is not
+    /// the calibrated one.
+    PairNotPhysical { pair: u8 },
 }
 
 /// The day of one test, as the FDI uses it.
@@ -59,6 +75,11 @@ pub struct TestConditions {
     /// Winding temperature minus the calibration's [K] (estimated: the injection's copper,
     /// averaged with the thermistor where the test carries one).
     pub winding_rise: f32,
+    /// The injection's own estimate minus the thermistor's reading, both from the
+    /// calibration's [K] (0 without either): beyond [`MAX_WINDING_DISAGREEMENT`] the pair
+    /// circuits no longer answer as the calibration's did — another bridge, harness or
+    /// controller timing — and the test is outside the domain.
+    pub winding_disagreement: f32,
     /// Copper resistance against the calibration's [-].
     pub copper_scale: f32,
     /// The injection's installed pair resistance (copper, harness, switches) against the
@@ -80,6 +101,7 @@ impl TestConditions {
     /// The calibration's own day: nothing corrected.
     pub const CALIBRATION: Self = Self {
         winding_rise: 0.0,
+        winding_disagreement: 0.0,
         copper_scale: 1.0,
         pair_resistance_ratio: 1.0,
         flux_scale: 1.0,
@@ -111,7 +133,11 @@ impl TestConditions {
             bus_voltage: sums.bus_voltage(),
             ..Self::CALIBRATION
         };
-        let (pairs, winding) = pair_impedances(measured, params.control_period);
+        let (pairs, winding) = pair_impedances(
+            measured,
+            params.control_period,
+            calibration.delay_share(params.control_period),
+        );
         out.pairs = pairs;
         out.winding = winding;
         if winding != WindingEstimate::Injection {
@@ -126,6 +152,12 @@ impl TestConditions {
             0.5 * (q_ab + q_bc - q_ca),
             0.5 * (q_bc + q_ca - q_ab),
         ];
+        // A fault only takes turns away: more inductance than the healthy winding has is
+        // another bridge or harness than the calibrated one.
+        if squares.iter().any(|&x| x > MAX_TURNS_SQUARED) {
+            out.winding = WindingEstimate::PairNotPhysical { pair: 3 };
+            return out;
+        }
         let turns = squares.map(|x| crate::math::sqrt(x.clamp(0.01, 4.0)));
         // What is left of each pair's R is the copper's temperature.
         let r0 = params.phase_resistance * calibration.pair_resistance_scale;
@@ -152,7 +184,10 @@ impl TestConditions {
         // by a few kelvin from test to test, the thermistor has its bias (both measured:
         // docs/robustness.md).
         let rise = match measured_temperature {
-            Some(t) => 0.5 * (from_injection + (t - calibration.temperature)),
+            Some(t) => {
+                out.winding_disagreement = from_injection - (t - calibration.temperature);
+                0.5 * (from_injection + (t - calibration.temperature))
+            }
             None => from_injection,
         };
         out.winding_rise = rise;
@@ -201,44 +236,33 @@ pub fn friction_factor(calibration: &Calibration, celsius: f32) -> f32 {
 
 /// Each pair's R and L from the injection segment of `measured` (control period `dt`): the
 /// regression `y_{k+1} = a·y_k + b·u_k` of the filtered measured pair current `y` on the
-/// commanded volts `u` through the same filter, over the pair's window past [`SKIP`]
-/// samples. O(segment samples), no allocation.
+/// volts `u` the pair saw over each period through the same filter, over the pair's window
+/// past [`SKIP`] samples. A controller whose volts take effect `delay` of a period after
+/// their sample applies the previous period's for that share of each period: `u` is the
+/// commanded volts blended with the previous period's by `delay` (an R–L circuit whose time
+/// constant is many periods sees the period's mean). O(segment samples), no allocation.
 #[inline(never)]
 pub fn pair_impedances<const N: usize>(
     measured: &MeasuredCurrent<N>,
     dt: f32,
+    delay: f32,
 ) -> ([PairImpedance; 3], WindingEstimate) {
     let mut out = [PairImpedance::default(); 3];
-    let Some(segment) = measured.test().standstill.filter(|s| s.is_injection()) else {
-        return (out, WindingEstimate::NoInjection);
-    };
-    let samples = measured.samples();
-    let filter = measured.filter();
-    let mut state = LowPassState::default();
-    let settle = usize::from(segment.settle_samples);
-    let per_pair = usize::from(segment.on_samples) + usize::from(segment.off_samples);
     // Normal equations per pair: [Σyy Σyu; Σyu Σuu]·[a b] = [Σy'y Σy'u], and Σy², n.
     let mut sums = [[0.0f32; 7]; 3];
-    let mut previous: Option<(f32, f32)> = None;
-    for index in 0..segment.samples().min(samples.len()) {
-        let Some(drive) = segment.at(index) else {
-            break;
-        };
-        let u = filter.apply(&mut state, drive.voltage(dt));
-        let y = samples.get(index).copied().unwrap_or(0.0);
-        let within = index.checked_sub(settle).map(|i| i % per_pair);
-        if let (Some(w), Some((y0, u0)), Some(s)) = (within, previous, sums.get_mut(drive.pair)) {
-            if w > SKIP {
-                s[0] += y0 * y0;
-                s[1] += y0 * u0;
-                s[2] += u0 * u0;
-                s[3] += y * y0;
-                s[4] += y * u0;
-                s[5] += y * y;
-                s[6] += 1.0;
-            }
+    let found = injection_rows(measured, dt, delay, |pair, [y0, u0, y]| {
+        if let Some(s) = sums.get_mut(pair) {
+            s[0] += y0 * y0;
+            s[1] += y0 * u0;
+            s[2] += u0 * u0;
+            s[3] += y * y0;
+            s[4] += y * u0;
+            s[5] += y * y;
+            s[6] += 1.0;
         }
-        previous = Some((y, u));
+    });
+    if !found {
+        return (out, WindingEstimate::NoInjection);
     }
     for (j, (s, slot)) in sums.iter().zip(out.iter_mut()).enumerate() {
         let det = s[0] * s[2] - s[1] * s[1];
@@ -251,7 +275,7 @@ pub fn pair_impedances<const N: usize>(
         let a = (s[3] * s[2] - s[4] * s[1]) / det;
         let b = (s[0] * s[4] - s[1] * s[3]) / det;
         if !(a > 0.0 && a < 1.0 && b > 0.0) {
-            return (out, WindingEstimate::PairCarriedNothing { pair: j as u8 });
+            return (out, WindingEstimate::PairNotPhysical { pair: j as u8 });
         }
         let resistance = (1.0 - a) / b;
         *slot = PairImpedance {
@@ -261,6 +285,49 @@ pub fn pair_impedances<const N: usize>(
         };
     }
     (out, WindingEstimate::Injection)
+}
+
+/// Hands `row` each fitted row of the injection's regression, in order: the pair (0 = A→B),
+/// and `[y_k, u_k, y_{k+1}]`, the filtered measured pair current and the filtered volts the
+/// pair saw over period k (control period `dt`): from a controller whose volts take effect
+/// `delay` of a period (0 … 1) after their sample, the previous period's volts for that
+/// share and this period's for the rest (0 V before the segment). `false` when the test has no injection
+/// segment. O(segment samples), no allocation.
+#[inline(always)]
+pub fn injection_rows<const N: usize>(
+    measured: &MeasuredCurrent<N>,
+    dt: f32,
+    delay: f32,
+    mut row: impl FnMut(usize, [f32; 3]),
+) -> bool {
+    let Some(segment) = measured.test().standstill.filter(|s| s.is_injection()) else {
+        return false;
+    };
+    let samples = measured.samples();
+    let filter = measured.filter();
+    let mut state = LowPassState::default();
+    let settle = usize::from(segment.settle_samples);
+    let per_pair = usize::from(segment.on_samples) + usize::from(segment.off_samples);
+    let mut previous: Option<(f32, f32)> = None;
+    // The previous period's volts, which hold for `delay` of each period.
+    let mut commanded = 0.0f32;
+    for index in 0..segment.samples().min(samples.len()) {
+        let Some(drive) = segment.at(index) else {
+            break;
+        };
+        let volts = drive.voltage(dt);
+        let u = filter.apply(&mut state, volts + delay * (commanded - volts));
+        commanded = volts;
+        let y = samples.get(index).copied().unwrap_or(0.0);
+        let within = index.checked_sub(settle).map(|i| i % per_pair);
+        if let (Some(w), Some((y0, u0))) = (within, previous) {
+            if w > SKIP {
+                row(drive.pair, [y0, u0, y]);
+            }
+        }
+        previous = Some((y, u));
+    }
+    true
 }
 
 #[cfg(test)]

@@ -12,7 +12,7 @@
 
 use crate::command::ChirpCommand;
 use crate::conditioning::{commutation_signs, i16f16_to_f32, i4f28_to_f32, AdcFrame};
-use crate::conditions::{TestConditions, WindingEstimate};
+use crate::conditions::{TestConditions, WindingEstimate, MAX_WINDING_DISAGREEMENT};
 
 /// Why a test lies outside the monitor model's domain.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -57,6 +57,13 @@ pub enum OutsideReason {
     /// disagreed over `spread` rad, more than the largest play and compliance the fault
     /// vector can explain.
     TransducerDisagrees { spread: f32 },
+    /// The installation is not the one calibrated: the injection's winding temperature
+    /// disagreed with the thermistor's by `kelvin` (beyond
+    /// [`crate::conditions::MAX_WINDING_DISAGREEMENT`]), or (`kelvin` NaN) a pair answered
+    /// the tone as no R–L circuit of this winding does
+    /// ([`crate::conditions::WindingEstimate::PairNotPhysical`] says which). Another dead
+    /// time, switch, harness or controller timing: recalibrate, do not identify.
+    InstallationChanged { kelvin: f32 },
 }
 
 /// The verdict on the whole test.
@@ -77,8 +84,15 @@ impl Domain {
     /// says. O(1).
     pub fn with_day(self, limits: &DomainLimits, day: &TestConditions) -> Self {
         let outside = |v: Option<f32>, [lo, hi]: [f32; 2]| v.filter(|v| !(lo..=hi).contains(v));
+        let disagreement = day.winding_disagreement;
         if let WindingEstimate::PairCarriedNothing { pair } = day.winding {
             Self::Outside(OutsideReason::SegmentCarriedNothing { pair })
+        } else if let WindingEstimate::PairNotPhysical { .. } = day.winding {
+            Self::Outside(OutsideReason::InstallationChanged { kelvin: f32::NAN })
+        } else if disagreement.abs() > MAX_WINDING_DISAGREEMENT {
+            Self::Outside(OutsideReason::InstallationChanged {
+                kelvin: disagreement,
+            })
         } else if let Some(volts) = outside(day.bus_voltage, limits.bus_voltage) {
             Self::Outside(OutsideReason::BusOutOfRange { volts })
         } else if let Some(celsius) = outside(day.measured_temperature, limits.temperature) {

@@ -201,6 +201,7 @@ fn fingerprint<const N: usize>(
     crate::actuator::run_words(params, measured.test(), calibration, settings, |word| {
         crc.update(&word.to_le_bytes())
     });
+    crc.update(&calibration.duty_delay.to_bits().to_le_bytes());
     crc.update(&seed.to_le_bytes());
     crc.finish()
 }

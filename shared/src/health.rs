@@ -229,6 +229,7 @@ pub enum DomainCode {
     CurrentSenseOffset = 10,
     CurrentSenseGain = 11,
     TransducerDisagrees = 12,
+    InstallationChanged = 13,
 }
 
 impl From<Domain> for DomainCode {
@@ -251,13 +252,14 @@ impl From<Domain> for DomainCode {
             Domain::Outside(OutsideReason::CurrentSenseOffset { .. }) => Self::CurrentSenseOffset,
             Domain::Outside(OutsideReason::CurrentSenseGain { .. }) => Self::CurrentSenseGain,
             Domain::Outside(OutsideReason::TransducerDisagrees { .. }) => Self::TransducerDisagrees,
+            Domain::Outside(OutsideReason::InstallationChanged { .. }) => Self::InstallationChanged,
         }
     }
 }
 
 impl DomainCode {
     /// Every code, in the order of its byte.
-    const ALL: [Self; 13] = [
+    const ALL: [Self; 14] = [
         Self::Within,
         Self::NoMotion,
         Self::OpenPhase,
@@ -271,6 +273,7 @@ impl DomainCode {
         Self::CurrentSenseOffset,
         Self::CurrentSenseGain,
         Self::TransducerDisagrees,
+        Self::InstallationChanged,
     ];
 
     fn from_byte(b: u8) -> Option<Self> {
@@ -293,6 +296,7 @@ impl DomainCode {
             Self::CurrentSenseOffset => "current_sense_offset",
             Self::CurrentSenseGain => "current_sense_gain",
             Self::TransducerDisagrees => "transducer_disagrees",
+            Self::InstallationChanged => "installation_changed",
         }
     }
 

@@ -171,6 +171,8 @@ pub struct MonitorModel {
     pair_phase_inductance: f32,
     /// The standstill segment played before the chirp, if the test has one.
     standstill: Option<StandstillSegment>,
+    /// The controller's duty delay as a share of the period ([`Calibration::delay_share`]).
+    delay_share: f32,
 }
 
 impl MonitorModel {
@@ -196,6 +198,7 @@ impl MonitorModel {
             pair_phase_resistance: params.phase_resistance * calibration.pair_resistance_scale,
             pair_phase_inductance: params.phase_inductance * calibration.pair_inductance_scale,
             standstill: None,
+            delay_share: calibration.delay_share(params.control_period),
         }
     }
 
@@ -405,6 +408,8 @@ impl MonitorModel {
         let lead = segment.samples();
         let mut pair = 0usize;
         let mut current = pair_current_after_switch(state.start_currents, pair);
+        // The previous period's volts, which hold for `delay_share` of each period.
+        let mut commanded = 0.0f32;
         for i in 0..lead.min(samples) {
             let Some(drive) = segment.at(i) else {
                 break;
@@ -428,11 +433,13 @@ impl MonitorModel {
             }
             // Held through the settle (not fitted: the rotor may still move, and its
             // back-EMF drives the shorted pair), then from the measured current on.
+            let volts = drive.voltage(self.dt);
             if segment.fitted(i) {
                 let decay = f.pair_decay.get(pair).copied().unwrap_or(0.0);
                 let gain = f.pair_gain.get(pair).copied().unwrap_or(0.0);
-                current = decay * current + gain * drive.voltage(self.dt);
+                current = decay * current + gain * (volts + self.delay_share * (commanded - volts));
             }
+            commanded = volts;
         }
         if samples <= lead {
             return ControlFlow::Break(samples);

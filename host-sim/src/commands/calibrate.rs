@@ -38,11 +38,48 @@ pub(crate) fn calibrate_command(
     if estimate_offset {
         file.encoder_offset = Some(record.params.encoder_offset);
     }
+    let [low, high] = record.domain.temperature;
+    let mut seen: Vec<(PathBuf, f32)> = vec![(trace_path.to_path_buf(), file.temperature)];
     if !at.is_empty() {
         let mut points = [[0.0f32; 2]; 4];
         for (slot, path) in points.iter_mut().zip(at) {
             let other = actuator.read_trace(path)?;
             let measured = other.measured(&record.params)?;
+            let celsius = measured.conditions().temperature().with_context(|| {
+                format!(
+                    "--at {}: the trace carries no measured temperature (a version 3 trace \
+                     has `temp`): it cannot place a point of the friction law",
+                    path.display()
+                )
+            })?;
+            if !(low..=high).contains(&celsius) {
+                anyhow::bail!(
+                    "--at {}: measured {celsius:.1} °C, outside the description's [domain] \
+                     temperature [{low}, {high}] °C: the law would be measured where the FDI \
+                     refuses to identify. Widen [domain] temperature if the actuator is to \
+                     be verified there",
+                    path.display()
+                );
+            }
+            for (earlier, t) in &seen {
+                if same_file(earlier, path) || (celsius - t).abs() < MIN_POINT_SPACING {
+                    anyhow::bail!(
+                        "--at {}: {} ({:.1} °C against {:.1} °C): each --at trace must be \
+                         another healthy trace at its own temperature, at least {} K from \
+                         the others and from the calibration's",
+                        path.display(),
+                        if same_file(earlier, path) {
+                            format!("the same trace as {}", earlier.display())
+                        } else {
+                            format!("the same temperature as {}", earlier.display())
+                        },
+                        celsius,
+                        t,
+                        MIN_POINT_SPACING
+                    );
+                }
+            }
+            seen.push((path.clone(), celsius));
             *slot = host_sim::fdi::calibration::friction_point(
                 &measured,
                 record.params,
@@ -59,6 +96,9 @@ pub(crate) fn calibrate_command(
         // The record keeps them rising in temperature (shared::conditions::friction_factor).
         points.sort_by(|a, b| a[0].total_cmp(&b[0]));
         file.friction_points = points;
+    } else if actuator.built_in {
+        // The built-in record's law is the reference model's grease, not this actuator's.
+        file.friction_points = [[0.0; 2]; 4];
     }
     record.calibration = file.calibration();
     let extension = out
@@ -102,6 +142,31 @@ pub(crate) fn calibrate_command(
     println!("inductance scale    {:.5}", file.inductance_scale);
     println!("back-EMF scale      {:.5}", file.back_emf_scale);
     println!("nominal residual    {:.4e} A²·s", file.nominal_residual);
+    let law: Vec<String> = file
+        .friction_points
+        .iter()
+        .filter(|p| p[1] > 0.0)
+        .map(|p| format!("{:.1} °C ×{:.3}", p[0], p[1]))
+        .collect();
+    println!(
+        "friction law        {}",
+        if law.is_empty() {
+            "none: friction does not move with temperature (measure one with --at)".to_string()
+        } else if at.is_empty() {
+            format!(
+                "{} (kept from the description's [calibration])",
+                law.join(", ")
+            )
+        } else {
+            law.join(", ")
+        }
+    );
+    if file.duty_delay > 0.0 {
+        println!(
+            "controller timing   volts {:.1} µs after their sample ([drive] duty_delay)",
+            1e6 * file.duty_delay
+        );
+    }
     println!(
         "mismatch (relative RMS of the filtered equivalent current): {:.2} % before, {:.2} % after",
         100.0 * file.mismatch_before,
@@ -118,4 +183,17 @@ pub(crate) fn calibrate_command(
         }
     );
     Ok(())
+}
+
+/// Least spacing of the friction law's temperatures [K]: closer points make its slope the
+/// thermistor's noise.
+const MIN_POINT_SPACING: f32 = 2.0;
+
+/// Whether two paths name one file (the same path, or the same file reached two ways).
+fn same_file(a: &Path, b: &Path) -> bool {
+    a == b
+        || matches!(
+            (std::fs::canonicalize(a), std::fs::canonicalize(b)),
+            (Ok(x), Ok(y)) if x == y
+        )
 }

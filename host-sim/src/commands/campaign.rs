@@ -74,6 +74,9 @@ struct GridPoint {
     /// Whether the drive differs from the calibration's (the calibration is redone on it:
     /// dead time is a property of the installed controller, like the harness).
     own_calibration: bool,
+    /// Whether the record is told the controller's timing the reference model plays (a
+    /// controller whose duty delay the record carries); otherwise it keeps its own.
+    declared_timing: bool,
 }
 
 /// The robustness grid around the actuator's calibration day: the winding (and gear)
@@ -92,6 +95,7 @@ fn grid(actuator: &Actuator) -> Result<Vec<GridPoint>> {
             ..Day::default()
         },
         own_calibration: false,
+        declared_timing: false,
     };
     let mut points: Vec<GridPoint> = [-60.0, -30.0, 0.0, 30.0, 60.0]
         .into_iter()
@@ -116,14 +120,104 @@ fn grid(actuator: &Actuator) -> Result<Vec<GridPoint>> {
         Some(base + 60.0),
         Some(bus(280.0)),
     ));
-    points.push(GridPoint {
-        label: "dead time 1 µs (calibrated on that drive)".to_string(),
-        day: Day {
-            dead_time: Some(1.0e-6),
+    let row = |label: &str, day: Day, own_calibration: bool, declared_timing: bool| GridPoint {
+        label: label.to_string(),
+        day,
+        own_calibration,
+        declared_timing,
+    };
+    let dead_time = Day {
+        dead_time: Some(1.0e-6),
+        ..Day::default()
+    };
+    points.push(row(
+        "dead time 1 µs (calibrated on that drive)",
+        dead_time,
+        true,
+        false,
+    ));
+    points.push(row(
+        "dead time 1 µs, calibrated at the file's (a replaced drive)",
+        dead_time,
+        false,
+        false,
+    ));
+    // The controller's timing (issue 34): declared in the record and calibrated with it, and
+    // one the record does not know.
+    for (label, seconds) in [
+        ("duty delay 25 µs (declared, calibrated with it)", 2.5e-5),
+        ("duty delay 50 µs (declared, calibrated with it)", 5.0e-5),
+        ("duty delay 100 µs (declared, calibrated with it)", 1.0e-4),
+    ] {
+        let day = Day {
+            duty_delay: Some(seconds),
+            ..Day::default()
+        };
+        points.push(row(label, day, true, true));
+    }
+    points.push(row(
+        "duty delay 50 µs, undeclared (the record says 0)",
+        Day {
+            duty_delay: Some(5.0e-5),
             ..Day::default()
         },
-        own_calibration: true,
-    });
+        false,
+        false,
+    ));
+    // The gearbox is not the winding: the thermistor reads the winding.
+    for (label, winding, gear) in [
+        ("gear −40 K from the winding", None, base - 40.0),
+        ("gear +40 K from the winding", None, base + 40.0),
+        ("winding −40 K, gear −60 K", Some(base - 40.0), base - 60.0),
+    ] {
+        let day = Day {
+            temperature: winding,
+            gear_temperature: Some(gear),
+            ..Day::default()
+        };
+        points.push(row(label, day, false, false));
+    }
+    // The grease as two things (drag ×10 and dry friction ×2.95 at −40 °C), calibrated with
+    // `--at` on that grease.
+    let grease = |temperature: Option<f64>, gear_temperature: Option<f64>| Day {
+        temperature,
+        gear_temperature,
+        two_part_grease: true,
+        ..Day::default()
+    };
+    points.push(row(
+        "two-part grease, +0 K",
+        grease(None, None),
+        true,
+        false,
+    ));
+    points.push(row(
+        "two-part grease, −60 K",
+        grease(Some(base - 60.0), None),
+        true,
+        false,
+    ));
+    points.push(row(
+        "two-part grease, +60 K",
+        grease(Some(base + 60.0), None),
+        true,
+        false,
+    ));
+    points.push(row(
+        "two-part grease, gear −40 K from the winding",
+        grease(None, Some(base - 40.0)),
+        true,
+        false,
+    ));
+    points.push(row(
+        "eccentricity as a per-phase back-EMF gain",
+        Day {
+            eccentricity: Some(host_sim::plant::reference::EccentricityPhysics::PhaseGain),
+            ..Day::default()
+        },
+        false,
+        false,
+    ));
     Ok(points)
 }
 
@@ -147,18 +241,26 @@ pub(crate) fn conditions_campaign_command(
          e_tot in % (eq. 4); `healthy`: the largest component any run of the healthy \
          actuator read, and its component-runs read `FAULT` / `suspect` (7 components × runs); \
          then the same readings of the healthy components beside the faults of Table I and II; \
-         then the runs the domain check put outside.\n\n\
-         | conditions | Table I median | Table I worst case (mean) | low | medium | high | medium + noise | healthy: largest | healthy: FAULT / suspect | Table I+II healthy components FAULT / suspect | outside the domain |\n\
-         | --- | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n",
+         then the runs the domain check put outside; then the largest disagreement of the \
+         injection's winding temperature with the thermistor's over the row's runs (beyond \
+         `shared::conditions::MAX_WINDING_DISAGREEMENT` a run is outside).\n\n\
+         | conditions | Table I median | Table I worst case (mean) | low | medium | high | medium + noise | healthy: largest | healthy: FAULT / suspect | Table I+II healthy components FAULT / suspect | outside the domain | injection − thermistor, largest [K] |\n\
+         | --- | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n",
         actuator.name,
         actuator.record.test.kind_name(),
         actuator.record.calibration.temperature
     );
     for point in grid(actuator)? {
         let mut played = actuator.clone().with_day(point.day)?;
+        if point.declared_timing {
+            played.record.calibration.duty_delay =
+                played.reference_settings()?.bridge.duty_delay as f32;
+        }
         if point.own_calibration {
-            let model =
-                ReferenceModel::new(played.reference_settings()?).with_test(played.record.test);
+            // On the played drive and grease, at the calibration's own day.
+            let mut settings = played.reference_settings()?;
+            settings.conditions = actuator.reference_settings()?.conditions;
+            let model = ReferenceModel::new(settings).with_test(played.record.test);
             played.record.calibration = host_sim::fdi::calibration::reference_calibration(
                 &model,
                 &played.record.calibration,
@@ -224,8 +326,16 @@ pub(crate) fn conditions_campaign_command(
             .map(|c| c.runs.iter().filter(|r| !r.within).count())
             .sum();
         let total: usize = summaries.iter().map(|c| c.runs.len()).sum();
+        let disagreement = summaries
+            .iter()
+            .flat_map(|c| {
+                c.runs
+                    .iter()
+                    .map(|r| f64::from(r.winding_disagreement).abs())
+            })
+            .fold(0.0, f64::max);
         text += &format!(
-            "| {} | {median:.2} | {worst} | {} | {} | {} | {} | {largest:.3} | {hf} / {hs} | {f} / {su} of {of} | {outside} of {total} |\n",
+            "| {} | {median:.2} | {worst} | {} | {} | {} | {} | {largest:.3} | {hf} / {hs} | {f} / {su} of {of} | {outside} of {total} | {disagreement:.1} |\n",
             point.label,
             mean_of("low"),
             mean_of("medium"),

@@ -119,6 +119,7 @@ pub(crate) fn report(
         let c = &id.conditions;
         obj["conditions"] = json!({
             "winding_rise_k": c.winding_rise,
+            "winding_disagreement_k": c.winding_disagreement,
             "winding_estimate": format!("{:?}", c.winding),
             "flux_scale": c.flux_scale,
             "friction_scale": c.friction_scale,
@@ -195,7 +196,10 @@ pub(crate) fn conditions_text(c: &shared::conditions::TestConditions) -> String 
         |x: Option<f32>, unit: &str| x.map_or("-".to_string(), |v| format!("{v:.1} {unit}"));
     let winding = match c.winding {
         shared::conditions::WindingEstimate::Injection => {
-            format!("{:+.1} K from calibration (estimated)", c.winding_rise)
+            format!(
+                "{:+.1} K from calibration (estimated; injection − thermistor {:+.1} K)",
+                c.winding_rise, c.winding_disagreement
+            )
         }
         other => format!("not estimated ({other:?})"),
     };

@@ -50,6 +50,9 @@ pub struct CalibrationFile {
     pub friction_points: [[f32; 2]; 4],
     #[serde(default)]
     pub magnet_coefficient: f32,
+    /// The controller's duty delay the injection showed [s] (`shared::Calibration`).
+    #[serde(default)]
+    pub duty_delay: f32,
     /// The installation's encoder offset, when `calibrate --estimate-offset` measured it
     /// [rad, motor side]: `identify --calibration` uses it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -87,6 +90,7 @@ impl CalibrationFile {
             temperature: self.temperature,
             friction_points: self.friction_points,
             magnet_coefficient: self.magnet_coefficient,
+            duty_delay: self.duty_delay,
         }
     }
 
@@ -206,11 +210,43 @@ pub fn calibrate(
     prior: &Calibration,
 ) -> Result<CalibrationFile> {
     let nominal = FaultVector::NOMINAL;
-    let (pairs, winding) = pair_impedances(measured, params.control_period);
+    let dt = params.control_period;
+    let (pairs, winding) = pair_impedances(measured, dt, prior.delay_share(dt));
+    // The copper alone at the trace's temperature: an installed pair circuit (copper,
+    // harness, switches) is never below it by more than a data sheet's tolerance.
+    let celsius = measured
+        .conditions()
+        .temperature()
+        .unwrap_or(shared::params::REFERENCE_TEMPERATURE);
+    let copper = 2.0
+        * f64::from(params.phase_resistance)
+        * (1.0
+            + f64::from(shared::conditions::COPPER_COEFFICIENT)
+                * f64::from(celsius - shared::params::REFERENCE_TEMPERATURE));
+    let timing_hint = || match least_duty_delay(measured, dt, copper) {
+        Some(d) if d > f64::from(prior.duty_delay) => format!(
+            ": the pair answers the tone as if the controller applied its volts at least \
+             {:.1} µs after their sample, and the record says {:.1} µs. Declare the \
+             controller's timing (`[drive] duty_delay` in the actuator description, e.g. \
+             5e-5 for a duty loaded at the next 20 kHz PWM update) and calibrate again",
+            d * 1e6,
+            f64::from(prior.duty_delay) * 1e6
+        ),
+        _ => String::from(": the trace cannot calibrate the pair circuits"),
+    };
     let (pair_resistance_scale, pair_inductance_scale) = match winding {
         WindingEstimate::Injection => {
             let r: f32 = pairs.iter().map(|p| p.resistance).sum::<f32>() / 3.0;
             let l: f32 = pairs.iter().map(|p| p.inductance).sum::<f32>() / 3.0;
+            if f64::from(r) < MIN_COPPER_SHARE * copper {
+                bail!(
+                    "the injection's pair resistance is {:.3} Ω, {:.0} % of the data sheet's \
+                     copper at the measured {celsius:.1} °C ({copper:.3} Ω){}",
+                    r,
+                    100.0 * f64::from(r) / copper,
+                    timing_hint()
+                );
+            }
             (
                 r / (2.0 * params.phase_resistance),
                 l / (2.0 * params.phase_inductance),
@@ -218,10 +254,19 @@ pub fn calibrate(
         }
         WindingEstimate::NoInjection => (1.0, 1.0),
         WindingEstimate::PairCarriedNothing { pair } => bail!(
-            "the injection segment's pair {} carried less than {} A RMS (or no physical R, L): \
-             the trace cannot calibrate the pair circuits",
-            ["A→B", "B→C", "C→A"][usize::from(pair).min(2)],
+            "the injection segment's pair {} carried {:.3} A RMS, less than {} A: the trace \
+             cannot calibrate the pair circuits (is the bridge driving the test's pair \
+             voltages?)",
+            PAIR_NAMES[usize::from(pair).min(2)],
+            injection_rms(measured, dt)[usize::from(pair).min(2)],
             shared::conditions::MIN_PAIR_CURRENT
+        ),
+        WindingEstimate::PairNotPhysical { pair } => bail!(
+            "the injection segment's pair {} carried {:.2} A RMS but its answer to the tone \
+             is not a physical R–L circuit{}",
+            PAIR_NAMES[usize::from(pair).min(2)],
+            injection_rms(measured, dt)[usize::from(pair).min(2)],
+            timing_hint()
         ),
     };
     let base = Calibration {
@@ -233,6 +278,7 @@ pub fn calibrate(
             .unwrap_or(shared::params::REFERENCE_TEMPERATURE),
         friction_points: prior.friction_points,
         magnet_coefficient: prior.magnet_coefficient,
+        duty_delay: prior.duty_delay,
         ..Calibration::IDENTITY
     };
     const DAMPING_UNIT: f64 = 10.0;
@@ -260,6 +306,23 @@ pub fn calibrate(
         }
     };
     let best = nelder_mead(&mut cost, [0.0, 0.0, 0.0, 0.0, 0.1], 0.1, MAX_EVALUATIONS);
+    // A scale at its search bound explains nothing: the monitor model could not match the
+    // trace's chirp within a factor 4 of the data sheet.
+    for (name, x) in ["resistance", "inductance", "back-EMF", "friction"]
+        .iter()
+        .zip(&best)
+    {
+        if x.abs() >= 0.99 * LOG_BOUND {
+            bail!(
+                "the fit of the {name} scale ran into its bound (×{:.3}; the search spans \
+                 ×0.25 … ×4 of the data sheet): the monitor model cannot explain this trace \
+                 with the description's parameters. Check the trace's current scale and sign \
+                 (`import --scales`), the description's motor and controller against the \
+                 actuator, and the controller's timing (`[drive] duty_delay`)",
+                x.exp()
+            );
+        }
+    }
     let mut calibration = calibration_at(&best);
     let problem = FitnessProblem::on_day(measured, params, &calibration, day)
         .map_err(|e| anyhow::anyhow!("the trace cannot be used for calibration: {e:?}"))?;
@@ -281,12 +344,74 @@ pub fn calibrate(
         temperature: calibration.temperature,
         friction_points: calibration.friction_points,
         magnet_coefficient: calibration.magnet_coefficient,
+        duty_delay: calibration.duty_delay,
         encoder_offset: None,
         mismatch_before: relative_mismatch(measured, params, &Calibration::IDENTITY, &nominal),
         mismatch_after: relative_mismatch(measured, params, &calibration, &nominal),
         evaluations,
     })
 }
+
+/// Each pair's resistance [Ω] as the injection of `measured` shows it if the controller's
+/// volts took effect `share` of a control period `dt` after their sample: the regression of
+/// `shared::conditions::pair_impedances` in f64, without its physical checks (a negative R
+/// is returned as it is). For messages: a controller whose timing the record does not
+/// carry shows an R that moves by ≈ 5.6 Ω per period of delay on the reference actuator.
+pub fn pair_resistances_at(measured: &OnboardMeasured, dt: f32, share: f64) -> [f64; 3] {
+    let mut sums = [[0.0f64; 5]; 3];
+    shared::conditions::injection_rows(measured, dt, share as f32, |pair, [y0, u, y]| {
+        let (y0, u, y) = (f64::from(y0), f64::from(u), f64::from(y));
+        if let Some(s) = sums.get_mut(pair) {
+            for (slot, v) in s.iter_mut().zip([y0 * y0, y0 * u, u * u, y * y0, y * u]) {
+                *slot += v;
+            }
+        }
+    });
+    sums.map(|s| {
+        let det = s[0] * s[2] - s[1] * s[1];
+        let a = (s[3] * s[2] - s[4] * s[1]) / det;
+        let b = (s[0] * s[4] - s[1] * s[3]) / det;
+        (1.0 - a) / b
+    })
+}
+
+/// The least duty delay [s] that makes the injection's mean pair resistance at least
+/// `floor` [Ω] (the pair's copper alone: the harness and switches only add), within one
+/// control period `dt`; `None` if even one period does not. Bisection, 30 fits.
+pub fn least_duty_delay(measured: &OnboardMeasured, dt: f32, floor: f64) -> Option<f64> {
+    let mean = |share: f64| pair_resistances_at(measured, dt, share).iter().sum::<f64>() / 3.0;
+    if mean(1.0) < floor {
+        return None;
+    }
+    let (mut lo, mut hi) = (0.0f64, 1.0f64);
+    for _ in 0..30 {
+        let mid = 0.5 * (lo + hi);
+        if mean(mid) < floor {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Some(hi * f64::from(dt))
+}
+
+/// The least share of the data sheet's copper an installed pair circuit may show [-].
+const MIN_COPPER_SHARE: f64 = 0.8;
+
+/// The RMS of each pair's measured current over its fitted rows [A].
+fn injection_rms(measured: &OnboardMeasured, dt: f32) -> [f64; 3] {
+    let mut sums = [[0.0f64; 2]; 3];
+    shared::conditions::injection_rows(measured, dt, 0.0, |pair, [_, _, y]| {
+        if let Some(s) = sums.get_mut(pair) {
+            s[0] += f64::from(y) * f64::from(y);
+            s[1] += 1.0;
+        }
+    });
+    sums.map(|[sq, n]| if n > 0.0 { (sq / n).sqrt() } else { 0.0 })
+}
+
+/// The injection's pairs as the messages name them.
+const PAIR_NAMES: [&str; 3] = ["A→B", "B→C", "C→A"];
 
 /// The healthy actuator's friction at the temperature of another healthy trace, against the
 /// calibration's: the friction factor that best explains `measured` at the nominal vector,

@@ -171,6 +171,20 @@ pub fn identify_checkpointed(
     progress: bool,
     checkpointing: Option<&Checkpointing>,
 ) -> Result<(Outcome, Resumption)> {
+    if measured.conditions().temperature().is_none()
+        && record
+            .calibration
+            .friction_points
+            .iter()
+            .any(|p| p[1] > 0.0)
+    {
+        anyhow::bail!(
+            "the trace carries no measured temperature (a version 3 trace has `temp`), and \
+             the calibration has a friction law: the healthy friction cannot be set for the \
+             day (a cold actuator's friction would read as a fault, or hide one). Record the \
+             controller's temperature with the test"
+        );
+    }
     let settings = record.ga;
     let polish = record.polish;
     let start = Instant::now();

@@ -28,7 +28,7 @@ use shared::test_design::{PreflightTest, StandstillSegment};
 use shared::{ActuatorParams, Calibration, GaSettings};
 
 use crate::plant::bridge::{BridgeSettings, ConditionSensors, OperatingConditions, ThermalLaws};
-use crate::plant::reference::ReferenceSettings;
+use crate::plant::reference::{EccentricityPhysics, ReferenceSettings};
 
 /// One actuator as the ground tools use it: the record the firmware would load, what the
 /// reference model needs beyond it, and the rig's column names.
@@ -344,6 +344,15 @@ impl Actuator {
         if let Some(d) = day.dead_time {
             r.bridge.dead_time = d;
         }
+        if let Some(d) = day.duty_delay {
+            r.bridge.duty_delay = d;
+        }
+        if let Some(e) = day.eccentricity {
+            r.eccentricity = e;
+        }
+        if day.two_part_grease && r.thermal.grease_drag == 0.0 {
+            r.thermal = r.thermal.with_two_part_grease();
+        }
         if let Some(field) = check_day(&r) {
             bail!("{field}: {}", range_text(field));
         }
@@ -376,6 +385,13 @@ pub struct Day {
     pub bus_voltage: Option<f64>,
     /// Bridge dead time [s].
     pub dead_time: Option<f64>,
+    /// The controller's duty delay [s] (`[drive] duty_delay`).
+    pub duty_delay: Option<f64>,
+    /// The eccentricity physics the reference model plays.
+    pub eccentricity: Option<EccentricityPhysics>,
+    /// A two-part grease ([`ThermalLaws::with_two_part_grease`]) where the file's grease
+    /// is one factor.
+    pub two_part_grease: bool,
 }
 
 /// The first `[drive]`, `[conditions]` or thermal value of `r` out of its range, named as
@@ -385,7 +401,8 @@ fn check_day(r: &ReferenceSettings) -> Option<&'static str> {
     let c = &r.conditions;
     let t = &r.thermal;
     let period = 1.0 / b.carrier_hz;
-    let checks: [(bool, &'static str); 14] = [
+    let control_period = f64::from(r.params.control_period);
+    let checks: [(bool, &'static str); 17] = [
         (
             b.carrier_hz >= 1.0e3 && b.carrier_hz <= 2.0e5,
             "drive.carrier_hz",
@@ -414,6 +431,10 @@ fn check_day(r: &ReferenceSettings) -> Option<&'static str> {
         ((0.0..0.2).contains(&b.ripple), "drive.bus_ripple"),
         (b.ripple_hz >= 0.0, "drive.bus_ripple_hz"),
         (
+            b.duty_delay >= 0.0 && b.duty_delay <= control_period * (1.0 + 1e-6),
+            "drive.duty_delay",
+        ),
+        (
             (-80.0..=200.0).contains(&c.winding_temperature),
             "conditions.temperature",
         ),
@@ -433,6 +454,14 @@ fn check_day(r: &ReferenceSettings) -> Option<&'static str> {
         (
             t.copper.abs() < 0.02 && t.magnet.abs() < 0.02,
             "reference_model.copper_coefficient",
+        ),
+        (
+            (0.0..0.1).contains(&t.grease_drag),
+            "reference_model.grease_drag",
+        ),
+        (
+            (0.0..=1.0).contains(&t.coulomb_exponent),
+            "reference_model.coulomb_exponent",
         ),
     ];
     checks
@@ -501,6 +530,9 @@ fn range_text(field: &str) -> &'static str {
         "drive.switch_resistance" | "drive.harness_resistance" => "must be in [0, 1) Ω",
         "drive.diode_drop" => "must be in [0, 5) V",
         "drive.bus_ripple" => "must be in [0, 0.2) of the bus",
+        "drive.duty_delay" => "must be from 0 to one control period ([controller] control_period)",
+        "reference_model.grease_drag" => "must be in [0, 0.1) N·m·s/rad (0: the one-factor grease)",
+        "reference_model.coulomb_exponent" => "must be in [0, 1]: a power of the oil's viscosity",
         "conditions.temperature" | "conditions.gear_temperature" => "must be from −80 °C to 200 °C",
         "conditions.bus_voltage" => "must be positive and below 2 000 V",
         "reference_model.friction_viscous_share" => {
@@ -601,6 +633,8 @@ struct Drive {
     harness_resistance: Option<f64>,
     bus_ripple: Option<f64>,
     bus_ripple_hz: Option<f64>,
+    /// The controller's timing [s]: when a period's duties take effect after its sample.
+    duty_delay: Option<f64>,
 }
 
 /// The day the reference model plays (`crate::plant::bridge::OperatingConditions`).
@@ -856,6 +890,13 @@ struct ReferenceModelExtra {
     /// activation temperature [K] (`crate::plant::bridge::ThermalLaws`).
     friction_viscous_share: Option<f64>,
     friction_activation: Option<f64>,
+    /// The grease as two things: its viscous drag on the motor shaft at the reference
+    /// temperature [N·m·s/rad] (absent or 0: one factor on dry friction) and the power of the
+    /// oil's viscosity the dry friction follows.
+    grease_drag: Option<f64>,
+    coulomb_exponent: Option<f64>,
+    /// `permeance` (default) or `phase-gain`: how eccentricity changes the back-EMF.
+    eccentricity: Option<EccentricityPhysics>,
 }
 
 impl Drive {
@@ -875,6 +916,7 @@ impl Drive {
             harness_resistance: self.harness_resistance.unwrap_or(d.harness_resistance),
             ripple: self.bus_ripple.unwrap_or(d.ripple),
             ripple_hz: self.bus_ripple_hz.unwrap_or(d.ripple_hz),
+            duty_delay: self.duty_delay.unwrap_or(d.duty_delay),
         }
     }
 }
@@ -987,6 +1029,7 @@ impl Description {
                         .unwrap_or([0.0, 0.0])
                 }),
                 magnet_coefficient: c.magnet_coefficient.unwrap_or(i.magnet_coefficient),
+                duty_delay: i.duty_delay,
             }
         });
         let r = ReferenceSettings::REFERENCE;
@@ -1031,6 +1074,8 @@ impl Description {
                 friction_activation: x
                     .friction_activation
                     .unwrap_or(r.thermal.friction_activation),
+                grease_drag: x.grease_drag.unwrap_or(r.thermal.grease_drag),
+                coulomb_exponent: x.coulomb_exponent.unwrap_or(r.thermal.coulomb_exponent),
             },
             conditions: {
                 let winding = self
@@ -1043,6 +1088,7 @@ impl Description {
                     bus_voltage: self.conditions.bus_voltage,
                 }
             },
+            eccentricity: x.eccentricity.unwrap_or(r.eccentricity),
             condition_sensors: {
                 let c = r.condition_sensors;
                 ConditionSensors {
@@ -1064,6 +1110,8 @@ impl Description {
                     magnet_coefficient: m
                         .magnet_coefficient
                         .unwrap_or(calibration.map_or(0.0, |c| c.magnet_coefficient)),
+                    // The controller's timing is the drive's (`[drive] duty_delay`).
+                    duty_delay: reference.bridge.duty_delay as f32,
                     ..calibration.unwrap_or(Calibration::IDENTITY)
                 },
                 ga,

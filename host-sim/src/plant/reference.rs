@@ -40,7 +40,7 @@
 use rand_core::{RngCore, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 use shared::conditioning::COMMUTATION_SIGNS;
-use shared::test_design::{Drive, PreflightTest};
+use shared::test_design::{Drive, PairDrive, PreflightTest};
 use shared::{ActuatorParams, ChirpCommand, FaultVector};
 
 use crate::files::trace::{Trace, TraceSample};
@@ -115,6 +115,25 @@ pub struct ReferenceSettings {
     pub conditions: OperatingConditions,
     /// What the controller measures of its bus and temperature (`[sensors]`).
     pub condition_sensors: ConditionSensors,
+    /// How static eccentricity changes each phase's back-EMF (`[reference_model]
+    /// eccentricity`).
+    pub eccentricity: EccentricityPhysics,
+}
+
+/// How the reference model plays static eccentricity: the same fault vector's amplitude Z
+/// and phase φ, two physics.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum EccentricityPhysics {
+    /// The air gap `g(ψ) = g₀·(1 − Z·cos(ψ − ψ_min))` and each coil's flux linkage
+    /// integrated over its permeance: every phase's coupling changes with rotor angle as the
+    /// magnet edges cross its coils (this project's reference actuator).
+    #[default]
+    Permeance,
+    /// A plain per-phase back-EMF gain: phase x's coupling is `1 + Z·cos(ψ_x − ψ_min)` times
+    /// the healthy one, `ψ_x` the centre of its coil group, constant over a revolution (the
+    /// first-order effect of a shorter gap over that phase's coils).
+    PhaseGain,
 }
 
 impl ReferenceSettings {
@@ -145,6 +164,7 @@ impl ReferenceSettings {
         thermal: ThermalLaws::NDFEB_GREASED,
         conditions: OperatingConditions::REFERENCE,
         condition_sensors: ConditionSensors::TYPICAL,
+        eccentricity: EccentricityPhysics::Permeance,
     };
 
     /// The reference actuator on an ideal drive with exact bus and temperature readings:
@@ -239,6 +259,11 @@ pub struct Simulation {
     /// Empty unless asked for.
     pub recording: Vec<TraceSample>,
 }
+
+/// One control period's output as the drive applies it: the pair driven at standstill (the
+/// position loop suspended), its legs' duties, and the current reference of the hysteresis
+/// control.
+type Output = (Option<PairDrive>, Option<[f64; 3]>, f64);
 
 /// Per-phase electrical constants of one run.
 #[derive(Clone, Copy, Debug)]
@@ -453,9 +478,15 @@ impl ReferenceModel {
     /// = 1. Exposed for tests and plots.
     pub fn coupling_shapes(&self, faults: &FaultVector) -> Box<[[f64; SHAPE_POINTS]; 3]> {
         let fx = faults.effects();
-        let z = f64::from(fx.eccentricity_z);
         let centre = self.settings.winding_group_angle;
         let psi_min = centre[0] + f64::from(fx.eccentricity_phase);
+        let (z, phase_gain) = match self.settings.eccentricity {
+            EccentricityPhysics::Permeance => (f64::from(fx.eccentricity_z), [1.0; 3]),
+            EccentricityPhysics::PhaseGain => {
+                let z = f64::from(fx.eccentricity_z);
+                (0.0, centre.map(|c| 1.0 + z * (c - psi_min).cos()))
+            }
+        };
         let p = f64::from(self.settings.params.pole_pairs);
         let coil_pitch = PI / p;
         let w = self.settings.magnet_fringe;
@@ -476,7 +507,7 @@ impl ReferenceModel {
                     let u0 = p * (axis - 0.5 * PI / p - theta);
                     sum -= polarity * edge_integral(u0, w, |u| permeance(theta + u / p));
                 }
-                *slot = sum / 4.0;
+                *slot = phase_gain[phase] * sum / 4.0;
             }
         }
         shapes
@@ -499,6 +530,7 @@ impl ReferenceModel {
         let copper = s.thermal.copper_scale(day.winding_temperature);
         let flux = s.thermal.flux_scale(day.winding_temperature);
         let grease = s.thermal.friction_scale(day.gear_temperature);
+        let drag = s.thermal.drag(day.gear_temperature);
         // Faulted constants; the harness is in series with each phase's copper.
         let phases: [Phase; 3] = core::array::from_fn(|x| {
             let n = f64::from(fx.healthy_turns[x]);
@@ -560,6 +592,13 @@ impl ReferenceModel {
         // Anti-alias filter of each current-sense channel: output and its derivative.
         let aa_omega = TAU * s.anti_alias_hz;
         let mut sensed_filter = [[0.0f64; 2]; 3];
+        // The controller's timing: each period's output (pair drive, duties, current
+        // reference) takes effect `delay_steps` fine steps after its sample; until then the
+        // previous period's holds (at the start: the drive off, no current asked).
+        let delay_steps = (bridge.duty_delay / dt)
+            .round()
+            .clamp(0.0, steps_per_tick as f64) as usize;
+        let mut held_output: Output = (None, None, 0.0);
 
         // The trace declares the design by its code, as files do: the segments, with the
         // preflight chirp the FDI expects (a test of another chirp is an anomaly it must
@@ -701,9 +740,16 @@ impl ReferenceModel {
                     bridge.duty(leg, measured_bus, sensed_currents[x])
                 })
             });
+            let output: Output = (pair_drive, pwm_duty, current_ref);
+            let previous_output = core::mem::replace(&mut held_output, output);
 
             // ---- power stage, motor and mechanics, `steps_per_tick` fine steps ----
             for fine in 0..steps_per_tick {
+                let (pair_drive, pwm_duty, current_ref) = if fine < delay_steps {
+                    previous_output
+                } else {
+                    output
+                };
                 if let Some(every) = record_every {
                     let step = n * steps_per_tick + fine;
                     if step % every == 0 {
@@ -887,7 +933,7 @@ impl ReferenceModel {
                 let new_omega_m = if stuck {
                     0.0
                 } else {
-                    let w = omega_m + dt * (drive - friction) / jm;
+                    let w = omega_m + dt * (drive - friction - drag * omega_m) / jm;
                     // Sliding friction stops the motor, it never reverses it.
                     if omega_m != 0.0 && w.signum() != omega_m.signum() {
                         0.0
@@ -895,7 +941,8 @@ impl ReferenceModel {
                         w
                     }
                 };
-                ledger.mechanical_loss += (friction * omega_m).abs() * dt;
+                ledger.mechanical_loss +=
+                    (friction * omega_m).abs() * dt + drag * omega_m * omega_m * dt;
 
                 // User shaft: aero hinge moment and end stops.
                 let mut load = -aero * theta_u - s.aero_damping * omega_u;

@@ -218,6 +218,9 @@ pub struct RunResult {
     pub assessments: [Assessment; FAULT_COUNT],
     /// Whether the domain check found the test inside the monitor model's domain.
     pub within: bool,
+    /// The injection's winding temperature minus the thermistor's [K]
+    /// (`shared::conditions::TestConditions::winding_disagreement`).
+    pub winding_disagreement: f32,
 }
 
 impl RunResult {
@@ -430,6 +433,7 @@ pub fn run_once(
         uncertainty,
         z_raw,
         assessments,
+        winding_disagreement: id.conditions.winding_disagreement,
         within: sim.trace.domain_monitor(&params).assess(
             &record.domain,
             id.result.fitness,
