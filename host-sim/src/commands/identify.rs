@@ -257,12 +257,34 @@ pub(crate) fn identify_command(
         ("calibration".to_string(), cal_name),
         ("ga_seed".to_string(), seed.to_string()),
     ];
-    let (line, verdict) = domain_heading(trace.domain_monitor(&record.params).assess(
+    let domain = trace.domain_monitor(&record.params).assess(
         &record.domain,
         id.result.fitness,
         &id.conditions,
-    ));
+    );
+    let (line, verdict) = domain_heading(domain);
     heading.push(line);
+    if let Domain::Outside(
+        shared::domain::OutsideReason::FitnessFloor { .. }
+        | shared::domain::OutsideReason::InstallationChanged { .. },
+    ) = domain
+    {
+        // What did not fit: the part of the test that holds the unexplained current.
+        let parts = host_sim::fdi::calibration::residual_by_part(
+            &measured,
+            record.params,
+            &record.calibration,
+            &id.conditions,
+            &id.result.faults,
+        );
+        let text = parts
+            .iter()
+            .map(|(name, share, misfit)| format!("{name} {share:.0} % ({misfit:.1} % RMS)"))
+            .collect::<Vec<_>>()
+            .join(", ");
+        eprintln!("unexplained current at the result, by part of the test: {text}");
+        heading.push(("unexplained".to_string(), text));
+    }
     if checkpointing.is_some() {
         let said = match resumption {
             Resumption::Fresh => "fresh start".to_string(),

@@ -176,6 +176,68 @@ pub fn filtered_model_current(
     out
 }
 
+/// Where the current the monitor model does not explain lies, at fault vector `k` on the day
+/// `day`: per part of the test — each injection pair's window (weighted as the fitness weighs
+/// the standstill segment) and the chirp — its share of the unexplained energy and its RMS
+/// misfit against the measured RMS there (both %). The settle, which the fitness does not
+/// fit, is left out. For messages (`identify` when a test is outside the domain).
+pub fn residual_by_part(
+    measured: &OnboardMeasured,
+    params: ActuatorParams,
+    calibration: &Calibration,
+    day: &shared::conditions::TestConditions,
+    k: &FaultVector,
+) -> Vec<(String, f64, f64)> {
+    let model = MonitorModel::new(params, calibration)
+        .with_test(measured.test())
+        .with_conditions(day);
+    let filter = measured.filter();
+    let mut state = LowPassState::default();
+    let mut modelled = Vec::with_capacity(measured.samples().len());
+    model.run_from(
+        k,
+        measured.initial_angles(),
+        measured.samples().len(),
+        |s| {
+            modelled.push(filter.apply(&mut state, s.current));
+        },
+    );
+    let segment = measured.test().standstill;
+    let lead = segment.map_or(0, |s| s.samples());
+    let weight = f64::from(shared::fitness::STANDSTILL_WEIGHT);
+    // Per part: Σ (weighted) squared misfit, Σ squared misfit, Σ squared measurement.
+    let mut parts = [[0.0f64; 3]; 4];
+    for (i, (&r, &m)) in measured.samples().iter().zip(&modelled).enumerate() {
+        let (part, w) = match segment {
+            Some(s) if i < lead => match s.at(i) {
+                Some(_) if !s.fitted(i) => continue,
+                Some(drive) => (drive.pair.min(2), weight),
+                None => continue,
+            },
+            _ => (3, 1.0),
+        };
+        let e = f64::from(r - m);
+        parts[part][0] += w * e * e;
+        parts[part][1] += e * e;
+        parts[part][2] += f64::from(r) * f64::from(r);
+    }
+    let total: f64 = parts.iter().map(|p| p[0]).sum();
+    let names = PAIR_NAMES.map(|p| format!("injection {p}"));
+    names
+        .into_iter()
+        .chain([String::from("chirp")])
+        .zip(parts)
+        .filter(|(_, p)| p[2] > 0.0)
+        .map(|(name, p)| {
+            (
+                name,
+                100.0 * p[0] / total.max(f64::MIN_POSITIVE),
+                100.0 * (p[1] / p[2]).sqrt(),
+            )
+        })
+        .collect()
+}
+
 /// Relative RMS difference between the measured filtered equivalent current and the monitor
 /// model's (same filter) at fault vector `k`: `√(Σ(I_r − I_m)² / Σ I_r²)`.
 pub fn relative_mismatch(

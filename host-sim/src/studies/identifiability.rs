@@ -474,7 +474,9 @@ pub fn mismatch_bias_on(
 
 /// The days the day study plays against the reference actuator's calibration (20 °C, 270 V,
 /// 0.5 µs of dead time): the winding and grease ±30 and ±60 K (the file's friction law),
-/// the bus at 250 and 280 V, 1 µs of dead time, 50 mΩ more harness per phase.
+/// the bus at 250 and 280 V, 1 µs of dead time, 50 mΩ more harness per phase, the gear
+/// 40 K colder or warmer than the winding (and a cold morning's motor 20 K above its gear),
+/// a controller that loads its volts one carrier late without the record knowing.
 pub fn day_nuisances() -> Vec<(&'static str, ReferenceSettings)> {
     let base = ReferenceSettings::REFERENCE;
     let at = |delta: f64| {
@@ -493,6 +495,15 @@ pub fn day_nuisances() -> Vec<(&'static str, ReferenceSettings)> {
     dead.bridge.dead_time = 1.0e-6;
     let mut harness = base;
     harness.bridge.harness_resistance += 0.05;
+    // The gearbox is not the winding: the thermistor reads the winding, the friction law
+    // takes its reading (issue 34).
+    let gap = |winding: f64, gear: f64| {
+        let mut s = at(winding);
+        s.conditions.gear_temperature = base.conditions.gear_temperature + gear;
+        s
+    };
+    let mut late = base;
+    late.bridge.duty_delay = 5.0e-5;
     vec![
         ("calibration day", base),
         ("−60 K", at(-60.0)),
@@ -503,6 +514,10 @@ pub fn day_nuisances() -> Vec<(&'static str, ReferenceSettings)> {
         ("bus 280 V", bus(280.0)),
         ("dead time 1 µs", dead),
         ("harness +50 mΩ", harness),
+        ("gear −40 K from the winding", gap(0.0, -40.0)),
+        ("gear +40 K from the winding", gap(0.0, 40.0)),
+        ("winding −40 K, gear −60 K", gap(-40.0, -60.0)),
+        ("duty delay 50 µs, undeclared", late),
     ]
 }
 
