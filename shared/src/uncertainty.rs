@@ -32,6 +32,15 @@ pub const Z90: f32 = 1.644_854;
 /// 73.1 %: multi-fault vectors carry more systematic error than the curvature shows.
 pub const INFLATION: f32 = 8.0;
 
+/// The eccentricity's amplitude is the length of a two-dimensional quantity: noise alone
+/// gives it a Rayleigh-distributed value, beyond `σ·√(−2 ln 0.01)` in 1 % of healthy tests
+/// (σ the white-noise Gauss–Newton std, before [`INFLATION`]). Below that floor a reading is
+/// what noise makes of a round rotor: healthy, whatever the threshold says.
+pub const RAYLEIGH_99: f32 = 3.034_854;
+
+/// Index of the eccentricity's amplitude in the fault vector.
+const ECCENTRICITY: usize = 5;
+
 /// Correlation beyond which two components are read as not separable by one test.
 pub const AMBIGUOUS_CORRELATION: f32 = 0.9;
 
@@ -121,7 +130,13 @@ impl Uncertainty {
                 continue;
             };
             let d = *d;
-            if d <= threshold {
+            // The floor is NaN-safe: a NaN std leaves the threshold alone.
+            let floor = if i == ECCENTRICITY {
+                s * (RAYLEIGH_99 / INFLATION)
+            } else {
+                0.0
+            };
+            if d <= threshold.max(floor) {
                 *slot = Assessment::Healthy;
                 continue;
             }
@@ -446,5 +461,36 @@ mod tests {
         }
         .uncertainty(&k)
         .is_err());
+    }
+
+    #[test]
+    fn an_eccentricity_within_what_noise_makes_of_a_round_rotor_reads_healthy() {
+        let k = FaultVector::new([0.07, 0.0, 0.0, 0.0, 0.0, 0.07, 0.5, 0.5]).unwrap();
+        let corr = [[0.0; FAULT_COUNT]; FAULT_COUNT];
+        // White-noise std 0.03 (0.24 inflated): a 0.07 amplitude is below the Rayleigh
+        // floor 3.03 × 0.03 = 0.091, a 0.07 friction is not an amplitude.
+        let noisy = Uncertainty {
+            std: [0.03 * INFLATION; FAULT_COUNT],
+            lower: [0.0; FAULT_COUNT],
+            upper: [1.0; FAULT_COUNT],
+            worst_correlation: 0.0,
+            worst_pair: (0, 1),
+            residual_std: 0.0,
+        };
+        let v = noisy.assess(&k, &corr);
+        assert_eq!(v[5], Assessment::Healthy);
+        assert_eq!(v[0], Assessment::Suspect);
+        // A quiet test (std 0.01): the same amplitude is beyond the floor.
+        let quiet = Uncertainty {
+            std: [0.01 * INFLATION; FAULT_COUNT],
+            ..noisy
+        };
+        assert_eq!(quiet.assess(&k, &corr)[5], Assessment::Suspect);
+        // Undetermined (NaN std): the threshold alone.
+        let unknown = Uncertainty {
+            std: [f32::NAN; FAULT_COUNT],
+            ..noisy
+        };
+        assert_eq!(unknown.assess(&k, &corr)[5], Assessment::Suspect);
     }
 }
