@@ -170,7 +170,8 @@ pub(crate) struct DayArgs {
     #[arg(long, value_name = "PHYSICS")]
     pub(crate) eccentricity_physics: Option<EccentricityPhysics>,
     /// The grease as two things: a viscous drag ×10 at −40 °C and dry friction ×2.95,
-    /// each by its own law (where the file's grease is one factor on dry friction).
+    /// each by its own law (where the file's grease is one factor on dry friction); the drag
+    /// at 20 °C is a fifth of the sliding friction at the chirp's typical motor speed.
     #[arg(long)]
     pub(crate) two_part_grease: bool,
 }

@@ -90,7 +90,7 @@ fn a_late_controller_applies_each_period_the_previous_volts_for_its_delay() {
 #[test]
 fn a_two_part_grease_drags_tenfold_in_the_cold_and_the_energy_balance_holds() {
     let mut warm = ReferenceSettings::REFERENCE;
-    warm.thermal = ThermalLaws::NDFEB_GREASED.with_two_part_grease();
+    warm.thermal = ThermalLaws::NDFEB_GREASED.with_two_part_grease(&ActuatorParams::REFERENCE);
     let mut cold = warm;
     cold.conditions.gear_temperature = -40.0;
     let [w, c] = [warm, cold].map(|s| simulate(s, HEALTHY).energy);

@@ -351,7 +351,7 @@ impl Actuator {
             r.eccentricity = e;
         }
         if day.two_part_grease && r.thermal.grease_drag == 0.0 {
-            r.thermal = r.thermal.with_two_part_grease();
+            r.thermal = r.thermal.with_two_part_grease(&r.params);
         }
         if let Some(field) = check_day(&r) {
             bail!("{field}: {}", range_text(field));

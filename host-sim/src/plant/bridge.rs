@@ -259,13 +259,15 @@ impl ThermalLaws {
     };
 
     /// The same actuator with a two-part grease: the base oil ×10 viscosity at −40 °C
-    /// against 20 °C (activation 2 623 K), drag 2·10⁻⁴ N·m·s/rad at 20 °C on the motor
-    /// shaft (8 mN·m at 40 rad/s, a fifth of the sliding friction), dry friction
-    /// following ν_r^0.47 (×2.95 at −40 °C, ×0.49 at +80 °C).
-    pub fn with_two_part_grease(self) -> Self {
+    /// against 20 °C (activation 2 623 K), dry friction following ν_r^0.47 (×2.95 at −40 °C,
+    /// ×0.49 at +80 °C), and a drag at 20 °C of a fifth of `params`' sliding friction at the
+    /// chirp's typical motor speed (0.08 rad/s at the surface times the gear ratio: 40 rad/s
+    /// and 2·10⁻⁴ N·m·s/rad on the reference actuator's 500:1 gear).
+    pub fn with_two_part_grease(self, params: &shared::ActuatorParams) -> Self {
+        let typical_speed = 0.08 * f64::from(params.gear_ratio);
         Self {
             friction_activation: 2623.0,
-            grease_drag: 2.0e-4,
+            grease_drag: 0.2 * f64::from(params.dynamic_friction) / typical_speed.max(1e-3),
             coulomb_exponent: 0.47,
             ..self
         }
@@ -435,8 +437,8 @@ mod tests {
 
     #[test]
     fn a_two_part_grease_drags_tenfold_at_minus_40_while_its_dry_friction_triples() {
-        let t = ThermalLaws::NDFEB_GREASED.with_two_part_grease();
-        assert!((t.drag(20.0) - 2.0e-4).abs() < 1e-12);
+        let t = ThermalLaws::NDFEB_GREASED.with_two_part_grease(&shared::ActuatorParams::REFERENCE);
+        assert!((t.drag(20.0) - 2.0e-4).abs() < 1e-11, "{}", t.drag(20.0));
         let drag = t.drag(-40.0) / t.drag(20.0);
         assert!((drag - 10.0).abs() < 0.1, "{drag}");
         let dry = t.friction_scale(-40.0);
