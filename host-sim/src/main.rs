@@ -268,6 +268,13 @@ enum Command {
         /// at the healthy point and the Table II low and medium vectors.
         #[arg(long, conflicts_with = "bias")]
         day: bool,
+        /// Instead of the designs: the grease study — whether the chirp's torque balance
+        /// tells the grease's viscous drag from its dry friction (one-factor and two-part
+        /// grease, gear and winding temperatures apart, wear, backlash, a short), and the wear
+        /// read with the healthy friction taken from the fitted drag against from the
+        /// thermistor (docs/identifiability.md §0c).
+        #[arg(long, conflicts_with_all = ["bias", "day"])]
+        grease: bool,
         /// Weights of the standstill segment to compare with --bias (comma-separated).
         #[arg(long, value_delimiter = ',', default_value = "100")]
         weights: Vec<f64>,
@@ -618,10 +625,13 @@ fn main() -> ExitCode {
             noise,
             bias,
             day,
+            grease,
             weights,
             out,
         } => actuator.built_in_only("identifiability").and_then(|()| {
-            if day {
+            if grease {
+                grease_study_command(seeds, out.as_deref())
+            } else if day {
                 day_study_command(seeds, step, out.as_deref())
             } else if bias {
                 mismatch_bias_command(&designs, &weights, seeds, step, out.as_deref())

@@ -261,3 +261,40 @@ fn at_one_frequency_a_delay_reads_as_resistance_so_the_record_carries_it() {
     assert!((r_late - r0).abs() < 0.02 * r0, "{r_late} against {r0}");
     assert!(r_late_unknown < 0.0, "{r_late_unknown}");
 }
+
+/// Issue 34, item 3: the chirp spans speeds, so its torque balance tells a two-part grease's
+/// drag from its dry friction. With the gearbox 40 K colder than the winding, wear read
+/// against the healthy dry friction the fitted drag points to is right; read against the
+/// winding's temperature (today's friction law) it is not. On a one-factor grease the drag
+/// does not move with temperature, so it cannot stand as a thermometer.
+#[test]
+fn the_chirp_tells_a_cold_grease_from_wear_by_its_drag() {
+    use host_sim::studies::grease::{fits, settings, HealthyGreaseLaw};
+    let base = ReferenceSettings::REFERENCE.conditions.winding_temperature;
+    let law = HealthyGreaseLaw::measure(true, 2).unwrap();
+    let worn = FaultVector::saturating([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
+    let fit = fits(settings(true, base, base - 40.0), worn, 2).unwrap();
+    for f in &fit {
+        let (viscous, coulomb) = law.ratios(f);
+        // Played: drag ×4.11, dry friction ×1.94 × (1 + 2·0.2).
+        assert!(viscous > 2.5, "drag ratio {viscous}");
+        assert!(
+            (coulomb / (1.94 * 1.4) - 1.0).abs() < 0.08,
+            "dry ratio {coulomb}"
+        );
+        let by_drag = law.wear_by_drag(viscous, coulomb);
+        let by_thermistor = law.wear_by_temperature(base, coulomb);
+        assert!((by_drag - 0.2).abs() < 0.06, "k1 by drag {by_drag}");
+        assert!(by_thermistor > 0.5, "k1 by thermistor {by_thermistor}");
+    }
+    let one_factor = HealthyGreaseLaw::measure(false, 2).unwrap();
+    let cold = fits(settings(false, -40.0, -40.0), worn, 2).unwrap();
+    for f in &cold {
+        let (viscous, coulomb) = one_factor.ratios(f);
+        assert!(
+            (viscous - 1.0).abs() < 0.25,
+            "one-factor drag ratio {viscous}"
+        );
+        assert!(coulomb > 3.5, "one-factor dry ratio {coulomb}");
+    }
+}

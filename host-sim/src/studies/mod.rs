@@ -2,6 +2,7 @@
 //!
 //! * [`campaign`] — accuracy campaigns over the paper's fault cases and the robustness grid.
 //! * [`domain`] — the survey behind the "outside the monitor model's domain" limits.
+//! * [`grease`] — whether the chirp tells the grease's drag from its dry friction (issue 34).
 //! * [`identifiability`] — which test design can tell every fault apart (sensitivity study).
 //! * [`separability`] — whether one test tells two fault vectors apart at all.
 //! * [`optimisers`] — the flown solver against other optimisers.
@@ -10,6 +11,7 @@
 
 pub mod campaign;
 pub mod domain;
+pub mod grease;
 pub mod identifiability;
 pub mod optimisers;
 pub mod prognostics;

@@ -1,0 +1,358 @@
+//! The grease study (issue 34, item 3): can one preflight chirp tell the grease's viscous
+//! drag from its dry friction, from what the controller measures alone, so that the drag can
+//! stand as a thermometer of the grease and wear (k1) stay apart from a cold gearbox?
+//!
+//! Per test, a least-squares fit of the motor's torque balance over the chirp, in blocks of
+//! [`BLOCK`] samples (2 ms at 10 kHz) so that no velocity is differentiated twice:
+//!
+//! `ī_eq = a·Δω_m/T + c·sgn(ω_m) + b·ω̄_m + s·θ̄_u + u·Δω_u/T + o`
+//!
+//! (equivalent current [A]; motor inertia, dry friction, viscous drag, the load's spring, the
+//! user inertia, an offset). Blocks where the motor stops or turns are left out (dry friction
+//! is not a sign there). `b` lumps every viscous torque the motor sees — the grease's drag on
+//! the motor shaft and the user shaft's damping reflected through the gear (ω_u ≈ ω_m/N makes
+//! them one regressor): only its change from the calibration day is the grease's. O(blocks ·
+//! 6²) per test; the study's only cost is the reference model's runs.
+
+use anyhow::{bail, Result};
+use rayon::prelude::*;
+use shared::conditioning::equivalent_current;
+use shared::test_design::PreflightTest;
+use shared::FaultVector;
+
+use crate::plant::reference::{ReferenceModel, ReferenceSettings, Scenario};
+use crate::studies::identifiability::invert;
+
+/// Samples per regression block (2 ms at 10 kHz).
+pub const BLOCK: usize = 20;
+
+/// What the chirp's torque balance gives: the dry friction and the viscous drag the motor
+/// sees, in equivalent current, and the fit's quality.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ChirpFriction {
+    /// Dry (Coulomb) friction [A of equivalent current].
+    pub coulomb: f64,
+    /// Viscous drag at the motor shaft [A per rad/s].
+    pub viscous: f64,
+    /// Blocks used.
+    pub blocks: usize,
+    /// RMS of the fit's residual over the RMS of the blocks' current.
+    pub residual: f64,
+}
+
+/// The regression of the module docs on a trace's chirp (the samples after the standstill
+/// segment). `None` when too few blocks move one way, or the normal equations are singular.
+pub fn chirp_friction(
+    samples: &[crate::files::trace::TraceSample],
+    test: PreflightTest,
+    params: &shared::ActuatorParams,
+) -> Option<ChirpFriction> {
+    let dt = f64::from(params.control_period);
+    let first = test.lead_samples() + 1;
+    let s = samples.get(first.saturating_sub(1)..)?;
+    let current: Vec<f64> = s
+        .iter()
+        .map(|x| {
+            let i = x.phase_currents.map(|v| v as f32);
+            f64::from(equivalent_current(
+                i,
+                params.pole_pairs * x.motor_angle as f32,
+            ))
+        })
+        .collect();
+    let speed = |k: usize, angle: fn(&crate::files::trace::TraceSample) -> f64| {
+        (angle(&s[k + 1]) - angle(&s[k - 1])) / (2.0 * dt)
+    };
+    let motor = |x: &crate::files::trace::TraceSample| x.motor_angle;
+    let user = |x: &crate::files::trace::TraceSample| x.user_angle;
+    let stick = f64::from(params.stick_speed);
+    let mut rows: Vec<([f64; 6], f64)> = Vec::new();
+    let mut a = 1;
+    while a + BLOCK + 1 < s.len() {
+        let b = a + BLOCK;
+        let speeds: Vec<f64> = (a..b).map(|k| speed(k, motor)).collect();
+        let same_way = speeds.iter().all(|&w| w > stick) || speeds.iter().all(|&w| w < -stick);
+        if same_way {
+            let t = BLOCK as f64 * dt;
+            let x = [
+                (speed(b, motor) - speed(a, motor)) / t,
+                speeds[0].signum(),
+                (s[b].motor_angle - s[a].motor_angle) / t,
+                s[a..b].iter().map(|x| x.user_angle).sum::<f64>() / BLOCK as f64,
+                (speed(b, user) - speed(a, user)) / t,
+                1.0,
+            ];
+            let y = current[a..b].iter().sum::<f64>() / BLOCK as f64;
+            rows.push((x, y));
+        }
+        a = b;
+    }
+    if rows.len() < 24 {
+        return None;
+    }
+    // Columns scaled to unit RMS so the normal equations are well conditioned.
+    let scale: [f64; 6] = core::array::from_fn(|j| {
+        (rows.iter().map(|r| r.0[j] * r.0[j]).sum::<f64>() / rows.len() as f64)
+            .sqrt()
+            .max(1e-30)
+    });
+    let mut m = vec![vec![0.0; 6]; 6];
+    let mut rhs = vec![0.0; 6];
+    for (x, y) in &rows {
+        for i in 0..6 {
+            rhs[i] += x[i] / scale[i] * y;
+            for j in 0..6 {
+                m[i][j] += x[i] / scale[i] * x[j] / scale[j];
+            }
+        }
+    }
+    let inverse = invert(&m)?;
+    let beta: Vec<f64> = (0..6)
+        .map(|i| (0..6).map(|j| inverse[i][j] * rhs[j]).sum::<f64>() / scale[i])
+        .collect();
+    let (mut sse, mut syy) = (0.0, 0.0);
+    for (x, y) in &rows {
+        let fit: f64 = (0..6).map(|j| beta[j] * x[j]).sum();
+        sse += (y - fit).powi(2);
+        syy += y * y;
+    }
+    Some(ChirpFriction {
+        coulomb: beta[1],
+        viscous: beta[2],
+        blocks: rows.len(),
+        residual: (sse / syy.max(1e-30)).sqrt(),
+    })
+}
+
+/// One row of the study: what the reference model played and what the chirp's fit read,
+/// as ratios to the healthy actuator at the calibration day (mean and spread over seeds).
+#[derive(Clone, Debug, PartialEq)]
+pub struct GreaseRow {
+    pub grease: &'static str,
+    pub winding: f64,
+    pub gear: f64,
+    pub case: &'static str,
+    /// The reference model's grease drag at the gear's temperature over the calibration
+    /// day's (1 where the grease has none).
+    pub true_drag: f64,
+    /// Its dry friction (grease law × the fault's 1 + 2·k1) over the calibration day's.
+    pub true_coulomb: f64,
+    /// Fitted viscous / the calibration day's: mean, standard deviation over seeds.
+    pub viscous: (f64, f64),
+    /// Fitted dry friction / the calibration day's.
+    pub coulomb: (f64, f64),
+    /// Wear read with the healthy dry friction taken from the fitted drag through the
+    /// healthy law (`k1 = (c/c₀(b) − 1)/2`), and with it taken from the winding thermistor's
+    /// temperature (today's friction law).
+    pub wear_by_drag: f64,
+    pub wear_by_thermistor: f64,
+    pub true_wear: f64,
+    pub residual: f64,
+}
+
+fn mean_sd(x: &[f64]) -> (f64, f64) {
+    let n = x.len() as f64;
+    let m = x.iter().sum::<f64>() / n;
+    let v = x.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
+    (m, v.sqrt())
+}
+
+/// The reference actuator with `grease` (one factor on dry friction, or the two-part grease)
+/// at winding and gear temperatures `winding`, `gear` [°C].
+pub fn settings(two_part: bool, winding: f64, gear: f64) -> ReferenceSettings {
+    let mut s = ReferenceSettings::REFERENCE;
+    if two_part {
+        s.thermal = s.thermal.with_two_part_grease(&s.params);
+    }
+    s.conditions = s.conditions.at_temperature(winding);
+    s.conditions.gear_temperature = gear;
+    s
+}
+
+/// Fits `seeds` reference-model runs of `k` under `settings` (the injection test; seeds
+/// 0 … seeds − 1).
+pub fn fits(settings: ReferenceSettings, k: FaultVector, seeds: u64) -> Result<Vec<ChirpFriction>> {
+    let test = PreflightTest::INJECTION;
+    (0..seeds)
+        .into_par_iter()
+        .map(|seed| {
+            let mut scenario = Scenario::new(k);
+            scenario.seed = seed;
+            let sim = ReferenceModel::new(settings)
+                .with_test(test)
+                .simulate(&scenario);
+            chirp_friction(sim.trace.samples(), test, &settings.params)
+                .ok_or_else(|| anyhow::anyhow!("too few one-way blocks in the chirp"))
+        })
+        .collect()
+}
+
+/// The healthy actuator's chirp fits at the climatic chamber's temperatures (winding = gear,
+/// as `calibrate --at` plays them) and at the calibration day: what the wear is read against.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HealthyGreaseLaw {
+    /// (°C, viscous, dry friction), the calibration day's included.
+    points: Vec<(f64, f64, f64)>,
+    /// The calibration day's viscous and dry friction.
+    day: (f64, f64),
+}
+
+impl HealthyGreaseLaw {
+    /// Fits `seeds` healthy runs at −45, −25, 0 and +75 °C and at the calibration day.
+    pub fn measure(two_part: bool, seeds: u64) -> Result<Self> {
+        let base = ReferenceSettings::REFERENCE.conditions.winding_temperature;
+        let healthy = FaultVector::saturating([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
+        let mut points = Vec::new();
+        for t in [-45.0, -25.0, 0.0, base, 75.0] {
+            let f = fits(settings(two_part, t, t), healthy, seeds)?;
+            let v = mean_sd(&f.iter().map(|x| x.viscous).collect::<Vec<_>>()).0;
+            let c = mean_sd(&f.iter().map(|x| x.coulomb).collect::<Vec<_>>()).0;
+            points.push((t, v, c));
+        }
+        let day = (points[3].1, points[3].2);
+        Ok(Self { points, day })
+    }
+
+    /// The fit's viscous drag and dry friction over the calibration day's.
+    pub fn ratios(&self, fit: &ChirpFriction) -> (f64, f64) {
+        (fit.viscous / self.day.0, fit.coulomb / self.day.1)
+    }
+
+    /// Wear `k1 = (c / c₀ − 1) / 2` with the healthy dry friction c₀ taken from the fitted
+    /// drag through the healthy points (piecewise linear, clamped at the ends).
+    pub fn wear_by_drag(&self, viscous_ratio: f64, coulomb_ratio: f64) -> f64 {
+        let points = self
+            .points
+            .iter()
+            .map(|p| (p.1 / self.day.0, p.2 / self.day.1));
+        (coulomb_ratio / interpolate(points.collect(), viscous_ratio) - 1.0) / 2.0
+    }
+
+    /// The same with c₀ taken from a temperature [°C] (today's friction law, which reads the
+    /// winding thermistor).
+    pub fn wear_by_temperature(&self, celsius: f64, coulomb_ratio: f64) -> f64 {
+        let points = self.points.iter().map(|p| (p.0, p.2 / self.day.1));
+        (coulomb_ratio / interpolate(points.collect(), celsius) - 1.0) / 2.0
+    }
+}
+
+/// Piecewise linear in `points` (sorted here by x), clamped at the ends.
+fn interpolate(mut points: Vec<(f64, f64)>, x: f64) -> f64 {
+    points.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let i = points
+        .partition_point(|p| p.0 < x)
+        .clamp(1, points.len() - 1);
+    let (a, b) = (points[i - 1], points[i]);
+    let t = ((x - a.0) / (b.0 - a.0)).clamp(0.0, 1.0);
+    a.1 + t * (b.1 - a.1)
+}
+
+/// The grease study: for each grease (one factor, two-part), winding and gear temperature
+/// and case, the chirp's fit against the truth. `progress` is told each row.
+pub fn grease_study(seeds: u64, mut progress: impl FnMut(&str)) -> Result<Vec<GreaseRow>> {
+    if seeds < 2 {
+        bail!("the study needs at least 2 seeds");
+    }
+    let base = ReferenceSettings::REFERENCE.conditions.winding_temperature;
+    let cases: [(&'static str, [f32; 8]); 5] = [
+        ("healthy", [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]),
+        (
+            "friction k1 = 0.2",
+            [0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5],
+        ),
+        (
+            "friction k1 = 0.4",
+            [0.4, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5],
+        ),
+        (
+            "backlash k2 = 0.4",
+            [0.0, 0.4, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5],
+        ),
+        ("short A k3 = 0.2", [0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5]),
+    ];
+    let days: [(f64, f64); 6] = [
+        (base, base),
+        (base - 60.0, base - 60.0),
+        (base + 60.0, base + 60.0),
+        (base, base - 40.0),
+        (base, base + 40.0),
+        (base - 40.0, base - 60.0),
+    ];
+    let mut rows = Vec::new();
+    for (grease, two_part) in [("one factor", false), ("two-part", true)] {
+        progress(&format!("{grease}: the healthy law"));
+        let law = HealthyGreaseLaw::measure(two_part, seeds)?;
+        let truth = settings(two_part, base, base);
+        let drag0 = truth.thermal.drag(base);
+        let coulomb0 = truth.thermal.friction_scale(base);
+        for &(winding, gear) in &days {
+            for &(case, k) in &cases {
+                progress(&format!(
+                    "{grease}: winding {winding:.0} °C, gear {gear:.0} °C, {case}"
+                ));
+                let s = settings(two_part, winding, gear);
+                let f = fits(s, FaultVector::saturating(k), seeds)?;
+                let ratios: Vec<(f64, f64)> = f.iter().map(|x| law.ratios(x)).collect();
+                let viscous: Vec<f64> = ratios.iter().map(|r| r.0).collect();
+                let coulomb: Vec<f64> = ratios.iter().map(|r| r.1).collect();
+                let (vm, cm) = (mean_sd(&viscous).0, mean_sd(&coulomb).0);
+                rows.push(GreaseRow {
+                    grease,
+                    winding,
+                    gear,
+                    case,
+                    true_drag: if drag0 > 0.0 {
+                        s.thermal.drag(gear) / drag0
+                    } else {
+                        1.0
+                    },
+                    true_coulomb: s.thermal.friction_scale(gear) / coulomb0
+                        * (1.0 + 2.0 * f64::from(k[0])),
+                    viscous: mean_sd(&viscous),
+                    coulomb: mean_sd(&coulomb),
+                    // The thermistor reads the winding (its 2 K bias left out here).
+                    wear_by_drag: law.wear_by_drag(vm, cm),
+                    wear_by_thermistor: law.wear_by_temperature(winding, cm),
+                    true_wear: f64::from(k[0]),
+                    residual: mean_sd(&f.iter().map(|x| x.residual).collect::<Vec<_>>()).0,
+                });
+            }
+        }
+    }
+    Ok(rows)
+}
+
+/// The study's table (Markdown).
+pub fn grease_markdown(rows: &[GreaseRow], seeds: u64) -> String {
+    use std::fmt::Write;
+    let mut text = format!(
+        "Reference actuator, injection test, {seeds} seeds per row: the chirp's torque-balance \
+         fit (host-sim/src/studies/grease.rs) against what the reference model played, both \
+         as ratios to the healthy actuator at the calibration day; then the wear k1 read with \
+         the healthy dry friction taken from the fitted drag, and from the winding's \
+         temperature (today's law).\n\n\
+         | grease | winding °C | gear °C | case | drag played | viscous fitted (sd) | dry played | dry fitted (sd) | k1 | k1 by drag | k1 by thermistor | fit residual |\n\
+         | --- | ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n"
+    );
+    for r in rows {
+        let _ = writeln!(
+            text,
+            "| {} | {:.0} | {:.0} | {} | {:.2} | {:.2} ({:.2}) | {:.2} | {:.2} ({:.2}) | {:.1} | {:+.3} | {:+.3} | {:.3} |",
+            r.grease,
+            r.winding,
+            r.gear,
+            r.case,
+            r.true_drag,
+            r.viscous.0,
+            r.viscous.1,
+            r.true_coulomb,
+            r.coulomb.0,
+            r.coulomb.1,
+            r.true_wear,
+            r.wear_by_drag,
+            r.wear_by_thermistor,
+            r.residual,
+        );
+    }
+    text
+}
