@@ -272,7 +272,7 @@ enum Command {
         /// tells the grease's viscous drag from its dry friction (one-factor and two-part
         /// grease, gear and winding temperatures apart, wear, backlash, a short), and the wear
         /// read with the healthy friction taken from the fitted drag against from the
-        /// thermistor (docs/identifiability.md §0c).
+        /// thermistor (docs/identifiability.md §0c). Runs on `--actuator`'s file too.
         #[arg(long, conflicts_with_all = ["bias", "day"])]
         grease: bool,
         /// Weights of the standstill segment to compare with --bias (comma-separated).
@@ -618,6 +618,12 @@ fn main() -> ExitCode {
             domain_command(&actuator, seeds, out.as_deref(), write.as_deref())
         }
         Command::Identifiability {
+            seeds,
+            grease: true,
+            out,
+            ..
+        } => grease_study_command(&actuator, seeds, out.as_deref()),
+        Command::Identifiability {
             designs,
             seeds,
             step,
@@ -625,13 +631,11 @@ fn main() -> ExitCode {
             noise,
             bias,
             day,
-            grease,
             weights,
             out,
+            ..
         } => actuator.built_in_only("identifiability").and_then(|()| {
-            if grease {
-                grease_study_command(seeds, out.as_deref())
-            } else if day {
+            if day {
                 day_study_command(seeds, step, out.as_deref())
             } else if bias {
                 mismatch_bias_command(&designs, &weights, seeds, step, out.as_deref())

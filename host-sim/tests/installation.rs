@@ -269,11 +269,12 @@ fn at_one_frequency_a_delay_reads_as_resistance_so_the_record_carries_it() {
 /// does not move with temperature, so it cannot stand as a thermometer.
 #[test]
 fn the_chirp_tells_a_cold_grease_from_wear_by_its_drag() {
-    use host_sim::studies::grease::{fits, settings, HealthyGreaseLaw};
-    let base = ReferenceSettings::REFERENCE.conditions.winding_temperature;
-    let law = HealthyGreaseLaw::measure(true, 2).unwrap();
+    use host_sim::studies::grease::{fits, settings, Bench, HealthyGreaseLaw};
+    let bench = Bench::REFERENCE;
+    let base = bench.day();
+    let law = HealthyGreaseLaw::measure(&bench, true, 2).unwrap();
     let worn = FaultVector::saturating([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
-    let fit = fits(settings(true, base, base - 40.0), worn, 2).unwrap();
+    let fit = fits(&bench, settings(&bench, true, base, base - 40.0), worn, 2).unwrap();
     for f in &fit {
         let (viscous, coulomb) = law.ratios(f);
         // Played: drag ×4.11, dry friction ×1.94 × (1 + 2·0.2).
@@ -287,8 +288,8 @@ fn the_chirp_tells_a_cold_grease_from_wear_by_its_drag() {
         assert!((by_drag - 0.2).abs() < 0.06, "k1 by drag {by_drag}");
         assert!(by_thermistor > 0.5, "k1 by thermistor {by_thermistor}");
     }
-    let one_factor = HealthyGreaseLaw::measure(false, 2).unwrap();
-    let cold = fits(settings(false, -40.0, -40.0), worn, 2).unwrap();
+    let one_factor = HealthyGreaseLaw::measure(&bench, false, 2).unwrap();
+    let cold = fits(&bench, settings(&bench, false, -40.0, -40.0), worn, 2).unwrap();
     for f in &cold {
         let (viscous, coulomb) = one_factor.ratios(f);
         assert!(

@@ -151,19 +151,27 @@ pub(crate) fn day_study_command(seeds: u64, step: f32, out: Option<&Path>) -> Re
     Ok(())
 }
 
-pub(crate) fn grease_study_command(seeds: u64, out: Option<&Path>) -> Result<()> {
-    use host_sim::studies::grease::{grease_markdown, grease_study};
+pub(crate) fn grease_study_command(
+    actuator: &Actuator,
+    seeds: u64,
+    out: Option<&Path>,
+) -> Result<()> {
+    use host_sim::studies::grease::{grease_markdown, grease_study, Bench};
+    let bench = Bench {
+        settings: actuator.reference_settings()?,
+        test: actuator.record.test,
+    };
     let bar = host_sim::progress_bar(
         62,
         "{elapsed_precise} [{bar:40}] {pos}/{len} rows {msg}",
         std::io::stderr().is_terminal(),
     );
-    let rows = grease_study(seeds, |what| {
+    let rows = grease_study(&bench, seeds, |what| {
         bar.set_message(what.to_string());
         bar.inc(1);
     })?;
     bar.finish_and_clear();
-    let text = grease_markdown(&rows, seeds);
+    let text = grease_markdown(&actuator.name, &rows, seeds);
     print!("{text}");
     if let Some(path) = out {
         std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;

@@ -97,7 +97,7 @@ pub fn chirp_friction(
             .max(1e-30)
     });
     let mut m = vec![vec![0.0; 6]; 6];
-    let mut rhs = vec![0.0; 6];
+    let mut rhs = [0.0; 6];
     for (x, y) in &rows {
         for i in 0..6 {
             rhs[i] += x[i] / scale[i] * y;
@@ -157,10 +157,30 @@ fn mean_sd(x: &[f64]) -> (f64, f64) {
     (m, v.sqrt())
 }
 
-/// The reference actuator with `grease` (one factor on dry friction, or the two-part grease)
+/// The actuator and test the study plays (the built-in reference actuator, or a file's).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bench {
+    pub settings: ReferenceSettings,
+    pub test: PreflightTest,
+}
+
+impl Bench {
+    /// The built-in reference actuator and its injection test.
+    pub const REFERENCE: Self = Self {
+        settings: ReferenceSettings::REFERENCE,
+        test: PreflightTest::INJECTION,
+    };
+
+    /// The calibration day's winding temperature [°C].
+    pub fn day(&self) -> f64 {
+        self.settings.conditions.winding_temperature
+    }
+}
+
+/// The bench's actuator with its grease (one factor on dry friction) or the two-part grease,
 /// at winding and gear temperatures `winding`, `gear` [°C].
-pub fn settings(two_part: bool, winding: f64, gear: f64) -> ReferenceSettings {
-    let mut s = ReferenceSettings::REFERENCE;
+pub fn settings(bench: &Bench, two_part: bool, winding: f64, gear: f64) -> ReferenceSettings {
+    let mut s = bench.settings;
     if two_part {
         s.thermal = s.thermal.with_two_part_grease(&s.params);
     }
@@ -171,8 +191,13 @@ pub fn settings(two_part: bool, winding: f64, gear: f64) -> ReferenceSettings {
 
 /// Fits `seeds` reference-model runs of `k` under `settings` (the injection test; seeds
 /// 0 … seeds − 1).
-pub fn fits(settings: ReferenceSettings, k: FaultVector, seeds: u64) -> Result<Vec<ChirpFriction>> {
-    let test = PreflightTest::INJECTION;
+pub fn fits(
+    bench: &Bench,
+    settings: ReferenceSettings,
+    k: FaultVector,
+    seeds: u64,
+) -> Result<Vec<ChirpFriction>> {
+    let test = bench.test;
     (0..seeds)
         .into_par_iter()
         .map(|seed| {
@@ -199,12 +224,12 @@ pub struct HealthyGreaseLaw {
 
 impl HealthyGreaseLaw {
     /// Fits `seeds` healthy runs at −45, −25, 0 and +75 °C and at the calibration day.
-    pub fn measure(two_part: bool, seeds: u64) -> Result<Self> {
-        let base = ReferenceSettings::REFERENCE.conditions.winding_temperature;
+    pub fn measure(bench: &Bench, two_part: bool, seeds: u64) -> Result<Self> {
+        let base = bench.day();
         let healthy = FaultVector::saturating([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
         let mut points = Vec::new();
         for t in [-45.0, -25.0, 0.0, base, 75.0] {
-            let f = fits(settings(two_part, t, t), healthy, seeds)?;
+            let f = fits(bench, settings(bench, two_part, t, t), healthy, seeds)?;
             let v = mean_sd(&f.iter().map(|x| x.viscous).collect::<Vec<_>>()).0;
             let c = mean_sd(&f.iter().map(|x| x.coulomb).collect::<Vec<_>>()).0;
             points.push((t, v, c));
@@ -249,11 +274,15 @@ fn interpolate(mut points: Vec<(f64, f64)>, x: f64) -> f64 {
 
 /// The grease study: for each grease (one factor, two-part), winding and gear temperature
 /// and case, the chirp's fit against the truth. `progress` is told each row.
-pub fn grease_study(seeds: u64, mut progress: impl FnMut(&str)) -> Result<Vec<GreaseRow>> {
+pub fn grease_study(
+    bench: &Bench,
+    seeds: u64,
+    mut progress: impl FnMut(&str),
+) -> Result<Vec<GreaseRow>> {
     if seeds < 2 {
         bail!("the study needs at least 2 seeds");
     }
-    let base = ReferenceSettings::REFERENCE.conditions.winding_temperature;
+    let base = bench.day();
     let cases: [(&'static str, [f32; 8]); 5] = [
         ("healthy", [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]),
         (
@@ -281,8 +310,8 @@ pub fn grease_study(seeds: u64, mut progress: impl FnMut(&str)) -> Result<Vec<Gr
     let mut rows = Vec::new();
     for (grease, two_part) in [("one factor", false), ("two-part", true)] {
         progress(&format!("{grease}: the healthy law"));
-        let law = HealthyGreaseLaw::measure(two_part, seeds)?;
-        let truth = settings(two_part, base, base);
+        let law = HealthyGreaseLaw::measure(bench, two_part, seeds)?;
+        let truth = settings(bench, two_part, base, base);
         let drag0 = truth.thermal.drag(base);
         let coulomb0 = truth.thermal.friction_scale(base);
         for &(winding, gear) in &days {
@@ -290,8 +319,8 @@ pub fn grease_study(seeds: u64, mut progress: impl FnMut(&str)) -> Result<Vec<Gr
                 progress(&format!(
                     "{grease}: winding {winding:.0} °C, gear {gear:.0} °C, {case}"
                 ));
-                let s = settings(two_part, winding, gear);
-                let f = fits(s, FaultVector::saturating(k), seeds)?;
+                let s = settings(bench, two_part, winding, gear);
+                let f = fits(bench, s, FaultVector::saturating(k), seeds)?;
                 let ratios: Vec<(f64, f64)> = f.iter().map(|x| law.ratios(x)).collect();
                 let viscous: Vec<f64> = ratios.iter().map(|r| r.0).collect();
                 let coulomb: Vec<f64> = ratios.iter().map(|r| r.1).collect();
@@ -323,10 +352,10 @@ pub fn grease_study(seeds: u64, mut progress: impl FnMut(&str)) -> Result<Vec<Gr
 }
 
 /// The study's table (Markdown).
-pub fn grease_markdown(rows: &[GreaseRow], seeds: u64) -> String {
+pub fn grease_markdown(name: &str, rows: &[GreaseRow], seeds: u64) -> String {
     use std::fmt::Write;
     let mut text = format!(
-        "Reference actuator, injection test, {seeds} seeds per row: the chirp's torque-balance \
+        "### {name}\n\nInjection test, {seeds} seeds per row: the chirp's torque-balance \
          fit (host-sim/src/studies/grease.rs) against what the reference model played, both \
          as ratios to the healthy actuator at the calibration day; then the wear k1 read with \
          the healthy dry friction taken from the fitted drag, and from the winding's \
