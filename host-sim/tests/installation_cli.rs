@@ -128,3 +128,34 @@ fn a_trace_without_temperature_is_not_identified_against_a_friction_law() {
     let o = host_sim(&["identify", &stripped]);
     refused(&o, &["no measured temperature", "friction law"]);
 }
+
+#[test]
+fn the_grease_study_runs_on_an_actuator_file_and_other_studies_still_refuse_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = path(&dir, "grease.md");
+    let o = host_sim(&[
+        "identifiability",
+        "--grease",
+        "--seeds",
+        "3",
+        "--actuator",
+        "../actuators/light-28v.toml",
+        "--out",
+        &out,
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let table = std::fs::read_to_string(&out).unwrap();
+    assert!(table.starts_with("### light EMA"), "{table}");
+    // 2 greases × 6 days × 5 cases.
+    let rows = table
+        .lines()
+        .filter(|l| l.starts_with("| one factor") || l.starts_with("| two-part"));
+    assert_eq!(rows.count(), 60, "{table}");
+    let o = host_sim(&[
+        "identifiability",
+        "--day",
+        "--actuator",
+        "../actuators/light-28v.toml",
+    ]);
+    assert_eq!(o.status.code(), Some(7), "{}", text(&o));
+}
