@@ -20,6 +20,7 @@
 use fixed::types::{I16F16, I4F28};
 use heapless::Vec;
 
+use crate::grease::{ChirpTorqueFit, GreaseError, GreaseReading};
 use crate::math::{floor, tan};
 use crate::test_design::PreflightTest;
 
@@ -298,6 +299,8 @@ pub struct MeasuredCurrent<const N: usize> {
     inv_kappa: Option<f32>,
     /// The bus and temperature readings the frames carried.
     conditions: ConditionSums,
+    /// The chirp's torque balance, fed its frames (the grease's drag and dry friction).
+    torque_fit: ChirpTorqueFit,
 }
 
 impl<const N: usize> MeasuredCurrent<N> {
@@ -336,12 +339,18 @@ impl<const N: usize> MeasuredCurrent<N> {
             test,
             inv_kappa: None,
             conditions: ConditionSums::ZERO,
+            torque_fit: ChirpTorqueFit::ZERO,
         }
     }
 
     /// Sums of the bus and temperature readings the frames carried.
     pub fn conditions(&self) -> &ConditionSums {
         &self.conditions
+    }
+
+    /// What the chirp's torque balance read of the grease (`grease` module).
+    pub fn grease(&self) -> Result<GreaseReading, GreaseError> {
+        self.torque_fit.reading()
     }
 
     /// The test the buffer conditions.
@@ -393,9 +402,14 @@ impl<const N: usize> MeasuredCurrent<N> {
                 } else if fitted_start.is_none() && index == 0 {
                     self.initial_angles.currents = [a, b, c];
                 }
+                let motor = i16f16_to_f32(frame.motor_angle);
+                let user = i4f28_to_f32(frame.user_angle);
                 if index == self.lead_samples() {
-                    self.initial_angles.motor = i16f16_to_f32(frame.motor_angle);
-                    self.initial_angles.user = i4f28_to_f32(frame.user_angle);
+                    self.initial_angles.motor = motor;
+                    self.initial_angles.user = user;
+                }
+                if index >= self.lead_samples() {
+                    self.torque_fit.push(current, motor, user);
                 }
                 Ok(())
             }
@@ -488,6 +502,7 @@ impl<const N: usize> MeasuredCurrent<N> {
         self.filter_state = LowPassState::default();
         self.inv_kappa = None;
         self.conditions = ConditionSums::ZERO;
+        self.torque_fit = ChirpTorqueFit::ZERO;
     }
 }
 

@@ -19,6 +19,7 @@
 //! * [`trace`] — the binary preflight trace format (header, fixed-point rows, CRC-32).
 //! * [`domain`] — is the actuator inside the monitor model's domain (jam, open phase, other
 //!   command, fitness floor)?
+//! * [`grease`] — the grease's drag and dry friction read from the chirp's torque balance.
 //! * [`health`] — the health log: one record per preflight, a bounded ring, its store.
 //! * [`prognosis`] — degradation trend and remaining useful life per fault, from the log.
 //! * [`test_design`] — the preflight test: standstill segment, chirp, what is commanded when.
@@ -49,6 +50,7 @@ pub mod fault;
 pub mod fdi;
 pub mod fitness;
 pub mod ga;
+pub mod grease;
 pub mod health;
 pub mod math;
 pub mod metrics;

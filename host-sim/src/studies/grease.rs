@@ -2,127 +2,19 @@
 //! drag from its dry friction, from what the controller measures alone, so that the drag can
 //! stand as a thermometer of the grease and wear (k1) stay apart from a cold gearbox?
 //!
-//! Per test, a least-squares fit of the motor's torque balance over the chirp, in blocks of
-//! [`BLOCK`] samples (2 ms at 10 kHz) so that no velocity is differentiated twice:
-//!
-//! `ī_eq = a·Δω_m/T + c·sgn(ω_m) + b·ω̄_m + s·θ̄_u + u·Δω_u/T + o`
-//!
-//! (equivalent current [A]; motor inertia, dry friction, viscous drag, the load's spring, the
-//! user inertia, an offset). Blocks where the motor stops or turns are left out (dry friction
-//! is not a sign there). `b` lumps every viscous torque the motor sees — the grease's drag on
-//! the motor shaft and the user shaft's damping reflected through the gear (ω_u ≈ ω_m/N makes
-//! them one regressor): only its change from the calibration day is the grease's. O(blocks ·
-//! 6²) per test; the study's only cost is the reference model's runs.
+//! Per test, the flight code's own fit of the motor's torque balance over the chirp
+//! (`shared::grease`, fed by the trace's frames as the controller conditions them). Its
+//! viscous term lumps every viscous torque the motor sees — the grease's drag on the motor
+//! shaft and the user shaft's damping reflected through the gear: only its change from the
+//! calibration day is the grease's. The study's only cost is the reference model's runs.
 
 use anyhow::{bail, Result};
 use rayon::prelude::*;
-use shared::conditioning::equivalent_current;
+use shared::grease::GreaseReading;
 use shared::test_design::PreflightTest;
 use shared::FaultVector;
 
 use crate::plant::reference::{ReferenceModel, ReferenceSettings, Scenario};
-use crate::studies::identifiability::invert;
-
-/// Samples per regression block (2 ms at 10 kHz).
-pub const BLOCK: usize = 20;
-
-/// What the chirp's torque balance gives: the dry friction and the viscous drag the motor
-/// sees, in equivalent current, and the fit's quality.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ChirpFriction {
-    /// Dry (Coulomb) friction [A of equivalent current].
-    pub coulomb: f64,
-    /// Viscous drag at the motor shaft [A per rad/s].
-    pub viscous: f64,
-    /// Blocks used.
-    pub blocks: usize,
-    /// RMS of the fit's residual over the RMS of the blocks' current.
-    pub residual: f64,
-}
-
-/// The regression of the module docs on a trace's chirp (the samples after the standstill
-/// segment). `None` when too few blocks move one way, or the normal equations are singular.
-pub fn chirp_friction(
-    samples: &[crate::files::trace::TraceSample],
-    test: PreflightTest,
-    params: &shared::ActuatorParams,
-) -> Option<ChirpFriction> {
-    let dt = f64::from(params.control_period);
-    let first = test.lead_samples() + 1;
-    let s = samples.get(first.saturating_sub(1)..)?;
-    let current: Vec<f64> = s
-        .iter()
-        .map(|x| {
-            let i = x.phase_currents.map(|v| v as f32);
-            f64::from(equivalent_current(
-                i,
-                params.pole_pairs * x.motor_angle as f32,
-            ))
-        })
-        .collect();
-    let speed = |k: usize, angle: fn(&crate::files::trace::TraceSample) -> f64| {
-        (angle(&s[k + 1]) - angle(&s[k - 1])) / (2.0 * dt)
-    };
-    let motor = |x: &crate::files::trace::TraceSample| x.motor_angle;
-    let user = |x: &crate::files::trace::TraceSample| x.user_angle;
-    let stick = f64::from(params.stick_speed);
-    let mut rows: Vec<([f64; 6], f64)> = Vec::new();
-    let mut a = 1;
-    while a + BLOCK + 1 < s.len() {
-        let b = a + BLOCK;
-        let speeds: Vec<f64> = (a..b).map(|k| speed(k, motor)).collect();
-        let same_way = speeds.iter().all(|&w| w > stick) || speeds.iter().all(|&w| w < -stick);
-        if same_way {
-            let t = BLOCK as f64 * dt;
-            let x = [
-                (speed(b, motor) - speed(a, motor)) / t,
-                speeds[0].signum(),
-                (s[b].motor_angle - s[a].motor_angle) / t,
-                s[a..b].iter().map(|x| x.user_angle).sum::<f64>() / BLOCK as f64,
-                (speed(b, user) - speed(a, user)) / t,
-                1.0,
-            ];
-            let y = current[a..b].iter().sum::<f64>() / BLOCK as f64;
-            rows.push((x, y));
-        }
-        a = b;
-    }
-    if rows.len() < 24 {
-        return None;
-    }
-    // Columns scaled to unit RMS so the normal equations are well conditioned.
-    let scale: [f64; 6] = core::array::from_fn(|j| {
-        (rows.iter().map(|r| r.0[j] * r.0[j]).sum::<f64>() / rows.len() as f64)
-            .sqrt()
-            .max(1e-30)
-    });
-    let mut m = vec![vec![0.0; 6]; 6];
-    let mut rhs = [0.0; 6];
-    for (x, y) in &rows {
-        for i in 0..6 {
-            rhs[i] += x[i] / scale[i] * y;
-            for j in 0..6 {
-                m[i][j] += x[i] / scale[i] * x[j] / scale[j];
-            }
-        }
-    }
-    let inverse = invert(&m)?;
-    let beta: Vec<f64> = (0..6)
-        .map(|i| (0..6).map(|j| inverse[i][j] * rhs[j]).sum::<f64>() / scale[i])
-        .collect();
-    let (mut sse, mut syy) = (0.0, 0.0);
-    for (x, y) in &rows {
-        let fit: f64 = (0..6).map(|j| beta[j] * x[j]).sum();
-        sse += (y - fit).powi(2);
-        syy += y * y;
-    }
-    Some(ChirpFriction {
-        coulomb: beta[1],
-        viscous: beta[2],
-        blocks: rows.len(),
-        residual: (sse / syy.max(1e-30)).sqrt(),
-    })
-}
 
 /// One row of the study: what the reference model played and what the chirp's fit read,
 /// as ratios to the healthy actuator at the calibration day (mean and spread over seeds).
@@ -147,7 +39,6 @@ pub struct GreaseRow {
     pub wear_by_drag: f64,
     pub wear_by_thermistor: f64,
     pub true_wear: f64,
-    pub residual: f64,
 }
 
 fn mean_sd(x: &[f64]) -> (f64, f64) {
@@ -196,7 +87,7 @@ pub fn fits(
     settings: ReferenceSettings,
     k: FaultVector,
     seeds: u64,
-) -> Result<Vec<ChirpFriction>> {
+) -> Result<Vec<GreaseReading>> {
     let test = bench.test;
     (0..seeds)
         .into_par_iter()
@@ -206,8 +97,10 @@ pub fn fits(
             let sim = ReferenceModel::new(settings)
                 .with_test(test)
                 .simulate(&scenario);
-            chirp_friction(sim.trace.samples(), test, &settings.params)
-                .ok_or_else(|| anyhow::anyhow!("too few one-way blocks in the chirp"))
+            sim.trace
+                .measured(&settings.params)?
+                .grease()
+                .map_err(|e| anyhow::anyhow!("the chirp's torque balance: {e:?}"))
         })
         .collect()
 }
@@ -230,8 +123,8 @@ impl HealthyGreaseLaw {
         let mut points = Vec::new();
         for t in [-45.0, -25.0, 0.0, base, 75.0] {
             let f = fits(bench, settings(bench, two_part, t, t), healthy, seeds)?;
-            let v = mean_sd(&f.iter().map(|x| x.viscous).collect::<Vec<_>>()).0;
-            let c = mean_sd(&f.iter().map(|x| x.coulomb).collect::<Vec<_>>()).0;
+            let v = mean_sd(&f.iter().map(|x| f64::from(x.viscous)).collect::<Vec<_>>()).0;
+            let c = mean_sd(&f.iter().map(|x| f64::from(x.coulomb)).collect::<Vec<_>>()).0;
             points.push((t, v, c));
         }
         let day = (points[3].1, points[3].2);
@@ -239,8 +132,11 @@ impl HealthyGreaseLaw {
     }
 
     /// The fit's viscous drag and dry friction over the calibration day's.
-    pub fn ratios(&self, fit: &ChirpFriction) -> (f64, f64) {
-        (fit.viscous / self.day.0, fit.coulomb / self.day.1)
+    pub fn ratios(&self, fit: &GreaseReading) -> (f64, f64) {
+        (
+            f64::from(fit.viscous) / self.day.0,
+            f64::from(fit.coulomb) / self.day.1,
+        )
     }
 
     /// Wear `k1 = (c / c₀ − 1) / 2` with the healthy dry friction c₀ taken from the fitted
@@ -343,7 +239,6 @@ pub fn grease_study(
                     wear_by_drag: law.wear_by_drag(vm, cm),
                     wear_by_thermistor: law.wear_by_temperature(winding, cm),
                     true_wear: f64::from(k[0]),
-                    residual: mean_sd(&f.iter().map(|x| x.residual).collect::<Vec<_>>()).0,
                 });
             }
         }
@@ -356,17 +251,17 @@ pub fn grease_markdown(name: &str, rows: &[GreaseRow], seeds: u64) -> String {
     use std::fmt::Write;
     let mut text = format!(
         "### {name}\n\nInjection test, {seeds} seeds per row: the chirp's torque-balance \
-         fit (host-sim/src/studies/grease.rs) against what the reference model played, both \
+         fit (`shared::grease`) against what the reference model played, both \
          as ratios to the healthy actuator at the calibration day; then the wear k1 read with \
          the healthy dry friction taken from the fitted drag, and from the winding's \
          temperature (today's law).\n\n\
-         | grease | winding °C | gear °C | case | drag played | viscous fitted (sd) | dry played | dry fitted (sd) | k1 | k1 by drag | k1 by thermistor | fit residual |\n\
-         | --- | ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n"
+         | grease | winding °C | gear °C | case | drag played | viscous fitted (sd) | dry played | dry fitted (sd) | k1 | k1 by drag | k1 by thermistor |\n\
+         | --- | ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n"
     );
     for r in rows {
         let _ = writeln!(
             text,
-            "| {} | {:.0} | {:.0} | {} | {:.2} | {:.2} ({:.2}) | {:.2} | {:.2} ({:.2}) | {:.1} | {:+.3} | {:+.3} | {:.3} |",
+            "| {} | {:.0} | {:.0} | {} | {:.2} | {:.2} ({:.2}) | {:.2} | {:.2} ({:.2}) | {:.1} | {:+.3} | {:+.3} |",
             r.grease,
             r.winding,
             r.gear,
@@ -380,7 +275,6 @@ pub fn grease_markdown(name: &str, rows: &[GreaseRow], seeds: u64) -> String {
             r.true_wear,
             r.wear_by_drag,
             r.wear_by_thermistor,
-            r.residual,
         );
     }
     text
