@@ -29,8 +29,9 @@ pub const RECORD_MAGIC: [u8; 4] = *b"EMAA";
 /// has the polish's settings, which read as [`PolishSettings::FDI`], and none before 5 has
 /// the drive, which reads as [`DriveSettings::TYPICAL`]; none before 6 has the
 /// calibration's duty delay, which reads as 0: the controller of those records applied
-/// each period's volts at its sample).
-pub const RECORD_VERSION: u16 = 6;
+/// each period's volts at its sample; none before 7 has the grease's drag law, which reads
+/// as none: friction follows the measured temperature).
+pub const RECORD_VERSION: u16 = 7;
 /// 32-bit words in the body of version 1.
 const BODY_WORDS_V1: usize = 72;
 /// Words version 2 adds at the end of [`run_words`]: the injection's frequency, the pair
@@ -55,8 +56,13 @@ const DRIVE_WORDS: usize = 4;
 const BODY_WORDS_V5: usize = BODY_WORDS_V4 + DRIVE_WORDS;
 /// Words version 6 adds at the end: the calibration's duty delay.
 const TIMING_WORDS: usize = 1;
+/// 32-bit words in the body of version 6.
+const BODY_WORDS_V6: usize = BODY_WORDS_V5 + TIMING_WORDS;
+/// Words version 7 adds at the end: the calibration's viscous drag and each friction
+/// point's drag.
+const GREASE_WORDS: usize = 1 + FRICTION_POINTS;
 /// 32-bit words in the body.
-const BODY_WORDS: usize = BODY_WORDS_V5 + TIMING_WORDS;
+const BODY_WORDS: usize = BODY_WORDS_V6 + GREASE_WORDS;
 /// Bytes of one record: magic, version, length, body, CRC-32.
 pub const RECORD_BYTES: usize = 8 + 4 * BODY_WORDS + 4;
 /// Bytes of a version 1 record.
@@ -69,6 +75,8 @@ pub const RECORD_BYTES_V3: usize = 8 + 4 * BODY_WORDS_V3 + 4;
 pub const RECORD_BYTES_V4: usize = 8 + 4 * BODY_WORDS_V4 + 4;
 /// Bytes of a version 5 record.
 pub const RECORD_BYTES_V5: usize = 8 + 4 * BODY_WORDS_V5 + 4;
+/// Bytes of a version 6 record.
+pub const RECORD_BYTES_V6: usize = 8 + 4 * BODY_WORDS_V6 + 4;
 
 /// Why a record was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -175,6 +183,8 @@ record_fields! {
     Ga => "ga",
     GaTournamentSize => "ga.tournament_size",
     TestSegmentSamples => "test",
+    CalibrationViscous => "calibration.viscous",
+    CalibrationDragPoints => "calibration.drag_points",
 }
 
 /// One actuator, as the FDI needs it. Plain data.
@@ -257,6 +267,10 @@ impl ActuatorRecord {
         w.u32(u32::from(v.compensation));
         w.f32(v.compensation_threshold);
         w.f32(self.calibration.duty_delay);
+        w.f32(self.calibration.viscous);
+        for v in self.calibration.drag_points {
+            w.f32(v);
+        }
         let mut crc = Crc32::new();
         crc.update(w.out.get(..RECORD_BYTES - 4).unwrap_or(&[]));
         w.bytes(&crc.finish().to_le_bytes());
@@ -284,6 +298,7 @@ impl ActuatorRecord {
             3 => (BODY_WORDS_V3, RECORD_BYTES_V3),
             4 => (BODY_WORDS_V4, RECORD_BYTES_V4),
             5 => (BODY_WORDS_V5, RECORD_BYTES_V5),
+            6 => (BODY_WORDS_V6, RECORD_BYTES_V6),
             RECORD_VERSION => (BODY_WORDS, RECORD_BYTES),
             _ => return Err(ActuatorRecordError::UnsupportedVersion { found: version }),
         };
@@ -434,6 +449,10 @@ impl ActuatorRecord {
         if version >= 6 {
             calibration.duty_delay = r.f32();
         }
+        if version >= 7 {
+            calibration.viscous = r.f32();
+            calibration.drag_points = r.f32s::<4>();
+        }
         let record = Self {
             params,
             test,
@@ -528,7 +547,7 @@ impl ActuatorRecord {
             n as f32 == p.pole_pairs
         };
         let v = &self.drive;
-        let others: [(bool, RecordField); 21] = [
+        let others: [(bool, RecordField); 23] = [
             (
                 t.standstill.is_none_or(|s| {
                     s.frequency.is_finite()
@@ -561,6 +580,16 @@ impl ActuatorRecord {
             (
                 c.duty_delay >= 0.0 && c.duty_delay <= p.control_period,
                 RecordField::CalibrationDutyDelay,
+            ),
+            (
+                c.viscous.is_finite() && c.viscous >= 0.0,
+                RecordField::CalibrationViscous,
+            ),
+            (
+                c.drag_points
+                    .iter()
+                    .all(|d| d.is_finite() && (0.0..=100.0).contains(d)),
+                RecordField::CalibrationDragPoints,
             ),
             (whole_pole_pairs, RecordField::MotorPolePairs),
             (
@@ -923,7 +952,7 @@ mod tests {
         assert_eq!(r.polish, custom.polish);
         // A compensation word other than 0 or 1, re-sealed: refused, not read as "on".
         let mut flag = v6;
-        let at = RECORD_BYTES - 4 - 12;
+        let at = RECORD_BYTES - 4 - 12 - 4 * GREASE_WORDS;
         flag[at..at + 4].copy_from_slice(&7u32.to_le_bytes());
         let mut crc = Crc32::new();
         crc.update(&flag[..RECORD_BYTES - 4]);
@@ -948,6 +977,38 @@ mod tests {
             slow.validate(),
             Err(ActuatorRecordError::OutOfRange {
                 field: RecordField::DriveDeadTime
+            })
+        );
+    }
+
+    #[test]
+    fn a_version_6_record_reads_without_a_friction_law_by_drag() {
+        let mut custom = ActuatorRecord::REFERENCE;
+        custom.calibration.duty_delay = 5.0e-5;
+        custom.calibration.viscous = 0.0123;
+        custom.calibration.drag_points = [6.5, 3.2, 1.9, 0.5];
+        let v7 = custom.encode();
+        assert_eq!(ActuatorRecord::decode(&v7), Ok(custom));
+        let v6 = older_record(6, &v7[8..8 + 4 * BODY_WORDS_V6]);
+        assert_eq!(v6.len(), RECORD_BYTES_V6);
+        let r = ActuatorRecord::decode(&v6).unwrap();
+        assert_eq!(r.calibration.viscous, 0.0);
+        assert_eq!(r.calibration.drag_points, [0.0; 4]);
+        assert_eq!(r.calibration.duty_delay, 5.0e-5);
+        for (bad, field) in [
+            (-1.0, RecordField::CalibrationViscous),
+            (f32::NAN, RecordField::CalibrationViscous),
+        ] {
+            let mut c = custom;
+            c.calibration.viscous = bad;
+            assert_eq!(c.validate(), Err(ActuatorRecordError::OutOfRange { field }));
+        }
+        let mut c = custom;
+        c.calibration.drag_points[2] = 1.0e3;
+        assert_eq!(
+            c.validate(),
+            Err(ActuatorRecordError::OutOfRange {
+                field: RecordField::CalibrationDragPoints
             })
         );
     }
@@ -1037,10 +1098,10 @@ mod tests {
             Err(ActuatorRecordError::TooShort { found: 100 })
         );
         let mut other = bytes;
-        other[4] = 7;
+        other[4] = 8;
         assert_eq!(
             ActuatorRecord::decode(&other),
-            Err(ActuatorRecordError::UnsupportedVersion { found: 7 })
+            Err(ActuatorRecordError::UnsupportedVersion { found: 8 })
         );
         let mut other = bytes;
         other[0] = b'X';

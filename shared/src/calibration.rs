@@ -51,7 +51,23 @@ pub struct Calibration {
     /// healthy trace's injection; the injection's fit and the monitor model's pair circuits
     /// apply each period's volts that much late.
     pub duty_delay: f32,
+    /// The chirp's viscous drag on the healthy trace (`crate::grease`, its own units), when
+    /// the grease has a drag of its own: the friction points' drags span at least
+    /// [`DRAG_LAW_SPAN`]. 0: it has none, or it was not measured (records before version 7);
+    /// friction then follows the measured temperature alone.
+    pub viscous: f32,
+    /// The chirp's viscous drag at each friction point against [`viscous`](Self::viscous)
+    /// (0 where unused): with the friction points they make the friction law by drag
+    /// (`shared::conditions::friction_factor_by_drag`), the grease's own thermometer.
+    pub drag_points: [f32; 4],
 }
+
+/// Ratio of the friction points' largest to smallest drag (the calibration's own 1 among
+/// them) from which the grease is taken to have a drag of its own, and the drag to read its
+/// state: a one-factor grease moves the chirp's drag by under ±25 % (faults and noise
+/// included), a real grease's base oil ×5 and more from −40 to +20 °C
+/// (docs/identifiability.md §0c).
+pub const DRAG_LAW_SPAN: f32 = 2.0;
 
 impl Calibration {
     /// No correction: the monitor model as the parameters describe it.
@@ -68,6 +84,8 @@ impl Calibration {
         friction_points: [[0.0; 2]; 4],
         magnet_coefficient: 0.0,
         duty_delay: 0.0,
+        viscous: 0.0,
+        drag_points: [0.0; 4],
     };
 }
 
@@ -96,6 +114,8 @@ impl Calibration {
         ],
         magnet_coefficient: -0.0011,
         duty_delay: 0.0,
+        viscous: 0.0,
+        drag_points: [0.0; 4],
     };
 
     /// The same for the earlier default test (voltage steps at standstill), fitted on an

@@ -1,7 +1,9 @@
 //! What the day changes, as the FDI estimates it from one test: the winding's temperature
 //! (hence its copper resistance and the magnets' flux) from the injection segment, averaged
 //! with the thermistor where the test carries its reading, the gear's
-//! friction from the measured temperature through the calibrated law, and the measured bus.
+//! friction from the measured temperature through the calibrated law — or, for a grease with
+//! a drag of its own, from the chirp's drag (`crate::grease`) through the law by drag, with
+//! the model's damping scaled by that drag — and the measured bus.
 //!
 //! Units: °C (K for differences), Ω, H, V. [`TestConditions::estimate`] is O(segment samples)
 //! (one pass, two 2 × 2 least-squares fits per pair), allocates nothing and never panics; a
@@ -14,7 +16,7 @@
 //! `R` by `N`; temperature moves `R` alone (copper, 0.393 %/K). The three pairs' `L` give the
 //! three `N`; what is left of each pair's `R` is the copper's temperature.
 
-use crate::calibration::Calibration;
+use crate::calibration::{Calibration, DRAG_LAW_SPAN};
 use crate::conditioning::{LowPassState, MeasuredCurrent};
 use crate::math::{exp, ln};
 use crate::params::{ActuatorParams, REFERENCE_TEMPERATURE};
@@ -87,8 +89,17 @@ pub struct TestConditions {
     pub pair_resistance_ratio: f32,
     /// Magnet flux against the calibration's [-].
     pub flux_scale: f32,
-    /// Healthy dry friction against the calibration's, from the measured temperature [-].
+    /// Healthy dry friction against the calibration's [-]: from the chirp's drag where the
+    /// calibration has a friction law by drag (a grease with a drag of its own), else from
+    /// the measured temperature.
     pub friction_scale: f32,
+    /// The chirp's viscous drag against the calibration's [-] where the calibration has a
+    /// friction law by drag (`crate::grease`); 1 otherwise.
+    pub viscous_scale: f32,
+    /// The chirp's viscous drag above the calibration's, in its own units (equivalent
+    /// current per radian of a block's motor travel), where the calibration has a friction
+    /// law by drag; 0 otherwise. The monitor model plays it as a drag on the motor shaft.
+    pub drag_rise: f32,
     /// What the controller measured: mean temperature [°C] and bus [V].
     pub measured_temperature: Option<f32>,
     pub bus_voltage: Option<f32>,
@@ -106,6 +117,8 @@ impl TestConditions {
         pair_resistance_ratio: 1.0,
         flux_scale: 1.0,
         friction_scale: 1.0,
+        viscous_scale: 1.0,
+        drag_rise: 0.0,
         measured_temperature: None,
         bus_voltage: None,
         winding: WindingEstimate::NoInjection,
@@ -126,9 +139,22 @@ impl TestConditions {
     ) -> Self {
         let sums = measured.conditions();
         let measured_temperature = sums.temperature();
-        let friction_scale = measured_temperature.map_or(1.0, |t| friction_factor(calibration, t));
+        let mut friction_scale =
+            measured_temperature.map_or(1.0, |t| friction_factor(calibration, t));
+        // A grease with a drag of its own: its drag is the gearbox's thermometer.
+        let (mut viscous_scale, mut drag_rise) = (1.0, 0.0);
+        if let Ok(grease) = measured.grease() {
+            let ratio = grease.viscous / calibration.viscous;
+            if let Some(factor) = friction_factor_by_drag(calibration, ratio) {
+                friction_scale = factor;
+                viscous_scale = ratio;
+                drag_rise = grease.viscous - calibration.viscous;
+            }
+        }
         let mut out = Self {
             friction_scale,
+            viscous_scale,
+            drag_rise,
             measured_temperature,
             bus_voltage: sums.bus_voltage(),
             ..Self::CALIBRATION
@@ -234,6 +260,58 @@ pub fn friction_factor(calibration: &Calibration, celsius: f32) -> f32 {
     previous.map_or(1.0, |(_, log)| exp(log))
 }
 
+/// The healthy dry friction at the chirp's viscous drag `ratio` (against the calibration's)
+/// against the calibration's: `ln(factor)` linear in `ln(ratio)` between the calibration's
+/// points (its own at (1, 1) and each friction point's drag and factor), held beyond the
+/// outermost. `None` where the calibration has no friction law by drag (its drags span less
+/// than [`DRAG_LAW_SPAN`]) or `ratio` is no drag. O(points), no allocation.
+#[inline(never)]
+pub fn friction_factor_by_drag(calibration: &Calibration, ratio: f32) -> Option<f32> {
+    if !(calibration.viscous > 0.0 && ratio > 0.0 && ratio.is_finite()) {
+        return None;
+    }
+    // (ln drag, ln factor), the calibration's own first; sorted by drag below.
+    let mut points = [(0.0f32, 0.0f32); 5];
+    let mut n = 1;
+    for ([_, factor], &drag) in calibration
+        .friction_points
+        .iter()
+        .zip(&calibration.drag_points)
+    {
+        if *factor > 0.0 && drag > 0.0 {
+            if let Some(slot) = points.get_mut(n) {
+                *slot = (ln(drag), ln(*factor));
+                n += 1;
+            }
+        }
+    }
+    let used = points.get_mut(..n)?;
+    // Insertion sort by drag (at most five points; smaller in flash than core's sort).
+    for i in 1..used.len() {
+        let mut j = i;
+        while j > 0 && used.get(j - 1).map(|p| p.0) > used.get(j).map(|p| p.0) {
+            used.swap(j - 1, j);
+            j -= 1;
+        }
+    }
+    let (first, last) = (used.first()?, used.last()?);
+    if last.0 - first.0 < ln(DRAG_LAW_SPAN) {
+        return None;
+    }
+    let x = ln(ratio);
+    if x <= first.0 {
+        return Some(exp(first.1));
+    }
+    for pair in used.windows(2) {
+        if let [(x0, y0), (x1, y1)] = pair {
+            if x <= *x1 {
+                return Some(exp(y0 + (y1 - y0) * (x - x0) / (x1 - x0).max(1e-6)));
+            }
+        }
+    }
+    Some(exp(last.1))
+}
+
 /// Each pair's R and L from the injection segment of `measured` (control period `dt`): the
 /// regression `y_{k+1} = a·y_k + b·u_k` of the filtered measured pair current `y` on the
 /// volts `u` the pair saw over each period through the same filter, over the pair's window
@@ -333,6 +411,32 @@ pub fn injection_rows<const N: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_friction_law_by_drag_reads_the_grease_and_needs_a_drag_that_moves() {
+        let mut c = Calibration::IDENTITY;
+        c.friction_points = [[-45.0, 3.0], [-25.0, 2.0], [0.0, 1.3], [75.0, 0.5]];
+        c.drag_points = [7.0, 3.5, 1.8, 0.5];
+        // No drag measured: no law.
+        assert_eq!(friction_factor_by_drag(&c, 3.5), None);
+        c.viscous = 0.01;
+        let at = |r: f32| friction_factor_by_drag(&c, r).unwrap();
+        // At each point its own factor, at the calibration's drag 1; held beyond the ends.
+        for (drag, factor) in [(7.0, 3.0), (3.5, 2.0), (1.8, 1.3), (1.0, 1.0), (0.5, 0.5)] {
+            assert!((at(drag) - factor).abs() < 1e-4, "{drag}: {}", at(drag));
+        }
+        assert!((at(20.0) - 3.0).abs() < 1e-4);
+        assert!((at(0.1) - 0.5).abs() < 1e-4);
+        // Between two points, ln(factor) linear in ln(drag): the geometric mean halfway.
+        let mid = (3.5f32 * 7.0).sqrt();
+        assert!((at(mid) - 6.0f32.sqrt()).abs() < 1e-3, "{}", at(mid));
+        // No drag, or not a number: no reading.
+        assert_eq!(friction_factor_by_drag(&c, 0.0), None);
+        assert_eq!(friction_factor_by_drag(&c, f32::NAN), None);
+        // A one-factor grease: its drags hardly move, so the drag is no thermometer.
+        c.drag_points = [0.9, 0.95, 1.0, 1.1];
+        assert_eq!(friction_factor_by_drag(&c, 0.9), None);
+    }
 
     #[test]
     fn the_friction_law_interpolates_its_logarithm_and_holds_at_the_ends() {

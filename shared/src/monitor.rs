@@ -165,6 +165,9 @@ pub struct MonitorModel {
     dt_over_user_inertia: f32,
     friction_scale: f32,
     user_damping: f32,
+    /// The motor speed kept over one step against the grease's drag above the calibration
+    /// day's (`1 − dt·D/J_m`; exactly 1 without one, so the model plays the same bits).
+    motor_drag_keep: f32,
     /// One healthy phase's R [Ω] and L [H] in the standstill segment's pair circuits: the
     /// calibrated installed circuit, R at the test's winding temperature.
     pair_phase_resistance: f32,
@@ -195,6 +198,7 @@ impl MonitorModel {
             dt_over_user_inertia: dt / params.user_inertia,
             friction_scale: calibration.friction_scale,
             user_damping: calibration.damping,
+            motor_drag_keep: 1.0,
             pair_phase_resistance: params.phase_resistance * calibration.pair_resistance_scale,
             pair_phase_inductance: params.phase_inductance * calibration.pair_inductance_scale,
             standstill: None,
@@ -204,12 +208,21 @@ impl MonitorModel {
 
     /// The same model on the day `conditions` describes: copper resistance (chirp and pair
     /// circuits) at the estimated winding temperature, torque constant at its flux, healthy
-    /// friction at the measured temperature. The calibration's own day changes nothing.
+    /// friction at the measured temperature or the grease's state, and the grease's drag on
+    /// the motor shaft above the calibration day's. The calibration's own day changes
+    /// nothing.
     pub fn with_conditions(mut self, conditions: &TestConditions) -> Self {
         self.resistance *= conditions.copper_scale;
         self.pair_phase_resistance *= conditions.pair_resistance_ratio;
         self.torque_constant *= conditions.flux_scale;
         self.friction_scale *= conditions.friction_scale;
+        if conditions.drag_rise != 0.0 {
+            // The chirp's drag in equivalent current per radian of a block's travel, as a
+            // torque per motor speed [N·m·s/rad].
+            let drag =
+                self.torque_constant * conditions.drag_rise * crate::grease::BLOCK as f32 * self.dt;
+            self.motor_drag_keep = clamp(1.0 - self.dt_over_motor_inertia * drag, 0.0, 2.0);
+        }
         self
     }
 
@@ -521,7 +534,7 @@ impl MonitorModel {
         } else {
             0.0
         };
-        let free_speed = s.motor_speed
+        let free_speed = s.motor_speed * self.motor_drag_keep
             + self.dt_over_motor_inertia * (motor_torque - gear_torque * self.inv_gear_ratio);
         let friction_impulse = if abs(s.motor_speed) < p.stick_speed {
             f.static_friction_impulse

@@ -41,8 +41,9 @@ pub(crate) fn calibrate_command(
     let [low, high] = record.domain.temperature;
     let mut seen: Vec<(PathBuf, f32)> = vec![(trace_path.to_path_buf(), file.temperature)];
     if !at.is_empty() {
-        let mut points = [[0.0f32; 2]; 4];
-        for (slot, path) in points.iter_mut().zip(at) {
+        // First every trace, checked; then the grease's drag law; then each point's friction.
+        let mut traces = Vec::new();
+        for path in at {
             let other = actuator.read_trace(path)?;
             let measured = other.measured(&record.params)?;
             let celsius = measured.conditions().temperature().with_context(|| {
@@ -80,25 +81,46 @@ pub(crate) fn calibrate_command(
                 }
             }
             seen.push((path.clone(), celsius));
-            *slot = host_sim::fdi::calibration::friction_point(
-                &measured,
+            traces.push((path, measured));
+        }
+        let refs: Vec<&shared::fdi::OnboardMeasured> = traces.iter().map(|t| &*t.1).collect();
+        let law = host_sim::fdi::calibration::grease_law(&measured, &refs);
+        file.viscous = law.as_ref().map_or(0.0, |l| l.0);
+        file.drag_points = [0.0; 4];
+        let mut points = Vec::new();
+        for (j, (path, measured)) in traces.iter().enumerate() {
+            let point = host_sim::fdi::calibration::friction_point(
+                measured,
                 record.params,
                 &file.calibration(),
             )
             .with_context(|| format!("friction law from {}", path.display()))?;
+            let drag = law.as_ref().map_or(0.0, |l| l.1[j]);
             println!(
-                "friction at {:>6.1} °C ×{:.3}  ({})",
-                slot[0],
-                slot[1],
+                "friction at {:>6.1} °C ×{:.3}{}  ({})",
+                point[0],
+                point[1],
+                if drag > 0.0 {
+                    format!(", drag ×{drag:.2}")
+                } else {
+                    String::new()
+                },
                 path.display()
             );
+            points.push((point, drag));
         }
         // The record keeps them rising in temperature (shared::conditions::friction_factor).
-        points.sort_by(|a, b| a[0].total_cmp(&b[0]));
-        file.friction_points = points;
+        points.sort_by(|a, b| a.0[0].total_cmp(&b.0[0]));
+        file.friction_points = [[0.0; 2]; 4];
+        for (j, (point, drag)) in points.into_iter().enumerate() {
+            file.friction_points[j] = point;
+            file.drag_points[j] = drag;
+        }
     } else if actuator.built_in {
         // The built-in record's law is the reference model's grease, not this actuator's.
         file.friction_points = [[0.0; 2]; 4];
+        file.viscous = 0.0;
+        file.drag_points = [0.0; 4];
     }
     record.calibration = file.calibration();
     let extension = out
@@ -161,6 +183,17 @@ pub(crate) fn calibrate_command(
             law.join(", ")
         }
     );
+    if !law.is_empty() {
+        println!(
+            "grease              {}",
+            if file.viscous > 0.0 {
+                "a drag of its own: the chirp's drag reads the gearbox's state and sets the \
+                 healthy friction (the friction law by drag)"
+            } else {
+                "no drag that moves with temperature: friction follows the thermistor"
+            }
+        );
+    }
     if file.duty_delay > 0.0 {
         println!(
             "controller timing   volts {:.1} µs after their sample ([drive] duty_delay)",

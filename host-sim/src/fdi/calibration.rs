@@ -53,6 +53,13 @@ pub struct CalibrationFile {
     /// The controller's duty delay the injection showed [s] (`shared::Calibration`).
     #[serde(default)]
     pub duty_delay: f32,
+    /// The grease's friction law by drag (`shared::Calibration`): the chirp's viscous drag on
+    /// the healthy trace (0: the grease has no drag of its own) and each friction point's
+    /// drag against it.
+    #[serde(default)]
+    pub viscous: f32,
+    #[serde(default)]
+    pub drag_points: [f32; 4],
     /// The installation's encoder offset, when `calibrate --estimate-offset` measured it
     /// [rad, motor side]: `identify --calibration` uses it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -91,6 +98,8 @@ impl CalibrationFile {
             friction_points: self.friction_points,
             magnet_coefficient: self.magnet_coefficient,
             duty_delay: self.duty_delay,
+            viscous: self.viscous,
+            drag_points: self.drag_points,
         }
     }
 
@@ -341,6 +350,8 @@ pub fn calibrate(
         friction_points: prior.friction_points,
         magnet_coefficient: prior.magnet_coefficient,
         duty_delay: prior.duty_delay,
+        viscous: prior.viscous,
+        drag_points: prior.drag_points,
         ..Calibration::IDENTITY
     };
     const DAMPING_UNIT: f64 = 10.0;
@@ -407,6 +418,8 @@ pub fn calibrate(
         friction_points: calibration.friction_points,
         magnet_coefficient: calibration.magnet_coefficient,
         duty_delay: calibration.duty_delay,
+        viscous: calibration.viscous,
+        drag_points: calibration.drag_points,
         encoder_offset: None,
         mismatch_before: relative_mismatch(measured, params, &Calibration::IDENTITY, &nominal),
         mismatch_after: relative_mismatch(measured, params, &calibration, &nominal),
@@ -488,10 +501,21 @@ pub fn friction_point(
         bail!("the trace carries no measured temperature (a version 3 trace has `temp`)");
     };
     let day = TestConditions::estimate(measured, &params, calibration);
+    // With a friction law by drag the point is measured at its own drag, as identification
+    // will apply it (`grease_law`).
+    let (viscous_scale, drag_rise) = match measured.grease() {
+        Ok(g) if calibration.viscous > 0.0 => (
+            g.viscous / calibration.viscous,
+            g.viscous - calibration.viscous,
+        ),
+        _ => (1.0, 0.0),
+    };
     let nominal = FaultVector::NOMINAL;
     let cost = |log: f64| -> f64 {
         let at = TestConditions {
             friction_scale: log.exp() as f32,
+            viscous_scale,
+            drag_rise,
             ..day
         };
         FitnessProblem::on_day(measured, params, calibration, at)
@@ -521,6 +545,30 @@ pub fn friction_point(
     Ok([celsius, factor])
 }
 
+/// Whether the grease has a drag of its own, from the chirp's drag on the calibration's
+/// healthy trace `day` and on the `--at` traces `points`: their drags against the day's,
+/// when they span at least `shared::calibration::DRAG_LAW_SPAN` (the day's 1 among them).
+/// `Some((the day's viscous drag, each point's ratio))` then; `None` for a grease whose drag
+/// does not move with temperature (friction then follows the thermistor) or a chirp that
+/// gave no reading.
+pub fn grease_law(day: &OnboardMeasured, points: &[&OnboardMeasured]) -> Option<(f32, Vec<f32>)> {
+    let viscous = day.grease().ok()?.viscous;
+    if viscous <= 0.0 {
+        return None;
+    }
+    let ratios: Vec<f32> = points
+        .iter()
+        .map(|m| m.grease().map_or(f32::NAN, |g| g.viscous / viscous))
+        .collect();
+    if ratios.iter().any(|r| !(r.is_finite() && *r > 0.0)) {
+        return None;
+    }
+    let (lo, hi) = ratios
+        .iter()
+        .fold((1.0f32, 1.0f32), |(lo, hi), &r| (lo.min(r), hi.max(r)));
+    (hi / lo >= shared::calibration::DRAG_LAW_SPAN).then_some((viscous, ratios))
+}
+
 /// Temperatures of the reference actuator's climatic calibration [°C]: the healthy traces
 /// whose friction makes the built-in friction law (`calibrate --at`).
 pub const CLIMATIC_TEMPERATURES: [f64; 4] = [-45.0, -25.0, 0.0, 75.0];
@@ -540,17 +588,30 @@ pub fn reference_calibration(
             .trace
             .measured(&params)
     };
-    let mut calibration = calibrate(&*healthy(model)?, params, prior)?.calibration();
+    let day = healthy(model)?;
+    let mut calibration = calibrate(&day, params, prior)?.calibration();
     if model.test().standstill.is_some_and(|s| s.is_injection()) {
-        let mut points = [[0.0f32; 2]; 4];
-        for (slot, celsius) in points.iter_mut().zip(CLIMATIC_TEMPERATURES) {
-            let mut settings = *model.settings();
-            settings.conditions = settings.conditions.at_temperature(celsius);
-            let cold = ReferenceModel::new(settings).with_test(*model.test());
-            *slot = friction_point(&*healthy(&cold)?, params, &calibration)?;
+        let traces = CLIMATIC_TEMPERATURES
+            .iter()
+            .map(|&celsius| {
+                let mut settings = *model.settings();
+                settings.conditions = settings.conditions.at_temperature(celsius);
+                healthy(&ReferenceModel::new(settings).with_test(*model.test()))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let refs: Vec<&OnboardMeasured> = traces.iter().map(|b| &**b).collect();
+        let law = grease_law(&day, &refs);
+        calibration.viscous = law.as_ref().map_or(0.0, |l| l.0);
+        let mut points = Vec::new();
+        for (j, measured) in refs.iter().enumerate() {
+            let drag = law.as_ref().map_or(0.0, |l| l.1[j]);
+            points.push((friction_point(measured, params, &calibration)?, drag));
         }
-        points.sort_by(|a, b| a[0].total_cmp(&b[0]));
-        calibration.friction_points = points;
+        points.sort_by(|a, b| a.0[0].total_cmp(&b.0[0]));
+        for (j, (point, drag)) in points.into_iter().enumerate() {
+            calibration.friction_points[j] = point;
+            calibration.drag_points[j] = drag;
+        }
     }
     Ok(calibration)
 }

@@ -272,6 +272,20 @@ impl Actuator {
                 .collect::<Vec<_>>()
                 .join(", ")
         );
+        if c.viscous > 0.0 {
+            out += &format!(
+                "# The grease's drag (`calibrate --at`): the chirp's viscous drag on the healthy \
+                 trace, and at each friction point against it.\nviscous = {:?}\ndrag_points = [{}]\n",
+                c.viscous,
+                c.friction_points
+                    .iter()
+                    .zip(&c.drag_points)
+                    .filter(|(p, _)| p[1] > 0.0)
+                    .map(|(_, d)| format!("{d:?}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        }
         out
     }
 
@@ -842,6 +856,10 @@ struct Cal {
     /// `[[°C, factor], …]`: the healthy friction measured at other temperatures.
     friction_points: Option<Vec<[f32; 2]>>,
     magnet_coefficient: Option<f32>,
+    /// The chirp's viscous drag on the healthy trace, and each friction point's against it
+    /// (a grease with a drag of its own; absent: friction follows the thermistor).
+    viscous: Option<f32>,
+    drag_points: Option<Vec<f32>>,
 }
 
 /// What the simulator's sensors do (the FDI reads only their output).
@@ -1030,6 +1048,13 @@ impl Description {
                 }),
                 magnet_coefficient: c.magnet_coefficient.unwrap_or(i.magnet_coefficient),
                 duty_delay: i.duty_delay,
+                viscous: c.viscous.unwrap_or(i.viscous),
+                drag_points: core::array::from_fn(|j| {
+                    c.drag_points
+                        .as_ref()
+                        .and_then(|p| p.get(j).copied())
+                        .unwrap_or(0.0)
+                }),
             }
         });
         let r = ReferenceSettings::REFERENCE;
