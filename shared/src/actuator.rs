@@ -451,7 +451,9 @@ impl ActuatorRecord {
         }
         if version >= 7 {
             calibration.viscous = r.f32();
-            calibration.drag_points = r.f32s::<4>();
+            for d in &mut calibration.drag_points {
+                *d = r.f32();
+            }
         }
         let record = Self {
             params,
@@ -522,7 +524,7 @@ impl ActuatorRecord {
         if let Some(field) = first_outside(&positive, false) {
             return fail(field);
         }
-        let non_negative: [(f32, RecordField); 12] = [
+        let non_negative: [(f32, RecordField); 13] = [
             (p.gear_damping, RecordField::MechanicsGearDamping),
             (p.aero_stiffness, RecordField::MechanicsAeroStiffness),
             (p.position_ki, RecordField::ControllerPositionKi),
@@ -530,6 +532,7 @@ impl ActuatorRecord {
             (p.speed_ki, RecordField::ControllerSpeedKi),
             (c.damping, RecordField::CalibrationDamping),
             (c.nominal_residual, RecordField::CalibrationNominalResidual),
+            (c.viscous, RecordField::CalibrationViscous),
             (d.min_travel, RecordField::DomainMinTravel),
             (d.min_phase_ratio, RecordField::DomainMinPhaseRatio),
             (d.min_phase_current, RecordField::DomainMinPhaseCurrent),
@@ -547,7 +550,7 @@ impl ActuatorRecord {
             n as f32 == p.pole_pairs
         };
         let v = &self.drive;
-        let others: [(bool, RecordField); 23] = [
+        let others: [(bool, RecordField); 22] = [
             (
                 t.standstill.is_none_or(|s| {
                     s.frequency.is_finite()
@@ -581,16 +584,7 @@ impl ActuatorRecord {
                 c.duty_delay >= 0.0 && c.duty_delay <= p.control_period,
                 RecordField::CalibrationDutyDelay,
             ),
-            (
-                c.viscous.is_finite() && c.viscous >= 0.0,
-                RecordField::CalibrationViscous,
-            ),
-            (
-                c.drag_points
-                    .iter()
-                    .all(|d| d.is_finite() && (0.0..=100.0).contains(d)),
-                RecordField::CalibrationDragPoints,
-            ),
+            (drag_points_fall(c), RecordField::CalibrationDragPoints),
             (whole_pole_pairs, RecordField::MotorPolePairs),
             (
                 p.winding_group_angle
@@ -755,6 +749,22 @@ impl Default for ActuatorRecord {
 }
 
 const _: () = assert!(FAULT_COUNT == GENES);
+
+/// Whether the calibration's drag points are each in 0 … 100 and, with a friction law by drag
+/// (`viscous` above 0), above 0 and falling as the used friction points' temperatures rise
+/// (`shared::conditions::friction_factor_by_drag` reads them in reverse).
+fn drag_points_fall(c: &Calibration) -> bool {
+    let mut above = f32::INFINITY;
+    let mut ok = true;
+    for (point, &drag) in c.friction_points.iter().zip(&c.drag_points) {
+        ok &= (0.0..=100.0).contains(&drag);
+        if c.viscous > 0.0 && point[1] > 0.0 {
+            ok &= drag > 0.0 && drag < above;
+            above = drag;
+        }
+    }
+    ok
+}
 
 /// The first value that is not finite and positive (or zero, with `zero_allowed`). Kept out
 /// of line so that the checks stay a loop in flash, not 35 unrolled copies.
@@ -987,6 +997,7 @@ mod tests {
         custom.calibration.duty_delay = 5.0e-5;
         custom.calibration.viscous = 0.0123;
         custom.calibration.drag_points = [6.5, 3.2, 1.9, 0.5];
+        assert_eq!(custom.validate(), Ok(()));
         let v7 = custom.encode();
         assert_eq!(ActuatorRecord::decode(&v7), Ok(custom));
         let v6 = older_record(6, &v7[8..8 + 4 * BODY_WORDS_V6]);
@@ -1003,6 +1014,15 @@ mod tests {
             c.calibration.viscous = bad;
             assert_eq!(c.validate(), Err(ActuatorRecordError::OutOfRange { field }));
         }
+        let mut rising = custom;
+        rising.calibration.friction_points = ActuatorRecord::REFERENCE.calibration.friction_points;
+        rising.calibration.drag_points = [6.5, 7.0, 1.9, 0.5];
+        assert_eq!(
+            rising.validate(),
+            Err(ActuatorRecordError::OutOfRange {
+                field: RecordField::CalibrationDragPoints
+            })
+        );
         let mut c = custom;
         c.calibration.drag_points[2] = 1.0e3;
         assert_eq!(

@@ -52,9 +52,9 @@ pub struct Calibration {
     /// apply each period's volts that much late.
     pub duty_delay: f32,
     /// The chirp's viscous drag on the healthy trace (`crate::grease`, its own units), when
-    /// the grease has a drag of its own: the friction points' drags span at least
-    /// [`DRAG_LAW_SPAN`]. 0: it has none, or it was not measured (records before version 7);
-    /// friction then follows the measured temperature alone.
+    /// the grease has a drag of its own (the friction points' drags span at least
+    /// [`DRAG_LAW_SPAN`] and fall as the temperatures rise). 0: it has none, or it was not
+    /// measured (records before version 7); friction then follows the measured temperature.
     pub viscous: f32,
     /// The chirp's viscous drag at each friction point against [`viscous`](Self::viscous)
     /// (0 where unused): with the friction points they make the friction law by drag
@@ -63,9 +63,9 @@ pub struct Calibration {
 }
 
 /// Ratio of the friction points' largest to smallest drag (the calibration's own 1 among
-/// them) from which the grease is taken to have a drag of its own, and the drag to read its
-/// state: a one-factor grease moves the chirp's drag by under ±25 % (faults and noise
-/// included), a real grease's base oil ×5 and more from −40 to +20 °C
+/// them) from which `host-sim calibrate` takes the grease to have a drag of its own and
+/// writes a friction law by drag: a one-factor grease moves the chirp's drag by under ±25 %
+/// (faults and noise included), a real grease's base oil ×5 and more from −40 to +20 °C
 /// (docs/identifiability.md §0c).
 pub const DRAG_LAW_SPAN: f32 = 2.0;
 

@@ -16,7 +16,7 @@
 //! `R` by `N`; temperature moves `R` alone (copper, 0.393 %/K). The three pairs' `L` give the
 //! three `N`; what is left of each pair's `R` is the copper's temperature.
 
-use crate::calibration::{Calibration, DRAG_LAW_SPAN};
+use crate::calibration::Calibration;
 use crate::conditioning::{LowPassState, MeasuredCurrent};
 use crate::math::{exp, ln};
 use crate::params::{ActuatorParams, REFERENCE_TEMPERATURE};
@@ -93,12 +93,9 @@ pub struct TestConditions {
     /// calibration has a friction law by drag (a grease with a drag of its own), else from
     /// the measured temperature.
     pub friction_scale: f32,
-    /// The chirp's viscous drag against the calibration's [-] where the calibration has a
-    /// friction law by drag (`crate::grease`); 1 otherwise.
-    pub viscous_scale: f32,
     /// The chirp's viscous drag above the calibration's, in its own units (equivalent
-    /// current per radian of a block's motor travel), where the calibration has a friction
-    /// law by drag; 0 otherwise. The monitor model plays it as a drag on the motor shaft.
+    /// current per radian of a block's motor travel; `crate::grease`), where the calibration
+    /// has a friction law by drag; 0 otherwise. The monitor model plays it as a drag on the motor shaft.
     pub drag_rise: f32,
     /// What the controller measured: mean temperature [°C] and bus [V].
     pub measured_temperature: Option<f32>,
@@ -117,7 +114,6 @@ impl TestConditions {
         pair_resistance_ratio: 1.0,
         flux_scale: 1.0,
         friction_scale: 1.0,
-        viscous_scale: 1.0,
         drag_rise: 0.0,
         measured_temperature: None,
         bus_voltage: None,
@@ -142,18 +138,17 @@ impl TestConditions {
         let mut friction_scale =
             measured_temperature.map_or(1.0, |t| friction_factor(calibration, t));
         // A grease with a drag of its own: its drag is the gearbox's thermometer.
-        let (mut viscous_scale, mut drag_rise) = (1.0, 0.0);
+        let mut drag_rise = 0.0;
         if let Ok(grease) = measured.grease() {
-            let ratio = grease.viscous / calibration.viscous;
-            if let Some(factor) = friction_factor_by_drag(calibration, ratio) {
+            if let Some(factor) =
+                friction_factor_by_drag(calibration, grease.viscous / calibration.viscous)
+            {
                 friction_scale = factor;
-                viscous_scale = ratio;
                 drag_rise = grease.viscous - calibration.viscous;
             }
         }
         let mut out = Self {
             friction_scale,
-            viscous_scale,
             drag_rise,
             measured_temperature,
             bus_voltage: sums.bus_voltage(),
@@ -230,12 +225,50 @@ impl TestConditions {
 /// ones last), held beyond the outermost. O(points), no allocation.
 #[inline(never)]
 pub fn friction_factor(calibration: &Calibration, celsius: f32) -> f32 {
-    let own = [calibration.temperature, 1.0];
-    // The calibration's own point, in its place among the measured ones.
+    log_law(
+        calibration.temperature,
+        &calibration.friction_points,
+        celsius,
+    )
+}
+
+/// The healthy dry friction at the chirp's viscous drag `ratio` (against the calibration's)
+/// against the calibration's: `ln(factor)` linear in `ln(ratio)` between the calibration's
+/// points (its own at (1, 1) and each friction point's drag and factor; the record keeps the
+/// drags falling as the temperatures rise), held beyond the outermost. `None` where the
+/// calibration has no friction law by drag ([`Calibration::viscous`] 0) or `ratio` is no
+/// drag. O(points), no allocation.
+#[inline(never)]
+pub fn friction_factor_by_drag(calibration: &Calibration, ratio: f32) -> Option<f32> {
+    if !(calibration.viscous > 0.0 && ratio > 0.0 && ratio.is_finite()) {
+        return None;
+    }
+    // The points by rising drag: the record's order reversed, at ln(drag).
+    let mut points = [[0.0f32; 2]; 4];
+    let mut used = points.iter_mut();
+    for ([_, factor], &drag) in calibration
+        .friction_points
+        .iter()
+        .zip(&calibration.drag_points)
+        .rev()
+    {
+        if *factor > 0.0 && drag > 0.0 {
+            if let Some(slot) = used.next() {
+                *slot = [ln(drag), *factor];
+            }
+        }
+    }
+    Some(log_law(0.0, &points, ln(ratio)))
+}
+
+/// `ln(factor)` linear in `x` between `points` (`[x, factor]` in rising `x`, unused ones —
+/// factor 0 — last) and the calibration's own `(own, 1)` in its place among them, held beyond
+/// the outermost. O(points), no allocation.
+fn log_law(own: f32, points: &[[f32; 2]; 4], x: f32) -> f32 {
+    let own = [own, 1.0];
     let mut previous: Option<(f32, f32)> = None;
     let mut own_placed = false;
-    let points = calibration.friction_points.iter().filter(|p| p[1] > 0.0);
-    let mut next = points.copied().peekable();
+    let mut next = points.iter().filter(|p| p[1] > 0.0).copied().peekable();
     loop {
         let point = match next.peek() {
             Some(p) if own_placed || p[0] < own[0] => next.next(),
@@ -250,66 +283,14 @@ pub fn friction_factor(calibration: &Calibration, celsius: f32) -> f32 {
         };
         let log = ln(factor);
         match previous {
-            None if celsius <= t => return factor,
-            Some((t0, l0)) if celsius <= t => {
-                return exp(l0 + (log - l0) * (celsius - t0) / (t - t0).max(1e-3));
+            None if x <= t => return factor,
+            Some((t0, l0)) if x <= t => {
+                return exp(l0 + (log - l0) * (x - t0) / (t - t0).max(1e-3));
             }
             _ => previous = Some((t, log)),
         }
     }
     previous.map_or(1.0, |(_, log)| exp(log))
-}
-
-/// The healthy dry friction at the chirp's viscous drag `ratio` (against the calibration's)
-/// against the calibration's: `ln(factor)` linear in `ln(ratio)` between the calibration's
-/// points (its own at (1, 1) and each friction point's drag and factor), held beyond the
-/// outermost. `None` where the calibration has no friction law by drag (its drags span less
-/// than [`DRAG_LAW_SPAN`]) or `ratio` is no drag. O(points), no allocation.
-#[inline(never)]
-pub fn friction_factor_by_drag(calibration: &Calibration, ratio: f32) -> Option<f32> {
-    if !(calibration.viscous > 0.0 && ratio > 0.0 && ratio.is_finite()) {
-        return None;
-    }
-    // (ln drag, ln factor), the calibration's own first; sorted by drag below.
-    let mut points = [(0.0f32, 0.0f32); 5];
-    let mut n = 1;
-    for ([_, factor], &drag) in calibration
-        .friction_points
-        .iter()
-        .zip(&calibration.drag_points)
-    {
-        if *factor > 0.0 && drag > 0.0 {
-            if let Some(slot) = points.get_mut(n) {
-                *slot = (ln(drag), ln(*factor));
-                n += 1;
-            }
-        }
-    }
-    let used = points.get_mut(..n)?;
-    // Insertion sort by drag (at most five points; smaller in flash than core's sort).
-    for i in 1..used.len() {
-        let mut j = i;
-        while j > 0 && used.get(j - 1).map(|p| p.0) > used.get(j).map(|p| p.0) {
-            used.swap(j - 1, j);
-            j -= 1;
-        }
-    }
-    let (first, last) = (used.first()?, used.last()?);
-    if last.0 - first.0 < ln(DRAG_LAW_SPAN) {
-        return None;
-    }
-    let x = ln(ratio);
-    if x <= first.0 {
-        return Some(exp(first.1));
-    }
-    for pair in used.windows(2) {
-        if let [(x0, y0), (x1, y1)] = pair {
-            if x <= *x1 {
-                return Some(exp(y0 + (y1 - y0) * (x - x0) / (x1 - x0).max(1e-6)));
-            }
-        }
-    }
-    Some(exp(last.1))
 }
 
 /// Each pair's R and L from the injection segment of `measured` (control period `dt`): the
@@ -433,9 +414,10 @@ mod tests {
         // No drag, or not a number: no reading.
         assert_eq!(friction_factor_by_drag(&c, 0.0), None);
         assert_eq!(friction_factor_by_drag(&c, f32::NAN), None);
-        // A one-factor grease: its drags hardly move, so the drag is no thermometer.
-        c.drag_points = [0.9, 0.95, 1.0, 1.1];
-        assert_eq!(friction_factor_by_drag(&c, 0.9), None);
+        // Without the calibration's drag (a grease whose drag does not move: `calibrate`
+        // writes none), no law.
+        c.viscous = 0.0;
+        assert_eq!(friction_factor_by_drag(&c, 3.5), None);
     }
 
     #[test]

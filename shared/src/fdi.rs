@@ -202,15 +202,12 @@ fn fingerprint<const N: usize>(
         crc.update(&word.to_le_bytes())
     });
     crc.update(&calibration.duty_delay.to_bits().to_le_bytes());
-    // A friction law by drag makes the run depend on the chirp's drag reading too (nothing
-    // added without one, so that earlier checkpoints still resume).
+    // A friction law by drag (nothing added without one, so that earlier checkpoints still
+    // resume; the chirp's drag reading comes from the same frames as the samples).
     if calibration.viscous > 0.0 {
-        crc.update(&calibration.viscous.to_bits().to_le_bytes());
-        for d in calibration.drag_points {
-            crc.update(&d.to_bits().to_le_bytes());
+        for v in [calibration.viscous].iter().chain(&calibration.drag_points) {
+            crc.update(&v.to_bits().to_le_bytes());
         }
-        let reading = measured.grease().map_or(0.0, |g| g.viscous);
-        crc.update(&reading.to_bits().to_le_bytes());
     }
     crc.update(&seed.to_le_bytes());
     crc.finish()

@@ -14,13 +14,14 @@
 //! block: motor inertia, dry friction, viscous drag, the load's spring, the user inertia, an
 //! offset. `b` is every viscous torque the motor sees; only its ratio to the calibration
 //! day's is used, so the units (per block, per sample) cancel. Work: O(1) per frame, 27
-//! multiply-adds per block, O(6³) once to solve; state 27 `f64` and a few words; no
+//! multiply-adds per block, O(6³) once to solve; state 27 `f32` and a few words; no
 //! allocation, no panic.
 
-use crate::math::sqrt64;
+use crate::math::{invert, INVERT_N};
 
 /// Samples per block (2 ms at 10 kHz).
 pub const BLOCK: u32 = 20;
+const _: () = assert!(BLOCK < 256);
 /// Fewest one-way blocks the fit accepts (a 0.5 s chirp has ≈ 240 of its 250).
 pub const MIN_BLOCKS: u16 = 24;
 
@@ -56,16 +57,19 @@ pub enum GreaseError {
 #[derive(Clone, Debug, PartialEq)]
 pub struct ChirpTorqueFit {
     /// Upper triangle of Σ x·xᵀ, row by row.
-    normal: [f64; PACKED],
+    normal: [f32; PACKED],
     /// Σ x·y.
-    rhs: [f64; UNKNOWNS],
+    rhs: [f32; UNKNOWNS],
     /// Motor and user angles of the two previous frames (newest first).
     motor: [f32; 2],
     user: [f32; 2],
     /// Current of the previous frame (the point whose speeds the next frame completes).
     current: f32,
-    /// Frames pushed.
-    frames: u32,
+    /// Frames pushed, counted up to 2 (the first point has speeds at the third frame); 3 once
+    /// a block is open.
+    frames: u8,
+    /// The point's place in its block (0 opens a block).
+    phase: u8,
     /// The open block: motor speed, user speed and motor angle at its start; sums of its
     /// current and user angle; the way the motor turned in it (+1, −1, 0 once it changed or
     /// stopped).
@@ -85,6 +89,7 @@ impl ChirpTorqueFit {
         user: [0.0; 2],
         current: 0.0,
         frames: 0,
+        phase: 0,
         start: [0.0; 3],
         sum_current: 0.0,
         sum_user: 0.0,
@@ -95,33 +100,29 @@ impl ChirpTorqueFit {
     /// One chirp frame: equivalent current [A], motor and user angles [rad]. O(1); a block's
     /// 27 multiply-adds every [`BLOCK`] frames.
     pub fn push(&mut self, current: f32, motor_angle: f32, user_angle: f32) {
-        let frames = self.frames;
-        self.frames = frames.saturating_add(1);
-        if frames >= 2 {
-            // The previous frame is now a point with speeds (central differences).
-            let point = frames - 1;
+        if self.frames >= 2 {
+            // The previous frame is now a point with speeds (central differences); the first
+            // point (frame 1) opens the first block, every BLOCK-th after it the next.
             let motor_speed = 0.5 * (motor_angle - self.motor[1]);
             let user_speed = 0.5 * (user_angle - self.user[1]);
-            if (point - 1) % BLOCK == 0 {
-                if point > 1 {
+            if self.phase == 0 {
+                if self.frames > 2 {
                     self.close_block(motor_speed, user_speed, self.motor[0]);
                 }
+                self.frames = 3;
                 self.start = [motor_speed, user_speed, self.motor[0]];
                 self.sum_current = 0.0;
                 self.sum_user = 0.0;
-                self.way = if motor_speed > 0.0 {
-                    1
-                } else if motor_speed < 0.0 {
-                    -1
-                } else {
-                    0
-                };
+                self.way = if motor_speed > 0.0 { 1 } else { -1 };
             }
             if motor_speed * f32::from(self.way) <= 0.0 {
                 self.way = 0;
             }
             self.sum_current += self.current;
             self.sum_user += self.user[0];
+            self.phase = (self.phase + 1) % BLOCK as u8;
+        } else {
+            self.frames += 1;
         }
         self.motor = [motor_angle, self.motor[0]];
         self.user = [user_angle, self.user[0]];
@@ -136,15 +137,15 @@ impl ChirpTorqueFit {
         }
         let n = BLOCK as f32;
         let [w0, u0, m0] = self.start;
-        let x: [f64; UNKNOWNS] = [
-            f64::from(motor_speed - w0),
-            f64::from(self.way),
-            f64::from(motor_angle - m0),
-            f64::from(self.sum_user / n),
-            f64::from(user_speed - u0),
+        let x: [f32; UNKNOWNS] = [
+            motor_speed - w0,
+            f32::from(self.way),
+            motor_angle - m0,
+            self.sum_user / n,
+            user_speed - u0,
             1.0,
         ];
-        let y = f64::from(self.sum_current / n);
+        let y = self.sum_current / n;
         let mut k = 0;
         for (i, xi) in x.iter().enumerate() {
             if let Some(r) = self.rhs.get_mut(i) {
@@ -165,8 +166,8 @@ impl ChirpTorqueFit {
         self.blocks
     }
 
-    /// The fit's viscous drag and dry friction. O(6³): a Cholesky factorisation of the
-    /// normal equations scaled to a unit diagonal.
+    /// The fit's viscous drag and dry friction. O(8³): the normal equations inverted in
+    /// f64 (`crate::math::invert`, padded to its 8×8 with an identity block).
     pub fn reading(&self) -> Result<GreaseReading, GreaseError> {
         if self.blocks < MIN_BLOCKS {
             return Err(GreaseError::TooFewBlocks {
@@ -174,69 +175,43 @@ impl ChirpTorqueFit {
                 need: MIN_BLOCKS,
             });
         }
-        let packed = |i: usize, j: usize| {
-            let (i, j) = if i <= j { (i, j) } else { (j, i) };
-            let k = i * UNKNOWNS - i * i.saturating_sub(1) / 2 - i + j;
-            self.normal.get(k).copied().unwrap_or(0.0)
-        };
-        let mut scale = [0.0f64; UNKNOWNS];
-        for (i, s) in scale.iter_mut().enumerate() {
-            let d = packed(i, i);
-            if d <= 0.0 || !d.is_finite() {
-                return Err(GreaseError::Singular);
-            }
-            *s = 1.0 / sqrt64(d);
-        }
-        let at = |v: &[f64; UNKNOWNS], i: usize| v.get(i).copied().unwrap_or(0.0);
-        // L·Lᵀ = D·M·D, row by row.
-        let mut l = [[0.0f64; UNKNOWNS]; UNKNOWNS];
-        for i in 0..UNKNOWNS {
-            for j in 0..=i {
-                let row_i = l.get(i).copied().unwrap_or([0.0; UNKNOWNS]);
-                let row_j = l.get(j).copied().unwrap_or([0.0; UNKNOWNS]);
-                let dot: f64 = row_i.iter().zip(&row_j).take(j).map(|(a, b)| a * b).sum();
-                let m = packed(i, j) * at(&scale, i) * at(&scale, j) - dot;
-                let value = if i == j {
-                    if m <= 1e-12 {
-                        return Err(GreaseError::Singular);
-                    }
-                    sqrt64(m)
+        let mut m = [[0.0f64; INVERT_N]; INVERT_N];
+        let mut packed = self.normal.iter();
+        for i in 0..INVERT_N {
+            for j in i..INVERT_N {
+                let v = if j < UNKNOWNS {
+                    packed.next().map_or(0.0, |&v| f64::from(v))
                 } else {
-                    m / at(&row_j, j)
+                    f64::from(u8::from(i == j))
                 };
-                if let Some(slot) = l.get_mut(i).and_then(|r| r.get_mut(j)) {
-                    *slot = value;
+                if let Some(x) = m.get_mut(i).and_then(|r| r.get_mut(j)) {
+                    *x = v;
+                }
+                if let Some(x) = m.get_mut(j).and_then(|r| r.get_mut(i)) {
+                    *x = v;
                 }
             }
         }
-        // L·z = D·r, then Lᵀ·β' = z; β = D·β'.
-        let mut z = [0.0f64; UNKNOWNS];
-        for i in 0..UNKNOWNS {
-            let row = l.get(i).copied().unwrap_or([0.0; UNKNOWNS]);
-            let dot: f64 = row.iter().zip(&z).take(i).map(|(a, b)| a * b).sum();
-            let value = (at(&self.rhs, i) * at(&scale, i) - dot) / at(&row, i);
-            if let Some(slot) = z.get_mut(i) {
-                *slot = value;
+        let inverse = invert(&m).ok_or(GreaseError::Singular)?;
+        let solve = |i: usize| -> f32 {
+            let mut sum = 0.0f64;
+            for (a, r) in inverse
+                .get(i)
+                .map_or(&[0.0; INVERT_N], |r| r)
+                .iter()
+                .zip(&self.rhs)
+            {
+                sum += a * f64::from(*r);
             }
-        }
-        let mut beta = [0.0f64; UNKNOWNS];
-        for i in (0..UNKNOWNS).rev() {
-            let dot: f64 = (i + 1..UNKNOWNS)
-                .map(|k| l.get(k).map_or(0.0, |r| at(r, i)) * at(&beta, k))
-                .sum();
-            let diagonal = l.get(i).map_or(1.0, |r| at(r, i));
-            if let Some(slot) = beta.get_mut(i) {
-                *slot = (at(&z, i) - dot) / diagonal;
-            }
-        }
-        let viscous = at(&beta, 2) * at(&scale, 2);
-        let coulomb = at(&beta, 1) * at(&scale, 1);
-        if !viscous.is_finite() || !coulomb.is_finite() {
+            sum as f32
+        };
+        let (viscous, coulomb) = (solve(2), solve(1));
+        if !(viscous.is_finite() && coulomb.is_finite()) {
             return Err(GreaseError::Singular);
         }
         Ok(GreaseReading {
-            viscous: viscous as f32,
-            coulomb: coulomb as f32,
+            viscous,
+            coulomb,
             blocks: self.blocks,
         })
     }

@@ -167,6 +167,61 @@ pub fn sqrt64(x: f64) -> f64 {
     y
 }
 
+/// Order of [`invert`]'s matrices: the fault vector's 8 components (a smaller system is
+/// padded with an identity block).
+pub const INVERT_N: usize = 8;
+
+/// Inverse of a symmetric positive-definite 8×8 matrix (Gauss–Jordan, partial pivoting);
+/// `None` if singular. O(8³), no allocation. One copy for the uncertainty, the polish and the
+/// grease's fit.
+#[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // fixed 8×8 bounds
+#[inline(never)]
+pub fn invert(m: &[[f64; INVERT_N]; INVERT_N]) -> Option<[[f64; INVERT_N]; INVERT_N]> {
+    const N: usize = INVERT_N;
+    let mut a = *m;
+    let mut inv = [[0.0f64; N]; N];
+    for (i, row) in inv.iter_mut().enumerate() {
+        row[i] = 1.0;
+    }
+    for col in 0..N {
+        let mut pivot = col;
+        for r in col + 1..N {
+            if a[r][col].abs() > a[pivot][col].abs() {
+                pivot = r;
+            }
+        }
+        if a[pivot][col].abs() < 1e-300 {
+            return None;
+        }
+        // Element by element: a whole-row `swap` links a 1.6 kB `memmove` into the firmware.
+        for c in 0..N {
+            let t = a[col][c];
+            a[col][c] = a[pivot][c];
+            a[pivot][c] = t;
+            let t = inv[col][c];
+            inv[col][c] = inv[pivot][c];
+            inv[pivot][c] = t;
+        }
+        let d = a[col][col];
+        for c in 0..N {
+            a[col][c] /= d;
+            inv[col][c] /= d;
+        }
+        for r in 0..N {
+            if r != col {
+                let f = a[r][col];
+                if f != 0.0 {
+                    for c in 0..N {
+                        a[r][c] -= f * a[col][c];
+                        inv[r][c] -= f * inv[col][c];
+                    }
+                }
+            }
+        }
+    }
+    Some(inv)
+}
+
 #[cfg(test)]
 mod tests {
     #[test]

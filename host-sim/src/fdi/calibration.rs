@@ -503,18 +503,14 @@ pub fn friction_point(
     let day = TestConditions::estimate(measured, &params, calibration);
     // With a friction law by drag the point is measured at its own drag, as identification
     // will apply it (`grease_law`).
-    let (viscous_scale, drag_rise) = match measured.grease() {
-        Ok(g) if calibration.viscous > 0.0 => (
-            g.viscous / calibration.viscous,
-            g.viscous - calibration.viscous,
-        ),
-        _ => (1.0, 0.0),
+    let drag_rise = match measured.grease() {
+        Ok(g) if calibration.viscous > 0.0 => g.viscous - calibration.viscous,
+        _ => 0.0,
     };
     let nominal = FaultVector::NOMINAL;
     let cost = |log: f64| -> f64 {
         let at = TestConditions {
             friction_scale: log.exp() as f32,
-            viscous_scale,
             drag_rise,
             ..day
         };
@@ -547,10 +543,11 @@ pub fn friction_point(
 
 /// Whether the grease has a drag of its own, from the chirp's drag on the calibration's
 /// healthy trace `day` and on the `--at` traces `points`: their drags against the day's,
-/// when they span at least `shared::calibration::DRAG_LAW_SPAN` (the day's 1 among them).
-/// `Some((the day's viscous drag, each point's ratio))` then; `None` for a grease whose drag
-/// does not move with temperature (friction then follows the thermistor) or a chirp that
-/// gave no reading.
+/// when they span at least `shared::calibration::DRAG_LAW_SPAN` (the day's 1 among them) and
+/// fall as the measured temperatures rise. `Some((the day's viscous drag, each point's
+/// ratio))` then; `None` for a grease whose drag does not move with temperature (friction
+/// then follows the thermistor), a drag that does not fall with temperature, or a chirp
+/// that gave no reading.
 pub fn grease_law(day: &OnboardMeasured, points: &[&OnboardMeasured]) -> Option<(f32, Vec<f32>)> {
     let viscous = day.grease().ok()?.viscous;
     if viscous <= 0.0 {
@@ -566,7 +563,16 @@ pub fn grease_law(day: &OnboardMeasured, points: &[&OnboardMeasured]) -> Option<
     let (lo, hi) = ratios
         .iter()
         .fold((1.0f32, 1.0f32), |(lo, hi), &r| (lo.min(r), hi.max(r)));
-    (hi / lo >= shared::calibration::DRAG_LAW_SPAN).then_some((viscous, ratios))
+    // The day's own point among the others, by temperature: the drag must fall.
+    let mut by_temperature: Vec<(f32, f32)> = points
+        .iter()
+        .zip(&ratios)
+        .map(|(m, &r)| (m.conditions().temperature().unwrap_or(f32::NAN), r))
+        .collect();
+    by_temperature.push((day.conditions().temperature().unwrap_or(f32::NAN), 1.0));
+    by_temperature.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let falling = by_temperature.windows(2).all(|w| w[1].1 < w[0].1);
+    (hi / lo >= shared::calibration::DRAG_LAW_SPAN && falling).then_some((viscous, ratios))
 }
 
 /// Temperatures of the reference actuator's climatic calibration [°C]: the healthy traces
