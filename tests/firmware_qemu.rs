@@ -575,3 +575,54 @@ fn firmware_with_an_actuator_record_gives_the_hosts_bits_for_both_actuators() {
         }
     }
 }
+
+/// Issue 34: an actuator whose grease has a drag of its own, calibrated with its friction law
+/// by drag (record version 7), on a day its gearbox is 40 K colder than its winding: the
+/// firmware reads the chirp's drag, sets the healthy friction and the model's drag from it,
+/// and gives the host's bits.
+#[test]
+fn firmware_with_a_friction_law_by_drag_gives_the_hosts_bits() {
+    use host_sim::plant::bridge::ThermalLaws;
+    let mut settings = ReferenceSettings::REFERENCE;
+    settings.thermal = ThermalLaws::NDFEB_GREASED.with_two_part_grease(&settings.params);
+    let mut record = shared::actuator::ActuatorRecord::REFERENCE;
+    let rm = ReferenceModel::new(settings).with_test(record.test);
+    record.calibration =
+        host_sim::fdi::calibration::reference_calibration(&rm, &record.calibration)
+            .expect("calibrates");
+    assert!(record.calibration.viscous > 0.0, "{:?}", record.calibration);
+    record.ga.max_evaluations = 300;
+    let mut cold = settings;
+    cold.conditions.gear_temperature -= 40.0;
+    let mut scenario =
+        Scenario::new(FaultVector::new([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]).expect("valid"));
+    scenario.seed = 2;
+    let trace = ReferenceModel::new(cold)
+        .with_test(record.test)
+        .simulate(&scenario)
+        .trace;
+    let bytes = trace.to_bin().expect("encodable");
+    let trace_path = temp_trace("drag-law.bin", &bytes);
+    let record_path = temp_trace("drag-law.rec", &record.encode());
+    let measured = Trace::from_bin(&bytes)
+        .expect("readable")
+        .with_test(record.test)
+        .measured(&record.params)
+        .expect("conditioned");
+    let day = shared::conditions::TestConditions::estimate(
+        &measured,
+        &record.params,
+        &record.calibration,
+    );
+    assert!(day.drag_rise > 0.0, "{day:?}");
+    let host = host_sim::fdi::identify::identify_for(&measured, &record, 1, false)
+        .expect("host identification")
+        .result;
+    let run = run_firmware(&[
+        trace_path.to_str().expect("UTF-8"),
+        "--actuator",
+        record_path.to_str().expect("UTF-8"),
+    ]);
+    assert_eq!(run.status, 0, "{}", run.output);
+    assert_eq!(result_bits(&run.output), host_bits(&host), "{}", run.output);
+}

@@ -299,3 +299,51 @@ fn the_chirp_tells_a_cold_grease_from_wear_by_its_drag() {
         assert!(coulomb > 3.5, "one-factor dry ratio {coulomb}");
     }
 }
+
+/// Issue 34, item 3, end to end: a two-part grease calibrated with `--at`'s temperatures gets
+/// a friction law by drag; a healthy actuator whose gearbox is 40 K colder than its winding
+/// then reads healthy, where the thermistor-indexed law (the same calibration without it)
+/// reads the cold grease as wear. A one-factor grease gets no law by drag.
+#[test]
+fn a_cold_gearbox_with_a_draggy_grease_reads_healthy_by_its_drag() {
+    use host_sim::fdi::calibration::reference_calibration;
+    use host_sim::fdi::identify::identify;
+    let mut settings = ReferenceSettings::REFERENCE;
+    settings.thermal = ThermalLaws::NDFEB_GREASED.with_two_part_grease(&settings.params);
+    let test = shared::test_design::PreflightTest::INJECTION;
+    let model = ReferenceModel::new(settings).with_test(test);
+    let with_law = reference_calibration(&model, &Calibration::REFERENCE_ACTUATOR).unwrap();
+    assert!(with_law.viscous > 0.0, "{with_law:?}");
+    // Drags falling with temperature, ×5 or more at −45 °C.
+    assert!(with_law.drag_points[0] > 5.0, "{:?}", with_law.drag_points);
+    let thermistor_only = Calibration {
+        viscous: 0.0,
+        drag_points: [0.0; 4],
+        ..with_law
+    };
+    let mut cold = settings;
+    cold.conditions.gear_temperature -= 40.0;
+    let params = ActuatorParams::REFERENCE;
+    let mut scenario = Scenario::new(FaultVector::new(HEALTHY).unwrap());
+    scenario.seed = 3;
+    let sim = ReferenceModel::new(cold)
+        .with_test(test)
+        .simulate(&scenario);
+    let measured = sim.trace.measured(&params).unwrap();
+    let by_drag = identify(&measured, &with_law, 1, false).unwrap();
+    let by_thermistor = identify(&measured, &thermistor_only, 1, false).unwrap();
+    let friction = |i: &host_sim::fdi::identify::Identified| i.result.faults.as_array()[0];
+    assert!(friction(&by_drag) < 0.05, "{:?}", by_drag.result.faults);
+    assert!(
+        friction(&by_thermistor) > 0.3,
+        "{:?}",
+        by_thermistor.result.faults
+    );
+    // The one-factor grease's drag does not move: no law by drag.
+    let one_factor = reference_calibration(
+        &ReferenceModel::new(ReferenceSettings::REFERENCE).with_test(test),
+        &Calibration::REFERENCE_ACTUATOR,
+    )
+    .unwrap();
+    assert_eq!(one_factor.viscous, 0.0);
+}
