@@ -3,7 +3,8 @@
 //! with the thermistor where the test carries its reading, the gear's
 //! friction from the measured temperature through the calibrated law — or, for a grease with
 //! a drag of its own, from the chirp's drag (`crate::grease`) through the law by drag, with
-//! the model's damping scaled by that drag — and the measured bus.
+//! the drag above the calibration day's played on the model's motor shaft — and the
+//! measured bus.
 //!
 //! Units: °C (K for differences), Ω, H, V. [`TestConditions::estimate`] is O(segment samples)
 //! (one pass, two 2 × 2 least-squares fits per pair), allocates nothing and never panics; a
@@ -95,7 +96,8 @@ pub struct TestConditions {
     pub friction_scale: f32,
     /// The chirp's viscous drag above the calibration's, in its own units (equivalent
     /// current per radian of a block's motor travel; `crate::grease`), where the calibration
-    /// has a friction law by drag; 0 otherwise. The monitor model plays it as a drag on the motor shaft.
+    /// has a friction law by drag; 0 otherwise. The monitor model plays it as a drag on the
+    /// motor shaft.
     pub drag_rise: f32,
     /// What the controller measured: mean temperature [°C] and bus [V].
     pub measured_temperature: Option<f32>,
@@ -138,13 +140,16 @@ impl TestConditions {
         let mut friction_scale =
             measured_temperature.map_or(1.0, |t| friction_factor(calibration, t));
         // A grease with a drag of its own: its drag is the gearbox's thermometer.
+        // Solved only with a law to read it (the fit is accumulated either way).
         let mut drag_rise = 0.0;
-        if let Ok(grease) = measured.grease() {
-            if let Some(factor) =
-                friction_factor_by_drag(calibration, grease.viscous / calibration.viscous)
-            {
-                friction_scale = factor;
-                drag_rise = grease.viscous - calibration.viscous;
+        if calibration.viscous > 0.0 {
+            if let Ok(grease) = measured.grease() {
+                if let Some(factor) =
+                    friction_factor_by_drag(calibration, grease.viscous / calibration.viscous)
+                {
+                    friction_scale = factor;
+                    drag_rise = grease.viscous - calibration.viscous;
+                }
             }
         }
         let mut out = Self {

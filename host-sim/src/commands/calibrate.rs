@@ -86,7 +86,6 @@ pub(crate) fn calibrate_command(
         let refs: Vec<&shared::fdi::OnboardMeasured> = traces.iter().map(|t| &*t.1).collect();
         let law = host_sim::fdi::calibration::grease_law(&measured, &refs);
         file.viscous = law.as_ref().map_or(0.0, |l| l.0);
-        file.drag_points = [0.0; 4];
         let mut points = Vec::new();
         for (j, (path, measured)) in traces.iter().enumerate() {
             let point = host_sim::fdi::calibration::friction_point(
@@ -110,12 +109,7 @@ pub(crate) fn calibrate_command(
             points.push((point, drag));
         }
         // The record keeps them rising in temperature (shared::conditions::friction_factor).
-        points.sort_by(|a, b| a.0[0].total_cmp(&b.0[0]));
-        file.friction_points = [[0.0; 2]; 4];
-        for (j, (point, drag)) in points.into_iter().enumerate() {
-            file.friction_points[j] = point;
-            file.drag_points[j] = drag;
-        }
+        (file.friction_points, file.drag_points) = host_sim::fdi::calibration::friction_law(points);
     } else if actuator.built_in {
         // The built-in record's law is the reference model's grease, not this actuator's.
         file.friction_points = [[0.0; 2]; 4];

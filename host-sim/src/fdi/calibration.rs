@@ -575,6 +575,19 @@ pub fn grease_law(day: &OnboardMeasured, points: &[&OnboardMeasured]) -> Option<
     (hi / lo >= shared::calibration::DRAG_LAW_SPAN && falling).then_some((viscous, ratios))
 }
 
+/// The record's friction law from measured points `([°C, factor], drag)`: rising in
+/// temperature (`shared::conditions::friction_factor` reads them so), unused slots zero; at
+/// most the record's four (more are dropped).
+pub fn friction_law(mut points: Vec<([f32; 2], f32)>) -> ([[f32; 2]; 4], [f32; 4]) {
+    points.sort_by(|a, b| a.0[0].total_cmp(&b.0[0]));
+    let (mut friction, mut drag) = ([[0.0f32; 2]; 4], [0.0f32; 4]);
+    for ((f, d), (point, ratio)) in friction.iter_mut().zip(&mut drag).zip(points) {
+        *f = point;
+        *d = ratio;
+    }
+    (friction, drag)
+}
+
 /// Temperatures of the reference actuator's climatic calibration [°C]: the healthy traces
 /// whose friction makes the built-in friction law (`calibrate --at`).
 pub const CLIMATIC_TEMPERATURES: [f64; 4] = [-45.0, -25.0, 0.0, 75.0];
@@ -613,11 +626,7 @@ pub fn reference_calibration(
             let drag = law.as_ref().map_or(0.0, |l| l.1[j]);
             points.push((friction_point(measured, params, &calibration)?, drag));
         }
-        points.sort_by(|a, b| a.0[0].total_cmp(&b.0[0]));
-        for (j, (point, drag)) in points.into_iter().enumerate() {
-            calibration.friction_points[j] = point;
-            calibration.drag_points[j] = drag;
-        }
+        (calibration.friction_points, calibration.drag_points) = friction_law(points);
     }
     Ok(calibration)
 }
