@@ -29,7 +29,7 @@
 use core::sync::atomic::{AtomicU32, Ordering};
 
 use defmt_rtt as _;
-use embassy_executor::Spawner;
+use embassy_executor::{Executor, Spawner};
 use embassy_stm32::flash::Flash;
 use embassy_stm32::gpio::Flex;
 use embassy_stm32::gpio::OutputType;
@@ -44,7 +44,7 @@ use embassy_stm32::timer::qei::Qei;
 use embassy_stm32::timer::simple_pwm::PwmPin;
 use embassy_stm32::timer::{Ch1, Ch2, Ch3, Channel};
 use embassy_stm32::Config;
-use static_cell::ConstStaticCell;
+use static_cell::{ConstStaticCell, StaticCell};
 
 use firmware::acquisition::{pace, Converter, Counts, Pace, SensorScaling};
 use firmware::bridge::{BridgeDrive, BridgeTiming, Leg, Legs};
@@ -355,8 +355,21 @@ async fn heartbeat() {
     }
 }
 
-#[embassy_executor::main]
-async fn main(spawner: Spawner) {
+/// Starts the executor with the preflight task. Written out rather than
+/// `#[embassy_executor::main]`, whose `unwrap` on the spawn keeps `core::fmt` in the image.
+#[cortex_m_rt::entry]
+fn main() -> ! {
+    static EXECUTOR: StaticCell<Executor> = StaticCell::new();
+    EXECUTOR
+        .init(Executor::new())
+        .run(|spawner| match preflight_task(spawner) {
+            Ok(token) => spawner.spawn(token),
+            Err(_) => defmt::error!("cannot spawn the preflight task"),
+        })
+}
+
+#[embassy_executor::task]
+async fn preflight_task(spawner: Spawner) {
     let outcome = preflight(spawner).await;
     bridge_off();
     match outcome {

@@ -7,14 +7,14 @@
 //! keeps the GA record across a power loss; the health file for the flash that keeps the
 //! health log (the RAM store's image, `ONBOARD_RECORDS` × 76 bytes, or × 68 / × 52 for
 //! versions 2 and 1); the actuator file for the flash sector that holds the actuator record
-//! (`host-sim actuator`, 448 bytes). The command line is split at blanks (QEMU joins its
+//! (`host-sim actuator`, 472 bytes). The command line is split at blanks (QEMU joins its
 //! `arg=`s with spaces): paths cannot hold one.
 
 use core::ffi::CStr;
-use core::mem::MaybeUninit;
 
 use semihosting::fs::File;
-use semihosting::io::Read;
+use semihosting::io::{Read, Write};
+use semihosting::sys::arm_compat::syscall::{syscall, OperationNumber, ParamRegW};
 
 use firmware::TraceBytes;
 
@@ -67,9 +67,8 @@ impl Command {
     /// Reads the command line (module doc; plus `--crash panic|hard-fault`) from the semihosting
     /// command line.
     pub fn from_host() -> Result<Self, UsageError> {
-        let mut line = [MaybeUninit::uninit(); CMDLINE_BYTES];
-        let line = semihosting::sys::arm_compat::sys_get_cmdline_uninit(&mut line)
-            .map_err(|_| UsageError::NoCommandLine)?;
+        let mut line = [0; CMDLINE_BYTES];
+        let line = host_command_line(&mut line).ok_or(UsageError::NoCommandLine)?;
         let mut words = line
             .split(|b| *b == b' ' || *b == b'\t')
             .filter(|w| !w.is_empty())
@@ -222,7 +221,42 @@ pub fn read_record_file(path: &CStr, record: &mut [u8]) -> Result<bool, RecordFi
 
 /// Replaces the record file at `path` with `record`.
 pub fn write_record_file(path: &CStr, record: &[u8]) -> Result<(), RecordFileError> {
-    semihosting::fs::write(path, record).map_err(|_| RecordFileError::Io)
+    let mut file = File::create(path).map_err(|_| RecordFileError::Io)?;
+    write_all(&mut file, record).map_err(|_| RecordFileError::Io)
+}
+
+/// Writes all of `bytes` (SYS_WRITE may take part of them per call). Written out rather than
+/// the crate's `write_all`: its slicing keeps a panic, and with it `core::fmt`, in the image.
+pub fn write_all(out: &mut impl Write, mut bytes: &[u8]) -> Result<(), ()> {
+    while !bytes.is_empty() {
+        match out.write(bytes) {
+            Ok(n) if n > 0 => bytes = bytes.get(n..).unwrap_or(&[]),
+            _ => return Err(()),
+        }
+    }
+    Ok(())
+}
+
+/// The host's command line (SYS_GET_CMDLINE) in `buf`, without its NUL; `None` when the host
+/// gives none. Called directly rather than through the crate's `sys_get_cmdline_uninit`,
+/// whose slicing keeps a panic in the image.
+fn host_command_line(buf: &mut [u8; CMDLINE_BYTES]) -> Option<&[u8]> {
+    // The parameter block: the buffer's address and its length, which the host overwrites
+    // with the line's length.
+    let mut block = [buf.as_mut_ptr() as usize, CMDLINE_BYTES];
+    // SAFETY: the block points to a live buffer of the length it gives; the host writes at
+    // most that many bytes into it and the line's length into the block.
+    let ret = unsafe {
+        syscall(
+            OperationNumber::SYS_GET_CMDLINE,
+            ParamRegW::ptr(block.as_mut_ptr()),
+        )
+    };
+    if ret.usize() != 0 {
+        return None;
+    }
+    let [_, length] = block;
+    buf.get(..length)
 }
 
 /// Why a record file (checkpoint, health store) could not be used.

@@ -31,6 +31,8 @@
 #[cfg(all(target_os = "none", not(feature = "hardware")))]
 mod emulation;
 #[cfg(all(target_os = "none", not(feature = "hardware")))]
+mod log;
+#[cfg(all(target_os = "none", not(feature = "hardware")))]
 mod target;
 #[cfg(all(target_os = "none", not(feature = "hardware")))]
 mod vectors;

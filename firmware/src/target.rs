@@ -9,12 +9,11 @@ use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
 use cortex_m_rt::{exception, ExceptionFrame};
-use defmt_semihosting as _;
-use embassy_executor::Spawner;
+use embassy_executor::{Executor, Spawner};
 use semihosting::process::exit;
 use shared::conditions::TestConditions;
 use shared::fitness::CurvatureRun;
-use static_cell::ConstStaticCell;
+use static_cell::{ConstStaticCell, StaticCell};
 
 use core::ffi::CStr;
 
@@ -122,8 +121,24 @@ async fn heartbeat() {
     }
 }
 
-#[embassy_executor::main]
-async fn main(spawner: Spawner) {
+/// Starts the executor with the preflight task. Written out rather than
+/// `#[embassy_executor::main]`, whose `unwrap` on the spawn keeps `core::fmt` in the image.
+#[cortex_m_rt::entry]
+fn main() -> ! {
+    static EXECUTOR: StaticCell<Executor> = StaticCell::new();
+    EXECUTOR
+        .init(Executor::new())
+        .run(|spawner| match preflight_task(spawner) {
+            Ok(token) => spawner.spawn(token),
+            Err(_) => {
+                defmt::error!("cannot spawn the preflight task");
+                exit(status::START_UP)
+            }
+        })
+}
+
+#[embassy_executor::task]
+async fn preflight_task(spawner: Spawner) {
     let Some(core) = cortex_m::Peripherals::take() else {
         defmt::error!("core peripherals already taken");
         exit(status::START_UP)
@@ -225,16 +240,9 @@ async fn preflight(spawner: Spawner) -> i32 {
         settings.actuator.calibration.temperature
     );
 
-    // The GA record (the flash page on the controller; the --checkpoint file here).
-    let mut record: OnboardRecord = [0; core::mem::size_of::<OnboardRecord>()];
+    // The GA record (the flash page on the controller; the --checkpoint file here), read when
+    // the identification starts and written every `CHECKPOINT_EVERY` evaluations.
     let checkpoint = command.checkpoint_path();
-    let mut have_record = false;
-    if let Some(path) = checkpoint {
-        match read_record_file(path, &mut record) {
-            Ok(found) => have_record = found,
-            Err(e) => defmt::println!("checkpoint refused reason={} (restarting)", e),
-        }
-    }
     let mut next_checkpoint = CHECKPOINT_EVERY;
 
     let started = cycles();
@@ -254,15 +262,8 @@ async fn preflight(spawner: Spawner) -> i32 {
                     if next == Stage::Identify {
                         observed.identify_start_cycles = now;
                         observed.stack_peak_before_identify = stack_peak();
-                        if have_record {
-                            match preflight.resume(&record) {
-                                Ok(n) => {
-                                    defmt::println!("checkpoint resumed evaluations={=u32}", n)
-                                }
-                                Err(e) => {
-                                    defmt::println!("checkpoint refused reason={} (restarting)", e)
-                                }
-                            }
+                        if let Some(path) = checkpoint {
+                            resume_checkpoint(&mut preflight, path);
                             next_checkpoint =
                                 preflight.evaluations().saturating_add(CHECKPOINT_EVERY);
                         }
@@ -286,13 +287,7 @@ async fn preflight(spawner: Spawner) -> i32 {
             let cut = command.stop_after.is_some_and(|n| evaluations >= n);
             if stage == Stage::Identify && (evaluations >= next_checkpoint || cut) {
                 next_checkpoint = evaluations.saturating_add(CHECKPOINT_EVERY);
-                let saved = preflight.checkpoint(&mut record);
-                let written = saved.map(|n| (n, write_record_file(path, &record)));
-                match written {
-                    Ok((n, Ok(()))) => defmt::info!("checkpoint written at {=u32} evaluations", n),
-                    Ok((_, Err(e))) => defmt::error!("checkpoint not written: {}", e),
-                    Err(e) => defmt::error!("checkpoint not taken: {}", e),
-                }
+                save_checkpoint(&preflight, path);
                 if cut {
                     defmt::println!(
                         "stopped evaluations={=u32} (simulated power loss)",
@@ -359,6 +354,37 @@ fn preflight_settings(
         settings.seed = seed;
     }
     Ok(())
+}
+
+/// The preflight this image runs: frames from a trace file on the host.
+type HostPreflight = Preflight<'static, TraceSource<HostFile>>;
+
+/// Resumes the identification from the GA record at `path`, if there is one of this run.
+/// Out of line, as [`save_checkpoint`]: the record's buffer (1 276 B) is on the stack only
+/// during the call, not in the preflight task's state nor under its deepest calls.
+#[inline(never)]
+fn resume_checkpoint(preflight: &mut HostPreflight, path: &CStr) {
+    let mut record: OnboardRecord = [0; core::mem::size_of::<OnboardRecord>()];
+    match read_record_file(path, &mut record) {
+        Ok(true) => match preflight.resume(&record) {
+            Ok(n) => defmt::println!("checkpoint resumed evaluations={=u32}", n),
+            Err(e) => defmt::println!("checkpoint refused reason={} (restarting)", e),
+        },
+        Ok(false) => {}
+        Err(e) => defmt::println!("checkpoint refused reason={} (restarting)", e),
+    }
+}
+
+/// Writes the identification's GA record to `path`.
+#[inline(never)]
+fn save_checkpoint(preflight: &HostPreflight, path: &CStr) {
+    let mut record: OnboardRecord = [0; core::mem::size_of::<OnboardRecord>()];
+    let saved = preflight.checkpoint(&mut record);
+    match saved.map(|n| (n, write_record_file(path, &record))) {
+        Ok((n, Ok(()))) => defmt::info!("checkpoint written at {=u32} evaluations", n),
+        Ok((_, Err(e))) => defmt::error!("checkpoint not written: {}", e),
+        Err(e) => defmt::error!("checkpoint not taken: {}", e),
+    }
 }
 
 /// The settings for the actuator record at `path`, or the exit status that refuses it.
@@ -669,7 +695,7 @@ fn footprint() -> Footprint {
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
     // Location and a literal message only: formatting the message would link `core::fmt`
-    // (0.7 kB of flash, measured) for a path that never runs in flight.
+    // for a path that never runs in flight.
     let (file, line) = info.location().map_or(("?", 0), |l| (l.file(), l.line()));
     let message = info.message().as_str().unwrap_or("(formatted message)");
     defmt::error!("panic: {=str} at {=str}:{=u32}", message, file, line);

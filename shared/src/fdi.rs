@@ -101,7 +101,7 @@ impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
     /// evaluations it had done. On `Err` this identification is left exactly as it was
     /// (a fresh one restarts cleanly). O(P).
     pub fn resume(&mut self, record: &[u8]) -> Result<u32, RecordError> {
-        self.ga = SteadyStateGa::restore(*self.ga.settings(), self.fingerprint, record)?;
+        self.ga.resume_from(self.fingerprint, record)?;
         Ok(self.ga.evaluations())
     }
 

@@ -228,6 +228,58 @@ fn foreign_erased_short_and_forged_records_are_refused() {
     assert_eq!(resumed.ga().status(), Status::Running);
 }
 
+/// The record is loaded in place (no copy of the GA on the controller's stack): a sound
+/// checksum over contents no GA can hold — in any field, down to the last member — is
+/// refused before anything is written, and the GA is left as it was.
+#[test]
+fn an_impossible_state_is_refused_before_anything_is_loaded() {
+    let m = measured();
+    let mut record: OnboardRecord = [0; core::mem::size_of::<OnboardRecord>()];
+    let mut id = fresh(&m, 1);
+    id.step(50);
+    id.save(&mut record).unwrap();
+    let last_member_fitness = record.len() - 4 - 4;
+    let forgeries: [(&str, usize, &[u8]); 7] = [
+        ("all-zero random generator", 16, &[0; 16]),
+        ("NaN stall reference", 44, &f32::NAN.to_bits().to_le_bytes()),
+        ("more members evaluated than the population", 48, &[33, 0]),
+        ("unknown status", 50, &[9]),
+        ("pending flag 2", 51, &[2]),
+        ("best gene above 1", 84, &2.0f32.to_bits().to_le_bytes()),
+        (
+            "NaN fitness of the last member",
+            last_member_fitness,
+            &f32::NAN.to_bits().to_le_bytes(),
+        ),
+    ];
+    for (what, at, bytes) in forgeries {
+        let mut forged = record;
+        forged[at..at + bytes.len()].copy_from_slice(bytes);
+        let end = forged.len() - 4;
+        let mut crc = Crc32::new();
+        crc.update(&forged[..end]);
+        forged[end..].copy_from_slice(&crc.finish().to_le_bytes());
+        let mut other = fresh(&m, 1);
+        other.step(10);
+        let before = other.ga().clone();
+        assert_eq!(
+            other.resume(&forged),
+            Err(RecordError::Inconsistent),
+            "{what}"
+        );
+        assert_eq!(
+            other.ga(),
+            &before,
+            "{what}: a refused record changes nothing"
+        );
+    }
+    // The unforged record, loaded over a GA that had run on, is the saved state.
+    let mut other = fresh(&m, 1);
+    other.step(120);
+    assert_eq!(other.resume(&record), Ok(50));
+    assert_eq!(other.ga(), id.ga());
+}
+
 /// The fingerprint covers the actuator record: a checkpoint of the same trace, seed and
 /// settings taken with other actuator parameters (here another rigging offset or gear
 /// ratio) is refused.

@@ -92,7 +92,11 @@ impl Writer<'_> {
     fn bytes(&mut self, b: &[u8]) {
         let end = self.at.saturating_add(b.len());
         if let Some(dst) = self.out.get_mut(self.at..end) {
-            dst.copy_from_slice(b);
+            // Element by element: `copy_from_slice` keeps a length-mismatch panic, and with it
+            // `core::fmt`, in the firmware image.
+            for (d, s) in dst.iter_mut().zip(b) {
+                *d = *s;
+            }
         }
         self.at = end;
     }
@@ -114,6 +118,7 @@ impl Writer<'_> {
 }
 
 /// Reads little-endian fields; past the end it reads zeros (the length is checked first).
+#[derive(Clone)]
 struct Reader<'a> {
     bytes: &'a [u8],
     at: usize,
@@ -124,7 +129,9 @@ impl Reader<'_> {
         let mut out = [0u8; N];
         let end = self.at.saturating_add(N);
         if let Some(src) = self.bytes.get(self.at..end) {
-            out.copy_from_slice(src);
+            for (o, s) in out.iter_mut().zip(src) {
+                *o = *s;
+            }
         }
         self.at = end;
         out
@@ -235,75 +242,111 @@ impl<const P: usize> SteadyStateGa<P> {
         fingerprint: u32,
         record: &[u8],
     ) -> Result<Self, RecordError> {
-        check_length(record.len(), P)?;
-        let body = record.len().saturating_sub(4);
-        let (head, trailer) = record.split_at(body);
-        let mut r = Reader {
-            bytes: record,
-            at: 0,
-        };
-        if r.array::<4>() != RECORD_MAGIC {
-            return Err(RecordError::BadMagic);
-        }
-        let version = r.u16();
-        if version != RECORD_VERSION {
-            return Err(RecordError::UnsupportedVersion { found: version });
-        }
-        let (population, genes) = (r.u16(), r.u16());
-        if usize::from(population) != P || usize::from(genes) != GENES {
-            return Err(RecordError::WrongShape { population, genes });
-        }
-        let stored_sum = Reader {
-            bytes: trailer,
-            at: 0,
-        }
-        .u32();
-        let computed = crc(head);
-        if stored_sum != computed {
-            return Err(RecordError::BadChecksum {
-                stored: stored_sum,
-                computed,
-            });
-        }
-        let _reserved = r.u16();
-        let stored = r.u32();
-        if stored != fingerprint {
-            return Err(RecordError::OtherRun {
-                stored,
-                expected: fingerprint,
-            });
-        }
         let mut ga = Self::new(settings, 0).map_err(|_| RecordError::Inconsistent)?;
-        let state = [r.u32(), r.u32(), r.u32(), r.u32()];
-        ga.rng = Xoshiro128PlusPlus::from_state(state).ok_or(RecordError::Inconsistent)?;
-        ga.evaluations = r.u32();
-        ga.generations = r.u32();
-        ga.stall.generations = r.u32();
-        ga.stall.reference = r.f32();
-        ga.filled = r.u16();
-        ga.status = status_from_code(r.u8()).ok_or(RecordError::Inconsistent)?;
+        ga.resume_from(fingerprint, record)?;
+        Ok(ga)
+    }
+
+    /// This GA, with its own settings, continued in place from `record` if the record is
+    /// sound and belongs to the run `fingerprint`; on `Err` it is left exactly as it was.
+    /// O(P), two passes over the record (checked, then loaded), no copy of the GA: on the
+    /// controller it needs no more stack than a few fields.
+    pub fn resume_from(&mut self, fingerprint: u32, record: &[u8]) -> Result<(), RecordError> {
+        let state = open_record::<P>(fingerprint, record)?;
+        if !state_sound::<P>(state.clone()) {
+            return Err(RecordError::Inconsistent);
+        }
+        self.load(state);
+        Ok(())
+    }
+
+    /// Loads the state at `r` (checked by [`state_sound`]).
+    fn load(&mut self, mut r: Reader) {
+        let rng = [r.u32(), r.u32(), r.u32(), r.u32()];
+        if let Some(rng) = Xoshiro128PlusPlus::from_state(rng) {
+            self.rng = rng;
+        }
+        self.evaluations = r.u32();
+        self.generations = r.u32();
+        self.stall.generations = r.u32();
+        self.stall.reference = r.f32();
+        self.filled = r.u16();
+        self.status = status_from_code(r.u8()).unwrap_or(Status::Running);
         let has_pending = r.u8();
         let pending = r.genes();
-        ga.pending = match has_pending {
-            0 => None,
-            1 => Some(pending),
-            _ => return Err(RecordError::Inconsistent),
-        };
-        ga.best = r.individual();
-        for ind in ga.population.iter_mut() {
+        self.pending = (has_pending == 1).then_some(pending);
+        self.best = r.individual();
+        for ind in self.population.iter_mut() {
             *ind = r.individual();
         }
-        let genes_sound = |g: &Genes| g.iter().all(|x| (0.0..=1.0).contains(x));
-        let sound = usize::from(ga.filled) <= P
-            && ga.pending.as_ref().is_none_or(genes_sound)
-            && core::iter::once(&ga.best)
-                .chain(ga.population.iter())
-                .all(|ind| !ind.fitness.is_nan() && genes_sound(&ind.genes))
-            && !ga.stall.reference.is_nan();
-        if sound {
-            Ok(ga)
-        } else {
-            Err(RecordError::Inconsistent)
-        }
     }
+}
+
+/// The reader at the GA state of `record` (offset 16), if `record` is a whole, undamaged
+/// record of this format and shape for the run `fingerprint`.
+fn open_record<const P: usize>(fingerprint: u32, record: &[u8]) -> Result<Reader<'_>, RecordError> {
+    check_length(record.len(), P)?;
+    let body = record.len().saturating_sub(4);
+    let (head, trailer) = record.split_at(body);
+    let mut r = Reader {
+        bytes: record,
+        at: 0,
+    };
+    if r.array::<4>() != RECORD_MAGIC {
+        return Err(RecordError::BadMagic);
+    }
+    let version = r.u16();
+    if version != RECORD_VERSION {
+        return Err(RecordError::UnsupportedVersion { found: version });
+    }
+    let (population, genes) = (r.u16(), r.u16());
+    if usize::from(population) != P || usize::from(genes) != GENES {
+        return Err(RecordError::WrongShape { population, genes });
+    }
+    let stored_sum = Reader {
+        bytes: trailer,
+        at: 0,
+    }
+    .u32();
+    let computed = crc(head);
+    if stored_sum != computed {
+        return Err(RecordError::BadChecksum {
+            stored: stored_sum,
+            computed,
+        });
+    }
+    let _reserved = r.u16();
+    let stored = r.u32();
+    if stored != fingerprint {
+        return Err(RecordError::OtherRun {
+            stored,
+            expected: fingerprint,
+        });
+    }
+    Ok(r)
+}
+
+/// Whether the GA state at `r` is one a GA can be in: a random generator that is not all
+/// zeros, a known status, a pending flag of 0 or 1, genes within [0, 1], no NaN fitness, at
+/// most `P` members evaluated. Reads one individual at a time.
+fn state_sound<const P: usize>(mut r: Reader) -> bool {
+    let genes_sound = |g: &Genes| g.iter().all(|x| (0.0..=1.0).contains(x));
+    let individual_sound = |ind: Individual| !ind.fitness.is_nan() && genes_sound(&ind.genes);
+    let rng = [r.u32(), r.u32(), r.u32(), r.u32()];
+    let _counts = [r.u32(), r.u32(), r.u32()];
+    let stall_reference = r.f32();
+    let filled = r.u16();
+    let status = r.u8();
+    let has_pending = r.u8();
+    let pending = r.genes();
+    Xoshiro128PlusPlus::from_state(rng).is_some()
+        && !stall_reference.is_nan()
+        && usize::from(filled) <= P
+        && status_from_code(status).is_some()
+        && match has_pending {
+            0 => true,
+            1 => genes_sound(&pending),
+            _ => false,
+        }
+        && (0..=P).all(|_| individual_sound(r.individual()))
 }
