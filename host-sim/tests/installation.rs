@@ -339,6 +339,25 @@ fn a_cold_gearbox_with_a_draggy_grease_reads_healthy_by_its_drag() {
         "{:?}",
         by_thermistor.result.faults
     );
+    // Within the drags the law was measured at: inside the domain.
+    let (_, domain) = verdict(&sim, &with_law);
+    assert_eq!(domain, Domain::Within);
+    // A gearbox colder than any calibrated point (−65 °C under a winding at 20 °C, which the
+    // thermistor reads in range): its drag lies beyond the law, named, never identified.
+    let mut colder = settings;
+    colder.conditions.gear_temperature -= 85.0;
+    let sim = ReferenceModel::new(colder)
+        .with_test(test)
+        .simulate(&scenario);
+    let (day, domain) = verdict(&sim, &with_law);
+    let Domain::Outside(OutsideReason::GreaseOutOfRange { drag }) = domain else {
+        panic!("{domain:?} {day:?}");
+    };
+    assert!(
+        drag > with_law.drag_points[0] * shared::conditions::DRAG_MARGIN,
+        "{drag} {:?}",
+        with_law.drag_points
+    );
     // The one-factor grease's drag does not move: no law by drag.
     let one_factor = reference_calibration(
         &ReferenceModel::new(ReferenceSettings::REFERENCE).with_test(test),

@@ -36,6 +36,14 @@ pub const MAX_TURNS_SQUARED: f32 = 1.10;
 /// grid (docs/robustness.md): at most 13.4 K on either example actuator, shorts included,
 /// 3 seeds; a controller 25 µs later than its record reads −150 K (the fit's bound).
 pub const MAX_WINDING_DISAGREEMENT: f32 = 20.0;
+/// How far beyond the drags `calibrate --at` measured (the calibration day's and each
+/// friction point's) the chirp's drag may read before the friction law by drag is no longer
+/// trusted: a quarter, as a ratio. A base oil's viscosity moves that much over 2–5 K in the
+/// cold and ≈ 10 K in the heat, and the fit's scatter is 0.3–3 % (docs/identifiability.md
+/// §0c); beyond it the gearbox is colder or warmer than any point measured, or the grease is
+/// not the calibrated one (aged, contaminated, another grade), and the healthy friction is
+/// not known.
+pub const DRAG_MARGIN: f32 = 1.25;
 /// Least RMS pair current [A] under which a pair's fit is not trusted (a segment that
 /// carried nothing).
 pub const MIN_PAIR_CURRENT: f32 = 0.05;
@@ -99,6 +107,12 @@ pub struct TestConditions {
     /// has a friction law by drag; 0 otherwise. The monitor model plays it as a drag on the
     /// motor shaft.
     pub drag_rise: f32,
+    /// Where the calibration has a friction law by drag and the test cannot use it: the
+    /// chirp's drag against the calibration's, beyond the drags the law was measured at by
+    /// more than [`DRAG_MARGIN`], or NaN when the chirp gave no drag to read. `None`: the law
+    /// applies, or there is none. The test is then outside the domain
+    /// (`crate::domain::OutsideReason::GreaseOutOfRange`).
+    pub drag_outside_law: Option<f32>,
     /// What the controller measured: mean temperature [°C] and bus [V].
     pub measured_temperature: Option<f32>,
     pub bus_voltage: Option<f32>,
@@ -117,6 +131,7 @@ impl TestConditions {
         flux_scale: 1.0,
         friction_scale: 1.0,
         drag_rise: 0.0,
+        drag_outside_law: None,
         measured_temperature: None,
         bus_voltage: None,
         winding: WindingEstimate::NoInjection,
@@ -142,19 +157,26 @@ impl TestConditions {
         // A grease with a drag of its own: its drag is the gearbox's thermometer.
         // Solved only with a law to read it (the fit is accumulated either way).
         let mut drag_rise = 0.0;
+        let mut drag_outside_law = None;
         if calibration.viscous > 0.0 {
-            if let Ok(grease) = measured.grease() {
-                if let Some(factor) =
-                    friction_factor_by_drag(calibration, grease.viscous / calibration.viscous)
-                {
+            let grease = measured.grease().ok();
+            let ratio = grease.map_or(f32::NAN, |g| g.viscous / calibration.viscous);
+            match (grease, friction_factor_by_drag(calibration, ratio)) {
+                (Some(grease), Some(factor)) => {
                     friction_scale = factor;
                     drag_rise = grease.viscous - calibration.viscous;
+                    if !drag_within_law(calibration, ratio) {
+                        drag_outside_law = Some(ratio);
+                    }
                 }
+                // No drag to read (too few chirp blocks, a singular fit, no drag at all).
+                _ => drag_outside_law = Some(ratio),
             }
         }
         let mut out = Self {
             friction_scale,
             drag_rise,
+            drag_outside_law,
             measured_temperature,
             bus_voltage: sums.bus_voltage(),
             ..Self::CALIBRATION
@@ -264,6 +286,19 @@ pub fn friction_factor_by_drag(calibration: &Calibration, ratio: f32) -> Option<
         }
     }
     Some(log_law(0.0, &points, ln(ratio)))
+}
+
+/// Whether the chirp's drag `ratio` (against the calibration's) lies within the drags the
+/// friction law by drag was measured at — the calibration day's (1) and each used friction
+/// point's — widened by [`DRAG_MARGIN`] at both ends. O(points).
+pub fn drag_within_law(calibration: &Calibration, ratio: f32) -> bool {
+    let (low, high) = calibration
+        .friction_points
+        .iter()
+        .zip(&calibration.drag_points)
+        .filter(|([_, factor], drag)| *factor > 0.0 && **drag > 0.0)
+        .fold((1.0f32, 1.0f32), |(lo, hi), (_, &d)| (lo.min(d), hi.max(d)));
+    ratio >= low / DRAG_MARGIN && ratio <= high * DRAG_MARGIN
 }
 
 /// `ln(factor)` linear in `x` between `points` (`[x, factor]` in rising `x`, unused ones —
@@ -423,6 +458,31 @@ mod tests {
         // writes none), no law.
         c.viscous = 0.0;
         assert_eq!(friction_factor_by_drag(&c, 3.5), None);
+    }
+
+    #[test]
+    fn the_law_by_drag_holds_a_quarter_beyond_its_measured_drags_and_no_further() {
+        let mut c = Calibration::IDENTITY;
+        c.viscous = 0.01;
+        c.friction_points = [[-45.0, 3.0], [-25.0, 2.0], [0.0, 1.3], [75.0, 0.5]];
+        c.drag_points = [7.0, 3.5, 1.8, 0.5];
+        for (ratio, within) in [
+            (1.0, true),
+            (7.0, true),
+            (7.0 * 1.24, true),
+            (7.0 * 1.26, false),
+            (0.5 / 1.24, true),
+            (0.5 / 1.26, false),
+            (f32::NAN, false),
+        ] {
+            assert_eq!(drag_within_law(&c, ratio), within, "{ratio}");
+        }
+        // Unused points (factor 0) do not widen it; the calibration day's own drag (1) is
+        // always in it.
+        c.friction_points = [[-45.0, 3.0], [0.0, 0.0], [0.0, 0.0], [0.0, 0.0]];
+        c.drag_points = [7.0, 0.1, 0.1, 0.1];
+        assert!(!drag_within_law(&c, 0.5));
+        assert!(drag_within_law(&c, 0.81));
     }
 
     #[test]

@@ -64,6 +64,14 @@ pub enum OutsideReason {
     /// ([`crate::conditions::WindingEstimate::PairNotPhysical`] says which). Another dead
     /// time, switch, harness or controller timing: recalibrate, do not identify.
     InstallationChanged { kelvin: f32 },
+    /// The calibration has a friction law by drag (a grease with a drag of its own) and the
+    /// chirp's drag, `drag` times the calibration day's, lies beyond the drags the law was
+    /// measured at by more than [`crate::conditions::DRAG_MARGIN`] (NaN: the chirp gave no
+    /// drag to read). A gearbox colder or warmer than any calibrated point, or a grease that
+    /// is not the calibrated one (aged, contaminated, another grade): the healthy friction
+    /// is not known, so wear cannot be told from the grease. Test within the calibrated
+    /// range, or calibrate the new grease.
+    GreaseOutOfRange { drag: f32 },
 }
 
 /// The verdict on the whole test.
@@ -79,9 +87,9 @@ pub enum Domain {
 
 impl Domain {
     /// The verdict with the test's day checked first: an injection segment that carried
-    /// nothing, or a measured bus or temperature outside `limits`' ranges (inclusive; a test
-    /// without the reading is not judged on it), puts the test outside, whatever the rest
-    /// says. O(1).
+    /// nothing, a changed installation, a measured bus or temperature outside `limits`'
+    /// ranges (inclusive; a test without the reading is not judged on it), or a chirp's drag
+    /// beyond the friction law by drag, puts the test outside, whatever the rest says. O(1).
     pub fn with_day(self, limits: &DomainLimits, day: &TestConditions) -> Self {
         let outside = |v: Option<f32>, [lo, hi]: [f32; 2]| v.filter(|v| !(lo..=hi).contains(v));
         let disagreement = day.winding_disagreement;
@@ -97,6 +105,8 @@ impl Domain {
             Self::Outside(OutsideReason::BusOutOfRange { volts })
         } else if let Some(celsius) = outside(day.measured_temperature, limits.temperature) {
             Self::Outside(OutsideReason::TemperatureOutOfRange { celsius })
+        } else if let Some(drag) = day.drag_outside_law {
+            Self::Outside(OutsideReason::GreaseOutOfRange { drag })
         } else {
             self
         }

@@ -230,6 +230,7 @@ pub enum DomainCode {
     CurrentSenseGain = 11,
     TransducerDisagrees = 12,
     InstallationChanged = 13,
+    GreaseOutOfRange = 14,
 }
 
 impl From<Domain> for DomainCode {
@@ -253,13 +254,14 @@ impl From<Domain> for DomainCode {
             Domain::Outside(OutsideReason::CurrentSenseGain { .. }) => Self::CurrentSenseGain,
             Domain::Outside(OutsideReason::TransducerDisagrees { .. }) => Self::TransducerDisagrees,
             Domain::Outside(OutsideReason::InstallationChanged { .. }) => Self::InstallationChanged,
+            Domain::Outside(OutsideReason::GreaseOutOfRange { .. }) => Self::GreaseOutOfRange,
         }
     }
 }
 
 impl DomainCode {
     /// Every code, in the order of its byte.
-    const ALL: [Self; 14] = [
+    const ALL: [Self; 15] = [
         Self::Within,
         Self::NoMotion,
         Self::OpenPhase,
@@ -274,6 +276,7 @@ impl DomainCode {
         Self::CurrentSenseGain,
         Self::TransducerDisagrees,
         Self::InstallationChanged,
+        Self::GreaseOutOfRange,
     ];
 
     fn from_byte(b: u8) -> Option<Self> {
@@ -297,6 +300,7 @@ impl DomainCode {
             Self::CurrentSenseGain => "current_sense_gain",
             Self::TransducerDisagrees => "transducer_disagrees",
             Self::InstallationChanged => "installation_changed",
+            Self::GreaseOutOfRange => "grease_out_of_range",
         }
     }
 

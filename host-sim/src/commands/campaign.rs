@@ -223,6 +223,52 @@ fn grid(actuator: &Actuator) -> Result<Vec<GridPoint>> {
 
 /// `campaign --conditions`: Table I, Table II and the healthy actuator at every point of the
 /// robustness grid, one row per point.
+/// "n of total", and when some runs are outside, why and which cases: `(grease_out_of_range:
+/// backlash k2 = 1.0 ×10)`, or the reason alone when it took every run.
+fn outside_cases(
+    summaries: &[host_sim::studies::campaign::CaseSummary],
+    outside: usize,
+    total: usize,
+) -> String {
+    let mut text = format!("{outside} of {total}");
+    if outside == 0 {
+        return text;
+    }
+    let mut by_reason: Vec<(shared::health::DomainCode, Vec<(&str, usize)>)> = Vec::new();
+    for c in summaries {
+        for r in &c.runs {
+            let Some(code) = r.outside else { continue };
+            if !by_reason.iter().any(|(k, _)| *k == code) {
+                by_reason.push((code, Vec::new()));
+            }
+            let Some((_, cases)) = by_reason.iter_mut().find(|(k, _)| *k == code) else {
+                continue;
+            };
+            match cases.iter_mut().find(|(name, _)| *name == c.case.name) {
+                Some((_, n)) => *n += 1,
+                None => cases.push((c.case.name, 1)),
+            }
+        }
+    }
+    let parts: Vec<String> = by_reason
+        .iter()
+        .map(|(code, cases)| {
+            let n: usize = cases.iter().map(|(_, n)| n).sum();
+            if n == total {
+                code.name().to_string()
+            } else {
+                let list: Vec<String> = cases
+                    .iter()
+                    .map(|(name, n)| format!("{name} ×{n}"))
+                    .collect();
+                format!("{}: {}", code.name(), list.join(", "))
+            }
+        })
+        .collect();
+    text += &format!(" ({})", parts.join("; "));
+    text
+}
+
 pub(crate) fn conditions_campaign_command(
     actuator: &Actuator,
     runs: u64,
@@ -326,6 +372,7 @@ pub(crate) fn conditions_campaign_command(
             .map(|c| c.runs.iter().filter(|r| !r.within).count())
             .sum();
         let total: usize = summaries.iter().map(|c| c.runs.len()).sum();
+        let outside_text = outside_cases(&summaries, outside, total);
         let disagreement = summaries
             .iter()
             .flat_map(|c| {
@@ -335,7 +382,7 @@ pub(crate) fn conditions_campaign_command(
             })
             .fold(0.0, f64::max);
         text += &format!(
-            "| {} | {median:.2} | {worst} | {} | {} | {} | {} | {largest:.3} | {hf} / {hs} | {f} / {su} of {of} | {outside} of {total} | {disagreement:.1} |\n",
+            "| {} | {median:.2} | {worst} | {} | {} | {} | {} | {largest:.3} | {hf} / {hs} | {f} / {su} of {of} | {outside_text} | {disagreement:.1} |\n",
             point.label,
             mean_of("low"),
             mean_of("medium"),

@@ -218,6 +218,8 @@ pub struct RunResult {
     pub assessments: [Assessment; FAULT_COUNT],
     /// Whether the domain check found the test inside the monitor model's domain.
     pub within: bool,
+    /// Why it did not (the reason's health code), when it did not.
+    pub outside: Option<shared::health::DomainCode>,
     /// The injection's winding temperature minus the thermistor's [K]
     /// (`shared::conditions::TestConditions::winding_disagreement`).
     pub winding_disagreement: f32,
@@ -421,6 +423,10 @@ pub fn run_once(
             }
         }
     }
+    let domain =
+        sim.trace
+            .domain_monitor(&params)
+            .assess(&record.domain, id.result.fitness, &id.conditions);
     Ok(RunResult {
         found,
         e_tot: f64::from(total_error(&found, &truth)),
@@ -434,11 +440,9 @@ pub fn run_once(
         z_raw,
         assessments,
         winding_disagreement: id.conditions.winding_disagreement,
-        within: sim.trace.domain_monitor(&params).assess(
-            &record.domain,
-            id.result.fitness,
-            &id.conditions,
-        ) == shared::domain::Domain::Within,
+        within: domain == shared::domain::Domain::Within,
+        outside: (domain != shared::domain::Domain::Within)
+            .then(|| shared::health::DomainCode::from(domain)),
     })
 }
 
