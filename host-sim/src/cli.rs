@@ -27,7 +27,7 @@ pub(crate) use host_sim::files::rig::RigFormat;
 pub(crate) use host_sim::files::trace::{IngestError, Trace, TraceFormat};
 pub(crate) use host_sim::median;
 pub(crate) use host_sim::plant::reference::{
-    EccentricityPhysics, ReferenceModel, ReferenceSettings, Scenario, SensorFault,
+    Demagnetization, EccentricityPhysics, ReferenceModel, ReferenceSettings, Scenario, SensorFault,
 };
 pub(crate) use host_sim::studies::optimisers::{self, TraceSource};
 pub(crate) use host_sim::studies::prognostics::{self, DegradationPath, PathShape};
@@ -119,6 +119,12 @@ pub(crate) struct ActuatorArgs {
     /// should name it (`outside the domain`), not read it as an actuator fault.
     #[arg(long, value_name = "KIND[:SIZE]", value_parser = SensorFault::parse)]
     pub(crate) sensor_fault: Option<SensorFault>,
+    /// Demagnetized rotor magnets (irreversible flux loss, apart from the day's reversible
+    /// change): `uniform:LOSS` (every pole lost LOSS of its flux, 0 … 1) or
+    /// `partial:LOSS[@POLE]` (one magnet, pole 0 … 2P − 1, default 0). Not yet one of the
+    /// fault vector's components: the FDI does not identify it (issue 35).
+    #[arg(long, value_name = "FORM:LOSS[@POLE]", value_parser = Demagnetization::parse)]
+    pub(crate) demagnetization: Option<Demagnetization>,
 }
 
 /// The simulated actuator of `simulate` and `preflight`: its faults, process noise, seed and
@@ -129,6 +135,7 @@ pub(crate) struct Simulated {
     pub(crate) noise: f64,
     pub(crate) seed: u64,
     pub(crate) sensor_fault: Option<SensorFault>,
+    pub(crate) demagnetization: Demagnetization,
 }
 
 impl ActuatorArgs {
@@ -139,6 +146,7 @@ impl ActuatorArgs {
             noise: self.noise,
             seed: self.seed,
             sensor_fault: self.sensor_fault,
+            demagnetization: self.demagnetization.unwrap_or_default(),
         }
     }
 }

@@ -275,6 +275,12 @@ enum Command {
         /// thermistor (docs/identifiability.md §0c). Runs on `--actuator`'s file too.
         #[arg(long, conflicts_with_all = ["bias", "day"])]
         grease: bool,
+        /// Instead of the designs: the demagnetization study — what today's eight-component
+        /// FDI reads on a healthy actuator whose magnets lost flux (every pole, or one
+        /// magnet; 5 to 25 % of the flux), beside the same actuator with a hot winding (the
+        /// reversible flux change the day already plays). Runs on `--actuator`'s file too.
+        #[arg(long, conflicts_with_all = ["bias", "day", "grease"])]
+        demagnetization: bool,
         /// Weights of the standstill segment to compare with --bias (comma-separated).
         #[arg(long, value_delimiter = ',', default_value = "100")]
         weights: Vec<f64>,
@@ -623,6 +629,12 @@ fn main() -> ExitCode {
             out,
             ..
         } => grease_study_command(&actuator, seeds, out.as_deref()),
+        Command::Identifiability {
+            seeds,
+            demagnetization: true,
+            out,
+            ..
+        } => demagnetization_study_command(&actuator, seeds, out.as_deref()),
         Command::Identifiability {
             designs,
             seeds,

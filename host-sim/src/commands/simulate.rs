@@ -9,10 +9,22 @@ pub(crate) fn simulate_scenario(actuator: &Actuator, sim: &Simulated) -> Result<
         noise,
         seed,
         sensor_fault,
+        demagnetization,
     } = *sim;
-    let rm = ReferenceModel::new(actuator.reference_settings()?)
+    let settings = actuator.reference_settings()?;
+    if let Demagnetization::Partial { pole, .. } = demagnetization {
+        let poles = 2 * settings.params.pole_pairs as u32;
+        if pole >= poles {
+            anyhow::bail!(
+                "--demagnetization: pole {pole} of an actuator with {poles} poles (0 … {})",
+                poles - 1
+            );
+        }
+    }
+    let rm = ReferenceModel::new(settings)
         .with_test(actuator.record.test)
-        .with_sensor_fault(sensor_fault);
+        .with_sensor_fault(sensor_fault)
+        .with_demagnetization(demagnetization);
     let start = Instant::now();
     let sim = rm.simulate(&Scenario {
         faults,

@@ -179,6 +179,39 @@ pub(crate) fn grease_study_command(
     Ok(())
 }
 
+pub(crate) fn demagnetization_study_command(
+    actuator: &Actuator,
+    seeds: u64,
+    out: Option<&Path>,
+) -> Result<()> {
+    use host_sim::studies::demagnetization::{
+        demagnetization_markdown, demagnetization_study, CASES,
+    };
+    use host_sim::studies::grease::Bench;
+    let test = actuator.record.test;
+    let bench = Bench {
+        settings: actuator.reference_settings()?,
+        test,
+    };
+    let record = actuator.record_for(&test)?;
+    let bar = host_sim::progress_bar(
+        CASES.len() as u64,
+        "{elapsed_precise} [{bar:40}] {pos}/{len} cases {msg}",
+        std::io::stderr().is_terminal(),
+    );
+    let rows = demagnetization_study(&bench, &record, seeds, |what| {
+        bar.set_message(what.to_string());
+        bar.inc(1);
+    })?;
+    bar.finish_and_clear();
+    let text = demagnetization_markdown(&actuator.name, &rows, seeds);
+    print!("{text}");
+    if let Some(path) = out {
+        std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(())
+}
+
 pub(crate) fn separability_command(a: &FaultVector, b: &FaultVector, seeds: u64) -> Result<()> {
     let s = host_sim::studies::separability::separability(a, b, seeds)?;
     println!("A: {:?}", a.as_array());

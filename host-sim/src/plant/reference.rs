@@ -407,6 +407,84 @@ pub struct ReferenceModel {
     anomaly: Option<Anomaly>,
     sensor_fault: Option<SensorFault>,
     recording_hz: Option<f64>,
+    demagnetization: Demagnetization,
+}
+
+/// Irreversible loss of the rotor magnets' flux (SPEC §10, issue 35): after over-temperature
+/// (a stalled or jammed actuator, a hot bay), a strong reverse field (a phase short's
+/// circulating current) or ageing. Kept apart from the magnets' reversible temperature
+/// coefficient, which the day plays ([`ThermalLaws::flux_scale`]): the RM's flux is the day's
+/// times what is left of each pole.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum Demagnetization {
+    #[default]
+    None,
+    /// Every pole lost `loss` (0 … 1) of its flux (thermal): the back-EMF and the torque
+    /// constant fall alike, the shape stays.
+    Uniform { loss: f64 },
+    /// One magnet lost `loss` of its flux: pole `pole` (0 … 2P − 1), whose centre sits
+    /// `pole · π/P` mechanical ahead of the rotor's zero (the encoder's zero at rigging 0).
+    /// Each phase's back-EMF then dips once per mechanical revolution, as that pole passes
+    /// its coils.
+    Partial { loss: f64, pole: u32 },
+}
+
+impl Demagnetization {
+    /// `uniform:LOSS` or `partial:LOSS[@POLE]` (LOSS the share of flux lost, 0 … 1; POLE
+    /// 0 … 2P − 1, default 0), as the command line writes it.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let (kind, rest) = text
+            .split_once(':')
+            .ok_or_else(|| format!("{text:?}: expected uniform:LOSS or partial:LOSS[@POLE]"))?;
+        let (loss, pole) = match rest.split_once('@') {
+            Some((l, p)) => (l, Some(p)),
+            None => (rest, None),
+        };
+        let loss: f64 = loss
+            .trim()
+            .parse()
+            .map_err(|_| format!("loss {loss:?} is not a number"))?;
+        if !(0.0..=1.0).contains(&loss) {
+            return Err(format!("loss {loss} is not a share of the flux (0 … 1)"));
+        }
+        let pole = pole
+            .map(|p| {
+                p.trim()
+                    .parse::<u32>()
+                    .map_err(|_| format!("pole {p:?} is not a pole number"))
+            })
+            .transpose()?;
+        match (kind.trim(), pole) {
+            ("uniform", None) => Ok(Self::Uniform { loss }),
+            ("uniform", Some(_)) => Err("uniform demagnetization has no pole".to_string()),
+            ("partial", pole) => Ok(Self::Partial {
+                loss,
+                pole: pole.unwrap_or(0),
+            }),
+            (other, _) => Err(format!("{other:?}: expected uniform or partial")),
+        }
+    }
+
+    /// What is left of pole `k`'s flux (any integer: poles repeat every `poles`).
+    fn pole_amplitude(self, k: i64, poles: i64) -> f64 {
+        match self {
+            Self::None => 1.0,
+            Self::Uniform { loss } => 1.0 - loss,
+            Self::Partial { loss, pole } if k.rem_euclid(poles) == i64::from(pole) % poles => {
+                1.0 - loss
+            }
+            Self::Partial { .. } => 1.0,
+        }
+    }
+
+    /// The share of the rotor's flux that is left (the mean over the poles).
+    pub fn flux_left(self, pole_pairs: u32) -> f64 {
+        let poles = 2 * i64::from(pole_pairs.max(1));
+        (0..poles)
+            .map(|k| self.pole_amplitude(k, poles))
+            .sum::<f64>()
+            / poles as f64
+    }
 }
 
 impl ReferenceModel {
@@ -417,7 +495,14 @@ impl ReferenceModel {
             anomaly: None,
             sensor_fault: None,
             recording_hz: None,
+            demagnetization: Demagnetization::None,
         }
+    }
+
+    /// The same actuator with demagnetized magnets.
+    pub fn with_demagnetization(mut self, demagnetization: Demagnetization) -> Self {
+        self.demagnetization = demagnetization;
+        self
     }
 
     /// The same actuator read through a faulty sensor.
@@ -491,6 +576,9 @@ impl ReferenceModel {
         let coil_pitch = PI / p;
         let w = self.settings.magnet_fringe;
         let permeance = |psi: f64| 1.0 / (1.0 - z * (psi - psi_min).cos());
+        let poles = 2 * (p.round() as i64).max(1);
+        let demagnetization = self.demagnetization;
+        let amplitude = |k: i64| demagnetization.pole_amplitude(k, poles);
         let mut shapes = Box::new([[0.0; SHAPE_POINTS]; 3]);
         for (phase, table) in shapes.iter_mut().enumerate() {
             let coils = [
@@ -505,7 +593,7 @@ impl ReferenceModel {
                     // the coil's electrical window u = P(ψ − θ), M' = ∓2/w on the two
                     // magnet-edge ramps (module docs).
                     let u0 = p * (axis - 0.5 * PI / p - theta);
-                    sum -= polarity * edge_integral(u0, w, |u| permeance(theta + u / p));
+                    sum -= polarity * edge_integral(u0, w, amplitude, |u| permeance(theta + u / p));
                 }
                 *slot = phase_gain[phase] * sum / 4.0;
             }
@@ -997,9 +1085,11 @@ impl ReferenceModel {
     }
 }
 
-/// ∫ M'(u)·h(u) du over the coil window `[u0, u0 + π]`, with M' = −2/w on the ramps centred
-/// at π/2 + 2πn and +2/w on those centred at −π/2 + 2πn (4-point Gauss–Legendre per piece).
-fn edge_integral(u0: f64, w: f64, h: impl Fn(f64) -> f64) -> f64 {
+/// ∫ M'(u)·h(u) du over the coil window `[u0, u0 + π]` (4-point Gauss–Legendre per piece).
+/// Pole `k` spans `u ∈ (kπ − π/2, kπ + π/2)` with magnetisation `(−1)^k · a(k)`; between
+/// poles `n` and `n + 1` the ramp centred at `π/2 + nπ` has slope `(M_{n+1} − M_n)/w`:
+/// `∓(a(n) + a(n+1))/w`, −2/w and +2/w alternately for whole magnets.
+fn edge_integral(u0: f64, w: f64, a: impl Fn(i64) -> f64, h: impl Fn(f64) -> f64) -> f64 {
     const NODES: [f64; 4] = [
         -0.861_136_311_594_052_6,
         -0.339_981_043_584_856_3,
@@ -1018,12 +1108,13 @@ fn edge_integral(u0: f64, w: f64, h: impl Fn(f64) -> f64) -> f64 {
     let first = ((lo - w - FRAC_PI_2) / PI).floor() as i64;
     let last = ((hi + w - FRAC_PI_2) / PI).ceil() as i64;
     for n in first..=last {
-        // Ramps alternate: centre π/2 + nπ, slope −2/w for even n, +2/w for odd n.
+        // Ramps alternate: centre π/2 + nπ, falling for even n, rising for odd n.
         let centre = FRAC_PI_2 + n as f64 * PI;
+        let step = a(n) + a(n + 1);
         let slope = if n.rem_euclid(2) == 0 {
-            -2.0 / w
+            -step / w
         } else {
-            2.0 / w
+            step / w
         };
         let a = lo.max(centre - 0.5 * w);
         let b = hi.min(centre + 0.5 * w);

@@ -1,6 +1,7 @@
 //! Campaigns and studies over the reference model and the FDI.
 //!
 //! * [`campaign`] — accuracy campaigns over the paper's fault cases and the robustness grid.
+//! * [`demagnetization`] — what today's FDI reads on demagnetized magnets (issue 35).
 //! * [`domain`] — the survey behind the "outside the monitor model's domain" limits.
 //! * [`grease`] — whether the chirp tells the grease's drag from its dry friction (issue 34).
 //! * [`identifiability`] — which test design can tell every fault apart (sensitivity study).
@@ -10,6 +11,7 @@
 //! * [`prognostics`] — simulated degradations, trend and RUL reports and their evaluation.
 
 pub mod campaign;
+pub mod demagnetization;
 pub mod domain;
 pub mod grease;
 pub mod identifiability;
