@@ -204,7 +204,8 @@ pub(crate) fn demagnetization_study_command(
         bar.inc(1);
     })?;
     bar.finish_and_clear();
-    let text = demagnetization_markdown(&actuator.name, &rows, seeds);
+    let cosines = host_sim::studies::demagnetization::flux_cosines(&record);
+    let text = demagnetization_markdown(&actuator.name, &rows, &cosines, seeds);
     print!("{text}");
     if let Some(path) = out {
         std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;

@@ -119,6 +119,10 @@ pub struct DemagnetizationRow {
     pub day_flux: f64,
     /// Best fitness, the nominal residual subtracted (mean) [A²·s].
     pub fitness: f64,
+    /// Mean e_tot [%] when the FDI is told the flux left (the calibration's back-EMF scale
+    /// times the poles' mean flux): whether one flux scale in the monitor model explains the
+    /// loss, i.e. what a ninth component holding it could reach.
+    pub e_tot_told: f64,
 }
 
 /// Runs every case with `seeds` seeds on `bench` (its record: calibration and domain).
@@ -140,7 +144,18 @@ pub fn demagnetization_study(
             .with_test(bench.test)
             .with_demagnetization(case.demagnetization);
         let truth = FaultVector::NOMINAL;
-        let runs: Vec<(FaultVector, f64, [Assessment; FAULT_COUNT], bool, f32)> = (0..seeds)
+        let flux_left = case
+            .demagnetization
+            .flux_left(settings.params.pole_pairs as u32);
+        let told = ActuatorRecord {
+            calibration: shared::Calibration {
+                back_emf_scale: record.calibration.back_emf_scale * flux_left as f32,
+                ..record.calibration
+            },
+            ..*record
+        };
+        type Run = (FaultVector, f64, [Assessment; FAULT_COUNT], bool, f32, f64);
+        let runs: Vec<Run> = (0..seeds)
             .into_par_iter()
             .map(|seed| {
                 let mut scenario = Scenario::new(truth);
@@ -148,6 +163,7 @@ pub fn demagnetization_study(
                 let sim = rm.simulate(&scenario);
                 let measured = sim.trace.measured(&record.params)?;
                 let id = identify_for(&measured, record, 1 + seed, false)?;
+                let told = identify_for(&measured, &told, 1 + seed, false)?;
                 let within = sim.trace.domain_monitor(&record.params).assess(
                     &record.domain,
                     id.result.fitness,
@@ -159,6 +175,7 @@ pub fn demagnetization_study(
                     id.assessments_at(record.detection_threshold),
                     within,
                     id.conditions.flux_scale,
+                    f64::from(total_error(&told.result.faults, &truth)),
                 ))
             })
             .collect::<Result<_>>()?;
@@ -199,6 +216,7 @@ pub fn demagnetization_study(
             runs: runs.len(),
             day_flux: runs.iter().map(|r| f64::from(r.4)).sum::<f64>() / n,
             fitness,
+            e_tot_told: runs.iter().map(|r| r.5).sum::<f64>() / n,
         });
     }
     if rows.is_empty() {
@@ -207,8 +225,59 @@ pub fn demagnetization_study(
     Ok(rows)
 }
 
+/// On the monitor model, at the healthy actuator: the cosine between the equivalent
+/// current's change with the magnets' flux (the back-EMF scale, h = 2 %) and its change with
+/// each fault component (one-sided from nominal, h = 0.02; the eccentricity's phase at an
+/// eccentricity of 0.2). Near 1 in magnitude: one test cannot tell the flux from that
+/// component; the GA would trade one for the other.
+pub fn flux_cosines(record: &ActuatorRecord) -> [f64; FAULT_COUNT] {
+    let test = record.test;
+    let run = |k: &FaultVector, flux: f32| {
+        let calibration = shared::Calibration {
+            back_emf_scale: record.calibration.back_emf_scale * flux,
+            ..record.calibration
+        };
+        let model = shared::MonitorModel::new(record.params, &calibration).with_test(&test);
+        let mut out = vec![0.0f32; model.test_samples()];
+        model.simulate(k, &mut out);
+        out.into_iter().map(f64::from).collect::<Vec<f64>>()
+    };
+    let nominal = FaultVector::NOMINAL;
+    let base = run(&nominal, 1.0);
+    let column =
+        |other: &[f64]| -> Vec<f64> { other.iter().zip(&base).map(|(a, b)| a - b).collect() };
+    let flux = column(&run(&nominal, 0.98));
+    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let mut out = [0.0; FAULT_COUNT];
+    for (i, cos) in out.iter_mut().enumerate() {
+        let mut k = *nominal.as_array();
+        let mut from = k;
+        if i == 6 {
+            from[5] = 0.2;
+            k[5] = 0.2;
+        }
+        k[i] += 0.02;
+        let (Ok(k), Ok(from)) = (FaultVector::new(k), FaultVector::new(from)) else {
+            continue;
+        };
+        let a = run(&k, 1.0);
+        let b = run(&from, 1.0);
+        let col: Vec<f64> = a.iter().zip(&b).map(|(x, y)| x - y).collect();
+        let (nf, nc) = (norm(&flux), norm(&col));
+        if nf > 0.0 && nc > 0.0 {
+            *cos = flux.iter().zip(&col).map(|(x, y)| x * y).sum::<f64>() / (nf * nc);
+        }
+    }
+    out
+}
+
 /// The rows as a markdown table.
-pub fn demagnetization_markdown(actuator: &str, rows: &[DemagnetizationRow], seeds: u64) -> String {
+pub fn demagnetization_markdown(
+    actuator: &str,
+    rows: &[DemagnetizationRow],
+    cosines: &[f64; FAULT_COUNT],
+    seeds: u64,
+) -> String {
     let mut text = format!(
         "### {actuator}\n\n\
          The healthy actuator with demagnetized magnets, {seeds} seeds per case, identified \
@@ -217,15 +286,17 @@ pub fn demagnetization_markdown(actuator: &str, rows: &[DemagnetizationRow], see
          read as something else. `day flux`: the flux scale the FDI took from the winding's \
          estimated temperature (the reversible part it already plays); `fitness`: the best \
          fitness, the nominal residual subtracted [A²·s] (the domain's floor: \
-         `[domain] max_fitness`).\n\n\
-         | case | flux lost | friction | backlash | short A | short B | short C | eccentricity | gain drift | e_tot [%] | FAULT / suspect (of {}) | within | day flux | fitness |\n\
-         | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n",
+         `[domain] max_fitness`); `told`: e_tot when the FDI is told the flux left (its \
+         back-EMF scale times the poles' mean flux), what one flux scale in the monitor \
+         model can explain.\n\n\
+         | case | flux lost | friction | backlash | short A | short B | short C | eccentricity | gain drift | e_tot [%] | FAULT / suspect (of {}) | within | day flux | fitness | told: e_tot [%] |\n\
+         | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n",
         7 * seeds
     );
     for r in rows {
         let f = r.found;
         text.push_str(&format!(
-            "| {} | {:.1} % | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.2} | {} / {} | {} of {} | ×{:.4} | {:.2e} |\n",
+            "| {} | {:.1} % | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.2} | {} / {} | {} of {} | ×{:.4} | {:.2e} | {:.2} |\n",
             r.case.name,
             100.0 * r.flux_lost,
             f[0],
@@ -241,8 +312,18 @@ pub fn demagnetization_markdown(actuator: &str, rows: &[DemagnetizationRow], see
             r.within,
             r.runs,
             r.day_flux,
-            r.fitness
+            r.fitness,
+            r.e_tot_told
         ));
     }
+    text.push_str(
+        "\nOn the monitor model at the healthy actuator, the cosine between the current's \
+         change with the magnets' flux and with each component (`flux_cosines`; ±1: the test \
+         cannot tell them apart):\n\n\
+         | friction | backlash | short A | short B | short C | eccentricity | its phase | gain drift |\n\
+         | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n",
+    );
+    let cells: Vec<String> = cosines.iter().map(|c| format!("{c:+.3}")).collect();
+    text.push_str(&format!("| {} |\n", cells.join(" | ")));
     text
 }
