@@ -482,13 +482,17 @@ impl<F: blocking::NorFlash> AbStore<F> {
             .chunks_exact_mut(4)
             .zip([AB_MAGIC, sequence, item.len() as u32])
         {
-            slot.copy_from_slice(&word.to_le_bytes());
+            // Element by element: `copy_from_slice` keeps a length-mismatch panic, and with
+            // it `core::fmt`, in the board image.
+            for (d, s) in slot.iter_mut().zip(word.to_le_bytes()) {
+                *d = s;
+            }
         }
         let whole = item.len() - item.len() % 4;
         let (words, rest) = item.split_at(whole);
         let mut last = [0u8; 4];
-        if let Some(l) = last.get_mut(..rest.len()) {
-            l.copy_from_slice(rest);
+        for (d, s) in last.iter_mut().zip(rest) {
+            *d = *s;
         }
         let last = last.get(..padded - whole).unwrap_or(&[]);
         let mut crc = shared::trace::Crc32::new();
