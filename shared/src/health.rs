@@ -888,6 +888,44 @@ mod tests {
     }
 
     #[test]
+    fn every_domain_reason_is_stored_by_its_own_code_and_name() {
+        use OutsideReason as R;
+        let reasons = [
+            R::NoMotion { travel: 0.0 },
+            R::OpenPhase {
+                phase: 0,
+                ratio: 0.0,
+            },
+            R::CommandMismatch { tracking: 0.0 },
+            R::FitnessFloor { fitness: 0.0 },
+            R::SegmentCarriedNothing { pair: 0 },
+            R::BusOutOfRange { volts: 0.0 },
+            R::TemperatureOutOfRange { celsius: 0.0 },
+            R::EncoderStuck { samples: 0 },
+            R::EncoderGlitch { step: 0.0 },
+            R::CurrentSenseOffset { amps: 0.0 },
+            R::CurrentSenseGain { amps: 0.0 },
+            R::TransducerDisagrees { spread: 0.0 },
+            R::InstallationChanged { kelvin: 0.0 },
+            R::GreaseOutOfRange { drag: f32::NAN },
+        ];
+        assert_eq!(DomainCode::from(Domain::Within), DomainCode::Within);
+        for (i, reason) in reasons.into_iter().enumerate() {
+            let code = DomainCode::from(Domain::Outside(reason));
+            // Codes are the stored bytes: in order, none reused, never changed.
+            assert_eq!(code as u8 as usize, i + 1, "{reason:?}");
+            assert_eq!(DomainCode::from_byte(code as u8), Some(code));
+            assert_eq!(DomainCode::from_name(code.name()), Some(code));
+            let r = HealthRecord::new(3, FaultVector::NOMINAL, 0.01, Domain::Outside(reason));
+            assert_eq!(
+                HealthRecord::decode(&r.encode()).map(|r| r.domain),
+                Ok(code)
+            );
+        }
+        assert_eq!(DomainCode::from_byte(15), None);
+    }
+
+    #[test]
     fn version_2_keeps_the_standard_deviations_and_version_1_is_still_read() {
         let std = [0.012, 0.5, f32::NAN, 0.0, 2.0, 0.03, f32::NAN, -1.0];
         let r = record(9, 0.3).with_std(std);
