@@ -278,7 +278,9 @@ enum Command {
         /// Instead of the designs: the demagnetization study — what today's eight-component
         /// FDI reads on a healthy actuator whose magnets lost flux (every pole, or one
         /// magnet; 5 to 25 % of the flux), beside the same actuator with a hot winding (the
-        /// reversible flux change the day already plays). Runs on `--actuator`'s file too.
+        /// reversible flux change the day already plays), then whether the test finds the
+        /// flux lost: the FDI run at ten flux scales per test, the least fitness kept (a few
+        /// minutes with 10 seeds). Runs on `--actuator`'s file too.
         #[arg(long, conflicts_with_all = ["bias", "day", "grease"])]
         demagnetization: bool,
         /// Weights of the standstill segment to compare with --bias (comma-separated).

@@ -225,6 +225,196 @@ pub fn demagnetization_study(
     Ok(rows)
 }
 
+/// One case of the flux profile: what the reference model plays (faults, the magnets' loss,
+/// the winding above the calibration day's).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ProfileCase {
+    pub name: &'static str,
+    pub faults: [f32; FAULT_COUNT],
+    pub demagnetization: Demagnetization,
+    pub winding_rise: f64,
+}
+
+const HEALTHY: [f32; FAULT_COUNT] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5];
+const SHORT_A: [f32; FAULT_COUNT] = [0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5];
+const GAIN: [f32; FAULT_COUNT] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.7];
+
+/// The profile's cases: the uniform loss at k9 0.1 / 0.2 / 0.5, the day (a hot winding), and
+/// the faults a flux loss could be mistaken for or hide behind (a short, a gain drift).
+pub const PROFILE_CASES: [ProfileCase; 8] = [
+    ProfileCase {
+        name: "healthy",
+        faults: HEALTHY,
+        demagnetization: Demagnetization::None,
+        winding_rise: 0.0,
+    },
+    ProfileCase {
+        name: "healthy, winding +60 K",
+        faults: HEALTHY,
+        demagnetization: Demagnetization::None,
+        winding_rise: 60.0,
+    },
+    ProfileCase {
+        name: "uniform 5 % (k9 0.1)",
+        faults: HEALTHY,
+        demagnetization: Demagnetization::Uniform { loss: 0.05 },
+        winding_rise: 0.0,
+    },
+    ProfileCase {
+        name: "uniform 10 % (k9 0.2)",
+        faults: HEALTHY,
+        demagnetization: Demagnetization::Uniform { loss: 0.10 },
+        winding_rise: 0.0,
+    },
+    ProfileCase {
+        name: "uniform 25 % (k9 0.5)",
+        faults: HEALTHY,
+        demagnetization: Demagnetization::Uniform { loss: 0.25 },
+        winding_rise: 0.0,
+    },
+    ProfileCase {
+        name: "short A 0.2",
+        faults: SHORT_A,
+        demagnetization: Demagnetization::None,
+        winding_rise: 0.0,
+    },
+    ProfileCase {
+        name: "short A 0.2 with uniform 10 %",
+        faults: SHORT_A,
+        demagnetization: Demagnetization::Uniform { loss: 0.10 },
+        winding_rise: 0.0,
+    },
+    ProfileCase {
+        name: "gain drift 0.7 with uniform 10 %",
+        faults: GAIN,
+        demagnetization: Demagnetization::Uniform { loss: 0.10 },
+        winding_rise: 0.0,
+    },
+];
+
+/// What the flux profile found for one case, over its seeds.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ProfileRow {
+    pub case: ProfileCase,
+    /// The share of the flux lost: played, and found (mean, largest error over seeds).
+    pub true_loss: f64,
+    pub found_loss: f64,
+    pub largest_error: f64,
+    /// e_tot [%] of the eight components at the best flux (mean).
+    pub e_tot: f64,
+}
+
+/// A ninth parameter by brute force, for the study only: per run, the eight-component FDI
+/// at each of `steps` flux scales (golden-section search over 0.6 … 1.05 of the calibrated
+/// flux; each point one whole identification), keeping the flux whose best fitness is least.
+/// Whether the fitness locates the flux the magnets lost — what a ninth gene in the GA
+/// would find — and whether a short or a gain drift is taken for it. O(steps)
+/// identifications per run.
+pub fn flux_profile_study(
+    bench: &Bench,
+    record: &ActuatorRecord,
+    cases: &[ProfileCase],
+    seeds: u64,
+    steps: usize,
+    mut progress: impl FnMut(&str),
+) -> Result<Vec<ProfileRow>> {
+    let mut rows = Vec::new();
+    for &case in cases {
+        progress(case.name);
+        let mut settings: ReferenceSettings = bench.settings;
+        settings.conditions = settings
+            .conditions
+            .at_temperature(bench.day() + case.winding_rise);
+        let rm = ReferenceModel::new(settings)
+            .with_test(bench.test)
+            .with_demagnetization(case.demagnetization);
+        let truth =
+            FaultVector::new(case.faults).map_err(|e| anyhow!("case {}: {e:?}", case.name))?;
+        let true_loss = 1.0
+            - case
+                .demagnetization
+                .flux_left(settings.params.pole_pairs as u32);
+        let runs: Vec<(f64, f64)> = (0..seeds)
+            .into_par_iter()
+            .map(|seed| {
+                let mut scenario = Scenario::new(truth);
+                scenario.seed = seed;
+                let sim = rm.simulate(&scenario);
+                let measured = sim.trace.measured(&record.params)?;
+                let at = |flux: f64| -> Result<(f64, f64)> {
+                    let guess = ActuatorRecord {
+                        calibration: shared::Calibration {
+                            back_emf_scale: record.calibration.back_emf_scale * flux as f32,
+                            ..record.calibration
+                        },
+                        ..*record
+                    };
+                    let id = identify_for(&measured, &guess, 1 + seed, false)?;
+                    Ok((
+                        f64::from(id.result.fitness),
+                        f64::from(total_error(&id.result.faults, &truth)),
+                    ))
+                };
+                // Golden-section search on the best fitness over the flux scale.
+                let ratio = 0.5 * (5f64.sqrt() - 1.0);
+                let (mut lo, mut hi) = (0.6f64, 1.05f64);
+                let mut x1 = hi - ratio * (hi - lo);
+                let mut x2 = lo + ratio * (hi - lo);
+                let (mut f1, mut f2) = (at(x1)?, at(x2)?);
+                for _ in 2..steps {
+                    if f1.0 < f2.0 {
+                        hi = x2;
+                        (x2, f2) = (x1, f1);
+                        x1 = hi - ratio * (hi - lo);
+                        f1 = at(x1)?;
+                    } else {
+                        lo = x1;
+                        (x1, f1) = (x2, f2);
+                        x2 = lo + ratio * (hi - lo);
+                        f2 = at(x2)?;
+                    }
+                }
+                let (flux, (_, e_tot)) = if f1.0 < f2.0 { (x1, f1) } else { (x2, f2) };
+                Ok((1.0 - flux, e_tot))
+            })
+            .collect::<Result<_>>()?;
+        let n = runs.len().max(1) as f64;
+        rows.push(ProfileRow {
+            case,
+            true_loss,
+            found_loss: runs.iter().map(|r| r.0).sum::<f64>() / n,
+            largest_error: runs
+                .iter()
+                .map(|r| (r.0 - true_loss).abs())
+                .fold(0.0, f64::max),
+            e_tot: runs.iter().map(|r| r.1).sum::<f64>() / n,
+        });
+    }
+    Ok(rows)
+}
+
+/// The profile's rows as a markdown table (the loss in k9 units too: k9 = 2 × loss).
+pub fn profile_markdown(rows: &[ProfileRow], seeds: u64, steps: usize) -> String {
+    let mut text = format!(
+        "\nA ninth parameter by brute force (`flux_profile_study`): per run, the \
+         eight-component FDI at {steps} flux scales (golden-section over 0.6 … 1.05), the \
+         least best fitness kept; {seeds} seeds per case. k9 = 2 × the share of flux lost.\n\n\
+         | case | k9 played | k9 found (mean) | largest error | e_tot of the eight at that flux [%] |\n\
+         | --- | ---: | ---: | ---: | ---: |\n"
+    );
+    for r in rows {
+        text.push_str(&format!(
+            "| {} | {:.3} | {:.3} | {:.3} | {:.2} |\n",
+            r.case.name,
+            2.0 * r.true_loss,
+            2.0 * r.found_loss,
+            2.0 * r.largest_error,
+            r.e_tot
+        ));
+    }
+    text
+}
+
 /// On the monitor model, at the healthy actuator: the cosine between the equivalent
 /// current's change with the magnets' flux (the back-EMF scale, h = 2 %) and its change with
 /// each fault component (one-sided from nominal, h = 0.02; the eccentricity's phase at an
