@@ -238,3 +238,19 @@ fn the_least_fitness_over_the_flux_finds_the_loss_and_not_a_short() {
     let short = &rows[1];
     assert!(2.0 * short.found_loss < 0.05, "{short:?}");
 }
+
+/// A weak magnet is not an eccentricity: on the reference model's noise-free currents, no
+/// eccentricity phase makes their changes collinear over the test (the rotor turns enough of
+/// a revolution for a rotor-fixed and a stator-fixed pattern to differ).
+#[test]
+fn a_weak_magnet_is_not_an_eccentricity_at_any_phase() {
+    use host_sim::studies::demagnetization::weak_magnet_against_eccentricity;
+    use host_sim::studies::grease::Bench;
+    let (cos, _, travel) = weak_magnet_against_eccentricity(&Bench::REFERENCE, 3, 12);
+    assert!(cos.abs() < 0.8, "{cos}");
+    assert!(
+        cos.abs() > 0.1,
+        "{cos}: the two are related (one revolution's shapes)"
+    );
+    assert!(travel > 0.5, "{travel}");
+}

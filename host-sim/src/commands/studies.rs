@@ -227,6 +227,22 @@ pub(crate) fn demagnetization_study_command(
     text.push_str(&host_sim::studies::demagnetization::profile_markdown(
         &profile, seeds, STEPS,
     ));
+    let poles = 2 * bench.settings.params.pole_pairs as u32;
+    text.push_str(
+        "\nOn the reference model (noise-free truth), one magnet at 10 % loss against a \
+         small eccentricity (k6 0.1) at 36 phases: the largest cosine between their currents' \
+         changes, at which phase, and the rotor's travel over the test \
+         (`weak_magnet_against_eccentricity`):\n\n\
+         | weak pole | largest cosine | at phase (k7) | rotor travel [rev] |\n\
+         | ---: | ---: | ---: | ---: |\n",
+    );
+    for pole in [0, poles / 2 - 1, poles - 1] {
+        let (cos, phase, travel) =
+            host_sim::studies::demagnetization::weak_magnet_against_eccentricity(&bench, pole, 36);
+        text.push_str(&format!(
+            "| {pole} | {cos:+.3} | {phase:.3} | {travel:.2} |\n"
+        ));
+    }
     print!("{text}");
     if let Some(path) = out {
         std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;

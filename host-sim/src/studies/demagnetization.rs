@@ -415,6 +415,69 @@ pub fn profile_markdown(rows: &[ProfileRow], seeds: u64, steps: usize) -> String
     text
 }
 
+/// On the reference model (noise-free truth currents, the bench's test): the cosine between
+/// the equivalent current's change with one weak magnet (pole `pole` at 10 % loss) and with
+/// a small eccentricity (k6 0.1) at each of `phases` phases around the stator, the largest
+/// and where: whether the physics itself tells a weak magnet from an off-centre rotor on
+/// this test. Also the rotor's travel over the test [mechanical revolutions]: a weak magnet
+/// is fixed to the rotor, an eccentricity to the stator, and only a rotor that turns shows
+/// which. O(phases) reference-model runs.
+pub fn weak_magnet_against_eccentricity(
+    bench: &Bench,
+    pole: u32,
+    phases: usize,
+) -> (f64, f64, f64) {
+    let rm = |d: Demagnetization| {
+        ReferenceModel::new(bench.settings)
+            .with_test(bench.test)
+            .with_demagnetization(d)
+    };
+    let p = bench.settings.params.pole_pairs;
+    let current = |sim: &crate::plant::reference::Simulation| -> Vec<f64> {
+        sim.truth
+            .iter()
+            .map(|t| {
+                let signs = shared::conditioning::commutation_signs(p * t.motor_angle as f32);
+                0.5 * (0..3)
+                    .map(|x| f64::from(signs[x]) * t.phase_currents[x])
+                    .sum::<f64>()
+            })
+            .collect()
+    };
+    let healthy_sim = rm(Demagnetization::None).simulate(&Scenario::new(FaultVector::NOMINAL));
+    let healthy = current(&healthy_sim);
+    let (lo, hi) = healthy_sim
+        .truth
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(l, h), t| {
+            (l.min(t.motor_angle), h.max(t.motor_angle))
+        });
+    let travel = (hi - lo) / std::f64::consts::TAU;
+    let column = |v: Vec<f64>| -> Vec<f64> { v.iter().zip(&healthy).map(|(a, b)| a - b).collect() };
+    let weak = column(current(
+        &rm(Demagnetization::Partial { loss: 0.1, pole })
+            .simulate(&Scenario::new(FaultVector::NOMINAL)),
+    ));
+    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let (mut best, mut at) = (0.0f64, 0.0f64);
+    for j in 0..phases {
+        let phase = j as f32 / phases as f32;
+        let mut k = *FaultVector::NOMINAL.as_array();
+        k[5] = 0.1;
+        k[6] = phase;
+        let Ok(k) = FaultVector::new(k) else { continue };
+        let ecc = column(current(
+            &rm(Demagnetization::None).simulate(&Scenario::new(k)),
+        ));
+        let cos =
+            weak.iter().zip(&ecc).map(|(a, b)| a * b).sum::<f64>() / (norm(&weak) * norm(&ecc));
+        if cos.abs() > best.abs() {
+            (best, at) = (cos, f64::from(phase));
+        }
+    }
+    (best, at, travel)
+}
+
 /// On the monitor model, at the healthy actuator: the cosine between the equivalent
 /// current's change with the magnets' flux (the back-EMF scale, h = 2 %) and its change with
 /// each fault component (one-sided from nominal, h = 0.02; the eccentricity's phase at an
