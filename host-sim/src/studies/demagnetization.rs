@@ -3,9 +3,17 @@
 //! against the same actuator whose winding is hot (the magnets' reversible flux change,
 //! which the day already plays), and how well the test fixes the magnets' flux at all.
 //!
-//! Per case, `seeds` reference-model runs of the healthy actuator with the magnets' loss,
-//! each identified by the flown FDI (GA and polish, the built-in calibration); the study's
-//! cost is those identifications (≈ 0.25 s each on one core).
+//! Three parts, all on the reference model (RM):
+//! * [`demagnetization_study`]: per case, `seeds` RM runs of the healthy actuator with the
+//!   magnets' loss, each identified by the flown FDI (GA and polish, the record's
+//!   calibration), and again told the flux left: 2 identifications per run.
+//! * [`flux_profile_study`]: a ninth parameter by brute force, `steps` identifications per
+//!   run.
+//! * [`weak_magnet_against_eccentricity`] (RM only) and [`flux_cosines`] (monitor model
+//!   only): whether the signals can be told apart at all.
+//!
+//! The cost is the identifications, ≈ 0.25 s each on one core: about 3 minutes for the
+//! whole study with 10 seeds.
 
 use anyhow::{anyhow, Result};
 use rayon::prelude::*;
