@@ -159,3 +159,38 @@ fn the_grease_study_runs_on_an_actuator_file_and_other_studies_still_refuse_it()
     ]);
     assert_eq!(o.status.code(), Some(7), "{}", text(&o));
 }
+
+/// Demagnetized magnets on the command line (issue 35): a form the parser does not know, a
+/// loss beyond the flux and a pole the rotor does not have are refused by name; a valid one
+/// is played and the FDI's verdict printed.
+#[test]
+fn demagnetization_is_played_or_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = path(&dir, "demag.csv");
+    for (arg, words) in [
+        ("ring:0.1", &["expected uniform or partial"][..]),
+        ("uniform:1.2", &["not a share"][..]),
+        ("partial:0.5@8", &["pole 8", "8 poles"][..]),
+    ] {
+        let o = host_sim(&[
+            "simulate",
+            "--faults",
+            HEALTHY,
+            "--out",
+            &out,
+            "--demagnetization",
+            arg,
+        ]);
+        refused(&o, words);
+    }
+    let o = host_sim(&[
+        "preflight",
+        "--faults",
+        HEALTHY,
+        "--demagnetization",
+        "partial:0.5@7",
+    ]);
+    let t = text(&o);
+    assert!(!t.contains("panicked"), "{t}");
+    assert!(t.contains("gain_drift"), "{t}");
+}
