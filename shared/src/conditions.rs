@@ -272,18 +272,8 @@ pub fn friction_factor_by_drag(calibration: &Calibration, ratio: f32) -> Option<
     }
     // The points by rising drag: the record's order reversed, at ln(drag).
     let mut points = [[0.0f32; 2]; 4];
-    let mut used = points.iter_mut();
-    for ([_, factor], &drag) in calibration
-        .friction_points
-        .iter()
-        .zip(&calibration.drag_points)
-        .rev()
-    {
-        if *factor > 0.0 && drag > 0.0 {
-            if let Some(slot) = used.next() {
-                *slot = [ln(drag), *factor];
-            }
-        }
+    for (slot, (factor, drag)) in points.iter_mut().zip(law_points(calibration).rev()) {
+        *slot = [ln(drag), factor];
     }
     Some(log_law(0.0, &points, ln(ratio)))
 }
@@ -292,13 +282,20 @@ pub fn friction_factor_by_drag(calibration: &Calibration, ratio: f32) -> Option<
 /// friction law by drag was measured at — the calibration day's (1) and each used friction
 /// point's — widened by [`DRAG_MARGIN`] at both ends. O(points).
 pub fn drag_within_law(calibration: &Calibration, ratio: f32) -> bool {
-    let (low, high) = calibration
+    let (low, high) =
+        law_points(calibration).fold((1.0f32, 1.0f32), |(lo, hi), (_, d)| (lo.min(d), hi.max(d)));
+    ratio >= low / DRAG_MARGIN && ratio <= high * DRAG_MARGIN
+}
+
+/// The friction law by drag's measured points, `(factor, drag)` in the record's order
+/// (rising temperature, falling drag): the friction points in use with a drag. O(points).
+fn law_points(calibration: &Calibration) -> impl DoubleEndedIterator<Item = (f32, f32)> + '_ {
+    calibration
         .friction_points
         .iter()
         .zip(&calibration.drag_points)
         .filter(|([_, factor], drag)| *factor > 0.0 && **drag > 0.0)
-        .fold((1.0f32, 1.0f32), |(lo, hi), (_, &d)| (lo.min(d), hi.max(d)));
-    ratio >= low / DRAG_MARGIN && ratio <= high * DRAG_MARGIN
+        .map(|([_, factor], drag)| (*factor, *drag))
 }
 
 /// `ln(factor)` linear in `x` between `points` (`[x, factor]` in rising `x`, unused ones —

@@ -29,13 +29,42 @@ use crate::studies::grease::Bench;
 /// Components the verdicts are counted over: every one but the eccentricity's phase.
 const JUDGED: [usize; 7] = [0, 1, 2, 3, 4, 5, 7];
 
-/// One case of the study.
+/// One case of the study: what the reference model plays (faults, the magnets' loss, the
+/// winding above the calibration day's).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DemagnetizationCase {
     pub name: &'static str,
+    pub faults: [f32; FAULT_COUNT],
     pub demagnetization: Demagnetization,
     /// Winding (and magnet) temperature above the calibration day's [K].
     pub winding_rise: f64,
+}
+
+const HEALTHY: [f32; FAULT_COUNT] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5];
+const SHORT_A: [f32; FAULT_COUNT] = [0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5];
+const GAIN: [f32; FAULT_COUNT] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.7];
+const NONE: Demagnetization = Demagnetization::None;
+
+const fn case(
+    name: &'static str,
+    faults: [f32; FAULT_COUNT],
+    demagnetization: Demagnetization,
+    winding_rise: f64,
+) -> DemagnetizationCase {
+    DemagnetizationCase {
+        name,
+        faults,
+        demagnetization,
+        winding_rise,
+    }
+}
+
+const fn uniform(loss: f64) -> Demagnetization {
+    Demagnetization::Uniform { loss }
+}
+
+const fn one_magnet(loss: f64, pole: u32) -> Demagnetization {
+    Demagnetization::Partial { loss, pole }
 }
 
 /// The study's cases: the healthy actuator at the day and hot, each form at three sizes
@@ -43,68 +72,36 @@ pub struct DemagnetizationCase {
 /// and 25 % of every pole's flux, or of one magnet's 10, 20 and 50 %), and a uniform loss
 /// on a hot winding.
 pub const CASES: [DemagnetizationCase; 10] = [
-    DemagnetizationCase {
-        name: "healthy",
-        demagnetization: Demagnetization::None,
-        winding_rise: 0.0,
-    },
-    DemagnetizationCase {
-        name: "healthy, winding +60 K (the reversible change only)",
-        demagnetization: Demagnetization::None,
-        winding_rise: 60.0,
-    },
-    DemagnetizationCase {
-        name: "uniform, 5 % of the flux (k9 0.1)",
-        demagnetization: Demagnetization::Uniform { loss: 0.05 },
-        winding_rise: 0.0,
-    },
-    DemagnetizationCase {
-        name: "uniform, 10 % (k9 0.2)",
-        demagnetization: Demagnetization::Uniform { loss: 0.10 },
-        winding_rise: 0.0,
-    },
-    DemagnetizationCase {
-        name: "uniform, 25 % (k9 0.5)",
-        demagnetization: Demagnetization::Uniform { loss: 0.25 },
-        winding_rise: 0.0,
-    },
-    DemagnetizationCase {
-        name: "uniform, 10 %, winding +60 K",
-        demagnetization: Demagnetization::Uniform { loss: 0.10 },
-        winding_rise: 60.0,
-    },
-    DemagnetizationCase {
-        name: "one magnet, 10 % of its flux",
-        demagnetization: Demagnetization::Partial {
-            loss: 0.10,
-            pole: 0,
-        },
-        winding_rise: 0.0,
-    },
-    DemagnetizationCase {
-        name: "one magnet, 20 %",
-        demagnetization: Demagnetization::Partial {
-            loss: 0.20,
-            pole: 0,
-        },
-        winding_rise: 0.0,
-    },
-    DemagnetizationCase {
-        name: "one magnet, 50 %",
-        demagnetization: Demagnetization::Partial {
-            loss: 0.50,
-            pole: 0,
-        },
-        winding_rise: 0.0,
-    },
-    DemagnetizationCase {
-        name: "one magnet, 50 %, another pole (3)",
-        demagnetization: Demagnetization::Partial {
-            loss: 0.50,
-            pole: 3,
-        },
-        winding_rise: 0.0,
-    },
+    case("healthy", HEALTHY, NONE, 0.0),
+    case(
+        "healthy, winding +60 K (the reversible change only)",
+        HEALTHY,
+        NONE,
+        60.0,
+    ),
+    case(
+        "uniform, 5 % of the flux (k9 0.1)",
+        HEALTHY,
+        uniform(0.05),
+        0.0,
+    ),
+    case("uniform, 10 % (k9 0.2)", HEALTHY, uniform(0.10), 0.0),
+    case("uniform, 25 % (k9 0.5)", HEALTHY, uniform(0.25), 0.0),
+    case("uniform, 10 %, winding +60 K", HEALTHY, uniform(0.10), 60.0),
+    case(
+        "one magnet, 10 % of its flux",
+        HEALTHY,
+        one_magnet(0.10, 0),
+        0.0,
+    ),
+    case("one magnet, 20 %", HEALTHY, one_magnet(0.20, 0), 0.0),
+    case("one magnet, 50 %", HEALTHY, one_magnet(0.50, 0), 0.0),
+    case(
+        "one magnet, 50 %, another pole (3)",
+        HEALTHY,
+        one_magnet(0.50, 3),
+        0.0,
+    ),
 ];
 
 /// What the FDI read on one case, over its seeds.
@@ -151,7 +148,8 @@ pub fn demagnetization_study(
         let rm = ReferenceModel::new(settings)
             .with_test(bench.test)
             .with_demagnetization(case.demagnetization);
-        let truth = FaultVector::NOMINAL;
+        let truth =
+            FaultVector::new(case.faults).map_err(|e| anyhow!("case {}: {e:?}", case.name))?;
         let flux_left = case
             .demagnetization
             .flux_left(settings.params.pole_pairs as u32);
@@ -233,77 +231,23 @@ pub fn demagnetization_study(
     Ok(rows)
 }
 
-/// One case of the flux profile: what the reference model plays (faults, the magnets' loss,
-/// the winding above the calibration day's).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ProfileCase {
-    pub name: &'static str,
-    pub faults: [f32; FAULT_COUNT],
-    pub demagnetization: Demagnetization,
-    pub winding_rise: f64,
-}
-
-const HEALTHY: [f32; FAULT_COUNT] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5];
-const SHORT_A: [f32; FAULT_COUNT] = [0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5];
-const GAIN: [f32; FAULT_COUNT] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.7];
-
 /// The profile's cases: the uniform loss at k9 0.1 / 0.2 / 0.5, the day (a hot winding), and
 /// the faults a flux loss could be mistaken for or hide behind (a short, a gain drift).
-pub const PROFILE_CASES: [ProfileCase; 8] = [
-    ProfileCase {
-        name: "healthy",
-        faults: HEALTHY,
-        demagnetization: Demagnetization::None,
-        winding_rise: 0.0,
-    },
-    ProfileCase {
-        name: "healthy, winding +60 K",
-        faults: HEALTHY,
-        demagnetization: Demagnetization::None,
-        winding_rise: 60.0,
-    },
-    ProfileCase {
-        name: "uniform 5 % (k9 0.1)",
-        faults: HEALTHY,
-        demagnetization: Demagnetization::Uniform { loss: 0.05 },
-        winding_rise: 0.0,
-    },
-    ProfileCase {
-        name: "uniform 10 % (k9 0.2)",
-        faults: HEALTHY,
-        demagnetization: Demagnetization::Uniform { loss: 0.10 },
-        winding_rise: 0.0,
-    },
-    ProfileCase {
-        name: "uniform 25 % (k9 0.5)",
-        faults: HEALTHY,
-        demagnetization: Demagnetization::Uniform { loss: 0.25 },
-        winding_rise: 0.0,
-    },
-    ProfileCase {
-        name: "short A 0.2",
-        faults: SHORT_A,
-        demagnetization: Demagnetization::None,
-        winding_rise: 0.0,
-    },
-    ProfileCase {
-        name: "short A 0.2 with uniform 10 %",
-        faults: SHORT_A,
-        demagnetization: Demagnetization::Uniform { loss: 0.10 },
-        winding_rise: 0.0,
-    },
-    ProfileCase {
-        name: "gain drift 0.7 with uniform 10 %",
-        faults: GAIN,
-        demagnetization: Demagnetization::Uniform { loss: 0.10 },
-        winding_rise: 0.0,
-    },
+pub const PROFILE_CASES: [DemagnetizationCase; 8] = [
+    case("healthy", HEALTHY, NONE, 0.0),
+    case("healthy, winding +60 K", HEALTHY, NONE, 60.0),
+    case("uniform 5 % (k9 0.1)", HEALTHY, uniform(0.05), 0.0),
+    case("uniform 10 % (k9 0.2)", HEALTHY, uniform(0.10), 0.0),
+    case("uniform 25 % (k9 0.5)", HEALTHY, uniform(0.25), 0.0),
+    case("short A 0.2", SHORT_A, NONE, 0.0),
+    case("short A 0.2 with uniform 10 %", SHORT_A, uniform(0.10), 0.0),
+    case("gain drift 0.7 with uniform 10 %", GAIN, uniform(0.10), 0.0),
 ];
 
 /// What the flux profile found for one case, over its seeds.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ProfileRow {
-    pub case: ProfileCase,
+    pub case: DemagnetizationCase,
     /// The share of the flux lost: played, and found (mean, largest error over seeds).
     pub true_loss: f64,
     pub found_loss: f64,
@@ -321,7 +265,7 @@ pub struct ProfileRow {
 pub fn flux_profile_study(
     bench: &Bench,
     record: &ActuatorRecord,
-    cases: &[ProfileCase],
+    cases: &[DemagnetizationCase],
     seeds: u64,
     steps: usize,
     mut progress: impl FnMut(&str),
