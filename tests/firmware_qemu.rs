@@ -132,7 +132,7 @@ fn host_identification(
 }
 
 fn faulty_trace() -> Trace {
-    let faults = FaultVector::new([0.2, 0.3, 0.15, 0.0, 0.0, 0.0, 0.5, 0.45]).expect("valid");
+    let faults = FaultVector::new([0.2, 0.3, 0.15, 0.0, 0.0, 0.0, 0.5, 0.45, 0.0]).expect("valid");
     let rm = ReferenceModel::new(ReferenceSettings::REFERENCE);
     let mut scenario = Scenario::new(faults);
     scenario.seed = 3;
@@ -503,8 +503,8 @@ fn a_power_loss_under_qemu_resumes_to_the_same_bits_and_a_damaged_record_restart
 fn firmware_with_an_actuator_record_gives_the_hosts_bits_for_both_actuators() {
     use host_sim::files::actuator::Actuator;
     for (file, faults) in [
-        ("reference.toml", [0.0, 0.2, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]),
-        ("light-28v.toml", [0.3, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5]),
+        ("reference.toml", [0.0, 0.2, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]),
+        ("light-28v.toml", [0.3, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]),
     ] {
         let actuator =
             Actuator::load(&workspace_root().join("actuators").join(file)).expect("loads");
@@ -595,7 +595,7 @@ fn firmware_with_a_friction_law_by_drag_gives_the_hosts_bits() {
     let mut cold = settings;
     cold.conditions.gear_temperature -= 40.0;
     let mut scenario =
-        Scenario::new(FaultVector::new([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]).expect("valid"));
+        Scenario::new(FaultVector::new([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]).expect("valid"));
     scenario.seed = 2;
     let trace = ReferenceModel::new(cold)
         .with_test(record.test)

@@ -37,7 +37,7 @@ fn empty_buffer() -> Box<OnboardMeasured> {
 
 /// The rows the controller would record from an actuator that behaves like the monitor
 /// model with faults `k`.
-fn monitor_rows(k: [f32; 8], samples: usize) -> Vec<TraceRow> {
+fn monitor_rows(k: [f32; 9], samples: usize) -> Vec<TraceRow> {
     let s = settings();
     let model = MonitorModel::new(s.actuator.params, &Calibration::IDENTITY);
     let k = FaultVector::new(k).expect("a valid fault vector");
@@ -74,7 +74,7 @@ fn trace_bytes(rows: &[TraceRow], sample_rate_hz: u32) -> Vec<u8> {
     out
 }
 
-const FAULTS: [f32; 8] = [0.2, 0.3, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5];
+const FAULTS: [f32; 9] = [0.2, 0.3, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0];
 
 #[test]
 fn trace_source_gives_every_row_then_end_of_test() {

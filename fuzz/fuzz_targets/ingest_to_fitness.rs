@@ -20,7 +20,7 @@ use shared::trace::{Crc32, TraceHeader, ROW_BYTES};
 use shared::{ActuatorParams, Calibration, FaultVector, FitnessProblem, LowPass};
 
 fn fault_vector(bytes: &[u8]) -> FaultVector {
-    let mut k = [0.5f32; 8];
+    let mut k = [0.5f32; 9];
     for (slot, b) in k.iter_mut().zip(bytes) {
         *slot = f32::from(*b) / 255.0;
     }

@@ -11,7 +11,7 @@ use shared::trace::{Crc32, TRAILER_BYTES};
 use shared::FaultVector;
 
 fn good_trace() -> Trace {
-    let k = FaultVector::new([0.3, 0.1, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]).unwrap();
+    let k = FaultVector::new([0.3, 0.1, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]).unwrap();
     // The paper's test: its CSV has no comment line, so every line number below is the
     // header's plus the row (version 2's `# test:` line and version 3's `v_bus,temp`
     // columns are checked in trace_file's tests).

@@ -122,7 +122,7 @@ fn chirp_current(sim: &Simulation) -> f64 {
 
 #[test]
 fn a_demagnetized_motor_draws_more_current_for_the_same_chirp_and_conserves_energy() {
-    let k = FaultVector::new([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]).expect("healthy");
+    let k = FaultVector::new([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]).expect("healthy");
     let healthy = rm(Demagnetization::None).simulate(&Scenario::new(k));
     let demag = rm(Demagnetization::Uniform { loss: 0.2 }).simulate(&Scenario::new(k));
     let partial = rm(Demagnetization::Partial { loss: 0.5, pole: 0 }).simulate(&Scenario::new(k));

@@ -15,7 +15,7 @@ fn rm() -> ReferenceModel {
     ReferenceModel::new(ReferenceSettings::REFERENCE)
 }
 
-fn trace(model: ReferenceModel, faults: [f32; 8]) -> Trace {
+fn trace(model: ReferenceModel, faults: [f32; 9]) -> Trace {
     model
         .simulate(&Scenario::new(FaultVector::new(faults).unwrap()))
         .trace
@@ -25,12 +25,12 @@ fn verdict(t: &Trace) -> Domain {
     assess(t, &DomainLimits::REFERENCE_ACTUATOR).unwrap().2
 }
 
-const HEALTHY: [f32; 8] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5];
-const WORN: [f32; 8] = [0.3, 0.3, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5];
+const HEALTHY: [f32; 9] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0];
+const WORN: [f32; 9] = [0.3, 0.3, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0];
 
 #[test]
 fn actuators_the_model_explains_are_within() {
-    for faults in [HEALTHY, WORN, [0.0, 0.0, 0.3, 0.0, 0.0, 0.0, 0.5, 0.5]] {
+    for faults in [HEALTHY, WORN, [0.0, 0.0, 0.3, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]] {
         assert_eq!(verdict(&trace(rm(), faults)), Domain::Within, "{faults:?}");
     }
 }

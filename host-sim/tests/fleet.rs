@@ -59,19 +59,19 @@ fn ingesting_twice_adds_nothing_and_overlapping_downloads_add_only_new_flights()
     let (ok, out) = ingest(&db, &[&first], &[]);
     assert!(ok, "{out}");
     assert!(
-        out.contains("10 v3 records, 10 new, 6 empty slots"),
+        out.contains("10 v4 records, 10 new, 6 empty slots"),
         "{out}"
     );
     assert_eq!(stored(&db), 10);
     let (ok, out) = ingest(&db, &[&first], &[]);
-    assert!(ok && out.contains("10 v3 records, 0 new"), "{out}");
+    assert!(ok && out.contains("10 v4 records, 0 new"), "{out}");
     assert_eq!(stored(&db), 10);
     // The next download of the same ring: flights 4..20 (the oldest overwritten).
     let later = dir.path().join("later").join("ACT-1.bin");
     std::fs::create_dir(later.parent().unwrap()).unwrap();
     std::fs::write(&later, log_image(16, 0..20, 0.1)).unwrap();
     let (ok, out) = ingest(&db, &[later.parent().unwrap()], &[]);
-    assert!(ok && out.contains("16 v3 records, 10 new"), "{out}");
+    assert!(ok && out.contains("16 v4 records, 10 new"), "{out}");
     assert_eq!(stored(&db), 20);
     // Another actuator's log under its own serial.
     let other = dir.path().join("renamed.bin");
@@ -120,12 +120,12 @@ fn damaged_unknown_and_contradicting_logs_are_refused_whole_and_the_store_keeps_
     assert_eq!(stored(&db), 11);
 
     // A record version this tool does not read: refused by name.
-    let mut v4 = log_image(8, 12..14, 0.1);
-    v4[(12 % 8) * RECORD_BYTES + 4] = 4;
-    let v4_path = dir.path().join("ACT-8.bin");
-    std::fs::write(&v4_path, &v4).unwrap();
-    let (ok, out) = ingest(&db, &[&v4_path], &[]);
-    assert!(!ok && out.contains("version-4 record"), "{out}");
+    let mut v5 = log_image(8, 12..14, 0.1);
+    v5[(12 % 8) * RECORD_BYTES + 4] = 5;
+    let v5_path = dir.path().join("ACT-8.bin");
+    std::fs::write(&v5_path, &v5).unwrap();
+    let (ok, out) = ingest(&db, &[&v5_path], &[]);
+    assert!(!ok && out.contains("version-5 record"), "{out}");
     assert_eq!(stored(&db), 11);
 
     // Flight 3 of ACT-7 again, with other contents: refused, the stored one kept.
@@ -161,6 +161,74 @@ fn a_version_1_log_is_ingested() {
     std::fs::write(&path, &image).unwrap();
     let (ok, out) = ingest(&db, &[&path], &[]);
     assert!(ok && out.contains("3 v1 records, 3 new"), "{out}");
+}
+
+/// A store of schema 1 (records of eight components, as the tool wrote before the ninth
+/// fault) is migrated in place when opened: every record re-encoded as the current version,
+/// nothing lost, and the old log ingested again adds nothing.
+#[test]
+fn a_schema_1_store_of_eight_component_records_is_migrated_in_place() {
+    use shared::health::{RECORD_V3_BYTES, RECORD_VERSION};
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("fleet.sqlite");
+    let mut image = vec![0xFF; 8 * RECORD_V3_BYTES];
+    for f in 0..6u32 {
+        let at = f as usize * RECORD_V3_BYTES;
+        image[at..at + RECORD_V3_BYTES]
+            .copy_from_slice(&record(f, 0.1 + 0.01 * f as f32, Domain::Within).encode_v3());
+    }
+    let path = dir.path().join("OLD-3.bin");
+    std::fs::write(&path, &image).unwrap();
+    // What the schema-1 tool kept: the version-3 bytes as sent, schema 1.
+    {
+        let c = rusqlite::Connection::open(&db).unwrap();
+        c.execute_batch(
+            "CREATE TABLE meta (key TEXT PRIMARY KEY, value INTEGER NOT NULL);
+             CREATE TABLE records (serial TEXT NOT NULL, flight INTEGER NOT NULL,
+                 version INTEGER NOT NULL, bytes BLOB NOT NULL,
+                 PRIMARY KEY (serial, flight)) WITHOUT ROWID;
+             CREATE TABLE ingests (id INTEGER PRIMARY KEY, source TEXT NOT NULL,
+                 serial TEXT NOT NULL, records INTEGER NOT NULL, added INTEGER NOT NULL);
+             INSERT INTO meta VALUES ('schema', 1);",
+        )
+        .unwrap();
+        for f in 0..6u32 {
+            let at = f as usize * RECORD_V3_BYTES;
+            c.execute(
+                "INSERT INTO records VALUES ('OLD-3', ?1, 3, ?2)",
+                rusqlite::params![f, &image[at..at + RECORD_V3_BYTES]],
+            )
+            .unwrap();
+        }
+    }
+    let (ok, out) = ingest(&db, &[&path], &[]);
+    assert!(ok, "{out}");
+    assert!(out.contains("migrated from schema 1 to 2 (6 records"), "{out}");
+    assert!(out.contains("6 v3 records, 0 new"), "{out}");
+    let c = rusqlite::Connection::open(&db).unwrap();
+    let schema: i64 = c
+        .query_row("SELECT value FROM meta WHERE key = 'schema'", [], |r| r.get(0))
+        .unwrap();
+    assert_eq!(schema, 2);
+    let mut q = c
+        .prepare("SELECT flight, version, bytes FROM records ORDER BY flight")
+        .unwrap();
+    let rows: Vec<(u32, u8, Vec<u8>)> = q
+        .query_map([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))
+        .unwrap()
+        .map(Result::unwrap)
+        .collect();
+    assert_eq!(rows.len(), 6);
+    for (f, version, bytes) in rows {
+        assert_eq!((version, bytes.len()), (RECORD_VERSION, RECORD_BYTES));
+        let r = HealthRecord::decode(&bytes).unwrap();
+        let old = HealthRecord::decode(&image[f as usize * RECORD_V3_BYTES..]).unwrap();
+        assert_eq!(r, old);
+        assert_eq!(r.faults.demagnetization(), 0.0);
+    }
+    // Opening it again migrates nothing.
+    let (ok, out) = ingest(&db, &[&path], &[]);
+    assert!(ok && !out.contains("migrated"), "{out}");
 }
 
 #[test]

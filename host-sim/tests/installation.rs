@@ -13,10 +13,10 @@ use shared::conditions::TestConditions;
 use shared::domain::{Domain, DomainLimits, OutsideReason};
 use shared::{ActuatorParams, Calibration, FaultVector};
 
-const HEALTHY: [f32; 8] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5];
-const SHORT_A: [f32; 8] = [0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5];
+const HEALTHY: [f32; 9] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0];
+const SHORT_A: [f32; 9] = [0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0];
 
-fn simulate(settings: ReferenceSettings, k: [f32; 8]) -> Simulation {
+fn simulate(settings: ReferenceSettings, k: [f32; 9]) -> Simulation {
     ReferenceModel::new(settings).simulate(&Scenario::new(FaultVector::new(k).expect("valid")))
 }
 
@@ -115,7 +115,7 @@ fn phase_gain_eccentricity_scales_each_phase_by_its_own_constant() {
     settings.eccentricity = EccentricityPhysics::PhaseGain;
     let rm = ReferenceModel::new(settings);
     // k7 = 0.5: the minimum gap faces phase A's coil group.
-    let k = FaultVector::new([0.0, 0.0, 0.0, 0.0, 0.0, 0.6, 0.5, 0.5]).expect("valid");
+    let k = FaultVector::new([0.0, 0.0, 0.0, 0.0, 0.0, 0.6, 0.5, 0.5, 0.0]).expect("valid");
     let z = f64::from(k.effects().eccentricity_z);
     let faulty = rm.coupling_shapes(&k);
     let healthy = rm.coupling_shapes(&FaultVector::NOMINAL);
@@ -218,7 +218,7 @@ fn another_dead_time_is_named_as_a_changed_installation() {
         );
     }
     // The calibrated drive itself stays within, its shorts too.
-    for k in [HEALTHY, SHORT_A, [0.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.5, 0.5]] {
+    for k in [HEALTHY, SHORT_A, [0.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]] {
         let sim = simulate(ReferenceSettings::REFERENCE, k);
         let (day, domain) = verdict(&sim, &Calibration::REFERENCE_ACTUATOR);
         assert_eq!(domain, Domain::Within, "{k:?}: {day:?}");
@@ -273,7 +273,7 @@ fn the_chirp_tells_a_cold_grease_from_wear_by_its_drag() {
     let bench = Bench::REFERENCE;
     let base = bench.day();
     let law = HealthyGreaseLaw::measure(&bench, true, 2).unwrap();
-    let worn = FaultVector::saturating([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
+    let worn = FaultVector::saturating([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]);
     let fit = fits(&bench, settings(&bench, true, base, base - 40.0), worn, 2).unwrap();
     for f in &fit {
         let (viscous, coulomb) = law.ratios(f);

@@ -13,15 +13,15 @@ fn rm() -> ReferenceModel {
     ReferenceModel::new(ReferenceSettings::REFERENCE).with_test(PreflightTest::PAPER)
 }
 
-fn run(k: [f32; 8]) -> Simulation {
+fn run(k: [f32; 9]) -> Simulation {
     rm().simulate(&Scenario::new(
         FaultVector::new(k).expect("valid fault vector"),
     ))
 }
 
-const HEALTHY: [f32; 8] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5];
+const HEALTHY: [f32; 9] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0];
 
-fn with(index: usize, value: f32) -> [f32; 8] {
+fn with(index: usize, value: f32) -> [f32; 9] {
     let mut k = HEALTHY;
     k[index] = value;
     k
@@ -71,7 +71,7 @@ fn healthy_actuator_tracks_the_chirp() {
 
 #[test]
 fn floating_neutral_keeps_the_phase_currents_balanced() {
-    let sim = run([0.3, 0.2, 0.4, 0.1, 0.0, 0.3, 0.2, 0.7]);
+    let sim = run([0.3, 0.2, 0.4, 0.1, 0.0, 0.3, 0.2, 0.7, 0.0]);
     for t in &sim.truth {
         let sum: f64 = t.phase_currents.iter().sum();
         assert!(sum.abs() < 1e-9, "{t:?}");
@@ -113,7 +113,7 @@ fn positive_current_reference_gives_positive_torque() {
 
 #[test]
 fn energy_is_conserved() {
-    for k in [HEALTHY, [0.5, 0.5, 0.3, 0.0, 0.2, 0.4, 0.8, 0.3]] {
+    for k in [HEALTHY, [0.5, 0.5, 0.3, 0.0, 0.2, 0.4, 0.8, 0.3, 0.0]] {
         let e = run(k).energy;
         eprintln!("{e:?}");
         let electrical = e.copper_loss + e.magnetic + e.converted;
@@ -247,7 +247,7 @@ fn each_fault_alone_moves_the_current_as_physics_says() {
 #[test]
 fn a_seed_fixes_every_bit_and_noise_follows_it() {
     let scenario = |seed, noise| Scenario {
-        faults: FaultVector::new([0.2, 0.3, 0.1, 0.0, 0.0, 0.2, 0.3, 0.6]).unwrap(),
+        faults: FaultVector::new([0.2, 0.3, 0.1, 0.0, 0.0, 0.2, 0.3, 0.6, 0.0]).unwrap(),
         current_ref_noise: noise,
         seed,
     };
@@ -273,9 +273,9 @@ fn a_seed_fixes_every_bit_and_noise_follows_it() {
 #[test]
 fn every_corner_of_the_fault_space_simulates_finitely() {
     for corner in [
-        [1.0f32; 8],
-        [0.0; 8],
-        [1.0, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0, 0.0],
+        [1.0f32; 9],
+        [0.0; 9],
+        [1.0, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0],
     ] {
         let sim = run(corner);
         for s in sim.trace.samples() {

@@ -61,7 +61,7 @@ fn format() -> RigFormat {
     }
 }
 
-fn recorded(faults: [f32; 8], seed: u64) -> (host_sim::files::trace::Trace, Vec<TraceSample>) {
+fn recorded(faults: [f32; 9], seed: u64) -> (host_sim::files::trace::Trace, Vec<TraceSample>) {
     let settings = ReferenceSettings {
         pre_roll: 0.21, // 0.2 s of idle in the recording before the usual 10 ms hold
         ..ReferenceSettings::REFERENCE
@@ -76,7 +76,7 @@ fn recorded(faults: [f32; 8], seed: u64) -> (host_sim::files::trace::Trace, Vec<
 
 #[test]
 fn a_50_khz_recording_with_idle_and_renamed_columns_identifies_like_the_10_khz_trace() {
-    let truth = [0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5];
+    let truth = [0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0];
     let (at_control_rate, rows) = recorded(truth, 4);
     assert!(rows.len() > 5 * at_control_rate.samples().len() + 9_000);
     let csv = rig_csv(&rows);
@@ -110,7 +110,7 @@ fn a_50_khz_recording_with_idle_and_renamed_columns_identifies_like_the_10_khz_t
 
 #[test]
 fn what_is_wrong_with_a_recording_is_refused_by_name() {
-    let (_, rows) = recorded([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5], 1);
+    let (_, rows) = recorded([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0], 1);
     let test = PreflightTest::STANDSTILL;
     let refused = |csv: &str, f: &RigFormat| import(csv.as_bytes(), f, &test, 1e-4).unwrap_err();
 
@@ -159,7 +159,7 @@ fn what_is_wrong_with_a_recording_is_refused_by_name() {
 fn a_recording_that_ends_at_the_tests_last_instant_is_whole() {
     // Seen by a user: a 10 kHz recording whose last row is the test's last sample instant was
     // refused as too short. The trace itself, written as a rig recording, is exactly that.
-    let (trace, _) = recorded([0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5], 2);
+    let (trace, _) = recorded([0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0], 2);
     let rows = trace.samples();
     let last = rows.last().unwrap().time;
     assert!(

@@ -10,7 +10,7 @@ use shared::domain::OutsideReason;
 use shared::{ActuatorParams, FaultVector};
 
 fn sensor_verdict(
-    faults: [f32; 8],
+    faults: [f32; 9],
     noise: f64,
     seed: u64,
     fault: Option<SensorFault>,
@@ -27,8 +27,8 @@ fn sensor_verdict(
         .sensor_fault()
 }
 
-const HEALTHY: [f32; 8] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5];
-const STICKY: [f32; 8] = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5];
+const HEALTHY: [f32; 9] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0];
+const STICKY: [f32; 9] = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0];
 
 fn named(kind: &str, is: fn(&OutsideReason) -> bool) {
     let fault = SensorFault::parse(kind).unwrap();

@@ -10,10 +10,10 @@ use shared::conditioning::commutation_signs;
 use shared::test_design::{PreflightTest, StandstillSegment};
 use shared::FaultVector;
 
-const HEALTHY: [f32; 8] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5];
+const HEALTHY: [f32; 9] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0];
 
 /// The step design's physics, on the ideal drive it was designed for.
-fn standstill(k: [f32; 8]) -> Simulation {
+fn standstill(k: [f32; 9]) -> Simulation {
     ReferenceModel::new(ReferenceSettings {
         current_noise: 0.0,
         ..ReferenceSettings::IDEAL_DRIVE
@@ -37,7 +37,7 @@ fn plateaus(sim: &Simulation) -> [f64; 3] {
 }
 
 /// RMS of each pair's current ½(i_+ − i_−) over its "on" window of the injection (truth).
-fn injection_rms(settings: ReferenceSettings, k: [f32; 8]) -> [f64; 3] {
+fn injection_rms(settings: ReferenceSettings, k: [f32; 9]) -> [f64; 3] {
     let sim = ReferenceModel::new(ReferenceSettings {
         current_noise: 0.0,
         ..settings
@@ -262,7 +262,7 @@ fn an_injection_the_bridge_cannot_apply_is_named_not_identified() {
     let limits = DomainLimits::REFERENCE_ACTUATOR;
     let params = shared::ActuatorParams::REFERENCE;
     let calibration = shared::Calibration::REFERENCE_ACTUATOR;
-    let day = |test: PreflightTest, k: [f32; 8]| {
+    let day = |test: PreflightTest, k: [f32; 9]| {
         let sim = ReferenceModel::new(ReferenceSettings::REFERENCE)
             .with_test(test)
             .simulate(&Scenario::new(FaultVector::new(k).expect("valid")));

@@ -11,7 +11,7 @@ use shared::ActuatorParams;
 use shared::FaultVector;
 
 fn trace() -> Trace {
-    let k = FaultVector::new([0.3, 0.1, 0.2, 0.0, 0.0, 0.1, 0.4, 0.6]).unwrap();
+    let k = FaultVector::new([0.3, 0.1, 0.2, 0.0, 0.0, 0.1, 0.4, 0.6, 0.0]).unwrap();
     // The step design (5 520 rows) on the ideal drive: exact bus readings.
     ReferenceModel::new(ReferenceSettings::IDEAL_DRIVE)
         .with_test(PreflightTest::STANDSTILL)

@@ -14,7 +14,7 @@ use crate::capacity::{POPULATION, TEST_SAMPLES};
 use crate::command::ChirpCommand;
 use crate::domain::DomainLimits;
 use crate::drive::DriveSettings;
-use crate::fault::{DETECTION_THRESHOLD, FAULT_COUNT};
+use crate::fault::{FaultVector, DETECTION_THRESHOLD, FAULT_COUNT, PAPER_FAULT_COUNT};
 use crate::ga::{GaSettings, GENES};
 use crate::params::{ActuatorParams, PARAM_WORDS};
 use crate::polish::{PolishSettings, MAX_PROBES};
@@ -30,8 +30,9 @@ pub const RECORD_MAGIC: [u8; 4] = *b"EMAA";
 /// the drive, which reads as [`DriveSettings::TYPICAL`]; none before 6 has the
 /// calibration's duty delay, which reads as 0: the controller of those records applied
 /// each period's volts at its sample; none before 7 has the grease's drag law, which reads
-/// as none: friction follows the measured temperature).
-pub const RECORD_VERSION: u16 = 7;
+/// as none: friction follows the measured temperature; none before 8 has the GA's initial
+/// guess of the ninth component, demagnetization, which reads as 0: no flux lost).
+pub const RECORD_VERSION: u16 = 8;
 /// 32-bit words in the body of version 1.
 const BODY_WORDS_V1: usize = 72;
 /// Words version 2 adds at the end of [`run_words`]: the injection's frequency, the pair
@@ -61,8 +62,13 @@ const BODY_WORDS_V6: usize = BODY_WORDS_V5 + TIMING_WORDS;
 /// Words version 7 adds at the end: the calibration's viscous drag and each friction
 /// point's drag.
 const GREASE_WORDS: usize = 1 + FRICTION_POINTS;
+/// 32-bit words in the body of version 7.
+const BODY_WORDS_V7: usize = BODY_WORDS_V6 + GREASE_WORDS;
+/// Words version 8 adds at the end: the initial guess's components past the paper's eight
+/// (demagnetization). The body's guess before it keeps the paper's eight.
+const NINTH_WORDS: usize = GENES - PAPER_FAULT_COUNT;
 /// 32-bit words in the body.
-const BODY_WORDS: usize = BODY_WORDS_V6 + GREASE_WORDS;
+const BODY_WORDS: usize = BODY_WORDS_V7 + NINTH_WORDS;
 /// Bytes of one record: magic, version, length, body, CRC-32.
 pub const RECORD_BYTES: usize = 8 + 4 * BODY_WORDS + 4;
 /// Bytes of a version 1 record.
@@ -77,6 +83,8 @@ pub const RECORD_BYTES_V4: usize = 8 + 4 * BODY_WORDS_V4 + 4;
 pub const RECORD_BYTES_V5: usize = 8 + 4 * BODY_WORDS_V5 + 4;
 /// Bytes of a version 6 record.
 pub const RECORD_BYTES_V6: usize = 8 + 4 * BODY_WORDS_V6 + 4;
+/// Bytes of a version 7 record.
+pub const RECORD_BYTES_V7: usize = 8 + 4 * BODY_WORDS_V7 + 4;
 
 /// Why a record was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -271,6 +279,10 @@ impl ActuatorRecord {
         for v in self.calibration.drag_points {
             w.f32(v);
         }
+        let guess = self.ga.initial_guess.unwrap_or([0.0; GENES]);
+        for &v in guess.get(PAPER_FAULT_COUNT..).unwrap_or(&[]) {
+            w.f32(v);
+        }
         let mut crc = Crc32::new();
         crc.update(w.out.get(..RECORD_BYTES - 4).unwrap_or(&[]));
         w.bytes(&crc.finish().to_le_bytes());
@@ -299,6 +311,7 @@ impl ActuatorRecord {
             4 => (BODY_WORDS_V4, RECORD_BYTES_V4),
             5 => (BODY_WORDS_V5, RECORD_BYTES_V5),
             6 => (BODY_WORDS_V6, RECORD_BYTES_V6),
+            7 => (BODY_WORDS_V7, RECORD_BYTES_V7),
             RECORD_VERSION => (BODY_WORDS, RECORD_BYTES),
             _ => return Err(ActuatorRecordError::UnsupportedVersion { found: version }),
         };
@@ -371,7 +384,11 @@ impl ActuatorRecord {
             *c = circular_mask & (1 << i) != 0;
         }
         let has_guess = r.u32();
-        let guess = r.f32s::<GENES>();
+        // The paper's eight here; the rest at the end (version 8), else nominal.
+        let mut guess = *FaultVector::NOMINAL.as_array();
+        for (g, v) in guess.iter_mut().zip(r.f32s::<PAPER_FAULT_COUNT>()) {
+            *g = v;
+        }
         if version >= 2 {
             let [frequency, pair_r, pair_l, temperature, magnet] = r.f32s::<5>();
             for point in &mut calibration.friction_points {
@@ -453,6 +470,12 @@ impl ActuatorRecord {
             calibration.viscous = r.f32();
             for d in &mut calibration.drag_points {
                 *d = r.f32();
+            }
+        }
+        let mut ga = ga;
+        if let (true, Some(guess)) = (version >= 8, &mut ga.initial_guess) {
+            for g in guess.iter_mut().skip(PAPER_FAULT_COUNT) {
+                *g = r.f32();
             }
         }
         let record = Self {
@@ -725,7 +748,9 @@ pub(crate) fn run_words(
             .fold(0u32, |m, (i, &c)| m | (u32::from(c) << i)),
     );
     word(u32::from(g.initial_guess.is_some()));
-    f32s(&g.initial_guess.unwrap_or([0.0; GENES]), &mut word);
+    // The paper's eight components of the guess (the ninth ends the record, version 8).
+    let guess = g.initial_guess.unwrap_or([0.0; GENES]);
+    f32s(guess.get(..PAPER_FAULT_COUNT).unwrap_or(&[]), &mut word);
     // Version 2: the day's words.
     f32s(
         &[
@@ -962,7 +987,7 @@ mod tests {
         assert_eq!(r.polish, custom.polish);
         // A compensation word other than 0 or 1, re-sealed: refused, not read as "on".
         let mut flag = v6;
-        let at = RECORD_BYTES - 4 - 12 - 4 * GREASE_WORDS;
+        let at = RECORD_BYTES - 4 - 12 - 4 * (GREASE_WORDS + NINTH_WORDS);
         flag[at..at + 4].copy_from_slice(&7u32.to_le_bytes());
         let mut crc = Crc32::new();
         crc.update(&flag[..RECORD_BYTES - 4]);
@@ -989,6 +1014,29 @@ mod tests {
                 field: RecordField::DriveDeadTime
             })
         );
+    }
+
+    #[test]
+    fn a_version_7_record_reads_with_no_demagnetization_in_its_guess() {
+        let mut custom = ActuatorRecord::REFERENCE;
+        let mut guess = *FaultVector::NOMINAL.as_array();
+        guess[0] = 0.1;
+        guess[8] = 0.2;
+        custom.ga.initial_guess = Some(guess);
+        assert_eq!(custom.validate(), Ok(()));
+        let v8 = custom.encode();
+        assert_eq!(v8.len(), RECORD_BYTES);
+        assert_eq!(ActuatorRecord::decode(&v8), Ok(custom));
+        let v7 = older_record(7, &v8[8..8 + 4 * BODY_WORDS_V7]);
+        assert_eq!(v7.len(), RECORD_BYTES_V7);
+        let r = ActuatorRecord::decode(&v7).unwrap();
+        let mut eight = guess;
+        eight[8] = 0.0;
+        assert_eq!(r.ga.initial_guess, Some(eight));
+        assert_eq!((r.calibration, r.drive, r.polish), (custom.calibration, custom.drive, custom.polish));
+        // Without a guess the ninth word is not read into one.
+        custom.ga.initial_guess = None;
+        assert_eq!(ActuatorRecord::decode(&custom.encode()), Ok(custom));
     }
 
     #[test]
@@ -1118,10 +1166,10 @@ mod tests {
             Err(ActuatorRecordError::TooShort { found: 100 })
         );
         let mut other = bytes;
-        other[4] = 8;
+        other[4] = 9;
         assert_eq!(
             ActuatorRecord::decode(&other),
-            Err(ActuatorRecordError::UnsupportedVersion { found: 8 })
+            Err(ActuatorRecordError::UnsupportedVersion { found: 9 })
         );
         let mut other = bytes;
         other[0] = b'X';

@@ -1,6 +1,8 @@
 //! The fault vector `k` (SPEC §3) and its mapping to physical quantities, in one place.
 //!
-//! Eight components, each in `[0, 1]`:
+//! Nine components, each in `[0, 1]`: the paper's eight and the magnets' flux loss (the
+//! paper's named next fault). The paper's error `e_tot` (eq. 4) stays over the first
+//! [`PAPER_FAULT_COUNT`].
 //!
 //! | index | accessor | fault | mapping |
 //! | --- | --- | --- | --- |
@@ -10,6 +12,7 @@
 //! | 5 | [`FaultVector::eccentricity`] | static eccentricity amplitude | Z = [`ECCENTRICITY_Z_MAX`] · k6 |
 //! | 6 | [`FaultVector::eccentricity_phase`] | eccentricity phase | φ = −π + 2π·k7 (circular) |
 //! | 7 | [`FaultVector::gain_drift`] | proportional-gain drift | K_p × (0.5 + k8) |
+//! | 8 | [`FaultVector::demagnetization`] | irreversible loss of the magnets' flux | flux × (1 − [`DEMAGNETIZATION_LOSS_MAX`]·k9) |
 
 use crate::math::{abs, TAU};
 
@@ -17,7 +20,14 @@ use crate::math::{abs, TAU};
 pub const BACKLASH_SCALE_MAX: f32 = 100.0;
 
 /// Number of components of the fault vector.
-pub const FAULT_COUNT: usize = 8;
+pub const FAULT_COUNT: usize = 9;
+
+/// The paper's components (k1 … k8): its tables and its `e_tot` (eq. 4) are over these.
+pub const PAPER_FAULT_COUNT: usize = 8;
+
+/// Share of the magnets' flux lost at full demagnetization (k9 = 1): half the flux, past
+/// which the actuator has lost its torque margin long before.
+pub const DEMAGNETIZATION_LOSS_MAX: f32 = 0.5;
 
 /// A complete short circuit (N = 0) has no torque at all in its sectors; the models floor the
 /// healthy fraction of turns here so that every `k` simulates without blow-up.
@@ -38,10 +48,12 @@ pub const FAULT_NAMES: [&str; FAULT_COUNT] = [
     "eccentricity",
     "ecc_phase",
     "gain_drift",
+    "demagnetization",
 ];
 
 /// Which component of the vector is circular (the eccentricity phase wraps at 0 ≡ 1).
-pub const CIRCULAR: [bool; FAULT_COUNT] = [false, false, false, false, false, false, true, false];
+pub const CIRCULAR: [bool; FAULT_COUNT] =
+    [false, false, false, false, false, false, true, false, false];
 
 /// Why a fault vector was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -53,14 +65,24 @@ pub enum FaultVectorError {
     OutOfRange { index: u8 },
 }
 
-/// The actuator health: eight normalised fault magnitudes, each in `[0, 1]`.
+/// The actuator health: nine normalised fault magnitudes, each in `[0, 1]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct FaultVector([f32; FAULT_COUNT]);
 
 impl FaultVector {
     /// The healthy actuator (eccentricity phase 0.5 by convention, gain drift 0.5 = no drift).
-    pub const NOMINAL: Self = Self([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
+    pub const NOMINAL: Self = Self([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]);
+
+    /// The paper's eight components with no demagnetization (a record of the
+    /// eight-component versions). Checked as [`new`](Self::new).
+    pub fn from_paper(k: [f32; PAPER_FAULT_COUNT]) -> Result<Self, FaultVectorError> {
+        let mut all = Self::NOMINAL.0;
+        for (a, v) in all.iter_mut().zip(k) {
+            *a = v;
+        }
+        Self::new(all)
+    }
 
     /// Checks every component is finite and in `[0, 1]`.
     pub fn new(k: [f32; FAULT_COUNT]) -> Result<Self, FaultVectorError> {
@@ -89,7 +111,7 @@ impl FaultVector {
     }
 
     /// The raw components, in the order of [`FAULT_NAMES`].
-    pub fn as_array(&self) -> &[f32; FAULT_COUNT] {
+    pub const fn as_array(&self) -> &[f32; FAULT_COUNT] {
         &self.0
     }
 
@@ -117,6 +139,10 @@ impl FaultVector {
     pub fn gain_drift(&self) -> f32 {
         self.0[7]
     }
+    /// k9: normalised demagnetization (share of the magnets' flux lost irreversibly).
+    pub fn demagnetization(&self) -> f32 {
+        self.0[8]
+    }
 
     /// The physical effect of each fault: the single mapping used by every model.
     pub fn effects(&self) -> FaultEffects {
@@ -129,6 +155,7 @@ impl FaultVector {
             eccentricity_z: ECCENTRICITY_Z_MAX * self.eccentricity(),
             eccentricity_phase: -core::f32::consts::PI + TAU * self.eccentricity_phase(),
             kp_scale: 0.5 + self.gain_drift(),
+            flux_scale: 1.0 - DEMAGNETIZATION_LOSS_MAX * self.demagnetization(),
         }
     }
 }
@@ -209,6 +236,9 @@ pub struct FaultEffects {
     pub eccentricity_phase: f32,
     /// Multiplier of the position-loop proportional gain (0.5 … 1.5).
     pub kp_scale: f32,
+    /// Multiplier of the magnets' flux left after irreversible loss (0.5 … 1); the day's
+    /// reversible change with temperature is apart from it.
+    pub flux_scale: f32,
 }
 
 #[cfg(test)]
@@ -235,8 +265,18 @@ mod tests {
 
     #[test]
     fn saturating_clamps_and_replaces_nan() {
-        let k = FaultVector::saturating([2.0, -1.0, f32::NAN, 0.3, 0.0, 0.0, f32::NAN, 7.0]);
-        assert_eq!(k.as_array(), &[1.0, 0.0, 0.0, 0.3, 0.0, 0.0, 0.5, 1.0]);
+        let k = FaultVector::saturating([
+            2.0,
+            -1.0,
+            f32::NAN,
+            0.3,
+            0.0,
+            0.0,
+            f32::NAN,
+            7.0,
+            f32::NAN,
+        ]);
+        assert_eq!(k.as_array(), &[1.0, 0.0, 0.0, 0.3, 0.0, 0.0, 0.5, 1.0, 0.0]);
     }
 
     #[test]
@@ -248,8 +288,9 @@ mod tests {
         assert_eq!(healthy.eccentricity_z, 0.0);
         assert_eq!(healthy.eccentricity_phase, 0.0);
         assert_eq!(healthy.kp_scale, 1.0);
+        assert_eq!(healthy.flux_scale, 1.0);
 
-        let worst = FaultVector::new([1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0])
+        let worst = FaultVector::new([1.0; FAULT_COUNT])
             .unwrap()
             .effects();
         assert_eq!(worst.friction_scale, 3.0);
@@ -258,21 +299,23 @@ mod tests {
         assert_eq!(worst.eccentricity_z, ECCENTRICITY_Z_MAX);
         assert!((worst.eccentricity_phase - core::f32::consts::PI).abs() < 1e-6);
         assert_eq!(worst.kp_scale, 1.5);
+        assert_eq!(worst.flux_scale, 0.5);
 
-        let zero = FaultVector::new([0.0; 8]).unwrap().effects();
+        let zero = FaultVector::new([0.0; FAULT_COUNT]).unwrap().effects();
         assert!((zero.eccentricity_phase + core::f32::consts::PI).abs() < 1e-6);
         assert_eq!(zero.kp_scale, 0.5);
     }
 
     #[test]
     fn accessors_follow_names() {
-        let k = FaultVector::new([0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8]).unwrap();
+        let k = FaultVector::new([0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9]).unwrap();
         assert_eq!(k.friction(), 0.1);
         assert_eq!(k.backlash(), 0.2);
         assert_eq!(k.short_circuit(), [0.3, 0.4, 0.5]);
         assert_eq!(k.eccentricity(), 0.6);
         assert_eq!(k.eccentricity_phase(), 0.7);
         assert_eq!(k.gain_drift(), 0.8);
+        assert_eq!(k.demagnetization(), 0.9);
         assert_eq!(FAULT_NAMES.len(), FAULT_COUNT);
     }
 
@@ -289,10 +332,11 @@ mod tests {
                 Healthy,
                 Healthy,
                 NotApplicable,
+                Healthy,
                 Healthy
             ]
         );
-        let k = FaultVector::new([0.06, 0.04, 0.0, 0.3, 0.0, 0.2, 0.0, 0.44]).unwrap();
+        let k = FaultVector::new([0.06, 0.04, 0.0, 0.3, 0.0, 0.2, 0.0, 0.44, 0.06]).unwrap();
         assert_eq!(
             k.verdicts(),
             [
@@ -303,8 +347,19 @@ mod tests {
                 Healthy,
                 Faulty,
                 NotApplicable,
+                Faulty,
                 Faulty
             ]
+        );
+    }
+
+    #[test]
+    fn an_eight_component_vector_reads_with_no_demagnetization() {
+        let k = FaultVector::from_paper([0.1, 0.2, 0.0, 0.0, 0.3, 0.4, 0.7, 0.5]).unwrap();
+        assert_eq!(k.as_array(), &[0.1, 0.2, 0.0, 0.0, 0.3, 0.4, 0.7, 0.5, 0.0]);
+        assert_eq!(
+            FaultVector::from_paper([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 1.5]),
+            Err(FaultVectorError::OutOfRange { index: 7 })
         );
     }
 }

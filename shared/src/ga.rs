@@ -26,7 +26,7 @@ pub mod checkpoint;
 
 pub use checkpoint::{record_bytes, RecordError};
 
-use crate::fault::{CIRCULAR, FAULT_COUNT};
+use crate::fault::{FaultVector, CIRCULAR, FAULT_COUNT};
 
 /// Number of genes of an individual.
 pub const GENES: usize = FAULT_COUNT;
@@ -108,7 +108,7 @@ impl GaSettings {
         differential_probability: 0.9,
         differential_scale: 0.7,
         circular: CIRCULAR,
-        initial_guess: Some([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]),
+        initial_guess: Some(*FaultVector::NOMINAL.as_array()),
     };
 
     /// Whether these settings can run a population of `population` (what
@@ -624,7 +624,7 @@ mod tests {
 
     #[test]
     fn converges_on_a_sphere_and_stops_for_a_reason() {
-        let target = [0.1, 0.9, 0.3, 0.0, 1.0, 0.25, 0.02, 0.6];
+        let target = [0.1, 0.9, 0.3, 0.0, 1.0, 0.25, 0.02, 0.6, 0.0];
         let mut settings = GaSettings::FDI;
         settings.max_evaluations = 4000;
         let mut ga = SteadyStateGa::<24>::new(settings, 11).unwrap();

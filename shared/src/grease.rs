@@ -168,7 +168,7 @@ impl ChirpTorqueFit {
     }
 
     /// The fit's viscous drag and dry friction. O(8³): the normal equations inverted in
-    /// f64 (`crate::math::invert`, padded to its 8×8 with an identity block).
+    /// f64 (`crate::math::invert`, padded to its 9×9 with an identity block).
     pub fn reading(&self) -> Result<GreaseReading, GreaseError> {
         if self.blocks < MIN_BLOCKS {
             return Err(GreaseError::TooFewBlocks {

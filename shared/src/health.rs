@@ -10,29 +10,33 @@
 //! every slot twice (find the newest, then walk the ring from it), O(slots); so do [`survey`]
 //! and [`replay`], which walk the store in flight order without a copy of the log.
 //!
-//! ## Record (version 3: 76 bytes, little-endian)
+//! ## Record (version 4: 84 bytes, little-endian)
 //!
 //! | bytes | field |
 //! | --- | --- |
 //! | 0..4 | magic `EMAH` |
-//! | 4 | version (3) |
-//! | 5 | domain: 0 within, 1 no motion, 2 open phase, 3 command mismatch, 4 fitness floor, 5 segment carried nothing, 6 bus out of range, 7 temperature out of range |
-//! | 6 | detected faults: bit i set when component i is beyond the detection threshold |
-//! | 7 | reserved, 0 |
+//! | 4 | version (4) |
+//! | 5 | domain: 0 within, 1 no motion, 2 open phase, 3 command mismatch, 4 fitness floor, 5 segment carried nothing, 6 bus out of range, 7 temperature out of range, … ([`DomainCode`]) |
+//! | 6..8 | detected faults (u16): bit i set when component i is beyond the detection threshold |
 //! | 8..12 | flight index (u32) |
-//! | 12..44 | fault vector, 8 × f32 |
+//! | 12..44 | the paper's eight components k1 … k8, 8 × f32 |
 //! | 44..48 | best fitness (f32) |
-//! | 48..64 | standard deviation per component ([`crate::uncertainty`]), 8 × u16 in units of 2⁻¹⁶; `ffff`: not determined |
+//! | 48..64 | standard deviation of k1 … k8 ([`crate::uncertainty`]), 8 × u16 in units of 2⁻¹⁶; `ffff`: not determined |
 //! | 64..66 | the DC bus the controller measured over the test (u16, units of 0.01 V); `ffff`: not measured |
 //! | 66..68 | the temperature it measured (i16, units of 0.01 °C); `8000`: not measured |
 //! | 68..70 | the winding's estimated rise from the calibration's temperature (i16, units of 0.01 K); `8000`: not estimated |
 //! | 70..72 | reserved, 0 |
-//! | 72..76 | CRC-32 of bytes 0..72 |
+//! | 72..76 | k9, demagnetization (f32) |
+//! | 76..78 | its standard deviation (u16, as above) |
+//! | 78..80 | reserved, 0 |
+//! | 80..84 | CRC-32 of bytes 0..80 |
 //!
-//! Older versions are still read ([`HealthRecord::decode`] takes any; [`RamStore::upgrade`]
-//! rewrites a store of older slots as version 3 in place): version 2 (68 bytes: bytes 0..64
-//! as above, then the CRC-32 of bytes 0..64) carries no day; version 1 (52 bytes: bytes 0..48,
-//! then their CRC-32) no standard deviation either.
+//! Each older version is a prefix of this layout with its own CRC-32, and is still read
+//! ([`HealthRecord::decode`] takes any; [`RamStore::upgrade`] rewrites a store of older slots
+//! as version 4 in place); they carry eight components (k9 reads 0: no demagnetization, its
+//! standard deviation not determined) and byte 7 is 0: version 3 (76 bytes: bytes 0..72,
+//! then their CRC-32); version 2 (68 bytes: bytes 0..64, then their CRC-32) carries no day;
+//! version 1 (52 bytes: bytes 0..48, then their CRC-32) no standard deviation either.
 //!
 //! ## Slots
 //!
@@ -45,11 +49,14 @@ use heapless::Deque;
 
 use crate::conditions::{TestConditions, WindingEstimate};
 use crate::domain::{Domain, OutsideReason};
-use crate::fault::{FaultVector, Verdict, FAULT_COUNT};
+use crate::fault::{FaultVector, Verdict, FAULT_COUNT, PAPER_FAULT_COUNT};
 use crate::trace::Crc32;
 
-/// Bytes of one encoded record (version 3), and of one store slot.
-pub const RECORD_BYTES: usize = 76;
+/// Bytes of one encoded record (version 4), and of one store slot.
+pub const RECORD_BYTES: usize = 84;
+
+/// Bytes of a version-3 record (eight components).
+pub const RECORD_V3_BYTES: usize = 76;
 
 /// Bytes of a version-2 record (no day).
 pub const RECORD_V2_BYTES: usize = 68;
@@ -59,13 +66,14 @@ pub const RECORD_V1_BYTES: usize = 52;
 
 /// The record format's magic and version.
 pub const RECORD_MAGIC: [u8; 4] = *b"EMAH";
-pub const RECORD_VERSION: u8 = 3;
+pub const RECORD_VERSION: u8 = 4;
 
 /// Bytes of a record of `version` (the byte after the magic), if it is one this code reads.
 pub fn record_len(version: u8) -> Option<usize> {
     match version {
         1 => Some(RECORD_V1_BYTES),
         2 => Some(RECORD_V2_BYTES),
+        3 => Some(RECORD_V3_BYTES),
         RECORD_VERSION => Some(RECORD_BYTES),
         _ => None,
     }
@@ -94,7 +102,7 @@ pub struct HealthRecord {
     /// The domain verdict; only tests [`Domain::Within`] feed a trend.
     pub domain: DomainCode,
     /// Bit i set: component i was beyond the detection threshold.
-    pub detected: u8,
+    pub detected: u16,
     /// The identification's standard deviation per component, as stored.
     pub std: ComponentStd,
     /// What the controller measured and estimated of the test's day, as stored.
@@ -327,7 +335,7 @@ impl HealthRecord {
     /// The record of one preflight: `detected` follows from the fault vector; no standard
     /// deviation (see [`Self::with_std`]).
     pub fn new(flight: u32, faults: FaultVector, fitness: f32, domain: Domain) -> Self {
-        let mut detected = 0u8;
+        let mut detected = 0u16;
         for (i, v) in faults.verdicts().iter().enumerate() {
             if *v == Verdict::Faulty {
                 detected |= 1 << i;
@@ -368,18 +376,29 @@ impl HealthRecord {
             at: 0,
         };
         w.put(&RECORD_MAGIC);
-        w.put(&[RECORD_VERSION, self.domain as u8, self.detected, 0]);
+        w.put(&[RECORD_VERSION, self.domain as u8]);
+        w.put(&self.detected.to_le_bytes());
         w.put(&self.flight.to_le_bytes());
-        for k in self.faults.as_array() {
+        let (paper, ninth) = self.faults.as_array().split_at(PAPER_FAULT_COUNT);
+        for k in paper {
             w.put(&k.to_le_bytes());
         }
         w.put(&self.fitness.to_le_bytes());
-        for c in self.std.codes() {
+        let codes = self.std.codes();
+        let (paper_std, ninth_std) = codes.split_at(PAPER_FAULT_COUNT);
+        for c in paper_std {
             w.put(&c.to_le_bytes());
         }
         w.put(&self.day.bus.to_le_bytes());
         w.put(&self.day.temperature.to_le_bytes());
         w.put(&self.day.winding_rise.to_le_bytes());
+        w.put(&[0, 0]);
+        for k in ninth {
+            w.put(&k.to_le_bytes());
+        }
+        for c in ninth_std {
+            w.put(&c.to_le_bytes());
+        }
         w.put(&[0, 0]);
         let mut crc = Crc32::new();
         crc.update(w.out.get(..RECORD_BYTES - 4).unwrap_or(&[]));
@@ -388,9 +407,10 @@ impl HealthRecord {
         out
     }
 
-    /// The record in `bytes`: version 3 ([`RECORD_BYTES`]), version 2 ([`RECORD_V2_BYTES`];
-    /// no day) or version 1 ([`RECORD_V1_BYTES`]; no standard deviation either). Bytes beyond
-    /// the record are ignored.
+    /// The record in `bytes`: version 4 ([`RECORD_BYTES`]), version 3 ([`RECORD_V3_BYTES`];
+    /// eight components, no demagnetization), version 2 ([`RECORD_V2_BYTES`]; no day either)
+    /// or version 1 ([`RECORD_V1_BYTES`]; no standard deviation either). Bytes beyond the
+    /// record are ignored.
     pub fn decode(bytes: &[u8]) -> Result<Self, HealthRecordError> {
         let word = |at: usize| -> [u8; 4] {
             let mut w = [0u8; 4];
@@ -402,7 +422,7 @@ impl HealthRecord {
         if word(0) != RECORD_MAGIC {
             return Err(HealthRecordError::BadMagic);
         }
-        let [version, domain, detected, reserved] = word(4);
+        let [version, domain, detected, detected_high] = word(4);
         let Some(len) = record_len(version) else {
             return Err(HealthRecordError::UnsupportedVersion(version));
         };
@@ -414,9 +434,14 @@ impl HealthRecord {
         if crc.finish().to_le_bytes() != *sum {
             return Err(HealthRecordError::BadChecksum);
         }
-        let mut k = [0f32; FAULT_COUNT];
+        let ninth = version >= 4;
+        // k1 … k8 at 12..44, k9 at 72 (a record before version 4: no demagnetization).
+        let mut k = *FaultVector::NOMINAL.as_array();
         for (i, v) in k.iter_mut().enumerate() {
-            *v = f32::from_le_bytes(word(12 + 4 * i));
+            let at = if i < PAPER_FAULT_COUNT { 12 + 4 * i } else { 72 };
+            if i < PAPER_FAULT_COUNT || ninth {
+                *v = f32::from_le_bytes(word(at));
+            }
         }
         let fitness = f32::from_le_bytes(word(44));
         let half = |at: usize| match bytes.get(at..at + 2) {
@@ -424,9 +449,10 @@ impl HealthRecord {
             _ => [0; 2],
         };
         let mut std = ComponentStd::UNKNOWN;
-        if version >= 2 {
-            for (i, c) in std.0.iter_mut().enumerate() {
-                *c = u16::from_le_bytes(half(48 + 2 * i));
+        for (i, c) in std.0.iter_mut().enumerate() {
+            let at = if i < PAPER_FAULT_COUNT { 48 + 2 * i } else { 76 };
+            if i < PAPER_FAULT_COUNT && version >= 2 || ninth {
+                *c = u16::from_le_bytes(half(at));
             }
         }
         let (day, reserved_day) = if version >= 3 {
@@ -439,6 +465,12 @@ impl HealthRecord {
         } else {
             (RecordedDay::UNKNOWN, 0)
         };
+        // Byte 7 was reserved before version 4; now it holds the detected bits past eight.
+        let reserved = if ninth {
+            u16::from_le_bytes(half(78)) | u16::from(detected_high >> 1)
+        } else {
+            u16::from(detected_high)
+        };
         match (
             DomainCode::from_byte(domain),
             FaultVector::new(k),
@@ -450,7 +482,7 @@ impl HealthRecord {
                 faults,
                 fitness,
                 domain,
-                detected,
+                detected: u16::from_le_bytes([detected, if ninth { detected_high } else { 0 }]),
                 std,
                 day,
             }),
@@ -470,7 +502,14 @@ impl HealthRecord {
         self.encode_older(2)
     }
 
-    /// The first `N − 4` bytes of the current encoding as `version`, then their CRC-32.
+    /// Version-3 bytes of this record (its demagnetization is dropped): what a controller
+    /// before version 4 wrote. For tests and tools that make old logs.
+    pub fn encode_v3(&self) -> [u8; RECORD_V3_BYTES] {
+        self.encode_older(3)
+    }
+
+    /// The first `N − 4` bytes of the current encoding as `version` (byte 7, the detected
+    /// bits past eight, 0 as it was reserved), then their CRC-32.
     fn encode_older<const N: usize>(&self, version: u8) -> [u8; N] {
         let mut out = [0u8; N];
         let current = self.encode();
@@ -479,6 +518,9 @@ impl HealthRecord {
         }
         if let Some(v) = out.get_mut(4) {
             *v = version;
+        }
+        if let Some(v) = out.get_mut(7) {
+            *v = 0;
         }
         let mut crc = Crc32::new();
         crc.update(out.get(..N - 4).unwrap_or(&[]));
@@ -537,15 +579,15 @@ impl<const S: usize> RamStore<S> {
         slots: [[0; RECORD_BYTES]; S],
     };
 
-    /// Erases every slot in place (every byte 0xFF). O(`S · 76`).
+    /// Erases every slot in place (every byte 0xFF). O(`S · 84`).
     pub fn erase(&mut self) {
         self.as_bytes_mut().fill(0xFF);
     }
 
     /// Rewrites, in place, an image whose first `S · old_bytes` bytes are `S` slots of an
-    /// older version ([`RECORD_V1_BYTES`] or [`RECORD_V2_BYTES`]: what a controller before
-    /// version 3 kept) as `S` current slots (see [`upgrade_image`]). Returns the records kept.
-    /// O(`S · 76`).
+    /// older version ([`RECORD_V1_BYTES`], [`RECORD_V2_BYTES`] or [`RECORD_V3_BYTES`]: what
+    /// a controller before version 4 kept) as `S` current slots (see [`upgrade_image`]).
+    /// Returns the records kept. O(`S · 84`).
     pub fn upgrade(&mut self, old_bytes: usize) -> usize {
         upgrade_image(self.as_bytes_mut(), S, old_bytes)
     }
@@ -557,7 +599,7 @@ impl<const S: usize> RamStore<S> {
         }
     }
 
-    /// The store from an image: slot `i` is bytes `76·i..76·(i+1)`; a short image leaves the
+    /// The store from an image: slot `i` is bytes `84·i..84·(i+1)`; a short image leaves the
     /// remaining slots erased, bytes beyond `IMAGE_BYTES` are ignored.
     pub fn from_image(image: &[u8]) -> Self {
         let mut store = Self::erased();
@@ -815,19 +857,19 @@ pub fn write_slot<S: HealthStore>(
 }
 
 /// Rewrites, in place, the first `slots · old_bytes` bytes of `image` (slots of an older
-/// version: [`RECORD_V1_BYTES`] or [`RECORD_V2_BYTES`]) as `slots` current slots: each sound
+/// version: [`RECORD_V1_BYTES`], [`RECORD_V2_BYTES`] or [`RECORD_V3_BYTES`]) as `slots` current slots: each sound
 /// record of that version re-encoded in its slot (what the old version lacks left unknown),
 /// every other slot erased. Slots are taken last to first, so that none is overwritten
 /// before it is read (a current slot starts at or after its older self). Slots beyond the
 /// image are left out; `old_bytes` of no older version keeps nothing. Returns the records
-/// kept. O(`slots · 76`).
+/// kept. O(`slots · 84`).
 pub fn upgrade_image(image: &mut [u8], slots: usize, old_bytes: usize) -> usize {
     let Some(version) = (1..RECORD_VERSION).find(|v| record_len(*v) == Some(old_bytes)) else {
         return 0;
     };
     let mut kept = 0;
     for i in (0..slots).rev() {
-        let mut old = [0u8; RECORD_V2_BYTES];
+        let mut old = [0u8; RECORD_V3_BYTES];
         if let (Some(dst), Some(src)) = (
             old.get_mut(..old_bytes),
             image.get(i * old_bytes..(i + 1) * old_bytes),
@@ -868,12 +910,13 @@ mod tests {
     fn record_round_trips_and_every_byte_is_covered() {
         let r = HealthRecord::new(
             7,
-            FaultVector::new([0.3, 0.01, 0.2, 0.0, 0.0, 0.1, 0.25, 0.6]).unwrap(),
+            FaultVector::new([0.3, 0.01, 0.2, 0.0, 0.0, 0.1, 0.25, 0.6, 0.2]).unwrap(),
             0.0123,
             Domain::Outside(OutsideReason::NoMotion { travel: 1e-4 }),
         );
-        // Friction, short A, eccentricity 0.1 and gain drift 0.6 are beyond 0.05 of nominal.
-        assert_eq!(r.detected, 0b1010_0101);
+        // Friction, short A, eccentricity 0.1, gain drift 0.6 and demagnetization 0.2 are
+        // beyond 0.05 of nominal.
+        assert_eq!(r.detected, 0b1_1010_0101);
         let bytes = r.encode();
         assert_eq!(&bytes[..4], b"EMAH");
         assert_eq!(HealthRecord::decode(&bytes), Ok(r));
@@ -927,7 +970,7 @@ mod tests {
 
     #[test]
     fn version_2_keeps_the_standard_deviations_and_version_1_is_still_read() {
-        let std = [0.012, 0.5, f32::NAN, 0.0, 2.0, 0.03, f32::NAN, -1.0];
+        let std = [0.012, 0.5, f32::NAN, 0.0, 2.0, 0.03, f32::NAN, -1.0, f32::NAN];
         let r = record(9, 0.3).with_std(std);
         assert_eq!(r.std.get(0), Some(786.0 / 65_536.0)); // 0.012 rounded to 2⁻¹⁶
         assert_eq!(r.std.get(1), Some(0.5));
@@ -935,8 +978,10 @@ mod tests {
         assert_eq!(r.std.get(3), Some(0.0));
         assert_eq!(r.std.get(4), Some(65_534.0 / 65_536.0));
         assert_eq!(r.std.get(7), None);
-        let v3 = r.encode();
-        assert_eq!(v3[4], 3);
+        let v4 = r.encode();
+        assert_eq!(v4[4], 4);
+        assert_eq!(HealthRecord::decode(&v4), Ok(r));
+        let v3 = r.encode_v3();
         assert_eq!(HealthRecord::decode(&v3), Ok(r));
         let v2 = r.encode_v2();
         assert_eq!(v2[4], 2);
@@ -949,21 +994,74 @@ mod tests {
             (old.flight, old.faults, old.fitness),
             (r.flight, r.faults, r.fitness)
         );
-        // A version-1 record in a 76-byte slot (the rest erased) reads the same.
+        // A version-1 record in an 84-byte slot (the rest erased) reads the same.
         let mut slot = [0xFF; RECORD_BYTES];
         slot[..RECORD_V1_BYTES].copy_from_slice(&v1);
         assert_eq!(HealthRecord::decode(&slot), Ok(old));
         // An unknown version is named, not mistaken for damage.
-        let mut v4 = v3;
-        v4[4] = 4;
+        let mut v5 = v4;
+        v5[4] = 5;
         assert_eq!(
-            HealthRecord::decode(&v4),
-            Err(HealthRecordError::UnsupportedVersion(4))
+            HealthRecord::decode(&v5),
+            Err(HealthRecordError::UnsupportedVersion(5))
         );
         // A version-1 record cut short fails its checksum.
         assert_eq!(
             HealthRecord::decode(&v1[..40]),
             Err(HealthRecordError::BadChecksum)
+        );
+    }
+
+    /// `bytes` with byte `at` set to `value` and the CRC-32 made good again.
+    fn forged<const N: usize>(mut bytes: [u8; N], at: usize, value: u8) -> [u8; N] {
+        bytes[at] = value;
+        let mut crc = Crc32::new();
+        crc.update(&bytes[..N - 4]);
+        bytes[N - 4..].copy_from_slice(&crc.finish().to_le_bytes());
+        bytes
+    }
+
+    #[test]
+    fn version_4_keeps_the_demagnetization_and_version_3_reads_none() {
+        let mut k = *FaultVector::NOMINAL.as_array();
+        k[0] = 0.1;
+        k[8] = 0.3;
+        let std = [0.01, 0.01, 0.01, 0.01, 0.01, 0.01, f32::NAN, 0.01, 0.02];
+        let r = HealthRecord::new(12, FaultVector::new(k).unwrap(), 0.01, Domain::Within)
+            .with_std(std);
+        assert_eq!(r.detected, 0b1_0000_0001);
+        assert_eq!(HealthRecord::decode(&r.encode()), Ok(r));
+        assert_eq!(r.std.get(8), Some(1311.0 / 65_536.0));
+        // What a controller before version 4 kept: eight components, no demagnetization.
+        let v3 = r.encode_v3();
+        assert_eq!((v3.len(), v3[4], v3[7]), (RECORD_V3_BYTES, 3, 0));
+        let old = HealthRecord::decode(&v3).unwrap();
+        assert_eq!(old.faults.demagnetization(), 0.0);
+        assert_eq!(old.faults.as_array()[..8], r.faults.as_array()[..8]);
+        assert_eq!((old.std.get(8), old.std.get(0)), (None, r.std.get(0)));
+        assert_eq!(old.detected, 0b1);
+        // Byte 7 of an older version was reserved: a bit there is damage, not a ninth fault.
+        assert_eq!(
+            HealthRecord::decode(&forged(v3, 7, 1)),
+            Err(HealthRecordError::BadField)
+        );
+        // In version 4 it holds one detected bit; the rest and bytes 78..80 stay 0.
+        let v4 = r.encode();
+        assert_eq!(v4[7], 1);
+        for (at, value) in [(7, 2), (78, 1), (79, 0x80)] {
+            assert_eq!(
+                HealthRecord::decode(&forged(v4, at, value)),
+                Err(HealthRecordError::BadField),
+                "byte {at}"
+            );
+        }
+        // A demagnetization beyond [0, 1] is refused as any other component.
+        let mut beyond = v4;
+        beyond[72..76].copy_from_slice(&1.5f32.to_le_bytes());
+        let beyond = forged(beyond, 0, b'E');
+        assert_eq!(
+            HealthRecord::decode(&beyond),
+            Err(HealthRecordError::BadField)
         );
     }
 
@@ -998,6 +1096,7 @@ mod tests {
                 (|r: &HealthRecord| r.encode_v1().to_vec()) as fn(&HealthRecord) -> Vec<u8>,
             ),
             (RECORD_V2_BYTES, |r: &HealthRecord| r.encode_v2().to_vec()),
+            (RECORD_V3_BYTES, |r: &HealthRecord| r.encode_v3().to_vec()),
         ] {
             let mut store = RamStore::<4>::ZEROED;
             let image = store.as_bytes_mut();

@@ -167,14 +167,14 @@ pub fn sqrt64(x: f64) -> f64 {
     y
 }
 
-/// Order of [`invert`]'s matrices: the fault vector's 8 components (a smaller system is
+/// Order of [`invert`]'s matrices: the fault vector's 9 components (a smaller system is
 /// padded with an identity block).
-pub const INVERT_N: usize = 8;
+pub const INVERT_N: usize = crate::fault::FAULT_COUNT;
 
-/// Inverse of a symmetric positive-definite 8×8 matrix (Gauss–Jordan, partial pivoting);
-/// `None` if singular. O(8³), no allocation. One copy for the uncertainty, the polish and the
+/// Inverse of a symmetric positive-definite 9×9 matrix (Gauss–Jordan, partial pivoting);
+/// `None` if singular. O(9³), no allocation. One copy for the uncertainty, the polish and the
 /// grease's fit.
-#[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // fixed 8×8 bounds
+#[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // fixed 9×9 bounds
 #[inline(never)]
 pub fn invert(m: &[[f64; INVERT_N]; INVERT_N]) -> Option<[[f64; INVERT_N]; INVERT_N]> {
     const N: usize = INVERT_N;

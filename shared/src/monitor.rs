@@ -15,7 +15,8 @@
 //!    two phases in series. Electrical faults enter through the paper's shape functions:
 //!    short circuit, eq. (1), scales resistance and torque/back-EMF gain by the mean healthy
 //!    fraction of the two phases conducting in the current 60° sector; eccentricity, eq. (2),
-//!    modulates torque/back-EMF gain with rotor angle.
+//!    modulates torque/back-EMF gain with rotor angle; demagnetization scales it in every
+//!    bin (the magnets' flux), apart from the day's reversible flux.
 //! 3. **Mechanics** — motor inertia (with lumped stick-slip dry friction: a velocity-level
 //!    friction impulse that can stop, but never reverse, the motor within one step) coupled to
 //!    the user inertia by a compliant gear train whose play is a dead zone; the user shaft
@@ -313,7 +314,11 @@ impl MonitorModel {
             // Sector j (mod 3) has phase j floating: the other two conduct.
             sector_resistance: [nb + nc, nc + na, na + nb, nb + nc, nc + na, na + nb]
                 .map(|n| self.resistance * (0.5 * n)),
-            bin_torque_constant: torque_gain_table(p, &fx).map(|g| self.torque_constant * g),
+            // The magnets' irreversible flux loss scales the torque constant (and the back-EMF)
+            // in every bin; the standstill pairs above do not see it: a short scales L by N²,
+            // a weak magnet does not.
+            bin_torque_constant: torque_gain_table(p, &fx)
+                .map(|g| self.torque_constant * fx.flux_scale * g),
             pair_decay: pairs.map(|(d, _)| d),
             pair_gain: pairs.map(|(_, g)| g),
         }

@@ -400,7 +400,7 @@ mod tests {
 
     #[test]
     fn a_quadratic_basin_is_reached_within_the_bound() {
-        let target = [0.3, 0.0, 0.2, 0.0, 0.1, 0.0, 0.5, 0.6];
+        let target = [0.3, 0.0, 0.2, 0.0, 0.1, 0.0, 0.5, 0.6, 0.0];
         let problem = basins(target, 0.0, target);
         let start = FaultVector::NOMINAL;
         let mut polish = Polish::new(PolishSettings::FDI, start, problem(&start).0);
@@ -421,8 +421,8 @@ mod tests {
     fn a_probe_finds_the_backlash_basin_the_ga_missed() {
         // The GA's best sits in a basin with the backlash at 0 and an eccentricity instead;
         // the truth's basin has the backlash at 1.0.
-        let wrong = [0.0, 0.0, 0.0, 0.0, 0.0, 0.25, 0.97, 0.5];
-        let right = [0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5];
+        let wrong = [0.0, 0.0, 0.0, 0.0, 0.0, 0.25, 0.97, 0.5, 0.0];
+        let right = [0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0];
         let problem = basins(wrong, 0.05, right);
         let start = FaultVector::new(wrong).unwrap();
         let mut polish = Polish::new(PolishSettings::FDI, start, problem(&start).0);

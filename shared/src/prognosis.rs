@@ -178,9 +178,10 @@ pub struct TrendSettings {
 
 impl TrendSettings {
     /// Illustrative maintenance thresholds (the actuator maker sets its own): friction 0.5,
-    /// backlash 0.5, each short 0.3, eccentricity 0.5, gain drift ±0.25.
+    /// backlash 0.5, each short 0.3, eccentricity 0.5, gain drift ±0.25, demagnetization 0.3
+    /// (15 % of the flux lost: the torque constant's share of a typical 20 % torque margin).
     pub const DEFAULT: Self = Self {
-        thresholds: [0.5, 0.5, 0.3, 0.3, 0.3, 0.5, f32::NAN, 0.25],
+        thresholds: [0.5, 0.5, 0.3, 0.3, 0.3, 0.5, f32::NAN, 0.25, 0.3],
         // The random part of one test's error. Chosen with `systematic` on the prognostics
         // evaluation's seeds 0–2 (0.004–0.008 against 0.01–0.02: interval coverage 85–95 %)
         // and checked on seeds 3–5 (docs/prognostics.md).

@@ -204,7 +204,7 @@ impl Curvature {
     /// largest), the others given an identity row and column so that they do not couple;
     /// with which components are determined. `None` when none is, or the matrix is
     /// singular. One copy for the uncertainty (λ = 0) and the polish. O(8³).
-    #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 8×8 arrays
+    #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 9×9 arrays
     #[inline(never)]
     fn inverse(
         &self,
@@ -235,7 +235,7 @@ impl Curvature {
     /// `(JᵀWJ + λ·diag(JᵀWJ)) δ = JᵀW r` over the determined components (the others stay),
     /// then bounded components clamped to [0, 1] and the phase wrapped. `None` when no
     /// component is determined. O(8³).
-    #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 8×8 arrays
+    #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 9×9 arrays
     pub fn gauss_newton_step(&self, k: &FaultVector, damping: f64) -> Option<FaultVector> {
         let (inverse, determined) = self.inverse(damping)?;
         let mut out = *k.as_array();
@@ -260,7 +260,7 @@ impl Curvature {
     }
 
     /// Standard deviations, intervals and correlations for the identified `k`. O(8³).
-    #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 8×8 arrays
+    #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 9×9 arrays
     #[inline(never)]
     pub fn uncertainty(
         &self,
@@ -337,16 +337,16 @@ mod tests {
 
     #[test]
     fn a_diagonal_curvature_gives_its_standard_deviations() {
-        // s² = rss / (n − p) = 8 / (108 − 8) = 0.08; std_i = √(0.08 / d_i).
+        // s² = rss / (n − p) = 8 / (109 − 9) = 0.08; std_i = √(0.08 / d_i).
         let c = Curvature {
             gradient: [0.0; FAULT_COUNT],
-            normal: diagonal([8.0, 2.0, 0.5, 8.0, 8.0, 8.0, 8.0, 0.08]),
+            normal: diagonal([8.0, 2.0, 0.5, 8.0, 8.0, 8.0, 8.0, 0.08, 2.0]),
             rss: 8.0,
-            fitted: 108,
+            fitted: 109,
         };
-        let k = FaultVector::new([0.5, 0.5, 0.5, 0.0, 0.0, 0.5, 0.5, 0.5]).unwrap();
+        let k = FaultVector::new([0.5, 0.5, 0.5, 0.0, 0.0, 0.5, 0.5, 0.5, 0.0]).unwrap();
         let (u, corr) = c.uncertainty(&k).unwrap();
-        let expect = [0.1, 0.2, 0.4, 0.1, 0.1, 0.1, 0.1, 1.0];
+        let expect = [0.1, 0.2, 0.4, 0.1, 0.1, 0.1, 0.1, 1.0, 0.2];
         for i in 0..FAULT_COUNT {
             assert!(
                 (u.std[i] - expect[i] * INFLATION).abs() < 1e-6,
@@ -366,7 +366,7 @@ mod tests {
 
     #[test]
     fn a_flat_component_is_undetermined_and_correlations_are_found() {
-        let mut normal = diagonal([4.0, 4.0, 4.0, 4.0, 4.0, 4.0, 0.0, 4.0]);
+        let mut normal = diagonal([4.0, 4.0, 4.0, 4.0, 4.0, 4.0, 0.0, 4.0, 4.0]);
         // Shorts A and C nearly the same direction.
         normal[2][4] = 3.96;
         normal[4][2] = 3.96;
@@ -376,7 +376,7 @@ mod tests {
             rss: 1.0,
             fitted: 1000,
         };
-        let k = FaultVector::new([0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5]).unwrap();
+        let k = FaultVector::new([0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]).unwrap();
         let (u, corr) = c.uncertainty(&k).unwrap();
         assert!(u.std[6].is_nan());
         assert_eq!(u.covers(&k)[6], None);
@@ -395,10 +395,10 @@ mod tests {
             gradient: [0.0; FAULT_COUNT],
             normal: diagonal([1.0e4; FAULT_COUNT]),
             rss: 1.0,
-            fitted: 10_008,
+            fitted: 10_009,
         };
         // std = √(1e-4 / 1e4)·c = 1e-4·c: tiny.
-        let k = FaultVector::new([0.3, 0.052, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]).unwrap();
+        let k = FaultVector::new([0.3, 0.052, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]).unwrap();
         let (u, corr) = c.uncertainty(&k).unwrap();
         let v = u.assess(&k, &corr);
         assert_eq!(v[0], Assessment::Faulty);
@@ -418,7 +418,7 @@ mod tests {
 
     #[test]
     fn an_eccentricity_within_what_noise_makes_of_a_round_rotor_reads_healthy() {
-        let k = FaultVector::new([0.07, 0.0, 0.0, 0.0, 0.0, 0.07, 0.5, 0.5]).unwrap();
+        let k = FaultVector::new([0.07, 0.0, 0.0, 0.0, 0.0, 0.07, 0.5, 0.5, 0.0]).unwrap();
         let corr = [[0.0; FAULT_COUNT]; FAULT_COUNT];
         // White-noise std 0.03 (0.24 inflated): a 0.07 amplitude is below the Rayleigh
         // floor 3.03 × 0.03 = 0.091, a 0.07 friction is not an amplitude.

@@ -24,7 +24,7 @@ fn measured() -> Box<OnboardMeasured> {
         ActuatorParams::REFERENCE,
         &Calibration::REFERENCE_ACTUATOR_STEPS,
     );
-    let k = FaultVector::new([0.3, 0.2, 0.0, 0.1, 0.0, 0.0, 0.5, 0.6]).unwrap();
+    let k = FaultVector::new([0.3, 0.2, 0.0, 0.1, 0.0, 0.0, 0.5, 0.6, 0.0]).unwrap();
     record_monitor_trace(&model, &k, &mut m).unwrap();
     m
 }
@@ -133,7 +133,7 @@ fn every_damaged_byte_is_detected_and_the_run_restarts_cleanly() {
     let mut id = fresh(&m, 1);
     id.step(120);
     id.save(&mut record).unwrap();
-    assert_eq!(record.len(), 1276);
+    assert_eq!(record.len(), 1412);
 
     for at in 0..record.len() {
         for flip in [0x01u8, 0x80, 0xFF] {
@@ -156,7 +156,7 @@ fn every_damaged_byte_is_detected_and_the_run_restarts_cleanly() {
         }
     }
     // A torn write: the first half new, the rest still erased flash.
-    let mut torn = [0xFFu8; 1276];
+    let mut torn = [0xFFu8; 1412];
     torn[..600].copy_from_slice(&record[..600]);
     let mut restarted = fresh(&m, 1);
     assert!(matches!(
@@ -199,14 +199,14 @@ fn foreign_erased_short_and_forged_records_are_refused() {
     ));
     // Erased flash, a short buffer.
     assert_eq!(
-        fresh(&m, 1).resume(&[0xFF; 1276]),
+        fresh(&m, 1).resume(&[0xFF; 1412]),
         Err(RecordError::BadMagic)
     );
     assert_eq!(
         fresh(&m, 1).resume(&record[..1000]),
         Err(RecordError::WrongLength {
             found: 1000,
-            expected: 1276
+            expected: 1412
         })
     );
     let mut short = [0u8; 10];
@@ -216,7 +216,7 @@ fn foreign_erased_short_and_forged_records_are_refused() {
     ));
     // A sound checksum over impossible contents (a NaN fitness in the population).
     let mut forged = record;
-    forged[120 + 32..120 + 36].copy_from_slice(&f32::NAN.to_bits().to_le_bytes());
+    forged[128 + 36..128 + 40].copy_from_slice(&f32::NAN.to_bits().to_le_bytes());
     let end = forged.len() - 4;
     let mut crc = Crc32::new();
     crc.update(&forged[..end]);
@@ -245,7 +245,7 @@ fn an_impossible_state_is_refused_before_anything_is_loaded() {
         ("more members evaluated than the population", 48, &[33, 0]),
         ("unknown status", 50, &[9]),
         ("pending flag 2", 51, &[2]),
-        ("best gene above 1", 84, &2.0f32.to_bits().to_le_bytes()),
+        ("best gene above 1", 88, &2.0f32.to_bits().to_le_bytes()),
         (
             "NaN fitness of the last member",
             last_member_fitness,
@@ -278,6 +278,68 @@ fn an_impossible_state_is_refused_before_anything_is_loaded() {
     other.step(120);
     assert_eq!(other.resume(&record), Ok(50));
     assert_eq!(other.ga(), id.ga());
+}
+
+/// `record` (version 2, nine genes) as a controller before the ninth fault wrote it: version 1,
+/// eight genes per individual (the demagnetization gene dropped), its own CRC-32.
+fn as_version_1(record: &[u8]) -> Vec<u8> {
+    let mut out = record[..52].to_vec();
+    out[4..6].copy_from_slice(&1u16.to_le_bytes());
+    out[8..10].copy_from_slice(&8u16.to_le_bytes());
+    // Pending genes, then best and members: 9 genes (+ fitness) each, keep the first 8.
+    out.extend_from_slice(&record[52..52 + 32]);
+    let mut at = 52 + 36;
+    while at + 40 <= record.len() - 4 {
+        out.extend_from_slice(&record[at..at + 32]);
+        out.extend_from_slice(&record[at + 36..at + 40]);
+        at += 40;
+    }
+    let mut crc = Crc32::new();
+    crc.update(&out);
+    let sum = crc.finish();
+    out.extend_from_slice(&sum.to_le_bytes());
+    out
+}
+
+/// A checkpoint of the eight-gene version resumes: every gene it stored, the ninth
+/// (demagnetization) nominal; the run then finishes. A version-1 record that claims nine
+/// genes, or has the version-2 length, is refused.
+#[test]
+fn an_eight_gene_checkpoint_resumes_with_no_demagnetization() {
+    let m = measured();
+    let mut record: OnboardRecord = [0; core::mem::size_of::<OnboardRecord>()];
+    let mut id = fresh(&m, 1);
+    id.step(50);
+    id.save(&mut record).unwrap();
+    let old = as_version_1(&record);
+    assert_eq!(old.len(), 1276);
+    let mut resumed = fresh(&m, 1);
+    assert_eq!(resumed.resume(&old), Ok(50));
+    let (new, back) = (id.ga().population(), resumed.ga().population());
+    assert_eq!(new.len(), back.len());
+    for (a, b) in new.iter().zip(back) {
+        assert_eq!(a.genes[..8], b.genes[..8]);
+        assert_eq!((b.genes[8], b.fitness), (0.0, a.fitness));
+    }
+    assert_eq!(resumed.ga().evaluations(), id.ga().evaluations());
+    resumed.run();
+    assert!(matches!(resumed.ga().status(), Status::Done(_)));
+
+    let mut nine = old.clone();
+    nine[8..10].copy_from_slice(&9u16.to_le_bytes());
+    assert!(matches!(
+        fresh(&m, 1).resume(&nine),
+        Err(RecordError::WrongShape { genes: 9, .. })
+    ));
+    let mut long = record;
+    long[4..6].copy_from_slice(&1u16.to_le_bytes());
+    assert_eq!(
+        fresh(&m, 1).resume(&long),
+        Err(RecordError::WrongLength {
+            found: 1412,
+            expected: 1276
+        })
+    );
 }
 
 /// The fingerprint covers the actuator record: a checkpoint of the same trace, seed and

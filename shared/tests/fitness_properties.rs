@@ -42,8 +42,8 @@ fn trace() -> impl Strategy<Value = Vec<AdcFrame>> {
     })
 }
 
-fn fault_vector() -> impl Strategy<Value = [f32; 8]> {
-    prop::array::uniform8(0.0f32..=1.0)
+fn fault_vector() -> impl Strategy<Value = [f32; 9]> {
+    prop::array::uniform9(0.0f32..=1.0)
 }
 
 fn conditioned(frames: &[AdcFrame]) -> Box<MeasuredCurrent<SHORT>> {
@@ -87,7 +87,7 @@ proptest! {
     #[test]
     fn the_corners_of_the_fault_space_give_a_finite_fitness(
         frames in trace(),
-        corner in any::<u8>(),
+        corner in any::<u16>(),
     ) {
         let mut m = conditioned(&frames);
         prop_assert_eq!(m.finish(), Ok(()));

@@ -29,7 +29,7 @@ fn settings(max_evaluations: u32) -> GaSettings {
 }
 
 fn genes_strategy() -> impl Strategy<Value = Genes> {
-    prop::array::uniform8(0.0f32..=1.0)
+    prop::array::uniform9(0.0f32..=1.0)
 }
 
 proptest! {
@@ -141,7 +141,7 @@ proptest! {
 
 #[test]
 fn finds_the_minimum_of_the_multimodal_problem() {
-    let target = [0.3, 0.05, 0.9, 0.5, 0.0, 0.7, 0.97, 0.45];
+    let target = [0.3, 0.05, 0.9, 0.5, 0.0, 0.7, 0.97, 0.45, 0.0];
     let mut ga = SteadyStateGa::<32>::new(settings(6000), 7).unwrap();
     ga.run(&mut problem(target));
     for (i, (&x, &t)) in ga.best().genes.iter().zip(&target).enumerate() {

@@ -26,7 +26,7 @@ fn record(measured: &mut OnboardMeasured, k: &FaultVector) {
 
 #[test]
 fn a_zeroed_buffer_set_up_in_place_conditions_as_a_new_one() {
-    let k = FaultVector::new([0.1, 0.2, 0.1, 0.0, 0.05, 0.1, 0.3, 0.4]).unwrap();
+    let k = FaultVector::new([0.1, 0.2, 0.1, 0.0, 0.05, 0.1, 0.3, 0.4, 0.0]).unwrap();
     let mut fresh = Box::new(OnboardMeasured::for_test(
         filter(),
         PreflightTest::STANDSTILL,
@@ -50,7 +50,7 @@ fn a_zeroed_buffer_set_up_in_place_conditions_as_a_new_one() {
 
 #[test]
 fn an_idle_curvature_run_restarted_gives_the_sums_of_a_started_one() {
-    let truth = FaultVector::new([0.0, 0.3, 0.0, 0.0, 0.0, 0.2, 0.5, 0.5]).unwrap();
+    let truth = FaultVector::new([0.0, 0.3, 0.0, 0.0, 0.0, 0.2, 0.5, 0.5, 0.0]).unwrap();
     let mut measured = Box::new(OnboardMeasured::for_test(
         filter(),
         PreflightTest::STANDSTILL,

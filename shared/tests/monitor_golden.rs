@@ -22,15 +22,15 @@ use shared::{
 
 /// Fault vectors that exercise every branch of the step: healthy, friction and gain drift,
 /// backlash, each short, eccentricity at several phases, everything at once.
-const VECTORS: [[f32; 8]; 8] = [
-    [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5],
-    [0.6, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.1],
-    [0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.9],
-    [0.0, 0.0, 0.3, 0.0, 0.0, 0.0, 0.5, 0.5],
-    [0.0, 0.0, 0.0, 0.2, 0.4, 0.0, 0.5, 0.5],
-    [0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.13, 0.5],
-    [0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.87, 0.5],
-    [0.1, 0.1, 0.1, 0.05, 0.02, 0.1, 0.25, 0.4],
+const VECTORS: [[f32; 9]; 8] = [
+    [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0],
+    [0.6, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.1, 0.0],
+    [0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.9, 0.0],
+    [0.0, 0.0, 0.3, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0],
+    [0.0, 0.0, 0.0, 0.2, 0.4, 0.0, 0.5, 0.5, 0.0],
+    [0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.13, 0.5, 0.0],
+    [0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.87, 0.5, 0.0],
+    [0.1, 0.1, 0.1, 0.05, 0.02, 0.1, 0.25, 0.4, 0.0],
 ];
 
 /// A start away from zero, as a measured test's first sample gives (the currents a position
@@ -223,7 +223,7 @@ fn table_and_bound_keep_the_bits() {
     // Exact evaluation only: a problem that does not override `fitness_below`.
     struct Exact<'p, 'a>(&'p FitnessProblem<'a, TEST_SAMPLES>);
     impl Problem for Exact<'_, '_> {
-        fn fitness(&mut self, genes: &[f32; 8]) -> f32 {
+        fn fitness(&mut self, genes: &[f32; 9]) -> f32 {
             self.0.error(&FaultVector::saturating(*genes))
         }
     }

@@ -11,13 +11,13 @@ fn model() -> MonitorModel {
     MonitorModel::new(ActuatorParams::REFERENCE, &Calibration::IDENTITY)
 }
 
-fn run(k: [f32; 8]) -> Vec<MonitorSample> {
+fn run(k: [f32; 9]) -> Vec<MonitorSample> {
     let mut out = Vec::with_capacity(N);
     model().run(&FaultVector::new(k).unwrap(), N, |s| out.push(*s));
     out
 }
 
-fn with(index: usize, value: f32) -> [f32; 8] {
+fn with(index: usize, value: f32) -> [f32; 9] {
     let mut k = *FaultVector::NOMINAL.as_array();
     k[index] = value;
     k
@@ -144,7 +144,7 @@ fn eccentricity_raises_current_where_the_gap_weakens_the_coupling() {
 
 #[test]
 fn same_fault_vector_same_bits() {
-    let k = [0.3, 0.2, 0.1, 0.0, 0.4, 0.6, 0.9, 0.2];
+    let k = [0.3, 0.2, 0.1, 0.0, 0.4, 0.6, 0.9, 0.2, 0.0];
     let a: Vec<u32> = run(k).iter().map(|s| s.current.to_bits()).collect();
     let b: Vec<u32> = run(k).iter().map(|s| s.current.to_bits()).collect();
     assert_eq!(a, b);
@@ -152,7 +152,7 @@ fn same_fault_vector_same_bits() {
 
 #[test]
 fn simulate_matches_run() {
-    let k = FaultVector::new([0.3, 0.2, 0.1, 0.0, 0.4, 0.6, 0.9, 0.2]).unwrap();
+    let k = FaultVector::new([0.3, 0.2, 0.1, 0.0, 0.4, 0.6, 0.9, 0.2, 0.0]).unwrap();
     let mut out = [0.0f32; 1234];
     model().simulate(&k, &mut out);
     let mut via_run = Vec::new();
@@ -165,7 +165,7 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
 
     #[test]
-    fn every_fault_vector_simulates_finitely(k in prop::array::uniform8(0.0f32..=1.0)) {
+    fn every_fault_vector_simulates_finitely(k in prop::array::uniform9(0.0f32..=1.0)) {
         let trace = run(k);
         for s in &trace {
             prop_assert!(s.current.is_finite() && s.motor_angle.is_finite() && s.user_angle.is_finite());
@@ -177,8 +177,8 @@ proptest! {
 
 #[test]
 fn corner_fault_vectors_simulate_finitely() {
-    for bits in 0u32..256 {
-        let k: [f32; 8] = std::array::from_fn(|i| if bits >> i & 1 == 1 { 1.0 } else { 0.0 });
+    for bits in 0u32..512 {
+        let k: [f32; 9] = std::array::from_fn(|i| if bits >> i & 1 == 1 { 1.0 } else { 0.0 });
         for s in run(k) {
             assert!(s.current.is_finite() && s.motor_angle.is_finite(), "{k:?}");
         }

@@ -25,7 +25,7 @@ pub(crate) fn footprint() {
 pub(crate) fn bench(evaluations: u32, identifications: u64) -> Result<()> {
     let params = ActuatorParams::REFERENCE;
     let model = MonitorModel::new(params, &Calibration::IDENTITY);
-    let truth = FaultVector::new([0.1, 0.1, 0.1, 0.05, 0.0, 0.1, 0.25, 0.4])
+    let truth = FaultVector::new([0.1, 0.1, 0.1, 0.05, 0.0, 0.1, 0.25, 0.4, 0.0])
         .map_err(|e| anyhow::anyhow!("bench fault vector: {e:?}"))?;
     let measured = measured_from_monitor(&model, &truth)?;
     let problem = FitnessProblem::new(&measured, params, &Calibration::IDENTITY)
@@ -43,6 +43,7 @@ pub(crate) fn bench(evaluations: u32, identifications: u64) -> Result<()> {
                 0.2 + 0.5 * x,
                 x,
                 0.3 + 0.4 * x,
+                0.2 * x,
             ])
         })
         .collect();

@@ -112,6 +112,7 @@ pub(crate) fn report(
             obj["truth"] = json!(t.as_array());
             obj["errors"] = json!(component_errors(&found, t));
             obj["e_tot"] = json!(total_error(&found, t));
+            obj["e_tot_all"] = json!(total_error_all(&found, t));
         }
         for (k, v) in heading {
             obj[k.as_str()] = json!(v);
@@ -122,6 +123,7 @@ pub(crate) fn report(
             "winding_disagreement_k": c.winding_disagreement,
             "winding_estimate": format!("{:?}", c.winding),
             "flux_scale": c.flux_scale,
+            "magnet_flux_left": found.effects().flux_scale,
             "friction_scale": c.friction_scale,
             "measured_temperature_c": c.measured_temperature,
             "bus_voltage_v": c.bus_voltage,
@@ -176,7 +178,11 @@ pub(crate) fn report(
         );
     }
     if let Some(t) = truth {
-        println!("e_tot         {:.3} %", total_error(&found, t));
+        println!(
+            "e_tot         {:.3} % (the paper's eight components, eq. 4); {:.3} % over all nine",
+            total_error(&found, t),
+            total_error_all(&found, t)
+        );
     }
     println!("{}", conditions_text(&id.conditions));
     println!(
@@ -204,7 +210,7 @@ pub(crate) fn conditions_text(c: &shared::conditions::TestConditions) -> String 
         other => format!("not estimated ({other:?})"),
     };
     format!(
-        "day           winding {winding}; flux ×{:.4}; healthy friction ×{:.3}; measured {} and {}",
+        "day           winding {winding}; flux ×{:.4} (the day's, reversible); healthy friction ×{:.3}; measured {} and {}",
         c.flux_scale,
         c.friction_scale,
         measured(c.measured_temperature, "°C"),

@@ -97,8 +97,11 @@ pub(crate) fn preflight(
         faults,
         noise,
         seed,
+        demagnetization,
         ..
     } = *sim;
+    // A weak magnet or a loss beyond k9's is scored as the mean flux it took.
+    let truth = demagnetization.truth(&faults, record.params.pole_pairs as u32);
     if let Some(path) = trace_out {
         trace.write(path, format_from_extension(path))?;
     }
@@ -124,7 +127,7 @@ pub(crate) fn preflight(
     heading.push(line);
     report(
         &id,
-        Some(&faults),
+        Some(&truth),
         &heading,
         json,
         record.detection_threshold,

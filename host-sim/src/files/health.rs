@@ -1,13 +1,18 @@
 //! The health log on the ground: a file-backed [`HealthStore`] (the same slots the controller
-//! keeps in flash, one 76-byte record each, slot `flight mod slots`; logs of older records —
-//! 68-byte version 2, 52-byte version 1 — are read too, and upgraded in place before
-//! anything is appended to them), and the history CSV that `host-sim degrade` writes and `host-sim prognose` reads.
+//! keeps in flash, one 84-byte record each, slot `flight mod slots`; logs of older records —
+//! 76-byte version 3, 68-byte version 2, 52-byte version 1, all of eight components — are
+//! read too, and upgraded in place before anything is appended to them), and the history CSV
+//! that `host-sim degrade` writes and `host-sim prognose` reads.
 //!
 //! History CSV, one row per preflight, readable by `pandas.read_csv` as is:
 //!
 //! ```text
-//! flight,friction,backlash,short_a,short_b,short_c,eccentricity,ecc_phase,gain_drift,fitness,domain[,std_friction,…,std_gain_drift][,v_bus,temp,winding_rise][,true_friction,…,true_gain_drift]
+//! flight,friction,backlash,short_a,short_b,short_c,eccentricity,ecc_phase,gain_drift,demagnetization,fitness,domain[,std_friction,…,std_demagnetization][,v_bus,temp,winding_rise][,true_friction,…,true_demagnetization]
 //! ```
+//!
+//! A history written before the ninth fault (no `demagnetization`, `std_demagnetization` or
+//! `true_demagnetization` column) is read with no demagnetization (its standard deviation
+//! not determined).
 //!
 //! `std_*` (empty where not determined) are the identification's standard deviations, as a
 //! record keeps them; `v_bus` [V], `temp` [°C] and `winding_rise` [K] the test's day as a
@@ -24,7 +29,7 @@ use std::io::{Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use shared::fault::{FAULT_COUNT, FAULT_NAMES};
+use shared::fault::{FAULT_COUNT, FAULT_NAMES, PAPER_FAULT_COUNT};
 use shared::health::{
     record_len, ComponentStd, DomainCode, EncodedRecord, HealthLog, HealthRecord, HealthStore,
     LoadSummary, RecordedDay, RECORD_BYTES, RECORD_VERSION,
@@ -112,7 +117,8 @@ fn versions() -> impl Iterator<Item = (u8, usize)> {
         .filter_map(|v| record_len(v).map(|len| (v, len)))
 }
 
-/// The slot size of a health-log image: 76 (version 3), 68 (version 2) or 52 (version 1).
+/// The slot size of a health-log image: 84 (version 4), 76 (version 3), 68 (version 2) or 52
+/// (version 1).
 /// An image several divide is taken as the one whose slots decode the most sound records
 /// (the newest version on a tie).
 pub fn slot_bytes(image: &[u8]) -> Result<usize> {
@@ -169,7 +175,7 @@ impl<'a> ImageStore<'a> {
         })
     }
 
-    /// The record version of its slots (1, 2 or 3).
+    /// The record version of its slots (1 … 4).
     pub fn version(&self) -> u8 {
         versions()
             .find(|(_, size)| *size == self.slot_bytes)
@@ -358,19 +364,30 @@ fn parse_history_csv(text: &str) -> Result<Vec<HistoryRow>> {
     let column = |name: &str| header.iter().position(|h| *h == name);
     let need = |name: &str| column(name).with_context(|| format!("no column \"{name}\""));
     let flight_col = need("flight")?;
-    let fault_cols: Vec<usize> = FAULT_NAMES.iter().map(|n| need(n)).collect::<Result<_>>()?;
+    // The paper's eight columns are needed; a history from before the ninth fault has no
+    // `demagnetization` column (nor its `std_`/`true_`): it reads as none.
+    let columns = |prefix: &str| -> Vec<Option<usize>> {
+        FAULT_NAMES
+            .iter()
+            .map(|n| column(&format!("{prefix}{n}")))
+            .collect()
+    };
+    let complete = |cols: Vec<Option<usize>>| -> Option<Vec<Option<usize>>> {
+        cols.iter()
+            .take(PAPER_FAULT_COUNT)
+            .all(Option::is_some)
+            .then_some(cols)
+    };
+    for n in &FAULT_NAMES[..PAPER_FAULT_COUNT] {
+        need(n)?;
+    }
+    let fault_cols = columns("");
     let fitness_col = need("fitness")?;
     let domain_col = column("domain");
     let intrusion_col = column("intrusion");
     let day_cols = [column("v_bus"), column("temp"), column("winding_rise")];
-    let std_cols: Option<Vec<usize>> = FAULT_NAMES
-        .iter()
-        .map(|n| column(&format!("std_{n}")))
-        .collect();
-    let truth_cols: Option<Vec<usize>> = FAULT_NAMES
-        .iter()
-        .map(|n| column(&format!("true_{n}")))
-        .collect();
+    let std_cols = complete(columns("std_"));
+    let truth_cols = complete(columns("true_"));
     let mut rows: Vec<HistoryRow> = Vec::new();
     for (i, line) in lines {
         let line_no = i + 1;
@@ -399,10 +416,12 @@ fn parse_history_csv(text: &str) -> Result<Vec<HistoryRow>> {
             }
             Ok(v)
         };
-        let vector = |cols: &[usize]| -> Result<FaultVector> {
-            let mut k = [0f32; FAULT_COUNT];
-            for (v, &c) in k.iter_mut().zip(cols) {
-                *v = number(c)?;
+        let vector = |cols: &[Option<usize>]| -> Result<FaultVector> {
+            let mut k = *FaultVector::NOMINAL.as_array();
+            for (v, c) in k.iter_mut().zip(cols) {
+                if let Some(c) = *c {
+                    *v = number(c)?;
+                }
             }
             FaultVector::new(k)
                 .map_err(|e| anyhow::anyhow!("line {line_no}: fault vector out of [0, 1] ({e:?})"))
@@ -436,7 +455,8 @@ fn parse_history_csv(text: &str) -> Result<Vec<HistoryRow>> {
         record.domain = domain;
         if let Some(cols) = &std_cols {
             let mut sd = [f32::NAN; FAULT_COUNT];
-            for (v, &c) in sd.iter_mut().zip(cols) {
+            for (v, c) in sd.iter_mut().zip(cols) {
+                let Some(c) = *c else { continue };
                 if !cell(c).is_empty() {
                     *v = number(c)?;
                     if *v < 0.0 {
@@ -499,7 +519,7 @@ mod tests {
         with_std.record =
             with_std
                 .record
-                .with_std([0.01, f32::NAN, 0.02, 0.0, 0.5, 0.03, f32::NAN, 0.004]);
+                .with_std([0.01, f32::NAN, 0.02, 0.0, 0.5, 0.03, f32::NAN, 0.004, 0.01]);
         let rows = vec![
             with_std,
             row(3, 0.1, Domain::Within),
@@ -519,6 +539,37 @@ mod tests {
         assert!(
             format!("{:#}", parse_history_csv(&swapped).unwrap_err()).contains("does not follow")
         );
+    }
+
+    #[test]
+    fn a_history_of_the_eight_component_version_reads_with_no_demagnetization() {
+        let mut rows = vec![row(2, 0.09, Domain::Within), row(3, 0.1, Domain::Within)];
+        rows[0].record = rows[0]
+            .record
+            .with_std([0.01, 0.01, 0.02, 0.0, 0.5, 0.03, f32::NAN, 0.004, f32::NAN]);
+        let text = history_csv(&rows);
+        assert!(text.contains(",demagnetization,") && text.contains(",true_demagnetization"));
+        // What `degrade` wrote before the ninth fault: no demagnetization column of any kind.
+        let drop = |name: &str, text: &str| -> String {
+            let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+            let at = header.iter().position(|h| *h == name).unwrap();
+            text.lines()
+                .map(|l| {
+                    let mut cells: Vec<&str> = l.split(',').collect();
+                    cells.remove(at);
+                    cells.join(",") + "\n"
+                })
+                .collect()
+        };
+        let mut old = text.clone();
+        for name in ["demagnetization", "std_demagnetization", "true_demagnetization"] {
+            old = drop(name, &old);
+        }
+        assert!(!old.contains("demagnetization"));
+        assert_eq!(parse_history_csv(&old).unwrap(), rows);
+        // The paper's eight are still needed.
+        let e = parse_history_csv(&drop("gain_drift", &old)).unwrap_err();
+        assert!(format!("{e:#}").contains("\"gain_drift\""), "{e:#}");
     }
 
     #[test]
@@ -548,9 +599,13 @@ mod tests {
 
     #[test]
     fn older_logs_are_read_and_upgraded_before_an_append() {
-        use shared::health::{RECORD_V1_BYTES, RECORD_V2_BYTES};
+        use shared::health::{RECORD_V1_BYTES, RECORD_V2_BYTES, RECORD_V3_BYTES};
         let std = [0.02; FAULT_COUNT];
-        for (old_bytes, version) in [(RECORD_V1_BYTES, 1u8), (RECORD_V2_BYTES, 2)] {
+        for (old_bytes, version) in [
+            (RECORD_V1_BYTES, 1u8),
+            (RECORD_V2_BYTES, 2),
+            (RECORD_V3_BYTES, 3),
+        ] {
             let dir = tempfile::tempdir().unwrap();
             let path = dir.path().join("old.bin");
             // Three older slots holding flights 3, 4, 5 (slot = flight mod 3).
@@ -558,10 +613,10 @@ mod tests {
             for f in 3..6u32 {
                 let s = (f % 3) as usize * old_bytes;
                 let r = row(f, 0.1, Domain::Within).record.with_std(std);
-                let bytes = if version == 1 {
-                    r.encode_v1().to_vec()
-                } else {
-                    r.encode_v2().to_vec()
+                let bytes = match version {
+                    1 => r.encode_v1().to_vec(),
+                    2 => r.encode_v2().to_vec(),
+                    _ => r.encode_v3().to_vec(),
                 };
                 image[s..s + old_bytes].copy_from_slice(&bytes);
             }
@@ -572,10 +627,13 @@ mod tests {
                 rows.iter().map(|r| r.record.flight).collect::<Vec<_>>(),
                 [3, 4, 5]
             );
+            // Eight components kept: the demagnetization's standard deviation is unknown.
+            let mut eight = std;
+            eight[8] = f32::NAN;
             let kept_std = if version == 1 {
                 ComponentStd::UNKNOWN
             } else {
-                ComponentStd::new(std)
+                ComponentStd::new(eight)
             };
             assert!(rows.iter().all(|r| r.record.std == kept_std));
             assert!(rows.iter().all(|r| r.record.day == RecordedDay::UNKNOWN));

@@ -6,7 +6,13 @@
 //!
 //! One file, no server (bundled SQLite). Table `records (serial, flight, version, bytes)`,
 //! primary key `(serial, flight)`: `bytes` is the record exactly as the controller wrote it
-//! (version 1 or 2, its checksum included), decoded again by `shared::health` when read.
+//! (version 1 … 4, its checksum included), decoded again by `shared::health` when read.
+//!
+//! Schema 2 (the ninth fault): every record is of version 4 or was ingested as sent. A
+//! schema-1 store (records of eight components, versions 1–3) is migrated in place when
+//! opened, in one transaction: each stored record is re-encoded as version 4 (k9 = 0, its
+//! standard deviation not determined) and the schema set to 2, so that a host-sim of
+//! schema 1 refuses the store rather than misread a record it does not know.
 //! Each log is ingested in one transaction:
 //!
 //! * a record already stored with the same bytes adds nothing (ingesting a log twice, or two
@@ -36,6 +42,7 @@ use rusqlite::{params, Connection, OptionalExtension};
 use shared::fault::{FAULT_COUNT, FAULT_NAMES};
 use shared::health::{
     is_blank, record_len, DomainCode, HealthRecord, HealthRecordError, RECORD_BYTES,
+    RECORD_VERSION,
 };
 use shared::prognosis::{HealthTrend, TrendEstimate, TrendSettings};
 
@@ -43,7 +50,7 @@ use crate::files::health::ImageStore;
 use crate::studies::prognostics::growth_name;
 
 /// The store's schema version (table `meta`).
-const SCHEMA: i64 = 1;
+const SCHEMA: i64 = 2;
 
 /// The fleet store: one SQLite file.
 pub struct FleetStore {
@@ -123,8 +130,32 @@ pub fn check_serial(serial: &str) -> Result<()> {
     Ok(())
 }
 
+/// Re-encodes every record of a schema-1 store as the current version and sets the schema,
+/// in one transaction (a store that fails is left as it was). Returns the records rewritten.
+fn migrate_schema_1(conn: &Connection) -> Result<usize> {
+    let tx = conn.unchecked_transaction()?;
+    let rows: Vec<(String, i64, Vec<u8>)> = {
+        let mut all = tx.prepare("SELECT serial, flight, bytes FROM records")?;
+        let rows = all.query_map([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))?;
+        rows.collect::<rusqlite::Result<_>>()?
+    };
+    let mut put = tx.prepare(
+        "UPDATE records SET version = ?3, bytes = ?4 WHERE serial = ?1 AND flight = ?2",
+    )?;
+    for (serial, flight, bytes) in &rows {
+        let record = HealthRecord::decode(bytes).map_err(|e| {
+            anyhow::anyhow!("record of {serial}, flight {flight} does not decode: {e:?}")
+        })?;
+        put.execute(params![serial, flight, RECORD_VERSION, record.encode().as_slice()])?;
+    }
+    drop(put);
+    tx.execute("UPDATE meta SET value = ?1 WHERE key = 'schema'", [SCHEMA])?;
+    tx.commit()?;
+    Ok(rows.len())
+}
+
 impl FleetStore {
-    /// Opens (or creates) the store at `path`.
+    /// Opens (or creates) the store at `path`; a store of schema 1 is migrated first.
     pub fn open(path: &Path) -> Result<Self> {
         let conn = Connection::open(path)
             .with_context(|| format!("opening fleet store {}", path.display()))?;
@@ -156,6 +187,15 @@ impl FleetStore {
                 conn.execute("INSERT INTO meta VALUES ('schema', ?1)", [SCHEMA])?;
             }
             Some(SCHEMA) => {}
+            Some(1) => {
+                let n = migrate_schema_1(&conn)
+                    .with_context(|| format!("{}: migrating schema 1 to 2", path.display()))?;
+                eprintln!(
+                    "{}: fleet store migrated from schema 1 to {SCHEMA} ({n} records of \
+                     eight components re-encoded as version {RECORD_VERSION})",
+                    path.display()
+                );
+            }
             Some(v) => bail!(
                 "{}: fleet store schema {v}; this host-sim reads schema {SCHEMA}",
                 path.display()

@@ -41,6 +41,7 @@ use rand_core::{RngCore, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 use shared::conditioning::COMMUTATION_SIGNS;
 use shared::test_design::{Drive, PairDrive, PreflightTest};
+use shared::fault::DEMAGNETIZATION_LOSS_MAX;
 use shared::{ActuatorParams, ChirpCommand, FaultVector};
 
 use crate::files::trace::{Trace, TraceSample};
@@ -414,7 +415,9 @@ pub struct ReferenceModel {
 /// (a stalled or jammed actuator, a hot bay), a strong reverse field (a phase short's
 /// circulating current) or ageing. Kept apart from the magnets' reversible temperature
 /// coefficient, which the day plays ([`ThermalLaws::flux_scale`]): the RM's flux is the day's
-/// times what is left of each pole.
+/// times what is left of each pole. The fault vector's ninth component (k9) is a uniform loss
+/// of its own; this setting plays the physical forms on top of it (a uniform loss up to the
+/// whole flux, or one magnet), and [`Demagnetization::truth`] says what k9 they amount to.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub enum Demagnetization {
     #[default]
@@ -475,6 +478,21 @@ impl Demagnetization {
             }
             Self::Partial { .. } => 1.0,
         }
+    }
+
+    /// `faults` with its demagnetization k9 the mean flux this actuator has lost, k9's own
+    /// uniform loss and this setting's together (clamped to [0, 1]): the truth an FDI that
+    /// reads one flux scale is scored against.
+    pub fn truth(self, faults: &FaultVector, pole_pairs: u32) -> FaultVector {
+        if self == Self::None {
+            return *faults;
+        }
+        let left = f64::from(faults.effects().flux_scale) * self.flux_left(pole_pairs);
+        let mut k = *faults.as_array();
+        if let Some(k9) = k.get_mut(8) {
+            *k9 = ((1.0 - left) / f64::from(DEMAGNETIZATION_LOSS_MAX)) as f32;
+        }
+        FaultVector::saturating(k)
     }
 
     /// The share of the rotor's flux that is left (the mean over the poles).
@@ -578,7 +596,8 @@ impl ReferenceModel {
         let permeance = |psi: f64| 1.0 / (1.0 - z * (psi - psi_min).cos());
         let poles = 2 * (p.round() as i64).max(1);
         let demagnetization = self.demagnetization;
-        let amplitude = |k: i64| demagnetization.pole_amplitude(k, poles);
+        let flux_left = f64::from(fx.flux_scale);
+        let amplitude = |k: i64| demagnetization.pole_amplitude(k, poles) * flux_left;
         let mut shapes = Box::new([[0.0; SHAPE_POINTS]; 3]);
         for (phase, table) in shapes.iter_mut().enumerate() {
             let coils = [

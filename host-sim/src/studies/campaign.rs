@@ -46,7 +46,7 @@ pub struct Case {
 }
 
 const fn single(index: usize, value: f32) -> [f32; FAULT_COUNT] {
-    let mut k = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5];
+    let mut k = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0];
     k[index] = value;
     k
 }
@@ -82,12 +82,12 @@ pub const TABLE_1: [Case; 16] = [
     case("gain drift k8 = 1.0", single(7, 1.0), 1.44, 1.44),
 ];
 
-const MEDIUM: [f32; FAULT_COUNT] = [0.4, 0.4, 0.2, 0.1, 0.05, 0.2, 0.75, 0.6];
+const MEDIUM: [f32; FAULT_COUNT] = [0.4, 0.4, 0.2, 0.1, 0.05, 0.2, 0.75, 0.6, 0.0];
 
 pub const TABLE_2: [Case; 4] = [
     Case {
         name: "low",
-        faults: [0.1, 0.1, 0.1, 0.05, 0.0, 0.1, 0.25, 0.4],
+        faults: [0.1, 0.1, 0.1, 0.05, 0.0, 0.1, 0.25, 0.4, 0.0],
         noise: 0.0,
         paper: PaperValue::About("≈ 1–2"),
         target: Some(2.0),
@@ -103,7 +103,7 @@ pub const TABLE_2: [Case; 4] = [
     },
     Case {
         name: "high",
-        faults: [1.0, 1.0, 0.5, 0.3, 0.1, 0.5, 0.1, 0.0],
+        faults: [1.0, 1.0, 0.5, 0.3, 0.1, 0.5, 0.1, 0.0, 0.0],
         noise: 0.0,
         paper: PaperValue::About("≈ 7"),
         target: Some(5.0),
@@ -122,7 +122,7 @@ pub const TABLE_2: [Case; 4] = [
 /// The healthy actuator with I_ref noise: no component may exceed 0.03.
 pub const HEALTHY: Case = Case {
     name: "healthy + noise 50 %",
-    faults: [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5],
+    faults: [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0],
     noise: 0.5,
     paper: PaperValue::None,
     target: Some(3.0),

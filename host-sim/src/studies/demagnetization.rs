@@ -40,9 +40,9 @@ pub struct DemagnetizationCase {
     pub winding_rise: f64,
 }
 
-const HEALTHY: [f32; FAULT_COUNT] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5];
-const SHORT_A: [f32; FAULT_COUNT] = [0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5];
-const GAIN: [f32; FAULT_COUNT] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.7];
+const HEALTHY: [f32; FAULT_COUNT] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0];
+const SHORT_A: [f32; FAULT_COUNT] = [0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0];
+const GAIN: [f32; FAULT_COUNT] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.7, 0.0];
 const NONE: Demagnetization = Demagnetization::None;
 
 const fn case(

@@ -119,7 +119,7 @@ impl HealthyGreaseLaw {
     /// Fits `seeds` healthy runs at −45, −25, 0 and +75 °C and at the calibration day.
     pub fn measure(bench: &Bench, two_part: bool, seeds: u64) -> Result<Self> {
         let base = bench.day();
-        let healthy = FaultVector::saturating([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
+        let healthy = FaultVector::saturating([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]);
         let mut points = Vec::new();
         for t in [-45.0, -25.0, 0.0, base, 75.0] {
             let f = fits(bench, settings(bench, two_part, t, t), healthy, seeds)?;
@@ -179,21 +179,21 @@ pub fn grease_study(
         bail!("the study needs at least 2 seeds");
     }
     let base = bench.day();
-    let cases: [(&'static str, [f32; 8]); 5] = [
-        ("healthy", [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]),
+    let cases: [(&'static str, [f32; 9]); 5] = [
+        ("healthy", [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]),
         (
             "friction k1 = 0.2",
-            [0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5],
+            [0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0],
         ),
         (
             "friction k1 = 0.4",
-            [0.4, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5],
+            [0.4, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0],
         ),
         (
             "backlash k2 = 0.4",
-            [0.0, 0.4, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5],
+            [0.0, 0.4, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0],
         ),
-        ("short A k3 = 0.2", [0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5]),
+        ("short A k3 = 0.2", [0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]),
     ];
     let days: [(f64, f64); 6] = [
         (base, base),

@@ -50,7 +50,7 @@ use crate::plant::reference::{ReferenceModel, ReferenceSettings, Scenario};
 use crate::studies::campaign::Case;
 
 /// The nominal fault vector, the starting guess every solver receives.
-const GUESS: Genes = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5];
+const GUESS: Genes = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0];
 
 /// The solvers compared.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

@@ -563,7 +563,7 @@ impl EvalScenario {
     }
 }
 
-const H: [f32; FAULT_COUNT] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5];
+const H: [f32; FAULT_COUNT] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0];
 
 const fn with(mut k: [f32; FAULT_COUNT], i: usize, v: f32) -> [f32; FAULT_COUNT] {
     k[i] = v;

@@ -2,14 +2,14 @@
 //! interrupted by a power loss resumes where its last checkpoint left it and finishes with
 //! the same bits as an uninterrupted run. O(`P`) to write or read; no allocation.
 //!
-//! Layout (format version 1), all little-endian, `P` = population:
+//! Layout (format version 2), all little-endian, `P` = population, `G` = genes (9):
 //!
 //! | offset | bytes | field |
 //! | --- | --- | --- |
 //! | 0 | 4 | magic `b"EMAG"` |
-//! | 4 | 2 | format version `u16` = 1 |
+//! | 4 | 2 | format version `u16` = 2 |
 //! | 6 | 2 | population `P` (`u16`) |
-//! | 8 | 2 | genes per individual (`u16`, 8) |
+//! | 8 | 2 | genes per individual `G` (`u16`, 9) |
 //! | 10 | 2 | reserved, 0 |
 //! | 12 | 4 | run fingerprint `u32` (the caller's: measured test, settings, seed) |
 //! | 16 | 16 | random generator state, 4 × `u32` |
@@ -20,30 +20,46 @@
 //! | 48 | 2 | initial-population members evaluated `u16` |
 //! | 50 | 1 | status: 0 running, 1 evaluation budget, 2 generation limit, 3 stalled |
 //! | 51 | 1 | 1 if a candidate is pending, else 0 |
-//! | 52 | 32 | pending candidate's genes, 8 × `f32` (0 when none) |
-//! | 84 | 36 | best individual: 8 genes + fitness, 9 × `f32` |
-//! | 120 | 36·P | population, 9 × `f32` per member |
-//! | 120 + 36·P | 4 | CRC-32 (IEEE) of every byte before it |
+//! | 52 | 4·G | pending candidate's genes, `G` × `f32` (0 when none) |
+//! | 52 + 4·G | 4·(G+1) | best individual: `G` genes + fitness |
+//! | 56 + 8·G | 4·(G+1)·P | population, `G` genes + fitness per member |
+//! | end − 4 | 4 | CRC-32 (IEEE) of every byte before it |
+//!
+//! Version 1 is the same layout with the paper's eight genes (`G` = 8), from before the
+//! ninth fault: it is still resumed, each individual's demagnetization gene set to its
+//! nominal value, which the monitor model plays bit for bit as the eight-gene model did, so
+//! the stored fitnesses hold.
 //!
 //! The settings are not stored: they belong to the firmware image; the fingerprint (e.g.
 //! [`crate::fdi::Identification::fingerprint`]) ties a record to one test, settings and seed.
 
 use super::{Genes, Individual, Status, SteadyStateGa, StopReason, GENES};
+use crate::fault::{FaultVector, PAPER_FAULT_COUNT};
 use crate::random::Xoshiro128PlusPlus;
 use crate::trace::Crc32;
 
 /// First four bytes of every GA record.
 pub const RECORD_MAGIC: [u8; 4] = *b"EMAG";
-/// The record format version this code writes and reads.
-pub const RECORD_VERSION: u16 = 1;
-/// Bytes before the population.
-const FIXED_BYTES: usize = 120;
-/// Bytes of one individual.
-const INDIVIDUAL_BYTES: usize = 4 * (GENES + 1);
+/// The record format version this code writes (it resumes version 1 too).
+pub const RECORD_VERSION: u16 = 2;
 
 /// Bytes of the record of a GA with `population` members.
 pub const fn record_bytes(population: usize) -> usize {
-    FIXED_BYTES + INDIVIDUAL_BYTES * population + 4
+    record_bytes_of(GENES, population)
+}
+
+/// Bytes of a record of `genes` genes per individual and `population` members.
+const fn record_bytes_of(genes: usize, population: usize) -> usize {
+    52 + 4 * genes + 4 * (genes + 1) * (population + 1) + 4
+}
+
+/// Genes per individual in a record of `version`.
+fn genes_of(version: u16) -> Option<usize> {
+    match version {
+        1 => Some(PAPER_FAULT_COUNT),
+        RECORD_VERSION => Some(GENES),
+        _ => None,
+    }
 }
 
 /// Why a record was refused. The GA it would have replaced is left as it was, so the
@@ -118,10 +134,12 @@ impl Writer<'_> {
 }
 
 /// Reads little-endian fields; past the end it reads zeros (the length is checked first).
+/// Individuals of `genes` stored genes; the genes a record does not store read nominal.
 #[derive(Clone)]
 struct Reader<'a> {
     bytes: &'a [u8],
     at: usize,
+    genes: usize,
 }
 
 impl Reader<'_> {
@@ -150,7 +168,11 @@ impl Reader<'_> {
         f32::from_bits(self.u32())
     }
     fn genes(&mut self) -> Genes {
-        core::array::from_fn(|_| self.f32())
+        let mut out = *FaultVector::NOMINAL.as_array();
+        for g in out.iter_mut().take(self.genes) {
+            *g = self.f32();
+        }
+        out
     }
     fn individual(&mut self) -> Individual {
         let genes = self.genes();
@@ -186,8 +208,7 @@ fn crc(bytes: &[u8]) -> u32 {
     c.finish()
 }
 
-fn check_length(len: usize, population: usize) -> Result<(), RecordError> {
-    let expected = record_bytes(population);
+fn check_length(len: usize, expected: usize) -> Result<(), RecordError> {
     if len == expected {
         Ok(())
     } else {
@@ -205,7 +226,7 @@ impl<const P: usize> SteadyStateGa<P> {
     /// Writes the whole state into `out` ([`Self::RECORD_BYTES`] long), tagged with the
     /// caller's run `fingerprint`. O(P).
     pub fn save(&self, fingerprint: u32, out: &mut [u8]) -> Result<(), RecordError> {
-        check_length(out.len(), P)?;
+        check_length(out.len(), record_bytes(P))?;
         let mut w = Writer { out, at: 0 };
         w.bytes(&RECORD_MAGIC);
         w.u16(RECORD_VERSION);
@@ -285,27 +306,32 @@ impl<const P: usize> SteadyStateGa<P> {
 /// The reader at the GA state of `record` (offset 16), if `record` is a whole, undamaged
 /// record of this format and shape for the run `fingerprint`.
 fn open_record<const P: usize>(fingerprint: u32, record: &[u8]) -> Result<Reader<'_>, RecordError> {
-    check_length(record.len(), P)?;
-    let body = record.len().saturating_sub(4);
-    let (head, trailer) = record.split_at(body);
     let mut r = Reader {
         bytes: record,
         at: 0,
+        genes: 0,
     };
-    if r.array::<4>() != RECORD_MAGIC {
+    let (magic, version) = (r.array::<4>(), r.u16());
+    // A record too short for its header is a wrong length, whatever its first bytes.
+    let stored_genes = genes_of(version).unwrap_or(GENES);
+    check_length(record.len(), record_bytes_of(stored_genes, P))?;
+    if magic != RECORD_MAGIC {
         return Err(RecordError::BadMagic);
     }
-    let version = r.u16();
-    if version != RECORD_VERSION {
+    if genes_of(version).is_none() {
         return Err(RecordError::UnsupportedVersion { found: version });
     }
     let (population, genes) = (r.u16(), r.u16());
-    if usize::from(population) != P || usize::from(genes) != GENES {
+    if usize::from(population) != P || usize::from(genes) != stored_genes {
         return Err(RecordError::WrongShape { population, genes });
     }
+    r.genes = stored_genes;
+    let body = record.len().saturating_sub(4);
+    let (head, trailer) = record.split_at(body);
     let stored_sum = Reader {
         bytes: trailer,
         at: 0,
+        genes: 0,
     }
     .u32();
     let computed = crc(head);
