@@ -503,8 +503,14 @@ fn a_power_loss_under_qemu_resumes_to_the_same_bits_and_a_damaged_record_restart
 fn firmware_with_an_actuator_record_gives_the_hosts_bits_for_both_actuators() {
     use host_sim::files::actuator::Actuator;
     for (file, faults) in [
-        ("reference.toml", [0.0, 0.2, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]),
-        ("light-28v.toml", [0.3, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]),
+        (
+            "reference.toml",
+            [0.0, 0.2, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0],
+        ),
+        (
+            "light-28v.toml",
+            [0.3, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0],
+        ),
     ] {
         let actuator =
             Actuator::load(&workspace_root().join("actuators").join(file)).expect("loads");
@@ -594,8 +600,9 @@ fn firmware_with_a_friction_law_by_drag_gives_the_hosts_bits() {
     record.ga.max_evaluations = 300;
     let mut cold = settings;
     cold.conditions.gear_temperature -= 40.0;
-    let mut scenario =
-        Scenario::new(FaultVector::new([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]).expect("valid"));
+    let mut scenario = Scenario::new(
+        FaultVector::new([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]).expect("valid"),
+    );
     scenario.seed = 2;
     let trace = ReferenceModel::new(cold)
         .with_test(record.test)

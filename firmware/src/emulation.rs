@@ -201,22 +201,24 @@ fn number(word: &[u8]) -> Result<u64, UsageError> {
     })
 }
 
-/// Reads the record file at `path` (the GA checkpoint, or the health store's image) into
-/// `record`; `Ok(false)` when there is no file (the first run), `Err` with the file's length
-/// when it is not exactly `record.len()` long.
-pub fn read_record_file(path: &CStr, record: &mut [u8]) -> Result<bool, RecordFileError> {
+/// Reads the record file at `path` (the actuator record, the GA checkpoint, or the health
+/// store's image) into the start of `record`, and returns its length: an older version's
+/// record is shorter than the buffer, and its reader tells it by its header (or, for the
+/// health store, by its length). `Ok(None)` when there is no file (the first run), `Err`
+/// with the file's length when it is longer than `record`.
+pub fn read_record_file(path: &CStr, record: &mut [u8]) -> Result<Option<usize>, RecordFileError> {
     let Ok(mut file) = File::open(path) else {
-        return Ok(false);
+        return Ok(None);
     };
     let len = file
         .metadata()
         .map(|m| m.len())
         .map_err(|_| RecordFileError::Io)?;
-    if len != record.len() as u64 {
+    let Some(into) = usize::try_from(len).ok().and_then(|n| record.get_mut(..n)) else {
         return Err(RecordFileError::Length { bytes: len });
-    }
-    file.read_exact(record).map_err(|_| RecordFileError::Io)?;
-    Ok(true)
+    };
+    file.read_exact(into).map_err(|_| RecordFileError::Io)?;
+    Ok(Some(into.len()))
 }
 
 /// Replaces the record file at `path` with `record`.
@@ -263,7 +265,7 @@ fn host_command_line(buf: &mut [u8; CMDLINE_BYTES]) -> Option<&[u8]> {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]
 pub enum RecordFileError {
     Io,
-    /// Not one record long.
+    /// Longer than a record, or (a health store) no version's image.
     Length {
         bytes: u64,
     },

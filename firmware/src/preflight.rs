@@ -171,9 +171,12 @@ enum State<'m> {
     Uncertainty {
         result: IdentificationResult,
     },
+    /// The assessments are taken when the uncertainty is: the correlations (a 9 × 9 matrix)
+    /// are not carried from state to state.
     Report {
         result: IdentificationResult,
-        uncertainty: Option<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT])>,
+        uncertainty: Option<Uncertainty>,
+        assessments: [Assessment; FAULT_COUNT],
     },
     Done(Report),
     Failed,
@@ -318,6 +321,24 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
         }
     }
 
+    /// The verdicts that use the uncertainty (`Faulty` only when the interval clears the
+    /// threshold); without one, a component beyond the threshold is only `Suspect`. O(9²).
+    fn assess(
+        &self,
+        result: &IdentificationResult,
+        uncertainty: Option<&(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT])>,
+    ) -> [Assessment; FAULT_COUNT] {
+        let threshold = self.settings.actuator.detection_threshold;
+        match uncertainty {
+            Some((u, correlation)) => u.assess_at(&result.faults, correlation, threshold),
+            None => result.faults.verdicts_at(threshold).map(|v| match v {
+                Verdict::Healthy => Assessment::Healthy,
+                Verdict::Faulty => Assessment::Suspect,
+                Verdict::NotApplicable => Assessment::NotApplicable,
+            }),
+        }
+    }
+
     fn advance(&mut self, state: State<'m>) -> Result<State<'m>, PreflightError<S::Error>> {
         match state {
             State::Acquire { measured } => {
@@ -386,6 +407,7 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                             None => State::Report {
                                 result,
                                 uncertainty: None,
+                                assessments: self.assess(&result, None),
                             },
                         }
                     }
@@ -395,13 +417,14 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                 let Some(id) = self.id.as_ref() else {
                     return Err(PreflightError::AlreadyFailed);
                 };
-                let polish = &mut self.polish;
                 let Some(run) = self.curvature.as_deref_mut() else {
                     return Ok(State::Report {
                         result,
                         uncertainty: None,
+                        assessments: self.assess(&result, None),
                     });
                 };
+                let polish = &mut self.polish;
                 match polish.ask() {
                     PolishAsk::Curvature(k) => {
                         if !self.summing {
@@ -439,33 +462,24 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                 };
                 Ok(match done {
                     None => State::Uncertainty { result },
-                    Some(curvature) => State::Report {
-                        result,
-                        uncertainty: curvature.uncertainty(&result.faults).ok(),
-                    },
+                    Some(curvature) => {
+                        let uncertainty = curvature.uncertainty(&result.faults).ok();
+                        State::Report {
+                            result,
+                            assessments: self.assess(&result, uncertainty.as_ref()),
+                            uncertainty: uncertainty.map(|(u, _)| u),
+                        }
+                    }
                 })
             }
             State::Report {
                 result,
                 uncertainty,
+                assessments,
             } => Ok(State::Done(Report {
                 result,
-                uncertainty: uncertainty.map(|(u, _)| u),
-                assessments: match &uncertainty {
-                    Some((u, correlation)) => u.assess_at(
-                        &result.faults,
-                        correlation,
-                        self.settings.actuator.detection_threshold,
-                    ),
-                    None => result
-                        .faults
-                        .verdicts_at(self.settings.actuator.detection_threshold)
-                        .map(|v| match v {
-                            Verdict::Healthy => Assessment::Healthy,
-                            Verdict::Faulty => Assessment::Suspect,
-                            Verdict::NotApplicable => Assessment::NotApplicable,
-                        }),
-                },
+                uncertainty,
+                assessments,
                 domain: self.domain.assess(
                     &self.settings.actuator.domain,
                     result.fitness,

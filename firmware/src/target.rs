@@ -23,13 +23,13 @@ use firmware::{Preflight, PreflightSettings, Progress, Report, Stage, TraceSourc
 use shared::domain::Domain;
 use shared::fault::FAULT_NAMES;
 use shared::fdi::OnboardMeasured;
-use shared::health::{RamStore, RecordedDay, ONBOARD_RECORDS, RECORD_V1_BYTES, RECORD_V2_BYTES};
+use shared::health::{
+    RamStore, RecordedDay, ONBOARD_RECORDS, RECORD_V1_BYTES, RECORD_V2_BYTES, RECORD_V3_BYTES,
+};
 use shared::prognosis::TrendSettings;
 use shared::LowPass;
 
-use crate::emulation::{
-    read_record_file, write_record_file, Command, Crash, HostFile, RecordFileError,
-};
+use crate::emulation::{read_record_file, write_record_file, Command, Crash, HostFile};
 use shared::actuator::{ActuatorRecord, RECORD_BYTES};
 use shared::fdi::OnboardRecord;
 use shared::test_design::PreflightTest;
@@ -366,11 +366,12 @@ type HostPreflight = Preflight<'static, TraceSource<HostFile>>;
 fn resume_checkpoint(preflight: &mut HostPreflight, path: &CStr) {
     let mut record: OnboardRecord = [0; core::mem::size_of::<OnboardRecord>()];
     match read_record_file(path, &mut record) {
-        Ok(true) => match preflight.resume(&record) {
+        // A checkpoint of an older version is shorter: its header tells.
+        Ok(Some(len)) => match preflight.resume(record.get(..len).unwrap_or(&[])) {
             Ok(n) => defmt::println!("checkpoint resumed evaluations={=u32}", n),
             Err(e) => defmt::println!("checkpoint refused reason={} (restarting)", e),
         },
-        Ok(false) => {}
+        Ok(None) => {}
         Err(e) => defmt::println!("checkpoint refused reason={} (restarting)", e),
     }
 }
@@ -391,9 +392,10 @@ fn save_checkpoint(preflight: &HostPreflight, path: &CStr) {
 fn load_actuator(path: &CStr, trace_test: &PreflightTest) -> Result<PreflightSettings, i32> {
     let mut bytes = [0u8; RECORD_BYTES];
     let name = path.to_bytes();
+    // An older version's record is shorter; `decode` reads it by its header.
     match read_record_file(path, &mut bytes) {
-        Ok(true) => {}
-        Ok(false) => {
+        Ok(Some(_)) => {}
+        Ok(None) => {
             defmt::error!("actuator record {=[u8]:a} not found", name);
             return Err(status::ACTUATOR_RECORD);
         }
@@ -441,27 +443,18 @@ fn record_health(path: &CStr, flight: Option<u32>, report: &Report, day: &TestCo
         return status::START_UP;
     };
     store.erase();
-    let image = |slot_bytes: usize| (ONBOARD_RECORDS * slot_bytes) as u64;
+    let full = store.as_bytes_mut().len();
     match read_record_file(path, store.as_bytes_mut()) {
-        Ok(true) => {}
-        Ok(false) => defmt::println!("health log {=[u8]:a}: new", path_text),
-        // A log kept before record version 3: read it and carry its records over.
-        Err(RecordFileError::Length { bytes })
-            if bytes == image(RECORD_V1_BYTES) || bytes == image(RECORD_V2_BYTES) =>
+        Ok(Some(len)) if len == full => {}
+        Ok(None) => defmt::println!("health log {=[u8]:a}: new", path_text),
+        // A log kept before record version 4, read into the image's start: carry its
+        // records over in place.
+        Ok(Some(len))
+            if [RECORD_V1_BYTES, RECORD_V2_BYTES, RECORD_V3_BYTES]
+                .iter()
+                .any(|&old| len == ONBOARD_RECORDS * old) =>
         {
-            let old_bytes = if bytes == image(RECORD_V1_BYTES) {
-                RECORD_V1_BYTES
-            } else {
-                RECORD_V2_BYTES
-            };
-            let old = store
-                .as_bytes_mut()
-                .get_mut(..ONBOARD_RECORDS * old_bytes)
-                .unwrap_or(&mut []);
-            if let Err(e) = read_record_file(path, old) {
-                defmt::error!("health log {=[u8]:a} refused: {}", path_text, e);
-                return status::HEALTH_LOG;
-            }
+            let old_bytes = len / ONBOARD_RECORDS;
             let kept = store.upgrade(old_bytes);
             defmt::println!(
                 "upgraded health log {=[u8]:a}: {=usize}-byte slots, {=usize} records carried over",
@@ -469,6 +462,14 @@ fn record_health(path: &CStr, flight: Option<u32>, report: &Report, day: &TestCo
                 old_bytes,
                 kept
             );
+        }
+        Ok(Some(len)) => {
+            defmt::error!(
+                "health log {=[u8]:a} refused: {=usize} bytes, no version's image",
+                path_text,
+                len
+            );
+            return status::HEALTH_LOG;
         }
         Err(e) => {
             defmt::error!("health log {=[u8]:a} refused: {}", path_text, e);

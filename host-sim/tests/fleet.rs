@@ -203,11 +203,16 @@ fn a_schema_1_store_of_eight_component_records_is_migrated_in_place() {
     }
     let (ok, out) = ingest(&db, &[&path], &[]);
     assert!(ok, "{out}");
-    assert!(out.contains("migrated from schema 1 to 2 (6 records"), "{out}");
+    assert!(
+        out.contains("migrated from schema 1 to 2 (6 records"),
+        "{out}"
+    );
     assert!(out.contains("6 v3 records, 0 new"), "{out}");
     let c = rusqlite::Connection::open(&db).unwrap();
     let schema: i64 = c
-        .query_row("SELECT value FROM meta WHERE key = 'schema'", [], |r| r.get(0))
+        .query_row("SELECT value FROM meta WHERE key = 'schema'", [], |r| {
+            r.get(0)
+        })
         .unwrap();
     assert_eq!(schema, 2);
     let mut q = c

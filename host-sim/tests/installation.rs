@@ -218,7 +218,11 @@ fn another_dead_time_is_named_as_a_changed_installation() {
         );
     }
     // The calibrated drive itself stays within, its shorts too.
-    for k in [HEALTHY, SHORT_A, [0.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]] {
+    for k in [
+        HEALTHY,
+        SHORT_A,
+        [0.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0],
+    ] {
         let sim = simulate(ReferenceSettings::REFERENCE, k);
         let (day, domain) = verdict(&sim, &Calibration::REFERENCE_ACTUATOR);
         assert_eq!(domain, Domain::Within, "{k:?}: {day:?}");

@@ -304,17 +304,19 @@ impl ActuatorRecord {
         }
         let [v0, v1, l0, l1] = r.word();
         let version = u16::from_le_bytes([v0, v1]);
-        let (body_words, total) = match version {
-            1 => (BODY_WORDS_V1, RECORD_BYTES_V1),
-            2 => (BODY_WORDS_V2, RECORD_BYTES_V2),
-            3 => (BODY_WORDS_V3, RECORD_BYTES_V3),
-            4 => (BODY_WORDS_V4, RECORD_BYTES_V4),
-            5 => (BODY_WORDS_V5, RECORD_BYTES_V5),
-            6 => (BODY_WORDS_V6, RECORD_BYTES_V6),
-            7 => (BODY_WORDS_V7, RECORD_BYTES_V7),
-            RECORD_VERSION => (BODY_WORDS, RECORD_BYTES),
+        let body_words = match version {
+            1 => BODY_WORDS_V1,
+            2 => BODY_WORDS_V2,
+            3 => BODY_WORDS_V3,
+            4 => BODY_WORDS_V4,
+            5 => BODY_WORDS_V5,
+            6 => BODY_WORDS_V6,
+            7 => BODY_WORDS_V7,
+            RECORD_VERSION => BODY_WORDS,
             _ => return Err(ActuatorRecordError::UnsupportedVersion { found: version }),
         };
+        // Magic, version, length, body, CRC-32 (as `RECORD_BYTES_V*`).
+        let total = 8 + 4 * body_words + 4;
         let Some(bytes) = bytes.get(..total) else {
             return Err(too_short);
         };
@@ -386,8 +388,8 @@ impl ActuatorRecord {
         let has_guess = r.u32();
         // The paper's eight here; the rest at the end (version 8), else nominal.
         let mut guess = *FaultVector::NOMINAL.as_array();
-        for (g, v) in guess.iter_mut().zip(r.f32s::<PAPER_FAULT_COUNT>()) {
-            *g = v;
+        for g in guess.iter_mut().take(PAPER_FAULT_COUNT) {
+            *g = r.f32();
         }
         if version >= 2 {
             let [frequency, pair_r, pair_l, temperature, magnet] = r.f32s::<5>();
@@ -405,21 +407,6 @@ impl ActuatorRecord {
             calibration.temperature = temperature;
             calibration.magnet_coefficient = magnet;
         }
-        let ga = GaSettings {
-            max_evaluations,
-            max_generations,
-            stall_generations,
-            tolerance,
-            tournament_size,
-            crossover_alpha,
-            mutation_probability,
-            mutation_scale,
-            mutation_floor,
-            differential_probability,
-            differential_scale,
-            circular,
-            initial_guess: (has_guess != 0).then_some(guess),
-        };
         let [min_travel, min_phase_ratio] = r.f32s::<2>();
         let min_phase_samples = r.u32();
         let [min_phase_current, max_tracking, max_fitness, detection_threshold] = r.f32s::<4>();
@@ -472,12 +459,26 @@ impl ActuatorRecord {
                 *d = r.f32();
             }
         }
-        let mut ga = ga;
-        if let (true, Some(guess)) = (version >= 8, &mut ga.initial_guess) {
+        if version >= 8 {
             for g in guess.iter_mut().skip(PAPER_FAULT_COUNT) {
                 *g = r.f32();
             }
         }
+        let ga = GaSettings {
+            max_evaluations,
+            max_generations,
+            stall_generations,
+            tolerance,
+            tournament_size,
+            crossover_alpha,
+            mutation_probability,
+            mutation_scale,
+            mutation_floor,
+            differential_probability,
+            differential_scale,
+            circular,
+            initial_guess: (has_guess != 0).then_some(guess),
+        };
         let record = Self {
             params,
             test,
@@ -1033,7 +1034,10 @@ mod tests {
         let mut eight = guess;
         eight[8] = 0.0;
         assert_eq!(r.ga.initial_guess, Some(eight));
-        assert_eq!((r.calibration, r.drive, r.polish), (custom.calibration, custom.drive, custom.polish));
+        assert_eq!(
+            (r.calibration, r.drive, r.polish),
+            (custom.calibration, custom.drive, custom.polish)
+        );
         // Without a guess the ninth word is not read into one.
         custom.ga.initial_guess = None;
         assert_eq!(ActuatorRecord::decode(&custom.encode()), Ok(custom));

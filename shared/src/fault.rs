@@ -265,17 +265,8 @@ mod tests {
 
     #[test]
     fn saturating_clamps_and_replaces_nan() {
-        let k = FaultVector::saturating([
-            2.0,
-            -1.0,
-            f32::NAN,
-            0.3,
-            0.0,
-            0.0,
-            f32::NAN,
-            7.0,
-            f32::NAN,
-        ]);
+        let k =
+            FaultVector::saturating([2.0, -1.0, f32::NAN, 0.3, 0.0, 0.0, f32::NAN, 7.0, f32::NAN]);
         assert_eq!(k.as_array(), &[1.0, 0.0, 0.0, 0.3, 0.0, 0.0, 0.5, 1.0, 0.0]);
     }
 
@@ -290,9 +281,7 @@ mod tests {
         assert_eq!(healthy.kp_scale, 1.0);
         assert_eq!(healthy.flux_scale, 1.0);
 
-        let worst = FaultVector::new([1.0; FAULT_COUNT])
-            .unwrap()
-            .effects();
+        let worst = FaultVector::new([1.0; FAULT_COUNT]).unwrap().effects();
         assert_eq!(worst.friction_scale, 3.0);
         assert_eq!(worst.backlash_scale, 100.0);
         assert_eq!(worst.healthy_turns, [MIN_HEALTHY_TURNS; 3]);

@@ -437,11 +437,11 @@ impl HealthRecord {
         let ninth = version >= 4;
         // k1 … k8 at 12..44, k9 at 72 (a record before version 4: no demagnetization).
         let mut k = *FaultVector::NOMINAL.as_array();
-        for (i, v) in k.iter_mut().enumerate() {
-            let at = if i < PAPER_FAULT_COUNT { 12 + 4 * i } else { 72 };
-            if i < PAPER_FAULT_COUNT || ninth {
-                *v = f32::from_le_bytes(word(at));
-            }
+        for (i, v) in k.iter_mut().enumerate().take(PAPER_FAULT_COUNT) {
+            *v = f32::from_le_bytes(word(12 + 4 * i));
+        }
+        if let (true, Some(v)) = (ninth, k.get_mut(PAPER_FAULT_COUNT)) {
+            *v = f32::from_le_bytes(word(72));
         }
         let fitness = f32::from_le_bytes(word(44));
         let half = |at: usize| match bytes.get(at..at + 2) {
@@ -449,11 +449,13 @@ impl HealthRecord {
             _ => [0; 2],
         };
         let mut std = ComponentStd::UNKNOWN;
-        for (i, c) in std.0.iter_mut().enumerate() {
-            let at = if i < PAPER_FAULT_COUNT { 48 + 2 * i } else { 76 };
-            if i < PAPER_FAULT_COUNT && version >= 2 || ninth {
-                *c = u16::from_le_bytes(half(at));
+        if version >= 2 {
+            for (i, c) in std.0.iter_mut().enumerate().take(PAPER_FAULT_COUNT) {
+                *c = u16::from_le_bytes(half(48 + 2 * i));
             }
+        }
+        if let (true, Some(c)) = (ninth, std.0.get_mut(PAPER_FAULT_COUNT)) {
+            *c = u16::from_le_bytes(half(76));
         }
         let (day, reserved_day) = if version >= 3 {
             let day = RecordedDay {
@@ -970,7 +972,17 @@ mod tests {
 
     #[test]
     fn version_2_keeps_the_standard_deviations_and_version_1_is_still_read() {
-        let std = [0.012, 0.5, f32::NAN, 0.0, 2.0, 0.03, f32::NAN, -1.0, f32::NAN];
+        let std = [
+            0.012,
+            0.5,
+            f32::NAN,
+            0.0,
+            2.0,
+            0.03,
+            f32::NAN,
+            -1.0,
+            f32::NAN,
+        ];
         let r = record(9, 0.3).with_std(std);
         assert_eq!(r.std.get(0), Some(786.0 / 65_536.0)); // 0.012 rounded to 2⁻¹⁶
         assert_eq!(r.std.get(1), Some(0.5));
@@ -1027,8 +1039,8 @@ mod tests {
         k[0] = 0.1;
         k[8] = 0.3;
         let std = [0.01, 0.01, 0.01, 0.01, 0.01, 0.01, f32::NAN, 0.01, 0.02];
-        let r = HealthRecord::new(12, FaultVector::new(k).unwrap(), 0.01, Domain::Within)
-            .with_std(std);
+        let r =
+            HealthRecord::new(12, FaultVector::new(k).unwrap(), 0.01, Domain::Within).with_std(std);
         assert_eq!(r.detected, 0b1_0000_0001);
         assert_eq!(HealthRecord::decode(&r.encode()), Ok(r));
         assert_eq!(r.std.get(8), Some(1311.0 / 65_536.0));

@@ -544,9 +544,10 @@ mod tests {
     #[test]
     fn a_history_of_the_eight_component_version_reads_with_no_demagnetization() {
         let mut rows = vec![row(2, 0.09, Domain::Within), row(3, 0.1, Domain::Within)];
-        rows[0].record = rows[0]
-            .record
-            .with_std([0.01, 0.01, 0.02, 0.0, 0.5, 0.03, f32::NAN, 0.004, f32::NAN]);
+        rows[0].record =
+            rows[0]
+                .record
+                .with_std([0.01, 0.01, 0.02, 0.0, 0.5, 0.03, f32::NAN, 0.004, f32::NAN]);
         let text = history_csv(&rows);
         assert!(text.contains(",demagnetization,") && text.contains(",true_demagnetization"));
         // What `degrade` wrote before the ninth fault: no demagnetization column of any kind.
@@ -562,7 +563,11 @@ mod tests {
                 .collect()
         };
         let mut old = text.clone();
-        for name in ["demagnetization", "std_demagnetization", "true_demagnetization"] {
+        for name in [
+            "demagnetization",
+            "std_demagnetization",
+            "true_demagnetization",
+        ] {
             old = drop(name, &old);
         }
         assert!(!old.contains("demagnetization"));

@@ -41,8 +41,7 @@ use anyhow::{bail, Context, Result};
 use rusqlite::{params, Connection, OptionalExtension};
 use shared::fault::{FAULT_COUNT, FAULT_NAMES};
 use shared::health::{
-    is_blank, record_len, DomainCode, HealthRecord, HealthRecordError, RECORD_BYTES,
-    RECORD_VERSION,
+    is_blank, record_len, DomainCode, HealthRecord, HealthRecordError, RECORD_BYTES, RECORD_VERSION,
 };
 use shared::prognosis::{HealthTrend, TrendEstimate, TrendSettings};
 
@@ -139,14 +138,18 @@ fn migrate_schema_1(conn: &Connection) -> Result<usize> {
         let rows = all.query_map([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))?;
         rows.collect::<rusqlite::Result<_>>()?
     };
-    let mut put = tx.prepare(
-        "UPDATE records SET version = ?3, bytes = ?4 WHERE serial = ?1 AND flight = ?2",
-    )?;
+    let mut put = tx
+        .prepare("UPDATE records SET version = ?3, bytes = ?4 WHERE serial = ?1 AND flight = ?2")?;
     for (serial, flight, bytes) in &rows {
         let record = HealthRecord::decode(bytes).map_err(|e| {
             anyhow::anyhow!("record of {serial}, flight {flight} does not decode: {e:?}")
         })?;
-        put.execute(params![serial, flight, RECORD_VERSION, record.encode().as_slice()])?;
+        put.execute(params![
+            serial,
+            flight,
+            RECORD_VERSION,
+            record.encode().as_slice()
+        ])?;
     }
     drop(put);
     tx.execute("UPDATE meta SET value = ?1 WHERE key = 'schema'", [SCHEMA])?;

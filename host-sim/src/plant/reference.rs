@@ -40,8 +40,8 @@
 use rand_core::{RngCore, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 use shared::conditioning::COMMUTATION_SIGNS;
-use shared::test_design::{Drive, PairDrive, PreflightTest};
 use shared::fault::DEMAGNETIZATION_LOSS_MAX;
+use shared::test_design::{Drive, PairDrive, PreflightTest};
 use shared::{ActuatorParams, ChirpCommand, FaultVector};
 
 use crate::files::trace::{Trace, TraceSample};
