@@ -301,12 +301,13 @@ fn a_too_long_trace_is_refused_not_truncated() {
 
 /// The firmware's `bits faults=… fitness=…` line as `u32`s (faults, then fitness).
 /// Writes flights 0..12 of a linear path from nominal to [`faulty_trace`]'s vector (reached at
-/// flight 12) into a new health log at `path`, as a controller before record version 2 kept
-/// it (32 slots of 52 bytes): the firmware must carry it over. Returns how many.
+/// flight 12) into a new health log at `path`, as a controller before the ninth fault
+/// (record version 4) kept it (32 slots of 76 bytes, eight components): the firmware must
+/// carry it over. Returns how many.
 fn earlier_flights(path: &Path) -> u32 {
     use shared::domain::Domain;
-    use shared::health::{HealthRecord, ONBOARD_RECORDS, RECORD_V1_BYTES};
-    let mut image = vec![0xFFu8; ONBOARD_RECORDS * RECORD_V1_BYTES];
+    use shared::health::{HealthRecord, ONBOARD_RECORDS, RECORD_V3_BYTES};
+    let mut image = vec![0xFFu8; ONBOARD_RECORDS * RECORD_V3_BYTES];
     let end = [0.2f32, 0.3, 0.15, 0.0, 0.0, 0.0, 0.5, 0.45];
     let nominal = FaultVector::NOMINAL;
     for f in 0..12u32 {
@@ -316,10 +317,10 @@ fn earlier_flights(path: &Path) -> u32 {
             .zip(end)
             .map(|(a, b)| a + (b - a) * f as f32 / 12.0)
             .collect();
-        let k = FaultVector::new(k.try_into().expect("8")).expect("valid");
-        let at = f as usize * RECORD_V1_BYTES;
-        image[at..at + RECORD_V1_BYTES]
-            .copy_from_slice(&HealthRecord::new(f, k, 0.001, Domain::Within).encode_v1());
+        let k = FaultVector::from_paper(k.try_into().expect("8")).expect("valid");
+        let at = f as usize * RECORD_V3_BYTES;
+        image[at..at + RECORD_V3_BYTES]
+            .copy_from_slice(&HealthRecord::new(f, k, 0.001, Domain::Within).encode_v3());
     }
     std::fs::write(path, image).expect("log written");
     12
@@ -338,7 +339,7 @@ fn health_matches_the_host(
     use shared::health::ONBOARD_RECORDS;
     use shared::prognosis::{HealthTrend, TrendSettings};
     assert!(
-        output.contains(&format!("52-byte slots, {earlier} records carried over")),
+        output.contains(&format!("76-byte slots, {earlier} records carried over")),
         "{output}"
     );
     assert_eq!(number(output, "health ", "flight"), u64::from(earlier));
@@ -404,7 +405,10 @@ fn health_matches_the_host(
         assert_eq!(number(output, &prefix, "n"), u64::from(e.observations));
         compared += 1;
     }
-    assert_eq!(compared, 7, "seven fault trends");
+    assert_eq!(
+        compared, 8,
+        "eight fault trends: the paper's seven and demagnetization"
+    );
     // Friction grows 0.2/12 per flight: 0.5 is reached near flight 30, ≈ 18 flights on.
     let friction = estimates[0]
         .and_then(|e| e.rul)
@@ -445,7 +449,7 @@ fn a_power_loss_under_qemu_resumes_to_the_same_bits_and_a_damaged_record_restart
     assert_eq!(cut.status, 5, "{}", cut.output);
     assert_eq!(number(&cut.output, "stopped ", "evaluations"), 434);
     let record = std::fs::read(&record_path).expect("the record was written");
-    assert_eq!(record.len(), 1276);
+    assert_eq!(record.len(), 1412);
 
     // The host resumes the firmware's record to the same bits (one format, one code).
     let copy = temp_trace("resume-host.ck", &record);
@@ -493,6 +497,24 @@ fn a_power_loss_under_qemu_resumes_to_the_same_bits_and_a_damaged_record_restart
     );
     assert!(!restarted.output.contains("checkpoint resumed"));
     assert_eq!(result_bits(&restarted.output), host_bits(&host));
+
+    // A checkpoint written before the ninth fault (version 1, eight genes, a shorter file)
+    // is resumed: the same evaluations, the run finished.
+    let mut old = vec![0u8; record.len()];
+    let len = shared::ga::as_version_1::<{ shared::fdi::POPULATION }>(&record, &mut old)
+        .expect("convertible");
+    std::fs::write(&record_path, &old[..len]).expect("written");
+    let upgraded = run_firmware(&[trace, "--checkpoint", record_arg]);
+    assert_eq!(upgraded.status, 0, "{}", upgraded.output);
+    assert_eq!(
+        number(&upgraded.output, "checkpoint resumed", "evaluations"),
+        434
+    );
+    assert!(
+        upgraded.output.contains("stop_reason "),
+        "{}",
+        upgraded.output
+    );
 }
 
 /// The firmware loads an actuator record (`--actuator`) and gives the host's bits for both

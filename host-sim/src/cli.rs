@@ -247,6 +247,9 @@ pub(crate) enum CampaignTable {
     #[value(name = "2")]
     Two,
     Random,
+    /// The ninth fault: demagnetization in both forms, mixed with a short and a hot day.
+    #[value(name = "demagnetization")]
+    Demagnetization,
 }
 
 pub(crate) fn parse_noise(text: &str) -> Result<f64, String> {

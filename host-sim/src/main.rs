@@ -176,7 +176,9 @@ enum Command {
     /// identified by the onboard FDI, several seeds per case, in parallel.
     Campaign {
         /// Which cases: 1 (paper Table I, single faults), 2 (Table II, multiple faults, plus
-        /// the healthy actuator with noise), random (multi-fault vectors nobody tuned on).
+        /// the healthy actuator with noise), random (multi-fault vectors nobody tuned on),
+        /// demagnetization (the ninth fault: uniform and one magnet, with a short, on a hot
+        /// and a cold day, and the short and the days that must not read as it).
         #[arg(long, value_enum, required_unless_present = "conditions")]
         table: Option<CampaignTable>,
         /// Robustness: Table I, Table II and the healthy actuator over a grid of days and

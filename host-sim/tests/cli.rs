@@ -14,7 +14,11 @@ fn stderr(o: &Output) -> String {
 fn wrong_number_of_faults_is_refused_by_name() {
     let o = host_sim(&["inverse", "--faults", "0.1,0.2,0.3"]);
     assert!(!o.status.success());
-    assert!(stderr(&o).contains("expected 8"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("expected 9") && stderr(&o).contains("the paper's first 8"),
+        "{}",
+        stderr(&o)
+    );
     assert!(!stderr(&o).contains("panicked"));
 }
 
@@ -149,8 +153,8 @@ fn simulate_then_identify_finds_a_clear_single_fault() {
         .iter()
         .map(|x| x.as_f64().unwrap())
         .collect();
-    assert_eq!(faults.len(), 8);
-    for key in ["fitness", "evaluations", "seconds", "e_tot"] {
+    assert_eq!(faults.len(), 9);
+    for key in ["fitness", "evaluations", "seconds", "e_tot", "e_tot_all"] {
         assert!(v[key].is_number(), "{key} in {v}");
     }
     assert!((faults[0] - 0.4).abs() < 0.05, "{v}");
@@ -163,7 +167,10 @@ fn simulate_then_identify_finds_a_clear_single_fault() {
         .collect();
     assert_eq!(
         verdicts,
-        ["FAULT", "healthy", "healthy", "healthy", "healthy", "healthy", "-", "healthy"],
+        [
+            "FAULT", "healthy", "healthy", "healthy", "healthy", "healthy", "-", "healthy",
+            "healthy"
+        ],
         "{v}"
     );
 
@@ -268,7 +275,7 @@ fn missing_or_broken_files_are_refused_by_name() {
         let e = stderr(&o);
         assert!(!e.contains("panicked"), "{e}");
         assert!(
-            e.contains("-1") || e.contains("expected 8") || e.contains("value 8"),
+            e.contains("-1") || e.contains("expected 9") || e.contains("value 8"),
             "{args:?}: {e}"
         );
     }
@@ -291,7 +298,7 @@ fn a_campaign_writes_every_run_as_a_csv_row() {
     let text = std::fs::read_to_string(&csv).unwrap();
     let mut lines = text.lines();
     assert!(lines.next().unwrap().starts_with(
-        "case,run,e_tot,fitness,fitness_at_truth,evaluations,curvatures,within,friction,"
+        "case,run,e_tot,e_tot_all,fitness,fitness_at_truth,evaluations,curvatures,within,friction,"
     ));
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     assert_eq!(
@@ -300,9 +307,9 @@ fn a_campaign_writes_every_run_as_a_csv_row() {
         "one row per Table I case: {text}"
     );
     for r in &rows {
-        assert_eq!(r.len(), 16, "{r:?}");
+        assert_eq!(r.len(), 18, "{r:?}");
         let e_tot: f64 = r[2].parse().unwrap();
-        let evaluations: u32 = r[5].parse().unwrap();
+        let evaluations: u32 = r[6].parse().unwrap();
         assert!((0.0..20.0).contains(&e_tot), "{r:?}");
         assert!((32..=6000).contains(&evaluations), "{r:?}");
     }

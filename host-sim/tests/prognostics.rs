@@ -158,25 +158,26 @@ fn degrade_simulates_each_flight_and_writes_history_and_log() {
         })
         .collect();
     assert_eq!(rows.len(), 3);
-    // Columns: flight, 8 identified, fitness, domain, 8 standard deviations, the day (bus,
-    // temperature, winding rise), 8 true.
+    // Columns: flight, 9 identified, fitness, domain, 9 standard deviations, the day (bus,
+    // temperature, winding rise), 9 true.
     assert!(csv
         .lines()
         .next()
         .unwrap()
-        .contains(",std_gain_drift,v_bus,temp,winding_rise,true_friction,"));
+        .contains(",std_demagnetization,v_bus,temp,winding_rise,true_friction,"));
     for (f, r) in rows.iter().enumerate() {
         assert_eq!(r[0], f as f64);
         let truth_friction = 0.1 + 0.1 * f as f64;
         let truth_short = 0.1 * f as f64;
-        assert!((r[22] - truth_friction).abs() < 1e-6, "{r:?}");
-        assert!((r[24] - truth_short).abs() < 1e-6, "{r:?}");
+        assert!((r[24] - truth_friction).abs() < 1e-6, "{r:?}");
+        assert!((r[26] - truth_short).abs() < 1e-6, "{r:?}");
+        assert_eq!(r[32], 0.0, "no demagnetization played {r:?}");
         // The day as the record keeps it: the measured bus and thermistor, the winding's rise.
-        assert!((r[19] - 270.0).abs() < 5.0, "bus {r:?}");
-        assert!((r[20] - 22.0).abs() < 1.0, "temperature {r:?}");
-        assert!(r[21].abs() < 8.0, "winding rise {r:?}");
+        assert!((r[21] - 270.0).abs() < 5.0, "bus {r:?}");
+        assert!((r[22] - 22.0).abs() < 1.0, "temperature {r:?}");
+        assert!(r[23].abs() < 8.0, "winding rise {r:?}");
         // The identification's standard deviation of friction, as the record keeps it.
-        assert!(r[11] > 0.0 && r[11] < 0.1, "std of friction {r:?}");
+        assert!(r[12] > 0.0 && r[12] < 0.1, "std of friction {r:?}");
         assert!(
             (r[1] - truth_friction).abs() < 0.03,
             "identified friction {r:?}"

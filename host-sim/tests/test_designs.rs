@@ -233,7 +233,7 @@ fn the_voltage_channel_conditions_the_study_better_than_currents_alone() {
     let hz = ReferenceSettings::ANTI_ALIAS_HZ;
     let paper = study(Design::Paper, name, &k, 3, 0.02, hz, 0.0).unwrap();
     let voltage = study(Design::Voltage, name, &k, 3, 0.02, hz, 0.0).unwrap();
-    assert_eq!(paper.components, (0..8).collect::<Vec<_>>());
+    assert_eq!(paper.components, (0..9).collect::<Vec<_>>());
     for s in [&paper, &voltage] {
         assert!(s
             .singular_values

@@ -24,7 +24,7 @@ use crate::random::Xoshiro128PlusPlus;
 
 pub mod checkpoint;
 
-pub use checkpoint::{record_bytes, RecordError};
+pub use checkpoint::{as_version_1, record_bytes, RecordError};
 
 use crate::fault::{FaultVector, CIRCULAR, FAULT_COUNT};
 

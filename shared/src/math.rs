@@ -167,9 +167,9 @@ pub fn sqrt64(x: f64) -> f64 {
     y
 }
 
-/// Order of [`invert`]'s matrices: the fault vector's 9 components (a smaller system is
-/// padded with an identity block).
-pub const INVERT_N: usize = crate::fault::FAULT_COUNT;
+/// Order of [`invert`]'s matrices: the fault vector's 9 components (checked where the
+/// uncertainty uses it; a smaller system is padded with an identity block).
+pub const INVERT_N: usize = 9;
 
 /// Inverse of a symmetric positive-definite 9×9 matrix (Gauss–Jordan, partial pivoting);
 /// `None` if singular. O(9³), no allocation. One copy for the uncertainty, the polish and the

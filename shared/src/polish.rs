@@ -86,7 +86,11 @@ impl PolishSettings {
             .probes
             .iter()
             .take(usize::from(self.probe_count))
-            .all(|p| p.component < 8 && p.component != 6 && (0.0..=1.0).contains(&p.level));
+            .all(|p| {
+                usize::from(p.component) < crate::fault::FAULT_COUNT
+                    && p.component != 6
+                    && (0.0..=1.0).contains(&p.level)
+            });
         self.iterations <= 64
             && self.probe_iterations <= 64
             && usize::from(self.probe_count) <= MAX_PROBES

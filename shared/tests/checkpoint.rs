@@ -280,24 +280,11 @@ fn an_impossible_state_is_refused_before_anything_is_loaded() {
     assert_eq!(other.ga(), id.ga());
 }
 
-/// `record` (version 2, nine genes) as a controller before the ninth fault wrote it: version 1,
-/// eight genes per individual (the demagnetization gene dropped), its own CRC-32.
+/// `record` (version 2, nine genes) as a controller before the ninth fault wrote it.
 fn as_version_1(record: &[u8]) -> Vec<u8> {
-    let mut out = record[..52].to_vec();
-    out[4..6].copy_from_slice(&1u16.to_le_bytes());
-    out[8..10].copy_from_slice(&8u16.to_le_bytes());
-    // Pending genes, then best and members: 9 genes (+ fitness) each, keep the first 8.
-    out.extend_from_slice(&record[52..52 + 32]);
-    let mut at = 52 + 36;
-    while at + 40 <= record.len() - 4 {
-        out.extend_from_slice(&record[at..at + 32]);
-        out.extend_from_slice(&record[at + 36..at + 40]);
-        at += 40;
-    }
-    let mut crc = Crc32::new();
-    crc.update(&out);
-    let sum = crc.finish();
-    out.extend_from_slice(&sum.to_le_bytes());
+    let mut out = vec![0u8; record.len()];
+    let len = shared::ga::as_version_1::<POPULATION>(record, &mut out).unwrap();
+    out.truncate(len);
     out
 }
 

@@ -22,6 +22,10 @@ pub(crate) fn campaign_command(
             "Random multi-fault vectors (not tuned on)",
             campaign::untuned_random_cases(8),
         ),
+        CampaignTable::Demagnetization => (
+            "Demagnetization (k9), its mixes, and what must not read as it",
+            campaign::DEMAGNETIZATION.to_vec(),
+        ),
     };
     let start = Instant::now();
     let summaries =
@@ -47,6 +51,9 @@ pub(crate) fn campaign_command(
                     .join(", ")
             );
         }
+    }
+    if matches!(table, CampaignTable::Demagnetization) {
+        text += &campaign::demagnetization_markdown(&summaries);
     }
     print!("{text}");
     if let Some(path) = runs_csv {

@@ -206,27 +206,6 @@ pub(crate) fn demagnetization_study_command(
     bar.finish_and_clear();
     let cosines = host_sim::studies::demagnetization::flux_cosines(&record);
     let mut text = demagnetization_markdown(&actuator.name, &rows, &cosines, seeds);
-    const STEPS: usize = 10;
-    let bar = host_sim::progress_bar(
-        host_sim::studies::demagnetization::PROFILE_CASES.len() as u64,
-        "{elapsed_precise} [{bar:40}] {pos}/{len} flux profiles {msg}",
-        std::io::stderr().is_terminal(),
-    );
-    let profile = host_sim::studies::demagnetization::flux_profile_study(
-        &bench,
-        &record,
-        &host_sim::studies::demagnetization::PROFILE_CASES,
-        seeds,
-        STEPS,
-        |what| {
-            bar.set_message(what.to_string());
-            bar.inc(1);
-        },
-    )?;
-    bar.finish_and_clear();
-    text.push_str(&host_sim::studies::demagnetization::profile_markdown(
-        &profile, seeds, STEPS,
-    ));
     let poles = 2 * bench.settings.params.pole_pairs as u32;
     text.push_str(
         "\nOn the reference model (noise-free truth), one magnet at 10 % loss against a \

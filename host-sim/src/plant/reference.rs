@@ -523,6 +523,11 @@ impl ReferenceModel {
         self
     }
 
+    /// The magnets' demagnetization this model plays beside the fault vector's k9.
+    pub fn demagnetization(&self) -> Demagnetization {
+        self.demagnetization
+    }
+
     /// The same actuator read through a faulty sensor.
     pub fn with_sensor_fault(mut self, fault: Option<SensorFault>) -> Self {
         self.sensor_fault = fault;

@@ -1,24 +1,26 @@
-//! The demagnetization study (issue 35, its first part): what today's eight-component FDI
-//! reads on an actuator whose magnets lost flux — uniformly (every pole) or one magnet —
-//! against the same actuator whose winding is hot (the magnets' reversible flux change,
-//! which the day already plays), and how well the test fixes the magnets' flux at all.
+//! The demagnetization study (issue 35): what the FDI reads on an actuator whose magnets
+//! lost flux — uniformly (every pole) or one magnet — against the same actuator whose winding
+//! is hot (the magnets' reversible flux change, which the day plays), and whether the test
+//! tells the flux from the other faults at all. Its first part measured the eight-component
+//! FDI (docs/identifiability.md §0d: the loss read as friction and gain drift, a brute-force
+//! profile over the flux finding it); the FDI now carries the ninth component, k9, and this
+//! study measures what it reads.
 //!
-//! Three parts, all on the reference model (RM):
+//! Two parts, all on the reference model (RM):
 //! * [`demagnetization_study`]: per case, `seeds` RM runs of the healthy actuator with the
 //!   magnets' loss, each identified by the flown FDI (GA and polish, the record's
-//!   calibration), and again told the flux left: 2 identifications per run.
-//! * [`flux_profile_study`]: a ninth parameter by brute force, `steps` identifications per
-//!   run.
+//!   calibration), and again told the flux left (then k9 should read none): 2
+//!   identifications per run.
 //! * [`weak_magnet_against_eccentricity`] (RM only) and [`flux_cosines`] (monitor model
 //!   only): whether the signals can be told apart at all.
 //!
-//! The cost is the identifications, ≈ 0.25 s each on one core: about 3 minutes for the
-//! whole study with 10 seeds.
+//! The cost is the identifications, ≈ 0.2 s each on one core: about a minute for the whole
+//! study with 10 seeds.
 
 use anyhow::{anyhow, Result};
 use rayon::prelude::*;
 use shared::actuator::ActuatorRecord;
-use shared::metrics::total_error;
+use shared::metrics::{total_error, total_error_all};
 use shared::uncertainty::Assessment;
 use shared::{FaultVector, FAULT_COUNT};
 
@@ -41,8 +43,6 @@ pub struct DemagnetizationCase {
 }
 
 const HEALTHY: [f32; FAULT_COUNT] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0];
-const SHORT_A: [f32; FAULT_COUNT] = [0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0];
-const GAIN: [f32; FAULT_COUNT] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.7, 0.0];
 const NONE: Demagnetization = Demagnetization::None;
 
 const fn case(
@@ -110,10 +110,15 @@ pub struct DemagnetizationRow {
     pub case: DemagnetizationCase,
     /// The share of the rotor's flux lost irreversibly (the poles' mean).
     pub flux_lost: f64,
-    /// Mean of each component read (the truth: the healthy vector).
+    /// The demagnetization k9 the loss amounts to (the truth of the ninth component; the
+    /// others are healthy).
+    pub k9: f64,
+    /// Mean of each component read.
     pub found: [f64; FAULT_COUNT],
-    /// Mean e_tot of the eight components against the healthy vector [%].
+    /// Mean e_tot of the paper's eight components against the healthy vector [%].
     pub e_tot: f64,
+    /// Mean e_tot over all nine, k9 against the loss played [%].
+    pub e_tot_all: f64,
     /// Healthy components read `FAULT` / `suspect` (7 per run).
     pub faults: usize,
     pub suspects: usize,
@@ -124,9 +129,9 @@ pub struct DemagnetizationRow {
     pub day_flux: f64,
     /// Best fitness, the nominal residual subtracted (mean) [A²·s].
     pub fitness: f64,
-    /// Mean e_tot [%] when the FDI is told the flux left (the calibration's back-EMF scale
-    /// times the poles' mean flux): whether one flux scale in the monitor model explains the
-    /// loss, i.e. what a ninth component holding it could reach.
+    /// Mean e_tot over all nine [%] when the FDI is told the flux left (the calibration's
+    /// back-EMF scale times the poles' mean flux; k9's truth is then none): whether one flux
+    /// scale in the monitor model explains the loss.
     pub e_tot_told: f64,
 }
 
@@ -150,6 +155,8 @@ pub fn demagnetization_study(
             .with_demagnetization(case.demagnetization);
         let truth =
             FaultVector::new(case.faults).map_err(|e| anyhow!("case {}: {e:?}", case.name))?;
+        let pole_pairs = settings.params.pole_pairs as u32;
+        let lost = case.demagnetization.truth(&truth, pole_pairs);
         let flux_left = case
             .demagnetization
             .flux_left(settings.params.pole_pairs as u32);
@@ -161,6 +168,7 @@ pub fn demagnetization_study(
             ..*record
         };
         type Run = (FaultVector, f64, [Assessment; FAULT_COUNT], bool, f32, f64);
+        // The ninth component's truth is the loss; told the flux, it is none.
         let runs: Vec<Run> = (0..seeds)
             .into_par_iter()
             .map(|seed| {
@@ -181,7 +189,7 @@ pub fn demagnetization_study(
                     id.assessments_at(record.detection_threshold),
                     within,
                     id.conditions.flux_scale,
-                    f64::from(total_error(&told.result.faults, &truth)),
+                    f64::from(total_error_all(&told.result.faults, &truth)),
                 ))
             })
             .collect::<Result<_>>()?;
@@ -192,11 +200,11 @@ pub fn demagnetization_study(
                 *f += f64::from(*v) / n;
             }
         }
-        let e_tot = runs
-            .iter()
-            .map(|(k, ..)| f64::from(total_error(k, &truth)))
-            .sum::<f64>()
-            / n;
+        let mean_of = |e: &dyn Fn(&FaultVector) -> f32| {
+            runs.iter().map(|(k, ..)| f64::from(e(k))).sum::<f64>() / n
+        };
+        let e_tot = mean_of(&|k| total_error(k, &lost));
+        let e_tot_all = mean_of(&|k| total_error_all(k, &lost));
         let (mut faults, mut suspects) = (0, 0);
         for (_, _, a, ..) in &runs {
             for i in JUDGED {
@@ -210,6 +218,8 @@ pub fn demagnetization_study(
         let fitness = runs.iter().map(|r| r.1).sum::<f64>() / n;
         rows.push(DemagnetizationRow {
             case,
+            k9: f64::from(lost.demagnetization()),
+            e_tot_all,
             flux_lost: 1.0
                 - case
                     .demagnetization
@@ -229,142 +239,6 @@ pub fn demagnetization_study(
         return Err(anyhow!("no case ran"));
     }
     Ok(rows)
-}
-
-/// The profile's cases: the uniform loss at k9 0.1 / 0.2 / 0.5, the day (a hot winding), and
-/// the faults a flux loss could be mistaken for or hide behind (a short, a gain drift).
-pub const PROFILE_CASES: [DemagnetizationCase; 8] = [
-    case("healthy", HEALTHY, NONE, 0.0),
-    case("healthy, winding +60 K", HEALTHY, NONE, 60.0),
-    case("uniform 5 % (k9 0.1)", HEALTHY, uniform(0.05), 0.0),
-    case("uniform 10 % (k9 0.2)", HEALTHY, uniform(0.10), 0.0),
-    case("uniform 25 % (k9 0.5)", HEALTHY, uniform(0.25), 0.0),
-    case("short A 0.2", SHORT_A, NONE, 0.0),
-    case("short A 0.2 with uniform 10 %", SHORT_A, uniform(0.10), 0.0),
-    case("gain drift 0.7 with uniform 10 %", GAIN, uniform(0.10), 0.0),
-];
-
-/// What the flux profile found for one case, over its seeds.
-#[derive(Clone, Debug, PartialEq)]
-pub struct ProfileRow {
-    pub case: DemagnetizationCase,
-    /// The share of the flux lost: played, and found (mean, largest error over seeds).
-    pub true_loss: f64,
-    pub found_loss: f64,
-    pub largest_error: f64,
-    /// e_tot [%] of the eight components at the best flux (mean).
-    pub e_tot: f64,
-}
-
-/// A ninth parameter by brute force, for the study only: per run, the eight-component FDI
-/// at each of `steps` flux scales (golden-section search over 0.6 … 1.05 of the calibrated
-/// flux; each point one whole identification), keeping the flux whose best fitness is least.
-/// Whether the fitness locates the flux the magnets lost — what a ninth gene in the GA
-/// would find — and whether a short or a gain drift is taken for it. O(steps)
-/// identifications per run.
-pub fn flux_profile_study(
-    bench: &Bench,
-    record: &ActuatorRecord,
-    cases: &[DemagnetizationCase],
-    seeds: u64,
-    steps: usize,
-    mut progress: impl FnMut(&str),
-) -> Result<Vec<ProfileRow>> {
-    let mut rows = Vec::new();
-    for &case in cases {
-        progress(case.name);
-        let mut settings: ReferenceSettings = bench.settings;
-        settings.conditions = settings
-            .conditions
-            .at_temperature(bench.day() + case.winding_rise);
-        let rm = ReferenceModel::new(settings)
-            .with_test(bench.test)
-            .with_demagnetization(case.demagnetization);
-        let truth =
-            FaultVector::new(case.faults).map_err(|e| anyhow!("case {}: {e:?}", case.name))?;
-        let true_loss = 1.0
-            - case
-                .demagnetization
-                .flux_left(settings.params.pole_pairs as u32);
-        let runs: Vec<(f64, f64)> = (0..seeds)
-            .into_par_iter()
-            .map(|seed| {
-                let mut scenario = Scenario::new(truth);
-                scenario.seed = seed;
-                let sim = rm.simulate(&scenario);
-                let measured = sim.trace.measured(&record.params)?;
-                let at = |flux: f64| -> Result<(f64, f64)> {
-                    let guess = ActuatorRecord {
-                        calibration: shared::Calibration {
-                            back_emf_scale: record.calibration.back_emf_scale * flux as f32,
-                            ..record.calibration
-                        },
-                        ..*record
-                    };
-                    let id = identify_for(&measured, &guess, 1 + seed, false)?;
-                    Ok((
-                        f64::from(id.result.fitness),
-                        f64::from(total_error(&id.result.faults, &truth)),
-                    ))
-                };
-                // Golden-section search on the best fitness over the flux scale.
-                let ratio = 0.5 * (5f64.sqrt() - 1.0);
-                let (mut lo, mut hi) = (0.6f64, 1.05f64);
-                let mut x1 = hi - ratio * (hi - lo);
-                let mut x2 = lo + ratio * (hi - lo);
-                let (mut f1, mut f2) = (at(x1)?, at(x2)?);
-                for _ in 2..steps {
-                    if f1.0 < f2.0 {
-                        hi = x2;
-                        (x2, f2) = (x1, f1);
-                        x1 = hi - ratio * (hi - lo);
-                        f1 = at(x1)?;
-                    } else {
-                        lo = x1;
-                        (x1, f1) = (x2, f2);
-                        x2 = lo + ratio * (hi - lo);
-                        f2 = at(x2)?;
-                    }
-                }
-                let (flux, (_, e_tot)) = if f1.0 < f2.0 { (x1, f1) } else { (x2, f2) };
-                Ok((1.0 - flux, e_tot))
-            })
-            .collect::<Result<_>>()?;
-        let n = runs.len().max(1) as f64;
-        rows.push(ProfileRow {
-            case,
-            true_loss,
-            found_loss: runs.iter().map(|r| r.0).sum::<f64>() / n,
-            largest_error: runs
-                .iter()
-                .map(|r| (r.0 - true_loss).abs())
-                .fold(0.0, f64::max),
-            e_tot: runs.iter().map(|r| r.1).sum::<f64>() / n,
-        });
-    }
-    Ok(rows)
-}
-
-/// The profile's rows as a markdown table (the loss in k9 units too: k9 = 2 × loss).
-pub fn profile_markdown(rows: &[ProfileRow], seeds: u64, steps: usize) -> String {
-    let mut text = format!(
-        "\nA ninth parameter by brute force (`flux_profile_study`): per run, the \
-         eight-component FDI at {steps} flux scales (golden-section over 0.6 … 1.05), the \
-         least best fitness kept; {seeds} seeds per case. k9 = 2 × the share of flux lost.\n\n\
-         | case | k9 played | k9 found (mean) | largest error | e_tot of the eight at that flux [%] |\n\
-         | --- | ---: | ---: | ---: | ---: |\n"
-    );
-    for r in rows {
-        text.push_str(&format!(
-            "| {} | {:.3} | {:.3} | {:.3} | {:.2} |\n",
-            r.case.name,
-            2.0 * r.true_loss,
-            2.0 * r.found_loss,
-            2.0 * r.largest_error,
-            r.e_tot
-        ));
-    }
-    text
 }
 
 /// On the reference model (noise-free truth currents, the bench's test): the cosine between
@@ -486,24 +360,28 @@ pub fn demagnetization_markdown(
     let mut text = format!(
         "### {actuator}\n\n\
          The healthy actuator with demagnetized magnets, {seeds} seeds per case, identified \
-         by today's eight-component FDI (the built-in calibration, injection test, real \
-         bridge). Every component's truth is healthy: whatever it reads is the magnets' loss \
-         read as something else. `day flux`: the flux scale the FDI took from the winding's \
-         estimated temperature (the reversible part it already plays); `fitness`: the best \
-         fitness, the nominal residual subtracted [A²·s] (the domain's floor: \
-         `[domain] max_fitness`); `told`: e_tot when the FDI is told the flux left (its \
-         back-EMF scale times the poles' mean flux), what one flux scale in the monitor \
-         model can explain.\n\n\
-         | case | flux lost | friction | backlash | short A | short B | short C | eccentricity | gain drift | e_tot [%] | FAULT / suspect (of {}) | within | day flux | fitness | told: e_tot [%] |\n\
-         | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n",
+         by the nine-component FDI (the built-in calibration, injection test, real bridge). \
+         The eight paper components' truth is healthy: whatever they read is the magnets' \
+         loss read as something else; k9's truth is the mean flux lost (k9 = 2 × the share). \
+         `e_tot`: over the paper's eight, then over all nine; `FAULT / suspect`: on the \
+         eight's healthy components; `day flux`: the flux scale the FDI took from the \
+         winding's estimated temperature (the reversible part the day plays); `fitness`: the \
+         best fitness, the nominal residual subtracted [A²·s] (the domain's floor: \
+         `[domain] max_fitness`); `told`: e_tot of all nine when the FDI is told the flux \
+         left (its back-EMF scale times the poles' mean flux; k9 should then read none): \
+         what one flux scale in the monitor model can explain.\n\n\
+         | case | flux lost | k9 played | k9 read | friction | backlash | short A | short B | short C | eccentricity | gain drift | e_tot of 8 / of 9 [%] | FAULT / suspect (of {}) | within | day flux | fitness | told: e_tot of 9 [%] |\n\
+         | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n",
         7 * seeds
     );
     for r in rows {
         let f = r.found;
         text.push_str(&format!(
-            "| {} | {:.1} % | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.2} | {} / {} | {} of {} | ×{:.4} | {:.2e} | {:.2} |\n",
+            "| {} | {:.1} % | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.2} / {:.2} | {} / {} | {} of {} | ×{:.4} | {:.2e} | {:.2} |\n",
             r.case.name,
             100.0 * r.flux_lost,
+            r.k9,
+            f[8],
             f[0],
             f[1],
             f[2],
@@ -512,6 +390,7 @@ pub fn demagnetization_markdown(
             f[5],
             f[7],
             r.e_tot,
+            r.e_tot_all,
             r.faults,
             r.suspects,
             r.within,
@@ -525,8 +404,8 @@ pub fn demagnetization_markdown(
         "\nOn the monitor model at the healthy actuator, the cosine between the current's \
          change with the magnets' flux and with each component (`flux_cosines`; ±1: the test \
          cannot tell them apart):\n\n\
-         | friction | backlash | short A | short B | short C | eccentricity | its phase | gain drift |\n\
-         | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n",
+         | friction | backlash | short A | short B | short C | eccentricity | its phase | gain drift | demagnetization (the flux itself) |\n\
+         | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n",
     );
     let cells: Vec<String> = cosines.iter().map(|c| format!("{c:+.3}")).collect();
     text.push_str(&format!("| {} |\n", cells.join(" | ")));

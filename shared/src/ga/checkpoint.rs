@@ -303,6 +303,50 @@ impl<const P: usize> SteadyStateGa<P> {
     }
 }
 
+/// `record` (a current record of `P` members) as a controller before the ninth fault wrote
+/// it: version 1, the paper's eight genes per individual (the ninth dropped), its own CRC-32,
+/// into the start of `out`; returns its length. For tests and tools that make old
+/// checkpoints. O(P).
+pub fn as_version_1<const P: usize>(record: &[u8], out: &mut [u8]) -> Result<usize, RecordError> {
+    check_length(record.len(), record_bytes(P))?;
+    let len = record_bytes_of(PAPER_FAULT_COUNT, P);
+    let Some(out) = out.get_mut(..len) else {
+        return Err(RecordError::WrongLength {
+            found: u32::try_from(out.len()).unwrap_or(u32::MAX),
+            expected: u32::try_from(len).unwrap_or(u32::MAX),
+        });
+    };
+    let mut w = Writer { out, at: 0 };
+    let mut r = Reader {
+        bytes: record,
+        at: 0,
+        genes: GENES,
+    };
+    let head = r.array::<52>();
+    w.bytes(&head);
+    w.at = 4;
+    w.u16(1);
+    w.at = 8;
+    w.u16(PAPER_FAULT_COUNT as u16);
+    w.at = 52;
+    // Pending genes, then the best and every member with its fitness.
+    let pending = r.genes();
+    for g in pending.iter().take(PAPER_FAULT_COUNT) {
+        w.f32(*g);
+    }
+    for _ in 0..=P {
+        let ind = r.individual();
+        for g in ind.genes.iter().take(PAPER_FAULT_COUNT) {
+            w.f32(*g);
+        }
+        w.f32(ind.fitness);
+    }
+    let body = w.at;
+    let sum = crc(w.out.get(..body).unwrap_or(&[]));
+    w.u32(sum);
+    Ok(len)
+}
+
 /// The reader at the GA state of `record` (offset 16), if `record` is a whole, undamaged
 /// record of this format and shape for the run `fingerprint`.
 fn open_record<const P: usize>(fingerprint: u32, record: &[u8]) -> Result<Reader<'_>, RecordError> {
