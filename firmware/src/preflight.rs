@@ -275,7 +275,7 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
         }
     }
 
-    /// Writes the identification's state into `record` (an `OnboardRecord`, 1 276 B) for a
+    /// Writes the identification's state into `record` (an `OnboardRecord`, 1 412 B) for a
     /// resume after a power loss; returns the evaluations it holds. O(`POPULATION`).
     pub fn checkpoint(&self, record: &mut [u8]) -> Result<u32, CheckpointError> {
         match &self.state {

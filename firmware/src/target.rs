@@ -79,7 +79,7 @@ const CORE_HZ: u64 = 168_000_000;
 const PROGRESS_EVERY: u32 = 1000;
 
 /// Evaluations between two checkpoints (`--checkpoint`): at most this much work is redone
-/// after a power loss; each write is one 1 276-byte record.
+/// after a power loss; each write is one 1 412-byte record.
 const CHECKPOINT_EVERY: u32 = 500;
 
 fn start_cycle_clock(mut syst: SYST) {
@@ -360,7 +360,7 @@ fn preflight_settings(
 type HostPreflight = Preflight<'static, TraceSource<HostFile>>;
 
 /// Resumes the identification from the GA record at `path`, if there is one of this run.
-/// Out of line, as [`save_checkpoint`]: the record's buffer (1 276 B) is on the stack only
+/// Out of line, as [`save_checkpoint`]: the record's buffer (1 412 B) is on the stack only
 /// during the call, not in the preflight task's state nor under its deepest calls.
 #[inline(never)]
 fn resume_checkpoint(preflight: &mut HostPreflight, path: &CStr) {

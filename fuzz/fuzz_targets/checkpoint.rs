@@ -1,5 +1,5 @@
-//! The GA checkpoint a preflight resumes from after a power loss: `SteadyStateGa::restore`
-//! never panics; a GA it accepts saves to a record that restores to the same GA (the reader
+//! The GA checkpoint a preflight resumes from after a power loss (version 2, and version 1 of
+//! eight genes): `SteadyStateGa::restore` never panics; a GA it accepts saves to a record that restores to the same GA (the reader
 //! ignores what the format leaves unused, e.g. the pending genes when none is pending, so the
 //! bytes themselves need not come back), keeps every gene in [0, 1], and can be asked for its
 //! next candidate.
@@ -30,7 +30,9 @@ fuzz_target!(|data: &[u8]| {
     else {
         return;
     };
-    let mut again = vec![0u8; record.len()];
+    // The current version's length: a version-1 record (eight genes) restores too, and saves
+    // as the current version.
+    let mut again = vec![0u8; SteadyStateGa::<POPULATION>::RECORD_BYTES];
     ga.save(fingerprint, &mut again)
         .expect("a record of the right length");
     let back = SteadyStateGa::<POPULATION>::restore(GaSettings::FDI, fingerprint, &again)

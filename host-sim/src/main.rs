@@ -145,7 +145,7 @@ enum Command {
         /// Print one JSON object instead of the table.
         #[arg(long)]
         json: bool,
-        /// GA checkpoint file (the firmware's 1 276-byte record): resumed from if it is a
+        /// GA checkpoint file (the firmware's 1 412-byte record): resumed from if it is a
         /// sound record of this trace, seed and settings (else refused and restarted), and
         /// rewritten as the run goes.
         #[arg(long, value_name = "FILE")]
@@ -368,7 +368,7 @@ enum Command {
         /// History CSV to write.
         #[arg(long)]
         out: PathBuf,
-        /// Also append every record to this health-log file (the controller's 68-byte
+        /// Also append every record to this health-log file (the controller's 84-byte
         /// records, 32 slots: the newest 32 flights), as the firmware's --health reads it.
         #[arg(long)]
         log: Option<PathBuf>,

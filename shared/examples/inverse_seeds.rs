@@ -3,7 +3,9 @@
 //! `cargo run --release -p shared --example inverse_seeds` (about 10 s); the figure is quoted
 //! in `tests/inverse_identification.rs` and docs/accuracy.md.
 
-use shared::fdi::{record_monitor_trace, Identification, OnboardMeasured, POPULATION, TEST_SAMPLES};
+use shared::fdi::{
+    record_monitor_trace, Identification, OnboardMeasured, POPULATION, TEST_SAMPLES,
+};
 use shared::metrics::total_error;
 use shared::test_design::PreflightTest;
 use shared::{ActuatorParams, Calibration, FaultVector, GaSettings, LowPass, MonitorModel};
@@ -12,8 +14,8 @@ fn main() {
     let params = ActuatorParams::REFERENCE;
     let calibration = Calibration::IDENTITY;
     let model = MonitorModel::new(params, &calibration);
-    let truth = FaultVector::new([0.25, 0.6, 0.0, 0.15, 0.3, 0.35, 0.1, 0.7, 0.0])
-        .expect("in range");
+    let truth =
+        FaultVector::new([0.25, 0.6, 0.0, 0.15, 0.3, 0.35, 0.1, 0.7, 0.0]).expect("in range");
     let Ok(filter) = LowPass::for_control_period(params.control_period) else {
         return;
     };

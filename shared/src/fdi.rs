@@ -25,7 +25,7 @@ pub type OnboardMeasured = MeasuredCurrent<TEST_SAMPLES>;
 /// The onboard GA.
 pub type OnboardGa = SteadyStateGa<POPULATION>;
 
-/// The onboard GA's checkpoint record (1 276 bytes): a flash page on the controller, a file
+/// The onboard GA's checkpoint record (1 412 bytes; version 2, nine genes): a flash page on the controller, a file
 /// under emulation and on the host.
 pub type OnboardRecord = [u8; crate::ga::record_bytes(POPULATION)];
 

@@ -6,7 +6,7 @@ use host_sim::fleet::{self, FleetStore};
 
 #[derive(clap::Subcommand)]
 pub(crate) enum FleetCommand {
-    /// Store controllers' health logs (the 52- or 68-byte record slots the controller keeps;
+    /// Store controllers' health logs (the 84-byte record slots the controller keeps, or an older version's 52, 68 or 76;
     /// `degrade --log` and the firmware's --health write them) in the fleet store, keyed by
     /// actuator serial and flight. Ingesting a log twice adds nothing; a damaged log, one
     /// with an unknown record version, or one that contradicts what is stored is refused

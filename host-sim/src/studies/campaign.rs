@@ -10,8 +10,8 @@ use std::path::Path;
 use anyhow::{anyhow, Result};
 use rayon::prelude::*;
 use shared::actuator::ActuatorRecord;
-use shared::fault::FAULT_COUNT;
 use shared::fault::{DEMAGNETIZATION_LOSS_MAX, DETECTION_THRESHOLD};
+use shared::fault::{FAULT_COUNT, PAPER_FAULT_COUNT};
 use shared::metrics::{total_error, total_error_all};
 use shared::uncertainty::{Assessment, Uncertainty};
 use shared::FaultVector;
@@ -279,8 +279,10 @@ fn random_cases_from(seed: u64, names: [&'static str; 8], n: usize) -> Vec<Case>
     let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed);
     (0..n.min(names.len()))
         .map(|j| {
+            // The paper's eight components, drawn as before the ninth fault (no
+            // demagnetization: `--table demagnetization` has its own cases).
             let mut k = [0.0f32; FAULT_COUNT];
-            for (i, slot) in k.iter_mut().enumerate() {
+            for (i, slot) in k.iter_mut().enumerate().take(PAPER_FAULT_COUNT) {
                 let u = (rng.next_u32() >> 8) as f32 / (1u32 << 24) as f32;
                 // Faults up to medium level (0.5, shorts 0.25); phase and drift over their range.
                 *slot = match i {
