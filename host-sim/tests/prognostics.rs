@@ -197,3 +197,43 @@ fn degrade_simulates_each_flight_and_writes_history_and_log() {
     let from_csv = json(&host_sim(&["prognose", path_str(&out), "--json"]));
     assert_eq!(from_log, from_csv);
 }
+
+/// The ninth fault has its trend and RUL: magnets losing flux at a steady 1 % per flight
+/// (k9 0 → 0.24 over 12 flights, the reference model's uniform loss, identified each flight)
+/// give a level and a slope near the truth and an RUL to the 0.3 threshold whose 90 %
+/// interval holds the true remaining flights; the components not degrading have none.
+#[test]
+fn a_demagnetizing_actuator_gets_its_own_trend_and_rul() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("magnets.csv");
+    let o = host_sim(&[
+        "degrade",
+        "--faults-start",
+        "0,0,0,0,0,0,0.5,0.5,0",
+        "--faults-end",
+        "0,0,0,0,0,0,0.5,0.5,0.24",
+        "--flights",
+        "12",
+        "--out",
+        path_str(&out),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let v = json(&host_sim(&["prognose", path_str(&out), "--json"]));
+    let k9 = &v["faults"]["demagnetization"];
+    let level = k9["level"].as_f64().unwrap();
+    let slope = k9["slope"].as_f64().unwrap();
+    assert!((level - 0.24).abs() < 0.02, "{k9}");
+    assert!((slope - 0.24 / 11.0).abs() < 0.004, "{k9}");
+    assert_eq!(k9["threshold"].as_f64().map(|t| (t * 100.0).round()), Some(30.0));
+    // 0.3 is reached 0.06 / 0.0218 = 2.75 flights after the last.
+    let rul = &k9["rul"];
+    let (lower, upper) = (rul["lower"].as_f64().unwrap(), rul["upper"].as_f64().unwrap());
+    assert!(lower <= 2.75 && 2.75 <= upper, "{k9}");
+    for healthy in ["friction", "short_a", "gain_drift"] {
+        assert!(
+            v["faults"][healthy]["rul"]["flights"].is_null(),
+            "{healthy}: {}",
+            v["faults"][healthy]
+        );
+    }
+}

@@ -38,7 +38,7 @@ pub struct IdentificationResult {
     pub fitness: f32,
     pub evaluations: u32,
     pub stop_reason: StopReason,
-    /// Gauss–Newton sums the polish computed (nine monitor-model runs each; 0 before it).
+    /// Gauss–Newton sums the polish computed (ten monitor-model runs each: the point and one per component; 0 before it).
     pub curvatures: u32,
 }
 

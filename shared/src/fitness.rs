@@ -302,7 +302,7 @@ impl<const N: usize> FitnessProblem<'_, N> {
         run.in_block = 0;
     }
 
-    /// Advances `run` by at most `samples` samples (9 monitor-model steps and 36 f64
+    /// Advances `run` by at most `samples` samples (10 monitor-model steps and 45 f64
     /// multiply-adds each); the finished sums once every measured sample is done.
     #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // a, b < FAULT_COUNT, j ≤ FAULT_COUNT on fixed arrays
     #[inline(never)]
@@ -375,7 +375,7 @@ impl<const N: usize> FitnessProblem<'_, N> {
         Some(out)
     }
 
-    /// The Gauss–Newton sums at `k` in one go: 9 monitor-model runs, O(N · 8²).
+    /// The Gauss–Newton sums at `k` in one go: 10 monitor-model runs, O(N · 9²).
     pub fn curvature(&self, k: &FaultVector) -> Curvature {
         let mut run = CurvatureRun::IDLE;
         self.curvature_in(&mut run, k)
@@ -392,7 +392,7 @@ impl<const N: usize> FitnessProblem<'_, N> {
     }
 
     /// A standard deviation, a 90 % interval and the correlations of each component of the
-    /// identified `k` ([`crate::uncertainty`]). 9 monitor-model runs.
+    /// identified `k` ([`crate::uncertainty`]). 10 monitor-model runs.
     pub fn uncertainty(
         &self,
         k: &FaultVector,
@@ -402,7 +402,7 @@ impl<const N: usize> FitnessProblem<'_, N> {
 }
 
 /// The Gauss–Newton sums of one identified vector in progress ([`FitnessProblem::
-/// start_curvature`]): 9 monitor-model runs and their filters, ≈ 4 kB.
+/// start_curvature`]): 10 monitor-model runs and their filters, ≈ 4.5 kB.
 #[derive(Clone, Debug)]
 pub struct CurvatureRun {
     runs: [MonitorRun; FAULT_COUNT + 1],

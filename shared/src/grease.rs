@@ -15,7 +15,7 @@
 //! offset. `b` is every viscous torque the motor sees; only its ratio to the calibration
 //! day's is used, so the units (per block, per sample) cancel. Work: O(1) per frame, 27
 //! multiply-adds per block in f32 (over the grease study it reads the same to three decimals
-//! as in f64), O(8³) once to solve in f64 (`crate::math::invert`); state 27 `f32` and a few
+//! as in f64), O(9³) once to solve in f64 (`crate::math::invert`); state 27 `f32` and a few
 //! words (156 B); no allocation, no panic.
 
 use crate::math::{invert, INVERT_N};
@@ -167,7 +167,7 @@ impl ChirpTorqueFit {
         self.blocks
     }
 
-    /// The fit's viscous drag and dry friction. O(8³): the normal equations inverted in
+    /// The fit's viscous drag and dry friction. O(9³): the normal equations inverted in
     /// f64 (`crate::math::invert`, padded to its 9×9 with an identity block).
     pub fn reading(&self) -> Result<GreaseReading, GreaseError> {
         if self.blocks < MIN_BLOCKS {

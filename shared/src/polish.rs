@@ -1,7 +1,7 @@
 //! The polish after the GA: damped Gauss–Newton (Levenberg–Marquardt) steps from the GA's best,
 //! and from a few probe starts where the fitness has a known second basin, keeping the best
 //! fitness found. Ask/tell like the GA: [`Polish::ask`] says what to compute next — the
-//! Gauss–Newton sums at a vector (nine lockstep monitor-model runs,
+//! Gauss–Newton sums at a vector (ten lockstep monitor-model runs,
 //! [`crate::FitnessProblem::continue_curvature`], which the executor does in bounded chunks)
 //! or the fitness of one candidate — and the `tell_*` calls hand back the result.
 //!
@@ -14,7 +14,7 @@
 //! Work: at most `iterations` + `probes · probe_iterations` + `iterations` Gauss–Newton sums
 //! and as many fitness evaluations (plus one per probe start), fixed by [`PolishSettings`];
 //! a rejected step reuses the sums with more damping (one evaluation, no new sums). State:
-//! one [`Curvature`] (≈ 0.6 kB). Every step O(8³) besides what the executor computes.
+//! one [`Curvature`] (≈ 0.6 kB). Every step O(9³) besides what the executor computes.
 
 use crate::fault::FaultVector;
 use crate::uncertainty::Curvature;
@@ -214,7 +214,7 @@ impl Polish {
         }
     }
 
-    /// The Gauss–Newton sums at the asked vector. O(8³).
+    /// The Gauss–Newton sums at the asked vector. O(9³).
     pub fn tell_curvature(&mut self, sums: &Curvature) {
         if self.step == Step::Sums && self.leg != Leg::Over {
             self.sums = *sums;
@@ -222,7 +222,7 @@ impl Polish {
         }
     }
 
-    /// The fitness of the asked vector (`+∞` or anything `≥` the bound: not better). O(8³).
+    /// The fitness of the asked vector (`+∞` or anything `≥` the bound: not better). O(9³).
     pub fn tell_fitness(&mut self, fitness: f32) {
         let fitness = if fitness.is_nan() {
             f32::INFINITY

@@ -4,7 +4,7 @@
 //!
 //! Gauss–Newton: with the fitness's weighted residuals `r_i(k)`, `JᵀWJ` is accumulated from
 //! one base run and one run per component shifted by [`STEP`], stepped in lockstep
-//! ([`FitnessProblem::uncertainty`]): 9 monitor-model runs, O(N · 8²) multiply-adds in f64
+//! ([`FitnessProblem::uncertainty`]): 10 monitor-model runs, O(N · 9²) multiply-adds in f64
 //! (IEEE operations only, the same bits on every target), no storage of residuals. The
 //! residual variance is `s² = RSS / (n − p)` over the fitted samples; the covariance is
 //! `(c · s)² · (JᵀWJ)⁻¹`, where [`INFLATION`] `c` accounts for what the white-noise formula
@@ -203,7 +203,7 @@ impl Curvature {
     /// `(JᵀWJ + λ·diag)⁻¹` over the determined components (diagonal above [`FLAT`] of the
     /// largest), the others given an identity row and column so that they do not couple;
     /// with which components are determined. `None` when none is, or the matrix is
-    /// singular. One copy for the uncertainty (λ = 0) and the polish. O(8³).
+    /// singular. One copy for the uncertainty (λ = 0) and the polish. O(9³).
     #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 9×9 arrays
     #[inline(never)]
     fn inverse(
@@ -234,7 +234,7 @@ impl Curvature {
     /// The damped Gauss–Newton (Levenberg–Marquardt) step from `k`: `δ` solving
     /// `(JᵀWJ + λ·diag(JᵀWJ)) δ = JᵀW r` over the determined components (the others stay),
     /// then bounded components clamped to [0, 1] and the phase wrapped. `None` when no
-    /// component is determined. O(8³).
+    /// component is determined. O(9³).
     #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 9×9 arrays
     pub fn gauss_newton_step(&self, k: &FaultVector, damping: f64) -> Option<FaultVector> {
         let (inverse, determined) = self.inverse(damping)?;
@@ -259,7 +259,7 @@ impl Curvature {
         Some(FaultVector::saturating(out))
     }
 
-    /// Standard deviations, intervals and correlations for the identified `k`. O(8³).
+    /// Standard deviations, intervals and correlations for the identified `k`. O(9³).
     #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 9×9 arrays
     #[inline(never)]
     pub fn uncertainty(
