@@ -224,10 +224,16 @@ fn a_demagnetizing_actuator_gets_its_own_trend_and_rul() {
     let slope = k9["slope"].as_f64().unwrap();
     assert!((level - 0.24).abs() < 0.02, "{k9}");
     assert!((slope - 0.24 / 11.0).abs() < 0.004, "{k9}");
-    assert_eq!(k9["threshold"].as_f64().map(|t| (t * 100.0).round()), Some(30.0));
+    assert_eq!(
+        k9["threshold"].as_f64().map(|t| (t * 100.0).round()),
+        Some(30.0)
+    );
     // 0.3 is reached 0.06 / 0.0218 = 2.75 flights after the last.
     let rul = &k9["rul"];
-    let (lower, upper) = (rul["lower"].as_f64().unwrap(), rul["upper"].as_f64().unwrap());
+    let (lower, upper) = (
+        rul["lower"].as_f64().unwrap(),
+        rul["upper"].as_f64().unwrap(),
+    );
     assert!(lower <= 2.75 && 2.75 <= upper, "{k9}");
     for healthy in ["friction", "short_a", "gain_drift"] {
         assert!(

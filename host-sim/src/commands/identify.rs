@@ -138,11 +138,11 @@ pub(crate) fn report(
     let errors = truth.map(|t| component_errors(&found, t));
     match truth {
         Some(_) => println!(
-            "{:<13} {:>8} {:>8} {:>17} {:>22} {:>8} {:>8}",
+            "{:<15} {:>8} {:>8} {:>17} {:>22} {:>8} {:>8}",
             "fault", "found", "std", "90 % interval", "reading", "true", "e_i [%]"
         ),
         None => println!(
-            "{:<13} {:>8} {:>8} {:>17} {:>22}",
+            "{:<15} {:>8} {:>8} {:>17} {:>22}",
             "fault", "found", "std", "90 % interval", "reading"
         ),
     }
@@ -156,7 +156,7 @@ pub(crate) fn report(
             _ => ("-".to_string(), "-".to_string()),
         };
         let mut line = format!(
-            "{:<13} {k:>8.4} {std:>8} {interval:>17} {:>22}",
+            "{:<15} {k:>8.4} {std:>8} {interval:>17} {:>22}",
             FAULT_NAMES[i],
             assessment_text(assessments[i])
         );
