@@ -5,7 +5,8 @@
 //! Condition one O(`TEST_SAMPLES`) pass; Identify ≤
 //! [`PreflightSettings::evaluations_per_poll`] monitor-model evaluations (each one whole test,
 //! ≤ 0.552 s of model time at the control period); Uncertainty ≤
-//! [`PreflightSettings::uncertainty_samples_per_poll`] samples of 9 lockstep runs; Report O(1), including the domain verdict
+//! [`PreflightSettings::uncertainty_samples_per_poll`] samples of 10 lockstep runs, the last
+//! poll also the 9 × 9 inversion and the verdicts (O(9³)); Report O(1), including the domain verdict
 //! ([`shared::domain`], its statistics gathered frame by frame during Acquire). Time is
 //! never read here; the caller measures it.
 //!

@@ -201,9 +201,10 @@ const fn with_short(k9: f32, k3: f32) -> [f32; FAULT_COUNT] {
     k
 }
 
-/// The ninth fault (issue 35): demagnetization in both forms, mixed with a short and with a
-/// hot actuator, and the rows that must not read as it (a short, the day).
-pub const DEMAGNETIZATION: [Case; 12] = [
+/// The ninth fault (issue 35): demagnetization in both forms, mixed with a short, on the
+/// robustness grid's days (−60 … +60 K from the calibration's), and the rows that must not
+/// read as it (a short, the day).
+pub const DEMAGNETIZATION: [Case; 17] = [
     demagnetized("uniform k9 = 0.1", single(8, 0.1), MagnetForm::Uniform, 0.0),
     demagnetized("uniform k9 = 0.2", single(8, 0.2), MagnetForm::Uniform, 0.0),
     demagnetized("uniform k9 = 0.5", single(8, 0.5), MagnetForm::Uniform, 0.0),
@@ -237,6 +238,18 @@ pub const DEMAGNETIZATION: [Case; 12] = [
         MagnetForm::Uniform,
         -60.0,
     ),
+    demagnetized(
+        "uniform k9 = 0.1 at −30 K",
+        single(8, 0.1),
+        MagnetForm::Uniform,
+        -30.0,
+    ),
+    demagnetized(
+        "uniform k9 = 0.1 at +30 K",
+        single(8, 0.1),
+        MagnetForm::Uniform,
+        30.0,
+    ),
     demagnetized("short A k3 = 0.2", single(2, 0.2), MagnetForm::Uniform, 0.0),
     demagnetized(
         "short A k3 = 0.2 at +60 K",
@@ -244,7 +257,15 @@ pub const DEMAGNETIZATION: [Case; 12] = [
         MagnetForm::Uniform,
         60.0,
     ),
+    demagnetized(
+        "short A k3 = 0.2 at −60 K",
+        single(2, 0.2),
+        MagnetForm::Uniform,
+        -60.0,
+    ),
     healthy_at("healthy at +60 K", 60.0),
+    healthy_at("healthy at +30 K", 30.0),
+    healthy_at("healthy at −30 K", -30.0),
     healthy_at("healthy at −60 K", -60.0),
 ];
 
