@@ -464,7 +464,10 @@ async fn preflight(spawner: Spawner) -> Result<(), Stop> {
     // Nothing stored: a new log. A pair that cannot be read is left as it is (no record
     // appended) rather than replaced by a log of one.
     store.erase();
-    pair.read(store.as_bytes_mut()).map_err(|_| Stop::Flash)?;
+    // A log kept before record version 4 is shorter: carried over in place.
+    if let Some(len) = pair.read(store.as_bytes_mut()).map_err(|_| Stop::Flash)? {
+        store.upgrade_read(len);
+    }
     let day = RecordedDay::of(preflight.day());
     let update = match record_preflight(store, None, &report, day, &TrendSettings::DEFAULT) {
         Ok(u) => u,

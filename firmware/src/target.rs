@@ -23,9 +23,7 @@ use firmware::{Preflight, PreflightSettings, Progress, Report, Stage, TraceSourc
 use shared::domain::Domain;
 use shared::fault::FAULT_NAMES;
 use shared::fdi::OnboardMeasured;
-use shared::health::{
-    RamStore, RecordedDay, ONBOARD_RECORDS, RECORD_V1_BYTES, RECORD_V2_BYTES, RECORD_V3_BYTES,
-};
+use shared::health::{RamStore, RecordedDay, ONBOARD_RECORDS};
 use shared::prognosis::TrendSettings;
 use shared::LowPass;
 
@@ -449,28 +447,22 @@ fn record_health(path: &CStr, flight: Option<u32>, report: &Report, day: &TestCo
         Ok(None) => defmt::println!("health log {=[u8]:a}: new", path_text),
         // A log kept before record version 4, read into the image's start: carry its
         // records over in place.
-        Ok(Some(len))
-            if [RECORD_V1_BYTES, RECORD_V2_BYTES, RECORD_V3_BYTES]
-                .iter()
-                .any(|&old| len == ONBOARD_RECORDS * old) =>
-        {
-            let old_bytes = len / ONBOARD_RECORDS;
-            let kept = store.upgrade(old_bytes);
-            defmt::println!(
+        Ok(Some(len)) => match store.upgrade_read(len) {
+            Some((old_bytes, kept)) => defmt::println!(
                 "upgraded health log {=[u8]:a}: {=usize}-byte slots, {=usize} records carried over",
                 path_text,
                 old_bytes,
                 kept
-            );
-        }
-        Ok(Some(len)) => {
-            defmt::error!(
-                "health log {=[u8]:a} refused: {=usize} bytes, no version's image",
-                path_text,
-                len
-            );
-            return status::HEALTH_LOG;
-        }
+            ),
+            None => {
+                defmt::error!(
+                    "health log {=[u8]:a} refused: {=usize} bytes, no version's image",
+                    path_text,
+                    len
+                );
+                return status::HEALTH_LOG;
+            }
+        },
         Err(e) => {
             defmt::error!("health log {=[u8]:a} refused: {}", path_text, e);
             return status::HEALTH_LOG;

@@ -594,6 +594,18 @@ impl<const S: usize> RamStore<S> {
         upgrade_image(self.as_bytes_mut(), S, old_bytes)
     }
 
+    /// After `len` bytes of a stored image were read into the start of this store: when `len`
+    /// is an older version's whole image (`S` slots of 52, 68 or 76 bytes), upgrades it in
+    /// place and returns that slot size and the records kept; `None` for anything else (the
+    /// current image, or nothing to upgrade). What a controller does with the image its flash
+    /// or file kept. O(`S · 84`).
+    pub fn upgrade_read(&mut self, len: usize) -> Option<(usize, usize)> {
+        let old = [RECORD_V1_BYTES, RECORD_V2_BYTES, RECORD_V3_BYTES]
+            .into_iter()
+            .find(|&old| len == S * old)?;
+        Some((old, self.upgrade(old)))
+    }
+
     /// An erased store (every byte 0xFF, as flash after erase).
     pub const fn erased() -> Self {
         Self {
@@ -1127,6 +1139,28 @@ mod tests {
         }
         // A slot size of no version keeps nothing.
         assert_eq!(RamStore::<4>::erased().upgrade(60), 0);
+    }
+
+    #[test]
+    fn an_older_image_read_into_a_store_is_upgraded_by_its_length() {
+        let mut store = RamStore::<4>::erased();
+        for f in 0..3u32 {
+            let at = f as usize * RECORD_V3_BYTES;
+            store.as_bytes_mut()[at..at + RECORD_V3_BYTES]
+                .copy_from_slice(&record(f, 0.1).encode_v3());
+        }
+        assert_eq!(
+            store.upgrade_read(4 * RECORD_V3_BYTES),
+            Some((RECORD_V3_BYTES, 3))
+        );
+        let (log, summary) = HealthLog::<4>::load(&mut store).unwrap();
+        assert_eq!(log.iter().map(|r| r.flight).collect::<Vec<_>>(), [0, 1, 2]);
+        assert_eq!((summary.records, summary.damaged), (3, 0));
+        // The current image, or a length of no version: nothing done.
+        let before = store.clone();
+        assert_eq!(store.upgrade_read(4 * RECORD_BYTES), None);
+        assert_eq!(store.upgrade_read(100), None);
+        assert_eq!(store, before);
     }
 
     #[test]
