@@ -25,6 +25,9 @@ pub const FAULT_COUNT: usize = 9;
 /// The paper's components (k1 … k8): its tables and its `e_tot` (eq. 4) are over these.
 pub const PAPER_FAULT_COUNT: usize = 8;
 
+/// Index of k9, demagnetization, in the vector (after the paper's eight).
+pub const DEMAGNETIZATION_INDEX: usize = PAPER_FAULT_COUNT;
+
 /// Share of the magnets' flux lost at full demagnetization (k9 = 1): half the flux, past
 /// which the actuator has lost its torque margin long before.
 pub const DEMAGNETIZATION_LOSS_MAX: f32 = 0.5;
@@ -141,7 +144,7 @@ impl FaultVector {
     }
     /// k9: normalised demagnetization (share of the magnets' flux lost irreversibly).
     pub fn demagnetization(&self) -> f32 {
-        self.0[8]
+        self.0[DEMAGNETIZATION_INDEX]
     }
 
     /// The physical effect of each fault: the single mapping used by every model.

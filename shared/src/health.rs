@@ -49,7 +49,7 @@ use heapless::Deque;
 
 use crate::conditions::{TestConditions, WindingEstimate};
 use crate::domain::{Domain, OutsideReason};
-use crate::fault::{FaultVector, Verdict, FAULT_COUNT, PAPER_FAULT_COUNT};
+use crate::fault::{FaultVector, Verdict, DEMAGNETIZATION_INDEX, FAULT_COUNT, PAPER_FAULT_COUNT};
 use crate::trace::Crc32;
 
 /// Bytes of one encoded record (version 4), and of one store slot.
@@ -440,7 +440,7 @@ impl HealthRecord {
         for (i, v) in k.iter_mut().enumerate().take(PAPER_FAULT_COUNT) {
             *v = f32::from_le_bytes(word(12 + 4 * i));
         }
-        if let (true, Some(v)) = (ninth, k.get_mut(PAPER_FAULT_COUNT)) {
+        if let (true, Some(v)) = (ninth, k.get_mut(DEMAGNETIZATION_INDEX)) {
             *v = f32::from_le_bytes(word(72));
         }
         let fitness = f32::from_le_bytes(word(44));
@@ -454,7 +454,7 @@ impl HealthRecord {
                 *c = u16::from_le_bytes(half(48 + 2 * i));
             }
         }
-        if let (true, Some(c)) = (ninth, std.0.get_mut(PAPER_FAULT_COUNT)) {
+        if let (true, Some(c)) = (ninth, std.0.get_mut(DEMAGNETIZATION_INDEX)) {
             *c = u16::from_le_bytes(half(76));
         }
         let (day, reserved_day) = if version >= 3 {
@@ -600,6 +600,8 @@ impl<const S: usize> RamStore<S> {
     /// current image, or nothing to upgrade). What a controller does with the image its flash
     /// or file kept. O(`S · 84`).
     pub fn upgrade_read(&mut self, len: usize) -> Option<(usize, usize)> {
+        // The three older sizes written out: through `record_len` the board image grows 64 B
+        // (it has none to spare).
         let old = [RECORD_V1_BYTES, RECORD_V2_BYTES, RECORD_V3_BYTES]
             .into_iter()
             .find(|&old| len == S * old)?;

@@ -40,7 +40,7 @@
 use rand_core::{RngCore, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 use shared::conditioning::COMMUTATION_SIGNS;
-use shared::fault::DEMAGNETIZATION_LOSS_MAX;
+use shared::fault::{DEMAGNETIZATION_INDEX, DEMAGNETIZATION_LOSS_MAX};
 use shared::test_design::{Drive, PairDrive, PreflightTest};
 use shared::{ActuatorParams, ChirpCommand, FaultVector};
 
@@ -489,7 +489,7 @@ impl Demagnetization {
         }
         let left = f64::from(faults.effects().flux_scale) * self.flux_left(pole_pairs);
         let mut k = *faults.as_array();
-        if let Some(k9) = k.get_mut(8) {
+        if let Some(k9) = k.get_mut(DEMAGNETIZATION_INDEX) {
             *k9 = ((1.0 - left) / f64::from(DEMAGNETIZATION_LOSS_MAX)) as f32;
         }
         FaultVector::saturating(k)
@@ -520,6 +520,13 @@ impl ReferenceModel {
     /// The same actuator with demagnetized magnets.
     pub fn with_demagnetization(mut self, demagnetization: Demagnetization) -> Self {
         self.demagnetization = demagnetization;
+        self
+    }
+
+    /// The same actuator on other settings (another day, another drive), everything else
+    /// it plays kept.
+    pub fn with_settings(mut self, settings: ReferenceSettings) -> Self {
+        self.settings = settings;
         self
     }
 

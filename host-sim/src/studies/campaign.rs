@@ -10,7 +10,9 @@ use std::path::Path;
 use anyhow::{anyhow, Result};
 use rayon::prelude::*;
 use shared::actuator::ActuatorRecord;
-use shared::fault::{DEMAGNETIZATION_LOSS_MAX, DETECTION_THRESHOLD};
+use shared::fault::{
+    CIRCULAR, DEMAGNETIZATION_INDEX, DEMAGNETIZATION_LOSS_MAX, DETECTION_THRESHOLD,
+};
 use shared::fault::{FAULT_COUNT, PAPER_FAULT_COUNT};
 use shared::metrics::{total_error, total_error_all};
 use shared::uncertainty::{Assessment, Uncertainty};
@@ -196,7 +198,7 @@ const fn healthy_at(name: &'static str, winding_rise: f64) -> Case {
 
 /// k9 with short A at k3.
 const fn with_short(k9: f32, k3: f32) -> [f32; FAULT_COUNT] {
-    let mut k = single(8, k9);
+    let mut k = single(DEMAGNETIZATION_INDEX, k9);
     k[2] = k3;
     k
 }
@@ -205,18 +207,33 @@ const fn with_short(k9: f32, k3: f32) -> [f32; FAULT_COUNT] {
 /// robustness grid's days (−60 … +60 K from the calibration's), and the rows that must not
 /// read as it (a short, the day).
 pub const DEMAGNETIZATION: [Case; 17] = [
-    demagnetized("uniform k9 = 0.1", single(8, 0.1), MagnetForm::Uniform, 0.0),
-    demagnetized("uniform k9 = 0.2", single(8, 0.2), MagnetForm::Uniform, 0.0),
-    demagnetized("uniform k9 = 0.5", single(8, 0.5), MagnetForm::Uniform, 0.0),
+    demagnetized(
+        "uniform k9 = 0.1",
+        single(DEMAGNETIZATION_INDEX, 0.1),
+        MagnetForm::Uniform,
+        0.0,
+    ),
+    demagnetized(
+        "uniform k9 = 0.2",
+        single(DEMAGNETIZATION_INDEX, 0.2),
+        MagnetForm::Uniform,
+        0.0,
+    ),
+    demagnetized(
+        "uniform k9 = 0.5",
+        single(DEMAGNETIZATION_INDEX, 0.5),
+        MagnetForm::Uniform,
+        0.0,
+    ),
     demagnetized(
         "one magnet k9 = 0.1",
-        single(8, 0.1),
+        single(DEMAGNETIZATION_INDEX, 0.1),
         MagnetForm::OneMagnet,
         0.0,
     ),
     demagnetized(
         "one magnet k9 = 0.2",
-        single(8, 0.2),
+        single(DEMAGNETIZATION_INDEX, 0.2),
         MagnetForm::OneMagnet,
         0.0,
     ),
@@ -228,25 +245,25 @@ pub const DEMAGNETIZATION: [Case; 17] = [
     ),
     demagnetized(
         "uniform k9 = 0.2 at +60 K",
-        single(8, 0.2),
+        single(DEMAGNETIZATION_INDEX, 0.2),
         MagnetForm::Uniform,
         60.0,
     ),
     demagnetized(
         "uniform k9 = 0.1 at −60 K",
-        single(8, 0.1),
+        single(DEMAGNETIZATION_INDEX, 0.1),
         MagnetForm::Uniform,
         -60.0,
     ),
     demagnetized(
         "uniform k9 = 0.1 at −30 K",
-        single(8, 0.1),
+        single(DEMAGNETIZATION_INDEX, 0.1),
         MagnetForm::Uniform,
         -30.0,
     ),
     demagnetized(
         "uniform k9 = 0.1 at +30 K",
-        single(8, 0.1),
+        single(DEMAGNETIZATION_INDEX, 0.1),
         MagnetForm::Uniform,
         30.0,
     ),
@@ -471,7 +488,7 @@ pub fn demagnetization_markdown(summaries: &[CaseSummary]) -> String {
         let faulty = c
             .runs
             .iter()
-            .filter(|r| r.assessments.get(8) == Some(&Assessment::Faulty))
+            .filter(|r| r.assessments.get(DEMAGNETIZATION_INDEX) == Some(&Assessment::Faulty))
             .count();
         let mean = |f: fn(&RunResult) -> f64| c.runs.iter().map(f).sum::<f64>() / n;
         // |found − played| of every other fault component (not the phase: a location).
@@ -483,7 +500,7 @@ pub fn demagnetization_markdown(summaries: &[CaseSummary]) -> String {
                 shared::metrics::component_errors(&r.found, &truth)
                     .into_iter()
                     .enumerate()
-                    .filter(|&(i, _)| i != 6 && i != 8)
+                    .filter(|&(i, _)| !CIRCULAR[i] && i != DEMAGNETIZATION_INDEX)
                     .map(|(i, e)| (f64::from(e) / 100.0, i))
             })
             .fold((0.0, 0), |best, x| if x.0 > best.0 { x } else { best });
@@ -491,7 +508,7 @@ pub fn demagnetization_markdown(summaries: &[CaseSummary]) -> String {
             s,
             "| {} | {:.2} | {:.3} [{:.3}, {:.3}] | {faulty}/{} | {:.2} | {:.2} | {:.3} ({}) |",
             c.case.name,
-            c.case.faults[8],
+            c.case.faults[DEMAGNETIZATION_INDEX],
             k9.iter().sum::<f64>() / n,
             lo,
             hi,
@@ -598,9 +615,7 @@ fn case_model(
         let mut settings = *rm.settings();
         let day = settings.conditions.winding_temperature + case.winding_rise;
         settings.conditions = settings.conditions.at_temperature(day);
-        model = ReferenceModel::new(settings)
-            .with_test(*rm.test())
-            .with_demagnetization(rm.demagnetization());
+        model = model.with_settings(settings);
     }
     match case.magnets {
         MagnetForm::Uniform => Ok((model, *truth)),
@@ -618,7 +633,7 @@ fn case_model(
                 );
             }
             let mut k = *truth.as_array();
-            k[8] = 0.0;
+            k[DEMAGNETIZATION_INDEX] = 0.0;
             Ok((
                 model.with_demagnetization(Demagnetization::Partial { loss, pole: 0 }),
                 FaultVector::saturating(k),

@@ -20,6 +20,7 @@
 use anyhow::{anyhow, Result};
 use rayon::prelude::*;
 use shared::actuator::ActuatorRecord;
+use shared::fault::DEMAGNETIZATION_INDEX;
 use shared::metrics::{total_error, total_error_all};
 use shared::uncertainty::Assessment;
 use shared::{FaultVector, FAULT_COUNT};
@@ -381,7 +382,7 @@ pub fn demagnetization_markdown(
             r.case.name,
             100.0 * r.flux_lost,
             r.k9,
-            f[8],
+            f[DEMAGNETIZATION_INDEX],
             f[0],
             f[1],
             f[2],

@@ -50,8 +50,11 @@ pub const fn record_bytes(population: usize) -> usize {
 
 /// Bytes of a record of `genes` genes per individual and `population` members.
 const fn record_bytes_of(genes: usize, population: usize) -> usize {
-    52 + 4 * genes + 4 * (genes + 1) * (population + 1) + 4
+    HEAD_BYTES + 4 * genes + 4 * (genes + 1) * (population + 1) + 4
 }
+
+/// Bytes before the pending candidate's genes (magic … flags, the table above).
+const HEAD_BYTES: usize = 52;
 
 /// Genes per individual in a record of `version`.
 fn genes_of(version: u16) -> Option<usize> {
@@ -322,13 +325,13 @@ pub fn as_version_1<const P: usize>(record: &[u8], out: &mut [u8]) -> Result<usi
         at: 0,
         genes: GENES,
     };
-    let head = r.array::<52>();
+    let head = r.array::<HEAD_BYTES>();
     w.bytes(&head);
     w.at = 4;
     w.u16(1);
     w.at = 8;
     w.u16(PAPER_FAULT_COUNT as u16);
-    w.at = 52;
+    w.at = HEAD_BYTES;
     // Pending genes, then the best and every member with its fitness.
     let pending = r.genes();
     for g in pending.iter().take(PAPER_FAULT_COUNT) {
