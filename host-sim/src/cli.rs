@@ -26,6 +26,7 @@ pub(crate) use host_sim::files::health;
 pub(crate) use host_sim::files::rig::RigFormat;
 pub(crate) use host_sim::files::trace::{IngestError, Trace, TraceFormat};
 pub(crate) use host_sim::median;
+pub(crate) use host_sim::plant::aero::GroundWind;
 pub(crate) use host_sim::plant::reference::{
     Demagnetization, EccentricityPhysics, ReferenceModel, ReferenceSettings, Scenario, SensorFault,
 };
@@ -83,9 +84,10 @@ impl std::fmt::Display for ExitWith {
 
 impl std::error::Error for ExitWith {}
 
-pub(crate) const FAULTS_HELP: &str = "eight comma-separated values in [0, 1]: friction, backlash, \
-short A, short B, short C, eccentricity, eccentricity phase, gain drift (nominal \
-0,0,0,0,0,0,0.5,0.5)";
+pub(crate) const FAULTS_HELP: &str = "nine comma-separated values in [0, 1]: friction, backlash, \
+short A, short B, short C, eccentricity, eccentricity phase, gain drift, demagnetization \
+(nominal 0,0,0,0,0,0,0.5,0.5,0); the paper's eight (without demagnetization) are read with \
+demagnetization 0";
 
 /// The simulated actuator: its faults, process noise and seed.
 #[derive(clap::Args)]
@@ -121,10 +123,19 @@ pub(crate) struct ActuatorArgs {
     pub(crate) sensor_fault: Option<SensorFault>,
     /// Demagnetized rotor magnets (irreversible flux loss, apart from the day's reversible
     /// change): `uniform:LOSS` (every pole lost LOSS of its flux, 0 … 1) or
-    /// `partial:LOSS[@POLE]` (one magnet, pole 0 … 2P − 1, default 0). Not yet one of the
-    /// fault vector's components: the FDI does not identify it (issue 35).
+    /// `partial:LOSS[@POLE]` (one magnet, pole 0 … 2P − 1, default 0), on top of the fault
+    /// vector's ninth component. The FDI identifies the uniform form as k9; one weak magnet
+    /// it reads as an eccentricity (README, known gaps).
     #[arg(long, value_name = "FORM:LOSS[@POLE]", value_parser = Demagnetization::parse)]
     pub(crate) demagnetization: Option<Demagnetization>,
+    /// Mean wind on the parked surface during the test [kt]: its hinge moment from the
+    /// actuator file's `[surface]`, with low-altitude Dryden turbulence. 0: no wind.
+    #[arg(long, value_name = "KNOTS", default_value_t = 0.0)]
+    pub(crate) wind: f64,
+    /// Peak gust speed [kt] (at least --wind): (1 − cos) gusts of 0.3–1.5 s at random times,
+    /// one every 3 s on average. Default: --wind (no discrete gusts).
+    #[arg(long, value_name = "KNOTS")]
+    pub(crate) gust: Option<f64>,
 }
 
 /// The simulated actuator of `simulate` and `preflight`: its faults, process noise, seed and
@@ -136,18 +147,27 @@ pub(crate) struct Simulated {
     pub(crate) seed: u64,
     pub(crate) sensor_fault: Option<SensorFault>,
     pub(crate) demagnetization: Demagnetization,
+    pub(crate) wind: Option<GroundWind>,
 }
 
 impl ActuatorArgs {
-    /// What the reference model simulates.
-    pub(crate) fn simulated(&self) -> Simulated {
-        Simulated {
+    /// What the reference model simulates; an error for a wind that cannot blow.
+    pub(crate) fn simulated(&self) -> Result<Simulated> {
+        let wind = match (self.wind, self.gust) {
+            (0.0, None) => None,
+            (w, gust) => Some(
+                GroundWind::new(w, gust.unwrap_or(w))
+                    .map_err(|e| anyhow::anyhow!("--wind/--gust: {e}"))?,
+            ),
+        };
+        Ok(Simulated {
             faults: self.faults,
             noise: self.noise,
             seed: self.seed,
             sensor_fault: self.sensor_fault,
             demagnetization: self.demagnetization.unwrap_or_default(),
-        }
+            wind,
+        })
     }
 }
 

@@ -514,7 +514,7 @@ fn main() -> ExitCode {
         } => with_test(actuator.test, actuator.encoder_offset, actuator.day).and_then(|a| {
             preflight(
                 &a,
-                &actuator.simulated(),
+                &actuator.simulated()?,
                 ga_seed,
                 trace_out.as_deref(),
                 json,
@@ -525,7 +525,7 @@ fn main() -> ExitCode {
             format,
             out,
         } => with_test(actuator.test, actuator.encoder_offset, actuator.day)
-            .and_then(|a| simulate(&a, &actuator.simulated(), format, &out)),
+            .and_then(|a| simulate(&a, &actuator.simulated()?, format, &out)),
         Command::Calibrate {
             nominal_trace,
             out,

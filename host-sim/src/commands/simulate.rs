@@ -10,6 +10,7 @@ pub(crate) fn simulate_scenario(actuator: &Actuator, sim: &Simulated) -> Result<
         seed,
         sensor_fault,
         demagnetization,
+        wind,
     } = *sim;
     let settings = actuator.reference_settings()?;
     if let Demagnetization::Partial { pole, .. } = demagnetization {
@@ -24,7 +25,8 @@ pub(crate) fn simulate_scenario(actuator: &Actuator, sim: &Simulated) -> Result<
     let rm = ReferenceModel::new(settings)
         .with_test(actuator.record.test)
         .with_sensor_fault(sensor_fault)
-        .with_demagnetization(demagnetization);
+        .with_demagnetization(demagnetization)
+        .with_wind(wind);
     let start = Instant::now();
     let sim = rm.simulate(&Scenario {
         faults,

@@ -27,6 +27,7 @@ use shared::polish::{PolishSettings, Probe, MAX_PROBES};
 use shared::test_design::{PreflightTest, StandstillSegment};
 use shared::{ActuatorParams, Calibration, GaSettings};
 
+use crate::plant::aero::SurfaceAerodynamics;
 use crate::plant::bridge::{BridgeSettings, ConditionSensors, OperatingConditions, ThermalLaws};
 use crate::plant::reference::{EccentricityPhysics, ReferenceSettings};
 
@@ -416,7 +417,8 @@ fn check_day(r: &ReferenceSettings) -> Option<&'static str> {
     let t = &r.thermal;
     let period = 1.0 / b.carrier_hz;
     let control_period = f64::from(r.params.control_period);
-    let checks: [(bool, &'static str); 17] = [
+    let a = &r.surface;
+    let checks: [(bool, &'static str); 21] = [
         (
             b.carrier_hz >= 1.0e3 && b.carrier_hz <= 2.0e5,
             "drive.carrier_hz",
@@ -476,6 +478,18 @@ fn check_day(r: &ReferenceSettings) -> Option<&'static str> {
         (
             (0.0..=1.0).contains(&t.coulomb_exponent),
             "reference_model.coulomb_exponent",
+        ),
+        (a.area > 0.0 && a.area < 1.0e3, "surface.area"),
+        (a.chord > 0.0 && a.chord < 100.0, "surface.chord"),
+        (
+            a.air_density > 0.0 && a.air_density < 10.0,
+            "surface.air_density",
+        ),
+        (
+            [a.ch0, a.ch_alpha, a.ch_delta, a.parked_incidence]
+                .iter()
+                .all(|c| c.abs() < 10.0),
+            "surface.ch0",
         ),
     ];
     checks
@@ -553,6 +567,13 @@ fn range_text(field: &str) -> &'static str {
             "share must be in [0, 1) and the activation temperature in [0, 10 000) K"
         }
         "reference_model.copper_coefficient" => "coefficients must be below 0.02 /K in size",
+        "surface.area" => "must be in (0, 1 000) m²",
+        "surface.chord" => "must be in (0, 100) m",
+        "surface.air_density" => "must be in (0, 10) kg/m³",
+        "surface.ch0" => {
+            "the hinge-moment coefficients (per rad) and the parked incidence (rad) must be finite \
+             and below 10 in size"
+        }
         f if f.ends_with("_ki")
             || f.ends_with("_kd")
             || f.ends_with("damping")
@@ -630,7 +651,23 @@ struct Description {
     drive: Drive,
     #[serde(default)]
     conditions: Conditions,
+    #[serde(default)]
+    surface: Surface,
     rig: Option<RigColumns>,
+}
+
+/// The control surface's aerodynamics the reference model plays in wind and flight
+/// (`crate::plant::aero::SurfaceAerodynamics`); the FDI never reads them.
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct Surface {
+    area: Option<f64>,
+    chord: Option<f64>,
+    ch0: Option<f64>,
+    ch_alpha: Option<f64>,
+    ch_delta: Option<f64>,
+    air_density: Option<f64>,
+    parked_incidence_deg: Option<f64>,
 }
 
 /// The power bridge the reference model plays (`crate::plant::bridge::BridgeSettings`).
@@ -1114,6 +1151,21 @@ impl Description {
                 }
             },
             eccentricity: x.eccentricity.unwrap_or(r.eccentricity),
+            surface: {
+                let a = &self.surface;
+                let d = r.surface;
+                SurfaceAerodynamics {
+                    area: a.area.unwrap_or(d.area),
+                    chord: a.chord.unwrap_or(d.chord),
+                    ch0: a.ch0.unwrap_or(d.ch0),
+                    ch_alpha: a.ch_alpha.unwrap_or(d.ch_alpha),
+                    ch_delta: a.ch_delta.unwrap_or(d.ch_delta),
+                    air_density: a.air_density.unwrap_or(d.air_density),
+                    parked_incidence: a
+                        .parked_incidence_deg
+                        .map_or(d.parked_incidence, |x| x * PI / 180.0),
+                }
+            },
             condition_sensors: {
                 let c = r.condition_sensors;
                 ConditionSensors {

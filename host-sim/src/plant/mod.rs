@@ -3,6 +3,10 @@
 //! * [`reference`] — the high-fidelity reference model (the "real actuator").
 //! * [`bridge`] — its power bridge (PWM, dead time, losses, ADC) and operating day
 //!   (temperatures, bus voltage).
+//! * [`aero`] — the control surface's hinge moment and the wind on a parked surface.
+//! * [`noise`] — the seeded random draws they share.
 
+pub mod aero;
 pub mod bridge;
+pub mod noise;
 pub mod reference;

@@ -37,17 +37,17 @@
 //!   commands a voltage, the same switches under the hysteresis control; copper, magnets and
 //!   grease at the day's temperatures.
 
-use rand_core::{RngCore, SeedableRng};
-use rand_xoshiro::Xoshiro256PlusPlus;
 use shared::conditioning::COMMUTATION_SIGNS;
 use shared::fault::{DEMAGNETIZATION_INDEX, DEMAGNETIZATION_LOSS_MAX};
 use shared::test_design::{Drive, PairDrive, PreflightTest};
 use shared::{ActuatorParams, ChirpCommand, FaultVector};
 
 use crate::files::trace::{Trace, TraceSample};
+use crate::plant::aero::{GroundWind, SurfaceAerodynamics};
 use crate::plant::bridge::{
     to_lsb, BridgeSettings, ConditionSensors, OperatingConditions, ThermalLaws,
 };
+use crate::plant::noise::Gaussian;
 
 use std::f64::consts::{FRAC_PI_2, PI, SQRT_2, TAU};
 
@@ -55,6 +55,9 @@ use std::f64::consts::{FRAC_PI_2, PI, SQRT_2, TAU};
 /// actuator [rad]. The groups sit 120° apart in the order A, C, B, which for P = 4 puts phase
 /// B 120° electrical behind A.
 const GROUP_CENTRE: [f64; 3] = [67.5 * PI / 180.0, 307.5 * PI / 180.0, 187.5 * PI / 180.0];
+/// Least closed-loop hold before a test in wind [s]: the loop takes the mean hinge moment
+/// (its bandwidth ≈ 200 rad/s settles in ≈ 25 ms).
+pub const WIND_SETTLE: f64 = 0.1;
 /// Points per mechanical revolution of the back-EMF shape tables.
 const SHAPE_POINTS: usize = 8192;
 
@@ -119,6 +122,9 @@ pub struct ReferenceSettings {
     /// How static eccentricity changes each phase's back-EMF (`[reference_model]
     /// eccentricity`).
     pub eccentricity: EccentricityPhysics,
+    /// The control surface's aerodynamics (`[surface]`): the hinge moment the wind puts on
+    /// it ([`ReferenceModel::with_wind`]).
+    pub surface: SurfaceAerodynamics,
 }
 
 /// How the reference model plays static eccentricity: the same fault vector's amplitude Z
@@ -166,6 +172,7 @@ impl ReferenceSettings {
         conditions: OperatingConditions::REFERENCE,
         condition_sensors: ConditionSensors::TYPICAL,
         eccentricity: EccentricityPhysics::Permeance,
+        surface: SurfaceAerodynamics::REFERENCE,
     };
 
     /// The reference actuator on an ideal drive with exact bus and temperature readings:
@@ -409,6 +416,7 @@ pub struct ReferenceModel {
     sensor_fault: Option<SensorFault>,
     recording_hz: Option<f64>,
     demagnetization: Demagnetization,
+    wind: Option<GroundWind>,
 }
 
 /// Irreversible loss of the rotor magnets' flux (SPEC §10, issue 35): after over-temperature
@@ -514,7 +522,22 @@ impl ReferenceModel {
             sensor_fault: None,
             recording_hz: None,
             demagnetization: Demagnetization::None,
+            wind: None,
         }
+    }
+
+    /// The same actuator parked in a wind: the hinge moment of [`ReferenceSettings::surface`]
+    /// at the wind's speed, every control period, from the hold before the test to its end
+    /// (the hold lasts at least [`WIND_SETTLE`] so the loop holds the mean moment when the
+    /// test starts, as on the apron).
+    pub fn with_wind(mut self, wind: Option<GroundWind>) -> Self {
+        self.wind = wind;
+        self
+    }
+
+    /// The wind this model plays on the parked surface.
+    pub fn wind(&self) -> Option<GroundWind> {
+        self.wind
     }
 
     /// The same actuator with demagnetized magnets.
@@ -641,7 +664,21 @@ impl ReferenceModel {
         let ts = f64::from(p.control_period);
         let steps_per_tick = (ts / dt).round().max(1.0) as usize;
         let samples = self.test_samples();
-        let pre_roll = (s.pre_roll / ts).round().max(0.0) as usize;
+        let hold = if self.wind.is_some() {
+            s.pre_roll.max(WIND_SETTLE)
+        } else {
+            s.pre_roll
+        };
+        let pre_roll = (hold / ts).round().max(0.0) as usize;
+        // q·S·c of each control period (none: no wind).
+        let wind_scale: Vec<f64> = match &self.wind {
+            Some(w) => w
+                .speeds(pre_roll + samples, ts, scenario.seed)
+                .into_iter()
+                .map(|v| s.surface.moment_scale(v))
+                .collect(),
+            None => Vec::new(),
+        };
 
         // The day: copper and magnets at the winding's temperature, grease at the gear's.
         let day = &s.conditions;
@@ -1065,6 +1102,11 @@ impl ReferenceModel {
 
                 // User shaft: aero hinge moment and end stops.
                 let mut load = -aero * theta_u - s.aero_damping * omega_u;
+                if let Some(&scale) = wind_scale.get(n) {
+                    load += s
+                        .surface
+                        .hinge_moment(scale, s.surface.parked_incidence, theta_u);
+                }
                 ledger.mechanical_loss += s.aero_damping * omega_u * omega_u * dt;
                 let beyond = theta_u - theta_u.clamp(-s.end_stop_angle, s.end_stop_angle);
                 if beyond != 0.0 {
@@ -1189,36 +1231,6 @@ fn rms(values: impl Iterator<Item = f64>) -> f64 {
         0.0
     } else {
         (sum / n as f64).sqrt()
-    }
-}
-
-/// Standard normal draws (Box–Muller) from a seeded xoshiro256++.
-struct Gaussian {
-    rng: Xoshiro256PlusPlus,
-    spare: Option<f64>,
-}
-
-impl Gaussian {
-    fn new(seed: u64) -> Self {
-        Self {
-            rng: Xoshiro256PlusPlus::seed_from_u64(seed),
-            spare: None,
-        }
-    }
-
-    fn uniform(&mut self) -> f64 {
-        // 53 random bits in (0, 1].
-        ((self.rng.next_u64() >> 11) as f64 + 1.0) * (1.0 / (1u64 << 53) as f64)
-    }
-
-    fn next(&mut self) -> f64 {
-        if let Some(x) = self.spare.take() {
-            return x;
-        }
-        let r = (-2.0 * self.uniform().ln()).sqrt();
-        let a = TAU * self.uniform();
-        self.spare = Some(r * a.sin());
-        r * a.cos()
     }
 }
 

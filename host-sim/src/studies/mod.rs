@@ -9,6 +9,7 @@
 //! * [`optimisers`] — the flown solver against other optimisers.
 //! * [`stopping`] — choosing the GA's stop rule on the campaigns.
 //! * [`prognostics`] — simulated degradations, trend and RUL reports and their evaluation.
+//! * [`wind`] — the preflight on a parked surface in wind (issue 36).
 
 pub mod campaign;
 pub mod demagnetization;
@@ -19,3 +20,4 @@ pub mod optimisers;
 pub mod prognostics;
 pub mod separability;
 pub mod stopping;
+pub mod wind;

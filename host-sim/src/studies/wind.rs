@@ -1,0 +1,171 @@
+//! The preflight in wind (issue 36): what a gust on the parked surface does to the
+//! identification, and what the controller sees of it.
+//!
+//! Per case and wind, `seeds` reference-model runs with the wind's hinge moment
+//! ([`crate::plant::aero`]), each identified by the flown FDI and judged by the flown domain
+//! checks, plus what the trace shows of the load: the motor's travel while the position loop
+//! is suspended (the standstill segment) and the slow part of the current the monitor model
+//! does not explain over the chirp (the mean of the residual per 25 ms block, RMS over the
+//! blocks). The cost is the identifications, ≈ 0.25 s each on one core.
+
+use anyhow::Result;
+use rayon::prelude::*;
+use shared::actuator::ActuatorRecord;
+use shared::domain::Domain;
+use shared::fault::Verdict;
+use shared::metrics::total_error;
+use shared::monitor::MonitorModel;
+use shared::FaultVector;
+
+use crate::fdi::identify::identify_for;
+use crate::plant::aero::GroundWind;
+use crate::plant::reference::{ReferenceModel, Scenario, WIND_SETTLE};
+
+/// Samples per block of the residual's slow part (25 ms at 10 kHz: below the chirp's 15 Hz
+/// end, above a gust's 0.3 s).
+pub const RESIDUAL_BLOCK: usize = 250;
+
+/// One run in wind: what the FDI read and what the trace showed of the load.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WindRun {
+    pub e_tot: f64,
+    pub largest_component: f64,
+    /// Healthy components (true nominal) read `FAULT`.
+    pub false_faults: u32,
+    pub domain: Domain,
+    pub fitness: f32,
+    /// Motor-encoder travel over the standstill segment [rad, motor side].
+    pub standstill_travel: f64,
+    /// RMS over the chirp's 25 ms blocks of the block-mean residual (measured − monitor model
+    /// at the found vector) [A], and the residual's mean over the chirp [A].
+    pub slow_residual: f64,
+    pub mean_residual: f64,
+    /// The measured current's mean over the chirp against its RMS there (what the
+    /// controller sees without a model).
+    pub current_offset: f64,
+    /// The largest hinge moment of the wind over the test [N·m] and its range (max − min).
+    pub peak_moment: f64,
+    pub moment_range: f64,
+}
+
+/// Runs `seeds` tests of `faults` in `wind` (None: still air). O(seeds) identifications,
+/// in parallel.
+pub fn wind_runs(
+    rm: &ReferenceModel,
+    record: &ActuatorRecord,
+    faults: FaultVector,
+    wind: Option<GroundWind>,
+    seeds: u64,
+) -> Result<Vec<WindRun>> {
+    let rm = rm.with_wind(wind);
+    (0..seeds)
+        .into_par_iter()
+        .map(|seed| one_run(&rm, record, faults, seed))
+        .collect()
+}
+
+fn one_run(
+    rm: &ReferenceModel,
+    record: &ActuatorRecord,
+    truth: FaultVector,
+    seed: u64,
+) -> Result<WindRun> {
+    let sim = rm.simulate(&Scenario {
+        faults: truth,
+        current_ref_noise: 0.0,
+        seed,
+    });
+    let params = record.params;
+    let measured = sim.trace.measured(&params)?;
+    let id = identify_for(&measured, record, 1 + seed, false)?;
+    let found = id.result.faults;
+    let domain =
+        sim.trace
+            .domain_monitor(&params)
+            .assess(&record.domain, id.result.fitness, &id.conditions);
+    let nominal = FaultVector::NOMINAL;
+    let false_faults = found
+        .verdicts_at(record.detection_threshold)
+        .iter()
+        .zip(truth.as_array().iter().zip(nominal.as_array()))
+        .filter(|(v, (t, n))| **v == Verdict::Faulty && t == n)
+        .count() as u32;
+    let lead = record.test.lead_samples();
+    let (lo, hi) = sim
+        .trace
+        .samples()
+        .iter()
+        .take(lead)
+        .fold((f64::MAX, f64::MIN), |(l, h), s| {
+            (l.min(s.motor_angle), h.max(s.motor_angle))
+        });
+    let standstill_travel = if lead > 0 { hi - lo } else { 0.0 };
+    // The residual at the found vector on the test's day.
+    let model = MonitorModel::new(params, &record.calibration)
+        .with_test(measured.test())
+        .with_conditions(&id.conditions);
+    let filter = measured.filter();
+    let mut state = shared::conditioning::LowPassState::default();
+    let mut fitted = Vec::with_capacity(measured.samples().len());
+    model.run_from(
+        &found,
+        measured.initial_angles(),
+        measured.samples().len(),
+        |s| fitted.push(filter.apply(&mut state, s.current)),
+    );
+    let residual: Vec<f64> = measured
+        .samples()
+        .iter()
+        .zip(&fitted)
+        .skip(lead)
+        .map(|(m, f)| f64::from(m - f))
+        .collect();
+    let chirp: Vec<f64> = measured
+        .samples()
+        .iter()
+        .skip(lead)
+        .map(|&x| f64::from(x))
+        .collect();
+    let n = chirp.len().max(1) as f64;
+    let current_offset =
+        chirp.iter().sum::<f64>() / n / (chirp.iter().map(|x| x * x).sum::<f64>() / n).sqrt();
+    let mean_residual = residual.iter().sum::<f64>() / residual.len().max(1) as f64;
+    let blocks: Vec<f64> = residual
+        .chunks_exact(RESIDUAL_BLOCK)
+        .map(|b| b.iter().sum::<f64>() / RESIDUAL_BLOCK as f64)
+        .collect();
+    let slow_residual =
+        (blocks.iter().map(|b| b * b).sum::<f64>() / blocks.len().max(1) as f64).sqrt();
+    let moments: Vec<f64> = match rm.wind() {
+        Some(w) => {
+            let s = rm.settings();
+            let ts = f64::from(params.control_period);
+            let hold = (s.pre_roll.max(WIND_SETTLE) / ts).round() as usize;
+            w.speeds(hold + sim.trace.samples().len(), ts, seed)
+                .iter()
+                .skip(hold)
+                .map(|&v| {
+                    s.surface
+                        .hinge_moment(s.surface.moment_scale(v), s.surface.parked_incidence, 0.0)
+                        .abs()
+                })
+                .collect()
+        }
+        None => vec![0.0],
+    };
+    let peak_moment = moments.iter().copied().fold(0.0, f64::max);
+    let moment_range = peak_moment - moments.iter().copied().fold(f64::MAX, f64::min);
+    Ok(WindRun {
+        e_tot: f64::from(total_error(&found, &truth)),
+        largest_component: f64::from(found.largest_deviation()),
+        false_faults,
+        domain,
+        fitness: id.result.fitness,
+        standstill_travel,
+        slow_residual,
+        mean_residual,
+        current_offset,
+        peak_moment,
+        moment_range,
+    })
+}
