@@ -52,7 +52,7 @@ use firmware::cooperate::yield_now;
 use firmware::health::record_preflight;
 use firmware::sequencer::{Sequenced, TestSequencer};
 use firmware::storage::{AbStore, StorageLayout};
-use firmware::{Acquired, CurrentSource, Preflight, PreflightSettings, Progress};
+use firmware::{Acquired, CurrentSource, Preflight, PreflightSettings, Progress, Reruns};
 use shared::actuator::{ActuatorRecord, RECORD_BYTES};
 use shared::fdi::OnboardMeasured;
 use shared::fitness::CurvatureRun;
@@ -416,12 +416,6 @@ async fn preflight(spawner: Spawner) -> Result<(), Stop> {
     let filter = LowPass::for_control_period(params.control_period).map_err(|_| Stop::StartUp)?;
     measured.set_filter(filter);
     let sequencer = TestSequencer::new(record.test, params.control_period);
-    let source = BoardSource {
-        sequencer,
-        drive: BridgeDrive::new(TimerLegs, timing, record.drive, &params),
-        converter: Converter::new(SensorScaling::REFERENCE_BOARD),
-        frames: 0,
-    };
     spawner.spawn(heartbeat().map_err(|_| Stop::StartUp)?);
     defmt::info!(
         "preflight: {=usize} frames, carrier {=u16} counts, dead time {=u16} ticks",
@@ -432,21 +426,46 @@ async fn preflight(spawner: Spawner) -> Result<(), Stop> {
 
     // No GA checkpoint here: a power cut re-runs the test, and a checkpoint resumes only on
     // the same measured test (its fingerprint), which the board does not keep in flash.
-    let mut preflight = Preflight::new(settings, source, measured).with_curvature_buffer(curvature);
-    let mut stage = preflight.stage();
-    let report = loop {
-        match preflight.poll() {
-            Ok(Progress::Finished(report)) => break report,
-            Ok(Progress::Working { stage: next }) => stage = next,
-            Err(e) => {
-                bridge_off();
-                defmt::error!("preflight failed in stage {}: {}", stage, e);
-                return Err(Stop::Preflight);
+    // A test whose load moved (a gust on the parked surface) is run again, a bounded number
+    // of times (`Reruns`).
+    let mut reruns = Reruns::new();
+    let (report, day) = loop {
+        let source = BoardSource {
+            sequencer,
+            drive: BridgeDrive::new(
+                TimerLegs,
+                timing,
+                settings.actuator.drive,
+                &settings.actuator.params,
+            ),
+            converter: Converter::new(SensorScaling::REFERENCE_BOARD),
+            frames: 0,
+        };
+        let mut preflight =
+            Preflight::new(settings, source, &mut *measured).with_curvature_buffer(&mut *curvature);
+        let mut stage = preflight.stage();
+        let report = loop {
+            match preflight.poll() {
+                Ok(Progress::Finished(report)) => break report,
+                Ok(Progress::Working { stage: next }) => stage = next,
+                Err(e) => {
+                    bridge_off();
+                    defmt::error!("preflight failed in stage {}: {}", stage, e);
+                    return Err(Stop::Preflight);
+                }
             }
+            // One yield per poll: during the test a frame is due every control period, so
+            // the other tasks' turns must stay short.
+            yield_now().await;
+        };
+        if !reruns.again(&report) {
+            break (report, RecordedDay::of(preflight.day()));
         }
-        // One yield per poll: during the test a frame is due every control period, so the
-        // other tasks' turns must stay short.
-        yield_now().await;
+        defmt::println!(
+            "test {=u8} spoiled: {}; run again",
+            reruns.tests(),
+            report.domain
+        );
     };
 
     let r = &report.result;
@@ -468,7 +487,6 @@ async fn preflight(spawner: Spawner) -> Result<(), Stop> {
     if let Some(len) = pair.read(store.as_bytes_mut()).map_err(|_| Stop::Flash)? {
         store.upgrade_read(len);
     }
-    let day = RecordedDay::of(preflight.day());
     let update = match record_preflight(store, None, &report, day, &TrendSettings::DEFAULT) {
         Ok(u) => u,
         Err(e) => {

@@ -27,6 +27,6 @@ pub mod source;
 pub mod storage;
 
 pub use preflight::{
-    CheckpointError, Preflight, PreflightError, PreflightSettings, Progress, Report, Stage,
+    CheckpointError, Preflight, PreflightError, PreflightSettings, Progress, Report, Reruns, Stage,
 };
 pub use source::{Acquired, CurrentSource, TraceBytes, TraceSource, TraceSourceError};

@@ -128,6 +128,49 @@ pub struct Report {
     pub max_evaluations_per_poll: u32,
 }
 
+/// How many times a preflight spoiled by its load is run (issue 36): a gust or a hand on the
+/// parked surface (`OutsideReason::LoadMoved`, `LoadMovedAtRest`) spoils one test, not the
+/// actuator; the test is run again, at most [`Reruns::MAX_TESTS`] times in all, and the last
+/// report is the one logged, whatever its verdict.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Reruns {
+    tests: u8,
+}
+
+impl Reruns {
+    /// Tests per preflight at most (the first and two re-runs): each is ≈ 0.8 s of drive time
+    /// and ≈ 13 s of identification at 168 MHz.
+    pub const MAX_TESTS: u8 = 3;
+
+    pub const fn new() -> Self {
+        Self { tests: 0 }
+    }
+
+    /// Called with each test's report: whether to run the test again. O(1).
+    pub fn again(&mut self, report: &Report) -> bool {
+        self.tests = self.tests.saturating_add(1);
+        let moved = matches!(
+            report.domain,
+            Domain::Outside(
+                shared::domain::OutsideReason::LoadMoved { .. }
+                    | shared::domain::OutsideReason::LoadMovedAtRest { .. }
+            )
+        );
+        moved && self.tests < Self::MAX_TESTS
+    }
+
+    /// Tests run so far.
+    pub fn tests(&self) -> u8 {
+        self.tests
+    }
+}
+
+impl Default for Reruns {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 /// Why a checkpoint was not taken or not resumed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(any(feature = "defmt", target_os = "none"), derive(defmt::Format))]
@@ -178,6 +221,9 @@ enum State<'m> {
         result: IdentificationResult,
         uncertainty: Option<Uncertainty>,
         assessments: [Assessment; FAULT_COUNT],
+        /// The unexplained current's mean over the chirp against its RMS
+        /// (`CurvatureRun::load_offset`; NaN without the curvature's runs).
+        load_offset: f32,
     },
     Done(Report),
     Failed,
@@ -409,6 +455,7 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                                 result,
                                 uncertainty: None,
                                 assessments: self.assess(&result, None),
+                                load_offset: f32::NAN,
                             },
                         }
                     }
@@ -423,6 +470,7 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                         result,
                         uncertainty: None,
                         assessments: self.assess(&result, None),
+                        load_offset: f32::NAN,
                     });
                 };
                 let polish = &mut self.polish;
@@ -469,6 +517,10 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                             result,
                             assessments: self.assess(&result, uncertainty.as_ref()),
                             uncertainty: uncertainty.map(|(u, _)| u),
+                            load_offset: self
+                                .curvature
+                                .as_deref()
+                                .map_or(f32::NAN, CurvatureRun::load_offset),
                         }
                     }
                 })
@@ -477,15 +529,20 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                 result,
                 uncertainty,
                 assessments,
+                load_offset,
             } => Ok(State::Done(Report {
                 result,
                 uncertainty,
                 assessments,
-                domain: self.domain.assess(
-                    &self.settings.actuator.domain,
-                    result.fitness,
-                    &self.day,
-                ),
+                domain: {
+                    let load = match self.id.as_ref() {
+                        Some(id) => id.problem().load_signs(load_offset),
+                        None => return Err(PreflightError::AlreadyFailed),
+                    };
+                    self.domain
+                        .assess(&self.settings.actuator.domain, result.fitness, &self.day)
+                        .with_load(load)
+                },
                 verdicts: result
                     .faults
                     .verdicts_at(self.settings.actuator.detection_threshold),

@@ -35,7 +35,7 @@ pub(crate) use host_sim::studies::prognostics::{self, DegradationPath, PathShape
 pub(crate) use serde_json::json;
 pub(crate) use shared::actuator::ActuatorRecord;
 pub(crate) use shared::command::{CommandSource, CommandTable};
-pub(crate) use shared::domain::Domain;
+pub(crate) use shared::domain::{Domain, OutsideReason};
 pub(crate) use shared::fault::{Verdict, FAULT_COUNT, FAULT_NAMES};
 pub(crate) use shared::fdi::{
     record_monitor_trace, Identification, OnboardGa, OnboardMeasured, POPULATION, TEST_SAMPLES,

@@ -179,13 +179,18 @@ enum Command {
         /// the healthy actuator with noise), random (multi-fault vectors nobody tuned on),
         /// demagnetization (the ninth fault: uniform and one magnet, with a short, on a hot
         /// and a cold day, and the short and the days that must not read as it).
-        #[arg(long, value_enum, required_unless_present = "conditions")]
+        #[arg(long, value_enum, required_unless_present_any = ["conditions", "wind"])]
         table: Option<CampaignTable>,
         /// Robustness: Table I, Table II and the healthy actuator over a grid of days and
         /// drives (winding temperature −60 … +60 K from calibration with the friction law,
         /// bus 250 / 280 V, two corners, 1 µs of dead time), one row per point.
         #[arg(long, conflicts_with_all = ["table", "plot"])]
         conditions: bool,
+        /// The preflight on a parked surface in wind (issue 36): the healthy actuator, three
+        /// Table I faults and two Table II mixes in still air and in 5–30 kt winds, steady and
+        /// gusting, with the moved-load verdict's statistics (docs/in-flight.md).
+        #[arg(long, conflicts_with_all = ["table", "plot", "conditions"])]
+        wind: bool,
         /// Runs (seeds) per case.
         #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..=1000))]
         runs: u64,
@@ -585,6 +590,7 @@ fn main() -> ExitCode {
         Command::Campaign {
             table,
             conditions,
+            wind,
             runs,
             out,
             runs_csv,
@@ -593,6 +599,7 @@ fn main() -> ExitCode {
             encoder_offset,
             day,
         } => with_test(test, encoder_offset, day).and_then(|actuator| match table {
+            _ if wind => wind_campaign_command(&actuator, runs, out.as_deref()),
             Some(table) if !conditions => campaign_command(
                 &actuator,
                 table,

@@ -301,6 +301,9 @@ pub struct MeasuredCurrent<const N: usize> {
     conditions: ConditionSums,
     /// The chirp's torque balance, fed its frames (the grease's drag and dry friction).
     torque_fit: ChirpTorqueFit,
+    /// Lowest and highest motor-encoder reading over the standstill segment [I16F16 bits]:
+    /// how far the rotor moved while the position loop was suspended.
+    standstill_motor: [i32; 2],
 }
 
 impl<const N: usize> MeasuredCurrent<N> {
@@ -340,7 +343,16 @@ impl<const N: usize> MeasuredCurrent<N> {
             inv_kappa: None,
             conditions: ConditionSums::ZERO,
             torque_fit: ChirpTorqueFit::ZERO,
+            standstill_motor: [0, 0],
         }
+    }
+
+    /// How far the motor turned over the standstill segment [rad] (0 without one): with the
+    /// position loop suspended only a moment on the surface (or the rotor settling in the
+    /// gear's play) moves it.
+    pub fn standstill_travel(&self) -> f32 {
+        let [lo, hi] = self.standstill_motor;
+        hi.wrapping_sub(lo) as u32 as f32 * (1.0 / 65_536.0)
     }
 
     /// Sums of the bus and temperature readings the frames carried.
@@ -410,6 +422,15 @@ impl<const N: usize> MeasuredCurrent<N> {
                 }
                 if index >= self.lead_samples() {
                     self.torque_fit.push(current, motor, user);
+                } else {
+                    // Every byte zero when empty (`ZEROED`): the first frame sets both.
+                    let bits = frame.motor_angle.to_bits();
+                    let [lo, hi] = &mut self.standstill_motor;
+                    if index == 0 {
+                        (*lo, *hi) = (bits, bits);
+                    }
+                    *lo = (*lo).min(bits);
+                    *hi = (*hi).max(bits);
                 }
                 Ok(())
             }
@@ -503,12 +524,40 @@ impl<const N: usize> MeasuredCurrent<N> {
         self.inv_kappa = None;
         self.conditions = ConditionSums::ZERO;
         self.torque_fit = ChirpTorqueFit::ZERO;
+        self.standstill_motor = [0, 0];
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_standstill_travel_is_the_rotors_range_there_and_nothing_after() {
+        let test = PreflightTest::INJECTION;
+        let lead = test.lead_samples();
+        let filter = LowPass::for_control_period(1.0e-4).expect("the 10 kHz filter");
+        let mut m: MeasuredCurrent<6000> = MeasuredCurrent::for_test(filter, test);
+        assert_eq!(m.standstill_travel(), 0.0);
+        let frame = |motor: f64| {
+            crate::trace::TraceRow::from_f64(0.0, [0.1, -0.1, 0.0], motor, 0.0).adc_frame()
+        };
+        for i in 0..lead {
+            // The rotor creeps from 10.0 to 10.02 rad and back over the segment.
+            let x = i as f64 / lead as f64;
+            let motor = 10.0 + 0.04 * if x < 0.5 { x } else { 1.0 - x };
+            m.push_frame(frame(motor), 4.0).expect("room");
+        }
+        let travel = m.standstill_travel();
+        assert!((travel - 0.02).abs() < 1e-3, "{travel}");
+        // The chirp's motion is not the standstill's.
+        for _ in 0..100 {
+            m.push_frame(frame(12.0), 4.0).expect("room");
+        }
+        assert_eq!(m.standstill_travel(), travel);
+        m.clear();
+        assert_eq!(m.standstill_travel(), 0.0);
+    }
 
     #[test]
     fn sums_give_exact_means_and_none_without_readings() {

@@ -72,7 +72,40 @@ pub enum OutsideReason {
     /// is not known, so wear cannot be told from the grease. Test within the calibrated
     /// range, or calibrate the new grease.
     GreaseOutOfRange { drag: f32 },
+    /// The load moved during the chirp: the monitor model left a mean current of `offset`
+    /// times the measured RMS unexplained ([`LoadSigns::offset`], beyond
+    /// [`MAX_LOAD_OFFSET`]) — a moment on the surface other than its hinge spring (wind on
+    /// the parked aircraft, a gust, a hand) that the position loop held. No fault does that.
+    /// Re-run the test when the surface is quiet.
+    LoadMoved { offset: f32 },
+    /// The load moved the rotor while the position loop was suspended (the standstill
+    /// segment): it turned `travel` times the chirp's amplitude at the motor
+    /// ([`LoadSigns::standstill`], beyond [`MAX_STANDSTILL_TRAVEL`]). Re-run the test when the
+    /// surface is quiet.
+    LoadMovedAtRest { travel: f32 },
 }
+
+/// What a test shows of a moment on its surface beyond the hinge spring: both dimensionless.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LoadSigns {
+    /// The unexplained current's mean over the chirp against the measured RMS
+    /// ([`crate::uncertainty::Curvature::load_offset`]); NaN without a chirp.
+    pub offset: f32,
+    /// The motor's travel over the standstill segment against the chirp's amplitude at the
+    /// motor (gear ratio × amplitude); 0 without a segment.
+    pub standstill: f32,
+}
+
+/// Largest [`LoadSigns::offset`] of a test whose surface carried only its hinge spring.
+/// Still air, Table I and II and noise, 3 seeds each, both example actuators: at most 0.0023
+/// (reference) and 0.0054 (light); a 5–30 kt wind gives up to 0.24 (docs/in-flight.md,
+/// `host-sim campaign --wind`).
+pub const MAX_LOAD_OFFSET: f32 = 0.0075;
+
+/// Largest [`LoadSigns::standstill`] of a test on a quiet surface: in still air at most
+/// 0.0022 (reference) and 0.0048 (light, the rotor settling in the gear's play).
+pub const MAX_STANDSTILL_TRAVEL: f32 = 0.0075;
 
 /// The verdict on the whole test.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -109,6 +142,35 @@ impl Domain {
             Self::Outside(OutsideReason::GreaseOutOfRange { drag })
         } else {
             self
+        }
+    }
+}
+
+impl Domain {
+    /// The verdict with the load checked: a rotor that turned beyond
+    /// [`MAX_STANDSTILL_TRAVEL`] while the loop was suspended (named first: it also spoils
+    /// the chirp's start), or a chirp whose unexplained current has a mean beyond
+    /// [`MAX_LOAD_OFFSET`] of its RMS, names the moved load in place
+    /// of what a moved load also spoils (the fit's floor, the injection's winding, the chirp's
+    /// drag) or of `Within`; a sensor, an open phase, a test that did not move or ran another
+    /// command keep their reason. NaN is not judged. O(1).
+    pub fn with_load(self, signs: LoadSigns) -> Self {
+        let LoadSigns { offset, standstill } = signs;
+        let reason = if standstill > MAX_STANDSTILL_TRAVEL {
+            OutsideReason::LoadMovedAtRest { travel: standstill }
+        } else if offset.abs() > MAX_LOAD_OFFSET {
+            OutsideReason::LoadMoved { offset }
+        } else {
+            return self;
+        };
+        match self {
+            Self::Within
+            | Self::Outside(
+                OutsideReason::FitnessFloor { .. }
+                | OutsideReason::InstallationChanged { .. }
+                | OutsideReason::GreaseOutOfRange { .. },
+            ) => Self::Outside(reason),
+            other => other,
         }
     }
 }
@@ -478,5 +540,74 @@ impl DomainMonitor {
             return Domain::Outside(OutsideReason::FitnessFloor { fitness });
         }
         Domain::Within
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const QUIET: LoadSigns = LoadSigns {
+        offset: 0.001,
+        standstill: 0.002,
+    };
+
+    #[test]
+    fn a_quiet_surface_keeps_the_verdict() {
+        let floor = Domain::Outside(OutsideReason::FitnessFloor { fitness: 1.0 });
+        assert_eq!(Domain::Within.with_load(QUIET), Domain::Within);
+        assert_eq!(floor.with_load(QUIET), floor);
+        // NaN (no chirp, no sums) is not judged.
+        let unknown = LoadSigns {
+            offset: f32::NAN,
+            ..QUIET
+        };
+        assert_eq!(Domain::Within.with_load(unknown), Domain::Within);
+    }
+
+    #[test]
+    fn a_moved_load_is_named_over_what_it_spoils_but_not_over_a_sensor() {
+        let chirp = LoadSigns {
+            offset: -2.0 * MAX_LOAD_OFFSET,
+            ..QUIET
+        };
+        let rest = LoadSigns {
+            standstill: 2.0 * MAX_STANDSTILL_TRAVEL,
+            ..chirp
+        };
+        assert_eq!(
+            Domain::Within.with_load(chirp),
+            Domain::Outside(OutsideReason::LoadMoved {
+                offset: chirp.offset
+            })
+        );
+        // The rotor moved at rest: named first (it spoils the chirp's start too).
+        assert_eq!(
+            Domain::Within.with_load(rest),
+            Domain::Outside(OutsideReason::LoadMovedAtRest {
+                travel: rest.standstill
+            })
+        );
+        for spoiled in [
+            OutsideReason::FitnessFloor { fitness: 1.0 },
+            OutsideReason::InstallationChanged { kelvin: -40.0 },
+            OutsideReason::GreaseOutOfRange { drag: 3.0 },
+        ] {
+            assert!(matches!(
+                Domain::Outside(spoiled).with_load(chirp),
+                Domain::Outside(OutsideReason::LoadMoved { .. })
+            ));
+        }
+        for kept in [
+            OutsideReason::CurrentSenseOffset { amps: 0.2 },
+            OutsideReason::OpenPhase {
+                phase: 1,
+                ratio: 0.1,
+            },
+            OutsideReason::NoMotion { travel: 0.0 },
+            OutsideReason::CommandMismatch { tracking: 1.0 },
+        ] {
+            assert_eq!(Domain::Outside(kept).with_load(rest), Domain::Outside(kept));
+        }
     }
 }

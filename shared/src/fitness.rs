@@ -116,6 +116,18 @@ impl<'a, const N: usize> FitnessProblem<'a, N> {
         &self.conditions
     }
 
+    /// What the test shows of a moment on the surface beyond its spring, with `offset` the
+    /// [`CurvatureRun::load_offset`] at the identified vector (NaN without them;
+    /// [`crate::domain::Domain::with_load`]). O(1).
+    pub fn load_signs(&self, offset: f32) -> crate::domain::LoadSigns {
+        let p = self.model.params();
+        let chirp = self.model.command().amplitude;
+        crate::domain::LoadSigns {
+            offset,
+            standstill: self.measured.standstill_travel() / (p.gear_ratio * chirp),
+        }
+    }
+
     /// The same problem with another standstill weight (for studies of the weight).
     pub fn with_standstill_weight(mut self, weight: f32) -> Self {
         self.standstill_weight = weight;
@@ -300,6 +312,9 @@ impl<const N: usize> FitnessProblem<'_, N> {
         run.sums = Curvature::EMPTY;
         run.block = BlockSums::ZERO;
         run.in_block = 0;
+        run.chirp_residual = 0.0;
+        run.chirp_power = 0.0;
+        run.chirp_samples = 0;
     }
 
     /// Advances `run` by at most `samples` samples (10 monitor-model steps and 45 f64
@@ -348,6 +363,11 @@ impl<const N: usize> FitnessProblem<'_, N> {
             let d: [f32; FAULT_COUNT] =
                 core::array::from_fn(|a| (m[a + 1] - m[0]) * run.inv_shifts[a]);
             let block = &mut run.block;
+            if i >= lead {
+                block.chirp_residual += e;
+                block.chirp_power += r * r;
+                run.chirp_samples = run.chirp_samples.saturating_add(1);
+            }
             block.rss += w * e * e;
             for a in 0..FAULT_COUNT {
                 let wa = w * d[a];
@@ -415,6 +435,11 @@ pub struct CurvatureRun {
     /// The current block's sums in f32 ([`CURVATURE_BLOCK`] fitted samples at most).
     block: BlockSums,
     in_block: u32,
+    /// Over the chirp: Σ r (measured − modelled at the identified vector) [A], Σ of the
+    /// measured current squared [A²], the samples ([`CurvatureRun::load_offset`]).
+    chirp_residual: f64,
+    chirp_power: f64,
+    chirp_samples: u32,
 }
 
 /// Fitted samples summed in f32 before they join the f64 totals.
@@ -426,6 +451,8 @@ struct BlockSums {
     normal: [[f32; FAULT_COUNT]; FAULT_COUNT],
     gradient: [f32; FAULT_COUNT],
     rss: f32,
+    chirp_residual: f32,
+    chirp_power: f32,
 }
 
 impl BlockSums {
@@ -433,6 +460,8 @@ impl BlockSums {
         normal: [[0.0; FAULT_COUNT]; FAULT_COUNT],
         gradient: [0.0; FAULT_COUNT],
         rss: 0.0,
+        chirp_residual: 0.0,
+        chirp_power: 0.0,
     };
 }
 
@@ -449,7 +478,20 @@ impl CurvatureRun {
         sums: Curvature::EMPTY,
         block: BlockSums::ZERO,
         in_block: 0,
+        chirp_residual: 0.0,
+        chirp_power: 0.0,
+        chirp_samples: 0,
     };
+
+    /// The current the monitor model left unexplained over the chirp at the identified
+    /// vector, its mean as a share of the measured RMS, once the sums are finished (NaN
+    /// without a chirp sample). A test's own faults leave a residual that swings with the
+    /// chirp; a steady moment on the surface (wind on the parked aircraft) leaves a mean the
+    /// position loop holds ([`crate::domain::Domain::with_load`]). O(1).
+    pub fn load_offset(&self) -> f32 {
+        (self.chirp_residual
+            / crate::math::sqrt64(self.chirp_power * f64::from(self.chirp_samples))) as f32
+    }
 
     /// Adds the block's f32 sums to the f64 totals and starts a new block (upper triangle
     /// of the normal matrix only). O(8²).
@@ -457,6 +499,8 @@ impl CurvatureRun {
     fn flush_block(&mut self) {
         let (sums, block) = (&mut self.sums, &self.block);
         sums.rss += f64::from(block.rss);
+        self.chirp_residual += f64::from(block.chirp_residual);
+        self.chirp_power += f64::from(block.chirp_power);
         for a in 0..FAULT_COUNT {
             sums.gradient[a] += f64::from(block.gradient[a]);
             for b in a..FAULT_COUNT {

@@ -239,6 +239,8 @@ pub enum DomainCode {
     TransducerDisagrees = 12,
     InstallationChanged = 13,
     GreaseOutOfRange = 14,
+    LoadMoved = 15,
+    LoadMovedAtRest = 16,
 }
 
 impl From<Domain> for DomainCode {
@@ -263,13 +265,15 @@ impl From<Domain> for DomainCode {
             Domain::Outside(OutsideReason::TransducerDisagrees { .. }) => Self::TransducerDisagrees,
             Domain::Outside(OutsideReason::InstallationChanged { .. }) => Self::InstallationChanged,
             Domain::Outside(OutsideReason::GreaseOutOfRange { .. }) => Self::GreaseOutOfRange,
+            Domain::Outside(OutsideReason::LoadMoved { .. }) => Self::LoadMoved,
+            Domain::Outside(OutsideReason::LoadMovedAtRest { .. }) => Self::LoadMovedAtRest,
         }
     }
 }
 
 impl DomainCode {
     /// Every code, in the order of its byte.
-    const ALL: [Self; 15] = [
+    const ALL: [Self; 17] = [
         Self::Within,
         Self::NoMotion,
         Self::OpenPhase,
@@ -285,6 +289,8 @@ impl DomainCode {
         Self::TransducerDisagrees,
         Self::InstallationChanged,
         Self::GreaseOutOfRange,
+        Self::LoadMoved,
+        Self::LoadMovedAtRest,
     ];
 
     fn from_byte(b: u8) -> Option<Self> {
@@ -309,6 +315,8 @@ impl DomainCode {
             Self::TransducerDisagrees => "transducer_disagrees",
             Self::InstallationChanged => "installation_changed",
             Self::GreaseOutOfRange => "grease_out_of_range",
+            Self::LoadMoved => "load_moved",
+            Self::LoadMovedAtRest => "load_moved_at_rest",
         }
     }
 

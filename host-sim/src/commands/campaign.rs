@@ -276,6 +276,38 @@ fn outside_cases(
     text
 }
 
+/// `campaign --wind`: the preflight in wind (`host_sim::studies::wind`).
+pub(crate) fn wind_campaign_command(
+    actuator: &Actuator,
+    runs: u64,
+    out: Option<&Path>,
+) -> Result<()> {
+    use host_sim::studies::wind::{wind_campaign, wind_markdown, WINDS, WIND_CASES};
+    let rm = ReferenceModel::new(actuator.reference_settings()?).with_test(actuator.record.test);
+    let record = actuator.record_for(&actuator.record.test)?;
+    let start = Instant::now();
+    let total = WINDS.len() * WIND_CASES.len();
+    let mut done = 0;
+    let rows = wind_campaign(&rm, &record, runs, |row| {
+        done += 1;
+        eprintln!(
+            "[{done}/{total}] {} in {:?} kt: {} of {} named ({:.0} s)",
+            row.case,
+            row.wind,
+            row.named(),
+            row.runs.len(),
+            start.elapsed().as_secs_f64()
+        );
+    })?;
+    let text = wind_markdown(&rows, &actuator.name);
+    print!("{text}");
+    println!("({:.0} s)", start.elapsed().as_secs_f64());
+    if let Some(path) = out {
+        std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(())
+}
+
 pub(crate) fn conditions_campaign_command(
     actuator: &Actuator,
     runs: u64,

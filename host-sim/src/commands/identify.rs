@@ -11,6 +11,14 @@ pub(crate) fn domain_heading(domain: Domain) -> ((String, String), Result<()>) {
                 "warning: the actuator is outside the monitor model's domain ({reason:?}): \
                  do not act on the fault vector"
             );
+            if let OutsideReason::LoadMoved { .. } | OutsideReason::LoadMovedAtRest { .. } = reason
+            {
+                eprintln!(
+                    "note: the surface carried a moment other than its hinge spring during the \
+                     test (wind or a gust on the parked aircraft, a hand on the surface): the \
+                     test is spoiled, not the actuator; run it again when the surface is quiet"
+                );
+            }
             (
                 ("domain".to_string(), format!("outside: {reason:?}")),
                 Err(ExitWith(EXIT_OUTSIDE_DOMAIN).into()),
@@ -263,11 +271,10 @@ pub(crate) fn identify_command(
         ("calibration".to_string(), cal_name),
         ("ga_seed".to_string(), seed.to_string()),
     ];
-    let domain = trace.domain_monitor(&record.params).assess(
-        &record.domain,
-        id.result.fitness,
-        &id.conditions,
-    );
+    let domain = trace
+        .domain_monitor(&record.params)
+        .assess(&record.domain, id.result.fitness, &id.conditions)
+        .with_load(id.load);
     let (line, verdict) = domain_heading(domain);
     heading.push(line);
     if let Domain::Outside(

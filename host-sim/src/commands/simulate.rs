@@ -51,8 +51,15 @@ pub(crate) fn simulate(
 ) -> Result<()> {
     let (trace, seconds) = simulate_scenario(actuator, sim)?;
     trace.write(out, format)?;
+    let wind = match sim.wind {
+        Some(w) if w.gust_knots > w.mean_knots => {
+            format!(", wind {} kt gusting {} kt", w.mean_knots, w.gust_knots)
+        }
+        Some(w) => format!(", wind {} kt", w.mean_knots),
+        None => String::new(),
+    };
     println!(
-        "wrote {} ({format}, {} samples at {:.0} Hz, {}; reference model {seconds:.3} s)",
+        "wrote {} ({format}, {} samples at {:.0} Hz, {}{wind}; reference model {seconds:.3} s)",
         out.display(),
         trace.samples().len(),
         1.0 / actuator.params().control_period,
@@ -100,6 +107,7 @@ pub(crate) fn preflight(
         noise,
         seed,
         demagnetization,
+        wind,
         ..
     } = *sim;
     // A weak magnet or a loss beyond k9's is scored as the mean flux it took.
@@ -113,19 +121,24 @@ pub(crate) fn preflight(
         (
             "actuator".to_string(),
             format!(
-                "{} played by the reference model, {} test, noise {noise}, seed {seed} ({rm_seconds:.3} s)",
+                "{} played by the reference model, {} test, noise {noise}, seed {seed}{} ({rm_seconds:.3} s)",
                 actuator.name,
-                test.kind_name()
+                test.kind_name(),
+                wind.map_or(String::new(), |w| format!(
+                    ", wind {} kt gusting {} kt",
+                    w.mean_knots, w.gust_knots
+                ))
             ),
         ),
         ("calibration".to_string(), calibration_name(actuator, &test)),
         ("ga_seed".to_string(), ga_seed.to_string()),
     ];
-    let (line, verdict) = domain_heading(trace.domain_monitor(&record.params).assess(
-        &record.domain,
-        id.result.fitness,
-        &id.conditions,
-    ));
+    let (line, verdict) = domain_heading(
+        trace
+            .domain_monitor(&record.params)
+            .assess(&record.domain, id.result.fitness, &id.conditions)
+            .with_load(id.load),
+    );
     heading.push(line);
     report(
         &id,

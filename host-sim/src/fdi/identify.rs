@@ -33,6 +33,9 @@ pub struct Identified {
     pub uncertainty: Option<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT])>,
     /// The day the FDI estimated for the test (`shared::conditions`).
     pub conditions: shared::conditions::TestConditions,
+    /// What the test showed of a moment on the surface beyond its spring
+    /// (`shared::domain::Domain::with_load`).
+    pub load: shared::domain::LoadSigns,
 }
 
 impl Identified {
@@ -242,7 +245,8 @@ pub fn identify_checkpointed(
     let result = id.polished(polish, &mut run);
     let seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
-    let uncertainty = id.problem().uncertainty(&result.faults).ok();
+    let curvature = id.problem().curvature_in(&mut run, &result.faults);
+    let uncertainty = curvature.uncertainty(&result.faults).ok();
     Ok((
         Outcome::Finished(Box::new(Identified {
             result,
@@ -250,6 +254,7 @@ pub fn identify_checkpointed(
             history,
             uncertainty,
             conditions: *id.problem().conditions(),
+            load: id.problem().load_signs(run.load_offset()),
         })),
         resumption,
     ))

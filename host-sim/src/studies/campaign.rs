@@ -680,10 +680,11 @@ pub fn run_once(
             }
         }
     }
-    let domain =
-        sim.trace
-            .domain_monitor(&params)
-            .assess(&record.domain, id.result.fitness, &id.conditions);
+    let domain = sim
+        .trace
+        .domain_monitor(&params)
+        .assess(&record.domain, id.result.fitness, &id.conditions)
+        .with_load(id.load);
     Ok(RunResult {
         found,
         e_tot: f64::from(total_error(&found, &truth)),

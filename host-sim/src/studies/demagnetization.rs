@@ -179,11 +179,12 @@ pub fn demagnetization_study(
                 let measured = sim.trace.measured(&record.params)?;
                 let id = identify_for(&measured, record, 1 + seed, false)?;
                 let told = identify_for(&measured, &told, 1 + seed, false)?;
-                let within = sim.trace.domain_monitor(&record.params).assess(
-                    &record.domain,
-                    id.result.fitness,
-                    &id.conditions,
-                ) == shared::domain::Domain::Within;
+                let within = sim
+                    .trace
+                    .domain_monitor(&record.params)
+                    .assess(&record.domain, id.result.fitness, &id.conditions)
+                    .with_load(id.load)
+                    == shared::domain::Domain::Within;
                 Ok((
                     id.result.faults,
                     f64::from(id.result.fitness),

@@ -57,7 +57,9 @@ pub fn assess_for(trace: &Trace, record: &ActuatorRecord) -> Result<(DomainMonit
     Ok((
         monitor,
         fitness,
-        monitor.assess(&record.domain, fitness, &id.conditions),
+        monitor
+            .assess(&record.domain, fitness, &id.conditions)
+            .with_load(id.load),
     ))
 }
 

@@ -168,11 +168,14 @@ pub fn degrade(
                 .with_test(*rm.test());
             let measured = trace.measured(&params)?;
             let id = identify(&measured, &Calibration::REFERENCE_ACTUATOR, ga_seed, false)?;
-            let domain = trace.domain_monitor(&params).assess(
-                &DomainLimits::REFERENCE_ACTUATOR,
-                id.result.fitness,
-                &id.conditions,
-            );
+            let domain = trace
+                .domain_monitor(&params)
+                .assess(
+                    &DomainLimits::REFERENCE_ACTUATOR,
+                    id.result.fitness,
+                    &id.conditions,
+                )
+                .with_load(id.load);
             tick();
             Ok(HistoryRow {
                 record: HealthRecord::new(flight, id.result.faults, id.result.fitness, domain)

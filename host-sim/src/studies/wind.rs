@@ -43,6 +43,8 @@ pub struct WindRun {
     /// The measured current's mean over the chirp against its RMS there (what the
     /// controller sees without a model).
     pub current_offset: f64,
+    /// The flown check's statistics ([`shared::domain::LoadSigns`]).
+    pub load: shared::domain::LoadSigns,
     /// The largest hinge moment of the wind over the test [N·m] and its range (max − min).
     pub peak_moment: f64,
     pub moment_range: f64,
@@ -79,10 +81,11 @@ fn one_run(
     let measured = sim.trace.measured(&params)?;
     let id = identify_for(&measured, record, 1 + seed, false)?;
     let found = id.result.faults;
-    let domain =
-        sim.trace
-            .domain_monitor(&params)
-            .assess(&record.domain, id.result.fitness, &id.conditions);
+    let domain = sim
+        .trace
+        .domain_monitor(&params)
+        .assess(&record.domain, id.result.fitness, &id.conditions)
+        .with_load(id.load);
     let nominal = FaultVector::NOMINAL;
     let false_faults = found
         .verdicts_at(record.detection_threshold)
@@ -165,7 +168,191 @@ fn one_run(
         slow_residual,
         mean_residual,
         current_offset,
+        load: id.load,
         peak_moment,
         moment_range,
     })
+}
+
+/// The winds of the campaign: (mean, peak gust) [kt]; (0, 0) is still air.
+pub const WINDS: [(f64, f64); 9] = [
+    (0.0, 0.0),
+    (5.0, 5.0),
+    (10.0, 10.0),
+    (15.0, 15.0),
+    (20.0, 20.0),
+    (30.0, 30.0),
+    (10.0, 20.0),
+    (15.0, 30.0),
+    (20.0, 30.0),
+];
+
+/// The cases of the campaign: the healthy actuator, three single faults of Table I and two
+/// mixes of Table II.
+pub const WIND_CASES: [(&str, [f32; shared::FAULT_COUNT]); 6] = [
+    ("healthy", [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]),
+    (
+        "friction k1 = 0.1",
+        [0.1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0],
+    ),
+    (
+        "backlash k2 = 1.0",
+        [0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0],
+    ),
+    (
+        "short A k3 = 0.2",
+        [0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0],
+    ),
+    (
+        "Table II medium",
+        [0.4, 0.4, 0.2, 0.1, 0.05, 0.2, 0.75, 0.6, 0.0],
+    ),
+    (
+        "Table II high",
+        [1.0, 1.0, 0.5, 0.3, 0.1, 0.5, 0.1, 0.0, 0.0],
+    ),
+];
+
+/// One row of the campaign: a case in a wind, `runs` seeds.
+#[derive(Clone, Debug)]
+pub struct WindRow {
+    pub case: &'static str,
+    pub wind: (f64, f64),
+    pub runs: Vec<WindRun>,
+}
+
+impl WindRow {
+    /// Runs named as a moved load.
+    pub fn named(&self) -> usize {
+        self.runs.iter().filter(|r| load_moved(&r.domain)).count()
+    }
+}
+
+/// Whether `d` names a moved load.
+pub fn load_moved(d: &Domain) -> bool {
+    matches!(
+        d,
+        Domain::Outside(
+            shared::domain::OutsideReason::LoadMoved { .. }
+                | shared::domain::OutsideReason::LoadMovedAtRest { .. }
+        )
+    )
+}
+
+/// Every case in every wind, `runs` seeds each; `progress` is told each row as it ends.
+pub fn wind_campaign(
+    rm: &ReferenceModel,
+    record: &ActuatorRecord,
+    runs: u64,
+    mut progress: impl FnMut(&WindRow),
+) -> Result<Vec<WindRow>> {
+    let mut rows = Vec::new();
+    for (case, faults) in WIND_CASES {
+        let truth = FaultVector::new(faults).map_err(|e| anyhow::anyhow!("{case}: {e:?}"))?;
+        for wind in WINDS {
+            let ground = if wind.0 == 0.0 && wind.1 == 0.0 {
+                None
+            } else {
+                Some(GroundWind::new(wind.0, wind.1).map_err(anyhow::Error::msg)?)
+            };
+            let row = WindRow {
+                case,
+                wind,
+                runs: wind_runs(rm, record, truth, ground, runs)?,
+            };
+            progress(&row);
+            rows.push(row);
+        }
+    }
+    Ok(rows)
+}
+
+/// The campaign as Markdown: per case and wind, the runs named, the others' verdicts and
+/// accuracy, then the totals against issue 36's targets.
+pub fn wind_markdown(rows: &[WindRow], actuator: &str) -> String {
+    let mut text = format!(
+        "### Preflight in wind: {actuator}, {} runs per row\n\n\
+         Wind: mean / peak gust [kt] on the parked surface (`[surface]`). `named`: runs the \
+         domain check put outside as a moved load (`LoadMoved` over the chirp, \
+         `LoadMovedAtRest` in the standstill segment); `other outside`: any other reason; \
+         then over the runs left `within`: e_tot median and largest [%], their healthy \
+         components read `FAULT` (component-runs); `off > 5 %`: runs whose e_tot is above 5 % \
+         and of them named; largest load signs (offset, standstill) over the row.\n\n\
+         | case | wind | named | other outside | within: e_tot median / max | within: false FAULT | off > 5 %: named / all | largest offset / standstill |\n\
+         | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |\n",
+        rows.first().map_or(0, |r| r.runs.len())
+    );
+    for row in rows {
+        let within: Vec<&WindRun> = row
+            .runs
+            .iter()
+            .filter(|r| r.domain == Domain::Within)
+            .collect();
+        let mut e: Vec<f64> = within.iter().map(|r| r.e_tot).collect();
+        e.sort_by(f64::total_cmp);
+        let median = e.get(e.len() / 2).copied();
+        let max = e.last().copied();
+        let other = row.runs.len() - within.len() - row.named();
+        let false_faults: u32 = within.iter().map(|r| r.false_faults).sum();
+        let off: Vec<&WindRun> = row.runs.iter().filter(|r| r.e_tot > 5.0).collect();
+        let off_named = off.iter().filter(|r| load_moved(&r.domain)).count();
+        let offset = row
+            .runs
+            .iter()
+            .map(|r| f64::from(r.load.offset.abs()))
+            .fold(0.0, f64::max);
+        let standstill = row
+            .runs
+            .iter()
+            .map(|r| f64::from(r.load.standstill))
+            .fold(0.0, f64::max);
+        let wind = if row.wind.0 == 0.0 {
+            "still".to_string()
+        } else if row.wind.0 == row.wind.1 {
+            format!("{:.0}", row.wind.0)
+        } else {
+            format!("{:.0} / {:.0}", row.wind.0, row.wind.1)
+        };
+        let fmt = |v: Option<f64>| v.map_or("–".to_string(), |v| format!("{v:.2}"));
+        text.push_str(&format!(
+            "| {} | {wind} | {} | {other} | {} / {} | {false_faults} | {off_named} / {} | {offset:.4} / {standstill:.4} |\n",
+            row.case,
+            row.named(),
+            fmt(median),
+            fmt(max),
+            off.len()
+        ));
+    }
+    let windy: Vec<&WindRun> = rows
+        .iter()
+        .filter(|r| r.wind.0 > 0.0)
+        .flat_map(|r| &r.runs)
+        .collect();
+    let still: Vec<&WindRun> = rows
+        .iter()
+        .filter(|r| r.wind.0 == 0.0)
+        .flat_map(|r| &r.runs)
+        .collect();
+    let off: Vec<&&WindRun> = windy.iter().filter(|r| r.e_tot > 5.0).collect();
+    let off_named = off.iter().filter(|r| load_moved(&r.domain)).count();
+    let within_ff = |runs: &[&WindRun]| {
+        runs.iter()
+            .filter(|r| r.domain == Domain::Within && r.false_faults > 0)
+            .count()
+    };
+    text.push_str(&format!(
+        "\nIn wind: {} runs, {} named as a moved load; of the {} runs off by more than 5 %, {} \
+         named ({:.0} %); runs left `within` with a healthy component read `FAULT`: {} (in \
+         still air {} of {}; still-air runs named as a moved load: {}).\n",
+        windy.len(),
+        windy.iter().filter(|r| load_moved(&r.domain)).count(),
+        off.len(),
+        off_named,
+        100.0 * off_named as f64 / off.len().max(1) as f64,
+        within_ff(&windy),
+        within_ff(&still),
+        still.len(),
+        still.iter().filter(|r| load_moved(&r.domain)).count(),
+    ));
+    text
 }
