@@ -9,8 +9,9 @@ use firmware::{Preflight, PreflightSettings, Progress, Report, Reruns, TraceSour
 use host_sim::fdi::identify::identify_for;
 use host_sim::plant::aero::GroundWind;
 use host_sim::plant::reference::{ReferenceModel, ReferenceSettings, Scenario};
+use host_sim::studies::wind::load_moved;
 use shared::actuator::ActuatorRecord;
-use shared::domain::{Domain, OutsideReason};
+use shared::domain::Domain;
 use shared::fdi::OnboardMeasured;
 use shared::fitness::CurvatureRun;
 use shared::{FaultVector, LowPass};
@@ -46,13 +47,6 @@ fn both_verdicts(wind: Option<GroundWind>, seed: u64) -> (Report, Domain) {
         .assess(&record.domain, id.result.fitness, &id.conditions)
         .with_load(id.load);
     (report, ground)
-}
-
-fn load_moved(d: &Domain) -> bool {
-    matches!(
-        d,
-        Domain::Outside(OutsideReason::LoadMoved { .. } | OutsideReason::LoadMovedAtRest { .. })
-    )
 }
 
 #[test]

@@ -26,7 +26,7 @@ pub(crate) use host_sim::files::health;
 pub(crate) use host_sim::files::rig::RigFormat;
 pub(crate) use host_sim::files::trace::{IngestError, Trace, TraceFormat};
 pub(crate) use host_sim::median;
-pub(crate) use host_sim::plant::aero::GroundWind;
+pub(crate) use host_sim::plant::aero::{FlightPhase, FlightWindow, GroundWind, Turbulence};
 pub(crate) use host_sim::plant::reference::{
     Demagnetization, EccentricityPhysics, ReferenceModel, ReferenceSettings, Scenario, SensorFault,
 };
@@ -136,6 +136,17 @@ pub(crate) struct ActuatorArgs {
     /// one every 3 s on average. Default: --wind (no discrete gusts).
     #[arg(long, value_name = "KNOTS")]
     pub(crate) gust: Option<f64>,
+    /// A window of flight instead of the preflight (issue 36): the flight control computer's
+    /// corrections (0.5 / 1 / 3 mrad RMS up to 1 / 1.5 / 2 Hz in cruise / climb / approach,
+    /// plus a slow trim change) with the test's chirp alone superimposed, and the hinge moment
+    /// of the file's `[surface]` at the phase's dynamic pressure (10 / 14 / 2.5 kPa) and trim.
+    /// The trace's command column is what the position loop followed. The FDI does not yet
+    /// identify flight windows (docs/in-flight.md).
+    #[arg(long, value_enum, value_name = "PHASE", conflicts_with_all = ["wind", "gust"])]
+    pub(crate) flight: Option<FlightPhase>,
+    /// Turbulence of the flight window (Dryden, vertical gust σ 1.5 / 3 m/s).
+    #[arg(long, value_enum, default_value = "light", requires = "flight")]
+    pub(crate) turbulence: Turbulence,
 }
 
 /// The simulated actuator of `simulate` and `preflight`: its faults, process noise, seed and
@@ -148,6 +159,7 @@ pub(crate) struct Simulated {
     pub(crate) sensor_fault: Option<SensorFault>,
     pub(crate) demagnetization: Demagnetization,
     pub(crate) wind: Option<GroundWind>,
+    pub(crate) flight: Option<FlightWindow>,
 }
 
 impl ActuatorArgs {
@@ -167,6 +179,10 @@ impl ActuatorArgs {
             sensor_fault: self.sensor_fault,
             demagnetization: self.demagnetization.unwrap_or_default(),
             wind,
+            flight: self.flight.map(|phase| FlightWindow {
+                phase,
+                turbulence: self.turbulence,
+            }),
         })
     }
 }

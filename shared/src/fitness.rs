@@ -314,7 +314,11 @@ impl<const N: usize> FitnessProblem<'_, N> {
         run.in_block = 0;
         run.chirp_residual = 0.0;
         run.chirp_power = 0.0;
+        run.chirp_residual_sign = 0.0;
+        run.chirp_sign = 0;
+        run.chirp_moving = 0;
         run.chirp_samples = 0;
+        run.previous_command = 0.0;
     }
 
     /// Advances `run` by at most `samples` samples (10 monitor-model steps and 45 f64
@@ -364,8 +368,16 @@ impl<const N: usize> FitnessProblem<'_, N> {
                 core::array::from_fn(|a| (m[a + 1] - m[0]) * run.inv_shifts[a]);
             let block = &mut run.block;
             if i >= lead {
-                block.chirp_residual += e;
-                block.chirp_power += r * r;
+                // The commanded direction: friction's sign, which the offset is told from.
+                let s = i32::from(command > run.previous_command)
+                    - i32::from(command < run.previous_command);
+                run.previous_command = command;
+                run.chirp_sign += s;
+                run.chirp_moving += s.unsigned_abs();
+                // In f32 (≤ 5 000 terms): a ratio for the domain check, not the fit.
+                run.chirp_residual += e;
+                run.chirp_power += r * r;
+                run.chirp_residual_sign += e * s as f32;
                 run.chirp_samples = run.chirp_samples.saturating_add(1);
             }
             block.rss += w * e * e;
@@ -436,10 +448,16 @@ pub struct CurvatureRun {
     block: BlockSums,
     in_block: u32,
     /// Over the chirp: Σ r (measured − modelled at the identified vector) [A], Σ of the
-    /// measured current squared [A²], the samples ([`CurvatureRun::load_offset`]).
-    chirp_residual: f64,
-    chirp_power: f64,
+    /// measured current squared [A²], Σ r·s, Σ s and Σ s² with s the commanded direction
+    /// (±1, 0), the samples ([`CurvatureRun::load_offset`]).
+    chirp_residual: f32,
+    chirp_power: f32,
+    chirp_residual_sign: f32,
+    chirp_sign: i32,
+    chirp_moving: u32,
     chirp_samples: u32,
+    /// The previous chirp sample's command [rad].
+    previous_command: f32,
 }
 
 /// Fitted samples summed in f32 before they join the f64 totals.
@@ -451,8 +469,6 @@ struct BlockSums {
     normal: [[f32; FAULT_COUNT]; FAULT_COUNT],
     gradient: [f32; FAULT_COUNT],
     rss: f32,
-    chirp_residual: f32,
-    chirp_power: f32,
 }
 
 impl BlockSums {
@@ -460,8 +476,6 @@ impl BlockSums {
         normal: [[0.0; FAULT_COUNT]; FAULT_COUNT],
         gradient: [0.0; FAULT_COUNT],
         rss: 0.0,
-        chirp_residual: 0.0,
-        chirp_power: 0.0,
     };
 }
 
@@ -480,17 +494,29 @@ impl CurvatureRun {
         in_block: 0,
         chirp_residual: 0.0,
         chirp_power: 0.0,
+        chirp_residual_sign: 0.0,
+        chirp_sign: 0,
+        chirp_moving: 0,
         chirp_samples: 0,
+        previous_command: 0.0,
     };
 
     /// The current the monitor model left unexplained over the chirp at the identified
-    /// vector, its mean as a share of the measured RMS, once the sums are finished (NaN
-    /// without a chirp sample). A test's own faults leave a residual that swings with the
-    /// chirp; a steady moment on the surface (wind on the parked aircraft) leaves a mean the
-    /// position loop holds ([`crate::domain::Domain::with_load`]). O(1).
+    /// vector, its constant part as a share of the measured RMS, once the sums are finished
+    /// (NaN without a chirp sample). The residual is fitted as `c + d·s` by least squares,
+    /// `s` the commanded direction (±1, 0): a friction the model mis-sizes (a cold grease)
+    /// leaves a residual that turns with the motion (`d`), a steady moment on the surface
+    /// (wind on the parked aircraft) one that does not (`c`), which the position loop holds
+    /// ([`crate::domain::Domain::with_load`]). O(1).
+    #[inline(never)]
     pub fn load_offset(&self) -> f32 {
-        (self.chirp_residual
-            / crate::math::sqrt64(self.chirp_power * f64::from(self.chirp_samples))) as f32
+        // n·Σs² − (Σs)² keeps its digits in f32: the chirp moves both ways.
+        let n = self.chirp_samples as f32;
+        let s = self.chirp_sign as f32;
+        let ss = self.chirp_moving as f32;
+        let (r, rs) = (self.chirp_residual, self.chirp_residual_sign);
+        let c = (r * ss - s * rs) / (n * ss - s * s);
+        c / crate::math::sqrt(self.chirp_power / n)
     }
 
     /// Adds the block's f32 sums to the f64 totals and starts a new block (upper triangle
@@ -499,8 +525,6 @@ impl CurvatureRun {
     fn flush_block(&mut self) {
         let (sums, block) = (&mut self.sums, &self.block);
         sums.rss += f64::from(block.rss);
-        self.chirp_residual += f64::from(block.chirp_residual);
-        self.chirp_power += f64::from(block.chirp_power);
         for a in 0..FAULT_COUNT {
             sums.gradient[a] += f64::from(block.gradient[a]);
             for b in a..FAULT_COUNT {

@@ -975,6 +975,8 @@ mod tests {
             R::TransducerDisagrees { spread: 0.0 },
             R::InstallationChanged { kelvin: 0.0 },
             R::GreaseOutOfRange { drag: f32::NAN },
+            R::LoadMoved { offset: 0.1 },
+            R::LoadMovedAtRest { travel: 0.1 },
         ];
         assert_eq!(DomainCode::from(Domain::Within), DomainCode::Within);
         for (i, reason) in reasons.into_iter().enumerate() {
@@ -989,7 +991,7 @@ mod tests {
                 Ok(code)
             );
         }
-        assert_eq!(DomainCode::from_byte(15), None);
+        assert_eq!(DomainCode::from_byte(17), None);
     }
 
     #[test]

@@ -169,6 +169,63 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_flight_window_has_its_phases_command_and_turbulence() {
+        let period = 1e-4;
+        for (phase, turbulence) in [
+            (FlightPhase::Cruise, Turbulence::Light),
+            (FlightPhase::Approach, Turbulence::Moderate),
+        ] {
+            let w = FlightWindow { phase, turbulence };
+            // 200 s: many gust correlation times (L/V ≈ 2–4 s).
+            let x = w.samples(2_000_000, period, 7);
+            let n = x.len() as f64;
+            let (rms, _) = phase.command_activity();
+            // The tones' RMS over the first 20 s, the trim's slow change (a line) removed by
+            // least squares.
+            let first: Vec<(f64, f64)> = x[..200_000]
+                .iter()
+                .enumerate()
+                .map(|(k, s)| (k as f64 * period, s.command))
+                .collect();
+            let m = first.len() as f64;
+            let (st, sc) = first
+                .iter()
+                .fold((0.0, 0.0), |(a, b), (t, c)| (a + t, b + c));
+            let (tm, cm) = (st / m, sc / m);
+            let slope = first.iter().map(|(t, c)| (t - tm) * (c - cm)).sum::<f64>()
+                / first.iter().map(|(t, _)| (t - tm).powi(2)).sum::<f64>();
+            let spread = (first
+                .iter()
+                .map(|(t, c)| (c - cm - slope * (t - tm)).powi(2))
+                .sum::<f64>()
+                / m)
+                .sqrt();
+            assert!(
+                spread > 0.5 * rms && spread < 2.0 * rms,
+                "{phase:?}: {spread} vs {rms}"
+            );
+            let gust: Vec<f64> = x
+                .iter()
+                .map(|s| (s.incidence - phase.trim_incidence()) * phase.airspeed())
+                .collect();
+            let g_mean = gust.iter().sum::<f64>() / n;
+            let sigma = (gust.iter().map(|g| (g - g_mean).powi(2)).sum::<f64>() / n).sqrt();
+            let want = turbulence.sigma();
+            assert!(
+                (sigma - want).abs() < 0.25 * want,
+                "{phase:?} {turbulence:?}: σ_w {sigma} m/s, Dryden's {want}"
+            );
+            // Zero mean within four standard errors of a 200 s mean (≈ σ·√(2τ/T)).
+            let tau = phase.scale_length() / phase.airspeed();
+            let bound = 4.0 * want * (2.0 * tau / (n * period)).sqrt();
+            assert!(
+                g_mean.abs() < bound,
+                "{phase:?}: mean {g_mean} m/s, bound {bound}"
+            );
+        }
+    }
+
+    #[test]
     fn thirty_knots_hold_the_reference_surface_with_a_fifth_of_the_chirps_moment() {
         let s = SurfaceAerodynamics::REFERENCE;
         let h = s.hinge_moment(s.moment_scale(30.0 * KNOT), s.parked_incidence, 0.0);
@@ -192,5 +249,166 @@ mod tests {
         assert!(GroundWind::new(20.0, 10.0).is_err());
         assert!(GroundWind::new(-1.0, 10.0).is_err());
         assert!(GroundWind::new(f64::NAN, 10.0).is_err());
+    }
+}
+
+/// A flight phase: the dynamic pressure, airspeed and trim the surface flies at, and the
+/// flight control computer's activity (SPEC §10, issue 36).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum FlightPhase {
+    /// Higher dynamic pressure (≈ 14 kPa), moderate corrections.
+    Climb,
+    /// ≈ 10 kPa, small corrections.
+    Cruise,
+    /// Low dynamic pressure (≈ 2.5 kPa), larger and faster corrections.
+    Approach,
+}
+
+/// Turbulence intensity (MIL-F-8785C): the vertical gust's standard deviation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Turbulence {
+    /// σ_w ≈ 1.5 m/s (5 ft/s).
+    Light,
+    /// σ_w ≈ 3 m/s (10 ft/s).
+    Moderate,
+}
+
+impl FlightPhase {
+    /// Dynamic pressure [Pa].
+    pub fn dynamic_pressure(self) -> f64 {
+        match self {
+            Self::Climb => 14.0e3,
+            Self::Cruise => 10.0e3,
+            Self::Approach => 2.5e3,
+        }
+    }
+
+    /// True airspeed [m/s].
+    pub fn airspeed(self) -> f64 {
+        match self {
+            Self::Climb => 190.0,
+            Self::Cruise => 230.0,
+            Self::Approach => 70.0,
+        }
+    }
+
+    /// The flow's incidence on the surface at trim [rad]: the trim bias of the hinge moment
+    /// (on the reference surface ≈ 260 N·m in climb, ≈ 95 N·m in cruise and on the approach).
+    pub fn trim_incidence(self) -> f64 {
+        let deg = core::f64::consts::PI / 180.0;
+        match self {
+            Self::Climb => 1.0 * deg,
+            Self::Cruise => 0.5 * deg,
+            Self::Approach => 2.0 * deg,
+        }
+    }
+
+    /// RMS of the flight control computer's corrections at the surface [rad] and their
+    /// highest frequency [Hz].
+    pub fn command_activity(self) -> (f64, f64) {
+        match self {
+            Self::Climb => (1.0e-3, 1.5),
+            Self::Cruise => (0.5e-3, 1.0),
+            Self::Approach => (3.0e-3, 2.0),
+        }
+    }
+
+    /// The Dryden scale length of the vertical gust [m]: 533 m (1 750 ft) at altitude,
+    /// 300 m on the approach.
+    pub fn scale_length(self) -> f64 {
+        match self {
+            Self::Approach => 300.0,
+            _ => 533.0,
+        }
+    }
+}
+
+impl Turbulence {
+    /// Standard deviation of the vertical gust [m/s].
+    pub fn sigma(self) -> f64 {
+        match self {
+            Self::Light => 1.5,
+            Self::Moderate => 3.0,
+        }
+    }
+}
+
+/// A window of flight: what the reference model plays on the surface beyond the test.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FlightWindow {
+    pub phase: FlightPhase,
+    pub turbulence: Turbulence,
+}
+
+/// One control period of a flight window.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct FlightSample {
+    /// The flight control computer's command at the surface [rad], to which the test adds.
+    pub command: f64,
+    /// The surface's incidence: trim plus the vertical gust's `w_g / V` [rad].
+    pub incidence: f64,
+}
+
+/// Frequencies of the flight control computer's corrections: the command is their sum.
+const COMMAND_TONES: usize = 12;
+
+impl FlightWindow {
+    /// `samples` control periods of `period` [s]: the command (a sum of 12 tones between
+    /// 0.1 Hz and the phase's highest frequency, random phases and amplitudes, scaled to the
+    /// phase's RMS, plus a slow trim change of up to ±2 mrad/s), and the incidence (trim plus
+    /// the Dryden vertical gust, second-order form, over the airspeed). Seeded; O(samples).
+    pub fn samples(&self, samples: usize, period: f64, seed: u64) -> Vec<FlightSample> {
+        let mut rng = Gaussian::new(seed ^ 0x00F1_1647_u64);
+        let (rms, top) = self.phase.command_activity();
+        let tones: Vec<(f64, f64, f64)> = (0..COMMAND_TONES)
+            .map(|_| {
+                let f = 0.1 + (top - 0.1) * rng.uniform();
+                let a = 0.5 + rng.uniform();
+                let phi = core::f64::consts::TAU * rng.uniform();
+                (f, a, phi)
+            })
+            .collect();
+        // Σ a²/2 is the tones' mean square.
+        let scale = rms / (tones.iter().map(|(_, a, _)| a * a / 2.0).sum::<f64>()).sqrt();
+        let trim_rate = 2.0e-3 * (2.0 * rng.uniform() - 1.0);
+        // Dryden vertical: H(s) = σ·√(L/(πV))·(1 + √3·(L/V)·s)/(1 + (L/V)·s)² on white noise
+        // of spectral density π (its one-sided form in ω): √π·σ·√(L/V) on unit-intensity
+        // noise, whose samples over a period Δt have the standard deviation 1/√Δt. Two
+        // first-order stages, the lead taken on the second's input.
+        let v = self.phase.airspeed();
+        let tau = self.phase.scale_length() / v;
+        let gain = self.turbulence.sigma() * tau.sqrt();
+        let white = 1.0 / period.sqrt();
+        let (mut x1, mut x2) = (0.0f64, 0.0f64);
+        // Start the gust filter in its stationary state: run it 5 τ first.
+        let warm = (5.0 * tau / period) as usize;
+        let mut step = |rng: &mut Gaussian| {
+            let u = gain * white * rng.next();
+            let dx1 = (u - x1) / tau;
+            x1 += period * dx1;
+            let lead = x1 + 3f64.sqrt() * tau * dx1;
+            x2 += period * (lead - x2) / tau;
+            x2
+        };
+        for _ in 0..warm {
+            step(&mut rng);
+        }
+        let trim = self.phase.trim_incidence();
+        (0..samples)
+            .map(|k| {
+                let t = k as f64 * period;
+                let command = scale
+                    * tones
+                        .iter()
+                        .map(|(f, a, phi)| a * (core::f64::consts::TAU * f * t + phi).sin())
+                        .sum::<f64>()
+                    + trim_rate * t;
+                let w = step(&mut rng);
+                FlightSample {
+                    command,
+                    incidence: trim + w / v,
+                }
+            })
+            .collect()
     }
 }

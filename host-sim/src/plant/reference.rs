@@ -43,7 +43,7 @@ use shared::test_design::{Drive, PairDrive, PreflightTest};
 use shared::{ActuatorParams, ChirpCommand, FaultVector};
 
 use crate::files::trace::{Trace, TraceSample};
-use crate::plant::aero::{GroundWind, SurfaceAerodynamics};
+use crate::plant::aero::{FlightWindow, GroundWind, SurfaceAerodynamics};
 use crate::plant::bridge::{
     to_lsb, BridgeSettings, ConditionSensors, OperatingConditions, ThermalLaws,
 };
@@ -417,6 +417,7 @@ pub struct ReferenceModel {
     recording_hz: Option<f64>,
     demagnetization: Demagnetization,
     wind: Option<GroundWind>,
+    flight: Option<FlightWindow>,
 }
 
 /// Irreversible loss of the rotor magnets' flux (SPEC §10, issue 35): after over-temperature
@@ -523,7 +524,23 @@ impl ReferenceModel {
             recording_hz: None,
             demagnetization: Demagnetization::None,
             wind: None,
+            flight: None,
         }
+    }
+
+    /// The same actuator in flight (issue 36): the flight control computer's command added to
+    /// the test's position command, and the hinge moment of [`ReferenceSettings::surface`] at
+    /// the phase's dynamic pressure, trim incidence and turbulence (in place of any ground
+    /// wind). The test should be one the position loop flies (the chirp alone): a standstill
+    /// segment would suspend the loop in flight.
+    pub fn with_flight(mut self, flight: Option<FlightWindow>) -> Self {
+        self.flight = flight;
+        self
+    }
+
+    /// The flight window this model plays.
+    pub fn flight(&self) -> Option<FlightWindow> {
+        self.flight
     }
 
     /// The same actuator parked in a wind: the hinge moment of [`ReferenceSettings::surface`]
@@ -664,21 +681,32 @@ impl ReferenceModel {
         let ts = f64::from(p.control_period);
         let steps_per_tick = (ts / dt).round().max(1.0) as usize;
         let samples = self.test_samples();
-        let hold = if self.wind.is_some() {
+        let hold = if self.wind.is_some() || self.flight.is_some() {
             s.pre_roll.max(WIND_SETTLE)
         } else {
             s.pre_roll
         };
         let pre_roll = (hold / ts).round().max(0.0) as usize;
-        // q·S·c of each control period (none: no wind).
-        let wind_scale: Vec<f64> = match &self.wind {
-            Some(w) => w
-                .speeds(pre_roll + samples, ts, scenario.seed)
-                .into_iter()
-                .map(|v| s.surface.moment_scale(v))
-                .collect(),
-            None => Vec::new(),
-        };
+        // q·S·c and the incidence of each control period (none: still air on the ground),
+        // and the flight control computer's command (in flight).
+        let (load_scale, flight_command): (Vec<(f64, f64)>, Vec<f64>) =
+            match (&self.flight, &self.wind) {
+                (Some(f), _) => {
+                    let scale = f.phase.dynamic_pressure() * s.surface.area * s.surface.chord;
+                    f.samples(pre_roll + samples, ts, scenario.seed)
+                        .into_iter()
+                        .map(|x| ((scale, x.incidence), x.command))
+                        .unzip()
+                }
+                (None, Some(w)) => (
+                    w.speeds(pre_roll + samples, ts, scenario.seed)
+                        .into_iter()
+                        .map(|v| (s.surface.moment_scale(v), s.surface.parked_incidence))
+                        .collect(),
+                    Vec::new(),
+                ),
+                (None, None) => (Vec::new(), Vec::new()),
+            };
 
         // The day: copper and magnets at the winding's temperature, grease at the gear's.
         let day = &s.conditions;
@@ -827,7 +855,10 @@ impl ReferenceModel {
                 self.test.drive(k, p.control_period)
             });
             let (command, pair_drive) = match drive {
-                Drive::Position(x) => (f64::from(x), None),
+                Drive::Position(x) => (
+                    f64::from(x) + flight_command.get(n).copied().unwrap_or(0.0),
+                    None,
+                ),
                 Drive::Pair(d) => (0.0, Some(d)),
             };
             if let Some(k) = tick {
@@ -1102,10 +1133,8 @@ impl ReferenceModel {
 
                 // User shaft: aero hinge moment and end stops.
                 let mut load = -aero * theta_u - s.aero_damping * omega_u;
-                if let Some(&scale) = wind_scale.get(n) {
-                    load += s
-                        .surface
-                        .hinge_moment(scale, s.surface.parked_incidence, theta_u);
+                if let Some(&(scale, incidence)) = load_scale.get(n) {
+                    load += s.surface.hinge_moment(scale, incidence, theta_u);
                 }
                 ledger.mechanical_loss += s.aero_damping * omega_u * omega_u * dt;
                 let beyond = theta_u - theta_u.clamp(-s.end_stop_angle, s.end_stop_angle);
