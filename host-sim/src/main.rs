@@ -179,7 +179,7 @@ enum Command {
         /// the healthy actuator with noise), random (multi-fault vectors nobody tuned on),
         /// demagnetization (the ninth fault: uniform and one magnet, with a short, on a hot
         /// and a cold day, and the short and the days that must not read as it).
-        #[arg(long, value_enum, required_unless_present_any = ["conditions", "wind"])]
+        #[arg(long, value_enum, required_unless_present_any = ["conditions", "wind", "flight"])]
         table: Option<CampaignTable>,
         /// Robustness: Table I, Table II and the healthy actuator over a grid of days and
         /// drives (winding temperature −60 … +60 K from calibration with the friction law,
@@ -191,6 +191,12 @@ enum Command {
         /// gusting, with the moved-load verdict's statistics (docs/in-flight.md).
         #[arg(long, conflicts_with_all = ["table", "plot", "conditions"])]
         wind: bool,
+        /// Today's FDI on windows of flight (issue 36): the healthy actuator, friction 0.2 and
+        /// Table II medium in climb, cruise and approach, light and moderate turbulence; the
+        /// verdicts by reason (no window should be `within`: the FDI does not yet play the
+        /// flight's command).
+        #[arg(long, conflicts_with_all = ["table", "plot", "conditions", "wind"])]
+        flight: bool,
         /// Runs (seeds) per case.
         #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..=1000))]
         runs: u64,
@@ -591,6 +597,7 @@ fn main() -> ExitCode {
             table,
             conditions,
             wind,
+            flight,
             runs,
             out,
             runs_csv,
@@ -600,6 +607,7 @@ fn main() -> ExitCode {
             day,
         } => with_test(test, encoder_offset, day).and_then(|actuator| match table {
             _ if wind => wind_campaign_command(&actuator, runs, out.as_deref()),
+            _ if flight => flight_campaign_command(&actuator, runs, out.as_deref()),
             Some(table) if !conditions => campaign_command(
                 &actuator,
                 table,

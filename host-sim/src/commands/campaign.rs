@@ -308,6 +308,36 @@ pub(crate) fn wind_campaign_command(
     Ok(())
 }
 
+/// `campaign --flight`: today's FDI on flight windows (`host_sim::studies::flight`).
+pub(crate) fn flight_campaign_command(
+    actuator: &Actuator,
+    runs: u64,
+    out: Option<&Path>,
+) -> Result<()> {
+    use host_sim::studies::flight::{flight_campaign, flight_markdown, FLIGHT_CASES};
+    let rm = ReferenceModel::new(actuator.reference_settings()?);
+    let start = Instant::now();
+    let total = 6 * FLIGHT_CASES.len();
+    let mut done = 0;
+    let rows = flight_campaign(&rm, &actuator.record, runs, |row| {
+        done += 1;
+        eprintln!(
+            "[{done}/{total}] {} in {:?}, {:?} turbulence ({:.0} s)",
+            row.case,
+            row.window.phase,
+            row.window.turbulence,
+            start.elapsed().as_secs_f64()
+        );
+    })?;
+    let text = flight_markdown(&rows, &actuator.name);
+    print!("{text}");
+    println!("({:.0} s)", start.elapsed().as_secs_f64());
+    if let Some(path) = out {
+        std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(())
+}
+
 pub(crate) fn conditions_campaign_command(
     actuator: &Actuator,
     runs: u64,

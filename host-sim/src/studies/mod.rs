@@ -10,10 +10,12 @@
 //! * [`stopping`] — choosing the GA's stop rule on the campaigns.
 //! * [`prognostics`] — simulated degradations, trend and RUL reports and their evaluation.
 //! * [`wind`] — the preflight on a parked surface in wind (issue 36).
+//! * [`flight`] — today's FDI on windows of flight (issue 36).
 
 pub mod campaign;
 pub mod demagnetization;
 pub mod domain;
+pub mod flight;
 pub mod grease;
 pub mod identifiability;
 pub mod optimisers;
