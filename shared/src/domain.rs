@@ -153,7 +153,8 @@ impl Domain {
     /// [`MAX_LOAD_OFFSET`] of its RMS, names the moved load in place
     /// of what a moved load also spoils (the fit's floor, the injection's winding, the chirp's
     /// drag) or of `Within`; a sensor, an open phase, a test that did not move or ran another
-    /// command keep their reason. NaN is not judged. O(1).
+    /// command, a pair that answered as no R–L circuit keep their reason. NaN is not judged.
+    /// O(1).
     pub fn with_load(self, signs: LoadSigns) -> Self {
         let LoadSigns { offset, standstill } = signs;
         let reason = if standstill > MAX_STANDSTILL_TRAVEL {
@@ -164,6 +165,9 @@ impl Domain {
             return self;
         };
         match self {
+            // A pair that answered as no R–L circuit (kelvin NaN) is the drive's, not a
+            // load's: a replaced bridge also shakes the rotor at rest.
+            Self::Outside(OutsideReason::InstallationChanged { kelvin }) if kelvin.is_nan() => self,
             Self::Within
             | Self::Outside(
                 OutsideReason::FitnessFloor { .. }
@@ -598,6 +602,11 @@ mod tests {
                 Domain::Outside(OutsideReason::LoadMoved { .. })
             ));
         }
+        // A pair that answered as no R–L circuit: the drive's, kept (NaN: no `==`).
+        assert!(matches!(
+            Domain::Outside(OutsideReason::InstallationChanged { kelvin: f32::NAN }).with_load(rest),
+            Domain::Outside(OutsideReason::InstallationChanged { kelvin }) if kelvin.is_nan()
+        ));
         for kept in [
             OutsideReason::CurrentSenseOffset { amps: 0.2 },
             OutsideReason::OpenPhase {
