@@ -539,8 +539,11 @@ mod tests {
         let filter = LowPass::for_control_period(1.0e-4).expect("the 10 kHz filter");
         let mut m: MeasuredCurrent<6000> = MeasuredCurrent::for_test(filter, test);
         assert_eq!(m.standstill_travel(), 0.0);
-        let frame = |motor: f64| {
-            crate::trace::TraceRow::from_f64(0.0, [0.1, -0.1, 0.0], motor, 0.0).adc_frame()
+        let frame = |motor: f64| AdcFrame {
+            phase_currents: [0.1, -0.1, 0.0].map(I16F16::saturating_from_num),
+            motor_angle: I16F16::saturating_from_num(motor),
+            user_angle: I4F28::ZERO,
+            conditions: None,
         };
         for i in 0..lead {
             // The rotor creeps from 10.0 to 10.02 rad and back over the segment.
