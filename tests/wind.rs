@@ -41,11 +41,7 @@ fn both_verdicts(wind: Option<GroundWind>, seed: u64) -> (Report, Domain) {
     };
     let measured = sim.trace.measured(&record.params).expect("a usable trace");
     let id = identify_for(&measured, &record, settings.seed, false).expect("identified");
-    let ground = sim
-        .trace
-        .domain_monitor(&record.params)
-        .assess(&record.domain, id.result.fitness, &id.conditions)
-        .with_load(id.load);
+    let ground = id.domain(&sim.trace.domain_monitor(&record.params), &record.domain);
     (report, ground)
 }
 

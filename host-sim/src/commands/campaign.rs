@@ -299,13 +299,7 @@ pub(crate) fn wind_campaign_command(
             start.elapsed().as_secs_f64()
         );
     })?;
-    let text = wind_markdown(&rows, &actuator.name);
-    print!("{text}");
-    println!("({:.0} s)", start.elapsed().as_secs_f64());
-    if let Some(path) = out {
-        std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
-    }
-    Ok(())
+    report_table(&wind_markdown(&rows, &actuator.name), start, out)
 }
 
 /// `campaign --flight`: today's FDI on flight windows (`host_sim::studies::flight`).
@@ -329,11 +323,15 @@ pub(crate) fn flight_campaign_command(
             start.elapsed().as_secs_f64()
         );
     })?;
-    let text = flight_markdown(&rows, &actuator.name);
+    report_table(&flight_markdown(&rows, &actuator.name), start, out)
+}
+
+/// Prints a campaign's Markdown table and its wall time, and writes the table to `out`.
+fn report_table(text: &str, start: Instant, out: Option<&Path>) -> Result<()> {
     print!("{text}");
     println!("({:.0} s)", start.elapsed().as_secs_f64());
     if let Some(path) = out {
-        std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
+        std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))?;
     }
     Ok(())
 }

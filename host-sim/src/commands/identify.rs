@@ -271,10 +271,7 @@ pub(crate) fn identify_command(
         ("calibration".to_string(), cal_name),
         ("ga_seed".to_string(), seed.to_string()),
     ];
-    let domain = trace
-        .domain_monitor(&record.params)
-        .assess(&record.domain, id.result.fitness, &id.conditions)
-        .with_load(id.load);
+    let domain = id.domain(&trace.domain_monitor(&record.params), &record.domain);
     let (line, verdict) = domain_heading(domain);
     heading.push(line);
     if let Domain::Outside(

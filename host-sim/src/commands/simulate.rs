@@ -153,12 +153,8 @@ pub(crate) fn preflight(
         ("calibration".to_string(), calibration_name(actuator, &test)),
         ("ga_seed".to_string(), ga_seed.to_string()),
     ];
-    let (line, verdict) = domain_heading(
-        trace
-            .domain_monitor(&record.params)
-            .assess(&record.domain, id.result.fitness, &id.conditions)
-            .with_load(id.load),
-    );
+    let (line, verdict) =
+        domain_heading(id.domain(&trace.domain_monitor(&record.params), &record.domain));
     heading.push(line);
     report(
         &id,

@@ -39,6 +39,19 @@ pub struct Identified {
 }
 
 impl Identified {
+    /// The flown domain verdict on this identification: `monitor`'s statistics of the test
+    /// against `limits` with the best fitness and the day, then the moved-load check — the
+    /// firmware's report, in one place for every ground tool.
+    pub fn domain(
+        &self,
+        monitor: &shared::domain::DomainMonitor,
+        limits: &shared::domain::DomainLimits,
+    ) -> shared::domain::Domain {
+        monitor
+            .assess(limits, self.result.fitness, &self.conditions)
+            .with_load(self.load)
+    }
+
     /// Verdicts that use the uncertainty (the plain threshold verdicts without one).
     pub fn assessments(&self) -> [Assessment; FAULT_COUNT] {
         self.assessments_at(shared::fault::DETECTION_THRESHOLD)

@@ -102,7 +102,8 @@ pub const TABLE_1: [Case; 16] = [
     case("gain drift k8 = 1.0", single(7, 1.0), 1.44, 1.44),
 ];
 
-const MEDIUM: [f32; FAULT_COUNT] = [0.4, 0.4, 0.2, 0.1, 0.05, 0.2, 0.75, 0.6, 0.0];
+/// Table II's medium case.
+pub const MEDIUM: [f32; FAULT_COUNT] = [0.4, 0.4, 0.2, 0.1, 0.05, 0.2, 0.75, 0.6, 0.0];
 
 pub const TABLE_2: [Case; 4] = [
     Case {
@@ -680,11 +681,7 @@ pub fn run_once(
             }
         }
     }
-    let domain = sim
-        .trace
-        .domain_monitor(&params)
-        .assess(&record.domain, id.result.fitness, &id.conditions)
-        .with_load(id.load);
+    let domain = id.domain(&sim.trace.domain_monitor(&params), &record.domain);
     Ok(RunResult {
         found,
         e_tot: f64::from(total_error(&found, &truth)),

@@ -179,11 +179,7 @@ pub fn demagnetization_study(
                 let measured = sim.trace.measured(&record.params)?;
                 let id = identify_for(&measured, record, 1 + seed, false)?;
                 let told = identify_for(&measured, &told, 1 + seed, false)?;
-                let within = sim
-                    .trace
-                    .domain_monitor(&record.params)
-                    .assess(&record.domain, id.result.fitness, &id.conditions)
-                    .with_load(id.load)
+                let within = id.domain(&sim.trace.domain_monitor(&record.params), &record.domain)
                     == shared::domain::Domain::Within;
                 Ok((
                     id.result.faults,

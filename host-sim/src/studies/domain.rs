@@ -54,13 +54,7 @@ pub fn assess_for(trace: &Trace, record: &ActuatorRecord) -> Result<(DomainMonit
     let measured = trace.measured(&params)?;
     let id = identify_for(&measured, record, 1, false)?;
     let fitness = id.result.fitness;
-    Ok((
-        monitor,
-        fitness,
-        monitor
-            .assess(&record.domain, fitness, &id.conditions)
-            .with_load(id.load),
-    ))
+    Ok((monitor, fitness, id.domain(&monitor, &record.domain)))
 }
 
 /// Everything the survey runs: (name, inside?, model, scenario).

@@ -19,15 +19,12 @@ use crate::plant::reference::{ReferenceModel, Scenario};
 
 /// The cases: the healthy actuator, friction 0.2 and Table II medium.
 pub const FLIGHT_CASES: [(&str, [f32; shared::FAULT_COUNT]); 3] = [
-    ("healthy", [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]),
+    ("healthy", *FaultVector::NOMINAL.as_array()),
     (
         "friction k1 = 0.2",
         [0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0],
     ),
-    (
-        "Table II medium",
-        [0.4, 0.4, 0.2, 0.1, 0.05, 0.2, 0.75, 0.6, 0.0],
-    ),
+    ("Table II medium", crate::studies::campaign::MEDIUM),
 ];
 
 /// One case in one window, every seed's verdict and e_tot [%].
@@ -88,11 +85,8 @@ pub fn flight_campaign(
                         });
                         let measured = sim.trace.measured(&record.params)?;
                         let id = identify_for(&measured, &record, 1 + seed, false)?;
-                        let domain = sim
-                            .trace
-                            .domain_monitor(&record.params)
-                            .assess(&record.domain, id.result.fitness, &id.conditions)
-                            .with_load(id.load);
+                        let domain =
+                            id.domain(&sim.trace.domain_monitor(&record.params), &record.domain);
                         Ok((domain, f64::from(total_error(&id.result.faults, &truth))))
                     })
                     .collect::<Result<Vec<_>>>()?;

@@ -168,14 +168,10 @@ pub fn degrade(
                 .with_test(*rm.test());
             let measured = trace.measured(&params)?;
             let id = identify(&measured, &Calibration::REFERENCE_ACTUATOR, ga_seed, false)?;
-            let domain = trace
-                .domain_monitor(&params)
-                .assess(
-                    &DomainLimits::REFERENCE_ACTUATOR,
-                    id.result.fitness,
-                    &id.conditions,
-                )
-                .with_load(id.load);
+            let domain = id.domain(
+                &trace.domain_monitor(&params),
+                &DomainLimits::REFERENCE_ACTUATOR,
+            );
             tick();
             Ok(HistoryRow {
                 record: HealthRecord::new(flight, id.result.faults, id.result.fitness, domain)

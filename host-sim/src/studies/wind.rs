@@ -3,10 +3,8 @@
 //!
 //! Per case and wind, `seeds` reference-model runs with the wind's hinge moment
 //! ([`crate::plant::aero`]), each identified by the flown FDI and judged by the flown domain
-//! checks, plus what the trace shows of the load: the motor's travel while the position loop
-//! is suspended (the standstill segment) and the slow part of the current the monitor model
-//! does not explain over the chirp (the mean of the residual per 25 ms block, RMS over the
-//! blocks). The cost is the identifications, ≈ 0.25 s each on one core.
+//! checks, with what the test showed of the load (`shared::domain::LoadSigns`). The cost
+//! is the identifications, ≈ 0.25 s each on one core.
 
 use anyhow::Result;
 use rayon::prelude::*;
@@ -14,40 +12,22 @@ use shared::actuator::ActuatorRecord;
 use shared::domain::Domain;
 use shared::fault::Verdict;
 use shared::metrics::total_error;
-use shared::monitor::MonitorModel;
 use shared::FaultVector;
 
 use crate::fdi::identify::identify_for;
 use crate::plant::aero::GroundWind;
-use crate::plant::reference::{ReferenceModel, Scenario, WIND_SETTLE};
+use crate::plant::reference::{ReferenceModel, Scenario};
+use crate::studies::campaign::TABLE_2;
 
-/// Samples per block of the residual's slow part (25 ms at 10 kHz: below the chirp's 15 Hz
-/// end, above a gust's 0.3 s).
-pub const RESIDUAL_BLOCK: usize = 250;
-
-/// One run in wind: what the FDI read and what the trace showed of the load.
+/// One run in wind: what the FDI read and what the test showed of the load.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WindRun {
     pub e_tot: f64,
-    pub largest_component: f64,
     /// Healthy components (true nominal) read `FAULT`.
     pub false_faults: u32,
     pub domain: Domain,
-    pub fitness: f32,
-    /// Motor-encoder travel over the standstill segment [rad, motor side].
-    pub standstill_travel: f64,
-    /// RMS over the chirp's 25 ms blocks of the block-mean residual (measured − monitor model
-    /// at the found vector) [A], and the residual's mean over the chirp [A].
-    pub slow_residual: f64,
-    pub mean_residual: f64,
-    /// The measured current's mean over the chirp against its RMS there (what the
-    /// controller sees without a model).
-    pub current_offset: f64,
     /// The flown check's statistics ([`shared::domain::LoadSigns`]).
     pub load: shared::domain::LoadSigns,
-    /// The largest hinge moment of the wind over the test [N·m] and its range (max − min).
-    pub peak_moment: f64,
-    pub moment_range: f64,
 }
 
 /// Runs `seeds` tests of `faults` in `wind` (None: still air). O(seeds) identifications,
@@ -81,96 +61,18 @@ fn one_run(
     let measured = sim.trace.measured(&params)?;
     let id = identify_for(&measured, record, 1 + seed, false)?;
     let found = id.result.faults;
-    let domain = sim
-        .trace
-        .domain_monitor(&params)
-        .assess(&record.domain, id.result.fitness, &id.conditions)
-        .with_load(id.load);
-    let nominal = FaultVector::NOMINAL;
+    let domain = id.domain(&sim.trace.domain_monitor(&params), &record.domain);
     let false_faults = found
         .verdicts_at(record.detection_threshold)
         .iter()
-        .zip(truth.as_array().iter().zip(nominal.as_array()))
+        .zip(truth.as_array().iter().zip(FaultVector::NOMINAL.as_array()))
         .filter(|(v, (t, n))| **v == Verdict::Faulty && t == n)
         .count() as u32;
-    let lead = record.test.lead_samples();
-    let (lo, hi) = sim
-        .trace
-        .samples()
-        .iter()
-        .take(lead)
-        .fold((f64::MAX, f64::MIN), |(l, h), s| {
-            (l.min(s.motor_angle), h.max(s.motor_angle))
-        });
-    let standstill_travel = if lead > 0 { hi - lo } else { 0.0 };
-    // The residual at the found vector on the test's day.
-    let model = MonitorModel::new(params, &record.calibration)
-        .with_test(measured.test())
-        .with_conditions(&id.conditions);
-    let filter = measured.filter();
-    let mut state = shared::conditioning::LowPassState::default();
-    let mut fitted = Vec::with_capacity(measured.samples().len());
-    model.run_from(
-        &found,
-        measured.initial_angles(),
-        measured.samples().len(),
-        |s| fitted.push(filter.apply(&mut state, s.current)),
-    );
-    let residual: Vec<f64> = measured
-        .samples()
-        .iter()
-        .zip(&fitted)
-        .skip(lead)
-        .map(|(m, f)| f64::from(m - f))
-        .collect();
-    let chirp: Vec<f64> = measured
-        .samples()
-        .iter()
-        .skip(lead)
-        .map(|&x| f64::from(x))
-        .collect();
-    let n = chirp.len().max(1) as f64;
-    let current_offset =
-        chirp.iter().sum::<f64>() / n / (chirp.iter().map(|x| x * x).sum::<f64>() / n).sqrt();
-    let mean_residual = residual.iter().sum::<f64>() / residual.len().max(1) as f64;
-    let blocks: Vec<f64> = residual
-        .chunks_exact(RESIDUAL_BLOCK)
-        .map(|b| b.iter().sum::<f64>() / RESIDUAL_BLOCK as f64)
-        .collect();
-    let slow_residual =
-        (blocks.iter().map(|b| b * b).sum::<f64>() / blocks.len().max(1) as f64).sqrt();
-    let moments: Vec<f64> = match rm.wind() {
-        Some(w) => {
-            let s = rm.settings();
-            let ts = f64::from(params.control_period);
-            let hold = (s.pre_roll.max(WIND_SETTLE) / ts).round() as usize;
-            w.speeds(hold + sim.trace.samples().len(), ts, seed)
-                .iter()
-                .skip(hold)
-                .map(|&v| {
-                    s.surface
-                        .hinge_moment(s.surface.moment_scale(v), s.surface.parked_incidence, 0.0)
-                        .abs()
-                })
-                .collect()
-        }
-        None => vec![0.0],
-    };
-    let peak_moment = moments.iter().copied().fold(0.0, f64::max);
-    let moment_range = peak_moment - moments.iter().copied().fold(f64::MAX, f64::min);
     Ok(WindRun {
         e_tot: f64::from(total_error(&found, &truth)),
-        largest_component: f64::from(found.largest_deviation()),
         false_faults,
         domain,
-        fitness: id.result.fitness,
-        standstill_travel,
-        slow_residual,
-        mean_residual,
-        current_offset,
         load: id.load,
-        peak_moment,
-        moment_range,
     })
 }
 
@@ -190,7 +92,7 @@ pub const WINDS: [(f64, f64); 9] = [
 /// The cases of the campaign: the healthy actuator, three single faults of Table I and two
 /// mixes of Table II.
 pub const WIND_CASES: [(&str, [f32; shared::FAULT_COUNT]); 6] = [
-    ("healthy", [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]),
+    ("healthy", *FaultVector::NOMINAL.as_array()),
     (
         "friction k1 = 0.1",
         [0.1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0],
@@ -203,14 +105,8 @@ pub const WIND_CASES: [(&str, [f32; shared::FAULT_COUNT]); 6] = [
         "short A k3 = 0.2",
         [0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0],
     ),
-    (
-        "Table II medium",
-        [0.4, 0.4, 0.2, 0.1, 0.05, 0.2, 0.75, 0.6, 0.0],
-    ),
-    (
-        "Table II high",
-        [1.0, 1.0, 0.5, 0.3, 0.1, 0.5, 0.1, 0.0, 0.0],
-    ),
+    ("Table II medium", TABLE_2[1].faults),
+    ("Table II high", TABLE_2[2].faults),
 ];
 
 /// One row of the campaign: a case in a wind, `runs` seeds.
