@@ -15,7 +15,8 @@ fn no_flight_window_is_read_within() {
         flight_campaign(&rm, &ActuatorRecord::REFERENCE, 1, |_| {}).expect("the campaign runs");
     assert_eq!(rows.len(), 18);
     for row in &rows {
-        for (domain, e_tot) in &row.runs {
+        for run in &row.runs {
+            let (domain, e_tot) = &run.preflight;
             assert_ne!(
                 *domain,
                 Domain::Within,

@@ -61,6 +61,7 @@ pub mod prognosis;
 pub mod random;
 pub mod test_design;
 pub mod trace;
+pub mod window;
 pub mod uncertainty;
 
 pub use calibration::Calibration;

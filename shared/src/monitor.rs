@@ -394,6 +394,99 @@ impl MonitorModel {
         }
     }
 
+    /// The same model with the surface's load a spring of `stiffness` [N·m/rad] (a window of
+    /// flight: the actuator's spring plus the hinge moment's stiffness at the window's
+    /// dynamic pressure, estimated by [`crate::window`]).
+    pub fn with_load_stiffness(mut self, stiffness: f32) -> Self {
+        self.params.aero_stiffness = stiffness;
+        self
+    }
+
+    /// The calibrated torque constant on the test's day [N·m/A] (the healthy motor's).
+    pub fn torque_constant(&self) -> f32 {
+        self.torque_constant
+    }
+
+    /// A run that starts in equilibrium under a moment `moment` [N·m] on the surface, with
+    /// the shafts at `start` and the first command `command` [rad]: the surface where the
+    /// spring gives the moment, the gear pressed against the flank that carries it and
+    /// deflected by it, the motor current that holds it in the speed loop's integrator, the
+    /// position loop's integrator where it asks no speed. The model this run must be stepped
+    /// with is returned beside it: its rigging offset is moved so that the measured motor
+    /// angle sits at that gear deflection (the fault vector's backlash sets the flank), which
+    /// keeps the measured rotor angle for the drive's shape functions. A window of flight
+    /// starts so ([`crate::window`]); the preflight starts at rest ([`start_run`]). O(1).
+    ///
+    /// [`start_run`]: Self::start_run
+    pub fn start_loaded_run(
+        &self,
+        k: &FaultVector,
+        start: ShaftAngles,
+        moment: f32,
+        command: f32,
+    ) -> (MonitorModel, MonitorRun) {
+        let f = self.faulted(k);
+        let p = &self.params;
+        let surface = if p.aero_stiffness > 0.0 {
+            moment / p.aero_stiffness
+        } else {
+            0.0
+        };
+        let flank = if moment > 0.0 {
+            f.half_backlash
+        } else if moment < 0.0 {
+            -f.half_backlash
+        } else {
+            0.0
+        };
+        let deflection = flank
+            + if p.gear_stiffness > 0.0 {
+                moment / p.gear_stiffness
+            } else {
+                0.0
+            };
+        let mut model = *self;
+        model.params.encoder_offset = start.motor - p.gear_ratio * (surface + deflection);
+        let kt = f
+            .bin_torque_constant
+            .get(gain_bin(p.pole_pairs * start.motor))
+            .copied()
+            .unwrap_or(self.torque_constant);
+        let current = if kt != 0.0 {
+            moment * self.inv_gear_ratio / kt
+        } else {
+            0.0
+        };
+        let error = command - start.user;
+        let state = MonitorState {
+            motor_angle: start.motor,
+            previous_motor_angle: start.motor,
+            user_angle: surface,
+            user_offset: start.user - surface,
+            current,
+            previous_error: error,
+            position_integral: if p.position_ki != 0.0 {
+                -f.kp * error / p.position_ki
+            } else {
+                0.0
+            },
+            speed_integral: if p.speed_ki != 0.0 {
+                current / p.speed_ki
+            } else {
+                0.0
+            },
+            ..MonitorState::default()
+        };
+        let run = MonitorRun {
+            f,
+            state,
+            index: 0,
+            pair: 0,
+            pair_current: 0.0,
+        };
+        (model, run)
+    }
+
     /// [`start_run`](Self::start_run) into an existing run, in place. O(1).
     #[inline(never)]
     pub fn restart_run(&self, run: &mut MonitorRun, k: &FaultVector, start: ShaftAngles) {
@@ -620,6 +713,13 @@ impl MonitorRun {
     /// during the standstill segment): what the caller reads the command at.
     pub fn next_command_index(&self, m: &MonitorModel) -> Option<usize> {
         self.index.checked_sub(m.lead_samples())
+    }
+
+    /// Applies a moment `moment` [N·m] on the surface (positive along the positive angle)
+    /// for the coming step of model `m`: a load the model's spring does not play (a window
+    /// of flight's slow hinge-moment change). O(1).
+    pub fn push_surface(&mut self, m: &MonitorModel, moment: f32) {
+        self.state.user_speed += m.dt_over_user_inertia * moment;
     }
 
     /// The next sample of the test of model `m` (the one that started this run): the

@@ -302,7 +302,8 @@ pub(crate) fn wind_campaign_command(
     report_table(&wind_markdown(&rows, &actuator.name), start, out)
 }
 
-/// `campaign --flight`: today's FDI on flight windows (`host_sim::studies::flight`).
+/// `campaign --flight`: the window identification and the preflight FDI on flight windows
+/// (`host_sim::studies::flight`).
 pub(crate) fn flight_campaign_command(
     actuator: &Actuator,
     runs: u64,

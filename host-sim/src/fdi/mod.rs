@@ -8,3 +8,4 @@
 pub mod calibration;
 pub mod identify;
 pub mod plot;
+pub mod window;

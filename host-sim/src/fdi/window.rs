@@ -1,0 +1,95 @@
+//! The identification of a window of flight on the host (issue 36; `shared::window`): the
+//! window's load fitted at the nominal vector, the GA over the faults under it, the load
+//! fitted again at the GA's best and the GA run again from that load. Two GA runs of the
+//! actuator's settings and 2 × [`LOAD_SEARCH_EVALUATIONS`] more monitor-model runs: ≈ 0.5 s on one core.
+
+use anyhow::Result;
+use shared::actuator::ActuatorRecord;
+use shared::conditions::TestConditions;
+use shared::fdi::{OnboardMeasured, POPULATION};
+use shared::window::{
+    RecordedCommand, WindowLimits, WindowLoad, WindowProblem, WindowReason, LOAD_SEARCH_EVALUATIONS,
+};
+use shared::{FaultVector, MonitorModel, SteadyStateGa};
+
+use crate::files::trace::Trace;
+
+/// What the identification of one window found.
+#[derive(Clone, Debug)]
+pub struct WindowIdentified {
+    pub faults: FaultVector,
+    /// Eq. (3) after the drift at `faults` [A²·s].
+    pub fitness: f32,
+    /// The load fitted at `faults`.
+    pub load: WindowLoad,
+    /// The profiled drift's Legendre coefficients at `faults` [A].
+    pub drift: [f32; shared::window::DRIFT_TERMS],
+    /// The window's day as the FDI estimated it.
+    pub conditions: TestConditions,
+    /// Monitor-model runs spent.
+    pub evaluations: u32,
+    /// The share of the measured current the fit leaves unexplained.
+    pub misfit: f32,
+    /// The window's own verdict (`Err`: `Outside`, never identified).
+    pub verdict: Result<(), WindowReason>,
+}
+
+/// The commanded angle of every frame of `trace` [rad].
+pub fn recorded_command(trace: &Trace) -> Vec<f32> {
+    trace.samples().iter().map(|s| s.command as f32).collect()
+}
+
+/// Identifies the faults behind a window of flight recorded in `trace`, conditioned into
+/// `measured`, with the actuator `record` (its chirp-only test).
+pub fn identify_window(
+    trace: &Trace,
+    measured: &OnboardMeasured,
+    record: &ActuatorRecord,
+    seed: u64,
+) -> Result<WindowIdentified> {
+    let command = recorded_command(trace);
+    let conditions = TestConditions::estimate(measured, &record.params, &record.calibration);
+    let model = MonitorModel::new(record.params, &record.calibration)
+        .with_test(measured.test())
+        .with_conditions(&conditions);
+    let guess = record.params.aero_stiffness;
+    let problem = WindowProblem::new(
+        measured,
+        RecordedCommand::new(&command),
+        model,
+        WindowLoad::spring(guess, 0.0),
+    )
+    .map_err(|e| anyhow::anyhow!("the window: {e:?}"))?;
+    let mut evaluations = 0u32;
+    let (load, _) = problem.fit_load(&FaultVector::NOMINAL, guess);
+    evaluations += LOAD_SEARCH_EVALUATIONS as u32;
+    let mut problem = problem.with_load(load);
+    let mut ga = SteadyStateGa::<POPULATION>::new(record.ga, seed)
+        .map_err(|e| anyhow::anyhow!("GA settings: {e:?}"))?;
+    ga.run(&mut problem);
+    evaluations += ga.evaluations();
+    let first = FaultVector::saturating(ga.best().genes);
+    let (load, _) = problem.fit_load(&first, load.stiffness);
+    evaluations += LOAD_SEARCH_EVALUATIONS as u32;
+    let mut problem = problem.with_load(load);
+    let mut ga = SteadyStateGa::<POPULATION>::new(record.ga, seed.wrapping_add(0x5eed))
+        .map_err(|e| anyhow::anyhow!("GA settings: {e:?}"))?;
+    ga.run(&mut problem);
+    evaluations += ga.evaluations();
+    let second = FaultVector::saturating(ga.best().genes);
+    let (faults, fit) = [first, second]
+        .into_iter()
+        .map(|k| (k, problem.evaluate(&k)))
+        .min_by(|a, b| a.1.error.total_cmp(&b.1.error))
+        .unwrap_or((first, problem.evaluate(&first)));
+    Ok(WindowIdentified {
+        faults,
+        fitness: fit.error,
+        misfit: problem.misfit(fit.error),
+        verdict: problem.judge(&WindowLimits::REFERENCE, fit.error),
+        load,
+        drift: fit.drift,
+        conditions,
+        evaluations,
+    })
+}

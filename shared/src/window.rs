@@ -1,0 +1,615 @@
+//! Identification from a window of flight (issue 36): the monitor model driven by the
+//! command the controller followed (the flight control computer's corrections with the test
+//! superimposed, [`RecordedCommand`]), started in equilibrium under the hinge moment it
+//! measured ([`MonitorModel::start_loaded_run`]), with the surface's load a spring of the
+//! window's own stiffness ([`WindowLoad`]).
+//!
+//! The fitness is eq. (3)'s weighted sum over the window after [`SETTLE_SAMPLES`], with a slow
+//! drift of the current profiled out: per candidate, the Legendre polynomial of degree
+//! `DRIFT_TERMS − 1` over the window that best fits the residual (weighted least squares,
+//! the weighted Gram matrix inverted once per window) is subtracted. The drift stands for
+//! what the window's load does slowly that the model does not play — turbulence on the
+//! incidence, a trim change — which the loop answers with current. Units: A²·s, rad, N·m.
+//!
+//! Work: one evaluation = one monitor-model run over the window (O(N), `DRIFT_TERMS`
+//! multiply-adds more per sample) and O(`DRIFT_TERMS²`); [`WindowProblem::fit_load`] is a
+//! fixed number of evaluations ([`LOAD_SEARCH_EVALUATIONS`]). No allocation, no panic.
+//! Built on the host today; the controller's image has no flash left for it (docs/in-flight.md).
+
+use crate::command::CommandSource;
+use crate::conditioning::{LowPassState, MeasuredCurrent};
+use crate::fault::{FaultVector, FAULT_COUNT};
+use crate::ga::Problem;
+use crate::math::abs;
+use crate::monitor::MonitorModel;
+
+/// Samples at the window's start left out of the sum (20 ms): the model starts still, the
+/// surface was moving with the flight's commands.
+pub const SETTLE_SAMPLES: usize = 200;
+
+/// Terms of the profiled drift (constant, slope, curvature, cubic).
+pub const DRIFT_TERMS: usize = 4;
+
+/// Fitness evaluations one [`WindowProblem::fit_load`] spends at most.
+pub const LOAD_SEARCH_EVALUATIONS: usize = 3 * GOLDEN_STEPS + MOMENT_SCAN + 4 * TREND_ROUNDS + 1;
+
+/// Rounds of the trend's fixed-point update in each pass of [`WindowProblem::fit_load`].
+const TREND_ROUNDS: usize = 3;
+
+const GOLDEN_STEPS: usize = 14;
+
+/// Moments tried by the load fit's scan before its golden-section search.
+const MOMENT_SCAN: usize = 81;
+
+/// The scan's span on either side of the held moment beyond its size, as the spring's
+/// moment over this angle [rad] (half the test's amplitude).
+const MOMENT_SCAN_ANGLE: f32 = 2.5e-3;
+
+/// The commanded user-shaft angle [rad] of each sample of a window, as the controller
+/// followed it (a trace's `theta_cmd`). Past the last sample the last value holds. O(1).
+#[derive(Clone, Copy, Debug)]
+pub struct RecordedCommand<'a> {
+    samples: &'a [f32],
+}
+
+impl<'a> RecordedCommand<'a> {
+    pub fn new(samples: &'a [f32]) -> Self {
+        Self { samples }
+    }
+
+    pub fn samples(&self) -> &'a [f32] {
+        self.samples
+    }
+}
+
+impl CommandSource for RecordedCommand<'_> {
+    #[inline(always)]
+    fn position_at(&self, index: usize) -> f32 {
+        match self.samples.get(index) {
+            Some(&x) => x,
+            None => self.samples.last().copied().unwrap_or(0.0),
+        }
+    }
+}
+
+/// The surface's load over a window: a spring of `stiffness` [N·m/rad] around the window's
+/// start, which carries `moment` [N·m] there, and a slow change of the hinge moment the
+/// motor must hold beyond the spring's, `trend` [N·m] as Legendre coefficients over the
+/// window (zero at its start).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct WindowLoad {
+    pub stiffness: f32,
+    pub moment: f32,
+    pub trend: [f32; DRIFT_TERMS],
+}
+
+impl WindowLoad {
+    /// A spring of `stiffness` carrying `moment`, no trend.
+    pub fn spring(stiffness: f32, moment: f32) -> Self {
+        Self {
+            stiffness,
+            moment,
+            trend: [0.0; DRIFT_TERMS],
+        }
+    }
+
+    /// The trend's moment [N·m] at `x` on the window's axis.
+    #[inline(always)]
+    fn trend_at(&self, x: f32) -> f32 {
+        let (now, start) = (legendre(x), legendre(-1.0));
+        self.trend
+            .iter()
+            .zip(now.iter().zip(&start))
+            .map(|(c, (a, b))| c * (a - b))
+            .sum()
+    }
+}
+
+/// Why a window is not identified: the window's own `Outside` reasons.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum WindowReason {
+    /// The measured current reached the drive's limit [A]: the model's loop and the
+    /// controller's part.
+    CurrentSaturated { peak: f32 },
+    /// The command moved over more than the limits' range [rad]: a manoeuvre, not a
+    /// correction.
+    ManoeuvreTooLarge { range: f32 },
+    /// The fit left this share of the measured current unexplained (0 … 1).
+    FitnessFloor { misfit: f32 },
+    /// The moment held at the start over the spring's moment at the command's excursion,
+    /// beyond 1: the load never reverses, the gear's play is never crossed, the backlash
+    /// cannot be read.
+    PlayUnseen { hold: f32 },
+}
+
+/// What a window must satisfy to be identified.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct WindowLimits {
+    /// Share of the drive's current limit the measured current may reach.
+    pub saturation_share: f32,
+    /// The command's largest range over a window [rad].
+    pub max_command_range: f32,
+    /// The largest [`WindowProblem::misfit`] of an identified window.
+    pub max_misfit: f32,
+}
+
+impl WindowLimits {
+    /// The limits of the built-in actuator's study (docs/in-flight.md §5).
+    pub const REFERENCE: Self = Self {
+        saturation_share: 0.95,
+        max_command_range: 0.05,
+        max_misfit: 0.01,
+    };
+}
+
+/// Why a window problem could not be set up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum WindowError {
+    /// Fewer samples (measured or commanded) than the settle and the drift's terms need.
+    TooShort,
+    /// The measured current is flat: no weight can be formed.
+    Flat,
+    /// The drift's normal equations are singular (cannot happen for a window longer than
+    /// the settle by `DRIFT_TERMS` samples).
+    Singular,
+}
+
+/// Eq. (3) over one window with the drift profiled out: what the GA minimises in flight.
+#[derive(Clone, Debug)]
+pub struct WindowProblem<'a, const N: usize> {
+    measured: &'a MeasuredCurrent<N>,
+    command: RecordedCommand<'a>,
+    /// The monitor model on the window's day, without the window's load stiffness.
+    model: MonitorModel,
+    load: WindowLoad,
+    inv_kappa: f32,
+    /// Inverse of the weighted Gram matrix of the drift's polynomials.
+    drift_inverse: [[f32; DRIFT_TERMS]; DRIFT_TERMS],
+    samples: usize,
+    /// The error of a model that gives no current [A²·s]: the scale of [`Self::misfit`].
+    energy: f32,
+    /// Largest filtered measured current's size [A].
+    peak_current: f32,
+    /// The command's range over the window [rad].
+    command_range: f32,
+    /// The command's largest distance from its first sample [rad].
+    command_excursion: f32,
+}
+
+/// The four Legendre polynomials at `x` ∈ [−1, 1].
+#[inline(always)]
+fn legendre(x: f32) -> [f32; DRIFT_TERMS] {
+    let x2 = x * x;
+    [1.0, x, 1.5 * x2 - 0.5, x * (2.5 * x2 - 1.5)]
+}
+
+/// Where sample `i` of a window of `n` sits on the drift's axis [−1, 1].
+#[inline(always)]
+fn axis(i: usize, n: usize) -> f32 {
+    let span = n.saturating_sub(SETTLE_SAMPLES + 1).max(1) as f32;
+    2.0 * (i.saturating_sub(SETTLE_SAMPLES)) as f32 / span - 1.0
+}
+
+/// The eq. (3) weight of each fitted sample: `1 / ((ΔI_r)²/κ + 1)`.
+#[inline(always)]
+fn weight(delta: f32, inv_kappa: f32) -> f32 {
+    1.0 / (delta * delta * inv_kappa + 1.0)
+}
+
+/// Inverts a small symmetric positive-definite matrix (Gauss–Jordan in f64). O(D³).
+fn invert(m: [[f64; DRIFT_TERMS]; DRIFT_TERMS]) -> Option<[[f32; DRIFT_TERMS]; DRIFT_TERMS]> {
+    let mut a = m;
+    let mut inv = [[0.0f64; DRIFT_TERMS]; DRIFT_TERMS];
+    for (i, row) in inv.iter_mut().enumerate() {
+        if let Some(x) = row.get_mut(i) {
+            *x = 1.0;
+        }
+    }
+    for col in 0..DRIFT_TERMS {
+        let pivot = a[col][col];
+        if !(pivot.abs() > 1e-12) {
+            return None;
+        }
+        for j in 0..DRIFT_TERMS {
+            a[col][j] /= pivot;
+            inv[col][j] /= pivot;
+        }
+        for row in 0..DRIFT_TERMS {
+            if row != col {
+                let factor = a[row][col];
+                for j in 0..DRIFT_TERMS {
+                    a[row][j] -= factor * a[col][j];
+                    inv[row][j] -= factor * inv[col][j];
+                }
+            }
+        }
+    }
+    Some(inv.map(|r| r.map(|x| x as f32)))
+}
+
+/// What one evaluation found: the error and the profiled drift's coefficients [A].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WindowFit {
+    /// Eq. (3) after the drift [A²·s].
+    pub error: f32,
+    /// The drift's Legendre coefficients [A] (constant, slope, curvature, cubic).
+    pub drift: [f32; DRIFT_TERMS],
+}
+
+impl<'a, const N: usize> WindowProblem<'a, N> {
+    /// The window problem of `measured` (a finished buffer of the window's frames) driven by
+    /// `command` (one commanded angle per frame), with `model` on the window's day (the
+    /// chirp-only test's) and the load at `load`.
+    pub fn new(
+        measured: &'a MeasuredCurrent<N>,
+        command: RecordedCommand<'a>,
+        model: MonitorModel,
+        load: WindowLoad,
+    ) -> Result<Self, WindowError> {
+        let reference = measured.samples();
+        let samples = reference.len().min(command.samples().len());
+        if samples < SETTLE_SAMPLES + 10 * DRIFT_TERMS {
+            return Err(WindowError::TooShort);
+        }
+        let inv_kappa = measured.inv_kappa().map_err(|_| WindowError::Flat)?;
+        let mut gram = [[0.0f64; DRIFT_TERMS]; DRIFT_TERMS];
+        let mut previous = 0.0f32;
+        for (i, &r) in reference.iter().take(samples).enumerate() {
+            let d = r - previous;
+            previous = r;
+            if i < SETTLE_SAMPLES {
+                continue;
+            }
+            let w = f64::from(weight(d, inv_kappa));
+            let phi = legendre(axis(i, samples));
+            for (row, &a) in gram.iter_mut().zip(&phi) {
+                for (x, &b) in row.iter_mut().zip(&phi) {
+                    *x += w * f64::from(a) * f64::from(b);
+                }
+            }
+        }
+        let drift_inverse = invert(gram).ok_or(WindowError::Singular)?;
+        let (lo, hi) = command
+            .samples()
+            .iter()
+            .take(samples)
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &x| (lo.min(x), hi.max(x)));
+        let mut problem = Self {
+            measured,
+            command,
+            model,
+            load,
+            inv_kappa,
+            drift_inverse,
+            samples,
+            energy: 0.0,
+            peak_current: reference
+                .iter()
+                .take(samples)
+                .fold(0.0f32, |m, &x| m.max(abs(x))),
+            command_range: hi - lo,
+            command_excursion: {
+                let first = command.position_at(0);
+                abs(hi - first).max(abs(first - lo))
+            },
+        };
+        problem.energy = problem.residual_fit(|_| 0.0).error;
+        Ok(problem)
+    }
+
+    pub fn load(&self) -> WindowLoad {
+        self.load
+    }
+
+    pub fn model(&self) -> &MonitorModel {
+        &self.model
+    }
+
+    /// The same problem under another load.
+    pub fn with_load(mut self, load: WindowLoad) -> Self {
+        self.load = load;
+        self
+    }
+
+    /// The moment [N·m] the measured current holds at the window's start, at the model's
+    /// torque constant: the mean over the 10 ms after the settle, times the gear ratio. The
+    /// load search's start.
+    pub fn held_moment(&self) -> f32 {
+        let span = self
+            .measured
+            .samples()
+            .iter()
+            .skip(SETTLE_SAMPLES / 2)
+            .take(SETTLE_SAMPLES / 2);
+        let (sum, n) = span.fold((0.0f32, 0u32), |(s, n), &x| (s + x, n + 1));
+        let mean = if n > 0 { sum / n as f32 } else { 0.0 };
+        mean * self.model.torque_constant() * self.model.params().gear_ratio
+    }
+
+    /// The error and drift of fault vector `k` under the problem's load. One model run.
+    pub fn evaluate(&self, k: &FaultVector) -> WindowFit {
+        self.evaluate_under(k, self.load)
+    }
+
+    /// As [`evaluate`](Self::evaluate) under `load`.
+    pub fn evaluate_under(&self, k: &FaultVector, load: WindowLoad) -> WindowFit {
+        let model = self.model.with_load_stiffness(load.stiffness);
+        let start = self.measured.initial_angles();
+        let first = self.command.position_at(0);
+        let (model, mut run) = model.start_loaded_run(k, start, load.moment, first);
+        let filter = self.measured.filter();
+        let mut state = LowPassState::default();
+        let trending = load.trend != [0.0; DRIFT_TERMS];
+        self.residual_fit(|i| {
+            if trending {
+                run.push_surface(&model, -load.trend_at(axis(i, self.samples)));
+            }
+            let sample = run.next_sample(&model, self.command.position_at(i));
+            filter.apply(&mut state, sample.current)
+        })
+    }
+
+    /// Eq. (3) of the modelled current `modelled(i)` (filtered; called once per sample, in
+    /// order) against the measured, after the settle, with the drift profiled out.
+    #[inline(always)]
+    fn residual_fit(&self, mut modelled: impl FnMut(usize) -> f32) -> WindowFit {
+        let mut previous = 0.0f32;
+        let mut squares = 0.0f32;
+        let mut projections = [0.0f32; DRIFT_TERMS];
+        for (i, &r) in self.measured.samples().iter().take(self.samples).enumerate() {
+            let m = modelled(i);
+            let d = r - previous;
+            previous = r;
+            if i < SETTLE_SAMPLES {
+                continue;
+            }
+            let w = weight(d, self.inv_kappa);
+            let e = r - m;
+            squares += w * e * e;
+            let phi = legendre(axis(i, self.samples));
+            for (p, &f) in projections.iter_mut().zip(&phi) {
+                *p += w * e * f;
+            }
+        }
+        let mut drift = [0.0f32; DRIFT_TERMS];
+        for (c, row) in drift.iter_mut().zip(&self.drift_inverse) {
+            *c = row.iter().zip(&projections).map(|(a, b)| a * b).sum();
+        }
+        let explained: f32 = drift.iter().zip(&projections).map(|(c, b)| c * b).sum();
+        let dt = self.model.params().control_period;
+        let error = (squares - explained).max(0.0) * dt;
+        WindowFit {
+            error: if error.is_finite() {
+                error
+            } else {
+                f32::INFINITY
+            },
+            drift,
+        }
+    }
+
+    /// The error `error` [A²·s] over the error of a model that gives no current: how much of
+    /// the window's measured current the fit leaves unexplained (0 … 1).
+    pub fn misfit(&self, error: f32) -> f32 {
+        if self.energy > 0.0 {
+            error / self.energy
+        } else {
+            f32::INFINITY
+        }
+    }
+
+    /// Whether the window can be trusted at all, and at the fit `error` found: a saturated
+    /// current, a manoeuvre beyond the limits' command range, or a fit that leaves more
+    /// than the limits' share of the current unexplained (a load the model does not play:
+    /// turbulence beyond the trend, a play crossed where the model cannot follow) make it
+    /// `Outside`. O(1).
+    pub fn judge(&self, limits: &WindowLimits, error: f32) -> Result<(), WindowReason> {
+        let p = self.model.params();
+        if self.peak_current >= limits.saturation_share * p.max_current {
+            return Err(WindowReason::CurrentSaturated {
+                peak: self.peak_current,
+            });
+        }
+        if self.command_range > limits.max_command_range {
+            return Err(WindowReason::ManoeuvreTooLarge {
+                range: self.command_range,
+            });
+        }
+        let misfit = self.misfit(error);
+        if !(misfit <= limits.max_misfit) {
+            return Err(WindowReason::FitnessFloor { misfit });
+        }
+        // The spring's moment over the command's excursion against the moment held at the
+        // start: beyond 1 the load never reverses, the gear stays on one flank and the
+        // window shows nothing of the play.
+        let swing = self.load.stiffness * self.command_excursion;
+        let hold = abs(self.load.moment) / swing;
+        if !(hold <= 1.0) {
+            return Err(WindowReason::PlayUnseen { hold });
+        }
+        Ok(())
+    }
+
+    /// The window as fitted at `k` under the problem's load: for every sample, the time
+    /// [s], the measured current, the model's and the model's with the profiled drift [A]
+    /// (all filtered alike), handed to `sink`. Two model runs (the drift, then the trace).
+    pub fn fitted(&self, k: &FaultVector, mut sink: impl FnMut(f32, f32, f32, f32)) {
+        let load = self.load;
+        let drift = self.evaluate_under(k, load).drift;
+        let model = self.model.with_load_stiffness(load.stiffness);
+        let start = self.measured.initial_angles();
+        let first = self.command.position_at(0);
+        let (model, mut run) = model.start_loaded_run(k, start, load.moment, first);
+        let filter = self.measured.filter();
+        let mut state = LowPassState::default();
+        let dt = self.model.params().control_period;
+        for (i, &r) in self.measured.samples().iter().take(self.samples).enumerate() {
+            let x = axis(i, self.samples);
+            run.push_surface(&model, -load.trend_at(x));
+            let sample = run.next_sample(&model, self.command.position_at(i));
+            let modelled = filter.apply(&mut state, sample.current);
+            let phi = legendre(x);
+            let d: f32 = drift.iter().zip(&phi).map(|(c, p)| c * p).sum();
+            sink(i as f32 * dt, r, modelled, modelled + d);
+        }
+    }
+
+    /// Fits the load at fault vector `k`: a golden-section search of the stiffness (from a
+    /// third to three times `stiffness_guess`) and of the moment (±50 % of the held moment),
+    /// [`TREND_ROUNDS`] fixed-point rounds that move the drift the fit profiled out into the
+    /// load (its value at the start into the moment, its change into the trend: the model
+    /// then plays the slow hinge moment, backlash crossings where they happen), the stiffness
+    /// again near the first, and the trend's rounds again. [`LOAD_SEARCH_EVALUATIONS`]
+    /// evaluations. Returns the load found and its error.
+    pub fn fit_load(&self, k: &FaultVector, stiffness_guess: f32) -> (WindowLoad, f32) {
+        let held = self.held_moment();
+        let mut load = WindowLoad::spring(stiffness_guess, held);
+        let stiffness_at = |load: WindowLoad, log_k: f32| WindowLoad {
+            stiffness: crate::math::exp64(f64::from(log_k)) as f32,
+            moment: load.moment,
+            trend: load.trend,
+        };
+        let at_moment = |load: WindowLoad, m: f32| WindowLoad {
+            moment: m,
+            stiffness: load.stiffness,
+            trend: load.trend,
+        };
+        // The moment sets where the load reverses, so where the gear crosses its play, and
+        // with a wide play the fitness is sharp in it (a basin a few N·m wide per crossing
+        // pattern): a fine scan first, at the guessed stiffness.
+        let span = abs(held) + load.stiffness * MOMENT_SCAN_ANGLE;
+        let cell = 2.0 * span / (MOMENT_SCAN - 1) as f32;
+        let mut best = (held, f32::INFINITY);
+        for j in 0..MOMENT_SCAN {
+            let m = held - span + cell * j as f32;
+            let e = self.evaluate_under(k, at_moment(load, m)).error;
+            if e < best.1 {
+                best = (m, e);
+            }
+        }
+        load.moment = best.0;
+        let ln = crate::math::ln;
+        let range_k = (ln(stiffness_guess / 3.0), ln(stiffness_guess * 3.0));
+        let (log_k, _) = golden(range_k, |x| self.evaluate_under(k, stiffness_at(load, x)).error);
+        load = stiffness_at(load, log_k);
+        let (moment, _) = golden((best.0 - cell, best.0 + cell), |m| {
+            self.evaluate_under(k, at_moment(load, m)).error
+        });
+        load.moment = moment;
+        load = self.follow_trend(k, load);
+        let narrow = (log_k - 0.3, log_k + 0.3);
+        let (log_k, _) = golden(narrow, |x| self.evaluate_under(k, stiffness_at(load, x)).error);
+        load = self.follow_trend(k, stiffness_at(load, log_k));
+        (load, self.evaluate_under(k, load).error)
+    }
+
+    /// [`TREND_ROUNDS`] rounds: the drift the fit profiles out, as a moment (amperes times
+    /// the torque constant and the gear ratio), added to the load. O(rounds) evaluations.
+    fn follow_trend(&self, k: &FaultVector, mut load: WindowLoad) -> WindowLoad {
+        let per_ampere = self.model.torque_constant() * self.model.params().gear_ratio;
+        for _ in 0..TREND_ROUNDS {
+            let fit = self.evaluate_under(k, load);
+            let start: f32 = fit
+                .drift
+                .iter()
+                .zip(&legendre(-1.0))
+                .map(|(c, p)| c * p)
+                .sum();
+            let next = WindowLoad {
+                moment: load.moment + per_ampere * start,
+                trend: core::array::from_fn(|j| {
+                    load.trend.get(j).copied().unwrap_or(0.0)
+                        + per_ampere * fit.drift.get(j).copied().unwrap_or(0.0)
+                }),
+                stiffness: load.stiffness,
+            };
+            if self.evaluate_under(k, next).error <= fit.error {
+                load = next;
+            } else {
+                break;
+            }
+        }
+        load
+    }
+}
+
+/// A golden-section search of `f` over `range`: the best point seen and its value,
+/// [`GOLDEN_STEPS`] evaluations.
+fn golden(range: (f32, f32), mut f: impl FnMut(f32) -> f32) -> (f32, f32) {
+    const R: f32 = 0.618_034;
+    let (mut a, mut b) = range;
+    let mut c = b - R * (b - a);
+    let mut d = a + R * (b - a);
+    let mut fc = f(c);
+    let mut fd = f(d);
+    for _ in 2..GOLDEN_STEPS {
+        if fc <= fd {
+            b = d;
+            d = c;
+            fd = fc;
+            c = b - R * (b - a);
+            fc = f(c);
+        } else {
+            a = c;
+            c = d;
+            fc = fd;
+            d = a + R * (b - a);
+            fd = f(d);
+        }
+    }
+    if fc <= fd {
+        (c, fc)
+    } else {
+        (d, fd)
+    }
+}
+
+impl<const N: usize> Problem for WindowProblem<'_, N> {
+    fn fitness(&mut self, genes: &[f32; FAULT_COUNT]) -> f32 {
+        self.evaluate(&FaultVector::saturating(*genes)).error
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn recorded_command_holds_its_last_sample() {
+        let samples = [1.0f32, 2.0, 3.0];
+        let c = RecordedCommand::new(&samples);
+        assert_eq!(c.position_at(1), 2.0);
+        assert_eq!(c.position_at(7), 3.0);
+        assert_eq!(RecordedCommand::new(&[]).position_at(0), 0.0);
+    }
+
+    #[test]
+    fn golden_finds_a_parabolas_minimum() {
+        let (x, fx) = golden((-3.0, 5.0), |x| (x - 1.25) * (x - 1.25) + 2.0);
+        assert!((x - 1.25).abs() < 0.03, "{x}");
+        assert!((fx - 2.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn inverse_of_a_gram_matrix() {
+        let m = [
+            [4.0, 1.0, 0.5, 0.0],
+            [1.0, 3.0, 0.0, 0.2],
+            [0.5, 0.0, 2.0, 0.1],
+            [0.0, 0.2, 0.1, 1.0],
+        ];
+        let inv = invert(m).expect("regular");
+        for i in 0..DRIFT_TERMS {
+            for j in 0..DRIFT_TERMS {
+                let x: f64 = (0..DRIFT_TERMS).map(|k| m[i][k] * f64::from(inv[k][j])).sum();
+                let want = if i == j { 1.0 } else { 0.0 };
+                assert!((x - want).abs() < 1e-5, "{i},{j}: {x}");
+            }
+        }
+        assert!(invert([[0.0; DRIFT_TERMS]; DRIFT_TERMS]).is_none());
+    }
+}
