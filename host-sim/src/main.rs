@@ -191,10 +191,11 @@ enum Command {
         /// gusting, with the moved-load verdict's statistics (docs/in-flight.md).
         #[arg(long, conflicts_with_all = ["table", "plot", "conditions"])]
         wind: bool,
-        /// Today's FDI on windows of flight (issue 36): the healthy actuator, friction 0.2 and
-        /// Table II medium in climb, cruise and approach, light and moderate turbulence; the
-        /// verdicts by reason (no window should be `within`: the FDI does not yet play the
-        /// flight's command).
+        /// The FDI on windows of flight (issue 36): the healthy actuator, friction 0.2 and
+        /// Table II medium in climb, cruise and approach, light and moderate turbulence; each
+        /// window identified by the window identification (recorded command, fitted hinge
+        /// load, the window's verdicts, accuracy) and read by the preflight FDI (verdicts by
+        /// reason: none should be `within`).
         #[arg(long, conflicts_with_all = ["table", "plot", "conditions", "wind"])]
         flight: bool,
         /// Runs (seeds) per case.

@@ -118,10 +118,9 @@ pub enum WindowReason {
     ManoeuvreTooLarge { range: f32 },
     /// The fit left this share of the measured current unexplained (0 … 1).
     FitnessFloor { misfit: f32 },
-    /// The moment held at the start over the spring's moment at the command's excursion,
-    /// beyond 1: the load never reverses, the gear's play is never crossed, the backlash
-    /// cannot be read.
-    PlayUnseen { hold: f32 },
+    /// A wide play changes the fit by only this share of the fit's error: the load never
+    /// reversed, the gear's play was never crossed, the backlash cannot be read.
+    PlayUnseen { contrast: f32 },
 }
 
 /// What a window must satisfy to be identified.
@@ -134,7 +133,13 @@ pub struct WindowLimits {
     pub max_command_range: f32,
     /// The largest [`WindowProblem::misfit`] of an identified window.
     pub max_misfit: f32,
+    /// The smallest change of the fit, over its error, between no backlash and a wide one
+    /// ([`PLAY_PROBE`]) at the found vector.
+    pub min_play_contrast: f32,
 }
+
+/// The backlash component of the wide play [`WindowProblem::judge`] tries.
+pub const PLAY_PROBE: f32 = 0.5;
 
 impl WindowLimits {
     /// The limits of the built-in actuator's study (docs/in-flight.md §5).
@@ -142,6 +147,7 @@ impl WindowLimits {
         saturation_share: 0.95,
         max_command_range: 0.05,
         max_misfit: 0.01,
+        min_play_contrast: 1.0,
     };
 }
 
@@ -402,12 +408,18 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         }
     }
 
-    /// Whether the window can be trusted at all, and at the fit `error` found: a saturated
-    /// current, a manoeuvre beyond the limits' command range, or a fit that leaves more
-    /// than the limits' share of the current unexplained (a load the model does not play:
-    /// turbulence beyond the trend, a play crossed where the model cannot follow) make it
-    /// `Outside`. O(1).
-    pub fn judge(&self, limits: &WindowLimits, error: f32) -> Result<(), WindowReason> {
+    /// Whether the window can be trusted at all, and at the vector `k` found with the fit
+    /// `error`: a saturated current, a manoeuvre beyond the limits' command range, a fit
+    /// that leaves more than the limits' share of the current unexplained (a load the model
+    /// does not play: turbulence beyond the trend, a play crossed where the model cannot
+    /// follow), or a window that cannot tell a wide play from none make it `Outside`. Two
+    /// model runs (the play's contrast).
+    pub fn judge(
+        &self,
+        limits: &WindowLimits,
+        k: &FaultVector,
+        error: f32,
+    ) -> Result<(), WindowReason> {
         let p = self.model.params();
         if self.peak_current >= limits.saturation_share * p.max_current {
             return Err(WindowReason::CurrentSaturated {
@@ -423,13 +435,19 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         if !(misfit <= limits.max_misfit) {
             return Err(WindowReason::FitnessFloor { misfit });
         }
-        // The spring's moment over the command's excursion against the moment held at the
-        // start: beyond 1 the load never reverses, the gear stays on one flank and the
-        // window shows nothing of the play.
-        let swing = self.load.stiffness * self.command_excursion;
-        let hold = abs(self.load.moment) / swing;
-        if !(hold <= 1.0) {
-            return Err(WindowReason::PlayUnseen { hold });
+        // The play: the fit with no backlash against the fit with a wide one, at `k`. If
+        // the two hardly differ the gear never crossed its play (the load did not reverse):
+        // the window shows nothing of the backlash and the GA's value is noise.
+        let with_play = |level: f32| {
+            let mut genes = *k.as_array();
+            if let Some(b) = genes.get_mut(1) {
+                *b = level;
+            }
+            self.evaluate(&FaultVector::saturating(genes)).error
+        };
+        let contrast = abs(with_play(PLAY_PROBE) - with_play(0.0)) / error.max(f32::MIN_POSITIVE);
+        if !(contrast >= limits.min_play_contrast) {
+            return Err(WindowReason::PlayUnseen { contrast });
         }
         Ok(())
     }

@@ -236,6 +236,16 @@ pub(crate) fn identify_command(
     checkpointing: Option<&Checkpointing>,
 ) -> Result<()> {
     let trace = actuator.read_trace(trace_path)?;
+    if trace.is_flight() {
+        if checkpointing.is_some() || calibration.is_some() {
+            anyhow::bail!(
+                "{}: a window of flight is identified in one go with the actuator's own \
+                 record (no --checkpoint, no --calibration)",
+                trace_path.display()
+            );
+        }
+        return window_report(actuator, &trace, &trace_path.display().to_string(), seed, truth, json);
+    }
     let (record, cal_name) = load_record(actuator, calibration, trace.test())?;
     let measured = trace.measured(&record.params)?;
     let (outcome, resumption) = identify_checkpointed(
@@ -311,4 +321,64 @@ pub(crate) fn identify_command(
         record.detection_threshold,
     );
     verdict
+}
+
+/// Identifies a window of flight (`# test: flight`; `host_sim::fdi::window`) and prints the
+/// window's verdict, the faults, the fitted load and, given the truth, e_tot.
+pub(crate) fn window_report(
+    actuator: &Actuator,
+    trace: &host_sim::files::trace::Trace,
+    source: &str,
+    seed: u64,
+    truth: Option<FaultVector>,
+    json: bool,
+) -> Result<()> {
+    use host_sim::studies::flight::{flight_record, window_reason};
+    let record = flight_record(&actuator.record);
+    let measured = trace.measured(&record.params)?;
+    let start = std::time::Instant::now();
+    let id = host_sim::fdi::window::identify_window(trace, &measured, &record, seed)?;
+    let seconds = start.elapsed().as_secs_f64();
+    let verdict = window_reason(&id.verdict);
+    let e_tot = truth.map(|t| shared::metrics::total_error(&id.faults, &t));
+    if json {
+        let faults: Vec<String> = id.faults.as_array().iter().map(|x| format!("{x}")).collect();
+        println!(
+            "{{\"trace\":{:?},\"window\":true,\"verdict\":{verdict:?},\"reason\":{:?},\
+             \"faults\":[{}],\"misfit\":{},\"stiffness\":{},\"moment\":{},\"e_tot\":{}}}",
+            source,
+            format!("{:?}", id.verdict),
+            faults.join(","),
+            id.misfit,
+            id.load.stiffness,
+            id.load.moment,
+            e_tot.map_or("null".to_string(), |e| format!("{e}")),
+        );
+        return Ok(());
+    }
+    println!("window of flight: {source} ({}, GA seed {seed})", actuator.name);
+    match id.verdict {
+        Ok(()) => println!("verdict: within (the window identified)"),
+        Err(reason) => println!(
+            "verdict: outside — {verdict} ({reason:?}): the window is not identified; the \
+             faults below are not a reading"
+        ),
+    }
+    println!(
+        "load fitted: stiffness {:.0} N·m/rad, moment at the start {:.1} N·m; fit {:.3e} A²·s, \
+         {:.2} % of the current unexplained",
+        id.load.stiffness,
+        id.load.moment,
+        id.fitness,
+        100.0 * id.misfit
+    );
+    let names = shared::fault::FAULT_NAMES;
+    for (name, k) in names.iter().zip(id.faults.as_array()) {
+        println!("  {name:<24} {k:.3}");
+    }
+    if let Some(e) = e_tot {
+        println!("e_tot against the truth: {e:.2} %");
+    }
+    println!("{} model runs, {seconds:.2} s", id.evaluations);
+    Ok(())
 }

@@ -114,9 +114,21 @@ pub(crate) fn preflight(
     json: bool,
 ) -> Result<()> {
     if sim.flight.is_some() {
-        anyhow::bail!(
-            "--flight: the FDI does not identify flight windows yet (issue 36; docs/in-flight.md); \
-             `simulate --flight` writes one"
+        // A window of flight: the window identification, not the preflight's.
+        let (trace, _) = simulate_scenario(actuator, sim)?;
+        if let Some(path) = trace_out {
+            trace.write(path, format_from_extension(path))?;
+        }
+        let truth = sim
+            .demagnetization
+            .truth(&sim.faults, actuator.params().pole_pairs as u32);
+        return crate::commands::identify::window_report(
+            actuator,
+            &trace,
+            "the reference model's window",
+            ga_seed,
+            Some(truth),
+            json,
         );
     }
     let test = actuator.record.test;

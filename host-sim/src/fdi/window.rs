@@ -86,7 +86,7 @@ pub fn identify_window(
         faults,
         fitness: fit.error,
         misfit: problem.misfit(fit.error),
-        verdict: problem.judge(&WindowLimits::REFERENCE, fit.error),
+        verdict: problem.judge(&WindowLimits::REFERENCE, &faults, fit.error),
         load,
         drift: fit.drift,
         conditions,

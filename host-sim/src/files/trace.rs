@@ -18,6 +18,9 @@ use std::io::{Read, Write};
 use std::path::Path;
 
 use anyhow::{bail, Context, Result};
+
+/// The CSV `# test:` name of a window of flight.
+pub const FLIGHT_TEST: &str = "flight";
 use fixed::types::{I16F16, I4F28};
 use shared::domain::DomainMonitor;
 use shared::fdi::{OnboardMeasured, TEST_SAMPLES};
@@ -72,6 +75,9 @@ impl TraceSample {
 pub struct Trace {
     samples: Vec<TraceSample>,
     test: PreflightTest,
+    /// A window of flight (CSV `# test: flight`): the chirp on the flight's commands, read by
+    /// the window identification.
+    flight: bool,
 }
 
 impl Default for Trace {
@@ -103,7 +109,19 @@ impl Trace {
         Self {
             samples: Vec::with_capacity(n),
             test: PreflightTest::PAPER,
+            flight: false,
         }
+    }
+
+    /// The same trace, declared a window of flight.
+    pub fn as_flight(mut self) -> Self {
+        self.flight = true;
+        self
+    }
+
+    /// Whether the trace is a window of flight.
+    pub fn is_flight(&self) -> bool {
+        self.flight
     }
 
     /// The same trace, declared as coming from `test`.
@@ -199,7 +217,9 @@ impl Trace {
 
     pub fn to_csv(&self) -> Vec<u8> {
         let mut out = Vec::with_capacity(80 * (self.samples.len() + 2));
-        if self.test != PreflightTest::PAPER {
+        if self.flight {
+            let _ = writeln!(out, "# test: {FLIGHT_TEST}");
+        } else if self.test != PreflightTest::PAPER {
             let name = self.test.kind_name();
             let _ = writeln!(out, "# test: {name}");
         }
@@ -225,6 +245,12 @@ impl Trace {
     }
 
     pub fn to_bin(&self) -> Result<Vec<u8>> {
+        if self.flight {
+            bail!(
+                "a window of flight is written as CSV (`# test: {FLIGHT_TEST}`): the binary \
+                 header has no flight mark"
+            );
+        }
         let rows = u32::try_from(self.samples.len()).context("too many rows for format v1")?;
         let conditions = self.has_conditions();
         let header = TraceHeader {
@@ -345,6 +371,7 @@ impl Trace {
         let trace = Self {
             samples,
             test: header.test,
+            flight: false,
         };
         trace.check(Form::Binary)?;
         Ok(trace)
@@ -366,6 +393,7 @@ impl Trace {
         let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l));
         // Comment lines before the header; `# test: NAME` names the design (version 2).
         let mut test = PreflightTest::PAPER;
+        let mut flight = false;
         let (header_line, header) = loop {
             let Some((line, l)) = lines.find(|(_, l)| !l.trim().is_empty()) else {
                 return Err(IngestError::Empty);
@@ -375,6 +403,11 @@ impl Trace {
             };
             if let Some(name) = comment.trim().strip_prefix("test:") {
                 let name = name.trim();
+                if name == FLIGHT_TEST {
+                    // The chirp alone, on the flight's commands.
+                    flight = true;
+                    continue;
+                }
                 test = PreflightTest::from_name(name).ok_or_else(|| IngestError::UnknownTest {
                     line,
                     name: name.to_string(),
@@ -461,7 +494,11 @@ impl Trace {
                 temperature: conditions.then_some(v[8]),
             });
         }
-        let trace = Self { samples, test };
+        let trace = Self {
+            samples,
+            test,
+            flight,
+        };
         trace.check(Form::Csv { header_line })?;
         Ok(trace)
     }

@@ -792,6 +792,9 @@ impl ReferenceModel {
             ..self.test
         };
         let mut trace = Trace::with_capacity(samples).with_test(declared);
+        if self.flight.is_some() {
+            trace = trace.as_flight();
+        }
         let mut truth = Vec::with_capacity(samples);
         // The rig's logger: its own noise stream, every `record_every` fine steps.
         let record_every = self
