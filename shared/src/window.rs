@@ -182,8 +182,6 @@ pub struct WindowProblem<'a, const N: usize> {
     peak_current: f32,
     /// The command's range over the window [rad].
     command_range: f32,
-    /// The command's largest distance from its first sample [rad].
-    command_excursion: f32,
 }
 
 /// The four Legendre polynomials at `x` ∈ [−1, 1].
@@ -298,10 +296,6 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
                 .take(samples)
                 .fold(0.0f32, |m, &x| m.max(abs(x))),
             command_range: hi - lo,
-            command_excursion: {
-                let first = command.position_at(0);
-                abs(hi - first).max(abs(first - lo))
-            },
         };
         problem.energy = problem.residual_fit(|_| 0.0).error;
         Ok(problem)
@@ -603,6 +597,40 @@ mod tests {
         assert_eq!(c.position_at(1), 2.0);
         assert_eq!(c.position_at(7), 3.0);
         assert_eq!(RecordedCommand::new(&[]).position_at(0), 0.0);
+    }
+
+    /// A loaded start is an equilibrium: under a steady command the model holds the moment
+    /// with a steady current and the shafts do not move; the same start without the moment
+    /// gives no current. Fails if the start's gear flank, surface angle, current or
+    /// integrators disagree with each other.
+    #[test]
+    fn a_loaded_start_holds_still() {
+        use crate::params::ActuatorParams;
+        use crate::{Calibration, ShaftAngles};
+        let params = ActuatorParams::REFERENCE;
+        let model = MonitorModel::new(params, &Calibration::REFERENCE_ACTUATOR)
+            .with_load_stiffness(6.5e4);
+        let start = ShaftAngles {
+            motor: 1.3,
+            user: 2.0e-3,
+            currents: [0.0; 3],
+        };
+        for (moment, backlash) in [(150.0f32, 0.0f32), (-80.0, 0.4), (0.0, 0.0)] {
+            let mut genes = *FaultVector::NOMINAL.as_array();
+            genes[1] = backlash;
+            let k = FaultVector::saturating(genes);
+            let (m, mut run) = model.start_loaded_run(&k, start, moment, start.user);
+            let first = run.next_sample(&m, start.user);
+            let held = moment / (params.gear_ratio * model.torque_constant());
+            assert!((first.current - held).abs() < 0.02 * held.abs() + 1e-6, "{moment}: {first:?}");
+            let mut last = first;
+            for _ in 0..2000 {
+                last = run.next_sample(&m, start.user);
+            }
+            assert!((last.current - first.current).abs() < 0.01 * held.abs() + 1e-3, "{moment}: {last:?}");
+            assert!((last.user_angle - start.user).abs() < 1e-6, "{moment}: {last:?}");
+            assert!((last.motor_angle - start.motor).abs() < 1e-4, "{moment}: {last:?}");
+        }
     }
 
     #[test]
