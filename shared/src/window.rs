@@ -22,13 +22,14 @@ use crate::fault::{FaultVector, FAULT_COUNT};
 use crate::ga::Problem;
 use crate::math::abs;
 use crate::monitor::MonitorModel;
+use crate::uncertainty::{Curvature, STEP};
 
 /// Samples at the window's start left out of the sum (20 ms): the model starts still, the
 /// surface was moving with the flight's commands.
 pub const SETTLE_SAMPLES: usize = 200;
 
-/// Terms of the profiled drift (constant, slope, curvature, cubic).
-pub const DRIFT_TERMS: usize = 4;
+/// Terms of the profiled drift (Legendre polynomials of degree 0 … 5).
+pub const DRIFT_TERMS: usize = 10;
 
 /// Fitness evaluations one [`WindowProblem::fit_load`] spends at most.
 pub const LOAD_SEARCH_EVALUATIONS: usize = 3 * GOLDEN_STEPS + MOMENT_SCAN + 4 * TREND_ROUNDS + 1;
@@ -41,9 +42,6 @@ const GOLDEN_STEPS: usize = 14;
 /// Moments tried by the load fit's scan before its golden-section search.
 const MOMENT_SCAN: usize = 81;
 
-/// The scan's span on either side of the held moment beyond its size, as the spring's
-/// moment over this angle [rad] (half the test's amplitude).
-const MOMENT_SCAN_ANGLE: f32 = 2.5e-3;
 
 /// The commanded user-shaft angle [rad] of each sample of a window, as the controller
 /// followed it (a trace's `theta_cmd`). Past the last sample the last value holds. O(1).
@@ -184,11 +182,23 @@ pub struct WindowProblem<'a, const N: usize> {
     command_range: f32,
 }
 
-/// The four Legendre polynomials at `x` ∈ [−1, 1].
+/// The first [`DRIFT_TERMS`] Legendre polynomials at `x` ∈ [−1, 1] (Bonnet's recurrence).
 #[inline(always)]
 fn legendre(x: f32) -> [f32; DRIFT_TERMS] {
-    let x2 = x * x;
-    [1.0, x, 1.5 * x2 - 0.5, x * (2.5 * x2 - 1.5)]
+    let mut p = [1.0f32; DRIFT_TERMS];
+    let (mut older, mut old) = (1.0f32, x);
+    for (n, slot) in p.iter_mut().enumerate().skip(1) {
+        if n == 1 {
+            *slot = x;
+            continue;
+        }
+        let m = (n - 1) as f32;
+        let next = ((2.0 * m + 1.0) * x * old - m * older) / (m + 1.0);
+        older = old;
+        old = next;
+        *slot = next;
+    }
+    p
 }
 
 /// Where sample `i` of a window of `n` sits on the drift's axis [−1, 1].
@@ -240,7 +250,7 @@ fn invert(m: [[f64; DRIFT_TERMS]; DRIFT_TERMS]) -> Option<[[f32; DRIFT_TERMS]; D
 pub struct WindowFit {
     /// Eq. (3) after the drift [A²·s].
     pub error: f32,
-    /// The drift's Legendre coefficients [A] (constant, slope, curvature, cubic).
+    /// The drift's Legendre coefficients [A].
     pub drift: [f32; DRIFT_TERMS],
 }
 
@@ -392,6 +402,110 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         }
     }
 
+    /// The Gauss–Newton sums at `k` under the problem's load ([`Curvature`]): one base run
+    /// and one run per component shifted by [`STEP`] (down where up would leave [0, 1]),
+    /// stepped in lockstep, with the drift's polynomials projected out of the residual and
+    /// of every column (`JᵀWJ − BᵀG⁻¹B`, `B = ΦᵀWJ`). Ten model runs, no storage of
+    /// residuals; f64 sums. For the window's uncertainty and its polish.
+    #[allow(clippy::indexing_slicing)] // indices < FAULT_COUNT, DRIFT_TERMS on fixed arrays
+    pub fn curvature(&self, k: &FaultVector) -> Curvature {
+        let load = self.load;
+        let base_model = self.model.with_load_stiffness(load.stiffness);
+        let start = self.measured.initial_angles();
+        let first = self.command.position_at(0);
+        let mut steps = [0.0f32; FAULT_COUNT];
+        let runs: [(MonitorModel, crate::monitor::MonitorRun, LowPassState); FAULT_COUNT + 1] =
+            core::array::from_fn(|j| {
+                let mut genes = *k.as_array();
+                if j > 0 {
+                    let c = j - 1;
+                    let x = genes[c];
+                    let up = x + STEP <= 1.0;
+                    let shifted = if up { x + STEP } else { x - STEP };
+                    steps[c] = shifted - x;
+                    genes[c] = shifted;
+                }
+                let (m, r) = base_model.start_loaded_run(
+                    &FaultVector::saturating(genes),
+                    start,
+                    load.moment,
+                    first,
+                );
+                (m, r, LowPassState::default())
+            });
+        let mut runs = runs;
+        let filter = self.measured.filter();
+        let mut normal = [[0.0f64; FAULT_COUNT]; FAULT_COUNT];
+        let mut gradient = [0.0f64; FAULT_COUNT];
+        let mut rss = 0.0f64;
+        let mut b = [[0.0f64; FAULT_COUNT]; DRIFT_TERMS];
+        let mut br = [0.0f64; DRIFT_TERMS];
+        let mut fitted = 0u32;
+        let mut previous = 0.0f32;
+        for (i, &r) in self.measured.samples().iter().take(self.samples).enumerate() {
+            let x = axis(i, self.samples);
+            let push = -load.trend_at(x);
+            let command = self.command.position_at(i);
+            let mut current = [0.0f32; FAULT_COUNT + 1];
+            for ((m, run, state), out) in runs.iter_mut().zip(current.iter_mut()) {
+                if push != 0.0 {
+                    run.push_surface(m, push);
+                }
+                *out = filter.apply(state, run.next_sample(m, command).current);
+            }
+            let d = r - previous;
+            previous = r;
+            if i < SETTLE_SAMPLES {
+                continue;
+            }
+            let w = f64::from(weight(d, self.inv_kappa));
+            let e = f64::from(r - current[0]);
+            let jac: [f64; FAULT_COUNT] = core::array::from_fn(|c| {
+                if steps[c] != 0.0 {
+                    f64::from(current[c + 1] - current[0]) / f64::from(steps[c])
+                } else {
+                    0.0
+                }
+            });
+            let phi = legendre(x);
+            for a in 0..FAULT_COUNT {
+                gradient[a] += w * jac[a] * e;
+                for c in 0..FAULT_COUNT {
+                    normal[a][c] += w * jac[a] * jac[c];
+                }
+            }
+            rss += w * e * e;
+            for (t, &f) in phi.iter().enumerate() {
+                let wf = w * f64::from(f);
+                br[t] += wf * e;
+                for a in 0..FAULT_COUNT {
+                    b[t][a] += wf * jac[a];
+                }
+            }
+            fitted += 1;
+        }
+        // Project the drift out: subtract Bᵀ G⁻¹ B (and its residual forms).
+        let g = self.drift_inverse.map(|row| row.map(f64::from));
+        let gb = |col: &dyn Fn(usize) -> f64, t: usize| -> f64 {
+            (0..DRIFT_TERMS).map(|u| g[t][u] * col(u)).sum()
+        };
+        let gbr: [f64; DRIFT_TERMS] = core::array::from_fn(|t| gb(&|u| br[u], t));
+        for a in 0..FAULT_COUNT {
+            let gba: [f64; DRIFT_TERMS] = core::array::from_fn(|t| gb(&|u| b[u][a], t));
+            gradient[a] -= (0..DRIFT_TERMS).map(|t| gba[t] * br[t]).sum::<f64>();
+            for c in 0..FAULT_COUNT {
+                normal[a][c] -= (0..DRIFT_TERMS).map(|t| gba[t] * b[t][c]).sum::<f64>();
+            }
+        }
+        rss -= (0..DRIFT_TERMS).map(|t| gbr[t] * br[t]).sum::<f64>();
+        Curvature {
+            normal,
+            rss: rss.max(0.0),
+            gradient,
+            fitted,
+        }
+    }
+
     /// The error `error` [A²·s] over the error of a model that gives no current: how much of
     /// the window's measured current the fit leaves unexplained (0 … 1).
     pub fn misfit(&self, error: f32) -> f32 {
@@ -493,7 +607,11 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         // The moment sets where the load reverses, so where the gear crosses its play, and
         // with a wide play the fitness is sharp in it (a basin a few N·m wide per crossing
         // pattern): a fine scan first, at the guessed stiffness.
-        let span = abs(held) + load.stiffness * MOMENT_SCAN_ANGLE;
+        // The current holds the moment less what dry friction carries: the span is the
+        // friction a fault could reach (three times the healthy breakaway, at the user
+        // shaft) and a fifth of the held moment for the estimate's own error.
+        let p = self.model.params();
+        let span = 3.0 * p.static_friction * p.gear_ratio + 0.2 * abs(held);
         let cell = 2.0 * span / (MOMENT_SCAN - 1) as f32;
         let mut best = (held, f32::INFINITY);
         for j in 0..MOMENT_SCAN {
@@ -633,6 +751,26 @@ mod tests {
         }
     }
 
+    /// The recurrence gives Legendre's closed forms (P2 … P5 at a few points).
+    #[test]
+    fn legendre_polynomials() {
+        for x in [-1.0f32, -0.3, 0.0, 0.55, 1.0] {
+            let p = legendre(x);
+            let x2 = x * x;
+            let closed = [
+                1.0,
+                x,
+                1.5 * x2 - 0.5,
+                x * (2.5 * x2 - 1.5),
+                (35.0 * x2 * x2 - 30.0 * x2 + 3.0) / 8.0,
+                x * (63.0 * x2 * x2 - 70.0 * x2 + 15.0) / 8.0,
+            ];
+            for (a, b) in p.iter().zip(&closed) {
+                assert!((a - b).abs() < 1e-5, "x {x}: {a} vs {b}");
+            }
+        }
+    }
+
     #[test]
     fn golden_finds_a_parabolas_minimum() {
         let (x, fx) = golden((-3.0, 5.0), |x| (x - 1.25) * (x - 1.25) + 2.0);
@@ -642,12 +780,16 @@ mod tests {
 
     #[test]
     fn inverse_of_a_gram_matrix() {
-        let m = [
-            [4.0, 1.0, 0.5, 0.0],
-            [1.0, 3.0, 0.0, 0.2],
-            [0.5, 0.0, 2.0, 0.1],
-            [0.0, 0.2, 0.1, 1.0],
-        ];
+        // A symmetric, diagonally dominant matrix: the Gram matrix's kind.
+        let m: [[f64; DRIFT_TERMS]; DRIFT_TERMS] = core::array::from_fn(|i| {
+            core::array::from_fn(|j| {
+                if i == j {
+                    4.0 + i as f64
+                } else {
+                    0.3 / (1.0 + (i + j) as f64)
+                }
+            })
+        });
         let inv = invert(m).expect("regular");
         for i in 0..DRIFT_TERMS {
             for j in 0..DRIFT_TERMS {

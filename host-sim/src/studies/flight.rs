@@ -19,6 +19,7 @@ use shared::{Calibration, FaultVector};
 
 use crate::fdi::identify::identify_for;
 use crate::fdi::window::identify_window;
+use shared::uncertainty::Assessment;
 use shared::window::WindowReason;
 use crate::plant::aero::{FlightPhase, FlightWindow, Turbulence};
 use crate::plant::reference::{ReferenceModel, Scenario};
@@ -42,6 +43,11 @@ pub struct FlightRun {
     pub window: (Result<(), WindowReason>, f64),
     /// The window identification's largest component where the truth is nominal.
     pub healthy_max: f32,
+    /// Components the window identification calls `FAULT` (its 90 % interval beyond the
+    /// threshold) where the truth is nominal.
+    pub false_faults: usize,
+    /// Components whose 90 % interval holds the truth, and components with an interval.
+    pub covered: (usize, usize),
 }
 
 /// One case in one window, every seed's run.
@@ -115,10 +121,26 @@ pub fn flight_campaign(
                             .filter(|&(j, ((t, n), _))| t == n && j != ECCENTRICITY_PHASE)
                             .map(|(_, ((_, n), f))| (f - n).abs())
                             .fold(0.0f32, f32::max);
+                        let nominal = FaultVector::NOMINAL;
+                        let false_faults = w
+                            .assessments()
+                            .iter()
+                            .zip(truth.as_array().iter().zip(nominal.as_array()))
+                            .filter(|(a, (t, n))| t == n && matches!(a, Assessment::Faulty))
+                            .count();
+                        let covered = w.uncertainty.as_ref().map_or((0, 0), |(u, _)| {
+                            let c = u.covers(&truth);
+                            (
+                                c.iter().filter(|x| **x == Some(true)).count(),
+                                c.iter().filter(|x| x.is_some()).count(),
+                            )
+                        });
                         Ok(FlightRun {
                             preflight: (domain, f64::from(total_error(&id.result.faults, &truth))),
                             window: (w.verdict, f64::from(total_error(&w.faults, &truth))),
                             healthy_max,
+                            false_faults,
+                            covered,
                         })
                     })
                     .collect::<Result<Vec<_>>>()?;
@@ -187,12 +209,15 @@ pub fn flight_markdown(rows: &[FlightRow], actuator: &str) -> String {
          (docs/in-flight.md §1). The monitor model follows the recorded command from an \
          equilibrium under the fitted hinge moment, with the fitted stiffness and trend \
          (docs/in-flight.md §4). Verdicts by reason; e_tot [%] of the windows left \
-         `within`; on the healthy components, the largest reading of a `within` window.\n\n\
+         `within`; on the healthy components of the `within` windows, the largest reading \
+         and the false `FAULT` verdicts (a 90 % interval beyond the threshold); the 90 % \
+         intervals that hold the truth.\n\n\
          | phase | turbulence | case | verdicts | within: median e_tot | max e_tot | \
-         healthy components: max |\n\
-         | --- | --- | --- | --- | ---: | ---: | ---: |\n"
+         healthy components: max | false FAULT | intervals holding the truth |\n\
+         | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: |\n"
     );
     let (mut within_total, mut total, mut wrong) = (0, 0, 0);
+    let (mut false_total, mut held, mut intervals) = (0, 0, 0);
     for row in rows {
         let verdicts = tally(row.runs.iter().map(|r| window_reason(&r.window.0)));
         let within: Vec<&FlightRun> = row.runs.iter().filter(|r| r.window.0.is_ok()).collect();
@@ -203,8 +228,15 @@ pub fn flight_markdown(rows: &[FlightRow], actuator: &str) -> String {
         let healthy = within.iter().map(|r| r.healthy_max).fold(None, |m: Option<f32>, x| {
             Some(m.map_or(x, |m| m.max(x)))
         });
+        let false_faults: usize = within.iter().map(|r| r.false_faults).sum();
+        let (h, n) = within
+            .iter()
+            .fold((0, 0), |(h, n), r| (h + r.covered.0, n + r.covered.1));
+        false_total += false_faults;
+        held += h;
+        intervals += n;
         text.push_str(&format!(
-            "| {:?} | {:?} | {} | {verdicts} | {} | {} | {} |\n",
+            "| {:?} | {:?} | {} | {verdicts} | {} | {} | {} | {false_faults} | {h} of {n} |\n",
             row.window.phase,
             row.window.turbulence,
             row.case,
@@ -218,7 +250,8 @@ pub fn flight_markdown(rows: &[FlightRow], actuator: &str) -> String {
     }
     text.push_str(&format!(
         "\n{within_total} of {total} windows identified (`within`); {wrong} of them with \
-         e_tot above 6 %.\n\n"
+         e_tot above 6 %; {false_total} false `FAULT` verdicts on healthy components; the \
+         90 % intervals hold the truth in {held} of {intervals} component-readings.\n\n"
     ));
     text.push_str(&format!(
         "### The preflight identification on the same windows: {actuator}\n\n\
