@@ -53,6 +53,22 @@ fn approach_windows_are_identified_or_named() {
         assert!(sim.trace.is_flight(), "the window's trace is marked a window of flight");
         let measured = sim.trace.measured(&record.params).expect("conditioned");
         let id = identify_window(&sim.trace, &measured, &record, 1).expect("identified");
+        // The window's picture: every sample, and the fitted series closer to the measured
+        // current than the model before the drift (the drift is fitted, it cannot be worse).
+        let points = host_sim::fdi::window::window_series(&sim.trace, &measured, &record, &id)
+            .expect("the window's series");
+        assert_eq!(points.len(), sim.trace.samples().len());
+        let rms = |f: &dyn Fn(&host_sim::fdi::window::WindowPoint) -> f32| {
+            (points.iter().skip(200).map(|p| f(p).powi(2)).sum::<f32>() / points.len() as f32)
+                .sqrt()
+        };
+        let (plain, with_drift) = (rms(&|p| p.3 - p.4), rms(&|p| p.3 - p.5));
+        assert!(with_drift <= plain + 1e-6, "{with_drift} vs {plain}");
+        let svg = std::env::temp_dir().join(format!("ema-fdi-window-{}.svg", std::process::id()));
+        host_sim::fdi::plot::window_svg(&svg, &points, "window").expect("plotted");
+        let text = std::fs::read_to_string(&svg).expect("written");
+        assert!(text.contains("<svg") && text.contains("polyline"));
+        let _ = std::fs::remove_file(&svg);
         (id.verdict, total_error(&id.faults, &truth), id.faults.friction())
     };
     for friction in [0.0f32, 0.2] {

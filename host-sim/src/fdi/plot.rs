@@ -111,6 +111,93 @@ pub fn identification_svg(
     Ok(())
 }
 
+/// A window of flight as identified: the command and the surface's angle [mrad] above, the
+/// filtered measured current, the model's at the identified faults and the model's with the
+/// profiled drift [A] below.
+pub fn window_svg(
+    out: &Path,
+    points: &[crate::fdi::window::WindowPoint],
+    title: &str,
+) -> Result<()> {
+    let e = |e: DrawingAreaErrorKind<_>| anyhow!("drawing {}: {e:?}", out.display());
+    let t_end = points.last().map_or(1.0, |p| f64::from(p.0)).max(1e-3);
+    let range = |values: &mut dyn Iterator<Item = f64>| {
+        let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
+        let (lo, hi) = if lo.is_finite() { (lo, hi) } else { (-1.0, 1.0) };
+        let pad = 0.05 * (hi - lo).max(1e-3);
+        (lo - pad)..(hi + pad)
+    };
+    let root = SVGBackend::new(out, (1100, 800)).into_drawing_area();
+    root.fill(&WHITE).map_err(e)?;
+    let (upper, lower) = root.split_vertically(330);
+    let angles = range(&mut points.iter().flat_map(|p| [p.1, p.2]).map(|x| 1e3 * f64::from(x)));
+    let mut chart = ChartBuilder::on(&upper)
+        .caption(title, ("sans-serif", 18))
+        .margin(12)
+        .x_label_area_size(36)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..t_end, angles)
+        .map_err(e)?;
+    chart
+        .configure_mesh()
+        .x_desc("t [s]")
+        .y_desc("angle [mrad]")
+        .draw()
+        .map_err(e)?;
+    for (pick, colour, label) in [
+        (1usize, BLACK, "command (flight control computer + test)"),
+        (2, GREEN, "surface (measured)"),
+    ] {
+        let series = points.iter().map(move |p| {
+            let v = if pick == 1 { p.1 } else { p.2 };
+            (f64::from(p.0), 1e3 * f64::from(v))
+        });
+        chart
+            .draw_series(LineSeries::new(series, &colour))
+            .map_err(e)?
+            .label(label)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
+    }
+    draw_legend(&mut chart, out, SeriesLabelPosition::UpperLeft)?;
+    let currents = range(&mut points.iter().flat_map(|p| [p.3, p.4, p.5]).map(f64::from));
+    let mut chart = ChartBuilder::on(&lower)
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..t_end, currents)
+        .map_err(e)?;
+    chart
+        .configure_mesh()
+        .x_desc("t [s]")
+        .y_desc("filtered equivalent current [A]")
+        .draw()
+        .map_err(e)?;
+    for (pick, colour, label) in [
+        (3usize, BLUE, "measured"),
+        (4, RGBColor(255, 160, 160), "monitor model (fitted load, identified faults)"),
+        (5, RED, "monitor model + profiled drift"),
+    ] {
+        let series = points.iter().map(move |p| {
+            let v = match pick {
+                3 => p.3,
+                4 => p.4,
+                _ => p.5,
+            };
+            (f64::from(p.0), f64::from(v))
+        });
+        chart
+            .draw_series(LineSeries::new(series, &colour))
+            .map_err(e)?
+            .label(label)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
+    }
+    draw_legend(&mut chart, out, SeriesLabelPosition::UpperLeft)?;
+    root.present().map_err(e)?;
+    Ok(())
+}
+
 /// The series legend every plot of this crate draws: at `position`, on a translucent white
 /// box.
 pub(crate) fn draw_legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(

@@ -62,6 +62,53 @@ pub fn recorded_command(trace: &Trace) -> Vec<f32> {
     trace.samples().iter().map(|s| s.command as f32).collect()
 }
 
+/// The window problem of `measured` driven by `command` under `load`, on the day the FDI
+/// estimates from the window, and that day.
+fn window_problem<'a>(
+    command: &'a [f32],
+    measured: &'a OnboardMeasured,
+    record: &ActuatorRecord,
+    load: WindowLoad,
+) -> Result<(WindowProblem<'a, { shared::fdi::TEST_SAMPLES }>, TestConditions)> {
+    let conditions = TestConditions::estimate(measured, &record.params, &record.calibration);
+    let model = MonitorModel::new(record.params, &record.calibration)
+        .with_test(measured.test())
+        .with_conditions(&conditions);
+    let problem = WindowProblem::new(measured, RecordedCommand::new(command), model, load)
+        .map_err(|e| anyhow::anyhow!("the window: {e:?}"))?;
+    Ok((problem, conditions))
+}
+
+/// One sample of a window as identified: time [s], command and surface angle [rad], the
+/// filtered measured current, the model's and the model's with the profiled drift [A].
+pub type WindowPoint = (f32, f32, f32, f32, f32, f32);
+
+/// The window as `id` fitted it, sample by sample (for the window's plot).
+pub fn window_series(
+    trace: &Trace,
+    measured: &OnboardMeasured,
+    record: &ActuatorRecord,
+    id: &WindowIdentified,
+) -> Result<Vec<WindowPoint>> {
+    let command = recorded_command(trace);
+    let (problem, _) = window_problem(&command, measured, record, id.load)?;
+    let samples = trace.samples();
+    let mut out = Vec::with_capacity(samples.len());
+    problem.fitted(&id.faults, |t, r, m, md| {
+        let i = out.len();
+        let s = samples.get(i);
+        out.push((
+            t,
+            s.map_or(0.0, |s| s.command as f32),
+            s.map_or(0.0, |s| s.user_angle as f32),
+            r,
+            m,
+            md,
+        ));
+    });
+    Ok(out)
+}
+
 /// Identifies the faults behind a window of flight recorded in `trace`, conditioned into
 /// `measured`, with the actuator `record` (its chirp-only test).
 pub fn identify_window(
@@ -71,18 +118,9 @@ pub fn identify_window(
     seed: u64,
 ) -> Result<WindowIdentified> {
     let command = recorded_command(trace);
-    let conditions = TestConditions::estimate(measured, &record.params, &record.calibration);
-    let model = MonitorModel::new(record.params, &record.calibration)
-        .with_test(measured.test())
-        .with_conditions(&conditions);
     let guess = record.params.aero_stiffness;
-    let problem = WindowProblem::new(
-        measured,
-        RecordedCommand::new(&command),
-        model,
-        WindowLoad::spring(guess, 0.0),
-    )
-    .map_err(|e| anyhow::anyhow!("the window: {e:?}"))?;
+    let (problem, conditions) =
+        window_problem(&command, measured, record, WindowLoad::spring(guess, 0.0))?;
     let mut evaluations = 0u32;
     let (load, _) = problem.fit_load(&FaultVector::NOMINAL, guess);
     evaluations += LOAD_SEARCH_EVALUATIONS as u32;

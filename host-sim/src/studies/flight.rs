@@ -19,7 +19,7 @@ use shared::{Calibration, FaultVector};
 
 use crate::fdi::identify::identify_for;
 use crate::fdi::window::identify_window;
-use shared::uncertainty::Assessment;
+use shared::uncertainty::{Assessment, Uncertainty};
 use shared::window::WindowReason;
 use crate::plant::aero::{FlightPhase, FlightWindow, Turbulence};
 use crate::plant::reference::{ReferenceModel, Scenario};
@@ -48,6 +48,29 @@ pub struct FlightRun {
     pub false_faults: usize,
     /// Components whose 90 % interval holds the truth, and components with an interval.
     pub covered: (usize, usize),
+    /// Components whose window interval meets the same flight's preflight interval, and
+    /// components compared (both determined; none when the preflight was not `within`).
+    pub agreement: (usize, usize),
+}
+
+/// The preflight's seed offset from the window's (its own noise).
+const GROUND_SEED: u64 = 1_000;
+
+/// Components where two readings' 90 % intervals meet (their distance within the sum of
+/// their half-widths), and components where both are determined; the eccentricity's phase
+/// is left out.
+pub fn agreement(a: &Uncertainty, b: &Uncertainty) -> (usize, usize) {
+    let mut out = (0, 0);
+    for j in 0..shared::FAULT_COUNT {
+        if j == ECCENTRICITY_PHASE || a.std[j].is_nan() || b.std[j].is_nan() {
+            continue;
+        }
+        out.1 += 1;
+        if a.lower[j] <= b.upper[j] && b.lower[j] <= a.upper[j] {
+            out.0 += 1;
+        }
+    }
+    out
 }
 
 /// One case in one window, every seed's run.
@@ -86,6 +109,8 @@ pub fn flight_campaign(
     runs: u64,
     mut progress: impl FnMut(&FlightRow),
 ) -> Result<Vec<FlightRow>> {
+    let ground_record = *record;
+    let ground = rm.with_test(ground_record.test);
     let record = flight_record(record);
     let rm = rm.with_test(record.test);
     let mut rows = Vec::new();
@@ -135,7 +160,24 @@ pub fn flight_campaign(
                                 c.iter().filter(|x| x.is_some()).count(),
                             )
                         });
+                        // The same flight's preflight: the same actuator and day on the ground,
+                        // its own noise.
+                        let before = ground.simulate(&Scenario {
+                            seed: seed + GROUND_SEED,
+                            ..Scenario::new(truth)
+                        });
+                        let measured = before.trace.measured(&ground_record.params)?;
+                        let pre = identify_for(&measured, &ground_record, 1 + seed, false)?;
+                        let pre_within = pre.domain(
+                            &before.trace.domain_monitor(&ground_record.params),
+                            &ground_record.domain,
+                        ) == Domain::Within;
+                        let agreement = match (&w.uncertainty, &pre.uncertainty, pre_within) {
+                            (Some((a, _)), Some((b, _)), true) => agreement(a, b),
+                            _ => (0, 0),
+                        };
                         Ok(FlightRun {
+                            agreement,
                             preflight: (domain, f64::from(total_error(&id.result.faults, &truth))),
                             window: (w.verdict, f64::from(total_error(&w.faults, &truth))),
                             healthy_max,
@@ -213,11 +255,13 @@ pub fn flight_markdown(rows: &[FlightRow], actuator: &str) -> String {
          and the false `FAULT` verdicts (a 90 % interval beyond the threshold); the 90 % \
          intervals that hold the truth.\n\n\
          | phase | turbulence | case | verdicts | within: median e_tot | max e_tot | \
-         healthy components: max | false FAULT | intervals holding the truth |\n\
-         | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: |\n"
+         healthy components: max | false FAULT | intervals holding the truth | \
+         agreeing with the preflight |\n\
+         | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |\n"
     );
     let (mut within_total, mut total, mut wrong) = (0, 0, 0);
     let (mut false_total, mut held, mut intervals) = (0, 0, 0);
+    let (mut agreed, mut agreed_of) = (0, 0);
     for row in rows {
         let verdicts = tally(row.runs.iter().map(|r| window_reason(&r.window.0)));
         let within: Vec<&FlightRun> = row.runs.iter().filter(|r| r.window.0.is_ok()).collect();
@@ -232,11 +276,17 @@ pub fn flight_markdown(rows: &[FlightRow], actuator: &str) -> String {
         let (h, n) = within
             .iter()
             .fold((0, 0), |(h, n), r| (h + r.covered.0, n + r.covered.1));
+        let (ag, compared) = within
+            .iter()
+            .fold((0, 0), |(a, n), r| (a + r.agreement.0, n + r.agreement.1));
+        agreed += ag;
+        agreed_of += compared;
         false_total += false_faults;
         held += h;
         intervals += n;
         text.push_str(&format!(
-            "| {:?} | {:?} | {} | {verdicts} | {} | {} | {} | {false_faults} | {h} of {n} |\n",
+            "| {:?} | {:?} | {} | {verdicts} | {} | {} | {} | {false_faults} | {h} of {n} | \
+             {ag} of {compared} |\n",
             row.window.phase,
             row.window.turbulence,
             row.case,
@@ -251,7 +301,8 @@ pub fn flight_markdown(rows: &[FlightRow], actuator: &str) -> String {
     text.push_str(&format!(
         "\n{within_total} of {total} windows identified (`within`); {wrong} of them with \
          e_tot above 6 %; {false_total} false `FAULT` verdicts on healthy components; the \
-         90 % intervals hold the truth in {held} of {intervals} component-readings.\n\n"
+         90 % intervals hold the truth in {held} of {intervals} component-readings and \
+         meet the same flight's preflight interval in {agreed} of {agreed_of}.\n\n"
     ));
     text.push_str(&format!(
         "### The preflight identification on the same windows: {actuator}\n\n\
