@@ -198,6 +198,11 @@ enum Command {
         /// reason: none should be `within`).
         #[arg(long, conflicts_with_all = ["table", "plot", "conditions", "wind"])]
         flight: bool,
+        /// With --flight: the superimposed test's study instead — the window's chirp at each
+        /// of these amplitudes [mrad, comma-separated], in cruise, light and moderate
+        /// turbulence, the healthy actuator and friction 0.2 (docs/in-flight.md §5).
+        #[arg(long, requires = "flight", value_delimiter = ',', value_name = "MRAD")]
+        test_amplitudes: Option<Vec<f64>>,
         /// Runs (seeds) per case.
         #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..=1000))]
         runs: u64,
@@ -599,6 +604,7 @@ fn main() -> ExitCode {
             conditions,
             wind,
             flight,
+            test_amplitudes,
             runs,
             out,
             runs_csv,
@@ -608,7 +614,9 @@ fn main() -> ExitCode {
             day,
         } => with_test(test, encoder_offset, day).and_then(|actuator| match table {
             _ if wind => wind_campaign_command(&actuator, runs, out.as_deref()),
-            _ if flight => flight_campaign_command(&actuator, runs, out.as_deref()),
+            _ if flight => {
+                flight_campaign_command(&actuator, runs, test_amplitudes.as_deref(), out.as_deref())
+            }
             Some(table) if !conditions => campaign_command(
                 &actuator,
                 table,

@@ -50,7 +50,10 @@ fn approach_windows_are_identified_or_named() {
     let read = |faults: [f32; shared::FAULT_COUNT]| {
         let truth = FaultVector::new(faults).expect("a fault vector");
         let sim = rm.simulate(&Scenario::new(truth));
-        assert!(sim.trace.is_flight(), "the window's trace is marked a window of flight");
+        assert!(
+            sim.trace.is_flight(),
+            "the window's trace is marked a window of flight"
+        );
         let measured = sim.trace.measured(&record.params).expect("conditioned");
         let id = identify_window(&sim.trace, &measured, &record, 1).expect("identified");
         // The window's picture: every sample, and the fitted series closer to the measured
@@ -69,7 +72,11 @@ fn approach_windows_are_identified_or_named() {
         let text = std::fs::read_to_string(&svg).expect("written");
         assert!(text.contains("<svg") && text.contains("polyline"));
         let _ = std::fs::remove_file(&svg);
-        (id.verdict, total_error(&id.faults, &truth), id.faults.friction())
+        (
+            id.verdict,
+            total_error(&id.faults, &truth),
+            id.faults.friction(),
+        )
     };
     for friction in [0.0f32, 0.2] {
         let mut faults = *FaultVector::NOMINAL.as_array();
@@ -77,10 +84,16 @@ fn approach_windows_are_identified_or_named() {
         let (verdict, e_tot, read_friction) = read(faults);
         assert_eq!(verdict, Ok(()), "friction {friction}");
         assert!(e_tot < 3.0, "friction {friction}: e_tot {e_tot:.2} %");
-        assert!((read_friction - friction).abs() < 0.05, "friction {friction}: read {read_friction}");
+        assert!(
+            (read_friction - friction).abs() < 0.05,
+            "friction {friction}: read {read_friction}"
+        );
     }
     let (verdict, e_tot, _) = read(host_sim::studies::campaign::MEDIUM);
-    assert!(verdict.is_err(), "Table II medium read within at e_tot {e_tot:.1} %");
+    assert!(
+        verdict.is_err(),
+        "Table II medium read within at e_tot {e_tot:.1} %"
+    );
 }
 
 /// A window of flight keeps its mark through a CSV file (`# test: flight`) and is refused
@@ -107,7 +120,9 @@ fn a_flight_trace_keeps_its_mark() {
     assert_eq!(back.samples().len(), trace.samples().len());
     let dir = std::env::temp_dir().join(format!("ema-fdi-flight-{}.bin", std::process::id()));
     assert!(trace.write(&dir, TraceFormat::Bin).is_err());
-    assert!(!Trace::from_bytes(b"t,theta_cmd,i_a,i_b,i_c,theta_m,theta_u\n0,0,0,0,0,0,0\n")
-        .map(|t| t.is_flight())
-        .unwrap_or(false));
+    assert!(
+        !Trace::from_bytes(b"t,theta_cmd,i_a,i_b,i_c,theta_m,theta_u\n0,0,0,0,0,0,0\n")
+            .map(|t| t.is_flight())
+            .unwrap_or(false)
+    );
 }

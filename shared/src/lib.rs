@@ -61,8 +61,8 @@ pub mod prognosis;
 pub mod random;
 pub mod test_design;
 pub mod trace;
-pub mod window;
 pub mod uncertainty;
+pub mod window;
 
 pub use calibration::Calibration;
 pub use command::ChirpCommand;

@@ -39,9 +39,17 @@ const TREND_ROUNDS: usize = 3;
 
 const GOLDEN_STEPS: usize = 14;
 
+/// The curvature's nuisances: the drift's terms and the load's stiffness and moment.
+const NUISANCES: usize = DRIFT_TERMS + 2;
+
+/// The curvature's runs: the base, one per fault component, one per load parameter.
+const RUNS: usize = FAULT_COUNT + 3;
+
+/// The load parameters' relative step in the curvature.
+const LOAD_STEP: f32 = 0.01;
+
 /// Moments tried by the load fit's scan before its golden-section search.
 const MOMENT_SCAN: usize = 81;
-
 
 /// The commanded user-shaft angle [rad] of each sample of a window, as the controller
 /// followed it (a trace's `theta_cmd`). Past the last sample the last value holds. O(1).
@@ -173,6 +181,8 @@ pub struct WindowProblem<'a, const N: usize> {
     inv_kappa: f32,
     /// Inverse of the weighted Gram matrix of the drift's polynomials.
     drift_inverse: [[f32; DRIFT_TERMS]; DRIFT_TERMS],
+    /// The weighted Gram matrix itself (the curvature's nuisance block).
+    gram: [[f64; DRIFT_TERMS]; DRIFT_TERMS],
     samples: usize,
     /// The error of a model that gives no current [A²·s]: the scale of [`Self::misfit`].
     energy: f32,
@@ -214,35 +224,40 @@ fn weight(delta: f32, inv_kappa: f32) -> f32 {
     1.0 / (delta * delta * inv_kappa + 1.0)
 }
 
-/// Inverts a small symmetric positive-definite matrix (Gauss–Jordan in f64). O(D³).
-fn invert(m: [[f64; DRIFT_TERMS]; DRIFT_TERMS]) -> Option<[[f32; DRIFT_TERMS]; DRIFT_TERMS]> {
+/// Inverts a small regular matrix (Gauss–Jordan with partial pivoting, f64). `None` if it
+/// is singular. O(M³).
+#[allow(clippy::indexing_slicing)] // i, j, row, col < M on fixed M×M arrays
+fn invert<const M: usize>(m: [[f64; M]; M]) -> Option<[[f64; M]; M]> {
     let mut a = m;
-    let mut inv = [[0.0f64; DRIFT_TERMS]; DRIFT_TERMS];
+    let mut inv = [[0.0f64; M]; M];
     for (i, row) in inv.iter_mut().enumerate() {
-        if let Some(x) = row.get_mut(i) {
-            *x = 1.0;
-        }
+        row[i] = 1.0;
     }
-    for col in 0..DRIFT_TERMS {
+    for col in 0..M {
+        let pivot_row = (col..M).max_by(|&x, &y| a[x][col].abs().total_cmp(&a[y][col].abs()))?;
+        a.swap(col, pivot_row);
+        inv.swap(col, pivot_row);
         let pivot = a[col][col];
-        if !(pivot.abs() > 1e-12) {
+        if pivot.is_nan() || pivot.abs() <= 1e-300 {
             return None;
         }
-        for j in 0..DRIFT_TERMS {
+        for j in 0..M {
             a[col][j] /= pivot;
             inv[col][j] /= pivot;
         }
-        for row in 0..DRIFT_TERMS {
+        for row in 0..M {
             if row != col {
                 let factor = a[row][col];
-                for j in 0..DRIFT_TERMS {
-                    a[row][j] -= factor * a[col][j];
-                    inv[row][j] -= factor * inv[col][j];
+                if factor != 0.0 {
+                    for j in 0..M {
+                        a[row][j] -= factor * a[col][j];
+                        inv[row][j] -= factor * inv[col][j];
+                    }
                 }
             }
         }
     }
-    Some(inv.map(|r| r.map(|x| x as f32)))
+    Some(inv)
 }
 
 /// What one evaluation found: the error and the profiled drift's coefficients [A].
@@ -286,12 +301,16 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
                 }
             }
         }
-        let drift_inverse = invert(gram).ok_or(WindowError::Singular)?;
+        let drift_inverse = invert(gram)
+            .ok_or(WindowError::Singular)?
+            .map(|row| row.map(|x| x as f32));
         let (lo, hi) = command
             .samples()
             .iter()
             .take(samples)
-            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &x| (lo.min(x), hi.max(x)));
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &x| {
+                (lo.min(x), hi.max(x))
+            });
         let mut problem = Self {
             measured,
             command,
@@ -299,6 +318,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             load,
             inv_kappa,
             drift_inverse,
+            gram,
             samples,
             energy: 0.0,
             peak_current: reference
@@ -370,7 +390,13 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         let mut previous = 0.0f32;
         let mut squares = 0.0f32;
         let mut projections = [0.0f32; DRIFT_TERMS];
-        for (i, &r) in self.measured.samples().iter().take(self.samples).enumerate() {
+        for (i, &r) in self
+            .measured
+            .samples()
+            .iter()
+            .take(self.samples)
+            .enumerate()
+        {
             let m = modelled(i);
             let d = r - previous;
             previous = r;
@@ -402,51 +428,70 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         }
     }
 
-    /// The Gauss–Newton sums at `k` under the problem's load ([`Curvature`]): one base run
-    /// and one run per component shifted by [`STEP`] (down where up would leave [0, 1]),
-    /// stepped in lockstep, with the drift's polynomials projected out of the residual and
-    /// of every column (`JᵀWJ − BᵀG⁻¹B`, `B = ΦᵀWJ`). Ten model runs, no storage of
-    /// residuals; f64 sums. For the window's uncertainty and its polish.
-    #[allow(clippy::indexing_slicing)] // indices < FAULT_COUNT, DRIFT_TERMS on fixed arrays
+    /// The Gauss–Newton sums at `k` under the problem's load ([`Curvature`]): one base run,
+    /// one run per component shifted by [`STEP`] (down where up would leave [0, 1]) and one
+    /// per fitted load parameter (the stiffness by 1 %, the moment by 1 % of the spring's
+    /// moment at the test's amplitude), stepped in lockstep. The nuisances — the drift's
+    /// polynomials and the two load parameters — are profiled out of the residual and of
+    /// every fault column (the Schur complement `JᵀWJ − CᵀQ⁻¹C`, `Q` the nuisances' normal
+    /// matrix, `C` their cross terms with the faults): an interval then includes what the
+    /// window cannot tell from its load (a moment against friction). Twelve model runs, no
+    /// storage of residuals; f64 sums. For the window's uncertainty and its polish.
+    #[allow(clippy::indexing_slicing)] // indices < FAULT_COUNT, NUISANCES on fixed arrays
     pub fn curvature(&self, k: &FaultVector) -> Curvature {
         let load = self.load;
-        let base_model = self.model.with_load_stiffness(load.stiffness);
         let start = self.measured.initial_angles();
         let first = self.command.position_at(0);
+        let moment_step = LOAD_STEP * load.stiffness * self.model.command().amplitude;
+        let moment_step = if moment_step > 0.0 { moment_step } else { 1.0 };
         let mut steps = [0.0f32; FAULT_COUNT];
-        let runs: [(MonitorModel, crate::monitor::MonitorRun, LowPassState); FAULT_COUNT + 1] =
+        let mut runs: [(MonitorModel, crate::monitor::MonitorRun, LowPassState); RUNS] =
             core::array::from_fn(|j| {
                 let mut genes = *k.as_array();
-                if j > 0 {
+                let (mut stiffness, mut moment) = (load.stiffness, load.moment);
+                if (1..=FAULT_COUNT).contains(&j) {
                     let c = j - 1;
                     let x = genes[c];
-                    let up = x + STEP <= 1.0;
-                    let shifted = if up { x + STEP } else { x - STEP };
+                    let shifted = if x + STEP <= 1.0 { x + STEP } else { x - STEP };
                     steps[c] = shifted - x;
                     genes[c] = shifted;
+                } else if j == FAULT_COUNT + 1 {
+                    stiffness *= 1.0 + LOAD_STEP;
+                } else if j == FAULT_COUNT + 2 {
+                    moment += moment_step;
                 }
-                let (m, r) = base_model.start_loaded_run(
+                let (m, r) = self.model.with_load_stiffness(stiffness).start_loaded_run(
                     &FaultVector::saturating(genes),
                     start,
-                    load.moment,
+                    moment,
                     first,
                 );
                 (m, r, LowPassState::default())
             });
-        let mut runs = runs;
         let filter = self.measured.filter();
         let mut normal = [[0.0f64; FAULT_COUNT]; FAULT_COUNT];
         let mut gradient = [0.0f64; FAULT_COUNT];
         let mut rss = 0.0f64;
-        let mut b = [[0.0f64; FAULT_COUNT]; DRIFT_TERMS];
-        let mut br = [0.0f64; DRIFT_TERMS];
+        // The nuisances' normal matrix, their cross terms with the faults and the residual.
+        let mut q = [[0.0f64; NUISANCES]; NUISANCES];
+        for (row, g) in q.iter_mut().zip(&self.gram) {
+            row[..DRIFT_TERMS].copy_from_slice(g);
+        }
+        let mut cross = [[0.0f64; FAULT_COUNT]; NUISANCES];
+        let mut q_residual = [0.0f64; NUISANCES];
         let mut fitted = 0u32;
         let mut previous = 0.0f32;
-        for (i, &r) in self.measured.samples().iter().take(self.samples).enumerate() {
+        for (i, &r) in self
+            .measured
+            .samples()
+            .iter()
+            .take(self.samples)
+            .enumerate()
+        {
             let x = axis(i, self.samples);
             let push = -load.trend_at(x);
             let command = self.command.position_at(i);
-            let mut current = [0.0f32; FAULT_COUNT + 1];
+            let mut current = [0.0f32; RUNS];
             for ((m, run, state), out) in runs.iter_mut().zip(current.iter_mut()) {
                 if push != 0.0 {
                     run.push_surface(m, push);
@@ -459,15 +504,26 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
                 continue;
             }
             let w = f64::from(weight(d, self.inv_kappa));
-            let e = f64::from(r - current[0]);
+            let base = f64::from(current[0]);
+            let e = f64::from(r) - base;
             let jac: [f64; FAULT_COUNT] = core::array::from_fn(|c| {
                 if steps[c] != 0.0 {
-                    f64::from(current[c + 1] - current[0]) / f64::from(steps[c])
+                    (f64::from(current[c + 1]) - base) / f64::from(steps[c])
                 } else {
                     0.0
                 }
             });
             let phi = legendre(x);
+            // The nuisance columns: the drift's polynomials, then d/d ln K and d/dM.
+            let nuisance: [f64; NUISANCES] = core::array::from_fn(|t| {
+                if t < DRIFT_TERMS {
+                    f64::from(phi[t])
+                } else if t == DRIFT_TERMS {
+                    (f64::from(current[FAULT_COUNT + 1]) - base) / f64::from(LOAD_STEP)
+                } else {
+                    (f64::from(current[FAULT_COUNT + 2]) - base) / f64::from(moment_step)
+                }
+            });
             for a in 0..FAULT_COUNT {
                 gradient[a] += w * jac[a] * e;
                 for c in 0..FAULT_COUNT {
@@ -475,34 +531,69 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
                 }
             }
             rss += w * e * e;
-            for (t, &f) in phi.iter().enumerate() {
-                let wf = w * f64::from(f);
-                br[t] += wf * e;
-                for a in 0..FAULT_COUNT {
-                    b[t][a] += wf * jac[a];
+            for t in 0..NUISANCES {
+                let wn = w * nuisance[t];
+                q_residual[t] += wn * e;
+                for c in 0..FAULT_COUNT {
+                    cross[t][c] += wn * jac[c];
+                }
+                if t >= DRIFT_TERMS {
+                    for u in 0..NUISANCES {
+                        q[t][u] += wn * nuisance[u];
+                        if u < DRIFT_TERMS {
+                            q[u][t] += wn * nuisance[u];
+                        }
+                    }
                 }
             }
             fitted += 1;
         }
-        // Project the drift out: subtract Bᵀ G⁻¹ B (and its residual forms).
-        let g = self.drift_inverse.map(|row| row.map(f64::from));
-        let gb = |col: &dyn Fn(usize) -> f64, t: usize| -> f64 {
-            (0..DRIFT_TERMS).map(|u| g[t][u] * col(u)).sum()
-        };
-        let gbr: [f64; DRIFT_TERMS] = core::array::from_fn(|t| gb(&|u| br[u], t));
-        for a in 0..FAULT_COUNT {
-            let gba: [f64; DRIFT_TERMS] = core::array::from_fn(|t| gb(&|u| b[u][a], t));
-            gradient[a] -= (0..DRIFT_TERMS).map(|t| gba[t] * br[t]).sum::<f64>();
-            for c in 0..FAULT_COUNT {
-                normal[a][c] -= (0..DRIFT_TERMS).map(|t| gba[t] * b[t][c]).sum::<f64>();
+        // Profile the nuisances out (a regular Q; a singular one leaves the sums as they are).
+        if let Some(qi) = invert(q) {
+            let solve = |v: &dyn Fn(usize) -> f64| -> [f64; NUISANCES] {
+                core::array::from_fn(|t| (0..NUISANCES).map(|u| qi[t][u] * v(u)).sum())
+            };
+            let qr = solve(&|u| q_residual[u]);
+            rss -= (0..NUISANCES).map(|t| qr[t] * q_residual[t]).sum::<f64>();
+            for a in 0..FAULT_COUNT {
+                let qa = solve(&|u| cross[u][a]);
+                gradient[a] -= (0..NUISANCES).map(|t| qa[t] * q_residual[t]).sum::<f64>();
+                for c in 0..FAULT_COUNT {
+                    normal[a][c] -= (0..NUISANCES).map(|t| qa[t] * cross[t][c]).sum::<f64>();
+                }
             }
         }
-        rss -= (0..DRIFT_TERMS).map(|t| gbr[t] * br[t]).sum::<f64>();
         Curvature {
             normal,
             rss: rss.max(0.0),
             gradient,
             fitted,
+        }
+    }
+
+    /// How much the window's load moved beyond its spring: the RMS over the window of the
+    /// load's trend and of the drift `fit` profiled out (as a moment: amperes times the
+    /// torque constant and the gear ratio), without their constant parts, over the spring's
+    /// moment at the test's amplitude. The turbulence the window carried (0 in still air).
+    pub fn unmodelled_moment(&self, fit: &WindowFit) -> f32 {
+        let per_ampere = self.model.torque_constant() * self.model.params().gear_ratio;
+        let square: f32 = self
+            .load
+            .trend
+            .iter()
+            .zip(&fit.drift)
+            .enumerate()
+            .skip(1)
+            .map(|(j, (t, d))| {
+                let m = t + per_ampere * d;
+                m * m / (2 * j + 1) as f32
+            })
+            .sum();
+        let spring = self.load.stiffness * self.model.command().amplitude;
+        if spring > 0.0 {
+            crate::math::sqrt(square) / spring
+        } else {
+            f32::INFINITY
         }
     }
 
@@ -540,7 +631,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             });
         }
         let misfit = self.misfit(error);
-        if !(misfit <= limits.max_misfit) {
+        if misfit.is_nan() || misfit > limits.max_misfit {
             return Err(WindowReason::FitnessFloor { misfit });
         }
         // The play: the fit with no backlash against the fit with a wide one, at `k`. If
@@ -554,7 +645,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             self.evaluate(&FaultVector::saturating(genes)).error
         };
         let contrast = abs(with_play(PLAY_PROBE) - with_play(0.0)) / error.max(f32::MIN_POSITIVE);
-        if !(contrast >= limits.min_play_contrast) {
+        if contrast.is_nan() || contrast < limits.min_play_contrast {
             return Err(WindowReason::PlayUnseen { contrast });
         }
         Ok(())
@@ -573,7 +664,13 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         let filter = self.measured.filter();
         let mut state = LowPassState::default();
         let dt = self.model.params().control_period;
-        for (i, &r) in self.measured.samples().iter().take(self.samples).enumerate() {
+        for (i, &r) in self
+            .measured
+            .samples()
+            .iter()
+            .take(self.samples)
+            .enumerate()
+        {
             let x = axis(i, self.samples);
             run.push_surface(&model, -load.trend_at(x));
             let sample = run.next_sample(&model, self.command.position_at(i));
@@ -624,7 +721,9 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         load.moment = best.0;
         let ln = crate::math::ln;
         let range_k = (ln(stiffness_guess / 3.0), ln(stiffness_guess * 3.0));
-        let (log_k, _) = golden(range_k, |x| self.evaluate_under(k, stiffness_at(load, x)).error);
+        let (log_k, _) = golden(range_k, |x| {
+            self.evaluate_under(k, stiffness_at(load, x)).error
+        });
         load = stiffness_at(load, log_k);
         let (moment, _) = golden((best.0 - cell, best.0 + cell), |m| {
             self.evaluate_under(k, at_moment(load, m)).error
@@ -632,7 +731,9 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         load.moment = moment;
         load = self.follow_trend(k, load);
         let narrow = (log_k - 0.3, log_k + 0.3);
-        let (log_k, _) = golden(narrow, |x| self.evaluate_under(k, stiffness_at(load, x)).error);
+        let (log_k, _) = golden(narrow, |x| {
+            self.evaluate_under(k, stiffness_at(load, x)).error
+        });
         load = self.follow_trend(k, stiffness_at(load, log_k));
         (load, self.evaluate_under(k, load).error)
     }
@@ -726,8 +827,8 @@ mod tests {
         use crate::params::ActuatorParams;
         use crate::{Calibration, ShaftAngles};
         let params = ActuatorParams::REFERENCE;
-        let model = MonitorModel::new(params, &Calibration::REFERENCE_ACTUATOR)
-            .with_load_stiffness(6.5e4);
+        let model =
+            MonitorModel::new(params, &Calibration::REFERENCE_ACTUATOR).with_load_stiffness(6.5e4);
         let start = ShaftAngles {
             motor: 1.3,
             user: 2.0e-3,
@@ -740,14 +841,26 @@ mod tests {
             let (m, mut run) = model.start_loaded_run(&k, start, moment, start.user);
             let first = run.next_sample(&m, start.user);
             let held = moment / (params.gear_ratio * model.torque_constant());
-            assert!((first.current - held).abs() < 0.02 * held.abs() + 1e-6, "{moment}: {first:?}");
+            assert!(
+                (first.current - held).abs() < 0.02 * held.abs() + 1e-6,
+                "{moment}: {first:?}"
+            );
             let mut last = first;
             for _ in 0..2000 {
                 last = run.next_sample(&m, start.user);
             }
-            assert!((last.current - first.current).abs() < 0.01 * held.abs() + 1e-3, "{moment}: {last:?}");
-            assert!((last.user_angle - start.user).abs() < 1e-6, "{moment}: {last:?}");
-            assert!((last.motor_angle - start.motor).abs() < 1e-4, "{moment}: {last:?}");
+            assert!(
+                (last.current - first.current).abs() < 0.01 * held.abs() + 1e-3,
+                "{moment}: {last:?}"
+            );
+            assert!(
+                (last.user_angle - start.user).abs() < 1e-6,
+                "{moment}: {last:?}"
+            );
+            assert!(
+                (last.motor_angle - start.motor).abs() < 1e-4,
+                "{moment}: {last:?}"
+            );
         }
     }
 
@@ -779,6 +892,7 @@ mod tests {
     }
 
     #[test]
+    #[allow(clippy::needless_range_loop)] // a matrix product written as one
     fn inverse_of_a_gram_matrix() {
         // A symmetric, diagonally dominant matrix: the Gram matrix's kind.
         let m: [[f64; DRIFT_TERMS]; DRIFT_TERMS] = core::array::from_fn(|i| {
@@ -793,7 +907,7 @@ mod tests {
         let inv = invert(m).expect("regular");
         for i in 0..DRIFT_TERMS {
             for j in 0..DRIFT_TERMS {
-                let x: f64 = (0..DRIFT_TERMS).map(|k| m[i][k] * f64::from(inv[k][j])).sum();
+                let x: f64 = (0..DRIFT_TERMS).map(|k| m[i][k] * inv[k][j]).sum();
                 let want = if i == j { 1.0 } else { 0.0 };
                 assert!((x - want).abs() < 1e-5, "{i},{j}: {x}");
             }

@@ -307,8 +307,34 @@ pub(crate) fn wind_campaign_command(
 pub(crate) fn flight_campaign_command(
     actuator: &Actuator,
     runs: u64,
+    amplitudes: Option<&[f64]>,
     out: Option<&Path>,
 ) -> Result<()> {
+    if let Some(amplitudes) = amplitudes {
+        use host_sim::studies::flight::{amplitude_markdown, test_amplitude_study};
+        if amplitudes
+            .iter()
+            .any(|a| !(a.is_finite() && *a > 0.0 && *a <= 50.0))
+        {
+            anyhow::bail!("--test-amplitudes: each amplitude in (0, 50] mrad");
+        }
+        let rm = ReferenceModel::new(actuator.reference_settings()?);
+        let start = Instant::now();
+        let radians: Vec<f32> = amplitudes.iter().map(|a| (a * 1e-3) as f32).collect();
+        let total = 4 * radians.len();
+        let mut done = 0;
+        let study = test_amplitude_study(&rm, &actuator.record, &radians, runs, |a, row| {
+            done += 1;
+            eprintln!(
+                "[{done}/{total}] {:.2} mrad: {} in {:?} turbulence ({:.0} s)",
+                1e3 * a,
+                row.case,
+                row.window.turbulence,
+                start.elapsed().as_secs_f64()
+            );
+        })?;
+        return report_table(&amplitude_markdown(&study, &actuator.name), start, out);
+    }
     use host_sim::studies::flight::{flight_campaign, flight_markdown, FLIGHT_CASES};
     let rm = ReferenceModel::new(actuator.reference_settings()?);
     let start = Instant::now();

@@ -244,7 +244,14 @@ pub(crate) fn identify_command(
                 trace_path.display()
             );
         }
-        return window_report(actuator, &trace, &trace_path.display().to_string(), seed, truth, json);
+        return window_report(
+            actuator,
+            &trace,
+            &trace_path.display().to_string(),
+            seed,
+            truth,
+            json,
+        );
     }
     let (record, cal_name) = load_record(actuator, calibration, trace.test())?;
     let measured = trace.measured(&record.params)?;
@@ -342,7 +349,12 @@ pub(crate) fn window_report(
     let verdict = window_reason(&id.verdict);
     let e_tot = truth.map(|t| shared::metrics::total_error(&id.faults, &t));
     if json {
-        let faults: Vec<String> = id.faults.as_array().iter().map(|x| format!("{x}")).collect();
+        let faults: Vec<String> = id
+            .faults
+            .as_array()
+            .iter()
+            .map(|x| format!("{x}"))
+            .collect();
         println!(
             "{{\"trace\":{:?},\"window\":true,\"verdict\":{verdict:?},\"reason\":{:?},\
              \"faults\":[{}],\"misfit\":{},\"stiffness\":{},\"moment\":{},\"e_tot\":{}}}",
@@ -356,7 +368,10 @@ pub(crate) fn window_report(
         );
         return Ok(());
     }
-    println!("window of flight: {source} ({}, GA seed {seed})", actuator.name);
+    println!(
+        "window of flight: {source} ({}, GA seed {seed})",
+        actuator.name
+    );
     match id.verdict {
         Ok(()) => println!("verdict: within (the window identified)"),
         Err(reason) => println!(

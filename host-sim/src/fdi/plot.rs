@@ -125,14 +125,23 @@ pub fn window_svg(
         let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
             (lo.min(v), hi.max(v))
         });
-        let (lo, hi) = if lo.is_finite() { (lo, hi) } else { (-1.0, 1.0) };
+        let (lo, hi) = if lo.is_finite() {
+            (lo, hi)
+        } else {
+            (-1.0, 1.0)
+        };
         let pad = 0.05 * (hi - lo).max(1e-3);
         (lo - pad)..(hi + pad)
     };
     let root = SVGBackend::new(out, (1100, 800)).into_drawing_area();
     root.fill(&WHITE).map_err(e)?;
     let (upper, lower) = root.split_vertically(330);
-    let angles = range(&mut points.iter().flat_map(|p| [p.1, p.2]).map(|x| 1e3 * f64::from(x)));
+    let angles = range(
+        &mut points
+            .iter()
+            .flat_map(|p| [p.1, p.2])
+            .map(|x| 1e3 * f64::from(x)),
+    );
     let mut chart = ChartBuilder::on(&upper)
         .caption(title, ("sans-serif", 18))
         .margin(12)
@@ -176,7 +185,11 @@ pub fn window_svg(
         .map_err(e)?;
     for (pick, colour, label) in [
         (3usize, BLUE, "measured"),
-        (4, RGBColor(255, 160, 160), "monitor model (fitted load, identified faults)"),
+        (
+            4,
+            RGBColor(255, 160, 160),
+            "monitor model (fitted load, identified faults)",
+        ),
         (5, RED, "monitor model + profiled drift"),
     ] {
         let series = points.iter().map(move |p| {

@@ -2,16 +2,16 @@
 //! window's load fitted at the nominal vector, the GA over the faults under it, the load
 //! fitted again at the GA's best and the GA run again from that load, the better of the two polished by damped Gauss–Newton steps on
 //! the window's curvature, and the uncertainty there. Two GA runs of the actuator's settings,
-//! 2 × [`LOAD_SEARCH_EVALUATIONS`] and at most 76 more monitor-model runs: ≈ 0.5 s on one core.
+//! 2 × [`LOAD_SEARCH_EVALUATIONS`] and at most 90 more monitor-model runs: ≈ 0.5 s on one core.
 
 use anyhow::Result;
 use shared::actuator::ActuatorRecord;
 use shared::conditions::TestConditions;
 use shared::fdi::{OnboardMeasured, POPULATION};
+use shared::uncertainty::{Assessment, Uncertainty};
 use shared::window::{
     RecordedCommand, WindowLimits, WindowLoad, WindowProblem, WindowReason, LOAD_SEARCH_EVALUATIONS,
 };
-use shared::uncertainty::{Assessment, Uncertainty};
 use shared::{FaultVector, MonitorModel, SteadyStateGa, FAULT_COUNT};
 
 use crate::files::trace::Trace;
@@ -32,6 +32,9 @@ pub struct WindowIdentified {
     pub evaluations: u32,
     /// The share of the measured current the fit leaves unexplained.
     pub misfit: f32,
+    /// The load's movement beyond its spring over the spring's moment at the test's
+    /// amplitude (`WindowProblem::unmodelled_moment`).
+    pub turbulence: f32,
     /// The window's own verdict (`Err`: `Outside`, never identified).
     pub verdict: Result<(), WindowReason>,
     /// Standard deviation and 90 % interval per component, with the correlations, from the
@@ -44,11 +47,14 @@ impl WindowIdentified {
     pub fn assessments(&self) -> [Assessment; FAULT_COUNT] {
         match &self.uncertainty {
             Some((u, c)) => u.assess(&self.faults, c),
-            None => self.faults.verdicts_at(shared::fault::DETECTION_THRESHOLD).map(|v| match v {
-                shared::Verdict::Healthy => Assessment::Healthy,
-                shared::Verdict::Faulty => Assessment::Suspect,
-                shared::Verdict::NotApplicable => Assessment::NotApplicable,
-            }),
+            None => self
+                .faults
+                .verdicts_at(shared::fault::DETECTION_THRESHOLD)
+                .map(|v| match v {
+                    shared::Verdict::Healthy => Assessment::Healthy,
+                    shared::Verdict::Faulty => Assessment::Suspect,
+                    shared::Verdict::NotApplicable => Assessment::NotApplicable,
+                }),
         }
     }
 }
@@ -56,6 +62,9 @@ impl WindowIdentified {
 /// Gauss–Newton steps of the polish at most, and their first damping.
 const POLISH_STEPS: usize = 6;
 const POLISH_DAMPING: f64 = 0.1;
+
+/// Model runs of one window curvature (`WindowProblem::curvature`).
+const CURVATURE_RUNS: u32 = shared::FAULT_COUNT as u32 + 3;
 
 /// The commanded angle of every frame of `trace` [rad].
 pub fn recorded_command(trace: &Trace) -> Vec<f32> {
@@ -69,7 +78,10 @@ fn window_problem<'a>(
     measured: &'a OnboardMeasured,
     record: &ActuatorRecord,
     load: WindowLoad,
-) -> Result<(WindowProblem<'a, { shared::fdi::TEST_SAMPLES }>, TestConditions)> {
+) -> Result<(
+    WindowProblem<'a, { shared::fdi::TEST_SAMPLES }>,
+    TestConditions,
+)> {
     let conditions = TestConditions::estimate(measured, &record.params, &record.calibration);
     let model = MonitorModel::new(record.params, &record.calibration)
         .with_test(measured.test())
@@ -148,7 +160,7 @@ pub fn identify_window(
     let (mut faults, mut fit) = (best, fit);
     let mut damping = POLISH_DAMPING;
     let mut curvature = problem.curvature(&faults);
-    evaluations += 10;
+    evaluations += CURVATURE_RUNS;
     for _ in 0..POLISH_STEPS {
         let Some(next) = curvature.gauss_newton_step(&faults, damping) else {
             break;
@@ -159,7 +171,7 @@ pub fn identify_window(
             (faults, fit) = (next, next_fit);
             damping = (damping * 0.3).max(1e-3);
             curvature = problem.curvature(&faults);
-            evaluations += 10;
+            evaluations += CURVATURE_RUNS;
         } else {
             damping *= 10.0;
         }
@@ -169,6 +181,7 @@ pub fn identify_window(
         faults,
         fitness: fit.error,
         misfit: problem.misfit(fit.error),
+        turbulence: problem.unmodelled_moment(&fit),
         verdict: problem.judge(&WindowLimits::REFERENCE, &faults, fit.error),
         uncertainty,
         load,

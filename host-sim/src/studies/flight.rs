@@ -19,10 +19,10 @@ use shared::{Calibration, FaultVector};
 
 use crate::fdi::identify::identify_for;
 use crate::fdi::window::identify_window;
-use shared::uncertainty::{Assessment, Uncertainty};
-use shared::window::WindowReason;
 use crate::plant::aero::{FlightPhase, FlightWindow, Turbulence};
 use crate::plant::reference::{ReferenceModel, Scenario};
+use shared::uncertainty::{Assessment, Uncertainty};
+use shared::window::WindowReason;
 
 /// The cases: the healthy actuator, friction 0.2 and Table II medium.
 pub const FLIGHT_CASES: [(&str, [f32; shared::FAULT_COUNT]); 3] = [
@@ -102,26 +102,89 @@ pub fn flight_record(record: &ActuatorRecord) -> ActuatorRecord {
     }
 }
 
+/// Every phase in both turbulences.
+pub const ALL_WINDOWS: [FlightWindow; 6] = [
+    window(FlightPhase::Climb, Turbulence::Light),
+    window(FlightPhase::Climb, Turbulence::Moderate),
+    window(FlightPhase::Cruise, Turbulence::Light),
+    window(FlightPhase::Cruise, Turbulence::Moderate),
+    window(FlightPhase::Approach, Turbulence::Light),
+    window(FlightPhase::Approach, Turbulence::Moderate),
+];
+
+const fn window(phase: FlightPhase, turbulence: Turbulence) -> FlightWindow {
+    FlightWindow { phase, turbulence }
+}
+
 /// Every case in every phase and turbulence, `runs` seeds each.
 pub fn flight_campaign(
     rm: &ReferenceModel,
     record: &ActuatorRecord,
     runs: u64,
+    progress: impl FnMut(&FlightRow),
+) -> Result<Vec<FlightRow>> {
+    fly_windows(
+        rm,
+        record,
+        &flight_record(record),
+        runs,
+        &ALL_WINDOWS,
+        &FLIGHT_CASES,
+        progress,
+    )
+}
+
+/// The test amplitudes [rad] the superimposed-test study tries, in cruise.
+pub const TEST_AMPLITUDES: [f32; 4] = [1.25e-3, 2.5e-3, 5.0e-3, 10.0e-3];
+
+/// The superimposed test's amplitude (docs/in-flight.md §5): in cruise, light and moderate
+/// turbulence, the healthy actuator and friction 0.2, `runs` seeds, the window's chirp at
+/// each of `amplitudes` [rad] (the preflight beside it keeps its own test). One set of rows
+/// per amplitude.
+pub fn test_amplitude_study(
+    rm: &ReferenceModel,
+    record: &ActuatorRecord,
+    amplitudes: &[f32],
+    runs: u64,
+    mut progress: impl FnMut(f32, &FlightRow),
+) -> Result<Vec<(f32, Vec<FlightRow>)>> {
+    let windows = [
+        window(FlightPhase::Cruise, Turbulence::Light),
+        window(FlightPhase::Cruise, Turbulence::Moderate),
+    ];
+    let cases = [FLIGHT_CASES[0], FLIGHT_CASES[1]];
+    amplitudes
+        .iter()
+        .map(|&a| {
+            let mut window_record = flight_record(record);
+            window_record.test.chirp.amplitude = a;
+            let rows = fly_windows(rm, record, &window_record, runs, &windows, &cases, |row| {
+                progress(a, row)
+            })?;
+            Ok((a, rows))
+        })
+        .collect()
+}
+
+/// `cases` in `windows`, `runs` seeds each: the window played with `record`'s test and
+/// identified with it, and the same flight's preflight with `ground_record`.
+fn fly_windows(
+    rm: &ReferenceModel,
+    ground_record: &ActuatorRecord,
+    record: &ActuatorRecord,
+    runs: u64,
+    windows: &[FlightWindow],
+    cases: &[(&'static str, [f32; shared::FAULT_COUNT])],
     mut progress: impl FnMut(&FlightRow),
 ) -> Result<Vec<FlightRow>> {
-    let ground_record = *record;
+    let ground_record = *ground_record;
     let ground = rm.with_test(ground_record.test);
-    let record = flight_record(record);
+    let record = *record;
     let rm = rm.with_test(record.test);
     let mut rows = Vec::new();
-    for phase in [
-        FlightPhase::Climb,
-        FlightPhase::Cruise,
-        FlightPhase::Approach,
-    ] {
-        for turbulence in [Turbulence::Light, Turbulence::Moderate] {
-            let window = FlightWindow { phase, turbulence };
-            for (case, faults) in FLIGHT_CASES {
+    {
+        for &window in windows {
+            for &(case, faults) in cases {
                 let truth = FaultVector::new(faults).map_err(|e| anyhow::anyhow!("{e:?}"))?;
                 let flying = rm.with_flight(Some(window));
                 let runs = (0..runs)
@@ -269,9 +332,10 @@ pub fn flight_markdown(rows: &[FlightRow], actuator: &str) -> String {
         within_total += within.len();
         wrong += e.iter().filter(|&&x| x > 6.0).count();
         total += row.runs.len();
-        let healthy = within.iter().map(|r| r.healthy_max).fold(None, |m: Option<f32>, x| {
-            Some(m.map_or(x, |m| m.max(x)))
-        });
+        let healthy = within
+            .iter()
+            .map(|r| r.healthy_max)
+            .fold(None, |m: Option<f32>, x| Some(m.map_or(x, |m| m.max(x))));
         let false_faults: usize = within.iter().map(|r| r.false_faults).sum();
         let (h, n) = within
             .iter()
@@ -337,5 +401,44 @@ pub fn flight_markdown(rows: &[FlightRow], actuator: &str) -> String {
     text.push_str(&format!(
         "\n{within_total} of {total} windows left `within`.\n"
     ));
+    text
+}
+
+/// The superimposed-test study as Markdown: per amplitude, window and case, the windows
+/// identified, their median and worst e_tot, the false `FAULT` verdicts.
+pub fn amplitude_markdown(study: &[(f32, Vec<FlightRow>)], actuator: &str) -> String {
+    let runs = study
+        .first()
+        .and_then(|(_, rows)| rows.first())
+        .map_or(0, |r| r.runs.len());
+    let mut text = format!(
+        "### The superimposed test's amplitude in cruise: {actuator}, {runs} runs per row\n\n\
+         The window's chirp (0 → 15 Hz in 0.5 s) at each amplitude on the flight control \
+         computer's corrections; the window identification. Identified: windows `within`; \
+         e_tot [%] over them; false `FAULT`: verdicts on healthy components.\n\n\
+         | amplitude [mrad] | turbulence | case | identified | median e_tot | max e_tot | \
+         false FAULT |\n\
+         | ---: | --- | --- | ---: | ---: | ---: | ---: |\n"
+    );
+    for (a, rows) in study {
+        for row in rows {
+            let within: Vec<&FlightRun> = row.runs.iter().filter(|r| r.window.0.is_ok()).collect();
+            let e: Vec<f64> = within.iter().map(|r| r.window.1).collect();
+            text.push_str(&format!(
+                "| {:.2} | {:?} | {} | {} of {} | {} | {} | {} |\n",
+                1e3 * a,
+                row.window.turbulence,
+                row.case,
+                within.len(),
+                row.runs.len(),
+                median(e.clone()).map_or("–".into(), |m| format!("{m:.1}")),
+                e.iter()
+                    .copied()
+                    .reduce(f64::max)
+                    .map_or("–".into(), |m| format!("{m:.1}")),
+                within.iter().map(|r| r.false_faults).sum::<usize>(),
+            ));
+        }
+    }
     text
 }
