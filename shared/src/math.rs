@@ -171,13 +171,12 @@ pub fn sqrt64(x: f64) -> f64 {
 /// uncertainty uses it; a smaller system is padded with an identity block).
 pub const INVERT_N: usize = 9;
 
-/// Inverse of a symmetric positive-definite 9×9 matrix (Gauss–Jordan, partial pivoting);
-/// `None` if singular. O(9³), no allocation. One copy for the uncertainty, the polish and the
-/// grease's fit.
-#[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // fixed 9×9 bounds
+/// Inverse of a regular N×N matrix (Gauss–Jordan, partial pivoting); `None` if singular.
+/// O(N³), no allocation. One copy of the 9×9 ([`INVERT_N`]) for the uncertainty, the polish
+/// and the grease's fit; the window's nuisances use their own size (host only).
+#[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // fixed N×N bounds
 #[inline(never)]
-pub fn invert(m: &[[f64; INVERT_N]; INVERT_N]) -> Option<[[f64; INVERT_N]; INVERT_N]> {
-    const N: usize = INVERT_N;
+pub fn invert<const N: usize>(m: &[[f64; N]; N]) -> Option<[[f64; N]; N]> {
     let mut a = *m;
     let mut inv = [[0.0f64; N]; N];
     for (i, row) in inv.iter_mut().enumerate() {

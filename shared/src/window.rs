@@ -20,7 +20,7 @@ use crate::command::CommandSource;
 use crate::conditioning::{LowPassState, MeasuredCurrent};
 use crate::fault::{FaultVector, FAULT_COUNT};
 use crate::ga::Problem;
-use crate::math::abs;
+use crate::math::{abs, invert};
 use crate::monitor::MonitorModel;
 use crate::uncertainty::{Curvature, STEP};
 
@@ -224,42 +224,6 @@ fn weight(delta: f32, inv_kappa: f32) -> f32 {
     1.0 / (delta * delta * inv_kappa + 1.0)
 }
 
-/// Inverts a small regular matrix (Gauss–Jordan with partial pivoting, f64). `None` if it
-/// is singular. O(M³).
-#[allow(clippy::indexing_slicing)] // i, j, row, col < M on fixed M×M arrays
-fn invert<const M: usize>(m: [[f64; M]; M]) -> Option<[[f64; M]; M]> {
-    let mut a = m;
-    let mut inv = [[0.0f64; M]; M];
-    for (i, row) in inv.iter_mut().enumerate() {
-        row[i] = 1.0;
-    }
-    for col in 0..M {
-        let pivot_row = (col..M).max_by(|&x, &y| a[x][col].abs().total_cmp(&a[y][col].abs()))?;
-        a.swap(col, pivot_row);
-        inv.swap(col, pivot_row);
-        let pivot = a[col][col];
-        if pivot.is_nan() || pivot.abs() <= 1e-300 {
-            return None;
-        }
-        for j in 0..M {
-            a[col][j] /= pivot;
-            inv[col][j] /= pivot;
-        }
-        for row in 0..M {
-            if row != col {
-                let factor = a[row][col];
-                if factor != 0.0 {
-                    for j in 0..M {
-                        a[row][j] -= factor * a[col][j];
-                        inv[row][j] -= factor * inv[col][j];
-                    }
-                }
-            }
-        }
-    }
-    Some(inv)
-}
-
 /// What one evaluation found: the error and the profiled drift's coefficients [A].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WindowFit {
@@ -301,7 +265,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
                 }
             }
         }
-        let drift_inverse = invert(gram)
+        let drift_inverse = invert(&gram)
             .ok_or(WindowError::Singular)?
             .map(|row| row.map(|x| x as f32));
         let (lo, hi) = command
@@ -549,7 +513,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             fitted += 1;
         }
         // Profile the nuisances out (a regular Q; a singular one leaves the sums as they are).
-        if let Some(qi) = invert(q) {
+        if let Some(qi) = invert(&q) {
             let solve = |v: &dyn Fn(usize) -> f64| -> [f64; NUISANCES] {
                 core::array::from_fn(|t| (0..NUISANCES).map(|u| qi[t][u] * v(u)).sum())
             };
@@ -904,7 +868,7 @@ mod tests {
                 }
             })
         });
-        let inv = invert(m).expect("regular");
+        let inv = invert(&m).expect("regular");
         for i in 0..DRIFT_TERMS {
             for j in 0..DRIFT_TERMS {
                 let x: f64 = (0..DRIFT_TERMS).map(|k| m[i][k] * inv[k][j]).sum();
@@ -912,6 +876,6 @@ mod tests {
                 assert!((x - want).abs() < 1e-5, "{i},{j}: {x}");
             }
         }
-        assert!(invert([[0.0; DRIFT_TERMS]; DRIFT_TERMS]).is_none());
+        assert!(invert(&[[0.0; DRIFT_TERMS]; DRIFT_TERMS]).is_none());
     }
 }
