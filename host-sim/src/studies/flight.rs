@@ -416,19 +416,20 @@ pub fn amplitude_markdown(study: &[(f32, Vec<FlightRow>)], actuator: &str) -> St
          The window's chirp (0 → 15 Hz in 0.5 s) at each amplitude on the flight control \
          computer's corrections; the window identification. Identified: windows `within`; \
          e_tot [%] over them; false `FAULT`: verdicts on healthy components.\n\n\
-         | amplitude [mrad] | turbulence | case | identified | median e_tot | max e_tot | \
-         false FAULT |\n\
-         | ---: | --- | --- | ---: | ---: | ---: | ---: |\n"
+         | amplitude [mrad] | turbulence | case | verdicts | identified | median e_tot | \
+         max e_tot | false FAULT |\n\
+         | ---: | --- | --- | --- | ---: | ---: | ---: | ---: |\n"
     );
     for (a, rows) in study {
         for row in rows {
             let within: Vec<&FlightRun> = row.runs.iter().filter(|r| r.window.0.is_ok()).collect();
             let e: Vec<f64> = within.iter().map(|r| r.window.1).collect();
             text.push_str(&format!(
-                "| {:.2} | {:?} | {} | {} of {} | {} | {} | {} |\n",
+                "| {:.2} | {:?} | {} | {} | {} of {} | {} | {} | {} |\n",
                 1e3 * a,
                 row.window.turbulence,
                 row.case,
+                tally(row.runs.iter().map(|r| window_reason(&r.window.0))),
                 within.len(),
                 row.runs.len(),
                 median(e.clone()).map_or("–".into(), |m| format!("{m:.1}")),
