@@ -11,10 +11,17 @@
 //! what the window's load does slowly that the model does not play — turbulence on the
 //! incidence, a trim change — which the loop answers with current. Units: A²·s, rad, N·m.
 //!
+//! The load's stiffness, moment and trend are nuisances fitted per window
+//! ([`WindowProblem::fit_load`]); the uncertainty's curvature profiles them out beside the
+//! drift ([`WindowProblem::curvature`]); [`WindowProblem::judge`] gives the window's own
+//! `Outside` reasons ([`WindowReason`]).
+//!
 //! Work: one evaluation = one monitor-model run over the window (O(N), `DRIFT_TERMS`
-//! multiply-adds more per sample) and O(`DRIFT_TERMS²`); [`WindowProblem::fit_load`] is a
-//! fixed number of evaluations ([`LOAD_SEARCH_EVALUATIONS`]). No allocation, no panic.
-//! Built on the host today; the controller's image has no flash left for it (docs/in-flight.md).
+//! multiply-adds more per sample) and O(`DRIFT_TERMS²`); [`WindowProblem::fit_load`] is at
+//! most [`LOAD_SEARCH_EVALUATIONS`] evaluations; a curvature twelve lockstep runs and
+//! O(N·(9 + 12)²) f64 multiply-adds; a judgement two evaluations. No allocation, no panic.
+//! Built on the host today; the controller's images have no flash left for it
+//! (docs/in-flight.md §6).
 
 use crate::command::CommandSource;
 use crate::conditioning::{LowPassState, MeasuredCurrent};
@@ -28,7 +35,7 @@ use crate::uncertainty::{Curvature, STEP};
 /// surface was moving with the flight's commands.
 pub const SETTLE_SAMPLES: usize = 200;
 
-/// Terms of the profiled drift (Legendre polynomials of degree 0 … 5).
+/// Terms of the profiled drift (Legendre polynomials of degree 0 … 9).
 pub const DRIFT_TERMS: usize = 10;
 
 /// Fitness evaluations one [`WindowProblem::fit_load`] spends at most.
