@@ -349,23 +349,19 @@ pub(crate) fn window_report(
     let verdict = window_reason(&id.verdict);
     let e_tot = truth.map(|t| shared::metrics::total_error(&id.faults, &t));
     if json {
-        let faults: Vec<String> = id
-            .faults
-            .as_array()
-            .iter()
-            .map(|x| format!("{x}"))
-            .collect();
-        println!(
-            "{{\"trace\":{:?},\"window\":true,\"verdict\":{verdict:?},\"reason\":{:?},\
-             \"faults\":[{}],\"misfit\":{},\"stiffness\":{},\"moment\":{},\"e_tot\":{}}}",
-            source,
-            format!("{:?}", id.verdict),
-            faults.join(","),
-            id.misfit,
-            id.load.stiffness,
-            id.load.moment,
-            e_tot.map_or("null".to_string(), |e| format!("{e}")),
-        );
+        let obj = serde_json::json!({
+            "trace": source,
+            "window": true,
+            "verdict": verdict,
+            "reason": format!("{:?}", id.verdict),
+            "faults": id.faults.as_array().to_vec(),
+            "misfit": id.misfit,
+            "stiffness": id.load.stiffness,
+            "moment": id.load.moment,
+            "e_tot": e_tot,
+            "seconds": seconds,
+        });
+        println!("{obj}");
         return Ok(());
     }
     println!(
