@@ -57,7 +57,7 @@ pub(crate) const EXIT_HELP: &str =
     "Exit status: 0 done; 1 error; 2 usage; 3 trace refused (the message \
 names the field and the line or row); 4 identify/preflight: the actuator is outside the monitor \
 model's domain (jammed, open phase, another command, unexplained residual; the result is \
-printed but must not be acted on); 5 identify stopped by --stop-after (checkpoint written); \
+printed but must not be acted on), or a window of flight was named outside (its reason printed); 5 identify stopped by --stop-after (checkpoint written); \
 7 the --actuator file was refused (the message names the key and its line).";
 
 /// Exit status when the actuator file or record is refused.

@@ -362,7 +362,7 @@ pub(crate) fn window_report(
             "seconds": seconds,
         });
         println!("{obj}");
-        return Ok(());
+        return window_status(&id.verdict);
     }
     println!(
         "window of flight: {source} ({}, GA seed {seed})",
@@ -391,5 +391,14 @@ pub(crate) fn window_report(
         println!("e_tot against the truth: {e:.2} %");
     }
     println!("{} model runs, {seconds:.2} s", id.evaluations);
-    Ok(())
+    window_status(&id.verdict)
+}
+
+/// The exit status of a window's report: outside is [`EXIT_OUTSIDE_DOMAIN`], as for a
+/// preflight.
+fn window_status(verdict: &Result<(), shared::window::WindowReason>) -> Result<()> {
+    match verdict {
+        Ok(()) => Ok(()),
+        Err(_) => Err(ExitWith(EXIT_OUTSIDE_DOMAIN).into()),
+    }
 }
