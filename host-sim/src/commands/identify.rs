@@ -356,6 +356,7 @@ pub(crate) fn window_report(
             "reason": format!("{:?}", id.verdict),
             "faults": id.faults.as_array().to_vec(),
             "misfit": id.misfit,
+            "turbulence": id.turbulence,
             "stiffness": id.load.stiffness,
             "moment": id.load.moment,
             "e_tot": e_tot,
@@ -377,11 +378,13 @@ pub(crate) fn window_report(
     }
     println!(
         "load fitted: stiffness {:.0} N·m/rad, moment at the start {:.1} N·m; fit {:.3e} A²·s, \
-         {:.2} % of the current unexplained",
+         {:.2} % of the current unexplained; the load moved beyond its spring by {:.0} % of \
+         the test's moment (RMS: turbulence, trim)",
         id.load.stiffness,
         id.load.moment,
         id.fitness,
-        100.0 * id.misfit
+        100.0 * id.misfit,
+        100.0 * id.turbulence
     );
     let names = shared::fault::FAULT_NAMES;
     for (name, k) in names.iter().zip(id.faults.as_array()) {
