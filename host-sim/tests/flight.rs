@@ -1,7 +1,8 @@
-//! Today's FDI on windows of flight (issue 36): the monitor model plays the preflight chirp
+//! Windows of flight (issue 36). The preflight FDI's monitor model plays the preflight chirp
 //! alone, so a window of flight (the flight control computer's corrections, trim and
-//! turbulence on the surface) must never be read `within` — it is named outside, whatever
-//! the phase, the turbulence and the faults.
+//! turbulence on the surface) must never be read `within` by it — it is named outside,
+//! whatever the phase, the turbulence and the faults. The window identification reads the
+//! calm windows it can and names the others; a window keeps its mark in a trace file.
 
 use host_sim::plant::reference::{ReferenceModel, ReferenceSettings};
 use host_sim::studies::flight::flight_campaign;
