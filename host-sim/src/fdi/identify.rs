@@ -62,13 +62,18 @@ impl Identified {
         let k = &self.result.faults;
         match &self.uncertainty {
             Some((u, correlation)) => u.assess_at(k, correlation, threshold),
-            None => k.verdicts_at(threshold).map(|v| match v {
-                shared::Verdict::Healthy => Assessment::Healthy,
-                shared::Verdict::Faulty => Assessment::Suspect,
-                shared::Verdict::NotApplicable => Assessment::NotApplicable,
-            }),
+            None => plain_assessments(k, threshold),
         }
     }
+}
+
+/// Verdicts without an uncertainty: the plain threshold, a value beyond it only `Suspect`.
+pub fn plain_assessments(k: &shared::FaultVector, threshold: f32) -> [Assessment; FAULT_COUNT] {
+    k.verdicts_at(threshold).map(|v| match v {
+        shared::Verdict::Healthy => Assessment::Healthy,
+        shared::Verdict::Faulty => Assessment::Suspect,
+        shared::Verdict::NotApplicable => Assessment::NotApplicable,
+    })
 }
 
 /// Where the GA record goes and when (`identify --checkpoint`).
