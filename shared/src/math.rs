@@ -105,9 +105,17 @@ pub fn exp64(x: f64) -> f64 {
         return x;
     }
     let x = x.clamp(-700.0, 700.0);
-    let half = if x < 0.0 { -0.5 } else { 0.5 };
-    let k = (x * core::f64::consts::LOG2_E + half) as i64;
-    let r = (x - k as f64 * LN2_HI) - k as f64 * LN2_LO;
+    // k = x·log₂e rounded half away from zero, |k| ≤ 1010: its size truncated as an
+    // unsigned (the conversions the trend already links; an i64 pair costs 284 B of flash).
+    let negative = x < 0.0;
+    let size = (x * core::f64::consts::LOG2_E).abs() + 0.5;
+    let m = size as u32;
+    let (k, kf) = if negative {
+        (-(m as i32), -f64::from(m))
+    } else {
+        (m as i32, f64::from(m))
+    };
+    let r = (x - kf * LN2_HI) - kf * LN2_LO;
     let mut p = 1.0;
     let mut n = 13.0;
     while n > 0.5 {
@@ -269,6 +277,42 @@ mod tests {
             let x = i as f32 * 0.173;
             assert!((sin(x) - x.sin()).abs() < 2.5e-3);
             assert!((cos(x) - x.cos()).abs() < 2.5e-3);
+        }
+    }
+
+    /// `exp64` as it was first written (its k through an i64): the same bits everywhere, so
+    /// the trend tables stored before the change stand.
+    #[test]
+    fn exp64_keeps_the_bits_of_its_i64_form() {
+        let reference = |x: f64| {
+            const LN2_HI: f64 = f64::from_bits(0x3FE6_2E42_FEE0_0000);
+            const LN2_LO: f64 = f64::from_bits(0x3DEA_39EF_3579_3C76);
+            let x = x.clamp(-700.0, 700.0);
+            let half = if x < 0.0 { -0.5 } else { 0.5 };
+            let k = (x * core::f64::consts::LOG2_E + half) as i64;
+            let r = (x - k as f64 * LN2_HI) - k as f64 * LN2_LO;
+            let mut p = 1.0;
+            let mut n = 13.0;
+            while n > 0.5 {
+                p = 1.0 + p * r / n;
+                n -= 1.0;
+            }
+            p * f64::from_bits(((k + 1023) as u64) << 52)
+        };
+        let mut x = -720.0f64;
+        while x <= 720.0 {
+            // Each point, and the points where the rounding of k turns.
+            for y in [
+                x,
+                (x / core::f64::consts::LN_2).round() * core::f64::consts::LN_2
+                    + 0.5 * core::f64::consts::LN_2,
+            ] {
+                assert_eq!(exp64(y).to_bits(), reference(y).to_bits(), "exp64({y})");
+            }
+            x += 0.0731;
+        }
+        for y in [0.0, -0.0, 1e-300, -1e-300] {
+            assert_eq!(exp64(y).to_bits(), reference(y).to_bits(), "exp64({y})");
         }
     }
 
