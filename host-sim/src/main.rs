@@ -393,6 +393,11 @@ enum Command {
         /// shaft, an open phase, or a test run with twice the chirp amplitude, in turn).
         #[arg(long, default_value_t = 0.0, value_parser = parse_share)]
         out_of_domain: f64,
+        /// Windows of flight identified in each flight (0–6), kept as in-flight entries: the
+        /// reference model flies the surface (a phase and turbulence drawn per window) with
+        /// the chirp superimposed, the FDI identifies the window (≈ 0.4 s each).
+        #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=6))]
+        windows: u8,
     },
     /// Trend and remaining useful life (RUL, in flights) of each fault from a history CSV or
     /// a health-log file: the onboard prognosis (shared::prognosis) run on the ground.
@@ -445,6 +450,16 @@ enum Command {
             TrendSettings::DEFAULT.noise_floor
         ))]
         noise_floor: Option<f64>,
+        #[arg(long, help = format!(
+            "Least standard deviation of an in-flight entry's reading in the trend (default: \
+             the controller's, {})",
+            TrendSettings::DEFAULT.window_noise_floor
+        ))]
+        window_noise_floor: Option<f64>,
+        /// Windows of flight identified in each flight (0–6), kept as in-flight entries beside
+        /// the preflights; the tables then also give the same runs from their preflights alone.
+        #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=6))]
+        windows: u8,
         /// Keep each run's history CSV in this folder, and read it from there when present
         /// (re-evaluate the trend without simulating again).
         #[arg(long)]
@@ -693,6 +708,7 @@ fn main() -> ExitCode {
             out,
             log,
             out_of_domain,
+            windows,
         } => actuator.built_in_only("degrade").and_then(|()| {
             degrade_command(
                 &DegradationPath {
@@ -704,6 +720,7 @@ fn main() -> ExitCode {
                 noise,
                 seed,
                 out_of_domain,
+                windows,
                 &out,
                 log.as_deref(),
             )
@@ -723,6 +740,8 @@ fn main() -> ExitCode {
             out_of_domain,
             systematic,
             noise_floor,
+            window_noise_floor,
+            windows,
             histories,
             alpha,
             out,
@@ -735,6 +754,9 @@ fn main() -> ExitCode {
             if let Some(f) = noise_floor {
                 settings.noise_floor = f;
             }
+            if let Some(f) = window_noise_floor {
+                settings.window_noise_floor = f;
+            }
             prognostics_command(
                 &EvalRun {
                     seeds,
@@ -742,6 +764,7 @@ fn main() -> ExitCode {
                     flights,
                     noises: noise,
                     intrusions: out_of_domain,
+                    windows,
                     settings,
                     histories,
                     alpha,

@@ -16,7 +16,7 @@
 //! | --- | --- |
 //! | 0..4 | magic `EMAH` |
 //! | 4 | version (4) |
-//! | 5 | domain: 0 within, 1 no motion, 2 open phase, 3 command mismatch, 4 fitness floor, 5 segment carried nothing, 6 bus out of range, 7 temperature out of range, … ([`DomainCode`]) |
+//! | 5 | domain: 0 within, 1 no motion, 2 open phase, 3 command mismatch, 4 fitness floor, 5 segment carried nothing, 6 bus out of range, 7 temperature out of range, …, 17–19 a window of flight's own (current saturated, manoeuvre too large, play unseen) ([`DomainCode`]) |
 //! | 6..8 | detected faults (u16): bit i set when component i is beyond the detection threshold |
 //! | 8..12 | flight index (u32) |
 //! | 12..44 | the paper's eight components k1 … k8, 8 × f32 |
@@ -25,7 +25,8 @@
 //! | 64..66 | the DC bus the controller measured over the test (u16, units of 0.01 V); `ffff`: not measured |
 //! | 66..68 | the temperature it measured (i16, units of 0.01 °C); `8000`: not measured |
 //! | 68..70 | the winding's estimated rise from the calibration's temperature (i16, units of 0.01 K); `8000`: not estimated |
-//! | 70..72 | reserved, 0 |
+//! | 70 | the test: 0 the preflight of flight `flight`; n ≥ 1 the n-th window identified in that flight ([`HealthRecord::window`]) |
+//! | 71 | reserved, 0 |
 //! | 72..76 | k9, demagnetization (f32) |
 //! | 76..78 | its standard deviation (u16, as above) |
 //! | 78..80 | reserved, 0 |
@@ -37,6 +38,9 @@
 //! standard deviation not determined) and byte 7 is 0: version 3 (76 bytes: bytes 0..72,
 //! then their CRC-32); version 2 (68 bytes: bytes 0..64, then their CRC-32) carries no day;
 //! version 1 (52 bytes: bytes 0..48, then their CRC-32) no standard deviation either.
+//! Byte 70 was reserved (0) in every record written before in-flight entries: every such
+//! record reads as a preflight; a reader from before refuses an in-flight entry as a bad
+//! field rather than take it for a preflight.
 //!
 //! ## Slots
 //!
@@ -51,6 +55,7 @@ use crate::conditions::{TestConditions, WindingEstimate};
 use crate::domain::{Domain, OutsideReason};
 use crate::fault::{FaultVector, Verdict, DEMAGNETIZATION_INDEX, FAULT_COUNT, PAPER_FAULT_COUNT};
 use crate::trace::Crc32;
+use crate::window::WindowReason;
 
 /// Bytes of one encoded record (version 4), and of one store slot.
 pub const RECORD_BYTES: usize = 84;
@@ -89,7 +94,8 @@ pub const ONBOARD_RECORDS: usize = 32;
 /// One encoded record.
 pub type EncodedRecord = [u8; RECORD_BYTES];
 
-/// One preflight test's outcome as the log keeps it.
+/// One test's outcome as the log keeps it: a preflight, or a window of flight identified in
+/// flight ([`Self::window`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct HealthRecord {
@@ -107,6 +113,10 @@ pub struct HealthRecord {
     pub std: ComponentStd,
     /// What the controller measured and estimated of the test's day, as stored.
     pub day: RecordedDay,
+    /// 0: the preflight of flight `flight`; n ≥ 1: the n-th window of that flight identified
+    /// in flight (an in-flight entry). The onboard log and store keep preflights only
+    /// ([`HealthLog::append`]); trends take both ([`Self::time`]).
+    pub window: u8,
 }
 
 /// The test's day as a record stores it: the measured bus [V] and temperature [°C] and the
@@ -241,6 +251,25 @@ pub enum DomainCode {
     GreaseOutOfRange = 14,
     LoadMoved = 15,
     LoadMovedAtRest = 16,
+    /// A window of flight whose current reached the drive's limit ([`WindowReason`]).
+    CurrentSaturated = 17,
+    /// A window of flight that held a manoeuvre ([`WindowReason`]).
+    ManoeuvreTooLarge = 18,
+    /// A window of flight whose load never crossed the gear's play ([`WindowReason`]).
+    PlayUnseen = 19,
+}
+
+impl From<Result<(), WindowReason>> for DomainCode {
+    /// A window's verdict as stored (its fit's floor is the preflight's code).
+    fn from(v: Result<(), WindowReason>) -> Self {
+        match v {
+            Ok(()) => Self::Within,
+            Err(WindowReason::CurrentSaturated { .. }) => Self::CurrentSaturated,
+            Err(WindowReason::ManoeuvreTooLarge { .. }) => Self::ManoeuvreTooLarge,
+            Err(WindowReason::FitnessFloor { .. }) => Self::FitnessFloor,
+            Err(WindowReason::PlayUnseen { .. }) => Self::PlayUnseen,
+        }
+    }
 }
 
 impl From<Domain> for DomainCode {
@@ -273,7 +302,7 @@ impl From<Domain> for DomainCode {
 
 impl DomainCode {
     /// Every code, in the order of its byte.
-    const ALL: [Self; 17] = [
+    const ALL: [Self; 20] = [
         Self::Within,
         Self::NoMotion,
         Self::OpenPhase,
@@ -291,6 +320,9 @@ impl DomainCode {
         Self::GreaseOutOfRange,
         Self::LoadMoved,
         Self::LoadMovedAtRest,
+        Self::CurrentSaturated,
+        Self::ManoeuvreTooLarge,
+        Self::PlayUnseen,
     ];
 
     fn from_byte(b: u8) -> Option<Self> {
@@ -317,6 +349,9 @@ impl DomainCode {
             Self::GreaseOutOfRange => "grease_out_of_range",
             Self::LoadMoved => "load_moved",
             Self::LoadMovedAtRest => "load_moved_at_rest",
+            Self::CurrentSaturated => "current_saturated",
+            Self::ManoeuvreTooLarge => "manoeuvre_too_large",
+            Self::PlayUnseen => "play_unseen",
         }
     }
 
@@ -357,7 +392,21 @@ impl HealthRecord {
             detected,
             std: ComponentStd::UNKNOWN,
             day: RecordedDay::UNKNOWN,
+            window: 0,
         }
+    }
+
+    /// The record as the `window`-th window of its flight identified in flight (0: the
+    /// preflight).
+    pub fn in_flight(mut self, window: u8) -> Self {
+        self.window = window;
+        self
+    }
+
+    /// When the test was, in flights: the flight index for a preflight, and `flight + n/256`
+    /// for its n-th window (after the preflight, before the next flight's).
+    pub fn time(&self) -> f64 {
+        f64::from(self.flight) + f64::from(self.window) / 256.0
     }
 
     /// The record with the test's day (see [`RecordedDay::new`]).
@@ -400,7 +449,7 @@ impl HealthRecord {
         w.put(&self.day.bus.to_le_bytes());
         w.put(&self.day.temperature.to_le_bytes());
         w.put(&self.day.winding_rise.to_le_bytes());
-        w.put(&[0, 0]);
+        w.put(&[self.window, 0]);
         for k in ninth {
             w.put(&k.to_le_bytes());
         }
@@ -465,7 +514,8 @@ impl HealthRecord {
         if let (true, Some(c)) = (ninth, std.0.get_mut(DEMAGNETIZATION_INDEX)) {
             *c = u16::from_le_bytes(half(76));
         }
-        let (day, reserved_day) = if version >= 3 {
+        // Byte 70 is the window (reserved, 0, before in-flight entries), byte 71 reserved.
+        let (day, window_reserved) = if version >= 3 {
             let day = RecordedDay {
                 bus: u16::from_le_bytes(half(64)),
                 temperature: i16::from_le_bytes(half(66)),
@@ -484,7 +534,7 @@ impl HealthRecord {
         match (
             DomainCode::from_byte(domain),
             FaultVector::new(k),
-            (reserved, reserved_day),
+            (reserved, window_reserved >> 8),
             fitness.is_finite(),
         ) {
             (Some(domain), Ok(faults), (0, 0), true) => Ok(Self {
@@ -495,6 +545,7 @@ impl HealthRecord {
                 detected: u16::from_le_bytes([detected, if ninth { detected_high } else { 0 }]),
                 std,
                 day,
+                window: window_reserved as u8,
             }),
             _ => Err(HealthRecordError::BadField),
         }
@@ -668,6 +719,9 @@ impl<const S: usize> HealthStore for RamStore<S> {
 pub enum HealthLogError<E> {
     /// Its flight index is not after the newest record's (`last`).
     NotNewer { last: u32 },
+    /// An in-flight entry ([`HealthRecord::window`] ≠ 0): the onboard log and store keep one
+    /// preflight per flight (slot `flight mod slots`).
+    InFlightEntry,
     /// The store has no slot.
     NoSlots,
     /// The store failed; the log in RAM is unchanged.
@@ -726,7 +780,8 @@ impl<const N: usize> HealthLog<N> {
 
     /// Adds `record` as the newest. When the ring is full the oldest record leaves it and is
     /// handed back (`Ok(Some(oldest))`); a record not newer than the newest (or any record
-    /// when `N = 0`) is handed back as the error, nothing changed. O(1).
+    /// when `N = 0`) is handed back as the error, nothing changed. O(1). A log of preflights
+    /// ([`Self::append`] refuses in-flight entries).
     pub fn push(&mut self, record: HealthRecord) -> Result<Option<HealthRecord>, HealthRecord> {
         if self
             .records
@@ -750,6 +805,9 @@ impl<const N: usize> HealthLog<N> {
         store: &mut S,
         record: HealthRecord,
     ) -> Result<Option<HealthRecord>, HealthLogError<S::Error>> {
+        if record.window != 0 {
+            return Err(HealthLogError::InFlightEntry);
+        }
         if let Some(last) = self.records.back() {
             if record.flight <= last.flight {
                 return Err(HealthLogError::NotNewer { last: last.flight });

@@ -167,6 +167,10 @@ pub struct TrendSettings {
     /// Least standard deviation of one observation, and the one assumed where the record
     /// carries none (version 1).
     pub noise_floor: f64,
+    /// Least standard deviation of an in-flight entry ([`HealthRecord::window`] ≠ 0), and
+    /// the one assumed where it carries none: a window's own noise (its unknown load and
+    /// turbulence) over what its identification states.
+    pub window_noise_floor: f64,
     /// Standard deviation of the identification's error that does not average out over
     /// flights (model mismatch, correlated with the level), added to every prediction.
     pub systematic: f64,
@@ -186,6 +190,8 @@ impl TrendSettings {
         // evaluation's seeds 0–2 (0.004–0.008 against 0.01–0.02: interval coverage 85–95 %)
         // and checked on seeds 3–5 (docs/prognostics.md).
         noise_floor: 0.005,
+        // In-flight entries (docs/prognostics.md, "In-flight entries").
+        window_noise_floor: 0.01,
         // Mean errors of 0.011–0.018 on the Table II and random multi-fault vectors
         // (docs/accuracy.md): the level-correlated part of a test's error, which a history
         // does not average out.
@@ -405,26 +411,38 @@ impl FaultTrend {
         self.observations
     }
 
-    /// Adds the level `value` observed at `flight` with the identification's standard
-    /// deviation `std` (`None`: not known, [`TrendSettings::noise_floor`] is assumed).
-    /// Flights must increase; an older or repeated flight, or a non-finite value, is ignored
-    /// (returns false). O(MODEL_COUNT).
+    /// Adds the level `value` observed at `flight`'s preflight (`in_flight` false) or in one
+    /// of its windows of flight (an in-flight entry, taken at its flight: the wear of one
+    /// flight is nil), with the identification's standard deviation `std` (`None`: not
+    /// known; not below [`TrendSettings::noise_floor`], or
+    /// [`TrendSettings::window_noise_floor`] for an in-flight entry). Flights must not go
+    /// back, and a preflight must be newer than every observation: an older flight, a
+    /// repeated preflight or a non-finite value is ignored (returns false). O(MODEL_COUNT).
     pub fn update(
         &mut self,
         flight: u32,
+        in_flight: bool,
         value: f32,
         std: Option<f32>,
         settings: &TrendSettings,
     ) -> bool {
-        if !value.is_finite() || (self.observations > 0 && flight <= self.newest) {
+        if !value.is_finite()
+            || (self.observations > 0
+                && (flight < self.newest || (flight == self.newest && !in_flight)))
+        {
             return false;
         }
         if self.observations == 0 {
             self.origin = flight;
         }
+        let least = if in_flight {
+            settings.window_noise_floor
+        } else {
+            settings.noise_floor
+        };
         let sd = match std {
-            Some(s) if f64::from(s) > settings.noise_floor => f64::from(s),
-            _ => settings.noise_floor,
+            Some(s) if f64::from(s) > least => f64::from(s),
+            _ => least,
         };
         let v = sd * sd;
         let delta = f64::from(flight - self.origin);
@@ -488,7 +506,13 @@ impl FaultTrend {
     /// (see [`Self::update`]).
     pub fn add(&mut self, record: &HealthRecord, i: usize, settings: &TrendSettings) -> bool {
         match record.faults.deviations().get(i) {
-            Some(Some(d)) => self.update(record.flight, *d, record.std.get(i), settings),
+            Some(Some(d)) => self.update(
+                record.flight,
+                record.window != 0,
+                *d,
+                record.std.get(i),
+                settings,
+            ),
             _ => false,
         }
     }
@@ -806,7 +830,7 @@ mod tests {
     ) -> FaultTrend {
         let mut t = FaultTrend::new();
         for f in 0..flights {
-            assert!(t.update(100 + f, levels(f), std(f), s));
+            assert!(t.update(100 + f, false, levels(f), std(f), s));
         }
         t
     }
@@ -955,6 +979,7 @@ mod tests {
         for f in 0..20 {
             t.update(
                 100 + f,
+                false,
                 if f == 12 { base(f) + 0.4 } else { base(f) },
                 None,
                 &no_guard,
@@ -988,10 +1013,10 @@ mod tests {
     fn the_past_and_non_finite_values_are_ignored() {
         let s = TrendSettings::DEFAULT;
         let mut t = FaultTrend::new();
-        assert!(t.update(5, 0.1, None, &s));
-        assert!(!t.update(5, 0.2, None, &s));
-        assert!(!t.update(4, 0.2, None, &s));
-        assert!(!t.update(6, f32::NAN, None, &s));
+        assert!(t.update(5, false, 0.1, None, &s));
+        assert!(!t.update(5, false, 0.2, None, &s));
+        assert!(!t.update(4, false, 0.2, None, &s));
+        assert!(!t.update(6, false, f32::NAN, None, &s));
         assert_eq!(t.observations(), 1);
     }
 

@@ -33,6 +33,7 @@ pub(crate) fn degrade_command(
     noise: f64,
     seed: u64,
     intrusions: f64,
+    windows: u8,
     out: &Path,
     log: Option<&Path>,
 ) -> Result<()> {
@@ -42,23 +43,41 @@ pub(crate) fn degrade_command(
         "{elapsed_precise} [{bar:40}] {pos}/{len} flights (ETA {eta})",
         std::io::stderr().is_terminal(),
     );
-    let rows = prognostics::degrade(path, noise, seed, intrusions, &|| bar.inc(1))?;
+    let rows = prognostics::degrade(path, noise, seed, intrusions, windows, &|| bar.inc(1))?;
     bar.finish_and_clear();
     std::fs::write(out, health_file::history_csv(&rows))
         .with_context(|| format!("writing {}", out.display()))?;
     if let Some(log_path) = log {
         let mut store = health_file::FileStore::open(log_path, ONBOARD_RECORDS)?;
         let (mut log, _) = HealthLog::<ONBOARD_RECORDS>::load(&mut store)?;
-        for r in &rows {
+        // The controller's log keeps one preflight per flight: the in-flight entries stay in
+        // the CSV.
+        for r in rows.iter().filter(|r| r.record.window == 0) {
             log.append(&mut store, r.record)
                 .map_err(|e| anyhow::anyhow!("appending flight {}: {e:?}", r.record.flight))?;
         }
     }
-    let outside = rows.iter().filter(|r| !r.record.is_trusted()).count();
+    let (preflights, flown): (Vec<&health_file::HistoryRow>, Vec<&health_file::HistoryRow>) =
+        rows.iter().partition(|r| r.record.window == 0);
+    let outside = preflights.iter().filter(|r| !r.record.is_trusted()).count();
+    let in_flight = if flown.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "; {} windows of flight, {} identified, the others outside{}",
+            flown.len(),
+            flown.iter().filter(|r| r.record.is_trusted()).count(),
+            if log.is_some() {
+                " (in the CSV only: the controller's log keeps preflights)"
+            } else {
+                ""
+            }
+        )
+    };
     println!(
-        "wrote {} ({} flights, {outside} outside the monitor model's domain; {:.0} s)",
+        "wrote {} ({} flights, {outside} outside the monitor model's domain{in_flight}; {:.0} s)",
         out.display(),
-        rows.len(),
+        preflights.len(),
         start.elapsed().as_secs_f64()
     );
     Ok(())
@@ -120,6 +139,7 @@ pub(crate) struct EvalRun {
     pub flights: u32,
     pub noises: Vec<f64>,
     pub intrusions: f64,
+    pub windows: u8,
     pub settings: TrendSettings,
     pub histories: Option<PathBuf>,
     pub alpha: f64,
@@ -143,9 +163,12 @@ pub(crate) fn prognostics_command(
     }
     let eval = prognostics::evaluate(
         &scenarios,
-        run.first_seed..run.first_seed + run.seeds,
-        run.flights,
-        run.intrusions,
+        &prognostics::EvalRuns {
+            seeds: run.first_seed..run.first_seed + run.seeds,
+            flights: run.flights,
+            intrusions: run.intrusions,
+            windows: run.windows,
+        },
         &run.settings,
         run.histories.as_deref(),
         &|n| bar.inc(n),
@@ -156,7 +179,7 @@ pub(crate) fn prognostics_command(
     text += &format!(
         "\n{} runs × {} flights (seeds {}–{}; {} simulated, {} read from the history folder); thresholds \
          {} friction and backlash, {} shorts, {} eccentricity, {} gain drift; systematic error \
-         {}; {:.0} s.\n",
+         {}; noise floor {} (preflight), {} (in flight); {} windows of flight per flight; {:.0} s.\n",
         scenarios.len() as u64 * run.seeds,
         run.flights,
         run.first_seed,
@@ -168,6 +191,9 @@ pub(crate) fn prognostics_command(
         t[5],
         t[7],
         run.settings.systematic,
+        run.settings.noise_floor,
+        run.settings.window_noise_floor,
+        run.windows,
         start.elapsed().as_secs_f64()
     );
     print!("{text}");

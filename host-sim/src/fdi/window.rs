@@ -8,7 +8,9 @@
 use anyhow::Result;
 use shared::actuator::ActuatorRecord;
 use shared::conditions::TestConditions;
+use shared::domain::Domain;
 use shared::fdi::{OnboardMeasured, POPULATION};
+use shared::health::{HealthRecord, RecordedDay};
 use shared::uncertainty::{Assessment, Uncertainty};
 use shared::window::{
     RecordedCommand, WindowLimits, WindowLoad, WindowProblem, WindowReason, LOAD_SEARCH_EVALUATIONS,
@@ -44,6 +46,21 @@ pub struct WindowIdentified {
 }
 
 impl WindowIdentified {
+    /// The health log's in-flight entry of this window: the `window`-th (≥ 1) of `flight`,
+    /// with its verdict, standard deviations and day.
+    pub fn record(&self, flight: u32, window: u8) -> HealthRecord {
+        let mut record = HealthRecord::new(flight, self.faults, self.fitness, Domain::Within)
+            .with_std(
+                self.uncertainty
+                    .as_ref()
+                    .map_or([f32::NAN; FAULT_COUNT], |(u, _)| u.std),
+            )
+            .with_day(RecordedDay::of(&self.conditions))
+            .in_flight(window.max(1));
+        record.domain = self.verdict.into();
+        record
+    }
+
     /// Verdicts per component with the uncertainty (the plain threshold without one).
     pub fn assessments(&self) -> [Assessment; FAULT_COUNT] {
         let threshold = shared::fault::DETECTION_THRESHOLD;

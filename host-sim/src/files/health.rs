@@ -257,7 +257,11 @@ pub fn history_csv(rows: &[HistoryRow]) -> String {
     let with_truth = !rows.is_empty() && rows.iter().all(|r| r.truth.is_some());
     let with_std = rows.iter().any(|r| r.record.std != ComponentStd::UNKNOWN);
     let with_day = rows.iter().any(|r| r.record.day != RecordedDay::UNKNOWN);
+    let with_window = rows.iter().any(|r| r.record.window != 0);
     let mut out = String::from("flight");
+    if with_window {
+        out += ",window";
+    }
     for n in FAULT_NAMES {
         out += &format!(",{n}");
     }
@@ -279,6 +283,9 @@ pub fn history_csv(rows: &[HistoryRow]) -> String {
     out.push('\n');
     for r in rows {
         out += &r.record.flight.to_string();
+        if with_window {
+            out += &format!(",{}", r.record.window);
+        }
         for k in r.record.faults.as_array() {
             out += &format!(",{k}");
         }
@@ -364,6 +371,7 @@ fn parse_history_csv(text: &str) -> Result<Vec<HistoryRow>> {
     let column = |name: &str| header.iter().position(|h| *h == name);
     let need = |name: &str| column(name).with_context(|| format!("no column \"{name}\""));
     let flight_col = need("flight")?;
+    let window_col = column("window");
     // The paper's eight columns are needed; a history from before the ninth fault has no
     // `demagnetization` column (nor its `std_`/`true_`): it reads as none.
     let columns = |prefix: &str| -> Vec<Option<usize>> {
@@ -432,11 +440,19 @@ fn parse_history_csv(text: &str) -> Result<Vec<HistoryRow>> {
                 cell(flight_col)
             )
         })?;
+        let window: u8 = match window_col.map(cell) {
+            None | Some("") => 0,
+            Some(w) => w.parse().with_context(|| {
+                format!("line {line_no}: window \"{w}\" is not a whole number 0…255")
+            })?,
+        };
         if let Some(last) = rows.last() {
-            if flight <= last.record.flight {
+            if (flight, window) <= (last.record.flight, last.record.window) {
                 bail!(
-                    "line {line_no}: flight {flight} does not follow flight {}",
-                    last.record.flight
+                    "line {line_no}: flight {flight} window {window} does not follow flight {} \
+                     window {} (0: the preflight)",
+                    last.record.flight,
+                    last.record.window
                 );
             }
         }
@@ -453,6 +469,7 @@ fn parse_history_csv(text: &str) -> Result<Vec<HistoryRow>> {
             shared::domain::Domain::Within,
         );
         record.domain = domain;
+        record.window = window;
         if let Some(cols) = &std_cols {
             let mut sd = [f32::NAN; FAULT_COUNT];
             for (v, c) in sd.iter_mut().zip(cols) {

@@ -11,6 +11,7 @@ use std::path::Path;
 use anyhow::{anyhow, bail, Context, Result};
 use plotters::prelude::*;
 use rayon::prelude::*;
+use shared::actuator::ActuatorRecord;
 use shared::domain::DomainLimits;
 use shared::fault::{FAULT_COUNT, FAULT_NAMES};
 use shared::health::{HealthRecord, RecordedDay};
@@ -18,8 +19,11 @@ use shared::prognosis::{FaultTrend, Growth, HealthTrend, TrendEstimate, TrendSet
 use shared::{ActuatorParams, Calibration, FaultVector};
 
 use crate::fdi::identify::identify;
+use crate::fdi::window::identify_window;
 use crate::files::health::{HistoryRow, Intrusion};
+use crate::plant::aero::FlightWindow;
 use crate::plant::reference::{Anomaly, ReferenceModel, ReferenceSettings, Scenario};
+use crate::studies::flight::{flight_record, ALL_WINDOWS};
 
 /// How the faults grow from the start vector to the end vector over the flights.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -139,21 +143,42 @@ pub fn intrusion(seed: u64, flight: u32, share: f64) -> Option<Intrusion> {
     (u < share).then(|| Intrusion::ALL[(z % 3) as usize])
 }
 
+/// The window of flight `n` (≥ 1) of flight `flight` of run `seed` flies: a phase and a
+/// turbulence of [`ALL_WINDOWS`], drawn deterministically (SplitMix64).
+pub fn flown_window(seed: u64, flight: u32, n: u8) -> FlightWindow {
+    let mut z = seed
+        .wrapping_mul(0xD1B5_4A32_D192_ED03)
+        .wrapping_add(u64::from(flight).wrapping_mul(0x9E37_79B9_7F4A_7C15))
+        .wrapping_add(u64::from(n).wrapping_mul(0xBF58_476D_1CE4_E5B9));
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    ALL_WINDOWS[(z % ALL_WINDOWS.len() as u64) as usize]
+}
+
 /// Simulates the preflight of every flight of `path` (RM trace with I_ref noise `noise`,
 /// onboard identification with its uncertainty, domain verdict), in parallel; a share
-/// `intrusions` of the flights meets an [`Intrusion`]. `tick` is called after each flight.
+/// `intrusions` of the flights meets an [`Intrusion`]. With `windows` > 0, each flight then
+/// flies that many windows ([`flown_window`]: the reference model flying the surface with
+/// the chirp superimposed, the same actuator and I_ref noise), each identified in flight
+/// ([`identify_window`]) and kept as an in-flight entry ([`HealthRecord::window`] 1, 2, …;
+/// `Outside` windows with their reason). Rows in (flight, window) order. `tick` is called
+/// after each flight.
 pub fn degrade(
     path: &DegradationPath,
     noise: f64,
     seed: u64,
     intrusions: f64,
+    windows: u8,
     tick: &(dyn Fn() + Sync),
 ) -> Result<Vec<HistoryRow>> {
     let rm = ReferenceModel::new(ReferenceSettings::REFERENCE);
     let params = ActuatorParams::REFERENCE;
-    (0..path.flights)
+    let window_record = flight_record(&ActuatorRecord::REFERENCE);
+    let flying = rm.with_test(window_record.test);
+    let flights: Vec<Vec<HistoryRow>> = (0..path.flights)
         .into_par_iter()
-        .map(|flight| {
+        .map(|flight| -> Result<Vec<HistoryRow>> {
             let truth = path.at(flight);
             let (rm_seed, ga_seed) = flight_seeds(seed, flight);
             let intruded = intrusion(seed, flight, intrusions);
@@ -172,8 +197,7 @@ pub fn degrade(
                 &trace.domain_monitor(&params),
                 &DomainLimits::REFERENCE_ACTUATOR,
             );
-            tick();
-            Ok(HistoryRow {
+            let mut rows = vec![HistoryRow {
                 record: HealthRecord::new(flight, id.result.faults, id.result.fitness, domain)
                     .with_std(
                         id.uncertainty
@@ -182,9 +206,29 @@ pub fn degrade(
                     .with_day(RecordedDay::of(&id.conditions)),
                 truth: Some(truth),
                 intrusion: intruded,
-            })
+            }];
+            for n in 1..=windows {
+                let w_seed = rm_seed.wrapping_add(7_919 * u64::from(n));
+                let sim = flying
+                    .with_flight(Some(flown_window(seed, flight, n)))
+                    .simulate(&Scenario {
+                        faults: truth,
+                        current_ref_noise: noise,
+                        seed: w_seed,
+                    });
+                let measured = sim.trace.measured(&window_record.params)?;
+                let w = identify_window(&sim.trace, &measured, &window_record, w_seed + 1)?;
+                rows.push(HistoryRow {
+                    record: w.record(flight, n),
+                    truth: Some(truth),
+                    intrusion: None,
+                });
+            }
+            tick();
+            Ok(rows)
         })
-        .collect()
+        .collect::<Result<_>>()?;
+    Ok(flights.into_iter().flatten().collect())
 }
 
 /// Parses `--threshold`: one number for every fault, or `name=value` pairs (names as in the
@@ -552,13 +596,17 @@ impl EvalScenario {
     }
 
     /// File name of its run `seed`'s history in a cache folder.
-    fn file_name(&self, seed: u64, flights: u32, intrusions: f64) -> String {
+    fn file_name(&self, seed: u64, flights: u32, intrusions: f64, windows: u8) -> String {
         let slug: String = self
             .name()
             .chars()
             .map(|c| if c.is_ascii_alphanumeric() { c } else { '-' })
             .collect();
-        format!("{slug}-{flights}fl-ood{intrusions}-seed{seed}.csv")
+        let windows = match windows {
+            0 => String::new(),
+            w => format!("-{w}win"),
+        };
+        format!("{slug}-{flights}fl{windows}-ood{intrusions}-seed{seed}.csv")
     }
 }
 
@@ -656,6 +704,10 @@ impl IntrusionCount {
 #[derive(Clone, Debug, Default)]
 pub struct Evaluation {
     pub tracks: Vec<Track>,
+    /// With in-flight windows: the same runs' tracks from their preflights alone.
+    pub preflight_only: Vec<Track>,
+    /// In-flight entries: identified (within) and all.
+    pub windows: (u32, u32),
     pub intrusions: IntrusionCount,
     /// Runs simulated now, and runs read from the cache folder.
     pub simulated: u32,
@@ -679,15 +731,19 @@ pub fn tracks_of(
         let Some(eol) = path.end_of_life(i, threshold) else {
             continue;
         };
+        // One prediction per flight, after its preflight (its in-flight entries feed the
+        // next flight's).
         let mut trend = FaultTrend::new();
         let predictions = rows
             .iter()
-            .map(|r| {
+            .filter_map(|r| {
                 if r.record.is_trusted() {
                     trend.add(&r.record, i, settings);
                 }
-                let e = trend.estimate(Some(threshold), settings);
-                (r.record.flight, e.and_then(|e| e.rul))
+                (r.record.window == 0).then(|| {
+                    let e = trend.estimate(Some(threshold), settings);
+                    (r.record.flight, e.and_then(|e| e.rul))
+                })
             })
             .collect();
         let detected = path
@@ -708,19 +764,35 @@ pub fn tracks_of(
     out
 }
 
+/// The runs of an evaluation: seeds, flights per run, the share of flights out of the
+/// domain and the windows of flight identified per flight.
+#[derive(Clone, Debug)]
+pub struct EvalRuns {
+    pub seeds: std::ops::Range<u64>,
+    pub flights: u32,
+    pub intrusions: f64,
+    pub windows: u8,
+}
+
 /// Runs every scenario for the `seeds` over `flights` flights, a share `intrusions` of
-/// them out of the domain, and replays the onboard prognosis flight by flight. With `cache`,
+/// them out of the domain, `windows` windows of flight identified in each flight, and
+/// replays the onboard prognosis flight by flight (with windows, also from the preflights
+/// alone: [`Evaluation::preflight_only`]). With `cache`,
 /// each run's history is read from that folder when there and written to it when simulated
 /// (the trend can then be re-evaluated without simulating again).
 pub fn evaluate(
     scenarios: &[EvalScenario],
-    seeds: std::ops::Range<u64>,
-    flights: u32,
-    intrusions: f64,
+    runs: &EvalRuns,
     settings: &TrendSettings,
     cache: Option<&Path>,
     tick: &(dyn Fn(u64) + Sync),
 ) -> Result<Evaluation> {
+    let EvalRuns {
+        seeds,
+        flights,
+        intrusions,
+        windows,
+    } = runs.clone();
     let mut eval = Evaluation::default();
     for sc in scenarios {
         let path = DegradationPath {
@@ -730,7 +802,7 @@ pub fn evaluate(
             shape: sc.shape,
         };
         for seed in seeds.clone() {
-            let file = cache.map(|c| c.join(sc.file_name(seed, flights, intrusions)));
+            let file = cache.map(|c| c.join(sc.file_name(seed, flights, intrusions, windows)));
             let rows = match &file {
                 Some(f) if f.exists() => {
                     eval.cached += 1;
@@ -739,7 +811,7 @@ pub fn evaluate(
                 }
                 _ => {
                     eval.simulated += 1;
-                    let rows = degrade(&path, sc.noise, seed, intrusions, &|| tick(1))?;
+                    let rows = degrade(&path, sc.noise, seed, intrusions, windows, &|| tick(1))?;
                     if let Some(f) = &file {
                         std::fs::write(f, crate::files::health::history_csv(&rows))
                             .with_context(|| format!("writing {}", f.display()))?;
@@ -747,9 +819,21 @@ pub fn evaluate(
                     rows
                 }
             };
-            eval.intrusions.add(IntrusionCount::of(&rows));
+            let preflights: Vec<HistoryRow> = rows
+                .iter()
+                .filter(|r| r.record.window == 0)
+                .copied()
+                .collect();
+            eval.intrusions.add(IntrusionCount::of(&preflights));
             eval.tracks
                 .extend(tracks_of(sc, &path, seed, &rows, settings));
+            if preflights.len() < rows.len() {
+                let flown = rows.iter().filter(|r| r.record.window != 0);
+                eval.windows.0 += flown.clone().filter(|r| r.record.is_trusted()).count() as u32;
+                eval.windows.1 += flown.count() as u32;
+                eval.preflight_only
+                    .extend(tracks_of(sc, &path, seed, &preflights, settings));
+            }
         }
     }
     Ok(eval)
@@ -1000,6 +1084,24 @@ pub fn eval_markdown(eval: &Evaluation, alpha: f64) -> String {
         "I_ref noise",
         grouped(tracks, |t| t.noise, |n| format!("{:.0} %", 100.0 * n)),
     );
+    if !eval.preflight_only.is_empty() {
+        let (within, flown) = eval.windows;
+        out += &format!(
+            "\nThe same runs from their preflights alone (the {flown} in-flight entries left \
+             out; {within} of them identified, the others `Outside`):\n\n"
+        );
+        out += &summary(
+            "",
+            vec![(
+                "**preflights only**".into(),
+                eval.preflight_only.iter().collect(),
+            )],
+        );
+        out += &summary(
+            "growth, preflights only",
+            grouped(&eval.preflight_only, |t| t.shape, |s| s.name().to_string()),
+        );
+    }
     let c = eval.intrusions;
     out += &format!(
         "\nOut-of-domain flights mixed in: {} (jammed, phase B open, test run at twice the \
