@@ -451,11 +451,11 @@ enum Command {
         ))]
         noise_floor: Option<f64>,
         #[arg(long, help = format!(
-            "Least standard deviation of an in-flight entry's reading in the trend (default: \
-             the controller's, {})",
-            TrendSettings::DEFAULT.window_noise_floor
+            "How many times an in-flight entry's stated standard deviation counts in the trend \
+             (default: the controller's, {})",
+            TrendSettings::DEFAULT.window_scale
         ))]
-        window_noise_floor: Option<f64>,
+        window_scale: Option<f64>,
         /// Windows of flight identified in each flight (0–6), kept as in-flight entries beside
         /// the preflights; the tables then also give the same runs from their preflights alone.
         #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=6))]
@@ -740,7 +740,7 @@ fn main() -> ExitCode {
             out_of_domain,
             systematic,
             noise_floor,
-            window_noise_floor,
+            window_scale,
             windows,
             histories,
             alpha,
@@ -754,8 +754,8 @@ fn main() -> ExitCode {
             if let Some(f) = noise_floor {
                 settings.noise_floor = f;
             }
-            if let Some(f) = window_noise_floor {
-                settings.window_noise_floor = f;
+            if let Some(f) = window_scale {
+                settings.window_scale = f;
             }
             prognostics_command(
                 &EvalRun {

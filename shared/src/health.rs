@@ -1049,7 +1049,55 @@ mod tests {
                 Ok(code)
             );
         }
-        assert_eq!(DomainCode::from_byte(17), None);
+        // A window of flight's own reasons follow; its fit's floor is the preflight's code.
+        use crate::window::WindowReason as W;
+        let windows = [
+            W::CurrentSaturated { peak: 1.0 },
+            W::ManoeuvreTooLarge { range: 1.0 },
+            W::PlayUnseen { contrast: 0.1 },
+        ];
+        for (i, reason) in windows.into_iter().enumerate() {
+            let code = DomainCode::from(Err(reason));
+            assert_eq!(code as u8 as usize, reasons.len() + 1 + i, "{reason:?}");
+            assert_eq!(DomainCode::from_byte(code as u8), Some(code));
+            assert_eq!(DomainCode::from_name(code.name()), Some(code));
+        }
+        assert_eq!(
+            DomainCode::from(Err(W::FitnessFloor { misfit: 0.2 })),
+            DomainCode::FitnessFloor
+        );
+        assert_eq!(DomainCode::from(Ok(())), DomainCode::Within);
+        assert_eq!(DomainCode::from_byte(20), None);
+    }
+
+    #[test]
+    fn an_in_flight_entry_is_kept_in_byte_70_and_an_older_record_reads_as_a_preflight() {
+        let r = record(9, 0.2).in_flight(3);
+        let bytes = r.encode();
+        assert_eq!(bytes[70], 3);
+        let back = HealthRecord::decode(&bytes).unwrap();
+        assert_eq!((back.window, back.flight), (3, 9));
+        assert_eq!(back, r);
+        // Every record written before in-flight entries has a 0 there: a preflight.
+        let before = record(9, 0.2).encode();
+        assert_eq!(before[70], 0);
+        assert_eq!(HealthRecord::decode(&before).map(|r| r.window), Ok(0));
+        // Byte 71 stays reserved: a record with it set is refused.
+        let mut b = bytes;
+        b[71] = 1;
+        let mut crc = Crc32::new();
+        crc.update(&b[..RECORD_BYTES - 4]);
+        b[RECORD_BYTES - 4..].copy_from_slice(&crc.finish().to_le_bytes());
+        assert_eq!(HealthRecord::decode(&b), Err(HealthRecordError::BadField));
+        // The onboard log and store keep preflights: an in-flight entry is not appended.
+        let mut store = RamStore::<4>::erased();
+        let mut log = HealthLog::<4>::new();
+        assert_eq!(
+            log.append(&mut store, r),
+            Err(HealthLogError::InFlightEntry)
+        );
+        assert!(log.is_empty());
+        assert_eq!(HealthLog::<4>::load(&mut store).unwrap().1.records, 0);
     }
 
     #[test]
@@ -1173,9 +1221,9 @@ mod tests {
             (none.bus_voltage(), none.temperature(), none.winding_rise()),
             (None, None, None)
         );
-        // The reserved bytes must stay 0 (CRC made good again).
+        // The reserved byte must stay 0 (CRC made good again); byte 70 is the window now.
         let mut b = r.encode();
-        b[70] = 1;
+        b[71] = 1;
         let mut crc = Crc32::new();
         crc.update(&b[..RECORD_BYTES - 4]);
         b[RECORD_BYTES - 4..].copy_from_slice(&crc.finish().to_le_bytes());

@@ -167,10 +167,11 @@ pub struct TrendSettings {
     /// Least standard deviation of one observation, and the one assumed where the record
     /// carries none (version 1).
     pub noise_floor: f64,
-    /// Least standard deviation of an in-flight entry ([`HealthRecord::window`] ≠ 0), and
-    /// the one assumed where it carries none: a window's own noise (its unknown load and
-    /// turbulence) over what its identification states.
-    pub window_noise_floor: f64,
+    /// An in-flight entry's ([`HealthRecord::window`] ≠ 0) own noise: its stated standard
+    /// deviation counts this many times, so that its weight against a preflight's follows
+    /// their errors, not what each identification states (the window's curvature does not
+    /// see its unknown load and turbulence as the preflight's sees its quiet test).
+    pub window_scale: f64,
     /// Standard deviation of the identification's error that does not average out over
     /// flights (model mismatch, correlated with the level), added to every prediction.
     pub systematic: f64,
@@ -191,7 +192,7 @@ impl TrendSettings {
         // and checked on seeds 3–5 (docs/prognostics.md).
         noise_floor: 0.005,
         // In-flight entries (docs/prognostics.md, "In-flight entries").
-        window_noise_floor: 0.01,
+        window_scale: 1.0,
         // Mean errors of 0.011–0.018 on the Table II and random multi-fault vectors
         // (docs/accuracy.md): the level-correlated part of a test's error, which a history
         // does not average out.
@@ -414,8 +415,8 @@ impl FaultTrend {
     /// Adds the level `value` observed at `flight`'s preflight (`in_flight` false) or in one
     /// of its windows of flight (an in-flight entry, taken at its flight: the wear of one
     /// flight is nil), with the identification's standard deviation `std` (`None`: not
-    /// known; not below [`TrendSettings::noise_floor`], or
-    /// [`TrendSettings::window_noise_floor`] for an in-flight entry). Flights must not go
+    /// known; not below [`TrendSettings::noise_floor`]; an in-flight entry's then counts
+    /// [`TrendSettings::window_scale`] times). Flights must not go
     /// back, and a preflight must be newer than every observation: an older flight, a
     /// repeated preflight or a non-finite value is ignored (returns false). O(MODEL_COUNT).
     pub fn update(
@@ -435,14 +436,13 @@ impl FaultTrend {
         if self.observations == 0 {
             self.origin = flight;
         }
-        let least = if in_flight {
-            settings.window_noise_floor
-        } else {
-            settings.noise_floor
-        };
         let sd = match std {
-            Some(s) if f64::from(s) > least => f64::from(s),
-            _ => least,
+            Some(s) if f64::from(s) > settings.noise_floor => f64::from(s),
+            _ => settings.noise_floor,
+        } * if in_flight {
+            settings.window_scale
+        } else {
+            1.0
         };
         let v = sd * sd;
         let delta = f64::from(flight - self.origin);
@@ -1018,6 +1018,39 @@ mod tests {
         assert!(!t.update(4, false, 0.2, None, &s));
         assert!(!t.update(6, false, f32::NAN, None, &s));
         assert_eq!(t.observations(), 1);
+        // In-flight entries count at their flight, after its preflight, as many as flown; a
+        // later preflight must still be newer, and nothing goes back.
+        assert!(t.update(5, true, 0.11, None, &s));
+        assert!(t.update(5, true, 0.12, None, &s));
+        assert!(!t.update(5, false, 0.1, None, &s));
+        assert!(!t.update(4, true, 0.1, None, &s));
+        assert!(t.update(6, false, 0.1, None, &s));
+        assert_eq!(t.observations(), 4);
+    }
+
+    #[test]
+    fn an_in_flight_entry_counts_its_own_noise() {
+        // Preflights on a line, and one in-flight entry 0.1 above it at flight 110.
+        let with = |std: f32, window_scale: f64| {
+            let s = TrendSettings {
+                window_scale,
+                ..TrendSettings::DEFAULT
+            };
+            let mut t = FaultTrend::new();
+            for f in 0..20u32 {
+                let level = 0.01 * f as f32;
+                assert!(t.update(100 + f, false, level, Some(0.0625), &s));
+                if f == 10 {
+                    assert!(t.update(100 + f, true, level + 0.1, Some(std), &s));
+                }
+            }
+            t.estimate(Some(0.5), &s).unwrap()
+        };
+        // Its stated deviation counts `window_scale` times.
+        assert_eq!(with(0.03125, 4.0), with(0.125, 1.0));
+        // The larger its own noise, the less it pulls the trend.
+        let (a, b) = (with(0.0625, 1.0).level, with(0.0625, 8.0).level);
+        assert!(a > b && b > 0.19, "level {a} at scale 1, {b} at scale 8");
     }
 
     #[test]

@@ -179,7 +179,7 @@ pub(crate) fn prognostics_command(
     text += &format!(
         "\n{} runs × {} flights (seeds {}–{}; {} simulated, {} read from the history folder); thresholds \
          {} friction and backlash, {} shorts, {} eccentricity, {} gain drift; systematic error \
-         {}; noise floor {} (preflight), {} (in flight); {} windows of flight per flight; {:.0} s.\n",
+         {}; noise floor {}; in-flight σ counted {} times; {} windows of flight per flight; {:.0} s.\n",
         scenarios.len() as u64 * run.seeds,
         run.flights,
         run.first_seed,
@@ -192,7 +192,7 @@ pub(crate) fn prognostics_command(
         t[7],
         run.settings.systematic,
         run.settings.noise_floor,
-        run.settings.window_noise_floor,
+        run.settings.window_scale,
         run.windows,
         start.elapsed().as_secs_f64()
     );

@@ -559,6 +559,36 @@ mod tests {
     }
 
     #[test]
+    fn in_flight_entries_round_trip_after_their_preflight() {
+        let mut window = row(3, 0.11, Domain::Within);
+        window.record = window.record.in_flight(1);
+        window.record.domain = DomainCode::PlayUnseen;
+        let mut second = row(3, 0.12, Domain::Within);
+        second.record = second.record.in_flight(2);
+        let rows = vec![
+            row(2, 0.09, Domain::Within),
+            row(3, 0.1, Domain::Within),
+            window,
+            second,
+            row(4, 0.13, Domain::Within),
+        ];
+        let text = history_csv(&rows);
+        assert!(text.starts_with("flight,window,friction,"), "{text}");
+        assert!(text.contains(",play_unseen,"));
+        assert_eq!(parse_history_csv(&text).unwrap(), rows);
+        // A history without in-flight entries keeps its columns as before.
+        assert!(history_csv(&rows[..2]).starts_with("flight,friction,"));
+        // (flight, window) must increase: a preflight after its own window is refused.
+        let lines: Vec<&str> = text.lines().collect();
+        let swapped = [lines[0], lines[1], lines[3], lines[2]].join("\n");
+        let e = format!("{:#}", parse_history_csv(&swapped).unwrap_err());
+        assert!(
+            e.contains("line 4") && e.contains("window 0 does not follow"),
+            "{e}"
+        );
+    }
+
+    #[test]
     fn a_history_of_the_eight_component_version_reads_with_no_demagnetization() {
         let mut rows = vec![row(2, 0.09, Domain::Within), row(3, 0.1, Domain::Within)];
         rows[0].record =

@@ -440,7 +440,8 @@ pub fn history_svg(
             .map_or(0.5 * span, f64::from)
             .clamp(0.25 * span, 1.5 * span);
         let x_end = newest + 1.15 * far;
-        let obs: Vec<(f64, f64, bool)> = rows
+        // (flight, level, trusted, in flight)
+        let obs: Vec<(f64, f64, bool, bool)> = rows
             .iter()
             .filter_map(|r| {
                 let d = r.record.faults.deviations()[i]?;
@@ -448,6 +449,7 @@ pub fn history_svg(
                     f64::from(r.record.flight),
                     f64::from(d),
                     r.record.is_trusted(),
+                    r.record.window != 0,
                 ))
             })
             .collect();
@@ -514,17 +516,28 @@ pub fn history_svg(
         chart
             .draw_series(
                 obs.iter()
-                    .filter(|o| o.2)
-                    .map(|&(x, y, _)| Circle::new((x, y), 3, BLUE.filled())),
+                    .filter(|o| o.2 && !o.3)
+                    .map(|&(x, y, ..)| Circle::new((x, y), 3, BLUE.filled())),
             )
             .map_err(e)?
-            .label("identified")
+            .label("identified (preflight)")
             .legend(|(x, y)| Circle::new((x + 10, y), 3, BLUE.filled()));
+        if obs.iter().any(|o| o.2 && o.3) {
+            chart
+                .draw_series(
+                    obs.iter()
+                        .filter(|o| o.2 && o.3)
+                        .map(|&(x, y, ..)| Circle::new((x, y), 3, MAGENTA.stroke_width(1))),
+                )
+                .map_err(e)?
+                .label("identified in flight")
+                .legend(|(x, y)| Circle::new((x + 10, y), 3, MAGENTA.stroke_width(1)));
+        }
         chart
             .draw_series(
                 obs.iter()
                     .filter(|o| !o.2)
-                    .map(|&(x, y, _)| Cross::new((x, y), 4, BLACK)),
+                    .map(|&(x, y, ..)| Cross::new((x, y), 4, BLACK)),
             )
             .map_err(e)?;
         chart
@@ -700,6 +713,103 @@ impl IntrusionCount {
     }
 }
 
+/// How far a kind of entry's readings of one component are from the truth against the
+/// deviations they state: sums over every trusted reading with a stated deviation.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Scatter {
+    pub readings: u32,
+    /// Σ (reading − truth)², in deviations from nominal.
+    pub squared_error: f64,
+    /// Σ stated σ² (not below the trend's noise floor).
+    pub squared_std: f64,
+}
+
+impl Scatter {
+    fn add(&mut self, row: &HistoryRow, i: usize) {
+        let Some(truth) = row.truth.filter(|_| row.record.is_trusted()) else {
+            return;
+        };
+        let (found, truth) = (row.record.faults.deviations(), truth.deviations());
+        if let (Some(Some(f)), Some(Some(t)), Some(sd)) =
+            (found.get(i), truth.get(i), row.record.std.get(i))
+        {
+            let sd = f64::from(sd).max(TrendSettings::DEFAULT.noise_floor);
+            self.readings += 1;
+            self.squared_error += f64::from(f - t).powi(2);
+            self.squared_std += sd * sd;
+        }
+    }
+
+    /// RMS error and RMS stated deviation.
+    pub fn rms(&self) -> (f64, f64) {
+        let n = f64::from(self.readings.max(1));
+        (
+            (self.squared_error / n).sqrt(),
+            (self.squared_std / n).sqrt(),
+        )
+    }
+
+    /// RMS error over RMS stated deviation.
+    pub fn ratio(&self) -> f64 {
+        let (e, s) = self.rms();
+        e / s
+    }
+}
+
+/// In-flight readings a component needs for its factor to count in the largest.
+const FACTOR_READINGS: u32 = 20;
+
+/// Per component, how optimistic an in-flight entry's stated deviation is against a
+/// preflight's: (in-flight RMS error / RMS stated σ) over (the same for preflights); with
+/// the largest over the components with at least [`FACTOR_READINGS`] in-flight readings (the
+/// scale at which no component's in-flight entries weigh more than their errors support).
+pub fn scatter_factors(scatter: &[[Scatter; FAULT_COUNT]; 2]) -> ([Option<f64>; FAULT_COUNT], f64) {
+    let mut factors = [None; FAULT_COUNT];
+    let mut largest = 0.0f64;
+    for (i, f) in factors.iter_mut().enumerate() {
+        let (p, w) = (scatter[0][i], scatter[1][i]);
+        if p.readings == 0 || w.readings == 0 || p.ratio() <= 0.0 {
+            continue;
+        }
+        let factor = w.ratio() / p.ratio();
+        *f = Some(factor);
+        if w.readings >= FACTOR_READINGS {
+            largest = largest.max(factor);
+        }
+    }
+    (factors, largest)
+}
+
+fn scatter_markdown(scatter: &[[Scatter; FAULT_COUNT]; 2]) -> String {
+    let (factors, largest) = scatter_factors(scatter);
+    let mut out = String::from(
+        "\nErrors against stated deviations, every trusted reading with one (deviations \
+         from nominal; σ not below the noise floor):\n\n\
+         | component | preflights | RMS error | RMS stated σ | in flight | RMS error | RMS stated σ | in-flight σ this many times as optimistic |\n\
+         | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n",
+    );
+    for (i, f) in factors.iter().enumerate() {
+        let (p, w) = (scatter[0][i], scatter[1][i]);
+        if p.readings == 0 {
+            continue;
+        }
+        let ((pe, ps), (we, ws)) = (p.rms(), w.rms());
+        out += &format!(
+            "| {} | {} | {pe:.4} | {ps:.4} | {} | {we:.4} | {ws:.4} | {} |\n",
+            FAULT_NAMES[i],
+            p.readings,
+            w.readings,
+            f.map_or("–".into(), |f| format!("{f:.2}"))
+        );
+    }
+    out += &format!(
+        "\nLargest factor over the components with ≥ {FACTOR_READINGS} in-flight readings: \
+         **{largest:.2}** (the in-flight scale at which no component's in-flight entries \
+         weigh more than their errors support).\n"
+    );
+    out
+}
+
 /// The evaluation's tracks and intrusion counts.
 #[derive(Clone, Debug, Default)]
 pub struct Evaluation {
@@ -708,6 +818,9 @@ pub struct Evaluation {
     pub preflight_only: Vec<Track>,
     /// In-flight entries: identified (within) and all.
     pub windows: (u32, u32),
+    /// Errors against stated deviations per component: preflights `[0]`, in-flight
+    /// entries `[1]`.
+    pub scatter: [[Scatter; FAULT_COUNT]; 2],
     pub intrusions: IntrusionCount,
     /// Runs simulated now, and runs read from the cache folder.
     pub simulated: u32,
@@ -819,6 +932,14 @@ pub fn evaluate(
                     rows
                 }
             };
+            for r in &rows {
+                for (i, s) in eval.scatter[usize::from(r.record.window != 0)]
+                    .iter_mut()
+                    .enumerate()
+                {
+                    s.add(r, i);
+                }
+            }
             let preflights: Vec<HistoryRow> = rows
                 .iter()
                 .filter(|r| r.record.window == 0)
@@ -1086,6 +1207,7 @@ pub fn eval_markdown(eval: &Evaluation, alpha: f64) -> String {
     );
     if !eval.preflight_only.is_empty() {
         let (within, flown) = eval.windows;
+        out += &scatter_markdown(&eval.scatter);
         out += &format!(
             "\nThe same runs from their preflights alone (the {flown} in-flight entries left \
              out; {within} of them identified, the others `Outside`):\n\n"
@@ -1294,6 +1416,32 @@ mod tests {
                 .map(|f| (f, (f >= 3).then(|| predict(eol - f64::from(f)))))
                 .collect(),
         }
+    }
+
+    #[test]
+    fn the_in_flight_factor_compares_each_kinds_errors_with_its_stated_deviations() {
+        let kind = |readings: u32, error: f64, std: f64| Scatter {
+            readings,
+            squared_error: f64::from(readings) * error * error,
+            squared_std: f64::from(readings) * std * std,
+        };
+        let mut scatter = [[Scatter::default(); FAULT_COUNT]; 2];
+        // Friction: preflights state 4× their error, windows half theirs: 8× as optimistic.
+        scatter[0][0] = kind(100, 0.01, 0.04);
+        scatter[1][0] = kind(30, 0.02, 0.01);
+        // Short A: windows state 10× their error (2.5× as cautious as preflights).
+        scatter[0][2] = kind(100, 0.01, 0.04);
+        scatter[1][2] = kind(30, 0.01, 0.1);
+        // Backlash: windows 16× as optimistic, but too few readings to set the largest.
+        scatter[0][1] = kind(100, 0.01, 0.04);
+        scatter[1][1] = kind(FACTOR_READINGS - 1, 0.04, 0.01);
+        let (factors, largest) = scatter_factors(&scatter);
+        let close = |a: Option<f64>, b: f64| a.is_some_and(|a| (a - b).abs() < 1e-9);
+        assert!(close(factors[0], 8.0), "{factors:?}");
+        assert!(close(factors[2], 0.4), "{factors:?}");
+        assert!(close(factors[1], 16.0), "{factors:?}");
+        assert_eq!(factors[3], None);
+        assert!((largest - 8.0).abs() < 1e-9, "{largest}");
     }
 
     #[test]
