@@ -99,7 +99,8 @@ pub type EncodedRecord = [u8; RECORD_BYTES];
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct HealthRecord {
-    /// Index of the flight whose preflight this was (strictly increasing in a log).
+    /// Index of the flight whose preflight (or window) this was (strictly increasing in a
+    /// log of preflights).
     pub flight: u32,
     /// The identified fault vector.
     pub faults: FaultVector,
@@ -115,7 +116,8 @@ pub struct HealthRecord {
     pub day: RecordedDay,
     /// 0: the preflight of flight `flight`; n ≥ 1: the n-th window of that flight identified
     /// in flight (an in-flight entry). The onboard log and store keep preflights only
-    /// ([`HealthLog::append`]); trends take both ([`Self::time`]).
+    /// ([`HealthLog::append`]); trends take both, each at its flight
+    /// ([`crate::prognosis::FaultTrend::update`]).
     pub window: u8,
 }
 
@@ -401,12 +403,6 @@ impl HealthRecord {
     pub fn in_flight(mut self, window: u8) -> Self {
         self.window = window;
         self
-    }
-
-    /// When the test was, in flights: the flight index for a preflight, and `flight + n/256`
-    /// for its n-th window (after the preflight, before the next flight's).
-    pub fn time(&self) -> f64 {
-        f64::from(self.flight) + f64::from(self.window) / 256.0
     }
 
     /// The record with the test's day (see [`RecordedDay::new`]).

@@ -1,6 +1,7 @@
 //! Degradation trends and remaining useful life (RUL), per fault, from the health log.
 //!
-//! Units: time in flights (one preflight per flight), fault level in the fault vector's
+//! Units: time in flights (one preflight per flight; an in-flight entry, a window of flight
+//! identified in flight, counts at its flight, after the preflight), fault level in the fault vector's
 //! normalised deviation from nominal ([`crate::fault::FaultVector::deviations`]), RUL in flights.
 //!
 //! ## Model
@@ -15,7 +16,9 @@
 //!
 //! Each observation `y_i` carries its own variance `v_i = max(σ_i, noise_floor)²`, `σ_i` the
 //! identification's standard deviation of that component from the health record
-//! ([`crate::uncertainty`]; `noise_floor` where the record has none, as a version-1 record).
+//! ([`crate::uncertainty`]; `noise_floor` where the record has none, as a version-1 record);
+//! an in-flight entry's `σ_i` counts [`TrendSettings::window_scale`] times (its errors against
+//! what it states, over a preflight's).
 //! For each shape a weighted recursive least-squares filter (the Bayesian linear update with a
 //! flat prior) refines `(a, b)` and its covariance once per observation, O(1). The filter also
 //! sums the squared standardised prediction errors (`χ²`), from which the scale
