@@ -3,7 +3,8 @@
 //! (`host-sim prognostics`: α-λ accuracy and prognostic horizon).
 //!
 //! One simulated flight = one reference-model test (≈ 0.05 s) + one onboard identification
-//! (≈ 1 s); flights run in parallel. The trend and RUL are `shared::prognosis`, the code the
+//! (≈ 1 s), and with `--windows N` N windows of flight flown and identified in flight
+//! (≈ 0.4 s each); flights run in parallel. The trend and RUL are `shared::prognosis`, the code the
 //! controller runs.
 
 use std::path::Path;
