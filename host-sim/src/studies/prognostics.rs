@@ -130,16 +130,20 @@ fn intrusion_model(intrusion: Intrusion, rm: ReferenceModel) -> ReferenceModel {
     }
 }
 
+/// SplitMix64's finaliser: a well-mixed 64-bit word from `z`.
+fn splitmix(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
 /// Which flights of run `seed` meet an intrusion: each with probability `share`
 /// (deterministic in seed and flight), the kind in turn.
 pub fn intrusion(seed: u64, flight: u32, share: f64) -> Option<Intrusion> {
-    // SplitMix64 of (seed, flight).
-    let mut z = seed
-        .wrapping_mul(0x9E37_79B9_7F4A_7C15)
-        .wrapping_add(u64::from(flight).wrapping_mul(0xBF58_476D_1CE4_E5B9));
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^= z >> 31;
+    let z = splitmix(
+        seed.wrapping_mul(0x9E37_79B9_7F4A_7C15)
+            .wrapping_add(u64::from(flight).wrapping_mul(0xBF58_476D_1CE4_E5B9)),
+    );
     let u = (z >> 11) as f64 / (1u64 << 53) as f64;
     (u < share).then(|| Intrusion::ALL[(z % 3) as usize])
 }
@@ -147,13 +151,11 @@ pub fn intrusion(seed: u64, flight: u32, share: f64) -> Option<Intrusion> {
 /// The window of flight `n` (≥ 1) of flight `flight` of run `seed` flies: a phase and a
 /// turbulence of [`ALL_WINDOWS`], drawn deterministically (SplitMix64).
 pub fn flown_window(seed: u64, flight: u32, n: u8) -> FlightWindow {
-    let mut z = seed
-        .wrapping_mul(0xD1B5_4A32_D192_ED03)
-        .wrapping_add(u64::from(flight).wrapping_mul(0x9E37_79B9_7F4A_7C15))
-        .wrapping_add(u64::from(n).wrapping_mul(0xBF58_476D_1CE4_E5B9));
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^= z >> 31;
+    let z = splitmix(
+        seed.wrapping_mul(0xD1B5_4A32_D192_ED03)
+            .wrapping_add(u64::from(flight).wrapping_mul(0x9E37_79B9_7F4A_7C15))
+            .wrapping_add(u64::from(n).wrapping_mul(0xBF58_476D_1CE4_E5B9)),
+    );
     ALL_WINDOWS[(z % ALL_WINDOWS.len() as u64) as usize]
 }
 
@@ -726,7 +728,7 @@ pub struct Scatter {
 }
 
 impl Scatter {
-    fn add(&mut self, row: &HistoryRow, i: usize) {
+    fn add(&mut self, row: &HistoryRow, i: usize, noise_floor: f64) {
         let Some(truth) = row.truth.filter(|_| row.record.is_trusted()) else {
             return;
         };
@@ -734,7 +736,7 @@ impl Scatter {
         if let (Some(Some(f)), Some(Some(t)), Some(sd)) =
             (found.get(i), truth.get(i), row.record.std.get(i))
         {
-            let sd = f64::from(sd).max(TrendSettings::DEFAULT.noise_floor);
+            let sd = f64::from(sd).max(noise_floor);
             self.readings += 1;
             self.squared_error += f64::from(f - t).powi(2);
             self.squared_std += sd * sd;
@@ -938,7 +940,7 @@ pub fn evaluate(
                     .iter_mut()
                     .enumerate()
                 {
-                    s.add(r, i);
+                    s.add(r, i, settings.noise_floor);
                 }
             }
             let preflights: Vec<HistoryRow> = rows
