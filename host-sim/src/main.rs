@@ -203,6 +203,15 @@ enum Command {
         /// turbulence, the healthy actuator and friction 0.2 (docs/in-flight.md §5).
         #[arg(long, requires = "flight", value_delimiter = ',', value_name = "MRAD")]
         test_amplitudes: Option<Vec<f64>>,
+        /// With --flight: the first seed of each row (seeds FIRST … FIRST + runs − 1), e.g.
+        /// to choose a limit on other seeds than those it is reported on.
+        #[arg(
+            long,
+            requires = "flight",
+            conflicts_with = "test_amplitudes",
+            default_value_t = 0
+        )]
+        first_seed: u64,
         /// Runs (seeds) per case.
         #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..=1000))]
         runs: u64,
@@ -211,7 +220,9 @@ enum Command {
         out: Option<PathBuf>,
         /// Also write every run as a CSV row to this file (case, run, e_tot, fitness, fitness
         /// at the truth, evaluations, domain, the found vector): the distribution behind the
-        /// table, e.g. of evaluations per identification.
+        /// table, e.g. of evaluations per identification. With --flight: every window (phase,
+        /// turbulence, case, seed, verdict, e_tot, false FAULTs, turbulence level, misfit,
+        /// the preflight FDI's verdict, the found vector and its deviations).
         #[arg(long, value_name = "FILE.csv")]
         runs_csv: Option<PathBuf>,
         /// Also draw e_tot per case (ours vs paper) into this SVG.
@@ -620,6 +631,7 @@ fn main() -> ExitCode {
             wind,
             flight,
             test_amplitudes,
+            first_seed,
             runs,
             out,
             runs_csv,
@@ -630,7 +642,14 @@ fn main() -> ExitCode {
         } => with_test(test, encoder_offset, day).and_then(|actuator| match table {
             _ if wind => wind_campaign_command(&actuator, runs, out.as_deref()),
             _ if flight => {
-                flight_campaign_command(&actuator, runs, test_amplitudes.as_deref(), out.as_deref())
+                let seeds = first_seed..first_seed.saturating_add(runs);
+                flight_campaign_command(
+                    &actuator,
+                    seeds,
+                    test_amplitudes.as_deref(),
+                    out.as_deref(),
+                    runs_csv.as_deref(),
+                )
             }
             Some(table) if !conditions => campaign_command(
                 &actuator,

@@ -84,7 +84,46 @@ pub enum Assessment {
     NotApplicable,
 }
 
+/// The 90 % interval of a component at `x` with standard deviation `s`: clamped to [0, 1],
+/// unless the component is circular (the eccentricity's phase).
+#[inline(always)]
+fn interval(circular: bool, x: f32, s: f32) -> (f32, f32) {
+    let (lo, hi) = (x - Z90 * s, x + Z90 * s);
+    if circular {
+        (lo, hi)
+    } else {
+        (lo.clamp(0.0, 1.0), hi.clamp(0.0, 1.0))
+    }
+}
+
 impl Uncertainty {
+    /// These intervals with each component's standard deviation taken `factors[i]` times,
+    /// around `k` (the identified vector they belong to): a reading whose scatter is known
+    /// to exceed what its curvature states (a window of flight, `shared::window`). O(9).
+    #[must_use]
+    pub fn widened(&self, k: &FaultVector, factors: &[f32; FAULT_COUNT]) -> Self {
+        let mut out = *self;
+        for i in 0..FAULT_COUNT {
+            let (Some(s), Some(&f), Some(&x), Some(&circular)) = (
+                out.std.get_mut(i),
+                factors.get(i),
+                k.as_array().get(i),
+                CIRCULAR.get(i),
+            ) else {
+                continue;
+            };
+            if s.is_nan() {
+                continue;
+            }
+            *s *= f;
+            let (lo, hi) = interval(circular, x, *s);
+            if let (Some(l), Some(u)) = (out.lower.get_mut(i), out.upper.get_mut(i)) {
+                (*l, *u) = (lo, hi);
+            }
+        }
+        out
+    }
+
     /// Whether the true `k` lies inside every determined interval, per component (`None`
     /// where undetermined).
     pub fn covers(&self, truth: &FaultVector) -> [Option<bool>; FAULT_COUNT] {
@@ -296,16 +335,8 @@ impl Curvature {
                 continue;
             }
             let s = sqrt64(variance(i)) as f32;
-            let x = k.as_array()[i];
             out.std[i] = s;
-            let (lo, hi) = (x - Z90 * s, x + Z90 * s);
-            if CIRCULAR[i] {
-                out.lower[i] = lo;
-                out.upper[i] = hi;
-            } else {
-                out.lower[i] = lo.clamp(0.0, 1.0);
-                out.upper[i] = hi.clamp(0.0, 1.0);
-            }
+            (out.lower[i], out.upper[i]) = interval(CIRCULAR[i], k.as_array()[i], s);
             for j in 0..FAULT_COUNT {
                 if !determined[j] {
                     continue;
@@ -362,6 +393,39 @@ mod tests {
         assert_eq!(u.upper[7], 1.0);
         assert_eq!(u.worst_correlation, 0.0);
         assert!(u.covers(&k).iter().all(|c| *c == Some(true)));
+    }
+
+    #[test]
+    fn widening_scales_the_deviations_and_redraws_the_intervals() {
+        let u = Uncertainty {
+            std: [0.01, f32::NAN, 0.2, 0.01, 0.01, 0.01, 0.1, 0.02, 0.01],
+            lower: [0.0; FAULT_COUNT],
+            upper: [1.0; FAULT_COUNT],
+            worst_correlation: 0.3,
+            worst_pair: (0, 7),
+            residual_std: 0.5,
+        };
+        let k = FaultVector::new([0.1, 0.0, 0.9, 0.0, 0.0, 0.0, 0.95, 0.5, 0.0]).unwrap();
+        let mut factors = [1.0; FAULT_COUNT];
+        (factors[0], factors[1], factors[2], factors[6]) = (2.0, 5.0, 3.0, 2.0);
+        let w = u.widened(&k, &factors);
+        assert_eq!(w.std[0], 0.02);
+        assert!((w.lower[0] - (0.1 - Z90 * 0.02)).abs() < 1e-6);
+        assert!((w.upper[0] - (0.1 + Z90 * 0.02)).abs() < 1e-6);
+        // Undetermined stays undetermined, its interval untouched.
+        assert!(w.std[1].is_nan());
+        assert_eq!((w.lower[1], w.upper[1]), (0.0, 1.0));
+        // Clamped to [0, 1], except the circular phase.
+        assert_eq!((w.lower[2], w.upper[2]), (0.0, 1.0));
+        assert!((w.std[2] - 0.6).abs() < 1e-6);
+        assert!(w.upper[6] > 1.0);
+        // A factor of one redraws the interval around k at the same deviation.
+        assert_eq!(w.std[7], 0.02);
+        assert!((w.lower[7] - (0.5 - Z90 * 0.02)).abs() < 1e-6);
+        assert_eq!(
+            (w.worst_correlation, w.worst_pair, w.residual_std),
+            (0.3, (0, 7), 0.5)
+        );
     }
 
     #[test]

@@ -58,6 +58,18 @@ const LOAD_STEP: f32 = 0.01;
 /// Moments tried by the load fit's scan before its golden-section search.
 const MOMENT_SCAN: usize = 81;
 
+/// How many times a window's standard deviation per component must be taken beyond what
+/// its curvature states (after the preflight's [`crate::uncertainty::INFLATION`]), so that
+/// its 90 % interval holds the truth in 90 % of identified windows: the turbulence the
+/// drift does not absorb leaves a coloured residual that the curvature reads as
+/// information. Chosen on the flight campaign's seeds 10–29 (every phase and turbulence,
+/// the healthy actuator and friction 0.2, 162 identified windows), each component's 90th
+/// percentile of |error| / σ over [`crate::uncertainty::Z90`], rounded up to a tenth:
+/// friction 1.52 → 1.6, gain drift 1.40 → 1.4; the others' intervals already hold the
+/// truth in 98–100 % of windows and are left as they are (docs/in-flight.md §4). Reported
+/// on seeds 0–9.
+pub const WINDOW_INFLATION: [f32; FAULT_COUNT] = [1.6, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.4, 1.0];
+
 /// The commanded user-shaft angle [rad] of each sample of a window, as the controller
 /// followed it (a trace's `theta_cmd`). Past the last sample the last value holds. O(1).
 #[derive(Clone, Copy, Debug)]

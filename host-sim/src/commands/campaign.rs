@@ -306,11 +306,16 @@ pub(crate) fn wind_campaign_command(
 /// (`host_sim::studies::flight`).
 pub(crate) fn flight_campaign_command(
     actuator: &Actuator,
-    runs: u64,
+    seeds: std::ops::Range<u64>,
     amplitudes: Option<&[f64]>,
     out: Option<&Path>,
+    runs_csv: Option<&Path>,
 ) -> Result<()> {
+    let runs = seeds.end - seeds.start;
     if let Some(amplitudes) = amplitudes {
+        if runs_csv.is_some() {
+            anyhow::bail!("--runs-csv: not written by the --test-amplitudes study");
+        }
         use host_sim::studies::flight::{amplitude_markdown, test_amplitude_study};
         if amplitudes
             .iter()
@@ -335,12 +340,14 @@ pub(crate) fn flight_campaign_command(
         })?;
         return report_table(&amplitude_markdown(&study, &actuator.name), start, out);
     }
-    use host_sim::studies::flight::{flight_campaign, flight_markdown, FLIGHT_CASES};
+    use host_sim::studies::flight::{
+        flight_campaign, flight_markdown, flight_runs_csv, FLIGHT_CASES,
+    };
     let rm = ReferenceModel::new(actuator.reference_settings()?);
     let start = Instant::now();
     let total = 6 * FLIGHT_CASES.len();
     let mut done = 0;
-    let rows = flight_campaign(&rm, &actuator.record, runs, |row| {
+    let rows = flight_campaign(&rm, &actuator.record, seeds, |row| {
         done += 1;
         eprintln!(
             "[{done}/{total}] {} in {:?}, {:?} turbulence ({:.0} s)",
@@ -350,6 +357,10 @@ pub(crate) fn flight_campaign_command(
             start.elapsed().as_secs_f64()
         );
     })?;
+    if let Some(path) = runs_csv {
+        std::fs::write(path, flight_runs_csv(&rows))
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
     report_table(&flight_markdown(&rows, &actuator.name), start, out)
 }
 

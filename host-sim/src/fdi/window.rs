@@ -13,7 +13,8 @@ use shared::fdi::{OnboardMeasured, POPULATION};
 use shared::health::{HealthRecord, RecordedDay};
 use shared::uncertainty::{Assessment, Uncertainty};
 use shared::window::{
-    RecordedCommand, WindowLimits, WindowLoad, WindowProblem, WindowReason, LOAD_SEARCH_EVALUATIONS,
+    RecordedCommand, WindowLimits, WindowLoad, WindowProblem, WindowReason,
+    LOAD_SEARCH_EVALUATIONS, WINDOW_INFLATION,
 };
 use shared::{FaultVector, MonitorModel, SteadyStateGa, FAULT_COUNT};
 
@@ -41,7 +42,8 @@ pub struct WindowIdentified {
     /// The window's own verdict (`Err`: `Outside`, never identified).
     pub verdict: Result<(), WindowReason>,
     /// Standard deviation and 90 % interval per component, with the correlations, from the
-    /// window's curvature (`shared::uncertainty`, its inflation calibrated on preflights).
+    /// window's curvature (`shared::uncertainty`, its inflation calibrated on preflights,
+    /// then `shared::window::WINDOW_INFLATION`, calibrated on flight windows).
     pub uncertainty: Option<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT])>,
 }
 
@@ -188,7 +190,10 @@ pub fn identify_window(
             damping *= 10.0;
         }
     }
-    let uncertainty = curvature.uncertainty(&faults).ok();
+    let uncertainty = curvature
+        .uncertainty(&faults)
+        .ok()
+        .map(|(u, c)| (u.widened(&faults, &WINDOW_INFLATION), c));
     Ok(WindowIdentified {
         faults,
         fitness: fit.error,

@@ -37,6 +37,8 @@ pub const FLIGHT_CASES: [(&str, [f32; shared::FAULT_COUNT]); 3] = [
 /// One seed of one case in one window.
 #[derive(Clone, Debug)]
 pub struct FlightRun {
+    /// The run's seed (the window's noise, turbulence and corrections).
+    pub seed: u64,
     /// The preflight identification's verdict on the window and its e_tot [%].
     pub preflight: (Domain, f64),
     /// The window identification's verdict (`Err`: outside) and e_tot [%].
@@ -48,6 +50,14 @@ pub struct FlightRun {
     pub false_faults: usize,
     /// Components whose 90 % interval holds the truth, and components with an interval.
     pub covered: (usize, usize),
+    /// The window's load beyond its spring over the spring's moment at the test's amplitude
+    /// (`WindowIdentified::turbulence`), and the share of the current its fit leaves
+    /// unexplained (`WindowIdentified::misfit`).
+    pub turbulence: f32,
+    pub misfit: f32,
+    /// The window identification's vector and its standard deviations (NaN: undetermined).
+    pub found: FaultVector,
+    pub std: [f32; shared::FAULT_COUNT],
     /// Components whose window interval meets the same flight's preflight interval, and
     /// components compared (both determined; none when the preflight was not `within`).
     pub agreement: (usize, usize),
@@ -77,6 +87,7 @@ pub fn agreement(a: &Uncertainty, b: &Uncertainty) -> (usize, usize) {
 #[derive(Clone, Debug)]
 pub struct FlightRow {
     pub case: &'static str,
+    pub truth: FaultVector,
     pub window: FlightWindow,
     pub runs: Vec<FlightRun>,
 }
@@ -116,18 +127,18 @@ const fn window(phase: FlightPhase, turbulence: Turbulence) -> FlightWindow {
     FlightWindow { phase, turbulence }
 }
 
-/// Every case in every phase and turbulence, `runs` seeds each.
+/// Every case in every phase and turbulence, one run per seed of `seeds`.
 pub fn flight_campaign(
     rm: &ReferenceModel,
     record: &ActuatorRecord,
-    runs: u64,
+    seeds: std::ops::Range<u64>,
     progress: impl FnMut(&FlightRow),
 ) -> Result<Vec<FlightRow>> {
     fly_windows(
         rm,
         record,
         &flight_record(record),
-        runs,
+        seeds,
         &ALL_WINDOWS,
         &FLIGHT_CASES,
         progress,
@@ -158,21 +169,27 @@ pub fn test_amplitude_study(
         .map(|&a| {
             let mut window_record = flight_record(record);
             window_record.test.chirp.amplitude = a;
-            let rows = fly_windows(rm, record, &window_record, runs, &windows, &cases, |row| {
-                progress(a, row)
-            })?;
+            let rows = fly_windows(
+                rm,
+                record,
+                &window_record,
+                0..runs,
+                &windows,
+                &cases,
+                |row| progress(a, row),
+            )?;
             Ok((a, rows))
         })
         .collect()
 }
 
-/// `cases` in `windows`, `runs` seeds each: the window played with `record`'s test and
+/// `cases` in `windows`, one run per seed of `seeds`: the window played with `record`'s test and
 /// identified with it, and the same flight's preflight with `ground_record`.
 fn fly_windows(
     rm: &ReferenceModel,
     ground_record: &ActuatorRecord,
     record: &ActuatorRecord,
-    runs: u64,
+    seeds: std::ops::Range<u64>,
     windows: &[FlightWindow],
     cases: &[(&'static str, [f32; shared::FAULT_COUNT])],
     mut progress: impl FnMut(&FlightRow),
@@ -187,7 +204,8 @@ fn fly_windows(
             for &(case, faults) in cases {
                 let truth = FaultVector::new(faults).map_err(|e| anyhow::anyhow!("{e:?}"))?;
                 let flying = rm.with_flight(Some(window));
-                let runs = (0..runs)
+                let runs = seeds
+                    .clone()
                     .into_par_iter()
                     .map(|seed| -> Result<FlightRun> {
                         let sim = flying.simulate(&Scenario {
@@ -240,6 +258,14 @@ fn fly_windows(
                             _ => (0, 0),
                         };
                         Ok(FlightRun {
+                            seed,
+                            turbulence: w.turbulence,
+                            misfit: w.misfit,
+                            found: w.faults,
+                            std: w
+                                .uncertainty
+                                .as_ref()
+                                .map_or([f32::NAN; shared::FAULT_COUNT], |(u, _)| u.std),
                             agreement,
                             preflight: (domain, f64::from(total_error(&id.result.faults, &truth))),
                             window: (w.verdict, f64::from(total_error(&w.faults, &truth))),
@@ -249,7 +275,12 @@ fn fly_windows(
                         })
                     })
                     .collect::<Result<Vec<_>>>()?;
-                let row = FlightRow { case, window, runs };
+                let row = FlightRow {
+                    case,
+                    truth,
+                    window,
+                    runs,
+                };
                 progress(&row);
                 rows.push(row);
             }
@@ -368,6 +399,24 @@ pub fn flight_markdown(rows: &[FlightRow], actuator: &str) -> String {
          90 % intervals hold the truth in {held} of {intervals} component-readings and \
          meet the same flight's preflight interval in {agreed} of {agreed_of}.\n\n"
     ));
+    text.push_str(
+        "Per component (the eccentricity's phase left out), the 90 % intervals of the \
+         identified windows that hold the truth, and the factor on their deviations that \
+         would make 90 % of them hold it (1.0 or less: calibrated or wide; \
+         `shared::window::WINDOW_INFLATION` is already applied):",
+    );
+    for (j, (held, n, factor)) in interval_calibration(rows).iter().enumerate() {
+        if *n == 0 {
+            continue;
+        }
+        text.push_str(&format!(
+            " k{} {held}/{n} ({});",
+            j + 1,
+            factor.map_or("–".into(), |f| format!("×{f:.2}"))
+        ));
+    }
+    text.pop();
+    text.push_str(".\n\n");
     text.push_str(&format!(
         "### The preflight identification on the same windows: {actuator}\n\n\
          The flown preflight FDI reads the window as a preflight: its monitor model plays \
@@ -401,6 +450,73 @@ pub fn flight_markdown(rows: &[FlightRow], actuator: &str) -> String {
     text.push_str(&format!(
         "\n{within_total} of {total} windows left `within`.\n"
     ));
+    text
+}
+
+/// Per component, over the identified windows of `rows`: the 90 % intervals that hold the
+/// truth, the intervals, and the factor on the stated deviations that would make them hold
+/// it in 90 % (the 90th percentile of |error| / σ over [`shared::uncertainty::Z90`]; `None`
+/// under ten intervals). How `shared::window::WINDOW_INFLATION` is chosen, and checked.
+pub fn interval_calibration(
+    rows: &[FlightRow],
+) -> [(usize, usize, Option<f32>); shared::FAULT_COUNT] {
+    core::array::from_fn(|j| {
+        let mut z: Vec<f32> = rows
+            .iter()
+            .flat_map(|row| {
+                row.runs
+                    .iter()
+                    .filter(|r| r.window.0.is_ok() && !r.std[j].is_nan() && j != ECCENTRICITY_PHASE)
+                    .map(move |r| {
+                        (r.found.as_array()[j] - row.truth.as_array()[j]).abs() / r.std[j]
+                    })
+            })
+            .collect();
+        z.sort_by(f32::total_cmp);
+        let n = z.len();
+        let held = z.iter().filter(|&&x| x <= shared::uncertainty::Z90).count();
+        let factor = (n >= 10).then(|| z[(9 * n).div_ceil(10) - 1] / shared::uncertainty::Z90);
+        (held, n, factor)
+    })
+}
+
+/// Every window of the campaign as a CSV row: phase, turbulence, case, seed, the window
+/// identification's verdict, e_tot [%], its false `FAULT`s and largest healthy component,
+/// the window's turbulence level and misfit, and the preflight FDI's verdict on it.
+pub fn flight_runs_csv(rows: &[FlightRow]) -> String {
+    let mut text = String::from(
+        "phase,turbulence,case,seed,verdict,e_tot_pct,false_faults,healthy_max,\
+         turbulence_level,misfit,preflight_verdict",
+    );
+    for j in 1..=shared::FAULT_COUNT {
+        text.push_str(&format!(",k{j}"));
+    }
+    for j in 1..=shared::FAULT_COUNT {
+        text.push_str(&format!(",std_k{j}"));
+    }
+    text.push('\n');
+    for row in rows {
+        for r in &row.runs {
+            text.push_str(&format!(
+                "{:?},{:?},{},{},{},{:.3},{},{:.4},{:.4},{:.5},{}",
+                row.window.phase,
+                row.window.turbulence,
+                row.case,
+                r.seed,
+                window_reason(&r.window.0),
+                r.window.1,
+                r.false_faults,
+                r.healthy_max,
+                r.turbulence,
+                r.misfit,
+                reason(&r.preflight.0),
+            ));
+            for x in r.found.as_array().iter().chain(&r.std) {
+                text.push_str(&format!(",{x:.5}"));
+            }
+            text.push('\n');
+        }
+    }
     text
 }
 
@@ -442,4 +558,69 @@ pub fn amplitude_markdown(study: &[(f32, Vec<FlightRow>)], actuator: &str) -> St
         }
     }
     text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plant::aero::{FlightPhase, FlightWindow, Turbulence};
+
+    /// A within window whose friction reads `friction` with deviation `std`.
+    fn run(seed: u64, friction: f32, std: f32) -> FlightRun {
+        let mut genes = *FaultVector::NOMINAL.as_array();
+        genes[0] = friction;
+        let mut stds = [0.1; shared::FAULT_COUNT];
+        stds[0] = std;
+        FlightRun {
+            seed,
+            preflight: (Domain::Within, 0.0),
+            window: (Ok(()), 1.0),
+            healthy_max: 0.0,
+            false_faults: 0,
+            covered: (0, 0),
+            turbulence: 0.05,
+            misfit: 0.003,
+            found: FaultVector::saturating(genes),
+            std: stds,
+            agreement: (0, 0),
+        }
+    }
+
+    #[test]
+    fn the_interval_factor_is_the_ninetieth_percentile_of_the_errors_over_z90() {
+        // Friction errors of 0.01 … 0.20 at σ 0.01 (z = 1 … 20): 20 windows, the 18th
+        // largest |z| is 18.
+        let mut runs: Vec<FlightRun> = (1..=20).map(|i| run(i, i as f32 * 0.01, 0.01)).collect();
+        // A window named outside counts nowhere.
+        let mut outside = run(99, 0.9, 0.01);
+        outside.window.0 = Err(WindowReason::PlayUnseen { contrast: 0.1 });
+        runs.push(outside);
+        let rows = [FlightRow {
+            case: "healthy",
+            truth: FaultVector::NOMINAL,
+            window: FlightWindow {
+                phase: FlightPhase::Cruise,
+                turbulence: Turbulence::Light,
+            },
+            runs,
+        }];
+        let calibration = interval_calibration(&rows);
+        let (held, n, factor) = calibration[0];
+        assert_eq!((held, n), (1, 20));
+        let factor = factor.expect("20 intervals");
+        assert!(
+            (factor - 18.0 / shared::uncertainty::Z90).abs() < 1e-3,
+            "{factor}"
+        );
+        // Exact components: every interval holds, the factor is zero; the phase is skipped.
+        assert_eq!(calibration[1].0, 20);
+        assert_eq!(calibration[1].2, Some(0.0));
+        assert_eq!(calibration[ECCENTRICITY_PHASE].1, 0);
+        // The runs' CSV: a header and one line per run, 11 + 2 × 9 fields each.
+        let csv = flight_runs_csv(&rows);
+        let lines: Vec<&str> = csv.lines().collect();
+        assert_eq!(lines.len(), 22);
+        assert!(lines.iter().all(|l| l.split(',').count() == 29), "{csv}");
+        assert!(lines[21].contains(",play_unseen,"));
+    }
 }
