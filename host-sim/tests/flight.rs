@@ -2,7 +2,8 @@
 //! alone, so a window of flight (the flight control computer's corrections, trim and
 //! turbulence on the surface) must never be read `within` by it — it is named outside,
 //! whatever the phase, the turbulence and the faults. The window identification reads the
-//! calm windows it can and names the others; a window keeps its mark in a trace file.
+//! calm windows it can, right, and names the others; a window keeps its mark in a trace
+//! file.
 
 use host_sim::plant::reference::{ReferenceModel, ReferenceSettings};
 use host_sim::studies::flight::flight_campaign;
@@ -25,6 +26,19 @@ fn no_flight_window_is_read_within() {
                 row.case,
                 row.window
             );
+            // The window identification on the same window: what it reads `within` is
+            // right to 6 % e_tot and calls no healthy component `FAULT`; what it cannot
+            // read (turbulence that stands in for friction, …) it names.
+            if run.window.0.is_ok() {
+                assert!(
+                    run.window.1 <= 6.0 && run.false_faults == 0,
+                    "{} in {:?}: within at e_tot {:.1} % with {} false FAULTs",
+                    row.case,
+                    row.window,
+                    run.window.1,
+                    run.false_faults
+                );
+            }
         }
     }
 }

@@ -259,6 +259,8 @@ pub enum DomainCode {
     ManoeuvreTooLarge = 18,
     /// A window of flight whose load never crossed the gear's play ([`WindowReason`]).
     PlayUnseen = 19,
+    /// A window of flight that could not read friction for its turbulence ([`WindowReason`]).
+    TurbulenceTooHigh = 20,
 }
 
 impl From<Result<(), WindowReason>> for DomainCode {
@@ -270,6 +272,7 @@ impl From<Result<(), WindowReason>> for DomainCode {
             Err(WindowReason::ManoeuvreTooLarge { .. }) => Self::ManoeuvreTooLarge,
             Err(WindowReason::FitnessFloor { .. }) => Self::FitnessFloor,
             Err(WindowReason::PlayUnseen { .. }) => Self::PlayUnseen,
+            Err(WindowReason::TurbulenceTooHigh { .. }) => Self::TurbulenceTooHigh,
         }
     }
 }
@@ -304,7 +307,7 @@ impl From<Domain> for DomainCode {
 
 impl DomainCode {
     /// Every code, in the order of its byte.
-    const ALL: [Self; 20] = [
+    const ALL: [Self; 21] = [
         Self::Within,
         Self::NoMotion,
         Self::OpenPhase,
@@ -325,6 +328,7 @@ impl DomainCode {
         Self::CurrentSaturated,
         Self::ManoeuvreTooLarge,
         Self::PlayUnseen,
+        Self::TurbulenceTooHigh,
     ];
 
     fn from_byte(b: u8) -> Option<Self> {
@@ -354,6 +358,7 @@ impl DomainCode {
             Self::CurrentSaturated => "current_saturated",
             Self::ManoeuvreTooLarge => "manoeuvre_too_large",
             Self::PlayUnseen => "play_unseen",
+            Self::TurbulenceTooHigh => "turbulence_too_high",
         }
     }
 
@@ -1051,6 +1056,7 @@ mod tests {
             W::CurrentSaturated { peak: 1.0 },
             W::ManoeuvreTooLarge { range: 1.0 },
             W::PlayUnseen { contrast: 0.1 },
+            W::TurbulenceTooHigh { friction_std: 0.2 },
         ];
         for (i, reason) in windows.into_iter().enumerate() {
             let code = DomainCode::from(Err(reason));
@@ -1063,7 +1069,7 @@ mod tests {
             DomainCode::FitnessFloor
         );
         assert_eq!(DomainCode::from(Ok(())), DomainCode::Within);
-        assert_eq!(DomainCode::from_byte(20), None);
+        assert_eq!(DomainCode::from_byte(21), None);
     }
 
     #[test]

@@ -146,6 +146,10 @@ pub enum WindowReason {
     /// A wide play changes the fit by only this share of the fit's error: the load never
     /// reversed, the gear's play was never crossed, the backlash cannot be read.
     PlayUnseen { contrast: f32 },
+    /// The window reads friction only to this standard deviation (calibrated, with the
+    /// load and the drift profiled out; NaN: not at all): the load's moment the turbulence
+    /// moves stands in for friction, and what it does to the other components with it.
+    TurbulenceTooHigh { friction_std: f32 },
 }
 
 /// What a window must satisfy to be identified.
@@ -161,6 +165,9 @@ pub struct WindowLimits {
     /// The smallest change of the fit, over its error, between no backlash and a wide one
     /// ([`PLAY_PROBE`]) at the found vector.
     pub min_play_contrast: f32,
+    /// The largest friction standard deviation of an identified window (after
+    /// [`WINDOW_INFLATION`]) [fault-vector units].
+    pub max_friction_std: f32,
 }
 
 /// The backlash component of the wide play [`WindowProblem::judge`] tries.
@@ -173,6 +180,7 @@ impl WindowLimits {
         max_command_range: 0.05,
         max_misfit: 0.01,
         min_play_contrast: 1.0,
+        max_friction_std: 0.08,
     };
 }
 
@@ -591,16 +599,19 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
     }
 
     /// Whether the window can be trusted at all, and at the vector `k` found with the fit
-    /// `error`: a saturated current, a manoeuvre beyond the limits' command range, a fit
-    /// that leaves more than the limits' share of the current unexplained (a load the model
-    /// does not play: turbulence beyond the trend, a play crossed where the model cannot
-    /// follow), or a window that cannot tell a wide play from none make it `Outside`. Two
-    /// model runs (the play's contrast).
+    /// `error` and the friction's standard deviation `friction_std` there (the window's
+    /// calibrated uncertainty; NaN if it has none): a saturated current, a manoeuvre beyond
+    /// the limits' command range, a fit that leaves more than the limits' share of the
+    /// current unexplained (a load the model does not play: turbulence beyond the trend, a
+    /// play crossed where the model cannot follow), a friction the window cannot read (the
+    /// turbulence's moment stands in for it), or a window that cannot tell a wide play from
+    /// none make it `Outside`. Two model runs (the play's contrast).
     pub fn judge(
         &self,
         limits: &WindowLimits,
         k: &FaultVector,
         error: f32,
+        friction_std: f32,
     ) -> Result<(), WindowReason> {
         let p = self.model.params();
         if self.peak_current >= limits.saturation_share * p.max_current {
@@ -616,6 +627,9 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         let misfit = self.misfit(error);
         if misfit.is_nan() || misfit > limits.max_misfit {
             return Err(WindowReason::FitnessFloor { misfit });
+        }
+        if friction_std.is_nan() || friction_std > limits.max_friction_std {
+            return Err(WindowReason::TurbulenceTooHigh { friction_std });
         }
         // The play: the fit with no backlash against the fit with a wide one, at `k`. If
         // the two hardly differ the gear never crossed its play (the load did not reverse):

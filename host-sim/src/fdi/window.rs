@@ -194,12 +194,13 @@ pub fn identify_window(
         .uncertainty(&faults)
         .ok()
         .map(|(u, c)| (u.widened(&faults, &WINDOW_INFLATION), c));
+    let friction_std = uncertainty.as_ref().map_or(f32::NAN, |(u, _)| u.std[0]);
     Ok(WindowIdentified {
         faults,
         fitness: fit.error,
         misfit: problem.misfit(fit.error),
         turbulence: problem.unmodelled_moment(&fit),
-        verdict: problem.judge(&WindowLimits::REFERENCE, &faults, fit.error),
+        verdict: problem.judge(&WindowLimits::REFERENCE, &faults, fit.error, friction_std),
         uncertainty,
         load,
         drift: fit.drift,

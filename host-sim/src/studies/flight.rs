@@ -305,6 +305,7 @@ pub fn window_reason(v: &Result<(), WindowReason>) -> &'static str {
         Err(WindowReason::ManoeuvreTooLarge { .. }) => "manoeuvre_too_large",
         Err(WindowReason::FitnessFloor { .. }) => "fitness_floor",
         Err(WindowReason::PlayUnseen { .. }) => "play_unseen",
+        Err(WindowReason::TurbulenceTooHigh { .. }) => "turbulence_too_high",
     }
 }
 
