@@ -765,6 +765,109 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
     }
 }
 
+/// Gauss–Newton steps of the polish at most, and their first damping.
+const POLISH_STEPS: usize = 6;
+const POLISH_DAMPING: f64 = 0.1;
+
+/// Model runs of one window curvature ([`WindowProblem::curvature`]).
+pub const CURVATURE_RUNS: u32 = RUNS as u32;
+
+/// What the identification of one window found ([`identify`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WindowReading {
+    pub faults: FaultVector,
+    /// The fit at `faults` under `load`: eq. (3) after the drift [A²·s] and the drift.
+    pub fit: WindowFit,
+    /// The load fitted at the first GA's best (the one `faults` was searched under).
+    pub load: WindowLoad,
+    /// Standard deviation and 90 % interval per component (the preflight's inflation, then
+    /// [`WINDOW_INFLATION`]) with the correlations; `None` if the curvature is singular.
+    pub uncertainty: Option<(
+        crate::uncertainty::Uncertainty,
+        [[f32; FAULT_COUNT]; FAULT_COUNT],
+    )>,
+    /// The window's own verdict under the limits it was judged with.
+    pub verdict: Result<(), WindowReason>,
+    /// Monitor-model runs spent (a curvature counts [`CURVATURE_RUNS`], the verdict's two
+    /// runs not counted).
+    pub evaluations: u32,
+}
+
+/// Identifies the faults behind the window of `problem` (its load is the starting guess:
+/// a spring of the actuator's stiffness): the load fitted at the nominal vector, a GA of
+/// `settings` under it, the load fitted again at the GA's best and a second GA (seed
+/// `seed + 0x5eed`) under that, the better of the two polished by at most
+/// [`POLISH_STEPS`] damped Gauss–Newton steps on the window's curvature, the uncertainty
+/// there and the verdict under `limits`. Bounded: 2 × [`LOAD_SEARCH_EVALUATIONS`], two GA
+/// runs of `settings`, ≤ 2 + 7 × [`CURVATURE_RUNS`] + [`POLISH_STEPS`] model runs and the
+/// verdict's two; no allocation (one [`SteadyStateGa`](crate::SteadyStateGa) of `P` on the
+/// stack at a time).
+pub fn identify<const N: usize, const P: usize>(
+    problem: &WindowProblem<'_, N>,
+    settings: crate::ga::GaSettings,
+    seed: u64,
+    limits: &WindowLimits,
+) -> Result<WindowReading, crate::ga::GaError> {
+    let guess = problem.load().stiffness;
+    let mut evaluations = 0u32;
+    let (load, _) = problem.fit_load(&FaultVector::NOMINAL, guess);
+    evaluations += LOAD_SEARCH_EVALUATIONS as u32;
+    let mut problem = problem.clone().with_load(load);
+    let mut ga = crate::SteadyStateGa::<P>::new(settings, seed)?;
+    ga.run(&mut problem);
+    evaluations += ga.evaluations();
+    let first = FaultVector::saturating(ga.best().genes);
+    let (load, _) = problem.fit_load(&first, load.stiffness);
+    evaluations += LOAD_SEARCH_EVALUATIONS as u32;
+    let mut problem = problem.with_load(load);
+    let mut ga = crate::SteadyStateGa::<P>::new(settings, seed.wrapping_add(0x5eed))?;
+    ga.run(&mut problem);
+    evaluations += ga.evaluations();
+    let second = FaultVector::saturating(ga.best().genes);
+    let (first_fit, second_fit) = (problem.evaluate(&first), problem.evaluate(&second));
+    let (mut faults, mut fit) = if second_fit.error.total_cmp(&first_fit.error).is_lt() {
+        (second, second_fit)
+    } else {
+        (first, first_fit)
+    };
+    // The polish: damped Gauss–Newton steps on the window's curvature, each kept only if it
+    // lowers the error; then the uncertainty at the result.
+    let mut damping = POLISH_DAMPING;
+    let mut curvature = problem.curvature(&faults);
+    evaluations += CURVATURE_RUNS;
+    for _ in 0..POLISH_STEPS {
+        let Some(next) = curvature.gauss_newton_step(&faults, damping) else {
+            break;
+        };
+        let next_fit = problem.evaluate(&next);
+        evaluations += 1;
+        if next_fit.error < fit.error {
+            (faults, fit) = (next, next_fit);
+            damping = (damping * 0.3).max(1e-3);
+            curvature = problem.curvature(&faults);
+            evaluations += CURVATURE_RUNS;
+        } else {
+            damping *= 10.0;
+        }
+    }
+    let uncertainty = curvature
+        .uncertainty(&faults)
+        .ok()
+        .map(|(u, c)| (u.widened(&faults, &WINDOW_INFLATION), c));
+    let friction_std = uncertainty
+        .as_ref()
+        .and_then(|(u, _)| u.std.first().copied())
+        .unwrap_or(f32::NAN);
+    Ok(WindowReading {
+        faults,
+        fit,
+        load,
+        uncertainty,
+        verdict: problem.judge(limits, &faults, fit.error, friction_std),
+        evaluations,
+    })
+}
+
 /// A golden-section search of `f` over `range`: the best point seen and its value,
 /// [`GOLDEN_STEPS`] evaluations.
 fn golden(range: (f32, f32), mut f: impl FnMut(f32) -> f32) -> (f32, f32) {

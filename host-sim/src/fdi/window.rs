@@ -2,8 +2,10 @@
 //! window's load fitted at the nominal vector, the GA over the faults under it, the load
 //! fitted again at the GA's best and the GA run again from that load, the better of the two
 //! polished by damped Gauss–Newton steps on the window's curvature, and the uncertainty
-//! there. Two GA runs of the actuator's settings, 2 × [`LOAD_SEARCH_EVALUATIONS`] and at
-//! most 90 more monitor-model runs (2 000–3 100 in all): 0.3–0.5 s on one core.
+//! there — `shared::window::identify`, the code a controller would run — and the window's
+//! report around it. Two GA runs of the actuator's settings, 2 ×
+//! `shared::window::LOAD_SEARCH_EVALUATIONS` and at most 90 more monitor-model runs (2 000–3 100
+//! in all): 0.3–0.5 s on one core.
 
 use anyhow::Result;
 use shared::actuator::ActuatorRecord;
@@ -12,11 +14,8 @@ use shared::domain::Domain;
 use shared::fdi::{OnboardMeasured, POPULATION};
 use shared::health::{HealthRecord, RecordedDay};
 use shared::uncertainty::{Assessment, Uncertainty};
-use shared::window::{
-    RecordedCommand, WindowLimits, WindowLoad, WindowProblem, WindowReason,
-    LOAD_SEARCH_EVALUATIONS, WINDOW_INFLATION,
-};
-use shared::{FaultVector, MonitorModel, SteadyStateGa, FAULT_COUNT};
+use shared::window::{RecordedCommand, WindowLimits, WindowLoad, WindowProblem, WindowReason};
+use shared::{FaultVector, MonitorModel, FAULT_COUNT};
 
 use crate::files::trace::Trace;
 
@@ -72,13 +71,6 @@ impl WindowIdentified {
         }
     }
 }
-
-/// Gauss–Newton steps of the polish at most, and their first damping.
-const POLISH_STEPS: usize = 6;
-const POLISH_DAMPING: f64 = 0.1;
-
-/// Model runs of one window curvature (`WindowProblem::curvature`).
-const CURVATURE_RUNS: u32 = shared::FAULT_COUNT as u32 + 3;
 
 /// The commanded angle of every frame of `trace` [rad].
 pub fn recorded_command(trace: &Trace) -> Vec<f32> {
@@ -147,64 +139,24 @@ pub fn identify_window(
     let guess = record.params.aero_stiffness;
     let (problem, conditions) =
         window_problem(&command, measured, record, WindowLoad::spring(guess, 0.0))?;
-    let mut evaluations = 0u32;
-    let (load, _) = problem.fit_load(&FaultVector::NOMINAL, guess);
-    evaluations += LOAD_SEARCH_EVALUATIONS as u32;
-    let mut problem = problem.with_load(load);
-    let mut ga = SteadyStateGa::<POPULATION>::new(record.ga, seed)
-        .map_err(|e| anyhow::anyhow!("GA settings: {e:?}"))?;
-    ga.run(&mut problem);
-    evaluations += ga.evaluations();
-    let first = FaultVector::saturating(ga.best().genes);
-    let (load, _) = problem.fit_load(&first, load.stiffness);
-    evaluations += LOAD_SEARCH_EVALUATIONS as u32;
-    let mut problem = problem.with_load(load);
-    let mut ga = SteadyStateGa::<POPULATION>::new(record.ga, seed.wrapping_add(0x5eed))
-        .map_err(|e| anyhow::anyhow!("GA settings: {e:?}"))?;
-    ga.run(&mut problem);
-    evaluations += ga.evaluations();
-    let second = FaultVector::saturating(ga.best().genes);
-    let (best, fit) = [first, second]
-        .into_iter()
-        .map(|k| (k, problem.evaluate(&k)))
-        .min_by(|a, b| a.1.error.total_cmp(&b.1.error))
-        .unwrap_or((first, problem.evaluate(&first)));
-    // The polish: damped Gauss–Newton steps on the window's curvature, each kept only if it
-    // lowers the error; then the uncertainty at the result.
-    let (mut faults, mut fit) = (best, fit);
-    let mut damping = POLISH_DAMPING;
-    let mut curvature = problem.curvature(&faults);
-    evaluations += CURVATURE_RUNS;
-    for _ in 0..POLISH_STEPS {
-        let Some(next) = curvature.gauss_newton_step(&faults, damping) else {
-            break;
-        };
-        let next_fit = problem.evaluate(&next);
-        evaluations += 1;
-        if next_fit.error < fit.error {
-            (faults, fit) = (next, next_fit);
-            damping = (damping * 0.3).max(1e-3);
-            curvature = problem.curvature(&faults);
-            evaluations += CURVATURE_RUNS;
-        } else {
-            damping *= 10.0;
-        }
-    }
-    let uncertainty = curvature
-        .uncertainty(&faults)
-        .ok()
-        .map(|(u, c)| (u.widened(&faults, &WINDOW_INFLATION), c));
-    let friction_std = uncertainty.as_ref().map_or(f32::NAN, |(u, _)| u.std[0]);
+    let reading = shared::window::identify::<_, POPULATION>(
+        &problem,
+        record.ga,
+        seed,
+        &WindowLimits::REFERENCE,
+    )
+    .map_err(|e| anyhow::anyhow!("GA settings: {e:?}"))?;
+    let problem = problem.with_load(reading.load);
     Ok(WindowIdentified {
-        faults,
-        fitness: fit.error,
-        misfit: problem.misfit(fit.error),
-        turbulence: problem.unmodelled_moment(&fit),
-        verdict: problem.judge(&WindowLimits::REFERENCE, &faults, fit.error, friction_std),
-        uncertainty,
-        load,
-        drift: fit.drift,
+        faults: reading.faults,
+        fitness: reading.fit.error,
+        misfit: problem.misfit(reading.fit.error),
+        turbulence: problem.unmodelled_moment(&reading.fit),
+        verdict: reading.verdict,
+        uncertainty: reading.uncertainty,
+        load: reading.load,
+        drift: reading.fit.drift,
         conditions,
-        evaluations,
+        evaluations: reading.evaluations,
     })
 }
