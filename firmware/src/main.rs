@@ -29,6 +29,8 @@
 
 // The emulation image (QEMU, semihosting): traces in, report and exit status out.
 #[cfg(all(target_os = "none", not(feature = "hardware")))]
+mod clock;
+#[cfg(all(target_os = "none", not(feature = "hardware")))]
 mod emulation;
 #[cfg(all(target_os = "none", not(feature = "hardware")))]
 mod log;

@@ -1,13 +1,11 @@
-//! The Cortex-M4F side: the embassy tasks, the SysTick cycle clock, the report, the panic and
-//! HardFault handlers and the footprint read from the linker symbols and the painted stack.
+//! The Cortex-M4F side: the embassy tasks, the report (times from [`crate::clock`]), the panic
+//! and HardFault handlers and the footprint read from the linker symbols and the painted stack.
 //!
 //! Work per executor turn: one [`Preflight::poll`] (≤ `evaluations_per_poll` monitor-model
 //! evaluations, ≤ `frames_per_poll` frames) and one heartbeat; the SysTick exception does O(1).
 
 use core::sync::atomic::{AtomicU32, Ordering};
 
-use cortex_m::peripheral::syst::SystClkSource;
-use cortex_m::peripheral::SYST;
 use cortex_m_rt::{exception, ExceptionFrame};
 use embassy_executor::{Executor, Spawner};
 use semihosting::process::exit;
@@ -27,6 +25,7 @@ use shared::health::{RamStore, RecordedDay, ONBOARD_RECORDS};
 use shared::prognosis::TrendSettings;
 use shared::LowPass;
 
+use crate::clock::{cycles, instructions_under_icount, start_cycle_clock};
 use crate::emulation::{read_record_file, write_record_file, Command, Crash, HostFile};
 use shared::actuator::{ActuatorRecord, RECORD_BYTES};
 use shared::fdi::OnboardRecord;
@@ -61,17 +60,10 @@ static CURVATURE: ConstStaticCell<CurvatureRun> = ConstStaticCell::new(Curvature
 static HEALTH_STORE: ConstStaticCell<RamStore<ONBOARD_RECORDS>> =
     ConstStaticCell::new(RamStore::ZEROED);
 
-/// SysTick wraps of the 24-bit counter.
-static WRAPS: AtomicU32 = AtomicU32::new(0);
 /// Heartbeat task runs.
 static BEATS: AtomicU32 = AtomicU32::new(0);
 /// Longest time between two heartbeat runs [core cycles].
 static WORST_GAP: AtomicU32 = AtomicU32::new(0);
-
-const SYST_RELOAD: u32 = 0x00FF_FFFF;
-
-/// Core clock of the reference MCU [Hz].
-const CORE_HZ: u64 = 168_000_000;
 
 /// Evaluations between two progress lines.
 const PROGRESS_EVERY: u32 = 1000;
@@ -79,30 +71,6 @@ const PROGRESS_EVERY: u32 = 1000;
 /// Evaluations between two checkpoints (`--checkpoint`): at most this much work is redone
 /// after a power loss; each write is one 1 412-byte record.
 const CHECKPOINT_EVERY: u32 = 500;
-
-fn start_cycle_clock(mut syst: SYST) {
-    syst.set_clock_source(SystClkSource::Core);
-    syst.set_reload(SYST_RELOAD);
-    syst.clear_current();
-    syst.enable_interrupt();
-    syst.enable_counter();
-}
-
-/// Core cycles since [`start_cycle_clock`].
-fn cycles() -> u64 {
-    loop {
-        let wraps = WRAPS.load(Ordering::Acquire);
-        let current = SYST::get_current();
-        if WRAPS.load(Ordering::Acquire) == wraps {
-            return (u64::from(wraps) << 24) | u64::from(SYST_RELOAD.saturating_sub(current));
-        }
-    }
-}
-
-#[exception]
-fn SysTick() {
-    WRAPS.fetch_add(1, Ordering::AcqRel);
-}
 
 /// Stands in for the control loop and the bus traffic: runs once per executor turn and
 /// records the longest wait it saw.
@@ -520,11 +488,6 @@ fn record_health(path: &CStr, flight: Option<u32>, report: &Report, day: &TestCo
         stack_peak()
     );
     status::SUCCESS
-}
-
-fn instructions_under_icount(cycles: u64) -> u64 {
-    // u128: no overflow for any u64 cycle count.
-    u64::try_from(u128::from(cycles) * 1_000_000_000 / u128::from(CORE_HZ)).unwrap_or(u64::MAX)
 }
 
 fn print_report(report: &Report, observed: &Observed, total_cycles: u64) {

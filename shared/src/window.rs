@@ -868,6 +868,68 @@ pub fn identify<const N: usize, const P: usize>(
     })
 }
 
+/// Records what the controller would measure over a window of flight if the actuator
+/// behaved exactly like the monitor model `model` (its day and test) with faults `k` under a
+/// spring of `load.stiffness` carrying `load.moment` at the start (no trend, no turbulence),
+/// following `command` from the motor angle `start_motor` [rad]: three phase currents from
+/// the equivalent current and the commutation table, quantised into frames and conditioned
+/// into `measured` (cleared first, its test kept). The window identification's inverse
+/// check and its instruction-count bench (`firmware/window-bench`). O(N), one model run.
+pub fn record_monitor_window<const N: usize>(
+    model: &MonitorModel,
+    k: &FaultVector,
+    load: &WindowLoad,
+    command: &[f32],
+    start_motor: f32,
+    measured: &mut MeasuredCurrent<N>,
+) -> Result<(), crate::conditioning::ConditioningError> {
+    use crate::conditioning::{commutation_signs, AdcFrame, ShaftAngles};
+    measured.clear();
+    let pole_pairs = model.params().pole_pairs;
+    let first = command.first().copied().unwrap_or(0.0);
+    let start = ShaftAngles {
+        motor: start_motor,
+        user: first,
+        currents: [0.0; 3],
+    };
+    let (m, mut run) =
+        model
+            .with_load_stiffness(load.stiffness)
+            .start_loaded_run(k, start, load.moment, first);
+    for &c in command.iter().take(N) {
+        let s = run.next_sample(&m, c);
+        let phases =
+            commutation_signs(pole_pairs * s.motor_angle).map(|x| f32::from(x) * s.current);
+        // Cannot be full: at most N frames are pushed.
+        let _ = measured.push_frame(
+            AdcFrame::from_f32(phases, s.motor_angle, s.user_angle),
+            pole_pairs,
+        );
+    }
+    measured.finish()
+}
+
+/// A window's command [rad] at sample `index` of period `period` [s]: the flight control
+/// computer's corrections as three tones (0.3, 0.9 and 1.7 Hz, `correction` [rad] RMS
+/// together) with `chirp` superimposed. For [`record_monitor_window`]'s checks and bench;
+/// a real window's command is what the controller followed (a trace's `theta_cmd`). O(1).
+pub fn synthetic_command(
+    chirp: &crate::command::ChirpSampler,
+    correction: f32,
+    period: f32,
+    index: usize,
+) -> f32 {
+    const TONES: [(f32, f32); 3] = [(0.3, 0.0), (0.9, 1.1), (1.7, 2.3)];
+    let t = index as f32 * period;
+    // Three unit tones have an RMS of √1.5.
+    let scale = correction / crate::math::sqrt(1.5);
+    let corrections: f32 = TONES
+        .iter()
+        .map(|&(f, phase)| scale * crate::math::sin(2.0 * core::f32::consts::PI * f * t + phase))
+        .sum();
+    corrections + chirp.at(index)
+}
+
 /// A golden-section search of `f` over `range`: the best point seen and its value,
 /// [`GOLDEN_STEPS`] evaluations.
 fn golden(range: (f32, f32), mut f: impl FnMut(f32) -> f32) -> (f32, f32) {

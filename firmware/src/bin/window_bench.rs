@@ -1,0 +1,142 @@
+//! The window identification's instruction count on the Cortex-M4F (issue 36, item 3), under
+//! QEMU (`cargo window-bench`; `firmware/qemu-run`, `-icount shift=0`): the code the host runs
+//! on every window of flight (`shared::window::identify`), on a window recorded from the
+//! monitor model itself (the flight control computer's corrections, 1 mrad RMS, with the
+//! 5 mrad chirp on top; a hinge spring 1.4 times the actuator's carrying 120 N·m; friction
+//! 0.2 and a gain drift 0.6). Prints the instructions of one window evaluation (a model run
+//! with the drift profiled out), one curvature (twelve lockstep runs), one load search, and
+//! the whole identification with its model-run count.
+//!
+//! A bench, not the product: the product images have no flash left for the window
+//! identification (docs/in-flight.md §6), so this binary carries it alone (built only with
+//! feature `window-bench`). Its window is the monitor model's own, so the GA's stopping
+//! point is not a real window's: scale the per-run figure by a real window's count
+//! (`identify w.csv` prints it) for a real window's cost.
+#![no_std]
+#![no_main]
+
+use cortex_m_rt::{entry, exception, ExceptionFrame};
+use semihosting::process::exit;
+use static_cell::ConstStaticCell;
+
+use shared::actuator::ActuatorRecord;
+use shared::fdi::{OnboardMeasured, POPULATION, TEST_SAMPLES};
+use shared::test_design::PreflightTest;
+use shared::window::{
+    identify, record_monitor_window, synthetic_command, RecordedCommand, WindowLimits, WindowLoad,
+    WindowProblem,
+};
+use shared::{Calibration, FaultVector, LowPass, MonitorModel};
+
+#[path = "../clock.rs"]
+mod clock;
+#[allow(dead_code)] // the bench reads no trace: it only logs through the emulation's stdout
+#[path = "../emulation.rs"]
+mod emulation;
+#[path = "../log.rs"]
+mod log;
+#[path = "../vectors.rs"]
+mod vectors;
+
+use clock::{cycles, instructions_under_icount, start_cycle_clock};
+
+/// The window's measured current (22 kB) and its command (20 kB), in `.bss`.
+static MEASURED: ConstStaticCell<OnboardMeasured> = ConstStaticCell::new(OnboardMeasured::ZEROED);
+static COMMAND: ConstStaticCell<[f32; TEST_SAMPLES]> = ConstStaticCell::new([0.0; TEST_SAMPLES]);
+
+/// Window evaluations timed together for the per-run figure.
+const EVALUATIONS: u32 = 20;
+
+#[entry]
+fn main() -> ! {
+    let Some(core) = cortex_m::Peripherals::take() else {
+        exit(4)
+    };
+    start_cycle_clock(core.SYST);
+    let record = ActuatorRecord::REFERENCE;
+    let test = PreflightTest {
+        standstill: None,
+        motion: None,
+        ..record.test
+    };
+    let model =
+        MonitorModel::new(record.params, &Calibration::reference_actuator(&test)).with_test(&test);
+    let period = record.params.control_period;
+    let sampler = model.sampler();
+    let command = COMMAND.take();
+    for (i, c) in command.iter_mut().enumerate() {
+        *c = synthetic_command(&sampler, 1.0e-3, period, i);
+    }
+    let mut genes = *FaultVector::NOMINAL.as_array();
+    (genes[0], genes[7]) = (0.2, 0.6);
+    let truth = FaultVector::saturating(genes);
+    let load = WindowLoad::spring(1.4 * record.params.aero_stiffness, 120.0);
+    let measured = MEASURED.take();
+    let Ok(filter) = LowPass::for_control_period(period) else {
+        exit(3)
+    };
+    measured.set_filter(filter);
+    measured.clear_for(test);
+    if record_monitor_window(&model, &truth, &load, command, 0.3, measured).is_err() {
+        exit(3)
+    }
+    let samples = measured.samples().len();
+    let guess = WindowLoad::spring(record.params.aero_stiffness, 0.0);
+    let Ok(problem) = WindowProblem::new(measured, RecordedCommand::new(command), model, guess)
+    else {
+        exit(3)
+    };
+
+    let start = cycles();
+    let mut sink = 0.0f32;
+    for _ in 0..EVALUATIONS {
+        sink += problem.evaluate(&FaultVector::NOMINAL).error;
+    }
+    let evaluation =
+        instructions_under_icount(cycles().saturating_sub(start)) / u64::from(EVALUATIONS);
+    let start = cycles();
+    let curvature = problem.curvature(&truth);
+    let curvature_instructions = instructions_under_icount(cycles().saturating_sub(start));
+    let start = cycles();
+    let (fitted, _) = problem.fit_load(&FaultVector::NOMINAL, guess.stiffness);
+    let load_search = instructions_under_icount(cycles().saturating_sub(start));
+    let start = cycles();
+    let Ok(reading) = identify::<_, POPULATION>(&problem, record.ga, 1, &WindowLimits::REFERENCE)
+    else {
+        exit(2)
+    };
+    let whole = instructions_under_icount(cycles().saturating_sub(start));
+    defmt::println!(
+        "window_bench samples={=usize} evaluation_instructions={=u64} curvature_instructions={=u64} load_search_instructions={=u64}",
+        samples,
+        evaluation,
+        curvature_instructions,
+        load_search,
+    );
+    defmt::println!(
+        "window_bench identify_instructions={=u64} model_runs={=u32} within={=bool} friction={=f32} gain_drift={=f32} stiffness={=f32} fitted_stiffness_at_nominal={=f32} check={=f32} fitted={=u32}",
+        whole,
+        reading.evaluations,
+        reading.verdict.is_ok(),
+        reading.faults.friction(),
+        reading.faults.as_array().get(7).copied().unwrap_or(f32::NAN),
+        reading.load.stiffness,
+        fitted.stiffness,
+        sink,
+        curvature.fitted,
+    );
+    exit(0)
+}
+
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    let (file, line) = info.location().map_or(("?", 0), |l| (l.file(), l.line()));
+    defmt::error!("panic at {=str}:{=u32}", file, line);
+    exit(101)
+}
+
+#[exception]
+unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
+    defmt::error!("hard fault: pc={=u32:#010x}", frame.pc());
+    exit(102)
+}

@@ -1,0 +1,48 @@
+//! The SysTick cycle clock of the emulation images (the preflight's and the window bench's):
+//! the 24-bit counter at the core clock, its wraps counted in the SysTick exception (O(1)).
+//! Under `qemu-run` (QEMU `-icount shift=0`: one instruction = 1 ns of virtual time) a cycle
+//! count converts to instructions as `cycles · 10⁹ / 168·10⁶`.
+
+use core::sync::atomic::{AtomicU32, Ordering};
+
+use cortex_m::peripheral::syst::SystClkSource;
+use cortex_m::peripheral::SYST;
+use cortex_m_rt::exception;
+
+/// SysTick wraps of the 24-bit counter.
+static WRAPS: AtomicU32 = AtomicU32::new(0);
+
+const SYST_RELOAD: u32 = 0x00FF_FFFF;
+
+/// Core clock of the reference MCU [Hz].
+pub const CORE_HZ: u64 = 168_000_000;
+
+pub fn start_cycle_clock(mut syst: SYST) {
+    syst.set_clock_source(SystClkSource::Core);
+    syst.set_reload(SYST_RELOAD);
+    syst.clear_current();
+    syst.enable_interrupt();
+    syst.enable_counter();
+}
+
+/// Core cycles since [`start_cycle_clock`].
+pub fn cycles() -> u64 {
+    loop {
+        let wraps = WRAPS.load(Ordering::Acquire);
+        let current = SYST::get_current();
+        if WRAPS.load(Ordering::Acquire) == wraps {
+            return (u64::from(wraps) << 24) | u64::from(SYST_RELOAD.saturating_sub(current));
+        }
+    }
+}
+
+#[exception]
+fn SysTick() {
+    WRAPS.fetch_add(1, Ordering::AcqRel);
+}
+
+/// Instructions under QEMU's `-icount shift=0` of `cycles` core cycles.
+pub fn instructions_under_icount(cycles: u64) -> u64 {
+    // u128: no overflow for any u64 cycle count.
+    u64::try_from(u128::from(cycles) * 1_000_000_000 / u128::from(CORE_HZ)).unwrap_or(u64::MAX)
+}
