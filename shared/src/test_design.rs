@@ -335,6 +335,17 @@ impl PreflightTest {
         default_segments.then_some(self.kind())
     }
 
+    /// The same test's chirp alone, without its segments: what a window of flight carries
+    /// (the position loop cannot be suspended in flight, `crate::window`).
+    #[must_use]
+    pub fn chirp_only(&self) -> Self {
+        Self {
+            standstill: None,
+            motion: None,
+            ..*self
+        }
+    }
+
     /// Which segments the test has, as trace headers store it: 0 = chirp alone, +1 with a
     /// standstill segment, +2 with a motion segment, +4 when the standstill segment plays
     /// tones. Segments and chirp of another actuator (from its record) keep the kind of the

@@ -18,11 +18,7 @@ use shared::{Calibration, FaultVector, LowPass, MonitorModel};
 /// The chirp-only test a window carries and the monitor model on it.
 fn model() -> (MonitorModel, PreflightTest) {
     let record = ActuatorRecord::REFERENCE;
-    let test = PreflightTest {
-        standstill: None,
-        motion: None,
-        ..record.test
-    };
+    let test = record.test.chirp_only();
     let model =
         MonitorModel::new(record.params, &Calibration::reference_actuator(&test)).with_test(&test);
     (model, test)

@@ -21,7 +21,6 @@ use static_cell::ConstStaticCell;
 
 use shared::actuator::ActuatorRecord;
 use shared::fdi::{OnboardMeasured, POPULATION, TEST_SAMPLES};
-use shared::test_design::PreflightTest;
 use shared::window::{
     identify, record_monitor_window, synthetic_command, RecordedCommand, WindowLimits, WindowLoad,
     WindowProblem,
@@ -54,11 +53,7 @@ fn main() -> ! {
     };
     start_cycle_clock(core.SYST);
     let record = ActuatorRecord::REFERENCE;
-    let test = PreflightTest {
-        standstill: None,
-        motion: None,
-        ..record.test
-    };
+    let test = record.test.chirp_only();
     let model =
         MonitorModel::new(record.params, &Calibration::reference_actuator(&test)).with_test(&test);
     let period = record.params.control_period;

@@ -14,7 +14,6 @@ use rayon::prelude::*;
 use shared::actuator::ActuatorRecord;
 use shared::domain::Domain;
 use shared::metrics::total_error;
-use shared::test_design::PreflightTest;
 use shared::{Calibration, FaultVector};
 
 use crate::fdi::identify::identify_for;
@@ -96,11 +95,7 @@ pub struct FlightRow {
 /// it with (that test; the built-in actuator's calibration of the chirp-only test when the
 /// record is the built-in one).
 pub fn flight_record(record: &ActuatorRecord) -> ActuatorRecord {
-    let test = PreflightTest {
-        standstill: None,
-        motion: None,
-        ..record.test
-    };
+    let test = record.test.chirp_only();
     let calibration = if *record == ActuatorRecord::REFERENCE {
         Calibration::reference_actuator(&test)
     } else {
