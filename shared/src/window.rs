@@ -119,10 +119,11 @@ impl WindowLoad {
         }
     }
 
-    /// The trend's moment [N·m] at `x` on the window's axis.
+    /// The trend's moment [N·m] where the drift's polynomials are `now` (`legendre(x)` at a
+    /// point `x` of the window's axis).
     #[inline(always)]
-    fn trend_at(&self, x: f32) -> f32 {
-        let (now, start) = (legendre(x), legendre(-1.0));
+    fn trend_at(&self, now: &[f32; DRIFT_TERMS]) -> f32 {
+        let start = legendre(-1.0);
         self.trend
             .iter()
             .zip(now.iter().zip(&start))
@@ -318,7 +319,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
                 .fold(0.0f32, |m, &x| m.max(abs(x))),
             command_range: hi - lo,
         };
-        problem.energy = problem.residual_fit(|_| 0.0).error;
+        problem.energy = problem.residual_fit(|_, _| 0.0).error;
         Ok(problem)
     }
 
@@ -365,19 +366,23 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         let filter = self.measured.filter();
         let mut state = LowPassState::default();
         let trending = load.trend != [0.0; DRIFT_TERMS];
-        self.residual_fit(|i| {
+        self.residual_fit(|i, phi| {
             if trending {
-                run.push_surface(&model, -load.trend_at(axis(i, self.samples)));
+                run.push_surface(&model, -load.trend_at(phi));
             }
             let sample = run.next_sample(&model, self.command.position_at(i));
             filter.apply(&mut state, sample.current)
         })
     }
 
-    /// Eq. (3) of the modelled current `modelled(i)` (filtered; called once per sample, in
-    /// order) against the measured, after the settle, with the drift profiled out.
+    /// Eq. (3) of the modelled current `modelled(i, φ)` (filtered; called once per sample,
+    /// in order, with the drift's polynomials φ there) against the measured, after the
+    /// settle, with the drift profiled out.
     #[inline(always)]
-    fn residual_fit(&self, mut modelled: impl FnMut(usize) -> f32) -> WindowFit {
+    fn residual_fit(
+        &self,
+        mut modelled: impl FnMut(usize, &[f32; DRIFT_TERMS]) -> f32,
+    ) -> WindowFit {
         let mut previous = 0.0f32;
         let mut squares = 0.0f32;
         let mut projections = [0.0f32; DRIFT_TERMS];
@@ -388,7 +393,9 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             .take(self.samples)
             .enumerate()
         {
-            let m = modelled(i);
+            // Once per sample: the model's trend and the drift's projection share them.
+            let phi = legendre(axis(i, self.samples));
+            let m = modelled(i, &phi);
             let d = r - previous;
             previous = r;
             if i < SETTLE_SAMPLES {
@@ -397,7 +404,6 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             let w = weight(d, self.inv_kappa);
             let e = r - m;
             squares += w * e * e;
-            let phi = legendre(axis(i, self.samples));
             for (p, &f) in projections.iter_mut().zip(&phi) {
                 *p += w * e * f;
             }
@@ -480,7 +486,8 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             .enumerate()
         {
             let x = axis(i, self.samples);
-            let push = -load.trend_at(x);
+            let phi = legendre(x);
+            let push = -load.trend_at(&phi);
             let command = self.command.position_at(i);
             let mut current = [0.0f32; RUNS];
             for ((m, run, state), out) in runs.iter_mut().zip(current.iter_mut()) {
@@ -504,7 +511,6 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
                     0.0
                 }
             });
-            let phi = legendre(x);
             // The nuisance columns: the drift's polynomials, then d/d ln K and d/dM.
             let nuisance: [f64; NUISANCES] = core::array::from_fn(|t| {
                 if t < DRIFT_TERMS {
@@ -668,11 +674,10 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             .take(self.samples)
             .enumerate()
         {
-            let x = axis(i, self.samples);
-            run.push_surface(&model, -load.trend_at(x));
+            let phi = legendre(axis(i, self.samples));
+            run.push_surface(&model, -load.trend_at(&phi));
             let sample = run.next_sample(&model, self.command.position_at(i));
             let modelled = filter.apply(&mut state, sample.current);
-            let phi = legendre(x);
             let d: f32 = drift.iter().zip(&phi).map(|(c, p)| c * p).sum();
             sink(i as f32 * dt, r, modelled, modelled + d);
         }
