@@ -19,9 +19,12 @@
 //! Work: one evaluation = one monitor-model run over the window (O(N), `DRIFT_TERMS`
 //! multiply-adds more per sample) and O(`DRIFT_TERMS²`); [`WindowProblem::fit_load`] is at
 //! most [`LOAD_SEARCH_EVALUATIONS`] evaluations; a curvature twelve lockstep runs and
-//! O(N·(9 + 12)²) f64 multiply-adds; a judgement two evaluations. No allocation, no panic.
-//! Built on the host today; the controller's images have no flash left for it
-//! (docs/in-flight.md §6).
+//! O(N·(9 + 12)²) f64 multiply-adds; a judgement two evaluations; the whole identification
+//! ([`identify`]: two load searches, two GA runs, the polish, the uncertainty widened by
+//! [`WINDOW_INFLATION`], the verdict) at most 2 × [`LOAD_SEARCH_EVALUATIONS`] + 2 × the GA's
+//! budget + 7 curvatures + 8 evaluations. No allocation, no panic. Run by the host on every
+//! window; the controller's images have no flash left for it, and on the Cortex-M4F one
+//! identification is ≈ 2 × 10¹⁰ instructions (`cargo window-bench`, docs/in-flight.md §6).
 
 use crate::command::CommandSource;
 use crate::conditioning::{LowPassState, MeasuredCurrent};
