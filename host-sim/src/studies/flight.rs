@@ -294,14 +294,8 @@ fn reason(d: &Domain) -> &'static str {
 
 /// The name of a window's verdict.
 pub fn window_reason(v: &Result<(), WindowReason>) -> &'static str {
-    match v {
-        Ok(()) => "within",
-        Err(WindowReason::CurrentSaturated { .. }) => "current_saturated",
-        Err(WindowReason::ManoeuvreTooLarge { .. }) => "manoeuvre_too_large",
-        Err(WindowReason::FitnessFloor { .. }) => "fitness_floor",
-        Err(WindowReason::PlayUnseen { .. }) => "play_unseen",
-        Err(WindowReason::TurbulenceTooHigh { .. }) => "turbulence_too_high",
-    }
+    // The health log's words: one naming for the report and the record.
+    shared::health::DomainCode::from(*v).name()
 }
 
 /// `names` counted, in order of first appearance: "a 3, b 1".
