@@ -560,9 +560,16 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
     /// every fault column (the Schur complement `JᵀWJ − CᵀQ⁻¹C`, `Q` the nuisances' normal
     /// matrix, `C` their cross terms with the faults): an interval then includes what the
     /// window cannot tell from its load (a moment against friction). Twelve model runs, no
-    /// storage of residuals; f64 sums. For the window's uncertainty and its polish.
-    #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // indices < FAULT_COUNT, NUISANCES on fixed arrays
+    /// storage of residuals; f32 products summed in blocks joined in f64. For the window's
+    /// uncertainty and its polish.
     pub fn curvature(&self, k: &FaultVector) -> Curvature {
+        run_to_end(self.curvature_stepwise(k))
+    }
+
+    /// [`curvature`](Self::curvature) in steps: the future pauses after every
+    /// [`CURVATURE_CHUNK`] samples of the twelve lockstep runs.
+    #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // indices < FAULT_COUNT, NUISANCES on fixed arrays
+    pub async fn curvature_stepwise(&self, k: &FaultVector) -> Curvature {
         let load = self.load;
         let start = self.measured.initial_angles();
         let first = self.command.position_at(0);
@@ -627,6 +634,9 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             }
             let d = r - previous;
             previous = r;
+            if (i + 1) % CURVATURE_CHUNK == 0 {
+                pause().await;
+            }
             if i < SETTLE_SAMPLES {
                 continue;
             }
@@ -776,6 +786,17 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         error: f32,
         friction_std: f32,
     ) -> Result<(), WindowReason> {
+        run_to_end(self.judge_stepwise(limits, k, error, friction_std))
+    }
+
+    /// [`judge`](Self::judge) in steps: the future pauses after each of its two runs.
+    pub async fn judge_stepwise(
+        &self,
+        limits: &WindowLimits,
+        k: &FaultVector,
+        error: f32,
+        friction_std: f32,
+    ) -> Result<(), WindowReason> {
         let p = self.model.params();
         if self.peak_current >= limits.saturation_share * p.max_current {
             return Err(WindowReason::CurrentSaturated {
@@ -804,7 +825,11 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             }
             self.evaluate(&FaultVector::saturating(genes)).error
         };
-        let contrast = abs(with_play(PLAY_PROBE) - with_play(0.0)) / error.max(f32::MIN_POSITIVE);
+        let wide = with_play(PLAY_PROBE);
+        pause().await;
+        let none = with_play(0.0);
+        pause().await;
+        let contrast = abs(wide - none) / error.max(f32::MIN_POSITIVE);
         if contrast.is_nan() || contrast < limits.min_play_contrast {
             return Err(WindowReason::PlayUnseen { contrast });
         }
@@ -848,6 +873,18 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
     /// again near the first, and the trend's rounds again. [`LOAD_SEARCH_EVALUATIONS`]
     /// evaluations. Returns the load found and its error.
     pub fn fit_load(&self, k: &FaultVector, stiffness_guess: f32) -> (WindowLoad, f32) {
+        let (load, error, _) = run_to_end(self.fit_load_stepwise(k, stiffness_guess));
+        (load, error)
+    }
+
+    /// [`fit_load`](Self::fit_load) in steps: the future pauses after every evaluation.
+    /// Also returns the evaluations it spent (≤ [`LOAD_SEARCH_EVALUATIONS`]: the trend's
+    /// rounds stop when one does not lower the error).
+    pub async fn fit_load_stepwise(
+        &self,
+        k: &FaultVector,
+        stiffness_guess: f32,
+    ) -> (WindowLoad, f32, u32) {
         let held = self.held_moment();
         let mut load = WindowLoad::spring(stiffness_guess, held);
         let stiffness_at = |load: WindowLoad, log_k: f32| WindowLoad {
@@ -873,6 +910,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         for j in 0..MOMENT_SCAN {
             let m = held - span + cell * j as f32;
             let e = self.evaluate_under(k, at_moment(load, m)).error;
+            pause().await;
             if e < best.1 {
                 best = (m, e);
             }
@@ -880,29 +918,44 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         load.moment = best.0;
         let ln = crate::math::ln;
         let range_k = (ln(stiffness_guess / 3.0), ln(stiffness_guess * 3.0));
-        let (log_k, _) = golden(range_k, |x| {
-            self.evaluate_under(k, stiffness_at(load, x)).error
-        });
+        let mut search = GoldenSearch::new(range_k);
+        while let Some(x) = search.ask() {
+            search.tell(self.evaluate_under(k, stiffness_at(load, x)).error);
+            pause().await;
+        }
+        let (log_k, _) = search.best();
         load = stiffness_at(load, log_k);
-        let (moment, _) = golden((best.0 - cell, best.0 + cell), |m| {
-            self.evaluate_under(k, at_moment(load, m)).error
-        });
+        let mut search = GoldenSearch::new((best.0 - cell, best.0 + cell));
+        while let Some(m) = search.ask() {
+            search.tell(self.evaluate_under(k, at_moment(load, m)).error);
+            pause().await;
+        }
+        let (moment, _) = search.best();
         load.moment = moment;
-        load = self.follow_trend(k, load);
-        let narrow = (log_k - 0.3, log_k + 0.3);
-        let (log_k, _) = golden(narrow, |x| {
-            self.evaluate_under(k, stiffness_at(load, x)).error
-        });
-        load = self.follow_trend(k, stiffness_at(load, log_k));
-        (load, self.evaluate_under(k, load).error)
+        let (trended, first_rounds) = self.follow_trend(k, load).await;
+        load = trended;
+        let mut search = GoldenSearch::new((log_k - 0.3, log_k + 0.3));
+        while let Some(x) = search.ask() {
+            search.tell(self.evaluate_under(k, stiffness_at(load, x)).error);
+            pause().await;
+        }
+        let (log_k, _) = search.best();
+        let (load, second_rounds) = self.follow_trend(k, stiffness_at(load, log_k)).await;
+        let error = self.evaluate_under(k, load).error;
+        pause().await;
+        let runs = MOMENT_SCAN + 3 * GOLDEN_STEPS + 1 + first_rounds + second_rounds;
+        (load, error, runs as u32)
     }
 
     /// [`TREND_ROUNDS`] rounds: the drift the fit profiles out, as a moment (amperes times
     /// the torque constant and the gear ratio), added to the load. O(rounds) evaluations.
-    fn follow_trend(&self, k: &FaultVector, mut load: WindowLoad) -> WindowLoad {
+    /// Also returns the evaluations spent (two per round).
+    async fn follow_trend(&self, k: &FaultVector, mut load: WindowLoad) -> (WindowLoad, usize) {
+        let mut runs = 0;
         let per_ampere = self.model.torque_constant() * self.model.params().gear_ratio;
         for _ in 0..TREND_ROUNDS {
             let fit = self.evaluate_under(k, load);
+            pause().await;
             let start: f32 = fit
                 .drift
                 .iter()
@@ -917,15 +970,22 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
                 }),
                 stiffness: load.stiffness,
             };
-            if self.evaluate_under(k, next).error <= fit.error {
+            let error = self.evaluate_under(k, next).error;
+            pause().await;
+            runs += 2;
+            if error <= fit.error {
                 load = next;
             } else {
                 break;
             }
         }
-        load
+        (load, runs)
     }
 }
+
+/// Samples of a window curvature's twelve lockstep runs between two pauses of
+/// [`WindowProblem::curvature_stepwise`] (about one window evaluation's work).
+pub const CURVATURE_CHUNK: usize = 400;
 
 /// Fitted samples a window curvature sums in f32 before they join its f64 totals.
 const CURVATURE_BLOCK: u32 = 64;
@@ -1034,8 +1094,23 @@ pub struct WindowReading {
 /// there and the verdict under `limits`. Bounded: 2 × [`LOAD_SEARCH_EVALUATIONS`], two GA
 /// runs of `settings`, ≤ 2 + 7 × [`CURVATURE_RUNS`] + [`POLISH_STEPS`] model runs and the
 /// verdict's two; no allocation (one [`SteadyStateGa`](crate::SteadyStateGa) of `P` on the
-/// stack at a time).
+/// stack at a time). [`identify_stepwise`] run to its end: the same bits.
 pub fn identify<const N: usize, const P: usize>(
+    problem: &WindowProblem<'_, N>,
+    settings: crate::ga::GaSettings,
+    seed: u64,
+    limits: &WindowLimits,
+) -> Result<WindowReading, crate::ga::GaError> {
+    run_to_end(identify_stepwise::<N, P>(problem, settings, seed, limits))
+}
+
+/// [`identify`] as a future that does bounded work per poll, for a controller's idle time
+/// (an executor's task polls it; the control loop runs in between): each poll does at most
+/// one window evaluation (one model run over the window, with the GA's O(`P`) bookkeeping),
+/// or [`CURVATURE_CHUNK`] samples of a curvature's twelve lockstep runs, or the polish's
+/// and the uncertainty's O(12³) algebra. The future holds the GA, the curvature's runs and
+/// the load search between polls (no allocation).
+pub async fn identify_stepwise<const N: usize, const P: usize>(
     problem: &WindowProblem<'_, N>,
     settings: crate::ga::GaSettings,
     seed: u64,
@@ -1043,21 +1118,38 @@ pub fn identify<const N: usize, const P: usize>(
 ) -> Result<WindowReading, crate::ga::GaError> {
     let guess = problem.load().stiffness;
     let mut evaluations = 0u32;
-    let (load, _) = problem.fit_load(&FaultVector::NOMINAL, guess);
-    evaluations += LOAD_SEARCH_EVALUATIONS as u32;
+    let (load, _, runs) = problem
+        .fit_load_stepwise(&FaultVector::NOMINAL, guess)
+        .await;
+    evaluations += runs;
     let mut problem = problem.clone().with_load(load);
     let mut ga = crate::SteadyStateGa::<P>::new(settings, seed)?;
-    ga.run(&mut problem);
+    loop {
+        let status = ga.step(&mut problem, 1);
+        pause().await;
+        if status != crate::ga::Status::Running {
+            break;
+        }
+    }
     evaluations += ga.evaluations();
     let first = FaultVector::saturating(ga.best().genes);
-    let (load, _) = problem.fit_load(&first, load.stiffness);
-    evaluations += LOAD_SEARCH_EVALUATIONS as u32;
+    let (load, _, runs) = problem.fit_load_stepwise(&first, load.stiffness).await;
+    evaluations += runs;
     let mut problem = problem.with_load(load);
     let mut ga = crate::SteadyStateGa::<P>::new(settings, seed.wrapping_add(0x5eed))?;
-    ga.run(&mut problem);
+    loop {
+        let status = ga.step(&mut problem, 1);
+        pause().await;
+        if status != crate::ga::Status::Running {
+            break;
+        }
+    }
     evaluations += ga.evaluations();
     let second = FaultVector::saturating(ga.best().genes);
-    let (first_fit, second_fit) = (problem.evaluate(&first), problem.evaluate(&second));
+    let first_fit = problem.evaluate(&first);
+    pause().await;
+    let second_fit = problem.evaluate(&second);
+    pause().await;
     let (mut faults, mut fit) = if second_fit.error.total_cmp(&first_fit.error).is_lt() {
         (second, second_fit)
     } else {
@@ -1066,18 +1158,21 @@ pub fn identify<const N: usize, const P: usize>(
     // The polish: damped Gauss–Newton steps on the window's curvature, each kept only if it
     // lowers the error; then the uncertainty at the result.
     let mut damping = POLISH_DAMPING;
-    let mut curvature = problem.curvature(&faults);
+    let mut curvature = problem.curvature_stepwise(&faults).await;
+    pause().await;
     evaluations += CURVATURE_RUNS;
     for _ in 0..POLISH_STEPS {
         let Some(next) = curvature.gauss_newton_step(&faults, damping) else {
             break;
         };
         let next_fit = problem.evaluate(&next);
+        pause().await;
         evaluations += 1;
         if next_fit.error < fit.error {
             (faults, fit) = (next, next_fit);
             damping = (damping * 0.3).max(1e-3);
-            curvature = problem.curvature(&faults);
+            curvature = problem.curvature_stepwise(&faults).await;
+            pause().await;
             evaluations += CURVATURE_RUNS;
         } else {
             damping *= 10.0;
@@ -1096,7 +1191,9 @@ pub fn identify<const N: usize, const P: usize>(
         fit,
         load,
         uncertainty,
-        verdict: problem.judge(limits, &faults, fit.error, friction_std),
+        verdict: problem
+            .judge_stepwise(limits, &faults, fit.error, friction_std)
+            .await,
         evaluations,
     })
 }
@@ -1163,34 +1260,114 @@ pub fn synthetic_command(
     corrections + chirp.at(index)
 }
 
-/// A golden-section search of `f` over `range`: the best point seen and its value,
-/// [`GOLDEN_STEPS`] evaluations.
-fn golden(range: (f32, f32), mut f: impl FnMut(f32) -> f32) -> (f32, f32) {
+/// A golden-section search over a range, asked point by point (ask / tell, as the GA):
+/// [`GOLDEN_STEPS`] points, then the best point seen and its value. O(1) per point.
+#[derive(Clone, Copy, Debug)]
+struct GoldenSearch {
+    a: f32,
+    b: f32,
+    c: f32,
+    d: f32,
+    fc: f32,
+    fd: f32,
+    /// Points told so far.
+    told: usize,
+    /// Whether the point asked next is `d` (else `c`).
+    at_d: bool,
+}
+
+impl GoldenSearch {
     const R: f32 = 0.618_034;
-    let (mut a, mut b) = range;
-    let mut c = b - R * (b - a);
-    let mut d = a + R * (b - a);
-    let mut fc = f(c);
-    let mut fd = f(d);
-    for _ in 2..GOLDEN_STEPS {
-        if fc <= fd {
-            b = d;
-            d = c;
-            fd = fc;
-            c = b - R * (b - a);
-            fc = f(c);
-        } else {
-            a = c;
-            c = d;
-            fc = fd;
-            d = a + R * (b - a);
-            fd = f(d);
+
+    fn new((a, b): (f32, f32)) -> Self {
+        Self {
+            a,
+            b,
+            c: b - Self::R * (b - a),
+            d: a + Self::R * (b - a),
+            fc: f32::NAN,
+            fd: f32::NAN,
+            told: 0,
+            at_d: false,
         }
     }
-    if fc <= fd {
-        (c, fc)
-    } else {
-        (d, fd)
+
+    /// The next point to evaluate; `None` once [`GOLDEN_STEPS`] were told.
+    fn ask(&self) -> Option<f32> {
+        (self.told < GOLDEN_STEPS).then_some(if self.at_d { self.d } else { self.c })
+    }
+
+    /// The value at the point last asked.
+    fn tell(&mut self, value: f32) {
+        if self.at_d {
+            self.fd = value;
+        } else {
+            self.fc = value;
+        }
+        self.told += 1;
+        if self.told == 1 {
+            self.at_d = true;
+        } else if self.told < GOLDEN_STEPS {
+            if self.fc <= self.fd {
+                self.b = self.d;
+                self.d = self.c;
+                self.fd = self.fc;
+                self.c = self.b - Self::R * (self.b - self.a);
+                self.at_d = false;
+            } else {
+                self.a = self.c;
+                self.c = self.d;
+                self.fc = self.fd;
+                self.d = self.a + Self::R * (self.b - self.a);
+                self.at_d = true;
+            }
+        }
+    }
+
+    /// The better of the two inner points and its value.
+    fn best(&self) -> (f32, f32) {
+        if self.fc <= self.fd {
+            (self.c, self.fc)
+        } else {
+            (self.d, self.fd)
+        }
+    }
+}
+
+/// A future that is pending once (waking itself), then ready: where the window
+/// identification's steps ([`identify_stepwise`]) hand the executor back.
+struct Pause(bool);
+
+impl core::future::Future for Pause {
+    type Output = ();
+    fn poll(
+        mut self: core::pin::Pin<&mut Self>,
+        cx: &mut core::task::Context<'_>,
+    ) -> core::task::Poll<()> {
+        if self.0 {
+            core::task::Poll::Ready(())
+        } else {
+            self.0 = true;
+            cx.waker().wake_by_ref();
+            core::task::Poll::Pending
+        }
+    }
+}
+
+/// Gives the caller back once: the end of one bounded step.
+fn pause() -> Pause {
+    Pause(false)
+}
+
+/// Polls `future` until it is ready, without an executor (a no-op waker): the stepwise
+/// work in one call, the same bits.
+pub fn run_to_end<F: core::future::Future>(future: F) -> F::Output {
+    let mut future = core::pin::pin!(future);
+    let mut cx = core::task::Context::from_waker(core::task::Waker::noop());
+    loop {
+        if let core::task::Poll::Ready(out) = future.as_mut().poll(&mut cx) {
+            return out;
+        }
     }
 }
 
@@ -1311,7 +1488,14 @@ mod tests {
 
     #[test]
     fn golden_finds_a_parabolas_minimum() {
-        let (x, fx) = golden((-3.0, 5.0), |x| (x - 1.25) * (x - 1.25) + 2.0);
+        let mut search = GoldenSearch::new((-3.0, 5.0));
+        let mut asked = 0;
+        while let Some(x) = search.ask() {
+            search.tell((x - 1.25) * (x - 1.25) + 2.0);
+            asked += 1;
+        }
+        assert_eq!(asked, GOLDEN_STEPS);
+        let (x, fx) = search.best();
         assert!((x - 1.25).abs() < 0.03, "{x}");
         assert!((fx - 2.0).abs() < 1e-3);
     }

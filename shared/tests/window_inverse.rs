@@ -10,8 +10,9 @@ use shared::actuator::ActuatorRecord;
 use shared::fdi::{OnboardMeasured, POPULATION, TEST_SAMPLES};
 use shared::test_design::PreflightTest;
 use shared::window::{
-    identify, record_monitor_window, synthetic_command, RecordedCommand, WindowLimits, WindowLoad,
-    WindowProblem, CURVATURE_RUNS, LOAD_SEARCH_EVALUATIONS,
+    identify, identify_stepwise, record_monitor_window, synthetic_command, RecordedCommand,
+    WindowLimits, WindowLoad, WindowProblem, CURVATURE_CHUNK, CURVATURE_RUNS,
+    LOAD_SEARCH_EVALUATIONS,
 };
 use shared::{Calibration, FaultVector, LowPass, MonitorModel};
 
@@ -179,5 +180,59 @@ fn the_drift_by_blocks_is_the_drift_sample_by_sample() {
         (f64::from(fit.error) / error - 1.0).abs() < 1e-3,
         "{} vs {error}",
         fit.error
+    );
+}
+
+/// The window identification in bounded steps (`identify_stepwise`, what a controller's
+/// idle-time task polls) gives the same reading as in one call, and pauses at least once
+/// per model run outside the curvatures and once per `CURVATURE_CHUNK` samples of each
+/// curvature. Fails if a stage runs through without handing the caller back (a GA or a
+/// load search in one poll) or if the steps change the bits.
+#[test]
+fn the_window_identification_in_steps_is_the_same_and_pauses() {
+    use std::future::Future;
+    use std::task::{Context, Poll, Waker};
+    let record = ActuatorRecord::REFERENCE;
+    let (model, test) = model();
+    let period = record.params.control_period;
+    let sampler = model.sampler();
+    let command: Vec<f32> = (0..TEST_SAMPLES)
+        .map(|i| synthetic_command(&sampler, 1.0e-3, period, i))
+        .collect();
+    let mut genes = *FaultVector::NOMINAL.as_array();
+    genes[0] = 0.3;
+    let truth = FaultVector::new(genes).unwrap();
+    let load = WindowLoad::spring(record.params.aero_stiffness, 80.0);
+    let mut measured = Box::new(OnboardMeasured::ZEROED);
+    measured.set_filter(LowPass::for_control_period(period).unwrap());
+    measured.clear_for(test);
+    record_monitor_window(&model, &truth, &load, &command, 0.3, &mut measured).unwrap();
+    let guess = WindowLoad::spring(record.params.aero_stiffness, 0.0);
+    let problem =
+        WindowProblem::new(&measured, RecordedCommand::new(&command), model, guess).unwrap();
+    let limits = WindowLimits::REFERENCE;
+    let whole = identify::<_, POPULATION>(&problem, record.ga, 3, &limits).unwrap();
+
+    let mut future = Box::pin(identify_stepwise::<_, POPULATION>(
+        &problem, record.ga, 3, &limits,
+    ));
+    let mut cx = Context::from_waker(Waker::noop());
+    let mut polls = 0u32;
+    let stepped = loop {
+        polls += 1;
+        if let Poll::Ready(r) = future.as_mut().poll(&mut cx) {
+            break r.unwrap();
+        }
+    };
+    assert_eq!(stepped, whole);
+    // Every model run outside the curvatures is a poll of its own, the verdict's two
+    // included (not counted in `evaluations`); a curvature, counted as CURVATURE_RUNS
+    // runs, takes one poll per CURVATURE_CHUNK samples: more polls than it counts.
+    assert!(TEST_SAMPLES / CURVATURE_CHUNK >= CURVATURE_RUNS as usize);
+    let lower = whole.evaluations + 2;
+    assert!(
+        polls >= lower,
+        "{polls} polls for {} model runs",
+        whole.evaluations
     );
 }
