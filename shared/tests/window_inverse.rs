@@ -10,9 +10,9 @@ use shared::actuator::ActuatorRecord;
 use shared::fdi::{OnboardMeasured, POPULATION, TEST_SAMPLES};
 use shared::test_design::PreflightTest;
 use shared::window::{
-    identify, identify_stepwise, record_monitor_window, synthetic_command, RecordedCommand,
-    WindowLimits, WindowLoad, WindowProblem, CURVATURE_CHUNK, CURVATURE_RUNS,
-    LOAD_SEARCH_EVALUATIONS,
+    identify, identify_stepwise, record_monitor_window, synthetic_command, window_ga,
+    RecordedCommand, WindowLimits, WindowLoad, WindowProblem, CURVATURE_CHUNK, CURVATURE_RUNS,
+    LOAD_SEARCH_EVALUATIONS, WINDOW_GA_EVALUATIONS,
 };
 use shared::{Calibration, FaultVector, LowPass, MonitorModel};
 
@@ -54,7 +54,8 @@ fn a_window_recorded_from_the_monitor_model_is_identified() {
     assert!(at_truth < 1e-3 * at_nominal, "{at_truth} vs {at_nominal}");
 
     let reading =
-        identify::<_, POPULATION>(&problem, record.ga, 1, &WindowLimits::REFERENCE).unwrap();
+        identify::<_, POPULATION>(&problem, window_ga(&record.ga), 1, &WindowLimits::REFERENCE)
+            .unwrap();
     let found = reading.faults;
     assert!(
         (found.friction() - 0.2).abs() < 0.03,
@@ -74,9 +75,9 @@ fn a_window_recorded_from_the_monitor_model_is_identified() {
     assert_eq!(reading.verdict, Ok(()), "{reading:?}");
     let (u, _) = reading.uncertainty.expect("a determined curvature");
     assert!(u.covers(&truth)[0] == Some(true), "{u:?}");
-    // The work: two load searches, two GA runs within their settings' budget, the polish.
+    // The work: two load searches, two GA runs within the window's budget, the polish.
     let bound =
-        2 * LOAD_SEARCH_EVALUATIONS as u32 + 2 * record.ga.max_evaluations + 7 * CURVATURE_RUNS + 6;
+        2 * LOAD_SEARCH_EVALUATIONS as u32 + 2 * WINDOW_GA_EVALUATIONS + 7 * CURVATURE_RUNS + 6;
     assert!(
         reading.evaluations <= bound,
         "{} > {bound}",
@@ -211,10 +212,11 @@ fn the_window_identification_in_steps_is_the_same_and_pauses() {
     let problem =
         WindowProblem::new(&measured, RecordedCommand::new(&command), model, guess).unwrap();
     let limits = WindowLimits::REFERENCE;
-    let whole = identify::<_, POPULATION>(&problem, record.ga, 3, &limits).unwrap();
+    let settings = window_ga(&record.ga);
+    let whole = identify::<_, POPULATION>(&problem, settings, 3, &limits).unwrap();
 
     let mut future = Box::pin(identify_stepwise::<_, POPULATION>(
-        &problem, record.ga, 3, &limits,
+        &problem, settings, 3, &limits,
     ));
     let mut cx = Context::from_waker(Waker::noop());
     let mut polls = 0u32;

@@ -1,11 +1,13 @@
 //! The window identification's instruction count on the Cortex-M4F (issue 36, item 3), under
 //! QEMU (`cargo window-bench`; `firmware/qemu-run`, `-icount shift=0`): the code the host runs
-//! on every window of flight (`shared::window::identify`), on a window recorded from the
-//! monitor model itself (the flight control computer's corrections, 1 mrad RMS, with the
-//! 5 mrad chirp on top; a hinge spring 1.4 times the actuator's carrying 120 N·m; friction
-//! 0.2 and a gain drift 0.6). Prints the instructions of one window evaluation (a model run
-//! with the drift profiled out), one curvature (twelve lockstep runs), one load search, and
-//! the whole identification with its model-run count.
+//! on every window of flight (`shared::window::identify_stepwise`, with the window's GA
+//! budget `window_ga`), on a window recorded from the monitor model itself (the flight
+//! control computer's corrections, 1 mrad RMS, with the 5 mrad chirp on top; a hinge spring
+//! 1.4 times the actuator's carrying 120 N·m; friction 0.2 and a gain drift 0.6). Prints the
+//! instructions of one window evaluation (a model run with the drift profiled out), one
+//! curvature (twelve lockstep runs), one load search, and the whole identification polled
+//! as a controller's idle-time task would poll it: its polls, the longest poll's
+//! instructions and its model-run count.
 //!
 //! A bench, not the product: the product images have no flash left for the window
 //! identification (docs/in-flight.md §6), so this binary carries it alone (built only with
@@ -15,6 +17,9 @@
 #![no_std]
 #![no_main]
 
+use core::future::Future;
+use core::task::{Context, Poll, Waker};
+
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use semihosting::process::exit;
 use static_cell::ConstStaticCell;
@@ -22,8 +27,8 @@ use static_cell::ConstStaticCell;
 use shared::actuator::ActuatorRecord;
 use shared::fdi::{OnboardMeasured, POPULATION, TEST_SAMPLES};
 use shared::window::{
-    identify, record_monitor_window, synthetic_command, RecordedCommand, WindowLimits, WindowLoad,
-    WindowProblem,
+    identify_stepwise, record_monitor_window, synthetic_command, window_ga, RecordedCommand,
+    WindowLimits, WindowLoad, WindowProblem,
 };
 use shared::{Calibration, FaultVector, LowPass, MonitorModel};
 
@@ -95,12 +100,29 @@ fn main() -> ! {
     let start = cycles();
     let (fitted, _) = problem.fit_load(&FaultVector::NOMINAL, guess.stiffness);
     let load_search = instructions_under_icount(cycles().saturating_sub(start));
-    let start = cycles();
-    let Ok(reading) = identify::<_, POPULATION>(&problem, record.ga, 1, &WindowLimits::REFERENCE)
-    else {
-        exit(2)
+    // The whole identification as the controller's idle-time task would run it: polled
+    // step by step, each poll's instructions measured.
+    let settings = window_ga(&record.ga);
+    let mut future = core::pin::pin!(identify_stepwise::<_, POPULATION>(
+        &problem,
+        settings,
+        1,
+        &WindowLimits::REFERENCE
+    ));
+    let mut cx = Context::from_waker(Waker::noop());
+    let (mut polls, mut longest) = (0u32, 0u64);
+    let begin = cycles();
+    let result = loop {
+        let start = cycles();
+        let poll = future.as_mut().poll(&mut cx);
+        longest = longest.max(cycles().saturating_sub(start));
+        polls += 1;
+        if let Poll::Ready(result) = poll {
+            break result;
+        }
     };
-    let whole = instructions_under_icount(cycles().saturating_sub(start));
+    let whole = instructions_under_icount(cycles().saturating_sub(begin));
+    let Ok(reading) = result else { exit(2) };
     defmt::println!(
         "window_bench samples={=usize} evaluation_instructions={=u64} curvature_instructions={=u64} load_search_instructions={=u64}",
         samples,
@@ -109,8 +131,11 @@ fn main() -> ! {
         load_search,
     );
     defmt::println!(
-        "window_bench identify_instructions={=u64} model_runs={=u32} within={=bool} friction={=f32} gain_drift={=f32} stiffness={=f32} fitted_stiffness_at_nominal={=f32} check={=f32} fitted={=u32}",
+        "window_bench identify_instructions={=u64} polls={=u32} longest_poll_instructions={=u64} ga_evaluations_cap={=u32} model_runs={=u32} within={=bool} friction={=f32} gain_drift={=f32} stiffness={=f32} fitted_stiffness_at_nominal={=f32} check={=f32} fitted={=u32}",
         whole,
+        polls,
+        instructions_under_icount(longest),
+        settings.max_evaluations,
         reading.evaluations,
         reading.verdict.is_ok(),
         reading.faults.friction(),

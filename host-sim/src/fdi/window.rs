@@ -141,7 +141,7 @@ pub fn identify_window(
         window_problem(&command, measured, record, WindowLoad::spring(guess, 0.0))?;
     let reading = shared::window::identify::<_, POPULATION>(
         &problem,
-        record.ga,
+        shared::window::window_ga(&record.ga),
         seed,
         &WindowLimits::REFERENCE,
     )
