@@ -1142,29 +1142,34 @@ pub async fn identify_stepwise<const N: usize, const P: usize>(
         .await;
     evaluations += runs;
     let mut problem = problem.clone().with_load(load);
-    let mut ga = crate::SteadyStateGa::<P>::new(settings, seed)?;
-    loop {
-        let status = ga.step(&mut problem, 1);
-        pause().await;
-        if status != crate::ga::Status::Running {
-            break;
+    // Each GA in its own block: the future keeps one population at a time between polls.
+    let first = {
+        let mut ga = crate::SteadyStateGa::<P>::new(settings, seed)?;
+        loop {
+            let status = ga.step(&mut problem, 1);
+            pause().await;
+            if status != crate::ga::Status::Running {
+                break;
+            }
         }
-    }
-    evaluations += ga.evaluations();
-    let first = FaultVector::saturating(ga.best().genes);
+        evaluations += ga.evaluations();
+        FaultVector::saturating(ga.best().genes)
+    };
     let (load, _, runs) = problem.fit_load_stepwise(&first, load.stiffness).await;
     evaluations += runs;
-    let mut problem = problem.with_load(load);
-    let mut ga = crate::SteadyStateGa::<P>::new(settings, seed.wrapping_add(0x5eed))?;
-    loop {
-        let status = ga.step(&mut problem, 1);
-        pause().await;
-        if status != crate::ga::Status::Running {
-            break;
+    problem = problem.with_load(load);
+    let second = {
+        let mut ga = crate::SteadyStateGa::<P>::new(settings, seed.wrapping_add(0x5eed))?;
+        loop {
+            let status = ga.step(&mut problem, 1);
+            pause().await;
+            if status != crate::ga::Status::Running {
+                break;
+            }
         }
-    }
-    evaluations += ga.evaluations();
-    let second = FaultVector::saturating(ga.best().genes);
+        evaluations += ga.evaluations();
+        FaultVector::saturating(ga.best().genes)
+    };
     let first_fit = problem.evaluate(&first);
     pause().await;
     let second_fit = problem.evaluate(&second);

@@ -109,6 +109,7 @@ fn main() -> ! {
         1,
         &WindowLimits::REFERENCE
     ));
+    let state_bytes = core::mem::size_of_val(&*future);
     let mut cx = Context::from_waker(Waker::noop());
     let (mut polls, mut longest) = (0u32, 0u64);
     let begin = cycles();
@@ -131,10 +132,11 @@ fn main() -> ! {
         load_search,
     );
     defmt::println!(
-        "window_bench identify_instructions={=u64} polls={=u32} longest_poll_instructions={=u64} ga_evaluations_cap={=u32} model_runs={=u32} within={=bool} friction={=f32} gain_drift={=f32} stiffness={=f32} fitted_stiffness_at_nominal={=f32} check={=f32} fitted={=u32}",
+        "window_bench identify_instructions={=u64} polls={=u32} longest_poll_instructions={=u64} state_bytes={=usize} ga_evaluations_cap={=u32} model_runs={=u32} within={=bool} friction={=f32} gain_drift={=f32} stiffness={=f32} fitted_stiffness_at_nominal={=f32} check={=f32} fitted={=u32}",
         whole,
         polls,
         instructions_under_icount(longest),
+        state_bytes,
         settings.max_evaluations,
         reading.evaluations,
         reading.verdict.is_ok(),
