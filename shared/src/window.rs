@@ -73,29 +73,81 @@ const MOMENT_SCAN: usize = 81;
 /// on seeds 0–9.
 pub const WINDOW_INFLATION: [f32; FAULT_COUNT] = [1.6, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.4, 1.0];
 
+/// How often the controller keeps the command it followed over a window: every
+/// `COMMAND_STRIDE`-th sample (2.5 kHz at the reference's 10 kHz loop), linear in between
+/// ([`RecordedCommand::kept_every`]): 5.5 kB for a window instead of 22 kB. The chirp's
+/// 15 Hz at 5 mrad departs from its chords by at most `A·(2π·f·h)²/8` ≈ 0.9 µrad (0.02 % of
+/// its amplitude); the flight control computer's corrections (≤ 2 Hz) by ≈ 10⁻⁸ rad.
+pub const COMMAND_STRIDE: usize = 4;
+
 /// The commanded user-shaft angle [rad] of each sample of a window, as the controller
-/// followed it (a trace's `theta_cmd`). Past the last sample the last value holds. O(1).
+/// followed it (a trace's `theta_cmd`), kept every `stride` samples and linear in between
+/// (every sample when `stride` is 1). Past the last kept sample the last value holds. O(1).
 #[derive(Clone, Copy, Debug)]
 pub struct RecordedCommand<'a> {
-    samples: &'a [f32],
+    kept: &'a [f32],
+    stride: usize,
+    inv_stride: f32,
 }
 
 impl<'a> RecordedCommand<'a> {
+    /// Every sample's command.
     pub fn new(samples: &'a [f32]) -> Self {
-        Self { samples }
+        Self::kept_every(1, samples)
     }
 
-    pub fn samples(&self) -> &'a [f32] {
-        self.samples
+    /// The command kept every `stride` samples: `kept[j]` is sample `j·stride`'s (`stride`
+    /// 0 is taken as 1).
+    pub fn kept_every(stride: usize, kept: &'a [f32]) -> Self {
+        let stride = stride.max(1);
+        Self {
+            kept,
+            stride,
+            inv_stride: 1.0 / stride as f32,
+        }
+    }
+
+    /// Keeps every `stride`-th sample of `samples` into `kept` (cleared first; as many as
+    /// fit), and the command over them: what a controller stores while it flies a window.
+    /// O(samples).
+    pub fn keep<const K: usize>(
+        stride: usize,
+        samples: &[f32],
+        kept: &'a mut heapless::Vec<f32, K>,
+    ) -> Self {
+        kept.clear();
+        for &x in samples.iter().step_by(stride.max(1)) {
+            if kept.push(x).is_err() {
+                break;
+            }
+        }
+        Self::kept_every(stride, kept)
+    }
+
+    /// The kept samples.
+    pub fn kept(&self) -> &'a [f32] {
+        self.kept
+    }
+
+    /// The samples the command spans: up to its last kept one.
+    pub fn len(&self) -> usize {
+        self.kept.len().saturating_sub(1) * self.stride + usize::from(!self.kept.is_empty())
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.kept.is_empty()
     }
 }
 
 impl CommandSource for RecordedCommand<'_> {
     #[inline(always)]
     fn position_at(&self, index: usize) -> f32 {
-        match self.samples.get(index) {
-            Some(&x) => x,
-            None => self.samples.last().copied().unwrap_or(0.0),
+        let j = index / self.stride;
+        let within = index - j * self.stride;
+        match (self.kept.get(j), self.kept.get(j + 1)) {
+            (Some(&a), Some(&b)) if within > 0 => a + (b - a) * (within as f32 * self.inv_stride),
+            (Some(&a), _) => a,
+            _ => self.kept.last().copied().unwrap_or(0.0),
         }
     }
 }
@@ -359,7 +411,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         load: WindowLoad,
     ) -> Result<Self, WindowError> {
         let reference = measured.samples();
-        let samples = reference.len().min(command.samples().len());
+        let samples = reference.len().min(command.len());
         if samples < SETTLE_SAMPLES + 10 * DRIFT_TERMS {
             return Err(WindowError::TooShort);
         }
@@ -383,10 +435,11 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         let drift_inverse = invert(&gram)
             .ok_or(WindowError::Singular)?
             .map(|row| row.map(|x| x as f32));
+        // The kept samples within the window (the line between two never leaves them).
         let (lo, hi) = command
-            .samples()
+            .kept()
             .iter()
-            .take(samples)
+            .take((samples - 1) / command.stride + 1)
             .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &x| {
                 (lo.min(x), hi.max(x))
             });
@@ -1225,7 +1278,7 @@ pub async fn identify_stepwise<const N: usize, const P: usize>(
 /// Records what the controller would measure over a window of flight if the actuator
 /// behaved exactly like the monitor model `model` (its day and test) with faults `k` under a
 /// spring of `load.stiffness` carrying `load.moment` at the start (no trend, no turbulence),
-/// following `command` from the motor angle `start_motor` [rad]: three phase currents from
+/// following `command` over `samples` samples from the motor angle `start_motor` [rad]: three phase currents from
 /// the equivalent current and the commutation table, quantised into frames and conditioned
 /// into `measured` (cleared first, its test kept). The window identification's inverse
 /// check and its instruction-count bench (`firmware/window-bench`). O(N), one model run.
@@ -1233,14 +1286,15 @@ pub fn record_monitor_window<const N: usize>(
     model: &MonitorModel,
     k: &FaultVector,
     load: &WindowLoad,
-    command: &[f32],
+    command: &impl CommandSource,
+    samples: usize,
     start_motor: f32,
     measured: &mut MeasuredCurrent<N>,
 ) -> Result<(), crate::conditioning::ConditioningError> {
     use crate::conditioning::{commutation_signs, AdcFrame, ShaftAngles};
     measured.clear();
     let pole_pairs = model.params().pole_pairs;
-    let first = command.first().copied().unwrap_or(0.0);
+    let first = command.position_at(0);
     let start = ShaftAngles {
         motor: start_motor,
         user: first,
@@ -1250,8 +1304,8 @@ pub fn record_monitor_window<const N: usize>(
         model
             .with_load_stiffness(load.stiffness)
             .start_loaded_run(k, start, load.moment, first);
-    for &c in command.iter().take(N) {
-        let s = run.next_sample(&m, c);
+    for i in 0..samples.min(N) {
+        let s = run.next_sample(&m, command.position_at(i));
         let phases =
             commutation_signs(pole_pairs * s.motor_angle).map(|x| f32::from(x) * s.current);
         // Cannot be full: at most N frames are pushed.
@@ -1412,6 +1466,28 @@ mod tests {
         assert_eq!(c.position_at(1), 2.0);
         assert_eq!(c.position_at(7), 3.0);
         assert_eq!(RecordedCommand::new(&[]).position_at(0), 0.0);
+        assert_eq!((c.len(), RecordedCommand::new(&[]).len()), (3, 0));
+    }
+
+    /// A command kept every fourth sample is exact at the kept samples, on the line between
+    /// them, holds its last value past them, spans up to its last kept sample; keeping a
+    /// chirp-like command every fourth sample departs from it by less than its bound.
+    #[test]
+    fn a_command_kept_every_fourth_sample() {
+        let kept = [0.0f32, 4.0, 2.0];
+        let c = RecordedCommand::kept_every(4, &kept);
+        let at: [f32; 11] = core::array::from_fn(|i| c.position_at(i));
+        assert_eq!(at, [0.0, 1.0, 2.0, 3.0, 4.0, 3.5, 3.0, 2.5, 2.0, 2.0, 2.0]);
+        assert_eq!(c.len(), 9);
+        // 15 Hz at 5 mrad sampled at 10 kHz: within 1 µrad of the full command.
+        let full: [f32; 2000] = core::array::from_fn(|i| {
+            5e-3 * crate::math::sin(2.0 * core::f32::consts::PI * 15.0 * i as f32 * 1e-4)
+        });
+        let mut store = heapless::Vec::<f32, 500>::new();
+        let c = RecordedCommand::keep(COMMAND_STRIDE, &full, &mut store);
+        assert_eq!(c.len(), 1997);
+        let worst = (0..c.len()).fold(0.0f32, |m, i| m.max((c.position_at(i) - full[i]).abs()));
+        assert!(worst < 1.0e-6, "{worst}");
     }
 
     /// A loaded start is an equilibrium: under a steady command the model holds the moment

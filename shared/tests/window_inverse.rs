@@ -11,8 +11,8 @@ use shared::fdi::{OnboardMeasured, POPULATION, TEST_SAMPLES};
 use shared::test_design::PreflightTest;
 use shared::window::{
     identify, identify_stepwise, record_monitor_window, synthetic_command, window_ga,
-    RecordedCommand, WindowLimits, WindowLoad, WindowProblem, CURVATURE_CHUNK, CURVATURE_RUNS,
-    LOAD_SEARCH_EVALUATIONS, WINDOW_GA_EVALUATIONS,
+    RecordedCommand, WindowLimits, WindowLoad, WindowProblem, COMMAND_STRIDE, CURVATURE_CHUNK,
+    CURVATURE_RUNS, LOAD_SEARCH_EVALUATIONS, WINDOW_GA_EVALUATIONS,
 };
 use shared::{Calibration, FaultVector, LowPass, MonitorModel};
 
@@ -42,12 +42,24 @@ fn a_window_recorded_from_the_monitor_model_is_identified() {
     let mut measured = Box::new(OnboardMeasured::ZEROED);
     measured.set_filter(LowPass::for_control_period(period).unwrap());
     measured.clear_for(test);
-    record_monitor_window(&model, &truth, &load, &command, 0.3, &mut measured).unwrap();
+    // The actuator follows every sample's command; the controller keeps every fourth.
+    let full = RecordedCommand::new(&command);
+    record_monitor_window(
+        &model,
+        &truth,
+        &load,
+        &full,
+        TEST_SAMPLES,
+        0.3,
+        &mut measured,
+    )
+    .unwrap();
+    let kept: Vec<f32> = command.iter().step_by(COMMAND_STRIDE).copied().collect();
+    let kept = RecordedCommand::kept_every(COMMAND_STRIDE, &kept);
     assert_eq!(measured.samples().len(), TEST_SAMPLES);
 
     let guess = WindowLoad::spring(record.params.aero_stiffness, 0.0);
-    let problem =
-        WindowProblem::new(&measured, RecordedCommand::new(&command), model, guess).unwrap();
+    let problem = WindowProblem::new(&measured, kept, model, guess).unwrap();
     // At the truth the fit is (almost) exact; at the nominal vector it is not.
     let at_truth = problem.evaluate_under(&truth, load).error;
     let at_nominal = problem.evaluate_under(&FaultVector::NOMINAL, load).error;
@@ -108,9 +120,21 @@ fn the_drift_by_blocks_is_the_drift_sample_by_sample() {
     let mut measured = Box::new(OnboardMeasured::ZEROED);
     measured.set_filter(LowPass::for_control_period(period).unwrap());
     measured.clear_for(test);
-    record_monitor_window(&model, &truth, &load, &command, 0.3, &mut measured).unwrap();
-    let problem =
-        WindowProblem::new(&measured, RecordedCommand::new(&command), model, load).unwrap();
+    // The actuator follows every sample's command; the controller keeps every fourth.
+    let full = RecordedCommand::new(&command);
+    record_monitor_window(
+        &model,
+        &truth,
+        &load,
+        &full,
+        TEST_SAMPLES,
+        0.3,
+        &mut measured,
+    )
+    .unwrap();
+    let kept: Vec<f32> = command.iter().step_by(COMMAND_STRIDE).copied().collect();
+    let kept = RecordedCommand::kept_every(COMMAND_STRIDE, &kept);
+    let problem = WindowProblem::new(&measured, kept, model, load).unwrap();
     // At the nominal vector the residual is large and far from a polynomial.
     let fit = problem.evaluate(&FaultVector::NOMINAL);
 
@@ -207,10 +231,22 @@ fn the_window_identification_in_steps_is_the_same_and_pauses() {
     let mut measured = Box::new(OnboardMeasured::ZEROED);
     measured.set_filter(LowPass::for_control_period(period).unwrap());
     measured.clear_for(test);
-    record_monitor_window(&model, &truth, &load, &command, 0.3, &mut measured).unwrap();
+    // The actuator follows every sample's command; the controller keeps every fourth.
+    let full = RecordedCommand::new(&command);
+    record_monitor_window(
+        &model,
+        &truth,
+        &load,
+        &full,
+        TEST_SAMPLES,
+        0.3,
+        &mut measured,
+    )
+    .unwrap();
+    let kept: Vec<f32> = command.iter().step_by(COMMAND_STRIDE).copied().collect();
+    let kept = RecordedCommand::kept_every(COMMAND_STRIDE, &kept);
     let guess = WindowLoad::spring(record.params.aero_stiffness, 0.0);
-    let problem =
-        WindowProblem::new(&measured, RecordedCommand::new(&command), model, guess).unwrap();
+    let problem = WindowProblem::new(&measured, kept, model, guess).unwrap();
     let limits = WindowLimits::REFERENCE;
     let settings = window_ga(&record.ga);
     let whole = identify::<_, POPULATION>(&problem, settings, 3, &limits).unwrap();

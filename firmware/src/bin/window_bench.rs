@@ -25,10 +25,11 @@ use semihosting::process::exit;
 use static_cell::ConstStaticCell;
 
 use shared::actuator::ActuatorRecord;
+use shared::command::{ChirpSampler, CommandSource};
 use shared::fdi::{OnboardMeasured, POPULATION, TEST_SAMPLES};
 use shared::window::{
     identify_stepwise, record_monitor_window, synthetic_command, window_ga, RecordedCommand,
-    WindowLimits, WindowLoad, WindowProblem,
+    WindowLimits, WindowLoad, WindowProblem, COMMAND_STRIDE,
 };
 use shared::{Calibration, FaultVector, LowPass, MonitorModel};
 
@@ -44,9 +45,23 @@ mod vectors;
 
 use clock::{cycles, instructions_under_icount, start_cycle_clock};
 
-/// The window's measured current (22 kB) and its command (20 kB), in `.bss`.
+/// The window's measured current (22 kB, the preflight's buffer type) and its command as the
+/// controller keeps it (every `COMMAND_STRIDE`-th sample, 5.5 kB), in `.bss`.
 static MEASURED: ConstStaticCell<OnboardMeasured> = ConstStaticCell::new(OnboardMeasured::ZEROED);
-static COMMAND: ConstStaticCell<[f32; TEST_SAMPLES]> = ConstStaticCell::new([0.0; TEST_SAMPLES]);
+const KEPT: usize = (TEST_SAMPLES - 1) / COMMAND_STRIDE + 1;
+static COMMAND: ConstStaticCell<[f32; KEPT]> = ConstStaticCell::new([0.0; KEPT]);
+
+/// The command the recorded actuator follows, every sample's.
+struct Synthetic {
+    sampler: ChirpSampler,
+    period: f32,
+}
+
+impl CommandSource for Synthetic {
+    fn position_at(&self, index: usize) -> f32 {
+        synthetic_command(&self.sampler, 1.0e-3, self.period, index)
+    }
+}
 
 /// Window evaluations timed together for the per-run figure.
 const EVALUATIONS: u32 = 20;
@@ -62,10 +77,13 @@ fn main() -> ! {
     let model =
         MonitorModel::new(record.params, &Calibration::reference_actuator(&test)).with_test(&test);
     let period = record.params.control_period;
-    let sampler = model.sampler();
+    let followed = Synthetic {
+        sampler: model.sampler(),
+        period,
+    };
     let command = COMMAND.take();
-    for (i, c) in command.iter_mut().enumerate() {
-        *c = synthetic_command(&sampler, 1.0e-3, period, i);
+    for (j, c) in command.iter_mut().enumerate() {
+        *c = followed.position_at(j * COMMAND_STRIDE);
     }
     let mut genes = *FaultVector::NOMINAL.as_array();
     (genes[0], genes[7]) = (0.2, 0.6);
@@ -77,13 +95,27 @@ fn main() -> ! {
     };
     measured.set_filter(filter);
     measured.clear_for(test);
-    if record_monitor_window(&model, &truth, &load, command, 0.3, measured).is_err() {
+    if record_monitor_window(
+        &model,
+        &truth,
+        &load,
+        &followed,
+        TEST_SAMPLES,
+        0.3,
+        measured,
+    )
+    .is_err()
+    {
         exit(3)
     }
     let samples = measured.samples().len();
     let guess = WindowLoad::spring(record.params.aero_stiffness, 0.0);
-    let Ok(problem) = WindowProblem::new(measured, RecordedCommand::new(command), model, guess)
-    else {
+    let Ok(problem) = WindowProblem::new(
+        measured,
+        RecordedCommand::kept_every(COMMAND_STRIDE, command),
+        model,
+        guess,
+    ) else {
         exit(3)
     };
 

@@ -14,7 +14,9 @@ use shared::domain::Domain;
 use shared::fdi::{OnboardMeasured, POPULATION};
 use shared::health::{HealthRecord, RecordedDay};
 use shared::uncertainty::{Assessment, Uncertainty};
-use shared::window::{RecordedCommand, WindowLimits, WindowLoad, WindowProblem, WindowReason};
+use shared::window::{
+    RecordedCommand, WindowLimits, WindowLoad, WindowProblem, WindowReason, COMMAND_STRIDE,
+};
 use shared::{FaultVector, MonitorModel, FAULT_COUNT};
 
 use crate::files::trace::Trace;
@@ -72,12 +74,19 @@ impl WindowIdentified {
     }
 }
 
-/// The commanded angle of every frame of `trace` [rad].
+/// The commanded angle of `trace` [rad] as the controller keeps it over a window: every
+/// `shared::window::COMMAND_STRIDE`-th frame's (the window problem draws the line between).
 pub fn recorded_command(trace: &Trace) -> Vec<f32> {
-    trace.samples().iter().map(|s| s.command as f32).collect()
+    trace
+        .samples()
+        .iter()
+        .step_by(COMMAND_STRIDE)
+        .map(|s| s.command as f32)
+        .collect()
 }
 
-/// The window problem of `measured` driven by `command` under `load`, on the day the FDI
+/// The window problem of `measured` driven by `command` (kept every `COMMAND_STRIDE`
+/// frames, `recorded_command`) under `load`, on the day the FDI
 /// estimates from the window, and that day.
 fn window_problem<'a>(
     command: &'a [f32],
@@ -92,7 +101,8 @@ fn window_problem<'a>(
     let model = MonitorModel::new(record.params, &record.calibration)
         .with_test(measured.test())
         .with_conditions(&conditions);
-    let problem = WindowProblem::new(measured, RecordedCommand::new(command), model, load)
+    let command = RecordedCommand::kept_every(COMMAND_STRIDE, command);
+    let problem = WindowProblem::new(measured, command, model, load)
         .map_err(|e| anyhow::anyhow!("the window: {e:?}"))?;
     Ok((problem, conditions))
 }
