@@ -402,6 +402,22 @@ impl MonitorModel {
         self
     }
 
+    /// The surface's spring and the rigging offset this model steps with: what
+    /// [`start_loaded_run`](Self::start_loaded_run) sets for its run. O(1).
+    pub fn rigging(&self) -> RunRigging {
+        RunRigging {
+            load_stiffness: self.params.aero_stiffness,
+            encoder_offset: self.params.encoder_offset,
+        }
+    }
+
+    /// The same model with `rigging`: runs stepped in lockstep share one model and set
+    /// each run's rigging before its step (a few bytes per run instead of a model). O(1).
+    pub fn rig(&mut self, rigging: RunRigging) {
+        self.params.aero_stiffness = rigging.load_stiffness;
+        self.params.encoder_offset = rigging.encoder_offset;
+    }
+
     /// The calibrated torque constant on the test's day [N·m/A] (the healthy motor's).
     pub fn torque_constant(&self) -> f32 {
         self.torque_constant
@@ -661,6 +677,14 @@ impl MonitorModel {
             user_angle: sampled.2,
         }
     }
+}
+
+/// What a loaded start ([`MonitorModel::start_loaded_run`]) changes in the model its run is
+/// stepped with: the surface's spring [N·m/rad] and the rigging offset [rad].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RunRigging {
+    pub load_stiffness: f32,
+    pub encoder_offset: f32,
 }
 
 /// One monitor-model run in progress (see [`MonitorModel::start_run`]): its fault-dependent

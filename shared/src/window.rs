@@ -31,7 +31,7 @@ use crate::conditioning::{LowPassState, MeasuredCurrent};
 use crate::fault::{FaultVector, FAULT_COUNT};
 use crate::ga::Problem;
 use crate::math::{abs, invert};
-use crate::monitor::MonitorModel;
+use crate::monitor::{MonitorModel, RunRigging};
 use crate::uncertainty::{Curvature, STEP};
 
 /// Samples at the window's start left out of the sum (20 ms): the model starts still, the
@@ -477,6 +477,11 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         self
     }
 
+    /// Puts the problem under another load, in place.
+    pub fn set_load(&mut self, load: WindowLoad) {
+        self.load = load;
+    }
+
     /// The moment [N·m] the measured current holds at the window's start, at the model's
     /// torque constant: the mean over the 10 ms after the settle, times the gear ratio. The
     /// load search's start.
@@ -629,7 +634,9 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         let moment_step = LOAD_STEP * load.stiffness * self.model.command().amplitude;
         let moment_step = if moment_step > 0.0 { moment_step } else { 1.0 };
         let mut steps = [0.0f32; FAULT_COUNT];
-        let mut runs: [(MonitorModel, crate::monitor::MonitorRun, LowPassState); RUNS] =
+        // One model for the twelve runs, each run's rigging set before its step.
+        let mut model = self.model;
+        let mut runs: [(RunRigging, crate::monitor::MonitorRun, LowPassState); RUNS] =
             core::array::from_fn(|j| {
                 let mut genes = *k.as_array();
                 let (mut stiffness, mut moment) = (load.stiffness, load.moment);
@@ -650,17 +657,15 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
                     moment,
                     first,
                 );
-                (m, r, LowPassState::default())
+                (m.rigging(), r, LowPassState::default())
             });
         let filter = self.measured.filter();
         let mut normal = [[0.0f64; FAULT_COUNT]; FAULT_COUNT];
         let mut gradient = [0.0f64; FAULT_COUNT];
         let mut rss = 0.0f64;
-        // The nuisances' normal matrix, their cross terms with the faults and the residual.
-        let mut q = [[0.0f64; NUISANCES]; NUISANCES];
-        for (row, g) in q.iter_mut().zip(&self.gram) {
-            row[..DRIFT_TERMS].copy_from_slice(g);
-        }
+        // The nuisances' normal matrix (its load rows: the drift's block is the Gram
+        // matrix), their cross terms with the faults and the residual.
+        let mut q_load = [[0.0f64; NUISANCES]; NUISANCES - DRIFT_TERMS];
         let mut cross = [[0.0f64; FAULT_COUNT]; NUISANCES];
         let mut q_residual = [0.0f64; NUISANCES];
         let mut fitted = 0u32;
@@ -679,11 +684,12 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             let push = -load.trend_at(&phi);
             let command = self.command.position_at(i);
             let mut current = [0.0f32; RUNS];
-            for ((m, run, state), out) in runs.iter_mut().zip(current.iter_mut()) {
+            for ((rigging, run, state), out) in runs.iter_mut().zip(current.iter_mut()) {
+                model.rig(*rigging);
                 if push != 0.0 {
-                    run.push_surface(m, push);
+                    run.push_surface(&model, push);
                 }
-                *out = filter.apply(state, run.next_sample(m, command).current);
+                *out = filter.apply(state, run.next_sample(&model, command).current);
             }
             let d = r - previous;
             previous = r;
@@ -745,7 +751,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
                     &mut normal,
                     &mut gradient,
                     &mut rss,
-                    &mut q,
+                    &mut q_load,
                     &mut cross,
                     &mut q_residual,
                 );
@@ -756,13 +762,24 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             &mut normal,
             &mut gradient,
             &mut rss,
-            &mut q,
+            &mut q_load,
             &mut cross,
             &mut q_residual,
         );
         for a in 0..FAULT_COUNT {
             for c in 0..a {
                 normal[a][c] = normal[c][a];
+            }
+        }
+        let mut q = [[0.0f64; NUISANCES]; NUISANCES];
+        for (row, g) in q.iter_mut().zip(&self.gram) {
+            row[..DRIFT_TERMS].copy_from_slice(g);
+        }
+        for (t, row) in q_load.iter().enumerate() {
+            let t = DRIFT_TERMS + t;
+            q[t] = *row;
+            for u in 0..DRIFT_TERMS {
+                q[u][t] = row[u];
             }
         }
         // Profile the nuisances out (a regular Q; a singular one leaves the sums as they are).
@@ -1066,15 +1083,15 @@ impl WindowBlockSums {
         q_load: [[0.0; NUISANCES]; NUISANCES - DRIFT_TERMS],
     };
 
-    /// Adds the block to the totals (the load rows of `q` and their mirror in the drift's
-    /// columns) and empties it.
+    /// Adds the block to the totals (`q_load`: the nuisances' normal matrix's load rows)
+    /// and empties it.
     #[allow(clippy::too_many_arguments)]
     fn flush(
         &mut self,
         normal: &mut [[f64; FAULT_COUNT]; FAULT_COUNT],
         gradient: &mut [f64; FAULT_COUNT],
         rss: &mut f64,
-        q: &mut [[f64; NUISANCES]; NUISANCES],
+        q_load: &mut [[f64; NUISANCES]; NUISANCES - DRIFT_TERMS],
         cross: &mut [[f64; FAULT_COUNT]; NUISANCES],
         q_residual: &mut [f64; NUISANCES],
     ) {
@@ -1087,18 +1104,8 @@ impl WindowBlockSums {
         for (total, block) in cross.iter_mut().zip(&self.cross) {
             add(total, block);
         }
-        for (t, row) in self.q_load.iter().enumerate() {
-            let t = DRIFT_TERMS + t;
-            for (u, &x) in row.iter().enumerate() {
-                if let Some(slot) = q.get_mut(t).and_then(|r| r.get_mut(u)) {
-                    *slot += f64::from(x);
-                }
-                if u < DRIFT_TERMS {
-                    if let Some(slot) = q.get_mut(u).and_then(|r| r.get_mut(t)) {
-                        *slot += f64::from(x);
-                    }
-                }
-            }
+        for (total, block) in q_load.iter_mut().zip(&self.q_load) {
+            add(total, block);
         }
         *self = Self::ZERO;
     }
@@ -1173,7 +1180,13 @@ pub fn identify<const N: usize, const P: usize>(
     seed: u64,
     limits: &WindowLimits,
 ) -> Result<WindowReading, crate::ga::GaError> {
-    run_to_end(identify_stepwise::<N, P>(problem, settings, seed, limits))
+    let mut problem = problem.clone();
+    run_to_end(identify_stepwise::<N, P>(
+        &mut problem,
+        settings,
+        seed,
+        limits,
+    ))
 }
 
 /// [`identify`] as a future that does bounded work per poll, for a controller's idle time
@@ -1181,9 +1194,10 @@ pub fn identify<const N: usize, const P: usize>(
 /// one window evaluation (one model run over the window, with the GA's O(`P`) bookkeeping),
 /// or [`CURVATURE_CHUNK`] samples of a curvature's twelve lockstep runs, or the polish's
 /// and the uncertainty's O(12³) algebra. The future holds the GA, the curvature's runs and
-/// the load search between polls (no allocation).
+/// the load search between polls (no allocation); `problem`'s load is its starting guess
+/// and is left at the load found.
 pub async fn identify_stepwise<const N: usize, const P: usize>(
-    problem: &WindowProblem<'_, N>,
+    problem: &mut WindowProblem<'_, N>,
     settings: crate::ga::GaSettings,
     seed: u64,
     limits: &WindowLimits,
@@ -1194,12 +1208,12 @@ pub async fn identify_stepwise<const N: usize, const P: usize>(
         .fit_load_stepwise(&FaultVector::NOMINAL, guess)
         .await;
     evaluations += runs;
-    let mut problem = problem.clone().with_load(load);
+    problem.set_load(load);
     // Each GA in its own block: the future keeps one population at a time between polls.
     let first = {
         let mut ga = crate::SteadyStateGa::<P>::new(settings, seed)?;
         loop {
-            let status = ga.step(&mut problem, 1);
+            let status = ga.step(&mut *problem, 1);
             pause().await;
             if status != crate::ga::Status::Running {
                 break;
@@ -1210,11 +1224,11 @@ pub async fn identify_stepwise<const N: usize, const P: usize>(
     };
     let (load, _, runs) = problem.fit_load_stepwise(&first, load.stiffness).await;
     evaluations += runs;
-    problem = problem.with_load(load);
+    problem.set_load(load);
     let second = {
         let mut ga = crate::SteadyStateGa::<P>::new(settings, seed.wrapping_add(0x5eed))?;
         loop {
-            let status = ga.step(&mut problem, 1);
+            let status = ga.step(&mut *problem, 1);
             pause().await;
             if status != crate::ga::Status::Running {
                 break;

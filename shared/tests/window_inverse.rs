@@ -251,8 +251,12 @@ fn the_window_identification_in_steps_is_the_same_and_pauses() {
     let settings = window_ga(&record.ga);
     let whole = identify::<_, POPULATION>(&problem, settings, 3, &limits).unwrap();
 
+    let mut stepped_problem = problem.clone();
     let mut future = Box::pin(identify_stepwise::<_, POPULATION>(
-        &problem, settings, 3, &limits,
+        &mut stepped_problem,
+        settings,
+        3,
+        &limits,
     ));
     let mut cx = Context::from_waker(Waker::noop());
     let mut polls = 0u32;

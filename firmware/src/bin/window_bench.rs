@@ -135,8 +135,9 @@ fn main() -> ! {
     // The whole identification as the controller's idle-time task would run it: polled
     // step by step, each poll's instructions measured.
     let settings = window_ga(&record.ga);
+    let mut problem = problem;
     let mut future = core::pin::pin!(identify_stepwise::<_, POPULATION>(
-        &problem,
+        &mut problem,
         settings,
         1,
         &WindowLimits::REFERENCE
