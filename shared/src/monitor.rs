@@ -746,6 +746,16 @@ impl MonitorRun {
         self.state.user_speed += m.dt_over_user_inertia * moment;
     }
 
+    /// The next sample of a run without a standstill segment (a window's: `m.lead_samples()`
+    /// is 0), inlined into its caller's loop: the same bits as
+    /// [`next_sample`](Self::next_sample) there. O(1).
+    #[inline(always)]
+    pub fn next_motion_sample(&mut self, m: &MonitorModel, command: f32) -> MonitorSample {
+        let time = self.index as f32 * m.dt;
+        self.index = self.index.saturating_add(1);
+        m.step(&self.f, &mut self.state, time, command)
+    }
+
     /// The next sample of the test of model `m` (the one that started this run): the
     /// standstill segment's, then the chirp's with the commanded user angle `command` [rad]
     /// (ignored during the segment). O(1).

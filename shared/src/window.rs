@@ -511,11 +511,18 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         let filter = self.measured.filter();
         let mut state = LowPassState::default();
         let trending = load.trend != [0.0; DRIFT_TERMS];
+        // A window's test has no standstill segment: its model steps inline.
+        let motion_only = model.lead_samples() == 0;
         self.residual_fit(&load.trend, |i, h| {
             if trending {
                 run.push_surface(&model, -h);
             }
-            let sample = run.next_sample(&model, self.command.position_at(i));
+            let command = self.command.position_at(i);
+            let sample = if motion_only {
+                run.next_motion_sample(&model, command)
+            } else {
+                run.next_sample(&model, command)
+            };
             filter.apply(&mut state, sample.current)
         })
     }
