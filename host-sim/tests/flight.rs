@@ -75,7 +75,11 @@ fn approach_windows_are_identified_or_named() {
         // current than the model before the drift (the drift is fitted, it cannot be worse).
         let points = host_sim::fdi::window::window_series(&sim.trace, &measured, &record, &id)
             .expect("the window's series");
-        assert_eq!(points.len(), sim.trace.samples().len());
+        // Every sample up to the last one whose command the controller kept (every
+        // COMMAND_STRIDE-th): the window's last few samples past it are not fitted.
+        let n = sim.trace.samples().len();
+        let stride = shared::window::COMMAND_STRIDE;
+        assert_eq!(points.len(), n - (n - 1) % stride);
         let rms = |f: &dyn Fn(&host_sim::fdi::window::WindowPoint) -> f32| {
             (points.iter().skip(200).map(|p| f(p).powi(2)).sum::<f32>() / points.len() as f32)
                 .sqrt()
