@@ -667,14 +667,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
                 (m.rigging(), r, LowPassState::default())
             });
         let filter = self.measured.filter();
-        let mut normal = [[0.0f64; FAULT_COUNT]; FAULT_COUNT];
-        let mut gradient = [0.0f64; FAULT_COUNT];
-        let mut rss = 0.0f64;
-        // The nuisances' normal matrix (its load rows: the drift's block is the Gram
-        // matrix), their cross terms with the faults and the residual.
-        let mut q_load = [[0.0f64; NUISANCES]; NUISANCES - DRIFT_TERMS];
-        let mut cross = [[0.0f64; FAULT_COUNT]; NUISANCES];
-        let mut q_residual = [0.0f64; NUISANCES];
+        let mut totals = WindowTotals::ZERO;
         let mut fitted = 0u32;
         let mut previous = 0.0f32;
         let mut block = WindowBlockSums::ZERO;
@@ -754,25 +747,19 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             fitted += 1;
             in_block += 1;
             if in_block == CURVATURE_BLOCK {
-                block.flush(
-                    &mut normal,
-                    &mut gradient,
-                    &mut rss,
-                    &mut q_load,
-                    &mut cross,
-                    &mut q_residual,
-                );
+                block.flush(&mut totals);
                 in_block = 0;
             }
         }
-        block.flush(
-            &mut normal,
-            &mut gradient,
-            &mut rss,
-            &mut q_load,
-            &mut cross,
-            &mut q_residual,
-        );
+        block.flush(&mut totals);
+        let WindowTotals {
+            mut normal,
+            mut gradient,
+            mut rss,
+            q_load,
+            cross,
+            q_residual,
+        } = totals;
         for a in 0..FAULT_COUNT {
             for c in 0..a {
                 normal[a][c] = normal[c][a];
@@ -1090,32 +1077,46 @@ impl WindowBlockSums {
         q_load: [[0.0; NUISANCES]; NUISANCES - DRIFT_TERMS],
     };
 
-    /// Adds the block to the totals (`q_load`: the nuisances' normal matrix's load rows)
-    /// and empties it.
-    #[allow(clippy::too_many_arguments)]
-    fn flush(
-        &mut self,
-        normal: &mut [[f64; FAULT_COUNT]; FAULT_COUNT],
-        gradient: &mut [f64; FAULT_COUNT],
-        rss: &mut f64,
-        q_load: &mut [[f64; NUISANCES]; NUISANCES - DRIFT_TERMS],
-        cross: &mut [[f64; FAULT_COUNT]; NUISANCES],
-        q_residual: &mut [f64; NUISANCES],
-    ) {
-        for (total, block) in normal.iter_mut().zip(&self.normal) {
+    /// Adds the block to `totals` and empties it.
+    fn flush(&mut self, totals: &mut WindowTotals) {
+        for (total, block) in totals.normal.iter_mut().zip(&self.normal) {
             add(total, block);
         }
-        add(gradient, &self.gradient);
-        *rss += f64::from(self.rss);
-        add(q_residual, &self.q_residual);
-        for (total, block) in cross.iter_mut().zip(&self.cross) {
+        add(&mut totals.gradient, &self.gradient);
+        totals.rss += f64::from(self.rss);
+        add(&mut totals.q_residual, &self.q_residual);
+        for (total, block) in totals.cross.iter_mut().zip(&self.cross) {
             add(total, block);
         }
-        for (total, block) in q_load.iter_mut().zip(&self.q_load) {
+        for (total, block) in totals.q_load.iter_mut().zip(&self.q_load) {
             add(total, block);
         }
         *self = Self::ZERO;
     }
+}
+
+/// A window curvature's sums in f64, the blocks' totals: the faults' normal matrix (upper
+/// triangle) and gradient, the residual's squares, the nuisances' normal matrix's load rows
+/// (its drift block is the Gram matrix), their cross terms with the faults and their
+/// products with the residual.
+struct WindowTotals {
+    normal: [[f64; FAULT_COUNT]; FAULT_COUNT],
+    gradient: [f64; FAULT_COUNT],
+    rss: f64,
+    q_load: [[f64; NUISANCES]; NUISANCES - DRIFT_TERMS],
+    cross: [[f64; FAULT_COUNT]; NUISANCES],
+    q_residual: [f64; NUISANCES],
+}
+
+impl WindowTotals {
+    const ZERO: Self = Self {
+        normal: [[0.0; FAULT_COUNT]; FAULT_COUNT],
+        gradient: [0.0; FAULT_COUNT],
+        rss: 0.0,
+        q_load: [[0.0; NUISANCES]; NUISANCES - DRIFT_TERMS],
+        cross: [[0.0; FAULT_COUNT]; NUISANCES],
+        q_residual: [0.0; NUISANCES],
+    };
 }
 
 /// `total += block`, element by element.
@@ -1218,34 +1219,14 @@ pub async fn identify_stepwise<const N: usize, const P: usize>(
         .await;
     evaluations += runs;
     problem.set_load(load);
-    // Each GA in its own block: the future keeps one population at a time between polls.
-    let first = {
-        let mut ga = crate::SteadyStateGa::<P>::new(settings, seed)?;
-        loop {
-            let status = ga.step(&mut *problem, 1);
-            pause().await;
-            if status != crate::ga::Status::Running {
-                break;
-            }
-        }
-        evaluations += ga.evaluations();
-        FaultVector::saturating(ga.best().genes)
-    };
+    let (first, runs) = search_stepwise::<N, P>(problem, settings, seed).await?;
+    evaluations += runs;
     let (load, _, runs) = problem.fit_load_stepwise(&first, load.stiffness).await;
     evaluations += runs;
     problem.set_load(load);
-    let second = {
-        let mut ga = crate::SteadyStateGa::<P>::new(settings, seed.wrapping_add(0x5eed))?;
-        loop {
-            let status = ga.step(&mut *problem, 1);
-            pause().await;
-            if status != crate::ga::Status::Running {
-                break;
-            }
-        }
-        evaluations += ga.evaluations();
-        FaultVector::saturating(ga.best().genes)
-    };
+    let (second, runs) =
+        search_stepwise::<N, P>(problem, settings, seed.wrapping_add(0x5eed)).await?;
+    evaluations += runs;
     let first_fit = problem.evaluate(&first);
     pause().await;
     let second_fit = problem.evaluate(&second);
@@ -1296,6 +1277,25 @@ pub async fn identify_stepwise<const N: usize, const P: usize>(
             .await,
         evaluations,
     })
+}
+
+/// One GA run of `settings` (seed `seed`) over `problem` under its load, one evaluation per
+/// poll: its best vector and the evaluations spent. The population lives in this future
+/// only while it runs (one at a time in [`identify_stepwise`]'s state).
+async fn search_stepwise<const N: usize, const P: usize>(
+    problem: &mut WindowProblem<'_, N>,
+    settings: crate::ga::GaSettings,
+    seed: u64,
+) -> Result<(FaultVector, u32), crate::ga::GaError> {
+    let mut ga = crate::SteadyStateGa::<P>::new(settings, seed)?;
+    loop {
+        let status = ga.step(&mut *problem, 1);
+        pause().await;
+        if status != crate::ga::Status::Running {
+            break;
+        }
+    }
+    Ok((FaultVector::saturating(ga.best().genes), ga.evaluations()))
 }
 
 /// Records what the controller would measure over a window of flight if the actuator

@@ -25,41 +25,59 @@ fn model() -> (MonitorModel, PreflightTest) {
     (model, test)
 }
 
+/// A window recorded from the monitor model itself: the flight control computer's
+/// corrections (`correction` rad RMS) with the chirp on top, faults `truth`, a spring
+/// `load`. The actuator follows every sample's command; the controller keeps every fourth
+/// (`kept`, what the window problem reads).
+struct Recorded {
+    model: MonitorModel,
+    measured: Box<OnboardMeasured>,
+    kept: Vec<f32>,
+}
+
+impl Recorded {
+    fn new(correction: f32, truth: &FaultVector, load: &WindowLoad) -> Self {
+        let record = ActuatorRecord::REFERENCE;
+        let (model, test) = model();
+        let period = record.params.control_period;
+        let sampler = model.sampler();
+        let command: Vec<f32> = (0..TEST_SAMPLES)
+            .map(|i| synthetic_command(&sampler, correction, period, i))
+            .collect();
+        let mut measured = Box::new(OnboardMeasured::ZEROED);
+        measured.set_filter(LowPass::for_control_period(period).unwrap());
+        measured.clear_for(test);
+        let full = RecordedCommand::new(&command);
+        record_monitor_window(&model, truth, load, &full, TEST_SAMPLES, 0.3, &mut measured)
+            .unwrap();
+        let kept = command.iter().step_by(COMMAND_STRIDE).copied().collect();
+        Self {
+            model,
+            measured,
+            kept,
+        }
+    }
+
+    /// The window problem under `load`.
+    fn problem(&self, load: WindowLoad) -> WindowProblem<'_, TEST_SAMPLES> {
+        let command = RecordedCommand::kept_every(COMMAND_STRIDE, &self.kept);
+        WindowProblem::new(&self.measured, command, self.model, load).unwrap()
+    }
+}
+
 #[test]
 fn a_window_recorded_from_the_monitor_model_is_identified() {
     let record = ActuatorRecord::REFERENCE;
-    let (model, test) = model();
-    let period = record.params.control_period;
-    let sampler = model.sampler();
-    let command: Vec<f32> = (0..TEST_SAMPLES)
-        .map(|i| synthetic_command(&sampler, 1.0e-3, period, i))
-        .collect();
     // Friction 0.2 and a gain drift, a hinge spring 1.4 times the actuator's carrying 120 N·m.
     let mut genes = *FaultVector::NOMINAL.as_array();
     (genes[0], genes[7]) = (0.2, 0.6);
     let truth = FaultVector::new(genes).unwrap();
     let load = WindowLoad::spring(1.4 * record.params.aero_stiffness, 120.0);
-    let mut measured = Box::new(OnboardMeasured::ZEROED);
-    measured.set_filter(LowPass::for_control_period(period).unwrap());
-    measured.clear_for(test);
-    // The actuator follows every sample's command; the controller keeps every fourth.
-    let full = RecordedCommand::new(&command);
-    record_monitor_window(
-        &model,
-        &truth,
-        &load,
-        &full,
-        TEST_SAMPLES,
-        0.3,
-        &mut measured,
-    )
-    .unwrap();
-    let kept: Vec<f32> = command.iter().step_by(COMMAND_STRIDE).copied().collect();
-    let kept = RecordedCommand::kept_every(COMMAND_STRIDE, &kept);
-    assert_eq!(measured.samples().len(), TEST_SAMPLES);
+    let window = Recorded::new(1.0e-3, &truth, &load);
+    assert_eq!(window.measured.samples().len(), TEST_SAMPLES);
 
     let guess = WindowLoad::spring(record.params.aero_stiffness, 0.0);
-    let problem = WindowProblem::new(&measured, kept, model, guess).unwrap();
+    let problem = window.problem(guess);
     // At the truth the fit is (almost) exact; at the nominal vector it is not.
     let at_truth = problem.evaluate_under(&truth, load).error;
     let at_nominal = problem.evaluate_under(&FaultVector::NOMINAL, load).error;
@@ -107,34 +125,14 @@ fn a_window_recorded_from_the_monitor_model_is_identified() {
 fn the_drift_by_blocks_is_the_drift_sample_by_sample() {
     use shared::window::{DRIFT_TERMS, SETTLE_SAMPLES};
     let record = ActuatorRecord::REFERENCE;
-    let (model, test) = model();
     let period = record.params.control_period;
-    let sampler = model.sampler();
-    let command: Vec<f32> = (0..TEST_SAMPLES)
-        .map(|i| synthetic_command(&sampler, 2.0e-3, period, i))
-        .collect();
     let mut genes = *FaultVector::NOMINAL.as_array();
     (genes[0], genes[7]) = (0.3, 0.4);
     let truth = FaultVector::new(genes).unwrap();
     let load = WindowLoad::spring(1.2 * record.params.aero_stiffness, -60.0);
-    let mut measured = Box::new(OnboardMeasured::ZEROED);
-    measured.set_filter(LowPass::for_control_period(period).unwrap());
-    measured.clear_for(test);
-    // The actuator follows every sample's command; the controller keeps every fourth.
-    let full = RecordedCommand::new(&command);
-    record_monitor_window(
-        &model,
-        &truth,
-        &load,
-        &full,
-        TEST_SAMPLES,
-        0.3,
-        &mut measured,
-    )
-    .unwrap();
-    let kept: Vec<f32> = command.iter().step_by(COMMAND_STRIDE).copied().collect();
-    let kept = RecordedCommand::kept_every(COMMAND_STRIDE, &kept);
-    let problem = WindowProblem::new(&measured, kept, model, load).unwrap();
+    let window = Recorded::new(2.0e-3, &truth, &load);
+    let measured = &window.measured;
+    let problem = window.problem(load);
     // At the nominal vector the residual is large and far from a polynomial.
     let fit = problem.evaluate(&FaultVector::NOMINAL);
 
@@ -218,35 +216,13 @@ fn the_window_identification_in_steps_is_the_same_and_pauses() {
     use std::future::Future;
     use std::task::{Context, Poll, Waker};
     let record = ActuatorRecord::REFERENCE;
-    let (model, test) = model();
-    let period = record.params.control_period;
-    let sampler = model.sampler();
-    let command: Vec<f32> = (0..TEST_SAMPLES)
-        .map(|i| synthetic_command(&sampler, 1.0e-3, period, i))
-        .collect();
     let mut genes = *FaultVector::NOMINAL.as_array();
     genes[0] = 0.3;
     let truth = FaultVector::new(genes).unwrap();
     let load = WindowLoad::spring(record.params.aero_stiffness, 80.0);
-    let mut measured = Box::new(OnboardMeasured::ZEROED);
-    measured.set_filter(LowPass::for_control_period(period).unwrap());
-    measured.clear_for(test);
-    // The actuator follows every sample's command; the controller keeps every fourth.
-    let full = RecordedCommand::new(&command);
-    record_monitor_window(
-        &model,
-        &truth,
-        &load,
-        &full,
-        TEST_SAMPLES,
-        0.3,
-        &mut measured,
-    )
-    .unwrap();
-    let kept: Vec<f32> = command.iter().step_by(COMMAND_STRIDE).copied().collect();
-    let kept = RecordedCommand::kept_every(COMMAND_STRIDE, &kept);
+    let window = Recorded::new(1.0e-3, &truth, &load);
     let guess = WindowLoad::spring(record.params.aero_stiffness, 0.0);
-    let problem = WindowProblem::new(&measured, kept, model, guess).unwrap();
+    let problem = window.problem(guess);
     let limits = WindowLimits::REFERENCE;
     let settings = window_ga(&record.ga);
     let whole = identify::<_, POPULATION>(&problem, settings, 3, &limits).unwrap();
