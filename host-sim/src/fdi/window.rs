@@ -3,9 +3,9 @@
 //! fitted again at the GA's best and the GA run again from that load, the better of the two
 //! polished by damped Gauss–Newton steps on the window's curvature, and the uncertainty
 //! there — `shared::window::identify`, the code a controller would run — and the window's
-//! report around it. Two GA runs of the actuator's settings, 2 ×
-//! `shared::window::LOAD_SEARCH_EVALUATIONS` and at most 90 more monitor-model runs (2 000–3 100
-//! in all): 0.3–0.5 s on one core.
+//! report around it. Two GA runs of at most `shared::window::WINDOW_GA_EVALUATIONS` each
+//! (`window_ga`), 2 × `shared::window::LOAD_SEARCH_EVALUATIONS` and at most 90 more
+//! monitor-model runs (≈ 1 500 in all): ≈ 0.2–0.5 s on one core.
 
 use anyhow::Result;
 use shared::actuator::ActuatorRecord;
