@@ -16,15 +16,19 @@
 //! drift ([`WindowProblem::curvature`]); [`WindowProblem::judge`] gives the window's own
 //! `Outside` reasons ([`WindowReason`]).
 //!
-//! Work: one evaluation = one monitor-model run over the window (O(N), `DRIFT_TERMS`
-//! multiply-adds more per sample) and O(`DRIFT_TERMS²`); [`WindowProblem::fit_load`] is at
-//! most [`LOAD_SEARCH_EVALUATIONS`] evaluations; a curvature twelve lockstep runs and
-//! O(N·(9 + 12)²) f64 multiply-adds; a judgement two evaluations; the whole identification
-//! ([`identify`]: two load searches, two GA runs, the polish, the uncertainty widened by
-//! [`WINDOW_INFLATION`], the verdict) at most 2 × [`LOAD_SEARCH_EVALUATIONS`] + 2 × the GA's
-//! budget + 7 curvatures + 8 evaluations. No allocation, no panic. Run by the host on every
-//! window; the controller's images have no flash left for it, and on the Cortex-M4F one
-//! identification is ≈ 2 × 10¹⁰ instructions (`cargo window-bench`, docs/in-flight.md §6).
+//! Work: one evaluation = one monitor-model run over the window (O(N), a few multiply-adds
+//! more per sample: the drift's polynomials are expanded per block of [`DRIFT_BLOCK`]
+//! samples) and O(`DRIFT_TERMS²`); [`WindowProblem::fit_load`] is at most
+//! [`LOAD_SEARCH_EVALUATIONS`] evaluations; a curvature twelve lockstep runs and
+//! O(N·(9 + 12)²) f32 multiply-adds summed in f64 per block; the whole identification
+//! ([`identify`]: two load searches, two GA runs of at most [`WINDOW_GA_EVALUATIONS`], the
+//! polish, the uncertainty widened by [`WINDOW_INFLATION`], the verdict) at most
+//! 2 × [`LOAD_SEARCH_EVALUATIONS`] + 2 × [`WINDOW_GA_EVALUATIONS`] + 7 curvatures + 10
+//! evaluations, and [`identify_stepwise`] does it in polls of at most one evaluation or
+//! [`CURVATURE_CHUNK`] curvature samples. No allocation, no panic. Run by the host on every
+//! window; the controller's images have no flash left for it; on the Cortex-M4F one
+//! identification is 3.2 × 10⁹ instructions in ≈ 1 500 polls (`cargo window-bench`,
+//! docs/in-flight.md §6).
 
 use crate::command::CommandSource;
 use crate::conditioning::{LowPassState, MeasuredCurrent};
