@@ -411,8 +411,8 @@ impl MonitorModel {
         }
     }
 
-    /// The same model with `rigging`: runs stepped in lockstep share one model and set
-    /// each run's rigging before its step (a few bytes per run instead of a model). O(1).
+    /// Sets the model's rigging: runs stepped in lockstep share one model and set each
+    /// run's rigging before its step (a few bytes per run instead of a model). O(1).
     pub fn rig(&mut self, rigging: RunRigging) {
         self.params.aero_stiffness = rigging.load_stiffness;
         self.params.encoder_offset = rigging.encoder_offset;

@@ -298,19 +298,12 @@ const BONNET: [(f32, f32); DRIFT_TERMS - 2] = {
 };
 
 /// The first [`DRIFT_TERMS`] Legendre polynomials at `x` ∈ [−1, 1] (Bonnet's recurrence,
-/// [`BONNET`]). Three multiplies per term, no division.
-#[inline(always)]
-fn legendre(x: f32) -> [f32; DRIFT_TERMS] {
-    let mut p = [0.0f32; DRIFT_TERMS];
-    legendre_into(x, &mut p);
-    p
-}
-
-/// [`legendre`] into `p`, in place: indexed, so that the size-optimised build keeps it a
-/// plain loop (no array moved, no iterator adaptor called per term).
+/// [`BONNET`]): three multiplies per term, no division; indexed, so that the size-optimised
+/// build keeps it a plain loop. Per window, per block of samples and per curvature sample.
 #[inline(always)]
 #[allow(clippy::indexing_slicing)] // n < DRIFT_TERMS on fixed arrays
-fn legendre_into(x: f32, p: &mut [f32; DRIFT_TERMS]) {
+fn legendre(x: f32) -> [f32; DRIFT_TERMS] {
+    let mut p = [0.0f32; DRIFT_TERMS];
     p[0] = 1.0;
     p[1] = x;
     let mut n = 2;
@@ -319,6 +312,7 @@ fn legendre_into(x: f32, p: &mut [f32; DRIFT_TERMS]) {
         p[n] = a * x * p[n - 1] - b * p[n - 2];
         n += 1;
     }
+    p
 }
 
 /// Where sample `i` of a window of `n` sits on the drift's axis [−1, 1].
@@ -541,7 +535,6 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
     /// the centre and the trend's moment is three multiply-adds. The expansion's error is
     /// the third derivative's term: below 10⁻⁴ of the polynomials' range for degree 9.
     #[inline(always)]
-    #[allow(clippy::indexing_slicing)] // j < DRIFT_TERMS on fixed arrays
     fn residual_fit(
         &self,
         trend: &[f32; DRIFT_TERMS],
