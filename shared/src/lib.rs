@@ -25,6 +25,8 @@
 //! * [`test_design`] — the preflight test: standstill segment, chirp, what is commanded when.
 //! * [`uncertainty`] — a standard deviation and a 90 % interval per identified component.
 //! * [`random`] — the GA's seeded xoshiro128++ (state readable for checkpoints).
+//! * [`steps`] — work in bounded steps: a future that pauses once, and one to poll to the end.
+//! * [`window`] — identification from a window of flight (its command, load and drift).
 #![cfg_attr(not(test), no_std)]
 // No panic on any input (issue 7): these lints make unwraps, panics and unchecked indexing
 // compile errors in this crate; unit tests may use them.
@@ -59,6 +61,7 @@ pub mod params;
 pub mod polish;
 pub mod prognosis;
 pub mod random;
+pub mod steps;
 pub mod test_design;
 pub mod trace;
 pub mod uncertainty;

@@ -36,6 +36,7 @@ use crate::fault::{FaultVector, FAULT_COUNT};
 use crate::ga::Problem;
 use crate::math::{abs, invert};
 use crate::monitor::{MonitorModel, RunRigging};
+use crate::steps::{pause, run_to_end};
 use crate::uncertainty::{Curvature, STEP};
 
 /// Samples at the window's start left out of the sum (20 ms): the model starts still, the
@@ -109,23 +110,6 @@ impl<'a> RecordedCommand<'a> {
             stride,
             inv_stride: 1.0 / stride as f32,
         }
-    }
-
-    /// Keeps every `stride`-th sample of `samples` into `kept` (cleared first; as many as
-    /// fit), and the command over them: what a controller stores while it flies a window.
-    /// O(samples).
-    pub fn keep<const K: usize>(
-        stride: usize,
-        samples: &[f32],
-        kept: &'a mut heapless::Vec<f32, K>,
-    ) -> Self {
-        kept.clear();
-        for &x in samples.iter().step_by(stride.max(1)) {
-            if kept.push(x).is_err() {
-                break;
-            }
-        }
-        Self::kept_every(stride, kept)
     }
 
     /// The kept samples.
@@ -1432,43 +1416,6 @@ impl GoldenSearch {
     }
 }
 
-/// A future that is pending once (waking itself), then ready: where the window
-/// identification's steps ([`identify_stepwise`]) hand the executor back.
-struct Pause(bool);
-
-impl core::future::Future for Pause {
-    type Output = ();
-    fn poll(
-        mut self: core::pin::Pin<&mut Self>,
-        cx: &mut core::task::Context<'_>,
-    ) -> core::task::Poll<()> {
-        if self.0 {
-            core::task::Poll::Ready(())
-        } else {
-            self.0 = true;
-            cx.waker().wake_by_ref();
-            core::task::Poll::Pending
-        }
-    }
-}
-
-/// Gives the caller back once: the end of one bounded step.
-fn pause() -> Pause {
-    Pause(false)
-}
-
-/// Polls `future` until it is ready, without an executor (a no-op waker): the stepwise
-/// work in one call, the same bits.
-pub fn run_to_end<F: core::future::Future>(future: F) -> F::Output {
-    let mut future = core::pin::pin!(future);
-    let mut cx = core::task::Context::from_waker(core::task::Waker::noop());
-    loop {
-        if let core::task::Poll::Ready(out) = future.as_mut().poll(&mut cx) {
-            return out;
-        }
-    }
-}
-
 impl<const N: usize> Problem for WindowProblem<'_, N> {
     fn fitness(&mut self, genes: &[f32; FAULT_COUNT]) -> f32 {
         self.evaluate(&FaultVector::saturating(*genes)).error
@@ -1503,8 +1450,11 @@ mod tests {
         let full: [f32; 2000] = core::array::from_fn(|i| {
             5e-3 * crate::math::sin(2.0 * core::f32::consts::PI * 15.0 * i as f32 * 1e-4)
         });
-        let mut store = heapless::Vec::<f32, 500>::new();
-        let c = RecordedCommand::keep(COMMAND_STRIDE, &full, &mut store);
+        let mut store = [0.0f32; 500];
+        for (slot, &x) in store.iter_mut().zip(full.iter().step_by(COMMAND_STRIDE)) {
+            *slot = x;
+        }
+        let c = RecordedCommand::kept_every(COMMAND_STRIDE, &store);
         assert_eq!(c.len(), 1997);
         let worst = (0..c.len()).fold(0.0f32, |m, i| m.max((c.position_at(i) - full[i]).abs()));
         assert!(worst < 1.0e-6, "{worst}");
