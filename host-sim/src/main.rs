@@ -212,6 +212,18 @@ enum Command {
             default_value_t = 0
         )]
         first_seed: u64,
+        /// With --flight: windows per flight (each seed a flight). Above one, each flight's
+        /// windows that are identified or named only for turbulence are fused into the
+        /// flight's reading (`shared::fusion`, docs/in-flight.md §4), reported in a table of
+        /// its own after the windows'.
+        #[arg(
+            long,
+            requires = "flight",
+            conflicts_with = "test_amplitudes",
+            default_value_t = 1,
+            value_parser = clap::value_parser!(u32).range(1..=16)
+        )]
+        flight_windows: u32,
         /// Runs (seeds) per case.
         #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..=1000))]
         runs: u64,
@@ -222,8 +234,9 @@ enum Command {
         /// at the truth, evaluations, domain, the found vector): the distribution behind the
         /// table, e.g. of evaluations per identification. With --flight: every window (phase,
         /// turbulence, case, seed, verdict, e_tot, false FAULTs, turbulence level, misfit,
-        /// the preflight FDI's verdict, the found vector and its deviations).
-        #[arg(long, value_name = "FILE.csv")]
+        /// the preflight FDI's verdict, the found vector and its deviations; with
+        /// --flight-windows, each flight's fused reading too). Not with --wind.
+        #[arg(long, value_name = "FILE.csv", conflicts_with = "wind")]
         runs_csv: Option<PathBuf>,
         /// Also draw e_tot per case (ours vs paper) into this SVG.
         #[arg(long)]
@@ -632,6 +645,7 @@ fn main() -> ExitCode {
             flight,
             test_amplitudes,
             first_seed,
+            flight_windows,
             runs,
             out,
             runs_csv,
@@ -646,6 +660,7 @@ fn main() -> ExitCode {
                 flight_campaign_command(
                     &actuator,
                     seeds,
+                    flight_windows,
                     test_amplitudes.as_deref(),
                     out.as_deref(),
                     runs_csv.as_deref(),

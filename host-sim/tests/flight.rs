@@ -2,8 +2,8 @@
 //! alone, so a window of flight (the flight control computer's corrections, trim and
 //! turbulence on the surface) must never be read `within` by it — it is named outside,
 //! whatever the phase, the turbulence and the faults. The window identification reads the
-//! calm windows it can, right, and names the others; a window keeps its mark in a trace
-//! file.
+//! calm windows it can, right, and names the others; a flight's reading from its windows
+//! fused is right where it is `within`; a window keeps its mark in a trace file.
 
 use host_sim::plant::reference::{ReferenceModel, ReferenceSettings};
 use host_sim::studies::flight::flight_campaign;
@@ -13,10 +13,24 @@ use shared::domain::Domain;
 #[test]
 fn no_flight_window_is_read_within() {
     let rm = ReferenceModel::new(ReferenceSettings::REFERENCE);
-    let rows =
-        flight_campaign(&rm, &ActuatorRecord::REFERENCE, 0..1, |_| {}).expect("the campaign runs");
+    // One flight of two windows per row.
+    let rows = flight_campaign(&rm, &ActuatorRecord::REFERENCE, 0..1, 2, |_| {})
+        .expect("the campaign runs");
     assert_eq!(rows.len(), 18);
     for row in &rows {
+        assert_eq!((row.runs.len(), row.flights.len()), (2, 1));
+        // The flight's fused reading, where it is `within`: right to 6 % e_tot, no healthy
+        // component called `FAULT`.
+        for flight in row.flights.iter().filter(|f| f.window.0.is_ok()) {
+            assert!(
+                flight.window.1 <= 6.0 && flight.false_faults == 0,
+                "{} in {:?}: the flight within at e_tot {:.1} % with {} false FAULTs",
+                row.case,
+                row.window,
+                flight.window.1,
+                flight.false_faults
+            );
+        }
         for run in &row.runs {
             let (domain, e_tot) = &run.preflight;
             assert_ne!(

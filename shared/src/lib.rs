@@ -27,6 +27,7 @@
 //! * [`random`] — the GA's seeded xoshiro128++ (state readable for checkpoints).
 //! * [`steps`] — work in bounded steps: a future that pauses once, and one to poll to the end.
 //! * [`window`] — identification from a window of flight (its command, load and drift).
+//! * [`fusion`] — a flight's reading from several windows (their fits' quadratics added).
 #![cfg_attr(not(test), no_std)]
 // No panic on any input (issue 7): these lints make unwraps, panics and unchecked indexing
 // compile errors in this crate; unit tests may use them.
@@ -51,6 +52,7 @@ pub mod drive;
 pub mod fault;
 pub mod fdi;
 pub mod fitness;
+pub mod fusion;
 pub mod ga;
 pub mod grease;
 pub mod health;

@@ -245,7 +245,7 @@ impl Curvature {
     /// singular. One copy for the uncertainty (λ = 0) and the polish. O(9³).
     #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 9×9 arrays
     #[inline(never)]
-    fn inverse(
+    pub(crate) fn inverse(
         &self,
         damping: f64,
     ) -> Option<([[f64; FAULT_COUNT]; FAULT_COUNT], [bool; FAULT_COUNT])> {

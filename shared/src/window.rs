@@ -1151,6 +1151,9 @@ pub struct WindowReading {
     )>,
     /// The window's own verdict under the limits it was judged with.
     pub verdict: Result<(), WindowReason>,
+    /// The Gauss–Newton sums at `faults` (the load and the drift profiled out): what a
+    /// flight's reading adds of this window ([`crate::fusion::WindowFusion`]).
+    pub curvature: Curvature,
     /// Monitor-model runs spent (a curvature counts [`CURVATURE_RUNS`], the verdict's two
     /// runs not counted).
     pub evaluations: u32,
@@ -1256,6 +1259,7 @@ pub async fn identify_stepwise<const N: usize, const P: usize>(
         verdict: problem
             .judge_stepwise(limits, &faults, fit.error, friction_std)
             .await,
+        curvature,
         evaluations,
     })
 }

@@ -307,6 +307,7 @@ pub(crate) fn wind_campaign_command(
 pub(crate) fn flight_campaign_command(
     actuator: &Actuator,
     seeds: std::ops::Range<u64>,
+    per_flight: u32,
     amplitudes: Option<&[f64]>,
     out: Option<&Path>,
     runs_csv: Option<&Path>,
@@ -347,7 +348,7 @@ pub(crate) fn flight_campaign_command(
     let start = Instant::now();
     let total = 6 * FLIGHT_CASES.len();
     let mut done = 0;
-    let rows = flight_campaign(&rm, &actuator.record, seeds, |row| {
+    let rows = flight_campaign(&rm, &actuator.record, seeds, per_flight, |row| {
         done += 1;
         eprintln!(
             "[{done}/{total}] {} in {:?}, {:?} turbulence ({:.0} s)",

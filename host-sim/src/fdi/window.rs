@@ -46,6 +46,9 @@ pub struct WindowIdentified {
     /// window's curvature (`shared::uncertainty`, its inflation calibrated on preflights,
     /// then `shared::window::WINDOW_INFLATION`, calibrated on flight windows).
     pub uncertainty: Option<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT])>,
+    /// The Gauss–Newton sums at `faults`: what the flight's reading adds of this window
+    /// (`shared::fusion`).
+    pub curvature: shared::uncertainty::Curvature,
 }
 
 impl WindowIdentified {
@@ -164,6 +167,7 @@ pub fn identify_window(
         turbulence: problem.unmodelled_moment(&reading.fit),
         verdict: reading.verdict,
         uncertainty: reading.uncertainty,
+        curvature: reading.curvature,
         load: reading.load,
         drift: reading.fit.drift,
         conditions,

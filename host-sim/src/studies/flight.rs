@@ -20,8 +20,9 @@ use crate::fdi::identify::identify_for;
 use crate::fdi::window::identify_window;
 use crate::plant::aero::{FlightPhase, FlightWindow, Turbulence};
 use crate::plant::reference::{ReferenceModel, Scenario};
+use shared::fusion::WindowFusion;
 use shared::uncertainty::{Assessment, Uncertainty};
-use shared::window::WindowReason;
+use shared::window::{WindowLimits, WindowReason, WINDOW_INFLATION};
 
 /// The cases: the healthy actuator, friction 0.2 and Table II medium.
 pub const FLIGHT_CASES: [(&str, [f32; shared::FAULT_COUNT]); 3] = [
@@ -88,7 +89,11 @@ pub struct FlightRow {
     pub case: &'static str,
     pub truth: FaultVector,
     pub window: FlightWindow,
+    /// Every window's run: `windows per flight` per seed.
     pub runs: Vec<FlightRun>,
+    /// Each flight's reading from its windows fused ([`shared::fusion`]), one per seed;
+    /// empty at one window per flight.
+    pub flights: Vec<FlightRun>,
 }
 
 /// The test a flight window carries (the record's chirp alone) and the record the FDI reads
@@ -122,11 +127,13 @@ const fn window(phase: FlightPhase, turbulence: Turbulence) -> FlightWindow {
     FlightWindow { phase, turbulence }
 }
 
-/// Every case in every phase and turbulence, one run per seed of `seeds`.
+/// Every case in every phase and turbulence, one flight per seed of `seeds` with
+/// `per_flight` windows (fused into the flight's reading when more than one).
 pub fn flight_campaign(
     rm: &ReferenceModel,
     record: &ActuatorRecord,
     seeds: std::ops::Range<u64>,
+    per_flight: u32,
     progress: impl FnMut(&FlightRow),
 ) -> Result<Vec<FlightRow>> {
     fly_windows(
@@ -134,6 +141,7 @@ pub fn flight_campaign(
         record,
         &flight_record(record),
         seeds,
+        per_flight,
         &ALL_WINDOWS,
         &FLIGHT_CASES,
         progress,
@@ -169,6 +177,7 @@ pub fn test_amplitude_study(
                 record,
                 &window_record,
                 0..runs,
+                1,
                 &windows,
                 &cases,
                 |row| progress(a, row),
@@ -178,13 +187,58 @@ pub fn test_amplitude_study(
         .collect()
 }
 
-/// `cases` in `windows`, one run per seed of `seeds`: the window played with `record`'s test and
-/// identified with it, and the same flight's preflight with `ground_record`.
+/// The seed of window `j` of the flight of seed `seed`: window 0 is the flight's seed (one
+/// window per flight plays what it always played), the others a stride apart (clear of
+/// the preflight's [`GROUND_SEED`] offset).
+fn window_seed(seed: u64, j: u32) -> u64 {
+    seed + u64::from(j) * 100_000
+}
+
+/// What a reading (a window's or a flight's) says against the truth: its largest component
+/// where the truth is nominal (the eccentricity's phase left out), the components it calls
+/// `FAULT` where the truth is nominal, and its 90 % intervals that hold the truth.
+fn against_truth(
+    truth: &FaultVector,
+    faults: &FaultVector,
+    assessments: &[Assessment; shared::FAULT_COUNT],
+    uncertainty: Option<&Uncertainty>,
+) -> (f32, usize, (usize, usize)) {
+    let nominal = FaultVector::NOMINAL;
+    let healthy_max = truth
+        .as_array()
+        .iter()
+        .zip(nominal.as_array())
+        .zip(faults.as_array())
+        .enumerate()
+        .filter(|&(j, ((t, n), _))| t == n && j != ECCENTRICITY_PHASE)
+        .map(|(_, ((_, n), f))| (f - n).abs())
+        .fold(0.0f32, f32::max);
+    let false_faults = assessments
+        .iter()
+        .zip(truth.as_array().iter().zip(nominal.as_array()))
+        .filter(|(a, (t, n))| t == n && matches!(a, Assessment::Faulty))
+        .count();
+    let covered = uncertainty.map_or((0, 0), |u| {
+        let c = u.covers(truth);
+        (
+            c.iter().filter(|x| **x == Some(true)).count(),
+            c.iter().filter(|x| x.is_some()).count(),
+        )
+    });
+    (healthy_max, false_faults, covered)
+}
+
+/// `cases` in `windows`, one flight per seed of `seeds` with `per_flight` windows each: every
+/// window played with `record`'s test and identified with it, the flight's windows fused
+/// into its reading (when more than one), and the same flight's preflight with
+/// `ground_record`.
+#[allow(clippy::too_many_arguments)]
 fn fly_windows(
     rm: &ReferenceModel,
     ground_record: &ActuatorRecord,
     record: &ActuatorRecord,
     seeds: std::ops::Range<u64>,
+    per_flight: u32,
     windows: &[FlightWindow],
     cases: &[(&'static str, [f32; shared::FAULT_COUNT])],
     mut progress: impl FnMut(&FlightRow),
@@ -193,16 +247,37 @@ fn fly_windows(
     let ground = rm.with_test(ground_record.test);
     let record = *record;
     let rm = rm.with_test(record.test);
+    let threshold = shared::fault::DETECTION_THRESHOLD;
     let mut rows = Vec::new();
-    {
-        for &window in windows {
-            for &(case, faults) in cases {
-                let truth = FaultVector::new(faults).map_err(|e| anyhow::anyhow!("{e:?}"))?;
-                let flying = rm.with_flight(Some(window));
-                let runs = seeds
-                    .clone()
-                    .into_par_iter()
-                    .map(|seed| -> Result<FlightRun> {
+    for &window in windows {
+        for &(case, faults) in cases {
+            let truth = FaultVector::new(faults).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+            let flying = rm.with_flight(Some(window));
+            let flights = seeds
+                .clone()
+                .into_par_iter()
+                .map(|seed| -> Result<(Vec<FlightRun>, Option<FlightRun>)> {
+                    // The same flight's preflight: the same actuator and day on the ground,
+                    // its own noise.
+                    let before = ground.simulate(&Scenario {
+                        seed: seed + GROUND_SEED,
+                        ..Scenario::new(truth)
+                    });
+                    let measured = before.trace.measured(&ground_record.params)?;
+                    let pre = identify_for(&measured, &ground_record, 1 + seed, false)?;
+                    let pre_within = pre.domain(
+                        &before.trace.domain_monitor(&ground_record.params),
+                        &ground_record.domain,
+                    ) == Domain::Within;
+                    let agree = |u: Option<&Uncertainty>| match (u, &pre.uncertainty, pre_within) {
+                        (Some(a), Some((b, _)), true) => agreement(a, b),
+                        _ => (0, 0),
+                    };
+                    let mut runs = Vec::new();
+                    let mut fusion = WindowFusion::EMPTY;
+                    let mut first_reason = None;
+                    for j in 0..per_flight {
+                        let seed = window_seed(seed, j);
                         let sim = flying.simulate(&Scenario {
                             seed,
                             ..Scenario::new(truth)
@@ -212,76 +287,116 @@ fn fly_windows(
                         let domain =
                             id.domain(&sim.trace.domain_monitor(&record.params), &record.domain);
                         let w = identify_window(&sim.trace, &measured, &record, 1 + seed)?;
-                        // The eccentricity's phase has no nominal value: it is left out.
-                        let healthy_max = truth
-                            .as_array()
-                            .iter()
-                            .zip(FaultVector::NOMINAL.as_array())
-                            .zip(w.faults.as_array())
-                            .enumerate()
-                            .filter(|&(j, ((t, n), _))| t == n && j != ECCENTRICITY_PHASE)
-                            .map(|(_, ((_, n), f))| (f - n).abs())
-                            .fold(0.0f32, f32::max);
-                        let nominal = FaultVector::NOMINAL;
-                        let false_faults = w
-                            .assessments()
-                            .iter()
-                            .zip(truth.as_array().iter().zip(nominal.as_array()))
-                            .filter(|(a, (t, n))| t == n && matches!(a, Assessment::Faulty))
-                            .count();
-                        let covered = w.uncertainty.as_ref().map_or((0, 0), |(u, _)| {
-                            let c = u.covers(&truth);
-                            (
-                                c.iter().filter(|x| **x == Some(true)).count(),
-                                c.iter().filter(|x| x.is_some()).count(),
-                            )
-                        });
-                        // The same flight's preflight: the same actuator and day on the ground,
-                        // its own noise.
-                        let before = ground.simulate(&Scenario {
-                            seed: seed + GROUND_SEED,
-                            ..Scenario::new(truth)
-                        });
-                        let measured = before.trace.measured(&ground_record.params)?;
-                        let pre = identify_for(&measured, &ground_record, 1 + seed, false)?;
-                        let pre_within = pre.domain(
-                            &before.trace.domain_monitor(&ground_record.params),
-                            &ground_record.domain,
-                        ) == Domain::Within;
-                        let agreement = match (&w.uncertainty, &pre.uncertainty, pre_within) {
-                            (Some((a, _)), Some((b, _)), true) => agreement(a, b),
-                            _ => (0, 0),
-                        };
-                        Ok(FlightRun {
+                        if fusable(&w.verdict) {
+                            // A window the fusion refuses (no component determined) adds
+                            // nothing to its flight.
+                            let _ = fusion.add(&w.faults, &w.curvature, &WINDOW_INFLATION);
+                        }
+                        first_reason.get_or_insert(w.verdict);
+                        let u = w.uncertainty.as_ref().map(|(u, _)| u);
+                        let (healthy_max, false_faults, covered) =
+                            against_truth(&truth, &w.faults, &w.assessments(), u);
+                        runs.push(FlightRun {
                             seed,
                             turbulence: w.turbulence,
                             misfit: w.misfit,
                             found: w.faults,
-                            std: w
-                                .uncertainty
-                                .as_ref()
-                                .map_or([f32::NAN; shared::FAULT_COUNT], |(u, _)| u.std),
-                            agreement,
+                            std: u.map_or([f32::NAN; shared::FAULT_COUNT], |u| u.std),
+                            agreement: agree(u),
                             preflight: (domain, f64::from(total_error(&id.result.faults, &truth))),
                             window: (w.verdict, f64::from(total_error(&w.faults, &truth))),
                             healthy_max,
                             false_faults,
                             covered,
-                        })
-                    })
-                    .collect::<Result<Vec<_>>>()?;
-                let row = FlightRow {
-                    case,
-                    truth,
-                    window,
-                    runs,
-                };
-                progress(&row);
-                rows.push(row);
+                        });
+                    }
+                    if per_flight < 2 {
+                        return Ok((runs, None));
+                    }
+                    let mean = |f: fn(&FlightRun) -> f32| {
+                        runs.iter().map(f).sum::<f32>() / runs.len().max(1) as f32
+                    };
+                    let (turbulence, misfit) = (mean(|r| r.turbulence), mean(|r| r.misfit));
+                    // The flown preflight FDI's verdict on the flight's first window.
+                    let preflight = runs
+                        .first()
+                        .map_or((Domain::Within, f64::NAN), |r| r.preflight);
+                    let flight = match fusion.reading(&WindowLimits::REFERENCE) {
+                        Ok(f) => {
+                            let (u, corr) = &f.uncertainty;
+                            let (healthy_max, false_faults, covered) = against_truth(
+                                &truth,
+                                &f.faults,
+                                &u.assess_at(&f.faults, corr, threshold),
+                                Some(u),
+                            );
+                            FlightRun {
+                                seed,
+                                turbulence,
+                                misfit,
+                                found: f.faults,
+                                std: u.std,
+                                agreement: agree(Some(u)),
+                                preflight,
+                                window: (f.verdict, f64::from(total_error(&f.faults, &truth))),
+                                healthy_max,
+                                false_faults,
+                                covered,
+                            }
+                        }
+                        // No window of the flight identified or fusable: the flight is
+                        // named by its first window's reason.
+                        Err(_) => FlightRun {
+                            seed,
+                            turbulence,
+                            misfit,
+                            found: FaultVector::NOMINAL,
+                            std: [f32::NAN; shared::FAULT_COUNT],
+                            agreement: (0, 0),
+                            preflight,
+                            window: (
+                                first_reason.filter(|v| v.is_err()).unwrap_or(Err(
+                                    WindowReason::TurbulenceTooHigh {
+                                        friction_std: f32::NAN,
+                                    },
+                                )),
+                                f64::NAN,
+                            ),
+                            healthy_max: 0.0,
+                            false_faults: 0,
+                            covered: (0, 0),
+                        },
+                    };
+                    Ok((runs, Some(flight)))
+                })
+                .collect::<Result<Vec<_>>>()?;
+            let mut row = FlightRow {
+                case,
+                truth,
+                window,
+                runs: Vec::new(),
+                flights: Vec::new(),
+            };
+            for (runs, flight) in flights {
+                row.runs.extend(runs);
+                row.flights.extend(flight);
             }
+            progress(&row);
+            rows.push(row);
         }
     }
     Ok(rows)
+}
+
+/// Whether a window's reading enters its flight's: identified, or named only because its
+/// friction alone is too loose ([`WindowReason::TurbulenceTooHigh`]) — its evidence is
+/// sound, just not enough on its own. A window that does not fit, cannot see the play, or
+/// flew a manoeuvre or a saturated current adds nothing.
+pub fn fusable(verdict: &Result<(), WindowReason>) -> bool {
+    matches!(
+        verdict,
+        Ok(()) | Err(WindowReason::TurbulenceTooHigh { .. })
+    )
 }
 
 /// Index of the eccentricity's phase in a fault vector.
@@ -325,7 +440,8 @@ fn median(mut x: Vec<f64>) -> Option<f64> {
 }
 
 /// The campaign as Markdown: per window and case, the window identification's verdicts and
-/// accuracy, then the preflight identification's verdicts on the same windows.
+/// accuracy, the flights' fused readings (when a flight has several windows), then the
+/// preflight identification's verdicts on the same windows.
 pub fn flight_markdown(rows: &[FlightRow], actuator: &str) -> String {
     let runs = rows.first().map_or(0, |r| r.runs.len());
     let mut text = format!(
@@ -337,76 +453,23 @@ pub fn flight_markdown(rows: &[FlightRow], actuator: &str) -> String {
          (docs/in-flight.md §4). Verdicts by reason; e_tot [%] of the windows left \
          `within`; on the healthy components of the `within` windows, the largest reading \
          and the false `FAULT` verdicts (a 90 % interval beyond the threshold); the 90 % \
-         intervals that hold the truth.\n\n\
-         | phase | turbulence | case | verdicts | within: median e_tot | max e_tot | \
-         healthy components: max | false FAULT | intervals holding the truth | \
-         agreeing with the preflight |\n\
-         | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |\n"
+         intervals that hold the truth.\n\n"
     );
-    let (mut within_total, mut total, mut wrong) = (0, 0, 0);
-    let (mut false_total, mut held, mut intervals) = (0, 0, 0);
-    let (mut agreed, mut agreed_of) = (0, 0);
-    for row in rows {
-        let verdicts = tally(row.runs.iter().map(|r| window_reason(&r.window.0)));
-        let within: Vec<&FlightRun> = row.runs.iter().filter(|r| r.window.0.is_ok()).collect();
-        let e: Vec<f64> = within.iter().map(|r| r.window.1).collect();
-        within_total += within.len();
-        wrong += e.iter().filter(|&&x| x > 6.0).count();
-        total += row.runs.len();
-        let healthy = within
-            .iter()
-            .map(|r| r.healthy_max)
-            .fold(None, |m: Option<f32>, x| Some(m.map_or(x, |m| m.max(x))));
-        let false_faults: usize = within.iter().map(|r| r.false_faults).sum();
-        let (h, n) = within
-            .iter()
-            .fold((0, 0), |(h, n), r| (h + r.covered.0, n + r.covered.1));
-        let (ag, compared) = within
-            .iter()
-            .fold((0, 0), |(a, n), r| (a + r.agreement.0, n + r.agreement.1));
-        agreed += ag;
-        agreed_of += compared;
-        false_total += false_faults;
-        held += h;
-        intervals += n;
+    text.push_str(&readings_table(rows, |r| &r.runs, "windows"));
+    let flights = rows.first().map_or(0, |r| r.flights.len());
+    if let Some(per_flight) = runs.checked_div(flights) {
         text.push_str(&format!(
-            "| {:?} | {:?} | {} | {verdicts} | {} | {} | {} | {false_faults} | {h} of {n} | \
-             {ag} of {compared} |\n",
-            row.window.phase,
-            row.window.turbulence,
-            row.case,
-            median(e.clone()).map_or("–".into(), |m| format!("{m:.1}")),
-            e.iter()
-                .copied()
-                .reduce(f64::max)
-                .map_or("–".into(), |m| format!("{m:.1}")),
-            healthy.map_or("–".into(), |m| format!("{m:.3}")),
+            "### A flight's reading from its windows: {actuator}, {flights} flights per row, \
+             {} windows each\n\n\
+             Each flight's windows that are `within` or named `turbulence_too_high` fused \
+             (`shared::fusion`: their fits' quadratics added, minimised in the fault box); \
+             the flight named `turbulence_too_high` when its fused friction deviation is \
+             still above the window's limit, by its first window's reason when no window \
+             could be fused. Columns as above, per flight.\n\n",
+            per_flight
         ));
+        text.push_str(&readings_table(rows, |r| &r.flights, "flights"));
     }
-    text.push_str(&format!(
-        "\n{within_total} of {total} windows identified (`within`); {wrong} of them with \
-         e_tot above 6 %; {false_total} false `FAULT` verdicts on healthy components; the \
-         90 % intervals hold the truth in {held} of {intervals} component-readings and \
-         meet the same flight's preflight interval in {agreed} of {agreed_of}.\n\n"
-    ));
-    text.push_str(
-        "Per component (the eccentricity's phase left out), the 90 % intervals of the \
-         identified windows that hold the truth, and the factor on their deviations that \
-         would make 90 % of them hold it (1.0 or less: calibrated or wide; \
-         `shared::window::WINDOW_INFLATION` is already applied):",
-    );
-    for (j, (held, n, factor)) in interval_calibration(rows).iter().enumerate() {
-        if *n == 0 {
-            continue;
-        }
-        text.push_str(&format!(
-            " k{} {held}/{n} ({});",
-            j + 1,
-            factor.map_or("–".into(), |f| format!("×{f:.2}"))
-        ));
-    }
-    text.pop();
-    text.push_str(".\n\n");
     text.push_str(&format!(
         "### The preflight identification on the same windows: {actuator}\n\n\
          The flown preflight FDI reads the window as a preflight: its monitor model plays \
@@ -443,18 +506,100 @@ pub fn flight_markdown(rows: &[FlightRow], actuator: &str) -> String {
     text
 }
 
+/// The readings (a row's windows or flights, `select`) per row: verdicts, accuracy of the
+/// identified, healthy components, intervals, agreement; then the totals and the
+/// intervals' calibration per component.
+fn readings_table(
+    rows: &[FlightRow],
+    select: fn(&FlightRow) -> &[FlightRun],
+    noun: &str,
+) -> String {
+    let mut text = String::from(
+        "| phase | turbulence | case | verdicts | within: median e_tot | max e_tot | \
+         healthy components: max | false FAULT | intervals holding the truth | \
+         agreeing with the preflight |\n\
+         | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |\n",
+    );
+    let (mut within_total, mut total, mut wrong) = (0, 0, 0);
+    let (mut false_total, mut held, mut intervals) = (0, 0, 0);
+    let (mut agreed, mut agreed_of) = (0, 0);
+    for row in rows {
+        let verdicts = tally(select(row).iter().map(|r| window_reason(&r.window.0)));
+        let within: Vec<&FlightRun> = select(row).iter().filter(|r| r.window.0.is_ok()).collect();
+        let e: Vec<f64> = within.iter().map(|r| r.window.1).collect();
+        within_total += within.len();
+        wrong += e.iter().filter(|&&x| x > 6.0).count();
+        total += select(row).len();
+        let healthy = within
+            .iter()
+            .map(|r| r.healthy_max)
+            .fold(None, |m: Option<f32>, x| Some(m.map_or(x, |m| m.max(x))));
+        let false_faults: usize = within.iter().map(|r| r.false_faults).sum();
+        let (h, n) = within
+            .iter()
+            .fold((0, 0), |(h, n), r| (h + r.covered.0, n + r.covered.1));
+        let (ag, compared) = within
+            .iter()
+            .fold((0, 0), |(a, n), r| (a + r.agreement.0, n + r.agreement.1));
+        agreed += ag;
+        agreed_of += compared;
+        false_total += false_faults;
+        held += h;
+        intervals += n;
+        text.push_str(&format!(
+            "| {:?} | {:?} | {} | {verdicts} | {} | {} | {} | {false_faults} | {h} of {n} | \
+             {ag} of {compared} |\n",
+            row.window.phase,
+            row.window.turbulence,
+            row.case,
+            median(e.clone()).map_or("–".into(), |m| format!("{m:.1}")),
+            e.iter()
+                .copied()
+                .reduce(f64::max)
+                .map_or("–".into(), |m| format!("{m:.1}")),
+            healthy.map_or("–".into(), |m| format!("{m:.3}")),
+        ));
+    }
+    text.push_str(&format!(
+        "\n{within_total} of {total} {noun} identified (`within`); {wrong} of them with \
+         e_tot above 6 %; {false_total} false `FAULT` verdicts on healthy components; the \
+         90 % intervals hold the truth in {held} of {intervals} component-readings and \
+         meet the same flight's preflight interval in {agreed} of {agreed_of}.\n\n"
+    ));
+    text.push_str(
+        "Per component (the eccentricity's phase left out), the 90 % intervals of the \
+         identified {noun} that hold the truth, and the factor on their deviations that \
+         would make 90 % of them hold it (1.0 or less: calibrated or wide; \
+         `shared::window::WINDOW_INFLATION` is already applied):",
+    );
+    for (j, (held, n, factor)) in interval_calibration(rows, select).iter().enumerate() {
+        if *n == 0 {
+            continue;
+        }
+        text.push_str(&format!(
+            " k{} {held}/{n} ({});",
+            j + 1,
+            factor.map_or("–".into(), |f| format!("×{f:.2}"))
+        ));
+    }
+    text.pop();
+    text.push_str(".\n\n");
+    text
+}
+
 /// Per component, over the identified windows of `rows`: the 90 % intervals that hold the
 /// truth, the intervals, and the factor on the stated deviations that would make them hold
 /// it in 90 % (the 90th percentile of |error| / σ over [`shared::uncertainty::Z90`]; `None`
 /// under ten intervals). How `shared::window::WINDOW_INFLATION` is chosen, and checked.
 pub fn interval_calibration(
     rows: &[FlightRow],
+    select: fn(&FlightRow) -> &[FlightRun],
 ) -> [(usize, usize, Option<f32>); shared::FAULT_COUNT] {
     core::array::from_fn(|j| {
         let mut z: Vec<f32> = rows
             .iter()
             .flat_map(|row| {
-                row.runs
+                select(row)
                     .iter()
                     .filter(|r| r.window.0.is_ok() && !r.std[j].is_nan() && j != ECCENTRICITY_PHASE)
                     .map(move |r| {
@@ -470,12 +615,14 @@ pub fn interval_calibration(
     })
 }
 
-/// Every window of the campaign as a CSV row: phase, turbulence, case, seed, the window
-/// identification's verdict, e_tot [%], its false `FAULT`s and largest healthy component,
-/// the window's turbulence level and misfit, and the preflight FDI's verdict on it.
+/// Every window of the campaign as a CSV row, then every flight's fused reading (when a
+/// flight has several windows): phase, turbulence, case, seed, `window` or `flight`, the
+/// verdict, e_tot [%], its false `FAULT`s and largest healthy component, the turbulence
+/// level and misfit (a flight's: its windows' mean), the preflight FDI's verdict on the
+/// (first) window, the vector found and its deviations.
 pub fn flight_runs_csv(rows: &[FlightRow]) -> String {
     let mut text = String::from(
-        "phase,turbulence,case,seed,verdict,e_tot_pct,false_faults,healthy_max,\
+        "phase,turbulence,case,seed,reading,verdict,e_tot_pct,false_faults,healthy_max,\
          turbulence_level,misfit,preflight_verdict",
     );
     for j in 1..=shared::FAULT_COUNT {
@@ -485,26 +632,34 @@ pub fn flight_runs_csv(rows: &[FlightRow]) -> String {
         text.push_str(&format!(",std_k{j}"));
     }
     text.push('\n');
-    for row in rows {
-        for r in &row.runs {
-            text.push_str(&format!(
-                "{:?},{:?},{},{},{},{:.3},{},{:.4},{:.4},{:.5},{}",
-                row.window.phase,
-                row.window.turbulence,
-                row.case,
-                r.seed,
-                window_reason(&r.window.0),
-                r.window.1,
-                r.false_faults,
-                r.healthy_max,
-                r.turbulence,
-                r.misfit,
-                reason(&r.preflight.0),
-            ));
-            for x in r.found.as_array().iter().chain(&r.std) {
-                text.push_str(&format!(",{x:.5}"));
+    for (reading, select) in [
+        (
+            "window",
+            (|r: &FlightRow| r.runs.as_slice()) as fn(&FlightRow) -> &[FlightRun],
+        ),
+        ("flight", |r: &FlightRow| r.flights.as_slice()),
+    ] {
+        for row in rows {
+            for r in select(row) {
+                text.push_str(&format!(
+                    "{:?},{:?},{},{},{reading},{},{:.3},{},{:.4},{:.4},{:.5},{}",
+                    row.window.phase,
+                    row.window.turbulence,
+                    row.case,
+                    r.seed,
+                    window_reason(&r.window.0),
+                    r.window.1,
+                    r.false_faults,
+                    r.healthy_max,
+                    r.turbulence,
+                    r.misfit,
+                    reason(&r.preflight.0),
+                ));
+                for x in r.found.as_array().iter().chain(&r.std) {
+                    text.push_str(&format!(",{x:.5}"));
+                }
+                text.push('\n');
             }
-            text.push('\n');
         }
     }
     text
@@ -593,8 +748,9 @@ mod tests {
                 turbulence: Turbulence::Light,
             },
             runs,
+            flights: vec![run(7, 0.02, 0.01)],
         }];
-        let calibration = interval_calibration(&rows);
+        let calibration = interval_calibration(&rows, |r| &r.runs);
         let (held, n, factor) = calibration[0];
         assert_eq!((held, n), (1, 20));
         let factor = factor.expect("20 intervals");
@@ -606,11 +762,15 @@ mod tests {
         assert_eq!(calibration[1].0, 20);
         assert_eq!(calibration[1].2, Some(0.0));
         assert_eq!(calibration[ECCENTRICITY_PHASE].1, 0);
-        // The runs' CSV: a header and one line per run, 11 + 2 × 9 fields each.
+        // The flights' readings are counted apart.
+        assert_eq!(interval_calibration(&rows, |r| &r.flights)[0].1, 1);
+        // The runs' CSV: a header, one line per window, then one per flight, 12 + 2 × 9
+        // fields each.
         let csv = flight_runs_csv(&rows);
         let lines: Vec<&str> = csv.lines().collect();
-        assert_eq!(lines.len(), 22);
-        assert!(lines.iter().all(|l| l.split(',').count() == 29), "{csv}");
-        assert!(lines[21].contains(",play_unseen,"));
+        assert_eq!(lines.len(), 23);
+        assert!(lines.iter().all(|l| l.split(',').count() == 30), "{csv}");
+        assert!(lines[21].contains(",window,play_unseen,"));
+        assert!(lines[22].contains(",7,flight,within,"));
     }
 }

@@ -1,0 +1,360 @@
+//! A flight's reading from several of its windows (issue 36): each identified window's fit
+//! near the vector it found is a quadratic of the fault vector — its curvature `JᵀWJ` and
+//! gradient `JᵀW r` at that vector, scaled to the window's calibrated covariance (the
+//! preflight's [`INFLATION`], then [`crate::window::WINDOW_INFLATION`]) — and the flight's
+//! reading is the vector in the fault box that minimises their sum: the windows' evidence
+//! added, as one longer window would add it, without keeping any window's samples.
+//!
+//! A window read at a bound (a healthy component at 0) keeps its gradient, which pushes
+//! beyond the bound; adding the windows' clamped values instead would read a healthy
+//! component above 0 by the mean of its clamped noise. The eccentricity's phase is circular
+//! and not added: the flight takes it from the window that reads it best.
+//!
+//! Units: the fault vector's [0, 1] range. Work: [`WindowFusion::add`] O(9³) (one 9 × 9
+//! inverse), [`WindowFusion::reading`] O([`FUSION_SWEEPS`] · 9²) + O(9³); state 760 B, no
+//! allocation, no panic. Windows must be independent: a minute apart in flight (the
+//! turbulence's correlation is seconds), not overlapping.
+
+use crate::fault::{FaultVector, CIRCULAR, FAULT_COUNT};
+use crate::math::invert;
+use crate::uncertainty::{Curvature, Uncertainty, UncertaintyError, INFLATION};
+use crate::window::{WindowLimits, WindowReason};
+
+/// Projected Gauss–Seidel sweeps of [`WindowFusion::reading`]'s box-constrained minimum.
+pub const FUSION_SWEEPS: usize = 200;
+
+/// Index of the circular component (the eccentricity's phase).
+const PHASE: usize = 6;
+const _: () = assert!(CIRCULAR[PHASE]);
+
+/// The windows of one flight added so far.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WindowFusion {
+    /// Σ of the windows' inverse covariances over the non-circular components.
+    information: [[f64; FAULT_COUNT]; FAULT_COUNT],
+    /// Σ of each window's inverse covariance times its unbounded Gauss–Newton point.
+    linear: [f64; FAULT_COUNT],
+    windows: u32,
+    /// The phase and its information from the window that reads it best (0: none).
+    phase: (f32, f64),
+    /// The last window's vector: the value of a component no window determines.
+    last: FaultVector,
+    /// Σ of the windows' residual standard deviations [A].
+    residual_std: f32,
+}
+
+/// The flight's reading from its windows ([`WindowFusion::reading`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FlightReading {
+    pub faults: FaultVector,
+    /// Standard deviation and 90 % interval per component with the correlations.
+    pub uncertainty: (Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT]),
+    /// Windows added.
+    pub windows: u32,
+    /// The friction limit of a window applied to the flight's reading
+    /// ([`WindowReason::TurbulenceTooHigh`]).
+    pub verdict: Result<(), WindowReason>,
+}
+
+impl Default for WindowFusion {
+    fn default() -> Self {
+        Self::EMPTY
+    }
+}
+
+impl WindowFusion {
+    /// No window yet.
+    pub const EMPTY: Self = Self {
+        information: [[0.0; FAULT_COUNT]; FAULT_COUNT],
+        linear: [0.0; FAULT_COUNT],
+        windows: 0,
+        phase: (0.0, 0.0),
+        last: FaultVector::NOMINAL,
+        residual_std: 0.0,
+    };
+
+    /// Windows added.
+    pub fn windows(&self) -> u32 {
+        self.windows
+    }
+
+    /// Adds one identified window: `k` the vector it found, `curvature` its Gauss–Newton
+    /// sums at `k` (nuisances profiled out), `factors` the window's widening of each
+    /// component's deviation. Its covariance is `(c·s)²·F·(JᵀWJ)⁻¹·F` (as its uncertainty
+    /// states it), its point `k + (JᵀWJ)⁻¹·JᵀW r` unbounded. `Err` (nothing added) when its
+    /// curvature determines no component. O(9³).
+    #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // i, j < FAULT_COUNT on fixed 9×9 arrays
+    pub fn add(
+        &mut self,
+        k: &FaultVector,
+        curvature: &Curvature,
+        factors: &[f32; FAULT_COUNT],
+    ) -> Result<(), UncertaintyError> {
+        let (inverse, determined) = curvature
+            .inverse(0.0)
+            .ok_or(UncertaintyError::Undetermined)?;
+        let p = determined.iter().filter(|&&x| x).count();
+        if (curvature.fitted as usize) <= p {
+            return Err(UncertaintyError::Undetermined);
+        }
+        let c = f64::from(INFLATION);
+        let scale = c * c * curvature.rss / (curvature.fitted as usize - p) as f64;
+        if !(scale > 0.0 && scale.is_finite()) {
+            return Err(UncertaintyError::Undetermined);
+        }
+        let f = |i: usize| f64::from(factors[i]);
+        // The window's covariance over its determined non-circular components, the others
+        // an identity row and column (so the inverse of this block is the block's own).
+        let added = |i: usize| determined[i] && !CIRCULAR[i];
+        let mut covariance = [[0.0f64; FAULT_COUNT]; FAULT_COUNT];
+        for i in 0..FAULT_COUNT {
+            for j in 0..FAULT_COUNT {
+                covariance[i][j] = if added(i) && added(j) {
+                    scale * f(i) * f(j) * inverse[i][j]
+                } else if i == j {
+                    1.0
+                } else {
+                    0.0
+                };
+            }
+        }
+        let information = invert(&covariance).ok_or(UncertaintyError::Undetermined)?;
+        let mut point = [0.0f64; FAULT_COUNT];
+        for i in 0..FAULT_COUNT {
+            let step: f64 = (0..FAULT_COUNT)
+                .filter(|&j| determined[j])
+                .map(|j| inverse[i][j] * curvature.gradient[j])
+                .sum();
+            point[i] = f64::from(k.as_array()[i]) + step;
+        }
+        let mut sum = self.information;
+        let mut linear = self.linear;
+        for i in (0..FAULT_COUNT).filter(|&i| added(i)) {
+            for j in (0..FAULT_COUNT).filter(|&j| added(j)) {
+                sum[i][j] += information[i][j];
+                linear[i] += information[i][j] * point[j];
+            }
+        }
+        if !(linear.iter().all(|x| x.is_finite()) && sum.iter().flatten().all(|x| x.is_finite())) {
+            return Err(UncertaintyError::Undetermined);
+        }
+        (self.information, self.linear) = (sum, linear);
+        if determined[PHASE] {
+            let phase = 1.0 / (scale * f(PHASE) * f(PHASE) * inverse[PHASE][PHASE]);
+            if phase > self.phase.1 {
+                self.phase = (k.as_array()[PHASE], phase);
+            }
+        }
+        self.windows += 1;
+        self.last = *k;
+        self.residual_std +=
+            crate::math::sqrt64(curvature.rss / (curvature.fitted as usize - p) as f64) as f32;
+        Ok(())
+    }
+
+    /// The flight's reading: the vector in the fault box that minimises the windows' summed
+    /// quadratics (projected Gauss–Seidel, [`FUSION_SWEEPS`] sweeps from the last window's
+    /// vector), its uncertainty from the summed information, and `limits`' friction limit on
+    /// it. `Err` before any window. O(`FUSION_SWEEPS` · 9²) + O(9³).
+    #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // i, j < FAULT_COUNT on fixed 9×9 arrays
+    pub fn reading(&self, limits: &WindowLimits) -> Result<FlightReading, UncertaintyError> {
+        if self.windows == 0 {
+            return Err(UncertaintyError::Undetermined);
+        }
+        let mut k = self.last.as_array().map(f64::from);
+        let free: [bool; FAULT_COUNT] =
+            core::array::from_fn(|i| !CIRCULAR[i] && self.information[i][i] > 0.0);
+        for _ in 0..FUSION_SWEEPS {
+            for i in (0..FAULT_COUNT).filter(|&i| free[i]) {
+                let coupled: f64 = (0..FAULT_COUNT)
+                    .filter(|&j| j != i && free[j])
+                    .map(|j| self.information[i][j] * k[j])
+                    .sum();
+                k[i] = ((self.linear[i] - coupled) / self.information[i][i]).clamp(0.0, 1.0);
+            }
+        }
+        let mut genes = k.map(|x| x as f32);
+        let mut normal = self.information;
+        if self.phase.1 > 0.0 {
+            genes[PHASE] = self.phase.0;
+            normal[PHASE][PHASE] = self.phase.1;
+        }
+        let faults = FaultVector::saturating(genes);
+        // The summed information as a curvature whose noise scale (c·s)² is 1: its inverse
+        // is the flight's covariance.
+        let p = normal
+            .iter()
+            .enumerate()
+            .filter(|(i, r)| r[*i] > 0.0)
+            .count();
+        let c = f64::from(INFLATION);
+        let summed = Curvature {
+            normal,
+            rss: 1.0 / (c * c),
+            gradient: [0.0; FAULT_COUNT],
+            fitted: p as u32 + 1,
+        };
+        let (mut uncertainty, correlation) = summed.uncertainty(&faults)?;
+        uncertainty.residual_std = self.residual_std / self.windows as f32;
+        let friction_std = uncertainty.std[0];
+        let verdict = if friction_std.is_nan() || friction_std > limits.max_friction_std {
+            Err(WindowReason::TurbulenceTooHigh { friction_std })
+        } else {
+            Ok(())
+        };
+        Ok(FlightReading {
+            faults,
+            uncertainty: (uncertainty, correlation),
+            windows: self.windows,
+            verdict,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::window::WINDOW_INFLATION;
+
+    /// A window's curvature with `normal` on the diagonal (the others coupled by `coupling`
+    /// between friction and gain drift), gradient `gradient`, and a noise scale (c·s)² of 1.
+    fn curvature(
+        normal: [f64; FAULT_COUNT],
+        gradient: [f64; FAULT_COUNT],
+        coupling: f64,
+    ) -> Curvature {
+        let mut n = [[0.0; FAULT_COUNT]; FAULT_COUNT];
+        for i in 0..FAULT_COUNT {
+            n[i][i] = normal[i];
+        }
+        (n[0][7], n[7][0]) = (coupling, coupling);
+        let p = normal.iter().filter(|&&x| x > 0.0).count();
+        Curvature {
+            normal: n,
+            rss: 1.0 / f64::from(INFLATION * INFLATION),
+            gradient,
+            fitted: p as u32 + 1,
+        }
+    }
+
+    const ONES: [f32; FAULT_COUNT] = [1.0; FAULT_COUNT];
+
+    #[test]
+    fn one_window_states_the_deviations_its_own_uncertainty_states() {
+        let c = curvature(
+            [400.0, 900.0, 4.0, 1.0, 0.5, 2.0, 3.0, 2500.0, 0.2],
+            [0.0; FAULT_COUNT],
+            600.0,
+        );
+        let k = FaultVector::new([0.2, 0.1, 0.3, 0.4, 0.2, 0.3, 0.5, 0.6, 0.4]).unwrap();
+        let mut fusion = WindowFusion::EMPTY;
+        fusion.add(&k, &c, &WINDOW_INFLATION).unwrap();
+        let flight = fusion.reading(&WindowLimits::REFERENCE).unwrap();
+        let (own, _) = c.uncertainty(&k).unwrap();
+        let own = own.widened(&k, &WINDOW_INFLATION);
+        for i in 0..FAULT_COUNT {
+            let (a, b) = (flight.uncertainty.0.std[i], own.std[i]);
+            assert!((a - b).abs() <= 1e-5 * b, "component {i}: {a} against {b}");
+            // At a gradient of zero the window's point is its vector.
+            let (x, y) = (flight.faults.as_array()[i], k.as_array()[i]);
+            assert!((x - y).abs() < 1e-5, "component {i}: {x} against {y}");
+        }
+        assert_eq!(flight.windows, 1);
+    }
+
+    #[test]
+    fn windows_add_their_evidence() {
+        // Four windows reading friction 0.16, 0.24, 0.20, 0.20 at σ 0.1 each: 0.2 at σ 0.05.
+        let mut fusion = WindowFusion::EMPTY;
+        for friction in [0.16, 0.24, 0.20, 0.20] {
+            let mut genes = *FaultVector::NOMINAL.as_array();
+            genes[0] = friction;
+            let k = FaultVector::new(genes).unwrap();
+            let c = curvature(
+                [100.0, 100.0, 100.0, 100.0, 100.0, 100.0, 0.0, 100.0, 100.0],
+                [0.0; FAULT_COUNT],
+                0.0,
+            );
+            fusion.add(&k, &c, &ONES).unwrap();
+            let one = fusion.windows() == 1;
+            let flight = fusion.reading(&WindowLimits::REFERENCE).unwrap();
+            // One window at σ 0.1 is above the friction limit (0.08); two are not.
+            assert_eq!(flight.verdict.is_err(), one, "{:?}", flight.verdict);
+        }
+        let flight = fusion.reading(&WindowLimits::REFERENCE).unwrap();
+        assert!((flight.faults.friction() - 0.2).abs() < 1e-5);
+        assert!((flight.uncertainty.0.std[0] - 0.05).abs() < 1e-6);
+        // The phase: no window determines it.
+        assert!(flight.uncertainty.0.std[PHASE].is_nan());
+    }
+
+    #[test]
+    fn a_component_read_at_its_bound_keeps_the_push_beyond_it() {
+        // A healthy friction read at 0 by two windows whose gradients push it below 0
+        // (points −0.06), and at 0.06 and 0.05 by two others: the fused reading stays near 0
+        // (the points' mean −0.0025, clamped), where the clamped values' mean is 0.0275.
+        let mut fusion = WindowFusion::EMPTY;
+        for (friction, push) in [(0.0, -0.06), (0.06, 0.0), (0.0, -0.06), (0.05, 0.0)] {
+            let mut genes = *FaultVector::NOMINAL.as_array();
+            genes[0] = friction;
+            let normal = [400.0, 100.0, 100.0, 100.0, 100.0, 100.0, 0.0, 100.0, 100.0];
+            let mut gradient = [0.0; FAULT_COUNT];
+            gradient[0] = push * normal[0];
+            let c = curvature(normal, gradient, 0.0);
+            fusion
+                .add(&FaultVector::new(genes).unwrap(), &c, &ONES)
+                .unwrap();
+        }
+        let flight = fusion.reading(&WindowLimits::REFERENCE).unwrap();
+        assert_eq!(flight.faults.friction(), 0.0);
+        assert_eq!(flight.verdict, Ok(()));
+    }
+
+    #[test]
+    fn coupled_components_are_minimised_together_in_the_box() {
+        // Friction and gain drift coupled: the box-constrained minimum of the quadratic,
+        // checked against a fine grid over the two.
+        let c = curvature(
+            [400.0, 100.0, 100.0, 100.0, 100.0, 100.0, 0.0, 900.0, 100.0],
+            [-30.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 50.0, 0.0],
+            500.0,
+        );
+        let mut genes = *FaultVector::NOMINAL.as_array();
+        genes[0] = 0.02;
+        let k = FaultVector::new(genes).unwrap();
+        let mut fusion = WindowFusion::EMPTY;
+        fusion.add(&k, &c, &ONES).unwrap();
+        let flight = fusion.reading(&WindowLimits::REFERENCE).unwrap();
+        // q(δ) = ½ δᵀNδ − gᵀδ over (friction, gain drift), δ from k.
+        let q = |a: f64, b: f64| {
+            let (da, db) = (a - 0.02, b - 0.5);
+            0.5 * (400.0 * da * da + 2.0 * 500.0 * da * db + 900.0 * db * db)
+                - (-30.0 * da + 50.0 * db)
+        };
+        let found = q(
+            f64::from(flight.faults.friction()),
+            f64::from(flight.faults.as_array()[7]),
+        );
+        let mut best = f64::INFINITY;
+        for i in 0..=1000 {
+            for j in 0..=1000 {
+                best = best.min(q(f64::from(i) * 1e-3, f64::from(j) * 1e-3));
+            }
+        }
+        assert!(found <= best + 1e-6, "{found} against the grid's {best}");
+        assert_eq!(
+            flight.faults.friction(),
+            0.0,
+            "the unbounded minimum has friction < 0"
+        );
+    }
+
+    #[test]
+    fn nothing_is_read_from_no_window_or_an_undetermined_one() {
+        let mut fusion = WindowFusion::EMPTY;
+        assert!(fusion.reading(&WindowLimits::REFERENCE).is_err());
+        let flat = curvature([0.0; FAULT_COUNT], [0.0; FAULT_COUNT], 0.0);
+        assert!(fusion.add(&FaultVector::NOMINAL, &flat, &ONES).is_err());
+        assert_eq!(fusion, WindowFusion::EMPTY);
+    }
+}
