@@ -132,6 +132,12 @@ enum Command {
     Identify {
         /// Trace (CSV or binary).
         trace: PathBuf,
+        /// Further windows of the same flight as TRACE (a window of flight, `# test: flight`),
+        /// repeatable: each is identified, and those identified or named only for their
+        /// turbulence are fused with TRACE into the flight's reading (docs/in-flight.md §4),
+        /// whose verdict sets the exit status. Windows must not overlap.
+        #[arg(long, value_name = "WINDOW")]
+        same_flight: Vec<PathBuf>,
         /// Calibration file from `calibrate` (default: the built-in calibration against this
         /// project's reference model).
         #[arg(long)]
@@ -609,6 +615,7 @@ fn main() -> ExitCode {
         ),
         Command::Identify {
             trace,
+            same_flight,
             calibration,
             seed,
             truth,
@@ -625,6 +632,7 @@ fn main() -> ExitCode {
             identify_command(
                 &actuator,
                 &trace,
+                &same_flight,
                 calibration.as_deref(),
                 seed,
                 truth,

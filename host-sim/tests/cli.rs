@@ -381,3 +381,62 @@ fn a_record_goes_to_a_flash_pair_image_and_back() {
     assert!(stderr(&o).contains("no whole item"), "{}", stderr(&o));
     assert!(!stderr(&o).contains("panicked"));
 }
+
+/// Windows of one flight fused (`identify W1 --same-flight W2 …`): four cruise windows in
+/// light turbulence, friction 0.2, read to a flight's reading whose friction σ is smaller
+/// than any one window's and whose value is right; a preflight trace is refused as a window.
+#[test]
+fn windows_of_one_flight_are_read_together() {
+    let dir = tempfile::tempdir().unwrap();
+    let truth = "0.2,0,0,0,0,0,0.5,0.5,0";
+    let windows: Vec<String> = (1..=4)
+        .map(|seed| {
+            let file = path(&dir, &format!("w{seed}.csv"));
+            let o = host_sim(&[
+                "simulate",
+                "--flight",
+                "cruise",
+                "--turbulence",
+                "light",
+                "--faults",
+                truth,
+                "--seed",
+                &seed.to_string(),
+                "--out",
+                &file,
+            ]);
+            assert!(o.status.success(), "{}", stderr(&o));
+            file
+        })
+        .collect();
+    let mut args = vec!["identify", &windows[0], "--truth", truth, "--json"];
+    for w in &windows[1..] {
+        args.extend(["--same-flight", w.as_str()]);
+    }
+    let o = host_sim(&args);
+    let v = json(&o);
+    let flight = &v["flight"];
+    assert_eq!(flight["windows"], 4, "{v}");
+    assert_eq!(v["windows"].as_array().map(Vec::len), Some(4), "{v}");
+    let std = flight["std"][0].as_f64().unwrap();
+    let friction = flight["faults"][0].as_f64().unwrap();
+    // One window reads friction to σ ≈ 0.06 here (calibrated), four to about half that.
+    assert!(std < 0.045, "friction σ {std}: {flight}");
+    assert!(
+        (friction - 0.2).abs() < 0.06,
+        "friction {friction}: {flight}"
+    );
+    assert_eq!(flight["verdict"], "within", "{flight}");
+    assert!(o.status.success(), "{}", stderr(&o));
+
+    let pre = path(&dir, "preflight.csv");
+    let o = host_sim(&["simulate", "--faults", FRICTION, "--out", &pre]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = host_sim(&["identify", &windows[0], "--same-flight", &pre]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("not a window of flight"),
+        "{}",
+        stderr(&o)
+    );
+}

@@ -261,6 +261,8 @@ pub enum DomainCode {
     PlayUnseen = 19,
     /// A window of flight that could not read friction for its turbulence ([`WindowReason`]).
     TurbulenceTooHigh = 20,
+    /// A flight's reading that no second window confirms ([`WindowReason`]).
+    Unconfirmed = 21,
 }
 
 impl From<Result<(), WindowReason>> for DomainCode {
@@ -273,6 +275,7 @@ impl From<Result<(), WindowReason>> for DomainCode {
             Err(WindowReason::FitnessFloor { .. }) => Self::FitnessFloor,
             Err(WindowReason::PlayUnseen { .. }) => Self::PlayUnseen,
             Err(WindowReason::TurbulenceTooHigh { .. }) => Self::TurbulenceTooHigh,
+            Err(WindowReason::Unconfirmed { .. }) => Self::Unconfirmed,
         }
     }
 }
@@ -307,7 +310,7 @@ impl From<Domain> for DomainCode {
 
 impl DomainCode {
     /// Every code, in the order of its byte.
-    const ALL: [Self; 21] = [
+    const ALL: [Self; 22] = [
         Self::Within,
         Self::NoMotion,
         Self::OpenPhase,
@@ -329,6 +332,7 @@ impl DomainCode {
         Self::ManoeuvreTooLarge,
         Self::PlayUnseen,
         Self::TurbulenceTooHigh,
+        Self::Unconfirmed,
     ];
 
     fn from_byte(b: u8) -> Option<Self> {
@@ -359,6 +363,7 @@ impl DomainCode {
             Self::ManoeuvreTooLarge => "manoeuvre_too_large",
             Self::PlayUnseen => "play_unseen",
             Self::TurbulenceTooHigh => "turbulence_too_high",
+            Self::Unconfirmed => "unconfirmed",
         }
     }
 
@@ -1057,6 +1062,10 @@ mod tests {
             W::ManoeuvreTooLarge { range: 1.0 },
             W::PlayUnseen { contrast: 0.1 },
             W::TurbulenceTooHigh { friction_std: 0.2 },
+            W::Unconfirmed {
+                windows: 1,
+                disagreement: f32::NAN,
+            },
         ];
         for (i, reason) in windows.into_iter().enumerate() {
             let code = DomainCode::from(Err(reason));
@@ -1069,7 +1078,7 @@ mod tests {
             DomainCode::FitnessFloor
         );
         assert_eq!(DomainCode::from(Ok(())), DomainCode::Within);
-        assert_eq!(DomainCode::from_byte(21), None);
+        assert_eq!(DomainCode::from_byte(22), None);
     }
 
     #[test]

@@ -194,6 +194,11 @@ pub enum WindowReason {
     /// load and the drift profiled out; NaN: not at all): the load's moment the turbulence
     /// moves stands in for friction, and what it does to the other components with it.
     TurbulenceTooHigh { friction_std: f32 },
+    /// A flight's reading from its windows (`crate::fusion`) that no second window
+    /// confirms: fewer than two windows fused (`disagreement` NaN), or their readings farther
+    /// apart than their deviations allow — `disagreement` is their χ² over its 99 % quantile
+    /// (above 1: one of them is wrong).
+    Unconfirmed { windows: u32, disagreement: f32 },
 }
 
 /// What a window must satisfy to be identified.
@@ -821,9 +826,10 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
     /// calibrated uncertainty; NaN if it has none): a saturated current, a manoeuvre beyond
     /// the limits' command range, a fit that leaves more than the limits' share of the
     /// current unexplained (a load the model does not play: turbulence beyond the trend, a
-    /// play crossed where the model cannot follow), a friction the window cannot read (the
-    /// turbulence's moment stands in for it), or a window that cannot tell a wide play from
-    /// none make it `Outside`. Two model runs (the play's contrast).
+    /// play crossed where the model cannot follow), a window that cannot tell a wide play
+    /// from none, or a friction the window cannot read (the turbulence's moment stands in
+    /// for it) make it `Outside`, judged in this order. Two model runs (the play's
+    /// contrast).
     pub fn judge(
         &self,
         limits: &WindowLimits,
@@ -857,12 +863,11 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         if misfit.is_nan() || misfit > limits.max_misfit {
             return Err(WindowReason::FitnessFloor { misfit });
         }
-        if friction_std.is_nan() || friction_std > limits.max_friction_std {
-            return Err(WindowReason::TurbulenceTooHigh { friction_std });
-        }
         // The play: the fit with no backlash against the fit with a wide one, at `k`. If
         // the two hardly differ the gear never crossed its play (the load did not reverse):
-        // the window shows nothing of the backlash and the GA's value is noise.
+        // the window shows nothing of the backlash and the GA's value is noise. Judged
+        // before the turbulence, so that a window named only for its turbulence has seen
+        // the play (its evidence is sound: a flight's reading adds it, `crate::fusion`).
         let with_play = |level: f32| {
             let mut genes = *k.as_array();
             if let Some(b) = genes.get_mut(1) {
@@ -877,6 +882,9 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         let contrast = abs(wide - none) / error.max(f32::MIN_POSITIVE);
         if contrast.is_nan() || contrast < limits.min_play_contrast {
             return Err(WindowReason::PlayUnseen { contrast });
+        }
+        if friction_std.is_nan() || friction_std > limits.max_friction_std {
+            return Err(WindowReason::TurbulenceTooHigh { friction_std });
         }
         Ok(())
     }

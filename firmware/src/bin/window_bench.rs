@@ -7,7 +7,8 @@
 //! instructions of one window evaluation (a model run with the drift profiled out), one
 //! curvature (twelve lockstep runs), one load search, and the whole identification polled
 //! as a controller's idle-time task would poll it: its polls, the longest poll's
-//! instructions and its model-run count.
+//! instructions and its model-run count; then the window added to a flight's reading
+//! (`shared::fusion`) and the reading formed.
 //!
 //! A bench, not the product: the product images have no flash left for the window
 //! identification (docs/in-flight.md §6), so this binary carries it alone (built only with
@@ -27,9 +28,10 @@ use static_cell::ConstStaticCell;
 use shared::actuator::ActuatorRecord;
 use shared::command::{ChirpSampler, CommandSource};
 use shared::fdi::{OnboardMeasured, POPULATION, TEST_SAMPLES};
+use shared::fusion::{WindowFusion, FLIGHT_MAX_FRICTION_STD};
 use shared::window::{
     identify_stepwise, record_monitor_window, synthetic_command, window_ga, RecordedCommand,
-    WindowLimits, WindowLoad, WindowProblem, COMMAND_STRIDE,
+    WindowLimits, WindowLoad, WindowProblem, COMMAND_STRIDE, WINDOW_INFLATION,
 };
 use shared::{Calibration, FaultVector, LowPass, MonitorModel};
 
@@ -157,6 +159,15 @@ fn main() -> ! {
     };
     let whole = instructions_under_icount(cycles().saturating_sub(begin));
     let Ok(reading) = result else { exit(2) };
+    // The flight's reading (`shared::fusion`): this window added, the reading formed.
+    let start = cycles();
+    let mut fusion = WindowFusion::EMPTY;
+    let added = fusion
+        .add(&reading.faults, &reading.curvature, &WINDOW_INFLATION)
+        .is_ok();
+    let flight = fusion.reading(FLIGHT_MAX_FRICTION_STD);
+    let fusion_instructions = instructions_under_icount(cycles().saturating_sub(start));
+    let flight_friction = flight.map_or(f32::NAN, |f| f.faults.friction());
     defmt::println!(
         "window_bench samples={=usize} evaluation_instructions={=u64} curvature_instructions={=u64} load_search_instructions={=u64}",
         samples,
@@ -179,6 +190,13 @@ fn main() -> ! {
         fitted.stiffness,
         sink,
         curvature.fitted,
+    );
+    defmt::println!(
+        "window_bench fusion_instructions={=u64} fusion_state_bytes={=usize} added={=bool} flight_friction={=f32}",
+        fusion_instructions,
+        core::mem::size_of::<WindowFusion>(),
+        added,
+        flight_friction,
     );
     exit(0)
 }

@@ -226,9 +226,11 @@ pub(crate) fn conditions_text(c: &shared::conditions::TestConditions) -> String 
     )
 }
 
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn identify_command(
     actuator: &Actuator,
     trace_path: &Path,
+    same_flight: &[std::path::PathBuf],
     calibration: Option<&Path>,
     seed: u64,
     truth: Option<FaultVector>,
@@ -244,13 +246,34 @@ pub(crate) fn identify_command(
                 trace_path.display()
             );
         }
+        let others = same_flight
+            .iter()
+            .map(|path| {
+                let other = actuator.read_trace(path)?;
+                if !other.is_flight() {
+                    anyhow::bail!(
+                        "--same-flight {}: not a window of flight (its first line has no \
+                         `# test: flight`)",
+                        path.display()
+                    );
+                }
+                Ok((path.display().to_string(), other))
+            })
+            .collect::<Result<Vec<_>>>()?;
         return window_report(
             actuator,
             &trace,
             &trace_path.display().to_string(),
+            &others,
             seed,
             truth,
             json,
+        );
+    }
+    if !same_flight.is_empty() {
+        anyhow::bail!(
+            "--same-flight: {} is a preflight, not a window of flight; only windows are fused",
+            trace_path.display()
         );
     }
     let (record, cal_name) = load_record(actuator, calibration, trace.test())?;
@@ -331,25 +354,56 @@ pub(crate) fn identify_command(
 }
 
 /// Identifies a window of flight (`# test: flight`; `host_sim::fdi::window`) and prints the
-/// window's verdict, the faults, the fitted load and, given the truth, e_tot.
+/// window's verdict, the faults, the fitted load and, given the truth, e_tot; with `others`
+/// (further windows of the same flight, each a source name and its trace), each of them in a
+/// line and the flight's reading from all of them fused (`shared::fusion`), whose verdict
+/// then sets the exit status.
 pub(crate) fn window_report(
     actuator: &Actuator,
     trace: &host_sim::files::trace::Trace,
     source: &str,
+    others: &[(String, host_sim::files::trace::Trace)],
     seed: u64,
     truth: Option<FaultVector>,
     json: bool,
 ) -> Result<()> {
-    use host_sim::studies::flight::{flight_record, window_reason};
+    use host_sim::studies::flight::{flight_record, fusable, window_reason};
+    use shared::fusion::{WindowFusion, FLIGHT_MAX_FRICTION_STD};
     let record = flight_record(&actuator.record);
     let measured = trace.measured(&record.params)?;
     let start = std::time::Instant::now();
     let id = host_sim::fdi::window::identify_window(trace, &measured, &record, seed)?;
+    let mut fusion = WindowFusion::EMPTY;
+    let mut windows = Vec::new();
+    for (i, (name, window)) in std::iter::once((source, trace))
+        .chain(others.iter().map(|(n, t)| (n.as_str(), t)))
+        .enumerate()
+    {
+        let w = if i == 0 {
+            id.clone()
+        } else {
+            let measured = window.measured(&record.params)?;
+            host_sim::fdi::window::identify_window(window, &measured, &record, seed)?
+        };
+        let fused = fusable(&w.verdict)
+            && fusion
+                .add(&w.faults, &w.curvature, &shared::window::WINDOW_INFLATION)
+                .is_ok();
+        windows.push((name.to_string(), w, fused));
+    }
+    let flight = (!others.is_empty()).then(|| fusion.reading(FLIGHT_MAX_FRICTION_STD).ok());
     let seconds = start.elapsed().as_secs_f64();
     let verdict = window_reason(&id.verdict);
     let e_tot = truth.map(|t| shared::metrics::total_error(&id.faults, &t));
+    // With other windows the flight's reading decides; a flight no window could be fused
+    // into is outside.
+    let status = match &flight {
+        None => window_status(&id.verdict),
+        Some(Some(f)) => window_status(&f.verdict),
+        Some(None) => Err(ExitWith(EXIT_OUTSIDE_DOMAIN).into()),
+    };
     if json {
-        let obj = serde_json::json!({
+        let mut obj = serde_json::json!({
             "trace": source,
             "window": true,
             "verdict": verdict,
@@ -362,8 +416,32 @@ pub(crate) fn window_report(
             "e_tot": e_tot,
             "seconds": seconds,
         });
+        if let Some(flight) = &flight {
+            obj["windows"] = windows
+                .iter()
+                .map(|(name, w, fused)| {
+                    serde_json::json!({
+                        "trace": name,
+                        "verdict": window_reason(&w.verdict),
+                        "faults": w.faults.as_array().to_vec(),
+                        "fused": fused,
+                    })
+                })
+                .collect();
+            obj["flight"] = flight.as_ref().map_or(serde_json::Value::Null, |f| {
+                serde_json::json!({
+                    "verdict": window_reason(&f.verdict),
+                    "windows": f.windows,
+                    "faults": f.faults.as_array().to_vec(),
+                    "std": f.uncertainty.0.std.to_vec(),
+                    "lower": f.uncertainty.0.lower.to_vec(),
+                    "upper": f.uncertainty.0.upper.to_vec(),
+                    "e_tot": truth.map(|t| shared::metrics::total_error(&f.faults, &t)),
+                })
+            });
+        }
         println!("{obj}");
-        return window_status(&id.verdict);
+        return status;
     }
     println!(
         "window of flight: {source} ({}, GA seed {seed})",
@@ -393,8 +471,57 @@ pub(crate) fn window_report(
     if let Some(e) = e_tot {
         println!("e_tot against the truth: {e:.2} %");
     }
-    println!("{} model runs, {seconds:.2} s", id.evaluations);
-    window_status(&id.verdict)
+    if let Some(flight) = &flight {
+        println!("\nthe flight's windows:");
+        for (i, (name, w, fused)) in windows.iter().enumerate() {
+            println!(
+                "  {}. {name}: {}{}",
+                i + 1,
+                window_reason(&w.verdict),
+                if *fused {
+                    ", fused"
+                } else {
+                    ", not fused (it does not fit, or shows no play)"
+                }
+            );
+        }
+        match flight {
+            None => println!(
+                "the flight's reading: none — no window is identified or named only for its \
+                 turbulence"
+            ),
+            Some(f) => {
+                match f.verdict {
+                    Ok(()) => println!(
+                        "the flight's reading from {} windows: within (friction read to σ {:.3})",
+                        f.windows, f.uncertainty.0.std[0]
+                    ),
+                    Err(reason) => println!(
+                        "the flight's reading from {} windows: outside — {} ({reason:?}): more \
+                         windows are needed; the faults below are not a reading",
+                        f.windows,
+                        window_reason(&f.verdict)
+                    ),
+                }
+                let u = &f.uncertainty.0;
+                for (j, (name, k)) in names.iter().zip(f.faults.as_array()).enumerate() {
+                    println!(
+                        "  {name:<24} {k:.3}  σ {:.3}  90 % [{:.3}, {:.3}]",
+                        u.std[j], u.lower[j], u.upper[j]
+                    );
+                }
+                if let Some(t) = truth {
+                    println!(
+                        "e_tot of the flight's reading against the truth: {:.2} %",
+                        shared::metrics::total_error(&f.faults, &t)
+                    );
+                }
+            }
+        }
+    }
+    let runs: u32 = windows.iter().map(|(_, w, _)| w.evaluations).sum();
+    println!("{runs} model runs, {seconds:.2} s");
+    status
 }
 
 /// The exit status of a window's report: outside is [`EXIT_OUTSIDE_DOMAIN`], as for a

@@ -126,6 +126,7 @@ pub(crate) fn preflight(
             actuator,
             &trace,
             "the reference model's window",
+            &[],
             ga_seed,
             Some(truth),
             json,

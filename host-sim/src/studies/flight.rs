@@ -20,9 +20,9 @@ use crate::fdi::identify::identify_for;
 use crate::fdi::window::identify_window;
 use crate::plant::aero::{FlightPhase, FlightWindow, Turbulence};
 use crate::plant::reference::{ReferenceModel, Scenario};
-use shared::fusion::WindowFusion;
+use shared::fusion::{WindowFusion, FLIGHT_MAX_FRICTION_STD};
 use shared::uncertainty::{Assessment, Uncertainty};
-use shared::window::{WindowLimits, WindowReason, WINDOW_INFLATION};
+use shared::window::{WindowReason, WINDOW_INFLATION};
 
 /// The cases: the healthy actuator, friction 0.2 and Table II medium.
 pub const FLIGHT_CASES: [(&str, [f32; shared::FAULT_COUNT]); 3] = [
@@ -321,7 +321,7 @@ fn fly_windows(
                     let preflight = runs
                         .first()
                         .map_or((Domain::Within, f64::NAN), |r| r.preflight);
-                    let flight = match fusion.reading(&WindowLimits::REFERENCE) {
+                    let flight = match fusion.reading(FLIGHT_MAX_FRICTION_STD) {
                         Ok(f) => {
                             let (u, corr) = &f.uncertainty;
                             let (healthy_max, false_faults, covered) = against_truth(
@@ -566,12 +566,12 @@ fn readings_table(
          90 % intervals hold the truth in {held} of {intervals} component-readings and \
          meet the same flight's preflight interval in {agreed} of {agreed_of}.\n\n"
     ));
-    text.push_str(
+    text.push_str(&format!(
         "Per component (the eccentricity's phase left out), the 90 % intervals of the \
-         identified {noun} that hold the truth, and the factor on their deviations that \
-         would make 90 % of them hold it (1.0 or less: calibrated or wide; \
-         `shared::window::WINDOW_INFLATION` is already applied):",
-    );
+             identified {noun} that hold the truth, and the factor on their deviations that \
+             would make 90 % of them hold it (1.0 or less: calibrated or wide; \
+             `shared::window::WINDOW_INFLATION` is already applied):"
+    ));
     for (j, (held, n, factor)) in interval_calibration(rows, select).iter().enumerate() {
         if *n == 0 {
             continue;
