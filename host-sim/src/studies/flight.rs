@@ -463,9 +463,10 @@ pub fn flight_markdown(rows: &[FlightRow], actuator: &str) -> String {
              {} windows each\n\n\
              Each flight's windows that are `within` or named `turbulence_too_high` fused \
              (`shared::fusion`: their fits' quadratics added, minimised in the fault box); \
-             the flight named `turbulence_too_high` when its fused friction deviation is \
-             still above the window's limit, by its first window's reason when no window \
-             could be fused. Columns as above, per flight.\n\n",
+             the flight named `unconfirmed` with fewer than two such windows or when they \
+             disagree beyond their deviations, `turbulence_too_high` when its fused \
+             friction deviation is above {FLIGHT_MAX_FRICTION_STD}, and by its first window's reason when no \
+             window could be fused. Columns as above, per flight.\n\n",
             per_flight
         ));
         text.push_str(&readings_table(rows, |r| &r.flights, "flights"));
