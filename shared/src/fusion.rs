@@ -11,7 +11,7 @@
 //! and not added: the flight takes it from the window that reads it best.
 //!
 //! Units: the fault vector's [0, 1] range. Work: [`WindowFusion::add`] O(9³) (one 9 × 9
-//! inverse), [`WindowFusion::reading`] O([`FUSION_SWEEPS`] · 9²) + O(9³); state 760 B, no
+//! inverse), [`WindowFusion::reading`] O([`FUSION_SWEEPS`] · 9²) + O(9³); state 784 B, no
 //! allocation, no panic. Windows must be independent: a minute apart in flight (the
 //! turbulence's correlation is seconds), not overlapping.
 
@@ -163,14 +163,16 @@ impl WindowFusion {
             return Err(UncertaintyError::Undetermined);
         }
         (self.information, self.linear, self.square) = (sum, linear, square);
-        self.terms += (0..FAULT_COUNT).filter(|&i| added(i)).count() as u32;
+        self.terms = self
+            .terms
+            .saturating_add((0..FAULT_COUNT).filter(|&i| added(i)).count() as u32);
         if determined[PHASE] {
             let phase = 1.0 / (scale * f(PHASE) * f(PHASE) * inverse[PHASE][PHASE]);
             if phase > self.phase.1 {
                 self.phase = (k.as_array()[PHASE], phase);
             }
         }
-        self.windows += 1;
+        self.windows = self.windows.saturating_add(1);
         self.last = *k;
         self.residual_std +=
             crate::math::sqrt64(curvature.rss / (curvature.fitted as usize - p) as f64) as f32;

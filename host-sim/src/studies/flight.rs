@@ -344,8 +344,8 @@ fn fly_windows(
                                 covered,
                             }
                         }
-                        // No window of the flight identified or fusable: the flight is
-                        // named by its first window's reason.
+                        // No window of the flight could be fused: the flight is named by
+                        // its first window's reason (`unconfirmed` if that one was read).
                         Err(_) => FlightRun {
                             seed,
                             turbulence,
@@ -356,8 +356,9 @@ fn fly_windows(
                             preflight,
                             window: (
                                 first_reason.filter(|v| v.is_err()).unwrap_or(Err(
-                                    WindowReason::TurbulenceTooHigh {
-                                        friction_std: f32::NAN,
+                                    WindowReason::Unconfirmed {
+                                        windows: fusion.windows(),
+                                        disagreement: f32::NAN,
                                     },
                                 )),
                                 f64::NAN,
