@@ -568,11 +568,16 @@ fn readings_table(
          90 % intervals hold the truth in {held} of {intervals} component-readings and \
          meet the same flight's preflight interval in {agreed} of {agreed_of}.\n\n"
     ));
+    let flights = if noun == "flights" {
+        ", then `shared::fusion::FLIGHT_INFLATION`,"
+    } else {
+        ""
+    };
     text.push_str(&format!(
         "Per component (the eccentricity's phase left out), the 90 % intervals of the \
              identified {noun} that hold the truth, and the factor on their deviations that \
              would make 90 % of them hold it (1.0 or less: calibrated or wide; \
-             `shared::window::WINDOW_INFLATION` is already applied):"
+             `shared::window::WINDOW_INFLATION`{flights} is already applied):"
     ));
     for (j, (held, n, factor)) in interval_calibration(rows, select).iter().enumerate() {
         if *n == 0 {
