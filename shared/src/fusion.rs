@@ -11,7 +11,7 @@
 //! and not added: the flight takes it from the window that reads it best.
 //!
 //! Units: the fault vector's [0, 1] range. Work: [`WindowFusion::add`] O(9³) (one 9 × 9
-//! inverse), [`WindowFusion::reading`] O([`FUSION_SWEEPS`] · 9²) + O(9³); state 784 B, no
+//! inverse), [`WindowFusion::reading`] O([`FUSION_SWEEPS`] · 9²) + O(9³); state 792 B, no
 //! allocation, no panic. Windows must be independent: a minute apart in flight (the
 //! turbulence's correlation is seconds), not overlapping.
 
