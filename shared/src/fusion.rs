@@ -178,7 +178,9 @@ impl WindowFusion {
             .saturating_add((0..FAULT_COUNT).filter(|&i| added(i)).count() as u32);
         if determined[PHASE] {
             let phase = 1.0 / (scale * f(PHASE) * f(PHASE) * inverse[PHASE][PHASE]);
-            if phase > self.phase.1 {
+            // A finite, positive information only: a degenerate inverse (a zero or negative
+            // diagonal) must not hand the flight an infinite or NaN phase weight.
+            if phase.is_finite() && phase > self.phase.1 {
                 self.phase = (k.as_array()[PHASE], phase);
             }
         }
