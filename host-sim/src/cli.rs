@@ -40,7 +40,7 @@ pub(crate) use shared::fault::{Verdict, FAULT_COUNT, FAULT_NAMES};
 pub(crate) use shared::fdi::{
     record_monitor_trace, Identification, OnboardGa, OnboardMeasured, POPULATION, TEST_SAMPLES,
 };
-pub(crate) use shared::health::{HealthLog, ONBOARD_RECORDS};
+pub(crate) use shared::health::{HealthLog, FLIGHT_READING, ONBOARD_RECORDS};
 pub(crate) use shared::metrics::{component_errors, total_error, total_error_all};
 pub(crate) use shared::monitor::MonitorState;
 pub(crate) use shared::prognosis::TrendSettings;

@@ -423,10 +423,12 @@ enum Command {
         /// shaft, an open phase, or a test run with twice the chirp amplitude, in turn).
         #[arg(long, default_value_t = 0.0, value_parser = parse_share)]
         out_of_domain: f64,
-        /// Windows of flight identified in each flight (0–6), kept as in-flight entries: the
-        /// reference model flies the surface (a phase and turbulence drawn per window) with
-        /// the chirp superimposed, the FDI identifies the window (≈ 0.4 s each).
-        #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=6))]
+        /// Windows of flight identified in each flight (0–8), each kept as an in-flight
+        /// entry: the reference model flies the surface (a phase and turbulence drawn per
+        /// window) with the chirp superimposed, the FDI identifies the window (≈ 0.4 s each);
+        /// from two on, the flight's reading from its windows fused follows them (window
+        /// `flight`, the entry the trend takes).
+        #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=8))]
         windows: u8,
     },
     /// Trend and remaining useful life (RUL, in flights) of each fault from a history CSV or
@@ -481,14 +483,17 @@ enum Command {
         ))]
         noise_floor: Option<f64>,
         #[arg(long, help = format!(
-            "How many times an in-flight entry's stated standard deviation counts in the trend \
+            "How many times a flight's reading's stated standard deviation counts in the trend \
              (default: the controller's, {})",
-            TrendSettings::DEFAULT.window_scale
+            TrendSettings::DEFAULT.flight_scale
         ))]
-        window_scale: Option<f64>,
-        /// Windows of flight identified in each flight (0–6), kept as in-flight entries beside
-        /// the preflights; the tables then also give the same runs from their preflights alone.
-        #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=6))]
+        flight_scale: Option<f64>,
+        /// Windows of flight identified in each flight (0–8); from two on, those identified
+        /// or named only for turbulence are fused into the flight's reading, an in-flight
+        /// entry the trend takes beside the preflights (each window's own entry is kept in
+        /// the history, not trended). The tables then also give the same runs from their
+        /// preflights alone.
+        #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=8))]
         windows: u8,
         /// Keep each run's history CSV in this folder, and read it from there when present
         /// (re-evaluate the trend without simulating again).
@@ -782,7 +787,7 @@ fn main() -> ExitCode {
             out_of_domain,
             systematic,
             noise_floor,
-            window_scale,
+            flight_scale,
             windows,
             histories,
             alpha,
@@ -796,8 +801,8 @@ fn main() -> ExitCode {
             if let Some(f) = noise_floor {
                 settings.noise_floor = f;
             }
-            if let Some(f) = window_scale {
-                settings.window_scale = f;
+            if let Some(f) = flight_scale {
+                settings.flight_scale = f;
             }
             prognostics_command(
                 &EvalRun {

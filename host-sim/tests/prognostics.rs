@@ -243,3 +243,66 @@ fn a_demagnetizing_actuator_gets_its_own_trend_and_rul() {
         );
     }
 }
+
+/// With windows of flight, each flight's history holds its preflight, each window's own
+/// entry and — when a window entered — the flight's reading from its windows fused (window
+/// `flight`, the windows fused counted); the trend takes the preflights and the flights'
+/// readings that are `within`, never a window's own entry.
+#[test]
+fn degrade_with_windows_writes_each_flights_reading_and_the_trend_takes_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("flown.csv");
+    let o = host_sim(&[
+        "degrade",
+        "--faults-start",
+        "0.1,0,0,0,0,0,0.5,0.5,0",
+        "--faults-end",
+        "0.4,0,0,0,0,0,0.5,0.5,0",
+        "--flights",
+        "4",
+        "--windows",
+        "3",
+        "--out",
+        path_str(&out),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(text(&o).contains("flights' readings"), "{}", text(&o));
+    let csv = std::fs::read_to_string(&out).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    assert_eq!(&header[..4], ["flight", "window", "fused", "friction"]);
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (domain, true_friction) = (col("domain"), col("true_friction"));
+    let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    let mut trended = 0;
+    let mut flights_read = 0;
+    for flight in 0..4 {
+        let of: Vec<&Vec<&str>> = rows
+            .iter()
+            .filter(|r| r[0] == flight.to_string())
+            .collect();
+        let windows: Vec<&str> = of.iter().map(|r| r[1]).collect();
+        assert!(
+            windows[..4] == ["0", "1", "2", "3"] && of.len() <= 5,
+            "flight {flight}: {windows:?}"
+        );
+        trended += usize::from(of[0][domain] == "within");
+        if let Some(read) = of.get(4) {
+            assert_eq!(read[1], "flight", "{read:?}");
+            let fused: u32 = read[2].parse().unwrap();
+            assert!((1..=3).contains(&fused), "{read:?}");
+            assert!(of[1..4].iter().all(|w| w[2] == "0"), "{of:?}");
+            if read[domain] == "within" {
+                flights_read += 1;
+                trended += 1;
+                let (found, truth): (f64, f64) = (
+                    read[3].parse().unwrap(),
+                    read[true_friction].parse().unwrap(),
+                );
+                assert!((found - truth).abs() < 0.08, "{read:?}");
+            }
+        }
+    }
+    assert!(flights_read >= 1, "no flight read from its windows:\n{csv}");
+    let v = json(&host_sim(&["prognose", path_str(&out), "--json"]));
+    assert_eq!(v["faults"]["friction"]["observations"], trended, "{v}");
+}

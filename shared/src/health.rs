@@ -25,8 +25,8 @@
 //! | 64..66 | the DC bus the controller measured over the test (u16, units of 0.01 V); `ffff`: not measured |
 //! | 66..68 | the temperature it measured (i16, units of 0.01 °C); `8000`: not measured |
 //! | 68..70 | the winding's estimated rise from the calibration's temperature (i16, units of 0.01 K); `8000`: not estimated |
-//! | 70 | the test: 0 the preflight of flight `flight`; n ≥ 1 the n-th window identified in that flight ([`HealthRecord::window`]) |
-//! | 71 | reserved, 0 |
+//! | 70 | the test: 0 the preflight of flight `flight`; 1 ≤ n ≤ 254 the n-th window identified in that flight; 255 ([`FLIGHT_READING`]) the flight's reading from its windows ([`HealthRecord::window`]) |
+//! | 71 | a flight's reading: the windows fused into it ([`HealthRecord::fused`]); any other test: 0 |
 //! | 72..76 | k9, demagnetization (f32) |
 //! | 76..78 | its standard deviation (u16, as above) |
 //! | 78..80 | reserved, 0 |
@@ -40,7 +40,9 @@
 //! version 1 (52 bytes: bytes 0..48, then their CRC-32) no standard deviation either.
 //! Byte 70 was reserved (0) in every record written before in-flight entries: every such
 //! record reads as a preflight; a reader from before refuses an in-flight entry as a bad
-//! field rather than take it for a preflight.
+//! field rather than take it for a preflight. Byte 71 was reserved (0) before flights'
+//! readings: a reader from before them refuses one as a bad field rather than take it for a
+//! window.
 //!
 //! ## Slots
 //!
@@ -116,10 +118,18 @@ pub struct HealthRecord {
     pub day: RecordedDay,
     /// 0: the preflight of flight `flight`; n ≥ 1: the n-th window of that flight identified
     /// in flight (an in-flight entry). The onboard log and store keep preflights only
-    /// ([`HealthLog::append`]); trends take both, each at its flight
-    /// ([`crate::prognosis::FaultTrend::update`]).
+    /// ([`HealthLog::append`]). [`FLIGHT_READING`]: the flight's reading from its windows
+    /// ([`crate::fusion`]). Trends take preflights and flights' readings, each at its flight
+    /// ([`crate::prognosis::FaultTrend::add`]); a window's own entry is kept for the record,
+    /// its information is in its flight's reading.
     pub window: u8,
+    /// A flight's reading ([`FLIGHT_READING`]): the windows fused into it; 0 for any other
+    /// test.
+    pub fused: u8,
 }
+
+/// [`HealthRecord::window`] of a flight's reading from its windows.
+pub const FLIGHT_READING: u8 = u8::MAX;
 
 /// The test's day as a record stores it: the measured bus [V] and temperature [°C] and the
 /// winding's estimated rise from the calibration's temperature [K], each rounded to 0.01
@@ -405,6 +415,7 @@ impl HealthRecord {
             std: ComponentStd::UNKNOWN,
             day: RecordedDay::UNKNOWN,
             window: 0,
+            fused: 0,
         }
     }
 
@@ -412,6 +423,13 @@ impl HealthRecord {
     /// preflight).
     pub fn in_flight(mut self, window: u8) -> Self {
         self.window = window;
+        self
+    }
+
+    /// The record as its flight's reading from `fused` windows ([`FLIGHT_READING`]).
+    pub fn flight_reading(mut self, fused: u8) -> Self {
+        self.window = FLIGHT_READING;
+        self.fused = fused;
         self
     }
 
@@ -425,6 +443,12 @@ impl HealthRecord {
     pub fn with_std(mut self, std: [f32; FAULT_COUNT]) -> Self {
         self.std = ComponentStd::new(std);
         self
+    }
+
+    /// Whether this is one window's own entry (1 ≤ [`Self::window`] < [`FLIGHT_READING`]):
+    /// kept for the record, not trended (its information is in its flight's reading).
+    pub fn is_window(&self) -> bool {
+        self.window != 0 && self.window != FLIGHT_READING
     }
 
     /// Whether this test can feed a trend (inside the monitor model's domain).
@@ -455,7 +479,7 @@ impl HealthRecord {
         w.put(&self.day.bus.to_le_bytes());
         w.put(&self.day.temperature.to_le_bytes());
         w.put(&self.day.winding_rise.to_le_bytes());
-        w.put(&[self.window, 0]);
+        w.put(&[self.window, self.fused]);
         for k in ninth {
             w.put(&k.to_le_bytes());
         }
@@ -520,7 +544,8 @@ impl HealthRecord {
         if let (true, Some(c)) = (ninth, std.0.get_mut(DEMAGNETIZATION_INDEX)) {
             *c = u16::from_le_bytes(half(76));
         }
-        // Byte 70 is the window (reserved, 0, before in-flight entries), byte 71 reserved.
+        // Byte 70 is the window (reserved, 0, before in-flight entries), byte 71 the windows
+        // a flight's reading fused (reserved, 0, before them; 0 for any other test).
         let (day, window_reserved) = if version >= 3 {
             let day = RecordedDay {
                 bus: u16::from_le_bytes(half(64)),
@@ -540,10 +565,10 @@ impl HealthRecord {
         match (
             DomainCode::from_byte(domain),
             FaultVector::new(k),
-            (reserved, window_reserved >> 8),
+            (reserved, window_reserved as u8 == FLIGHT_READING || window_reserved >> 8 == 0),
             fitness.is_finite(),
         ) {
-            (Some(domain), Ok(faults), (0, 0), true) => Ok(Self {
+            (Some(domain), Ok(faults), (0, true), true) => Ok(Self {
                 flight: u32::from_le_bytes(word(8)),
                 faults,
                 fitness,
@@ -552,6 +577,7 @@ impl HealthRecord {
                 std,
                 day,
                 window: window_reserved as u8,
+                fused: (window_reserved >> 8) as u8,
             }),
             _ => Err(HealthRecordError::BadField),
         }
@@ -1093,20 +1119,34 @@ mod tests {
         let before = record(9, 0.2).encode();
         assert_eq!(before[70], 0);
         assert_eq!(HealthRecord::decode(&before).map(|r| r.window), Ok(0));
-        // Byte 71 stays reserved: a record with it set is refused.
+        // Byte 71 is a flight's reading's only: a window's with it set is refused.
+        let resealed = |mut b: EncodedRecord| {
+            let mut crc = Crc32::new();
+            crc.update(&b[..RECORD_BYTES - 4]);
+            b[RECORD_BYTES - 4..].copy_from_slice(&crc.finish().to_le_bytes());
+            b
+        };
         let mut b = bytes;
         b[71] = 1;
-        let mut crc = Crc32::new();
-        crc.update(&b[..RECORD_BYTES - 4]);
-        b[RECORD_BYTES - 4..].copy_from_slice(&crc.finish().to_le_bytes());
-        assert_eq!(HealthRecord::decode(&b), Err(HealthRecordError::BadField));
+        assert_eq!(
+            HealthRecord::decode(&resealed(b)),
+            Err(HealthRecordError::BadField)
+        );
+        // A flight's reading: byte 70 255, byte 71 the windows fused.
+        let flight = record(9, 0.2).flight_reading(6);
+        let bytes = flight.encode();
+        assert_eq!((bytes[70], bytes[71]), (FLIGHT_READING, 6));
+        assert_eq!(HealthRecord::decode(&bytes), Ok(flight));
+        assert_eq!((flight.window, flight.fused), (255, 6));
         // The onboard log and store keep preflights: an in-flight entry is not appended.
         let mut store = RamStore::<4>::erased();
         let mut log = HealthLog::<4>::new();
-        assert_eq!(
-            log.append(&mut store, r),
-            Err(HealthLogError::InFlightEntry)
-        );
+        for entry in [r, flight] {
+            assert_eq!(
+                log.append(&mut store, entry),
+                Err(HealthLogError::InFlightEntry)
+            );
+        }
         assert!(log.is_empty());
         assert_eq!(HealthLog::<4>::load(&mut store).unwrap().1.records, 0);
     }

@@ -1,7 +1,8 @@
 //! Degradation trends and remaining useful life (RUL), per fault, from the health log.
 //!
-//! Units: time in flights (one preflight per flight; an in-flight entry, a window of flight
-//! identified in flight, counts at its flight, after the preflight), fault level in the fault vector's
+//! Units: time in flights (one preflight per flight; an in-flight entry, a flight's reading
+//! from its windows identified in flight, counts at its flight, after the preflight; a
+//! window's own entry is not trended: its information is in its flight's reading), fault level in the fault vector's
 //! normalised deviation from nominal ([`crate::fault::FaultVector::deviations`]), RUL in flights.
 //!
 //! ## Model
@@ -17,7 +18,7 @@
 //! Each observation `y_i` carries its own variance `v_i = max(σ_i, noise_floor)²`, `σ_i` the
 //! identification's standard deviation of that component from the health record
 //! ([`crate::uncertainty`]; `noise_floor` where the record has none, as a version-1 record);
-//! an in-flight entry's `σ_i` counts [`TrendSettings::window_scale`] times (its errors against
+//! an in-flight entry's `σ_i` counts [`TrendSettings::flight_scale`] times (its errors against
 //! what it states, over a preflight's).
 //! For each shape a weighted recursive least-squares filter (the Bayesian linear update with a
 //! flat prior) refines `(a, b)` and its covariance once per observation, O(1). The filter also
@@ -170,11 +171,12 @@ pub struct TrendSettings {
     /// Least standard deviation of one observation, and the one assumed where the record
     /// carries none (version 1).
     pub noise_floor: f64,
-    /// An in-flight entry's ([`HealthRecord::window`] ≠ 0) own noise: its stated standard
-    /// deviation counts this many times, so that its weight against a preflight's follows
-    /// their errors, not what each identification states (the window's curvature does not
-    /// see its unknown load and turbulence as the preflight's sees its quiet test).
-    pub window_scale: f64,
+    /// An in-flight entry's (a flight's reading, [`crate::health::FLIGHT_READING`]) own
+    /// noise: its stated standard deviation counts this many times, so that its weight
+    /// against a preflight's follows their errors, not what each identification states (the
+    /// windows' curvatures do not see their unknown load and turbulence as the preflight's
+    /// sees its quiet test).
+    pub flight_scale: f64,
     /// Standard deviation of the identification's error that does not average out over
     /// flights (model mismatch, correlated with the level), added to every prediction.
     pub systematic: f64,
@@ -200,7 +202,7 @@ impl TrendSettings {
         // at 600 evaluations; its intervals widened by `window::WINDOW_INFLATION`; 4.38 and
         // a scale of 4.5 before, 6.8 before the widening), rounded up to a half
         // (docs/prognostics.md, "In-flight entries").
-        window_scale: 5.0,
+        flight_scale: 5.0,
         // Mean errors of 0.011–0.018 on the Table II and random multi-fault vectors
         // (docs/accuracy.md): the level-correlated part of a test's error, which a history
         // does not average out.
@@ -420,11 +422,11 @@ impl FaultTrend {
         self.observations
     }
 
-    /// Adds the level `value` observed at `flight`'s preflight (`in_flight` false) or in one
-    /// of its windows of flight (an in-flight entry, taken at its flight: the wear of one
-    /// flight is nil), with the identification's standard deviation `std` (`None`: not
-    /// known; not below [`TrendSettings::noise_floor`]; an in-flight entry's then counts
-    /// [`TrendSettings::window_scale`] times). Flights must not go
+    /// Adds the level `value` observed at `flight`'s preflight (`in_flight` false) or in
+    /// flight (an in-flight entry, taken at its flight: the wear of one flight is nil), with
+    /// the identification's standard deviation `std` (`None`: not known; not below
+    /// [`TrendSettings::noise_floor`]; an in-flight entry's then counts
+    /// [`TrendSettings::flight_scale`] times). Flights must not go
     /// back, and a preflight must be newer than every observation: an older flight, a
     /// repeated preflight or a non-finite value is ignored (returns false). O(MODEL_COUNT).
     pub fn update(
@@ -448,7 +450,7 @@ impl FaultTrend {
             Some(s) if f64::from(s) > settings.noise_floor => f64::from(s),
             _ => settings.noise_floor,
         } * if in_flight {
-            settings.window_scale
+            settings.flight_scale
         } else {
             1.0
         };
@@ -509,10 +511,14 @@ impl FaultTrend {
         }
     }
 
-    /// Adds component `i` of `record` (its deviation from nominal and its standard deviation);
-    /// whether the record is trusted is the caller's to judge. Returns false when ignored
-    /// (see [`Self::update`]).
+    /// Adds component `i` of `record` (its deviation from nominal and its standard deviation):
+    /// a preflight, or a flight's reading as an in-flight entry; a window's own entry is
+    /// ignored (its flight's reading carries it). Whether the record is trusted is the
+    /// caller's to judge. Returns false when ignored (see [`Self::update`]).
     pub fn add(&mut self, record: &HealthRecord, i: usize, settings: &TrendSettings) -> bool {
+        if record.is_window() {
+            return false;
+        }
         match record.faults.deviations().get(i) {
             Some(Some(d)) => self.update(
                 record.flight,
@@ -778,8 +784,12 @@ impl HealthTrend {
 
     /// Adds one record: each fault's deviation from nominal feeds its trend with the record's
     /// standard deviation. A record outside the monitor model's domain is counted and
-    /// ignored. O(FAULT_COUNT · MODEL_COUNT).
+    /// ignored; a window's own entry is ignored (its flight's reading carries it).
+    /// O(FAULT_COUNT · MODEL_COUNT).
     pub fn update(&mut self, record: &HealthRecord, settings: &TrendSettings) {
+        if record.is_window() {
+            return;
+        }
         if !record.is_trusted() {
             self.skipped += 1;
             return;
@@ -1039,9 +1049,9 @@ mod tests {
     #[test]
     fn an_in_flight_entry_counts_its_own_noise() {
         // Preflights on a line, and one in-flight entry 0.1 above it at flight 110.
-        let with = |std: f32, window_scale: f64| {
+        let with = |std: f32, flight_scale: f64| {
             let s = TrendSettings {
-                window_scale,
+                flight_scale,
                 ..TrendSettings::DEFAULT
             };
             let mut t = FaultTrend::new();
@@ -1054,11 +1064,39 @@ mod tests {
             }
             t.estimate(Some(0.5), &s).unwrap()
         };
-        // Its stated deviation counts `window_scale` times.
+        // Its stated deviation counts `flight_scale` times.
         assert_eq!(with(0.03125, 4.0), with(0.125, 1.0));
         // The larger its own noise, the less it pulls the trend.
         let (a, b) = (with(0.0625, 1.0).level, with(0.0625, 8.0).level);
         assert!(a > b && b > 0.19, "level {a} at scale 1, {b} at scale 8");
+    }
+
+    #[test]
+    fn a_flights_reading_is_trended_and_its_windows_own_entries_are_not() {
+        let s = TrendSettings::DEFAULT;
+        let at = |f: u32, friction: f32| {
+            let mut k = *FaultVector::NOMINAL.as_array();
+            k[0] = friction;
+            HealthRecord::new(f, FaultVector::new(k).unwrap(), 0.01, crate::domain::Domain::Within)
+                .with_std([0.02; FAULT_COUNT])
+        };
+        let mut with_windows = HealthTrend::new();
+        let mut preflights = HealthTrend::new();
+        for f in 0..8u32 {
+            let level = 0.1 + 0.01 * f as f32;
+            with_windows.update(&at(f, level), &s);
+            preflights.update(&at(f, level), &s);
+            // Two windows far off the line, then their flight's reading on it.
+            with_windows.update(&at(f, 0.9).in_flight(1), &s);
+            with_windows.update(&at(f, 0.8).in_flight(2), &s);
+            with_windows.update(&at(f, level).flight_reading(2), &s);
+        }
+        let friction = |t: &HealthTrend| t.fault(0).unwrap().observations();
+        assert_eq!((friction(&with_windows), friction(&preflights)), (16, 8));
+        assert_eq!(with_windows.skipped(), 0);
+        let level = |t: &HealthTrend| t.estimates(&s)[0].unwrap().level;
+        let (a, b) = (level(&with_windows), level(&preflights));
+        assert!((a - b).abs() < 0.005 && (a - 0.17).abs() < 0.005, "{a} {b}");
     }
 
     #[test]

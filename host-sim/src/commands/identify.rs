@@ -367,7 +367,7 @@ pub(crate) fn window_report(
     truth: Option<FaultVector>,
     json: bool,
 ) -> Result<()> {
-    use host_sim::studies::flight::{flight_record, fusable, window_reason};
+    use host_sim::studies::flight::{flight_record, window_reason};
     use shared::fusion::{WindowFusion, FLIGHT_MAX_FRICTION_STD};
     let record = flight_record(&actuator.record);
     let measured = trace.measured(&record.params)?;
@@ -385,10 +385,7 @@ pub(crate) fn window_report(
             let measured = window.measured(&record.params)?;
             host_sim::fdi::window::identify_window(window, &measured, &record, seed)?
         };
-        let fused = fusable(&w.verdict)
-            && fusion
-                .add(&w.faults, &w.curvature, &shared::window::WINDOW_INFLATION)
-                .is_ok();
+        let fused = w.enter(&mut fusion);
         windows.push((name.to_string(), w, fused));
     }
     let flight = (!others.is_empty()).then(|| fusion.reading(FLIGHT_MAX_FRICTION_STD).ok());

@@ -57,16 +57,23 @@ pub(crate) fn degrade_command(
                 .map_err(|e| anyhow::anyhow!("appending flight {}: {e:?}", r.record.flight))?;
         }
     }
-    let (preflights, flown): (Vec<&health_file::HistoryRow>, Vec<&health_file::HistoryRow>) =
-        rows.iter().partition(|r| r.record.window == 0);
+    let preflights: Vec<&health_file::HistoryRow> =
+        rows.iter().filter(|r| r.record.window == 0).collect();
+    let flown: Vec<&health_file::HistoryRow> =
+        rows.iter().filter(|r| r.record.is_window()).collect();
+    let read: Vec<&health_file::HistoryRow> =
+        rows.iter().filter(|r| r.record.window == FLIGHT_READING).collect();
     let outside = preflights.iter().filter(|r| !r.record.is_trusted()).count();
     let in_flight = if flown.is_empty() {
         String::new()
     } else {
         format!(
-            "; {} windows of flight, {} identified, the others outside{}",
+            "; {} windows of flight, {} identified, the others outside; {} flights' readings \
+             from their windows, {} within{}",
             flown.len(),
             flown.iter().filter(|r| r.record.is_trusted()).count(),
+            read.len(),
+            read.iter().filter(|r| r.record.is_trusted()).count(),
             if log.is_some() {
                 " (in the CSV only: the controller's log keeps preflights)"
             } else {
@@ -105,12 +112,21 @@ pub(crate) fn prognose_command(
             prognostics::report_json(&rows, &trend, &estimates, settings)
         );
     } else {
+        let windows = rows.iter().filter(|r| r.record.is_window()).count();
         println!(
-            "{}: {} records, newest flight {}, {} outside the domain (not used)",
+            "{}: {} records, newest flight {}, {} outside the domain (not used){}",
             history.display(),
             rows.len(),
             rows.last().map_or(0, |r| r.record.flight),
-            trend.skipped()
+            trend.skipped(),
+            if windows > 0 {
+                format!(
+                    ", {windows} windows' own entries (not trended: their flights' readings \
+                     carry them)"
+                )
+            } else {
+                String::new()
+            }
         );
         print!("{}", prognostics::report_text(&estimates, settings));
         println!(
@@ -179,7 +195,7 @@ pub(crate) fn prognostics_command(
     text += &format!(
         "\n{} runs × {} flights (seeds {}–{}; {} simulated, {} read from the history folder); thresholds \
          {} friction and backlash, {} shorts, {} eccentricity, {} gain drift; systematic error \
-         {}; noise floor {}; in-flight σ counted {} times; {} windows of flight per flight; {:.0} s.\n",
+         {}; noise floor {}; a flight's reading's σ counted {} times; {} windows of flight per flight; {:.0} s.\n",
         scenarios.len() as u64 * run.seeds,
         run.flights,
         run.first_seed,
@@ -192,7 +208,7 @@ pub(crate) fn prognostics_command(
         t[7],
         run.settings.systematic,
         run.settings.noise_floor,
-        run.settings.window_scale,
+        run.settings.flight_scale,
         run.windows,
         start.elapsed().as_secs_f64()
     );

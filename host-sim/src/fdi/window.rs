@@ -12,10 +12,12 @@ use shared::actuator::ActuatorRecord;
 use shared::conditions::TestConditions;
 use shared::domain::Domain;
 use shared::fdi::{OnboardMeasured, POPULATION};
+use shared::fusion::{FlightReading, WindowFusion};
 use shared::health::{HealthRecord, RecordedDay};
 use shared::uncertainty::{Assessment, Uncertainty};
 use shared::window::{
     RecordedCommand, WindowLimits, WindowLoad, WindowProblem, WindowReason, COMMAND_STRIDE,
+    WINDOW_INFLATION,
 };
 use shared::{FaultVector, MonitorModel, FAULT_COUNT};
 
@@ -67,6 +69,15 @@ impl WindowIdentified {
         record
     }
 
+    /// Adds this window to its flight's `fusion` when its verdict lets it enter
+    /// ([`fusable`]) and its curvature determines a component; whether it entered.
+    pub fn enter(&self, fusion: &mut WindowFusion) -> bool {
+        fusable(&self.verdict)
+            && fusion
+                .add(&self.faults, &self.curvature, &WINDOW_INFLATION)
+                .is_ok()
+    }
+
     /// Verdicts per component with the uncertainty (the plain threshold without one).
     pub fn assessments(&self) -> [Assessment; FAULT_COUNT] {
         let threshold = shared::fault::DETECTION_THRESHOLD;
@@ -75,6 +86,38 @@ impl WindowIdentified {
             None => crate::fdi::identify::plain_assessments(&self.faults, threshold),
         }
     }
+}
+
+/// Whether a window's reading enters its flight's: identified, or named only because its
+/// friction alone is too loose ([`WindowReason::TurbulenceTooHigh`]) — its evidence is
+/// sound, just not enough on its own. A window that does not fit, cannot see the play, or
+/// flew a manoeuvre or a saturated current adds nothing.
+pub fn fusable(verdict: &Result<(), WindowReason>) -> bool {
+    matches!(
+        verdict,
+        Ok(()) | Err(WindowReason::TurbulenceTooHigh { .. })
+    )
+}
+
+/// The health record of flight `flight`'s reading from its windows (an in-flight entry,
+/// `shared::health::FLIGHT_READING`, with the windows fused): its vector, deviations and
+/// verdict; its fitness the mean of the `entered` windows' and its day the first's.
+pub fn flight_entry(
+    flight: u32,
+    reading: &FlightReading,
+    entered: &[&WindowIdentified],
+) -> HealthRecord {
+    let fitness =
+        entered.iter().map(|w| w.fitness).sum::<f32>() / entered.len().max(1) as f32;
+    let day = entered
+        .first()
+        .map_or(RecordedDay::UNKNOWN, |w| RecordedDay::of(&w.conditions));
+    let mut record = HealthRecord::new(flight, reading.faults, fitness, Domain::Within)
+        .with_std(reading.uncertainty.0.std)
+        .with_day(day)
+        .flight_reading(u8::try_from(reading.windows).unwrap_or(u8::MAX));
+    record.domain = reading.verdict.into();
+    record
 }
 
 /// The commanded angle of `trace` [rad] as the controller keeps it over a window: every

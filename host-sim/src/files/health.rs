@@ -32,7 +32,7 @@ use anyhow::{bail, Context, Result};
 use shared::fault::{FAULT_COUNT, FAULT_NAMES, PAPER_FAULT_COUNT};
 use shared::health::{
     record_len, ComponentStd, DomainCode, EncodedRecord, HealthLog, HealthRecord, HealthStore,
-    LoadSummary, RecordedDay, RECORD_BYTES, RECORD_VERSION,
+    LoadSummary, RecordedDay, FLIGHT_READING, RECORD_BYTES, RECORD_VERSION,
 };
 use shared::FaultVector;
 
@@ -258,9 +258,13 @@ pub fn history_csv(rows: &[HistoryRow]) -> String {
     let with_std = rows.iter().any(|r| r.record.std != ComponentStd::UNKNOWN);
     let with_day = rows.iter().any(|r| r.record.day != RecordedDay::UNKNOWN);
     let with_window = rows.iter().any(|r| r.record.window != 0);
+    let with_fused = rows.iter().any(|r| r.record.window == FLIGHT_READING);
     let mut out = String::from("flight");
     if with_window {
         out += ",window";
+    }
+    if with_fused {
+        out += ",fused";
     }
     for n in FAULT_NAMES {
         out += &format!(",{n}");
@@ -284,7 +288,13 @@ pub fn history_csv(rows: &[HistoryRow]) -> String {
     for r in rows {
         out += &r.record.flight.to_string();
         if with_window {
-            out += &format!(",{}", r.record.window);
+            match r.record.window {
+                FLIGHT_READING => out += ",flight",
+                w => out += &format!(",{w}"),
+            }
+        }
+        if with_fused {
+            out += &format!(",{}", r.record.fused);
         }
         for k in r.record.faults.as_array() {
             out += &format!(",{k}");
@@ -372,6 +382,7 @@ fn parse_history_csv(text: &str) -> Result<Vec<HistoryRow>> {
     let need = |name: &str| column(name).with_context(|| format!("no column \"{name}\""));
     let flight_col = need("flight")?;
     let window_col = column("window");
+    let fused_col = column("fused");
     // The paper's eight columns are needed; a history from before the ninth fault has no
     // `demagnetization` column (nor its `std_`/`true_`): it reads as none.
     let columns = |prefix: &str| -> Vec<Option<usize>> {
@@ -442,10 +453,26 @@ fn parse_history_csv(text: &str) -> Result<Vec<HistoryRow>> {
         })?;
         let window: u8 = match window_col.map(cell) {
             None | Some("") => 0,
+            Some("flight") => FLIGHT_READING,
             Some(w) => w.parse().with_context(|| {
-                format!("line {line_no}: window \"{w}\" is not a whole number 0…255")
+                format!(
+                    "line {line_no}: window \"{w}\" is neither a whole number 0…254 nor \
+                     \"flight\" (the flight's reading)"
+                )
             })?,
         };
+        let fused: u8 = match fused_col.map(cell) {
+            None | Some("") => 0,
+            Some(n) => n.parse().with_context(|| {
+                format!("line {line_no}: fused \"{n}\" is not a whole number 0…255")
+            })?,
+        };
+        if (window == FLIGHT_READING) != (fused > 0) {
+            bail!(
+                "line {line_no}: fused {fused}: only a flight's reading (window \"flight\") \
+                 has windows fused, and at least one"
+            );
+        }
         if let Some(last) = rows.last() {
             if (flight, window) <= (last.record.flight, last.record.window) {
                 bail!(
@@ -470,6 +497,7 @@ fn parse_history_csv(text: &str) -> Result<Vec<HistoryRow>> {
         );
         record.domain = domain;
         record.window = window;
+        record.fused = fused;
         if let Some(cols) = &std_cols {
             let mut sd = [f32::NAN; FAULT_COUNT];
             for (v, c) in sd.iter_mut().zip(cols) {
@@ -565,17 +593,29 @@ mod tests {
         window.record.domain = DomainCode::PlayUnseen;
         let mut second = row(3, 0.12, Domain::Within);
         second.record = second.record.in_flight(2);
+        let mut flight = row(3, 0.115, Domain::Within);
+        flight.record = flight.record.flight_reading(2);
         let rows = vec![
             row(2, 0.09, Domain::Within),
             row(3, 0.1, Domain::Within),
             window,
             second,
+            flight,
             row(4, 0.13, Domain::Within),
         ];
         let text = history_csv(&rows);
-        assert!(text.starts_with("flight,window,friction,"), "{text}");
+        assert!(text.starts_with("flight,window,fused,friction,"), "{text}");
         assert!(text.contains(",play_unseen,"));
+        assert!(text.contains("\n3,flight,2,0.115,"), "{text}");
         assert_eq!(parse_history_csv(&text).unwrap(), rows);
+        // Only a flight's reading has windows fused.
+        let e = parse_history_csv(&text.replace("\n3,flight,2,", "\n3,flight,0,")).unwrap_err();
+        assert!(format!("{e:#}").contains("line 6"), "{e:#}");
+        let e = parse_history_csv(&text.replace("\n3,2,0,", "\n3,2,1,")).unwrap_err();
+        assert!(format!("{e:#}").contains("fused 1"), "{e:#}");
+        let rows = [&rows[..4], &rows[5..]].concat();
+        let text = history_csv(&rows);
+        assert!(text.starts_with("flight,window,friction,"), "{text}");
         // A history without in-flight entries keeps its columns as before.
         assert!(history_csv(&rows[..2]).starts_with("flight,friction,"));
         // (flight, window) must increase: a preflight after its own window is refused.

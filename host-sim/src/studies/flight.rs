@@ -22,7 +22,7 @@ use crate::plant::aero::{FlightPhase, FlightWindow, Turbulence};
 use crate::plant::reference::{ReferenceModel, Scenario};
 use shared::fusion::{WindowFusion, FLIGHT_MAX_FRICTION_STD};
 use shared::uncertainty::{Assessment, Uncertainty};
-use shared::window::{WindowReason, WINDOW_INFLATION};
+use shared::window::WindowReason;
 
 /// The cases: the healthy actuator, friction 0.2 and Table II medium.
 pub const FLIGHT_CASES: [(&str, [f32; shared::FAULT_COUNT]); 3] = [
@@ -287,11 +287,7 @@ fn fly_windows(
                         let domain =
                             id.domain(&sim.trace.domain_monitor(&record.params), &record.domain);
                         let w = identify_window(&sim.trace, &measured, &record, 1 + seed)?;
-                        if fusable(&w.verdict) {
-                            // A window the fusion refuses (no component determined) adds
-                            // nothing to its flight.
-                            let _ = fusion.add(&w.faults, &w.curvature, &WINDOW_INFLATION);
-                        }
+                        w.enter(&mut fusion);
                         first_reason.get_or_insert(w.verdict);
                         let u = w.uncertainty.as_ref().map(|(u, _)| u);
                         let (healthy_max, false_faults, covered) =
@@ -387,17 +383,6 @@ fn fly_windows(
         }
     }
     Ok(rows)
-}
-
-/// Whether a window's reading enters its flight's: identified, or named only because its
-/// friction alone is too loose ([`WindowReason::TurbulenceTooHigh`]) — its evidence is
-/// sound, just not enough on its own. A window that does not fit, cannot see the play, or
-/// flew a manoeuvre or a saturated current adds nothing.
-pub fn fusable(verdict: &Result<(), WindowReason>) -> bool {
-    matches!(
-        verdict,
-        Ok(()) | Err(WindowReason::TurbulenceTooHigh { .. })
-    )
 }
 
 /// Index of the eccentricity's phase in a fault vector.

@@ -14,13 +14,14 @@ use plotters::prelude::*;
 use rayon::prelude::*;
 use shared::actuator::ActuatorRecord;
 use shared::domain::DomainLimits;
+use shared::fusion::{WindowFusion, FLIGHT_MAX_FRICTION_STD};
 use shared::fault::{FAULT_COUNT, FAULT_NAMES};
 use shared::health::{HealthRecord, RecordedDay};
 use shared::prognosis::{FaultTrend, Growth, HealthTrend, TrendEstimate, TrendSettings};
 use shared::{ActuatorParams, Calibration, FaultVector};
 
 use crate::fdi::identify::identify;
-use crate::fdi::window::identify_window;
+use crate::fdi::window::{flight_entry, identify_window, WindowIdentified};
 use crate::files::health::{HistoryRow, Intrusion};
 use crate::plant::aero::FlightWindow;
 use crate::plant::reference::{Anomaly, ReferenceModel, ReferenceSettings, Scenario};
@@ -165,8 +166,10 @@ pub fn flown_window(seed: u64, flight: u32, n: u8) -> FlightWindow {
 /// flies that many windows ([`flown_window`]: the reference model flying the surface with
 /// the chirp superimposed, the same actuator and I_ref noise), each identified in flight
 /// ([`identify_window`]) and kept as an in-flight entry ([`HealthRecord::window`] 1, 2, …;
-/// `Outside` windows with their reason). Rows in (flight, window) order. `tick` is called
-/// after each flight.
+/// `Outside` windows with their reason); from two windows on, the flight's reading from
+/// those that enter (`shared::fusion`) follows them ([`flight_entry`], window
+/// `FLIGHT_READING`; none when no window entered). Rows in (flight, window) order. `tick`
+/// is called after each flight.
 pub fn degrade(
     path: &DegradationPath,
     noise: f64,
@@ -210,6 +213,8 @@ pub fn degrade(
                 truth: Some(truth),
                 intrusion: intruded,
             }];
+            let mut fusion = WindowFusion::EMPTY;
+            let mut entered = Vec::new();
             for n in 1..=windows {
                 let w_seed = rm_seed.wrapping_add(7_919 * u64::from(n));
                 let sim = flying
@@ -226,6 +231,19 @@ pub fn degrade(
                     truth: Some(truth),
                     intrusion: None,
                 });
+                if w.enter(&mut fusion) {
+                    entered.push(w);
+                }
+            }
+            if windows >= 2 {
+                if let Ok(reading) = fusion.reading(FLIGHT_MAX_FRICTION_STD) {
+                    let entered: Vec<&WindowIdentified> = entered.iter().collect();
+                    rows.push(HistoryRow {
+                        record: flight_entry(flight, &reading, &entered),
+                        truth: Some(truth),
+                        intrusion: None,
+                    });
+                }
             }
             tick();
             Ok(rows)
@@ -446,6 +464,7 @@ pub fn history_svg(
         // (flight, level, trusted, in flight)
         let obs: Vec<(f64, f64, bool, bool)> = rows
             .iter()
+            .filter(|r| !r.record.is_window())
             .filter_map(|r| {
                 let d = r.record.faults.deviations()[i]?;
                 Some((
@@ -533,7 +552,7 @@ pub fn history_svg(
                         .map(|&(x, y, ..)| Circle::new((x, y), 3, MAGENTA.stroke_width(1))),
                 )
                 .map_err(e)?
-                .label("identified in flight")
+                .label("flight's reading (its windows fused)")
                 .legend(|(x, y)| Circle::new((x + 10, y), 3, MAGENTA.stroke_width(1)));
         }
         chart
@@ -620,7 +639,8 @@ impl EvalScenario {
             .collect();
         let windows = match windows {
             0 => String::new(),
-            w => format!("-{w}win"),
+            // Flights' readings from their windows (none before them: another name).
+            w => format!("-{w}win-fused"),
         };
         format!("{slug}-{flights}fl{windows}-ood{intrusions}-seed{seed}.csv")
     }
@@ -788,7 +808,7 @@ fn scatter_markdown(scatter: &[[Scatter; FAULT_COUNT]; 2]) -> String {
     let mut out = String::from(
         "\nErrors against stated deviations, every trusted reading with one (deviations \
          from nominal; σ not below the noise floor):\n\n\
-         | component | preflights | RMS error | RMS stated σ | in flight | RMS error | RMS stated σ | in-flight σ this many times as optimistic |\n\
+         | component | preflights | RMS error | RMS stated σ | flights' readings | RMS error | RMS stated σ | a flight's σ this many times as optimistic |\n\
          | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n",
     );
     for (i, f) in factors.iter().enumerate() {
@@ -819,10 +839,13 @@ pub struct Evaluation {
     pub tracks: Vec<Track>,
     /// With in-flight windows: the same runs' tracks from their preflights alone.
     pub preflight_only: Vec<Track>,
-    /// In-flight entries: identified (within) and all.
+    /// Windows of flight: identified (within) and all.
     pub windows: (u32, u32),
-    /// Errors against stated deviations per component: preflights `[0]`, in-flight
-    /// entries `[1]`.
+    /// Flights' readings from their windows: within (the trend's in-flight entries) and all
+    /// (the others `unconfirmed` or `turbulence_too_high`).
+    pub flights_read: (u32, u32),
+    /// Errors against stated deviations per component: preflights `[0]`, flights'
+    /// readings `[1]`.
     pub scatter: [[Scatter; FAULT_COUNT]; 2],
     pub intrusions: IntrusionCount,
     /// Runs simulated now, and runs read from the cache folder.
@@ -935,7 +958,8 @@ pub fn evaluate(
                     rows
                 }
             };
-            for r in &rows {
+            // Preflights `[0]` and flights' readings `[1]`: the entries the trend takes.
+            for r in rows.iter().filter(|r| !r.record.is_window()) {
                 for (i, s) in eval.scatter[usize::from(r.record.window != 0)]
                     .iter_mut()
                     .enumerate()
@@ -952,9 +976,21 @@ pub fn evaluate(
             eval.tracks
                 .extend(tracks_of(sc, &path, seed, &rows, settings));
             if preflights.len() < rows.len() {
-                let flown = rows.iter().filter(|r| r.record.window != 0);
-                eval.windows.0 += flown.clone().filter(|r| r.record.is_trusted()).count() as u32;
-                eval.windows.1 += flown.count() as u32;
+                let count = |kind: fn(&HealthRecord) -> bool| {
+                    let entries = rows.iter().filter(|r| kind(&r.record));
+                    (
+                        entries.clone().filter(|r| r.record.is_trusted()).count() as u32,
+                        entries.count() as u32,
+                    )
+                };
+                let (windows, flights) = (
+                    count(HealthRecord::is_window),
+                    count(|r| r.window == shared::health::FLIGHT_READING),
+                );
+                eval.windows.0 += windows.0;
+                eval.windows.1 += windows.1;
+                eval.flights_read.0 += flights.0;
+                eval.flights_read.1 += flights.1;
                 eval.preflight_only
                     .extend(tracks_of(sc, &path, seed, &preflights, settings));
             }
@@ -1210,10 +1246,13 @@ pub fn eval_markdown(eval: &Evaluation, alpha: f64) -> String {
     );
     if !eval.preflight_only.is_empty() {
         let (within, flown) = eval.windows;
+        let (read, flights) = eval.flights_read;
         out += &scatter_markdown(&eval.scatter);
         out += &format!(
-            "\nThe same runs from their preflights alone (the {flown} in-flight entries left \
-             out; {within} of them identified, the others `Outside`):\n\n"
+            "\nThe same runs from their preflights alone (the {read} flights' readings left \
+             out: of {flights} flights with a window that entered, the others `unconfirmed` or \
+             `turbulence_too_high`; of the {flown} windows {within} identified, the others \
+             `Outside`):\n\n"
         );
         out += &summary(
             "",
