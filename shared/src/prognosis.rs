@@ -196,12 +196,12 @@ impl TrendSettings {
         // evaluation's seeds 0–2 (0.004–0.008 against 0.01–0.02: interval coverage 85–95 %)
         // and checked on seeds 3–5 (docs/prognostics.md).
         noise_floor: 0.005,
-        // An in-flight entry's readings against what it states, over a preflight's: 4.61 for
-        // the gain drift, the most optimistic component (friction 4.36), on the evaluation's
-        // seed 0 with one window per flight, the window identification as it is now (its GA
-        // at 600 evaluations; its intervals widened by `window::WINDOW_INFLATION`; 4.38 and
-        // a scale of 4.5 before, 6.8 before the widening), rounded up to a half
-        // (docs/prognostics.md, "In-flight entries").
+        // A flight's reading against what it states, over a preflight's: 4.57 for friction,
+        // the most optimistic component (eccentricity 3.88, gain drift 3.53), on the
+        // evaluation's seed 0 with four windows per flight fused into its reading (420
+        // readings `within`), rounded up to a half; before flights' readings, one window's
+        // own entry per flight gave 4.61 (gain drift) and the same 5 (docs/prognostics.md,
+        // "In-flight entries").
         flight_scale: 5.0,
         // Mean errors of 0.011–0.018 on the Table II and random multi-fault vectors
         // (docs/accuracy.md): the level-correlated part of a test's error, which a history
