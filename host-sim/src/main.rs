@@ -198,12 +198,17 @@ enum Command {
         #[arg(long, conflicts_with_all = ["table", "plot", "conditions"])]
         wind: bool,
         /// The FDI on windows of flight (issue 36): the healthy actuator, friction 0.2 and
-        /// Table II medium in climb, cruise and approach, light and moderate turbulence; each
-        /// window identified by the window identification (recorded command, fitted hinge
-        /// load, the window's verdicts, accuracy) and read by the preflight FDI (verdicts by
-        /// reason: none should be `within`).
-        #[arg(long, conflicts_with_all = ["table", "plot", "conditions", "wind"])]
+        /// Table II medium (with --table 1: the paper's Table I; 2: Table II without its
+        /// noise case, and the healthy actuator) in climb, cruise and approach (--phase),
+        /// light and moderate turbulence; each window identified by the window
+        /// identification (recorded command, fitted hinge load, the window's verdicts,
+        /// accuracy) and read by the preflight FDI (verdicts by reason: none should be
+        /// `within`).
+        #[arg(long, conflicts_with_all = ["plot", "conditions", "wind"])]
         flight: bool,
+        /// With --flight: only these phases (comma-separated; all three by default).
+        #[arg(long, requires = "flight", value_enum, value_delimiter = ',')]
+        phase: Vec<FlightPhase>,
         /// With --flight: the superimposed test's study instead — the window's chirp at each
         /// of these amplitudes [mrad, comma-separated], in cruise, light and moderate
         /// turbulence, the healthy actuator and friction 0.2 (docs/in-flight.md §5).
@@ -659,6 +664,7 @@ fn main() -> ExitCode {
             test_amplitudes,
             first_seed,
             flight_windows,
+            phase,
             runs,
             out,
             runs_csv,
@@ -673,7 +679,11 @@ fn main() -> ExitCode {
                 flight_campaign_command(
                     &actuator,
                     seeds,
-                    flight_windows,
+                    &FlightCampaignRun {
+                        table,
+                        phases: &phase,
+                        per_flight: flight_windows,
+                    },
                     test_amplitudes.as_deref(),
                     out.as_deref(),
                     runs_csv.as_deref(),

@@ -6,7 +6,7 @@
 //! fused is right where it is `within`; a window keeps its mark in a trace file.
 
 use host_sim::plant::reference::{ReferenceModel, ReferenceSettings};
-use host_sim::studies::flight::flight_campaign;
+use host_sim::studies::flight::{flight_campaign, ALL_WINDOWS, FLIGHT_CASES};
 use shared::actuator::ActuatorRecord;
 use shared::domain::Domain;
 
@@ -14,8 +14,16 @@ use shared::domain::Domain;
 fn no_flight_window_is_read_within() {
     let rm = ReferenceModel::new(ReferenceSettings::REFERENCE);
     // One flight of two windows per row.
-    let rows = flight_campaign(&rm, &ActuatorRecord::REFERENCE, 0..1, 2, |_| {})
-        .expect("the campaign runs");
+    let rows = flight_campaign(
+        &rm,
+        &ActuatorRecord::REFERENCE,
+        0..1,
+        2,
+        &ALL_WINDOWS,
+        &FLIGHT_CASES,
+        |_| {},
+    )
+    .expect("the campaign runs");
     assert_eq!(rows.len(), 18);
     for row in &rows {
         assert_eq!((row.runs.len(), row.flights.len()), (2, 1));

@@ -272,14 +272,15 @@ fn degrade_with_windows_writes_each_flights_reading_and_the_trend_takes_it() {
     assert_eq!(&header[..4], ["flight", "window", "fused", "friction"]);
     let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
     let (domain, true_friction) = (col("domain"), col("true_friction"));
-    let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
     let mut trended = 0;
     let mut flights_read = 0;
     for flight in 0..4 {
-        let of: Vec<&Vec<&str>> = rows
-            .iter()
-            .filter(|r| r[0] == flight.to_string())
-            .collect();
+        let of: Vec<&Vec<&str>> = rows.iter().filter(|r| r[0] == flight.to_string()).collect();
         let windows: Vec<&str> = of.iter().map(|r| r[1]).collect();
         assert!(
             windows[..4] == ["0", "1", "2", "3"] && of.len() <= 5,

@@ -565,7 +565,10 @@ impl HealthRecord {
         match (
             DomainCode::from_byte(domain),
             FaultVector::new(k),
-            (reserved, window_reserved as u8 == FLIGHT_READING || window_reserved >> 8 == 0),
+            (
+                reserved,
+                window_reserved as u8 == FLIGHT_READING || window_reserved >> 8 == 0,
+            ),
             fitness.is_finite(),
         ) {
             (Some(domain), Ok(faults), (0, true), true) => Ok(Self {

@@ -1077,8 +1077,13 @@ mod tests {
         let at = |f: u32, friction: f32| {
             let mut k = *FaultVector::NOMINAL.as_array();
             k[0] = friction;
-            HealthRecord::new(f, FaultVector::new(k).unwrap(), 0.01, crate::domain::Domain::Within)
-                .with_std([0.02; FAULT_COUNT])
+            HealthRecord::new(
+                f,
+                FaultVector::new(k).unwrap(),
+                0.01,
+                crate::domain::Domain::Within,
+            )
+            .with_std([0.02; FAULT_COUNT])
         };
         let mut with_windows = HealthTrend::new();
         let mut preflights = HealthTrend::new();

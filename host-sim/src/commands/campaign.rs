@@ -304,18 +304,57 @@ pub(crate) fn wind_campaign_command(
 
 /// `campaign --flight`: the window identification and the preflight FDI on flight windows
 /// (`host_sim::studies::flight`).
+/// What `campaign --flight` flies: the cases (`--table`, else `FLIGHT_CASES`), the
+/// phases (`--phase`, else all three) and the windows per flight.
+pub(crate) struct FlightCampaignRun<'a> {
+    pub table: Option<CampaignTable>,
+    pub phases: &'a [FlightPhase],
+    pub per_flight: u32,
+}
+
+/// The flight campaign's cases for `table`: Table I, or Table II without its noise case (a
+/// window's noise is its turbulence) and the healthy actuator; none: the healthy actuator,
+/// friction 0.2 and Table II medium.
+fn flight_cases(table: Option<CampaignTable>) -> Result<Vec<(&'static str, [f32; FAULT_COUNT])>> {
+    use host_sim::studies::campaign::{HEALTHY, TABLE_2};
+    use host_sim::studies::flight::FLIGHT_CASES;
+    let of = |cases: &[host_sim::studies::campaign::Case]| -> Vec<_> {
+        cases
+            .iter()
+            .filter(|c| c.noise == 0.0)
+            .map(|c| (c.name, c.faults))
+            .collect()
+    };
+    Ok(match table {
+        None => FLIGHT_CASES.to_vec(),
+        Some(CampaignTable::One) => of(&TABLE_1),
+        Some(CampaignTable::Two) => of(&[TABLE_2.as_slice(), &[HEALTHY]].concat()),
+        Some(other) => anyhow::bail!(
+            "--table {}: the flight campaign flies Table I (1) or Table II (2) only",
+            match other {
+                CampaignTable::Random => "random",
+                _ => "demagnetization",
+            }
+        ),
+    })
+}
+
 pub(crate) fn flight_campaign_command(
     actuator: &Actuator,
     seeds: std::ops::Range<u64>,
-    per_flight: u32,
+    run: &FlightCampaignRun,
     amplitudes: Option<&[f64]>,
     out: Option<&Path>,
     runs_csv: Option<&Path>,
 ) -> Result<()> {
     let runs = seeds.end - seeds.start;
+    let per_flight = run.per_flight;
     if let Some(amplitudes) = amplitudes {
         if runs_csv.is_some() {
             anyhow::bail!("--runs-csv: not written by the --test-amplitudes study");
+        }
+        if run.table.is_some() || !run.phases.is_empty() {
+            anyhow::bail!("--table, --phase: not taken by the --test-amplitudes study (cruise, healthy and friction 0.2)");
         }
         use host_sim::studies::flight::{amplitude_markdown, test_amplitude_study};
         if amplitudes
@@ -342,22 +381,36 @@ pub(crate) fn flight_campaign_command(
         return report_table(&amplitude_markdown(&study, &actuator.name), start, out);
     }
     use host_sim::studies::flight::{
-        flight_campaign, flight_markdown, flight_runs_csv, FLIGHT_CASES,
+        flight_campaign, flight_markdown, flight_runs_csv, ALL_WINDOWS,
     };
+    let cases = flight_cases(run.table)?;
+    let windows: Vec<FlightWindow> = ALL_WINDOWS
+        .iter()
+        .filter(|w| run.phases.is_empty() || run.phases.contains(&w.phase))
+        .copied()
+        .collect();
     let rm = ReferenceModel::new(actuator.reference_settings()?);
     let start = Instant::now();
-    let total = 6 * FLIGHT_CASES.len();
+    let total = windows.len() * cases.len();
     let mut done = 0;
-    let rows = flight_campaign(&rm, &actuator.record, seeds, per_flight, |row| {
-        done += 1;
-        eprintln!(
-            "[{done}/{total}] {} in {:?}, {:?} turbulence ({:.0} s)",
-            row.case,
-            row.window.phase,
-            row.window.turbulence,
-            start.elapsed().as_secs_f64()
-        );
-    })?;
+    let rows = flight_campaign(
+        &rm,
+        &actuator.record,
+        seeds,
+        per_flight,
+        &windows,
+        &cases,
+        |row| {
+            done += 1;
+            eprintln!(
+                "[{done}/{total}] {} in {:?}, {:?} turbulence ({:.0} s)",
+                row.case,
+                row.window.phase,
+                row.window.turbulence,
+                start.elapsed().as_secs_f64()
+            );
+        },
+    )?;
     if let Some(path) = runs_csv {
         std::fs::write(path, flight_runs_csv(&rows))
             .with_context(|| format!("writing {}", path.display()))?;

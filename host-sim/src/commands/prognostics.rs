@@ -61,8 +61,10 @@ pub(crate) fn degrade_command(
         rows.iter().filter(|r| r.record.window == 0).collect();
     let flown: Vec<&health_file::HistoryRow> =
         rows.iter().filter(|r| r.record.is_window()).collect();
-    let read: Vec<&health_file::HistoryRow> =
-        rows.iter().filter(|r| r.record.window == FLIGHT_READING).collect();
+    let read: Vec<&health_file::HistoryRow> = rows
+        .iter()
+        .filter(|r| r.record.window == FLIGHT_READING)
+        .collect();
     let outside = preflights.iter().filter(|r| !r.record.is_trusted()).count();
     let in_flight = if flown.is_empty() {
         String::new()

@@ -107,8 +107,7 @@ pub fn flight_entry(
     reading: &FlightReading,
     entered: &[&WindowIdentified],
 ) -> HealthRecord {
-    let fitness =
-        entered.iter().map(|w| w.fitness).sum::<f32>() / entered.len().max(1) as f32;
+    let fitness = entered.iter().map(|w| w.fitness).sum::<f32>() / entered.len().max(1) as f32;
     let day = entered
         .first()
         .map_or(RecordedDay::UNKNOWN, |w| RecordedDay::of(&w.conditions));

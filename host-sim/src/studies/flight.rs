@@ -127,13 +127,16 @@ const fn window(phase: FlightPhase, turbulence: Turbulence) -> FlightWindow {
     FlightWindow { phase, turbulence }
 }
 
-/// Every case in every phase and turbulence, one flight per seed of `seeds` with
-/// `per_flight` windows (fused into the flight's reading when more than one).
+/// Every case of `cases` ([`FLIGHT_CASES`] by default) in every phase and turbulence of
+/// `windows` ([`ALL_WINDOWS`] by default), one flight per seed of `seeds` with `per_flight`
+/// windows (fused into the flight's reading when more than one).
 pub fn flight_campaign(
     rm: &ReferenceModel,
     record: &ActuatorRecord,
     seeds: std::ops::Range<u64>,
     per_flight: u32,
+    windows: &[FlightWindow],
+    cases: &[(&'static str, [f32; shared::FAULT_COUNT])],
     progress: impl FnMut(&FlightRow),
 ) -> Result<Vec<FlightRow>> {
     fly_windows(
@@ -142,8 +145,8 @@ pub fn flight_campaign(
         &flight_record(record),
         seeds,
         per_flight,
-        &ALL_WINDOWS,
-        &FLIGHT_CASES,
+        windows,
+        cases,
         progress,
     )
 }
