@@ -138,6 +138,12 @@ enum Command {
         /// whose verdict sets the exit status. Windows must not overlap.
         #[arg(long, value_name = "WINDOW")]
         same_flight: Vec<PathBuf>,
+        /// With a window of flight: the same flight's preflight trace. It is identified
+        /// first; when `within`, the windows hold the stator shorts at its reading (a window
+        /// has no standstill segment and cannot tell a short from an eccentricity,
+        /// docs/in-flight.md §4). Without it the window reads the shorts itself.
+        #[arg(long, value_name = "PREFLIGHT")]
+        preflight: Option<PathBuf>,
         /// Calibration file from `calibrate` (default: the built-in calibration against this
         /// project's reference model).
         #[arg(long)]
@@ -626,6 +632,7 @@ fn main() -> ExitCode {
         Command::Identify {
             trace,
             same_flight,
+            preflight,
             calibration,
             seed,
             truth,
@@ -642,7 +649,10 @@ fn main() -> ExitCode {
             identify_command(
                 &actuator,
                 &trace,
-                &same_flight,
+                &FlightFiles {
+                    same_flight: &same_flight,
+                    preflight: preflight.as_deref(),
+                },
                 calibration.as_deref(),
                 seed,
                 truth,

@@ -84,7 +84,14 @@ fn approach_windows_are_identified_or_named() {
             "the window's trace is marked a window of flight"
         );
         let measured = sim.trace.measured(&record.params).expect("conditioned");
-        let id = identify_window(&sim.trace, &measured, &record, 1).expect("identified");
+        let id = identify_window(
+            &sim.trace,
+            &measured,
+            &record,
+            shared::window::HeldComponents::NONE,
+            1,
+        )
+        .expect("identified");
         // The window's picture: every sample, and the fitted series closer to the measured
         // current than the model before the drift (the drift is fitted, it cannot be worse).
         let points = host_sim::fdi::window::window_series(&sim.trace, &measured, &record, &id)

@@ -424,8 +424,9 @@ impl FaultTrend {
 
     /// Adds the level `value` observed at `flight`'s preflight (`in_flight` false) or in
     /// flight (an in-flight entry, taken at its flight: the wear of one flight is nil), with
-    /// the identification's standard deviation `std` (`None`: not known; not below
-    /// [`TrendSettings::noise_floor`]; an in-flight entry's then counts
+    /// the identification's standard deviation `std` (not below
+    /// [`TrendSettings::noise_floor`]; `None`: not known, the floor — an in-flight entry
+    /// without one is ignored, not read in flight; an in-flight entry's counts
     /// [`TrendSettings::flight_scale`] times). Flights must not go
     /// back, and a preflight must be newer than every observation: an older flight, a
     /// repeated preflight or a non-finite value is ignored (returns false). O(MODEL_COUNT).
@@ -437,7 +438,10 @@ impl FaultTrend {
         std: Option<f32>,
         settings: &TrendSettings,
     ) -> bool {
+        // An in-flight component with no deviation was not read in flight (held at its
+        // preflight's, or undetermined): the preflight already counts it.
         if !value.is_finite()
+            || (in_flight && std.is_none())
             || (self.observations > 0
                 && (flight < self.newest || (flight == self.newest && !in_flight)))
         {
@@ -512,8 +516,9 @@ impl FaultTrend {
     }
 
     /// Adds component `i` of `record` (its deviation from nominal and its standard deviation):
-    /// a preflight, or a flight's reading as an in-flight entry; a window's own entry is
-    /// ignored (its flight's reading carries it). Whether the record is trusted is the
+    /// a preflight, or a flight's reading as an in-flight entry (each component it states a
+    /// deviation for: one it holds at its preflight's is the preflight's); a window's own
+    /// entry is ignored (its flight's reading carries it). Whether the record is trusted is the
     /// caller's to judge. Returns false when ignored (see [`Self::update`]).
     pub fn add(&mut self, record: &HealthRecord, i: usize, settings: &TrendSettings) -> bool {
         if record.is_window() {
@@ -1038,10 +1043,12 @@ mod tests {
         assert_eq!(t.observations(), 1);
         // In-flight entries count at their flight, after its preflight, as many as flown; a
         // later preflight must still be newer, and nothing goes back.
-        assert!(t.update(5, true, 0.11, None, &s));
-        assert!(t.update(5, true, 0.12, None, &s));
+        assert!(t.update(5, true, 0.11, Some(0.02), &s));
+        assert!(t.update(5, true, 0.12, Some(0.02), &s));
+        // Without a deviation an in-flight value was not read in flight.
+        assert!(!t.update(5, true, 0.12, None, &s));
         assert!(!t.update(5, false, 0.1, None, &s));
-        assert!(!t.update(4, true, 0.1, None, &s));
+        assert!(!t.update(4, true, 0.1, Some(0.02), &s));
         assert!(t.update(6, false, 0.1, None, &s));
         assert_eq!(t.observations(), 4);
     }
@@ -1098,10 +1105,23 @@ mod tests {
         }
         let friction = |t: &HealthTrend| t.fault(0).unwrap().observations();
         assert_eq!((friction(&with_windows), friction(&preflights)), (16, 8));
-        assert_eq!(with_windows.skipped(), 0);
+        // A flight's component it states no deviation for (held at its preflight's, or
+        // not determined) is not trended; its other components are.
+        let mut held = at(8, 0.18).flight_reading(2);
+        held.std = crate::health::ComponentStd::new({
+            let mut sd = [0.02; FAULT_COUNT];
+            sd[0] = f32::NAN;
+            sd
+        });
+        with_windows.update(&at(8, 0.18), &s);
+        with_windows.update(&held, &s);
+        assert_eq!(friction(&with_windows), 17);
+        assert_eq!(with_windows.fault(7).unwrap().observations(), 18);
         let level = |t: &HealthTrend| t.estimates(&s)[0].unwrap().level;
+        assert_eq!(with_windows.skipped(), 0);
+        preflights.update(&at(8, 0.18), &s);
         let (a, b) = (level(&with_windows), level(&preflights));
-        assert!((a - b).abs() < 0.005 && (a - 0.17).abs() < 0.005, "{a} {b}");
+        assert!((a - b).abs() < 0.005 && (a - 0.18).abs() < 0.005, "{a} {b}");
     }
 
     #[test]

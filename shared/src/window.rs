@@ -246,6 +246,56 @@ pub enum WindowError {
     Singular,
 }
 
+/// Components a window does not identify but holds at values from outside it: the stator
+/// shorts at the same flight's preflight reading ([`HeldComponents::shorts_of`]). A window
+/// has no standstill segment, and without it a short's phase asymmetry and the rotor's
+/// eccentricity trade against each other (a short A of 0.2 read as an eccentricity of 0.4
+/// in cruise, docs/in-flight.md §4); the preflight's pair circuits tell the shorts apart,
+/// and they do not change within a flight. The GA's genes for held components are ignored,
+/// the curvature does not vary them (their deviations read "not determined").
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct HeldComponents {
+    held: [bool; FAULT_COUNT],
+    values: [f32; FAULT_COUNT],
+}
+
+impl HeldComponents {
+    /// Nothing held: every component identified from the window.
+    pub const NONE: Self = Self {
+        held: [false; FAULT_COUNT],
+        values: [0.0; FAULT_COUNT],
+    };
+
+    /// The three stator shorts (k3, k4, k5) held at `preflight`'s.
+    pub fn shorts_of(preflight: &FaultVector) -> Self {
+        let held: [bool; FAULT_COUNT] = core::array::from_fn(|i| SHORTS.contains(&i));
+        Self {
+            held,
+            values: *preflight.as_array(),
+        }
+    }
+
+    /// Whether component `i` is held.
+    pub fn holds(&self, i: usize) -> bool {
+        self.held.get(i).copied().unwrap_or(false)
+    }
+
+    /// `k` with the held components at their values. O(`FAULT_COUNT`).
+    pub fn apply(&self, k: &FaultVector) -> FaultVector {
+        let mut genes = *k.as_array();
+        for ((g, &h), &v) in genes.iter_mut().zip(&self.held).zip(&self.values) {
+            if h {
+                *g = v;
+            }
+        }
+        FaultVector::saturating(genes)
+    }
+}
+
+/// Indices of the stator shorts A, B, C in a fault vector.
+const SHORTS: [usize; 3] = [2, 3, 4];
+
 /// Eq. (3) over one window with the drift profiled out: what the GA minimises in flight.
 #[derive(Clone, Debug)]
 pub struct WindowProblem<'a, const N: usize> {
@@ -266,6 +316,8 @@ pub struct WindowProblem<'a, const N: usize> {
     peak_current: f32,
     /// The command's range over the window [rad].
     command_range: f32,
+    /// Components held at values from outside the window.
+    held: HeldComponents,
 }
 
 /// Bonnet's recurrence `(n + 1)·P(n+1) = (2n + 1)·x·P(n) − n·P(n−1)` as the two factors of
@@ -445,6 +497,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
                 .take(samples)
                 .fold(0.0f32, |m, &x| m.max(abs(x))),
             command_range: hi - lo,
+            held: HeldComponents::NONE,
         };
         problem.energy = problem.residual_fit(&[0.0; DRIFT_TERMS], |_, _| 0.0).error;
         Ok(problem)
@@ -456,6 +509,17 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
 
     pub fn model(&self) -> &MonitorModel {
         &self.model
+    }
+
+    /// The same problem with `held` components held ([`HeldComponents`]).
+    pub fn with_held(mut self, held: HeldComponents) -> Self {
+        self.held = held;
+        self
+    }
+
+    /// The components held at values from outside the window.
+    pub fn held(&self) -> &HeldComponents {
+        &self.held
     }
 
     /// The same problem under another load.
@@ -491,6 +555,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
 
     /// As [`evaluate`](Self::evaluate) under `load`.
     pub fn evaluate_under(&self, k: &FaultVector, load: WindowLoad) -> WindowFit {
+        let k = &self.held.apply(k);
         let model = self.model.with_load_stiffness(load.stiffness);
         let start = self.measured.initial_angles();
         let first = self.command.position_at(0);
@@ -612,7 +677,8 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
     /// matrix, `C` their cross terms with the faults): an interval then includes what the
     /// window cannot tell from its load (a moment against friction). Twelve model runs, no
     /// storage of residuals; f32 products summed in blocks joined in f64. For the window's
-    /// uncertainty and its polish.
+    /// uncertainty and its polish. A held component ([`HeldComponents`]) is not varied: its
+    /// column is zero, its deviation not determined.
     pub fn curvature(&self, k: &FaultVector) -> Curvature {
         run_to_end(self.curvature_stepwise(k))
     }
@@ -621,6 +687,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
     /// [`CURVATURE_CHUNK`] samples of the twelve lockstep runs.
     #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // indices < FAULT_COUNT, NUISANCES on fixed arrays
     pub async fn curvature_stepwise(&self, k: &FaultVector) -> Curvature {
+        let k = &self.held.apply(k);
         let load = self.load;
         let start = self.measured.initial_angles();
         let first = self.command.position_at(0);
@@ -633,7 +700,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             core::array::from_fn(|j| {
                 let mut genes = *k.as_array();
                 let (mut stiffness, mut moment) = (load.stiffness, load.moment);
-                if (1..=FAULT_COUNT).contains(&j) {
+                if (1..=FAULT_COUNT).contains(&j) && !self.held.holds(j - 1) {
                     let c = j - 1;
                     let x = genes[c];
                     let shifted = if x + STEP <= 1.0 { x + STEP } else { x - STEP };
@@ -893,6 +960,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
     /// [s], the measured current, the model's and the model's with the profiled drift [A]
     /// (all filtered alike), handed to `sink`. Two model runs (the drift, then the trace).
     pub fn fitted(&self, k: &FaultVector, mut sink: impl FnMut(f32, f32, f32, f32)) {
+        let k = &self.held.apply(k);
         let load = self.load;
         let drift = self.evaluate_under(k, load).drift;
         let model = self.model.with_load_stiffness(load.stiffness);
@@ -1288,7 +1356,12 @@ async fn search_stepwise<const N: usize, const P: usize>(
             break;
         }
     }
-    Ok((FaultVector::saturating(ga.best().genes), ga.evaluations()))
+    Ok((
+        problem
+            .held
+            .apply(&FaultVector::saturating(ga.best().genes)),
+        ga.evaluations(),
+    ))
 }
 
 /// Records what the controller would measure over a window of flight if the actuator

@@ -226,11 +226,73 @@ pub(crate) fn conditions_text(c: &shared::conditions::TestConditions) -> String 
     )
 }
 
+/// The other files of a window's flight: further windows, and its preflight.
+pub(crate) struct FlightFiles<'a> {
+    pub same_flight: &'a [std::path::PathBuf],
+    pub preflight: Option<&'a Path>,
+}
+
+/// The components the windows of a flight hold: the stator shorts at the reading of the
+/// flight's `preflight` trace when it is `within`, with a line for the report that says so.
+fn held_from_preflight(
+    actuator: &Actuator,
+    preflight: Option<&Path>,
+    seed: u64,
+) -> Result<(shared::window::HeldComponents, String)> {
+    let Some(path) = preflight else {
+        return Ok((
+            shared::window::HeldComponents::NONE,
+            "shorts read from the window (no --preflight: a window cannot tell a short from \
+             an eccentricity)"
+                .into(),
+        ));
+    };
+    let trace = actuator.read_trace(path)?;
+    if trace.is_flight() {
+        anyhow::bail!(
+            "--preflight {}: a window of flight, not a preflight",
+            path.display()
+        );
+    }
+    held_from_preflight_trace(actuator, &trace, &path.display().to_string(), seed)
+}
+
+/// [`held_from_preflight`] of a preflight `trace` named `name`.
+pub(crate) fn held_from_preflight_trace(
+    actuator: &Actuator,
+    trace: &host_sim::files::trace::Trace,
+    name: &str,
+    seed: u64,
+) -> Result<(shared::window::HeldComponents, String)> {
+    use shared::window::HeldComponents;
+    let record = actuator.record;
+    let measured = trace.measured(&record.params)?;
+    let id = host_sim::fdi::identify::identify_for(&measured, &record, seed, false)?;
+    let domain = id.domain(&trace.domain_monitor(&record.params), &record.domain);
+    if domain != Domain::Within {
+        return Ok((
+            HeldComponents::NONE,
+            format!(
+                "shorts read from the window: the preflight {name} is outside ({})",
+                shared::health::DomainCode::from(domain).name()
+            ),
+        ));
+    }
+    let k = id.result.faults.as_array();
+    Ok((
+        HeldComponents::shorts_of(&id.result.faults),
+        format!(
+            "shorts held at the preflight's ({name}): A {:.3}, B {:.3}, C {:.3}",
+            k[2], k[3], k[4]
+        ),
+    ))
+}
+
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn identify_command(
     actuator: &Actuator,
     trace_path: &Path,
-    same_flight: &[std::path::PathBuf],
+    files: &FlightFiles,
     calibration: Option<&Path>,
     seed: u64,
     truth: Option<FaultVector>,
@@ -246,7 +308,8 @@ pub(crate) fn identify_command(
                 trace_path.display()
             );
         }
-        let others = same_flight
+        let others = files
+            .same_flight
             .iter()
             .map(|path| {
                 let other = actuator.read_trace(path)?;
@@ -260,17 +323,25 @@ pub(crate) fn identify_command(
                 Ok((path.display().to_string(), other))
             })
             .collect::<Result<Vec<_>>>()?;
+        let held = held_from_preflight(actuator, files.preflight, seed)?;
         return window_report(
             actuator,
             &trace,
             &trace_path.display().to_string(),
             &others,
+            &held,
             seed,
             truth,
             json,
         );
     }
-    if !same_flight.is_empty() {
+    if files.preflight.is_some() {
+        anyhow::bail!(
+            "--preflight: {} is a preflight, not a window of flight",
+            trace_path.display()
+        );
+    }
+    if !files.same_flight.is_empty() {
         anyhow::bail!(
             "--same-flight: {} is a preflight, not a window of flight; only windows are fused",
             trace_path.display()
@@ -358,11 +429,13 @@ pub(crate) fn identify_command(
 /// (further windows of the same flight, each a source name and its trace), each of them in a
 /// line and the flight's reading from all of them fused (`shared::fusion`), whose verdict
 /// then sets the exit status.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn window_report(
     actuator: &Actuator,
     trace: &host_sim::files::trace::Trace,
     source: &str,
     others: &[(String, host_sim::files::trace::Trace)],
+    (held, held_line): &(shared::window::HeldComponents, String),
     seed: u64,
     truth: Option<FaultVector>,
     json: bool,
@@ -372,7 +445,7 @@ pub(crate) fn window_report(
     let record = flight_record(&actuator.record);
     let measured = trace.measured(&record.params)?;
     let start = std::time::Instant::now();
-    let id = host_sim::fdi::window::identify_window(trace, &measured, &record, seed)?;
+    let id = host_sim::fdi::window::identify_window(trace, &measured, &record, *held, seed)?;
     let mut fusion = WindowFusion::EMPTY;
     let mut windows = Vec::new();
     for (i, (name, window)) in std::iter::once((source, trace))
@@ -383,7 +456,7 @@ pub(crate) fn window_report(
             id.clone()
         } else {
             let measured = window.measured(&record.params)?;
-            host_sim::fdi::window::identify_window(window, &measured, &record, seed)?
+            host_sim::fdi::window::identify_window(window, &measured, &record, *held, seed)?
         };
         let fused = w.enter(&mut fusion);
         windows.push((name.to_string(), w, fused));
@@ -412,6 +485,7 @@ pub(crate) fn window_report(
             "moment": id.load.moment,
             "e_tot": e_tot,
             "seconds": seconds,
+            "shorts": held_line,
         });
         if let Some(flight) = &flight {
             obj["windows"] = windows
@@ -461,6 +535,7 @@ pub(crate) fn window_report(
         100.0 * id.misfit,
         100.0 * id.turbulence
     );
+    println!("{held_line}");
     let names = shared::fault::FAULT_NAMES;
     for (name, k) in names.iter().zip(id.faults.as_array()) {
         println!("  {name:<24} {k:.3}");

@@ -55,7 +55,13 @@ fn plot_window(
     use host_sim::studies::flight::{flight_record, window_reason};
     let record = flight_record(&actuator.record);
     let measured = trace.measured(&record.params)?;
-    let id = identify_window(trace, &measured, &record, seed)?;
+    let id = identify_window(
+        trace,
+        &measured,
+        &record,
+        shared::window::HeldComponents::NONE,
+        seed,
+    )?;
     let points = window_series(trace, &measured, &record, &id)?;
     let title = format!(
         "{} (window of flight): {} — k = [{}]",

@@ -122,11 +122,24 @@ pub(crate) fn preflight(
         let truth = sim
             .demagnetization
             .truth(&sim.faults, actuator.params().pole_pairs as u32);
+        // The same flight's preflight, on the ground: the windows hold its shorts.
+        let ground = Simulated {
+            flight: None,
+            ..*sim
+        };
+        let (preflight, _) = simulate_scenario(actuator, &ground)?;
+        let held = crate::commands::identify::held_from_preflight_trace(
+            actuator,
+            &preflight,
+            "the reference model's preflight on the ground",
+            ga_seed,
+        )?;
         return crate::commands::identify::window_report(
             actuator,
             &trace,
             "the reference model's window",
             &[],
+            &held,
             ga_seed,
             Some(truth),
             json,

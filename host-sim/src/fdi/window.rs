@@ -16,8 +16,8 @@ use shared::fusion::{FlightReading, WindowFusion};
 use shared::health::{HealthRecord, RecordedDay};
 use shared::uncertainty::{Assessment, Uncertainty};
 use shared::window::{
-    RecordedCommand, WindowLimits, WindowLoad, WindowProblem, WindowReason, COMMAND_STRIDE,
-    WINDOW_INFLATION,
+    HeldComponents, RecordedCommand, WindowLimits, WindowLoad, WindowProblem, WindowReason,
+    COMMAND_STRIDE, WINDOW_INFLATION,
 };
 use shared::{FaultVector, MonitorModel, FAULT_COUNT};
 
@@ -183,17 +183,21 @@ pub fn window_series(
 }
 
 /// Identifies the faults behind a window of flight recorded in `trace`, conditioned into
-/// `measured`, with the actuator `record` (its chirp-only test).
+/// `measured`, with the actuator `record` (its chirp-only test), the `held` components at
+/// values from outside the window (`HeldComponents::shorts_of` the same flight's preflight
+/// reading, when it was `within`; `HeldComponents::NONE` without one).
 pub fn identify_window(
     trace: &Trace,
     measured: &OnboardMeasured,
     record: &ActuatorRecord,
+    held: HeldComponents,
     seed: u64,
 ) -> Result<WindowIdentified> {
     let command = recorded_command(trace);
     let guess = record.params.aero_stiffness;
     let (problem, conditions) =
         window_problem(&command, measured, record, WindowLoad::spring(guess, 0.0))?;
+    let problem = problem.with_held(held);
     let reading = shared::window::identify::<_, POPULATION>(
         &problem,
         shared::window::window_ga(&record.ga),

@@ -22,7 +22,7 @@ use crate::plant::aero::{FlightPhase, FlightWindow, Turbulence};
 use crate::plant::reference::{ReferenceModel, Scenario};
 use shared::fusion::{WindowFusion, FLIGHT_MAX_FRICTION_STD};
 use shared::uncertainty::{Assessment, Uncertainty};
-use shared::window::WindowReason;
+use shared::window::{HeldComponents, WindowReason};
 
 /// The cases: the healthy actuator, friction 0.2 and Table II medium.
 pub const FLIGHT_CASES: [(&str, [f32; shared::FAULT_COUNT]); 3] = [
@@ -272,6 +272,13 @@ fn fly_windows(
                         &before.trace.domain_monitor(&ground_record.params),
                         &ground_record.domain,
                     ) == Domain::Within;
+                    // The window holds the shorts at the same flight's preflight reading
+                    // (a window cannot tell them from an eccentricity), when it is `within`.
+                    let held = if pre_within {
+                        HeldComponents::shorts_of(&pre.result.faults)
+                    } else {
+                        HeldComponents::NONE
+                    };
                     let agree = |u: Option<&Uncertainty>| match (u, &pre.uncertainty, pre_within) {
                         (Some(a), Some((b, _)), true) => agreement(a, b),
                         _ => (0, 0),
@@ -289,7 +296,7 @@ fn fly_windows(
                         let id = identify_for(&measured, &record, 1 + seed, false)?;
                         let domain =
                             id.domain(&sim.trace.domain_monitor(&record.params), &record.domain);
-                        let w = identify_window(&sim.trace, &measured, &record, 1 + seed)?;
+                        let w = identify_window(&sim.trace, &measured, &record, held, 1 + seed)?;
                         w.enter(&mut fusion);
                         first_reason.get_or_insert(w.verdict);
                         let u = w.uncertainty.as_ref().map(|(u, _)| u);

@@ -18,6 +18,7 @@ use shared::fault::{FAULT_COUNT, FAULT_NAMES};
 use shared::fusion::{WindowFusion, FLIGHT_MAX_FRICTION_STD};
 use shared::health::{HealthRecord, RecordedDay};
 use shared::prognosis::{FaultTrend, Growth, HealthTrend, TrendEstimate, TrendSettings};
+use shared::window::HeldComponents;
 use shared::{ActuatorParams, Calibration, FaultVector};
 
 use crate::fdi::identify::identify;
@@ -213,6 +214,13 @@ pub fn degrade(
                 truth: Some(truth),
                 intrusion: intruded,
             }];
+            // The windows hold the shorts at this flight's preflight reading when it is
+            // `within` (a window cannot tell them from an eccentricity).
+            let held = if domain == shared::domain::Domain::Within {
+                HeldComponents::shorts_of(&id.result.faults)
+            } else {
+                HeldComponents::NONE
+            };
             let mut fusion = WindowFusion::EMPTY;
             let mut entered = Vec::new();
             for n in 1..=windows {
@@ -225,7 +233,7 @@ pub fn degrade(
                         seed: w_seed,
                     });
                 let measured = sim.trace.measured(&window_record.params)?;
-                let w = identify_window(&sim.trace, &measured, &window_record, w_seed + 1)?;
+                let w = identify_window(&sim.trace, &measured, &window_record, held, w_seed + 1)?;
                 rows.push(HistoryRow {
                     record: w.record(flight, n),
                     truth: Some(truth),
