@@ -313,10 +313,10 @@ pub(crate) struct FlightCampaignRun<'a> {
 }
 
 /// The flight campaign's cases for `table`: Table I, or Table II without its noise case (a
-/// window's noise is its turbulence) and the healthy actuator; none: the healthy actuator,
-/// friction 0.2 and Table II medium.
+/// window's noise is its turbulence) and the healthy actuator (without the I_ref noise the
+/// ground campaign gives it); none: the healthy actuator, friction 0.2 and Table II medium.
 fn flight_cases(table: Option<CampaignTable>) -> Result<Vec<(&'static str, [f32; FAULT_COUNT])>> {
-    use host_sim::studies::campaign::{HEALTHY, TABLE_2};
+    use host_sim::studies::campaign::TABLE_2;
     use host_sim::studies::flight::FLIGHT_CASES;
     let of = |cases: &[host_sim::studies::campaign::Case]| -> Vec<_> {
         cases
@@ -328,7 +328,11 @@ fn flight_cases(table: Option<CampaignTable>) -> Result<Vec<(&'static str, [f32;
     Ok(match table {
         None => FLIGHT_CASES.to_vec(),
         Some(CampaignTable::One) => of(&TABLE_1),
-        Some(CampaignTable::Two) => of(&[TABLE_2.as_slice(), &[HEALTHY]].concat()),
+        Some(CampaignTable::Two) => {
+            let mut cases = of(&TABLE_2);
+            cases.push(FLIGHT_CASES[0]);
+            cases
+        }
         Some(other) => anyhow::bail!(
             "--table {}: the flight campaign flies Table I (1) or Table II (2) only",
             match other {
