@@ -74,9 +74,12 @@ const MOMENT_SCAN: usize = 81;
 /// the healthy actuator and friction 0.2, 162 identified windows), each component's 90th
 /// percentile of |error| / σ over [`crate::uncertainty::Z90`], rounded up to a tenth:
 /// friction 1.52 → 1.6, gain drift 1.40 → 1.4; the others' intervals already hold the
-/// truth in 98–100 % of windows and are left as they are (docs/in-flight.md §4). Reported
-/// on seeds 0–9.
-pub const WINDOW_INFLATION: [f32; FAULT_COUNT] = [1.6, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.4, 1.0];
+/// truth in 98–100 % of windows and are left as they are (docs/in-flight.md §4). Checked
+/// again with the shorts held at the preflight's ([`HeldComponents`]; same seeds, eight
+/// windows per flight, the 116 `within` first windows): friction ×0.97, gain drift ×1.08
+/// (its interval held the truth in 100 of 116: holding the shorts took their share of its
+/// deviation) → 1.4 × 1.08 = 1.51 → **1.6**. Reported on seeds 0–9.
+pub const WINDOW_INFLATION: [f32; FAULT_COUNT] = [1.6, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.6, 1.0];
 
 /// How often the controller keeps the command it followed over a window: every
 /// `COMMAND_STRIDE`-th sample (2.5 kHz at the reference's 10 kHz loop), linear in between
