@@ -440,3 +440,61 @@ fn windows_of_one_flight_are_read_together() {
         stderr(&o)
     );
 }
+
+/// A window of flight cannot tell a stator short from an eccentricity (it has no standstill
+/// segment): given the same flight's preflight (`--preflight`), it holds the shorts at the
+/// preflight's reading and reads the window right; a preflight given as a window, or a
+/// window given as the preflight, is refused by name.
+#[test]
+fn a_window_holds_the_shorts_its_flights_preflight_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let truth = "0,0,0.2,0,0,0,0.5,0.5,0";
+    let window = path(&dir, "window.csv");
+    let pre = path(&dir, "preflight.csv");
+    for (args, out) in [
+        (vec!["--flight", "cruise", "--turbulence", "light"], &window),
+        (vec![], &pre),
+    ] {
+        let mut a = vec!["simulate", "--faults", truth, "--out", out.as_str()];
+        a.extend(args);
+        let o = host_sim(&a);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let v = json(&host_sim(&[
+        "identify",
+        &window,
+        "--preflight",
+        &pre,
+        "--truth",
+        truth,
+        "--json",
+    ]));
+    assert!(
+        v["shorts"]
+            .as_str()
+            .unwrap()
+            .starts_with("shorts held at the preflight's"),
+        "{v}"
+    );
+    let k = v["faults"].as_array().unwrap();
+    assert!((k[2].as_f64().unwrap() - 0.2).abs() < 0.02, "{v}");
+    assert!(k[5].as_f64().unwrap() < 0.1, "eccentricity {v}");
+    assert!(v["e_tot"].as_f64().unwrap() < 3.0, "{v}");
+    let free = json(&host_sim(&["identify", &window, "--json"]));
+    assert!(
+        free["shorts"].as_str().unwrap().contains("no --preflight"),
+        "{free}"
+    );
+    let o = host_sim(&["identify", &window, "--preflight", &window]);
+    assert!(
+        !o.status.success() && stderr(&o).contains("not a preflight"),
+        "{}",
+        stderr(&o)
+    );
+    let o = host_sim(&["identify", &pre, "--preflight", &pre]);
+    assert!(
+        !o.status.success() && stderr(&o).contains("not a window"),
+        "{}",
+        stderr(&o)
+    );
+}
