@@ -302,8 +302,6 @@ pub(crate) fn wind_campaign_command(
     report_table(&wind_markdown(&rows, &actuator.name), start, out)
 }
 
-/// `campaign --flight`: the window identification and the preflight FDI on flight windows
-/// (`host_sim::studies::flight`).
 /// What `campaign --flight` flies: the cases (`--table`, else `FLIGHT_CASES`), the
 /// phases (`--phase`, else all three) and the windows per flight.
 pub(crate) struct FlightCampaignRun<'a> {
@@ -343,6 +341,8 @@ fn flight_cases(table: Option<CampaignTable>) -> Result<Vec<(&'static str, [f32;
     })
 }
 
+/// `campaign --flight`: the window identification and the preflight FDI on flight windows
+/// (`host_sim::studies::flight`).
 pub(crate) fn flight_campaign_command(
     actuator: &Actuator,
     seeds: std::ops::Range<u64>,

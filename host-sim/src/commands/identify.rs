@@ -265,7 +265,7 @@ pub(crate) fn held_from_preflight_trace(
     seed: u64,
 ) -> Result<(shared::window::HeldComponents, String)> {
     use shared::window::HeldComponents;
-    let record = actuator.record;
+    let (record, _) = load_record(actuator, None, trace.test())?;
     let measured = trace.measured(&record.params)?;
     let id = host_sim::fdi::identify::identify_for(&measured, &record, seed, false)?;
     let domain = id.domain(&trace.domain_monitor(&record.params), &record.domain);
