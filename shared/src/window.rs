@@ -281,6 +281,16 @@ impl HeldComponents {
         }
     }
 
+    /// What a window holds given its flight's preflight reading `preflight`: the shorts
+    /// when that preflight was `within` (`trusted`), else nothing.
+    pub fn from_preflight(preflight: &FaultVector, trusted: bool) -> Self {
+        if trusted {
+            Self::shorts_of(preflight)
+        } else {
+            Self::NONE
+        }
+    }
+
     /// Whether component `i` is held.
     pub fn holds(&self, i: usize) -> bool {
         self.held.get(i).copied().unwrap_or(false)

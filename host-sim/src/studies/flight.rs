@@ -274,11 +274,7 @@ fn fly_windows(
                     ) == Domain::Within;
                     // The window holds the shorts at the same flight's preflight reading
                     // (a window cannot tell them from an eccentricity), when it is `within`.
-                    let held = if pre_within {
-                        HeldComponents::shorts_of(&pre.result.faults)
-                    } else {
-                        HeldComponents::NONE
-                    };
+                    let held = HeldComponents::from_preflight(&pre.result.faults, pre_within);
                     let agree = |u: Option<&Uncertainty>| match (u, &pre.uncertainty, pre_within) {
                         (Some(a), Some((b, _)), true) => agreement(a, b),
                         _ => (0, 0),

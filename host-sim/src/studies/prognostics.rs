@@ -216,11 +216,10 @@ pub fn degrade(
             }];
             // The windows hold the shorts at this flight's preflight reading when it is
             // `within` (a window cannot tell them from an eccentricity).
-            let held = if domain == shared::domain::Domain::Within {
-                HeldComponents::shorts_of(&id.result.faults)
-            } else {
-                HeldComponents::NONE
-            };
+            let held = HeldComponents::from_preflight(
+                &id.result.faults,
+                domain == shared::domain::Domain::Within,
+            );
             let mut fusion = WindowFusion::EMPTY;
             let mut entered = Vec::new();
             for n in 1..=windows {
