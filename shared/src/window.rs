@@ -33,11 +33,11 @@
 //! docs/in-flight.md §6).
 
 use crate::command::CommandSource;
-use crate::conditioning::{LowPassState, MeasuredCurrent};
+use crate::conditioning::{LowPass, LowPassState, MeasuredCurrent};
 use crate::fault::{FaultVector, FAULT_COUNT};
 use crate::ga::Problem;
 use crate::math::{abs, invert};
-use crate::monitor::{MonitorModel, RunRigging};
+use crate::monitor::{MonitorModel, MonitorRun, RunRigging};
 use crate::steps::{pause, run_to_end};
 use crate::uncertainty::{Curvature, STEP};
 
@@ -439,6 +439,53 @@ impl TaylorBlock {
     }
 }
 
+/// The modelled current of a window's samples, in order: `next(i, h)` steps the model to
+/// sample `i` with `h` [N·m] pushed on the surface and gives its filtered current [A]. O(1),
+/// inlined into [`WindowProblem::residual_fit`]'s loops.
+trait SampleCurrent {
+    fn next(&mut self, i: usize, h: f32) -> f32;
+}
+
+/// No model: the measured current's own energy.
+struct NoCurrent;
+
+impl SampleCurrent for NoCurrent {
+    #[inline(always)]
+    fn next(&mut self, _: usize, _: f32) -> f32 {
+        0.0
+    }
+}
+
+/// A monitor-model run under a window's load, driven by the recorded command and seen
+/// through the measurement's filter.
+struct LoadedRunCurrent<'a, 'c> {
+    model: &'a MonitorModel,
+    run: &'a mut MonitorRun,
+    command: &'a RecordedCommand<'c>,
+    filter: &'a LowPass,
+    state: LowPassState,
+    /// The load's trend is not zero: its moment is pushed on the surface each step.
+    trending: bool,
+    /// No standstill segment: the model steps inline.
+    motion_only: bool,
+}
+
+impl SampleCurrent for LoadedRunCurrent<'_, '_> {
+    #[inline(always)]
+    fn next(&mut self, i: usize, h: f32) -> f32 {
+        if self.trending {
+            self.run.push_surface(self.model, -h);
+        }
+        let command = self.command.position_at(i);
+        let sample = if self.motion_only {
+            self.run.next_motion_sample(self.model, command)
+        } else {
+            self.run.next_sample(self.model, command)
+        };
+        self.filter.apply(&mut self.state, sample.current)
+    }
+}
+
 /// The eq. (3) weight of each fitted sample: `1 / ((ΔI_r)²/κ + 1)`.
 #[inline(always)]
 fn weight(delta: f32, inv_kappa: f32) -> f32 {
@@ -514,7 +561,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             command_range: hi - lo,
             held: HeldComponents::NONE,
         };
-        problem.energy = problem.residual_fit(&[0.0; DRIFT_TERMS], |_, _| 0.0).error;
+        problem.energy = problem.residual_fit(&[0.0; DRIFT_TERMS], &mut NoCurrent).error;
         Ok(problem)
     }
 
@@ -575,28 +622,24 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         let start = self.measured.initial_angles();
         let first = self.command.position_at(0);
         let (model, mut run) = model.start_loaded_run(k, start, load.moment, first);
-        let filter = self.measured.filter();
-        let mut state = LowPassState::default();
-        let trending = load.trend != [0.0; DRIFT_TERMS];
-        // A window's test has no standstill segment: its model steps inline.
-        let motion_only = model.lead_samples() == 0;
-        self.residual_fit(&load.trend, |i, h| {
-            if trending {
-                run.push_surface(&model, -h);
-            }
-            let command = self.command.position_at(i);
-            let sample = if motion_only {
-                run.next_motion_sample(&model, command)
-            } else {
-                run.next_sample(&model, command)
-            };
-            filter.apply(&mut state, sample.current)
-        })
+        let mut current = LoadedRunCurrent {
+            model: &model,
+            run: &mut run,
+            command: &self.command,
+            filter: self.measured.filter(),
+            state: LowPassState::default(),
+            trending: load.trend != [0.0; DRIFT_TERMS],
+            // A window's test has no standstill segment: its model steps inline.
+            motion_only: model.lead_samples() == 0,
+        };
+        self.residual_fit(&load.trend, &mut current)
     }
 
-    /// Eq. (3) of the modelled current `modelled(i, h)` (filtered; called once per sample,
-    /// in order, with `h` the moment [N·m] of `trend` there, relative to the window's start)
-    /// against the measured, after the settle, with the drift profiled out.
+    /// Eq. (3) of the modelled current `modelled.next(i, h)` (filtered; called once per
+    /// sample, in order, with `h` the moment [N·m] of `trend` there, relative to the window's
+    /// start) against the measured, after the settle, with the drift profiled out. The
+    /// settle and the fitted samples are two loops, each with the model stepped inline
+    /// ([`SampleCurrent`]).
     ///
     /// The drift's polynomials are not evaluated per sample: over each block of
     /// [`DRIFT_BLOCK`] fitted samples they are expanded to second order about the block's
@@ -607,7 +650,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
     fn residual_fit(
         &self,
         trend: &[f32; DRIFT_TERMS],
-        mut modelled: impl FnMut(usize, f32) -> f32,
+        modelled: &mut impl SampleCurrent,
     ) -> WindowFit {
         let step = axis_step(self.samples);
         let at_start: f32 = dot(trend, &legendre(-1.0));
@@ -621,41 +664,35 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         let mut squares = 0.0f32;
         let mut in_block = 0usize;
         let half = 0.5 * (DRIFT_BLOCK - 1) as f32;
-        for (i, &r) in self
-            .measured
-            .samples()
-            .iter()
-            .take(self.samples)
-            .enumerate()
-        {
-            let mut u = 0.0f32;
-            let h = if i < SETTLE_SAMPLES {
-                0.0
+        let reference = self.measured.samples();
+        let reference = reference.get(..self.samples).unwrap_or(reference);
+        let (settle, fitted) = reference.split_at(SETTLE_SAMPLES.min(reference.len()));
+        for (i, &r) in settle.iter().enumerate() {
+            modelled.next(i, 0.0);
+            previous = r;
+        }
+        for (j, &r) in fitted.iter().enumerate() {
+            let i = SETTLE_SAMPLES + j;
+            if in_block == 0 {
+                block.add_to(&mut projections, sums);
+                sums = (0.0, 0.0, 0.0);
+                block = TaylorBlock::at(axis(i, self.samples) + half * step);
+                moment = (
+                    dot(trend, &block.value) - at_start,
+                    dot(trend, &block.slope),
+                    0.5 * dot(trend, &block.bend),
+                );
+            }
+            let u = (in_block as f32 - half) * step;
+            in_block = if in_block + 1 == DRIFT_BLOCK {
+                0
             } else {
-                if in_block == 0 {
-                    block.add_to(&mut projections, sums);
-                    sums = (0.0, 0.0, 0.0);
-                    block = TaylorBlock::at(axis(i, self.samples) + half * step);
-                    moment = (
-                        dot(trend, &block.value) - at_start,
-                        dot(trend, &block.slope),
-                        0.5 * dot(trend, &block.bend),
-                    );
-                }
-                u = (in_block as f32 - half) * step;
-                in_block = if in_block + 1 == DRIFT_BLOCK {
-                    0
-                } else {
-                    in_block + 1
-                };
-                moment.0 + u * (moment.1 + u * moment.2)
+                in_block + 1
             };
-            let m = modelled(i, h);
+            let h = moment.0 + u * (moment.1 + u * moment.2);
+            let m = modelled.next(i, h);
             let d = r - previous;
             previous = r;
-            if i < SETTLE_SAMPLES {
-                continue;
-            }
             let w = weight(d, self.inv_kappa);
             let e = r - m;
             let we = w * e;
