@@ -29,7 +29,7 @@
 //! evaluations, and [`identify_stepwise`] does it in polls of at most one evaluation or
 //! [`CURVATURE_CHUNK`] curvature samples. No allocation, no panic. Run by the host on every
 //! window; the controller's images have no flash left for it; on the Cortex-M4F one
-//! identification is 3.2 × 10⁹ instructions in ≈ 1 500 polls (`cargo window-bench`,
+//! identification is 2.9 × 10⁹ instructions in ≈ 1 500 polls (`cargo window-bench`,
 //! docs/in-flight.md §6).
 
 use crate::command::CommandSource;
