@@ -205,7 +205,8 @@ enum Command {
         wind: bool,
         /// The FDI on windows of flight (issue 36): the healthy actuator, friction 0.2 and
         /// Table II medium (with --table 1: the paper's Table I; 2: Table II without its
-        /// noise case, and the healthy actuator) in climb, cruise and approach (--phase),
+        /// noise case, and the healthy actuator; demagnetization: its uniform cases on the
+        /// calibration's day, and the healthy actuator) in climb, cruise and approach (--phase),
         /// light and moderate turbulence; each window identified by the window
         /// identification (recorded command, fitted hinge load, the window's verdicts,
         /// accuracy) and read by the preflight FDI (verdicts by reason: none should be

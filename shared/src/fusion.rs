@@ -45,6 +45,35 @@ pub const FLIGHT_MAX_FRICTION_STD: f32 = 0.04;
 /// others ×0.66–0.97, left alone; docs/in-flight.md §4.
 pub const FLIGHT_INFLATION: [f32; FAULT_COUNT] = [1.0, 1.0, 1.0, 1.0, 1.0, 1.5, 1.0, 1.2, 1.0];
 
+/// The windows per flight [`FLIGHT_INFLATION`] was chosen at.
+pub const CALIBRATED_WINDOWS: u32 = 8;
+
+/// The components whose flight error is what the windows of a flight share rather than
+/// their noise: beyond [`CALIBRATED_WINDOWS`] windows their deviation is kept at that many
+/// windows' (`σ·√(n / 8)`: more windows do not shrink it). The eccentricity: on flights of
+/// sixteen windows, seeds 10–29 of the flight campaign, its intervals held the truth in
+/// too few flights (docs/in-flight.md §4) while the other components' stayed calibrated.
+pub const SHARED_ERROR: [bool; FAULT_COUNT] =
+    [false, false, false, false, false, true, false, false, false];
+
+/// [`FLIGHT_INFLATION`] for a flight of `windows` windows: with [`SHARED_ERROR`]'s
+/// components held at [`CALIBRATED_WINDOWS`]' deviation beyond that count. O(9).
+pub fn flight_inflation(windows: u32) -> [f32; FAULT_COUNT] {
+    let beyond = if windows > CALIBRATED_WINDOWS {
+        crate::math::sqrt(windows as f32 / CALIBRATED_WINDOWS as f32)
+    } else {
+        1.0
+    };
+    core::array::from_fn(|i| {
+        let f = FLIGHT_INFLATION.get(i).copied().unwrap_or(1.0);
+        if SHARED_ERROR.get(i).copied().unwrap_or(false) {
+            f * beyond
+        } else {
+            f
+        }
+    })
+}
+
 /// Projected Gauss–Seidel sweeps of [`WindowFusion::reading`]'s box-constrained minimum.
 pub const FUSION_SWEEPS: usize = 200;
 
@@ -200,7 +229,7 @@ impl WindowFusion {
     /// The flight's reading: the vector in the fault box that minimises the windows' summed
     /// quadratics (projected Gauss–Seidel, [`FUSION_SWEEPS`] sweeps from the last window's
     /// vector), its uncertainty from the summed information (widened by
-    /// [`FLIGHT_INFLATION`]), and the friction limit
+    /// [`flight_inflation`]), and the friction limit
     /// `max_friction_std` on it ([`FLIGHT_MAX_FRICTION_STD`]). `Err` before any window.
     /// O(`FUSION_SWEEPS` · 9²) + O(9³).
     #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // i, j < FAULT_COUNT on fixed 9×9 arrays
@@ -242,7 +271,7 @@ impl WindowFusion {
             fitted: p as u32 + 1,
         };
         let (uncertainty, correlation) = summed.uncertainty(&faults)?;
-        let mut uncertainty = uncertainty.widened(&faults, &FLIGHT_INFLATION);
+        let mut uncertainty = uncertainty.widened(&faults, &flight_inflation(self.windows));
         uncertainty.residual_std = self.residual_std / self.windows as f32;
         let friction_std = uncertainty.std[0];
         let disagreement = self.disagreement(&k, &free);
@@ -375,6 +404,34 @@ mod tests {
         assert!((flight.uncertainty.0.std[0] - 0.05).abs() < 1e-6);
         // The phase: no window determines it.
         assert!(flight.uncertainty.0.std[PHASE].is_nan());
+    }
+
+    #[test]
+    fn beyond_the_calibrated_windows_a_shared_error_no_longer_shrinks() {
+        // Identical windows: friction's deviation shrinks as 1/√n all the way, the
+        // eccentricity's only up to eight windows and stays there.
+        let k = FaultVector::new([0.2, 0.0, 0.0, 0.0, 0.0, 0.2, 0.5, 0.5, 0.0]).unwrap();
+        let c = curvature([100.0; FAULT_COUNT], [0.0; FAULT_COUNT], 0.0);
+        let mut fusion = WindowFusion::EMPTY;
+        let mut std = [(0.0f32, 0.0f32); 17];
+        for n in 1..=16 {
+            fusion.add(&k, &c, &ONES).unwrap();
+            let s = fusion.reading(1.0).unwrap().uncertainty.0.std;
+            std[n] = (s[0], s[5]);
+        }
+        let shrink = |n: usize| 1.0 / (n as f32).sqrt();
+        for n in [2, 8, 12, 16] {
+            let (friction, eccentricity) = std[n];
+            assert!((friction / std[1].0 - shrink(n)).abs() < 1e-4, "friction at {n}");
+            let expected = shrink(n.min(CALIBRATED_WINDOWS as usize));
+            assert!(
+                (eccentricity / std[1].1 - expected).abs() < 1e-4,
+                "eccentricity at {n}: {} against {expected}",
+                eccentricity / std[1].1
+            );
+        }
+        assert_eq!(flight_inflation(8), FLIGHT_INFLATION);
+        assert!(flight_inflation(16)[5] > FLIGHT_INFLATION[5] * 1.41);
     }
 
     #[test]

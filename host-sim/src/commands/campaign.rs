@@ -312,9 +312,12 @@ pub(crate) struct FlightCampaignRun<'a> {
 
 /// The flight campaign's cases for `table`: Table I, or Table II without its noise case (a
 /// window's noise is its turbulence) and the healthy actuator (without the I_ref noise the
-/// ground campaign gives it); none: the healthy actuator, friction 0.2 and Table II medium.
+/// ground campaign gives it), or the demagnetization table's uniform cases on the
+/// calibration's day (a flight's day is its own; one weak magnet is the reference model's
+/// form, not a fault vector) and the healthy actuator; none: the healthy actuator, friction
+/// 0.2 and Table II medium.
 fn flight_cases(table: Option<CampaignTable>) -> Result<Vec<(&'static str, [f32; FAULT_COUNT])>> {
-    use host_sim::studies::campaign::TABLE_2;
+    use host_sim::studies::campaign::{MagnetForm, DEMAGNETIZATION, TABLE_2};
     use host_sim::studies::flight::FLIGHT_CASES;
     let of = |cases: &[host_sim::studies::campaign::Case]| -> Vec<_> {
         cases
@@ -331,12 +334,18 @@ fn flight_cases(table: Option<CampaignTable>) -> Result<Vec<(&'static str, [f32;
             cases.push(FLIGHT_CASES[0]);
             cases
         }
-        Some(other) => anyhow::bail!(
-            "--table {}: the flight campaign flies Table I (1) or Table II (2) only",
-            match other {
-                CampaignTable::Random => "random",
-                _ => "demagnetization",
-            }
+        Some(CampaignTable::Demagnetization) => {
+            let mut cases: Vec<_> = DEMAGNETIZATION
+                .iter()
+                .filter(|c| c.magnets == MagnetForm::Uniform && c.winding_rise == 0.0)
+                .map(|c| (c.name, c.faults))
+                .collect();
+            cases.push(FLIGHT_CASES[0]);
+            cases
+        }
+        Some(CampaignTable::Random) => anyhow::bail!(
+            "--table random: the flight campaign flies Table I (1), Table II (2) or \
+             demagnetization only"
         ),
     })
 }
@@ -573,4 +582,26 @@ pub(crate) fn conditions_campaign_command(
         std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use shared::fault::DEMAGNETIZATION_INDEX;
+
+    #[test]
+    fn the_flight_campaigns_demagnetization_table_flies_the_uniform_cases_and_the_healthy() {
+        let cases = flight_cases(Some(CampaignTable::Demagnetization)).unwrap();
+        let k9: Vec<f32> = cases
+            .iter()
+            .map(|(_, k)| k[DEMAGNETIZATION_INDEX])
+            .collect();
+        // Uniform k9 0.1, 0.2, 0.5, 0.2 with a short, the short alone, the healthy actuator.
+        assert_eq!(k9, [0.1, 0.2, 0.5, 0.2, 0.0, 0.0]);
+        assert!(cases.iter().all(|(name, _)| !name.contains("magnet")
+            && !name.contains(" K")));
+        assert_eq!(cases.last().map(|c| c.0), Some("healthy"));
+        let refused = flight_cases(Some(CampaignTable::Random)).unwrap_err();
+        assert!(refused.to_string().contains("demagnetization"), "{refused}");
+    }
 }

@@ -560,7 +560,7 @@ fn readings_table(
          meet the same flight's preflight interval in {agreed} of {agreed_of}.\n\n"
     ));
     let flights = if noun == "flights" {
-        ", then `shared::fusion::FLIGHT_INFLATION`,"
+        ", then `shared::fusion::flight_inflation` (`FLIGHT_INFLATION`, the eccentricity's held beyond eight windows),"
     } else {
         ""
     };
