@@ -476,6 +476,10 @@ fn a_window_holds_the_shorts_its_flights_preflight_read() {
             .starts_with("shorts held at the preflight's"),
         "{v}"
     );
+    assert!(
+        v["shorts"].as_str().unwrap().contains("demagnetization"),
+        "{v}"
+    );
     let k = v["faults"].as_array().unwrap();
     assert!((k[2].as_f64().unwrap() - 0.2).abs() < 0.02, "{v}");
     assert!(k[5].as_f64().unwrap() < 0.1, "eccentricity {v}");

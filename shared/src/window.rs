@@ -34,7 +34,7 @@
 
 use crate::command::CommandSource;
 use crate::conditioning::{LowPass, LowPassState, MeasuredCurrent};
-use crate::fault::{FaultVector, FAULT_COUNT};
+use crate::fault::{FaultVector, DEMAGNETIZATION_INDEX, FAULT_COUNT};
 use crate::ga::Problem;
 use crate::math::{abs, invert};
 use crate::monitor::{MonitorModel, MonitorRun, RunRigging};
@@ -252,12 +252,15 @@ pub enum WindowError {
 }
 
 /// Components a window does not identify but holds at values from outside it: the stator
-/// shorts at the same flight's preflight reading ([`HeldComponents::shorts_of`]). A window
-/// has no standstill segment, and without it a short's phase asymmetry and the rotor's
-/// eccentricity trade against each other (a short A of 0.2 read as an eccentricity of 0.4
-/// in cruise, docs/in-flight.md §4); the preflight's pair circuits tell the shorts apart,
-/// and they do not change within a flight. The GA's genes for held components are ignored,
-/// the curvature does not vary them (their deviations read "not determined").
+/// shorts and the demagnetization at the same flight's preflight reading
+/// ([`HeldComponents::of_preflight`]). A window has no standstill segment, and without it a
+/// short's phase asymmetry and the rotor's eccentricity trade against each other (a short A
+/// of 0.2 read as an eccentricity of 0.4 in cruise); its hinge load is unknown (fitted), and
+/// a weaker torque constant then reads as friction (a demagnetization of 0.2 read 0.05
+/// beside a friction of 0.17 in approach, docs/in-flight.md §4). The preflight, on its
+/// known spring, with its pair circuits, tells them apart, and neither changes within a
+/// flight. The GA's genes for held components are ignored, the curvature does not vary
+/// them (their deviations read "not determined").
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct HeldComponents {
@@ -272,20 +275,22 @@ impl HeldComponents {
         values: [0.0; FAULT_COUNT],
     };
 
-    /// The three stator shorts (k3, k4, k5) held at `preflight`'s.
-    pub fn shorts_of(preflight: &FaultVector) -> Self {
-        let held: [bool; FAULT_COUNT] = core::array::from_fn(|i| SHORTS.contains(&i));
+    /// The three stator shorts (k3, k4, k5) and the demagnetization (k9) held at
+    /// `preflight`'s.
+    pub fn of_preflight(preflight: &FaultVector) -> Self {
+        let held: [bool; FAULT_COUNT] =
+            core::array::from_fn(|i| SHORTS.contains(&i) || i == DEMAGNETIZATION_INDEX);
         Self {
             held,
             values: *preflight.as_array(),
         }
     }
 
-    /// What a window holds given its flight's preflight reading `preflight`: the shorts
-    /// when that preflight was `within` (`trusted`), else nothing.
+    /// What a window holds given its flight's preflight reading `preflight`: the shorts and
+    /// the demagnetization when that preflight was `within` (`trusted`), else nothing.
     pub fn from_preflight(preflight: &FaultVector, trusted: bool) -> Self {
         if trusted {
-            Self::shorts_of(preflight)
+            Self::of_preflight(preflight)
         } else {
             Self::NONE
         }

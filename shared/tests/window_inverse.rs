@@ -115,9 +115,10 @@ fn a_window_recorded_from_the_monitor_model_is_identified() {
     );
 }
 
-/// The stator shorts held at the same flight's preflight reading (`HeldComponents`): a
-/// window recorded with a short A of 0.2 and friction 0.2 is identified with the shorts at
-/// their held values exactly — the GA's genes for them ignored, the curvature not varying
+/// The stator shorts and the demagnetization held at the same flight's preflight reading
+/// (`HeldComponents`): a window recorded with a short A of 0.2, a demagnetization of 0.2
+/// and friction 0.2 is identified with the shorts and the demagnetization at their held
+/// values exactly — the GA's genes for them ignored, the curvature not varying
 /// them (their deviations not determined) — and the rest read right. Held at nominal
 /// instead, the same window cannot fit as well. Fails if a held component leaks into the
 /// search, the polish or the curvature.
@@ -125,25 +126,27 @@ fn a_window_recorded_from_the_monitor_model_is_identified() {
 fn held_shorts_stay_at_the_preflights_reading() {
     let record = ActuatorRecord::REFERENCE;
     let mut genes = *FaultVector::NOMINAL.as_array();
-    (genes[0], genes[2]) = (0.2, 0.2);
+    (genes[0], genes[2], genes[8]) = (0.2, 0.2, 0.2);
     let truth = FaultVector::new(genes).unwrap();
     let load = WindowLoad::spring(1.4 * record.params.aero_stiffness, 120.0);
     let window = Recorded::new(1.0e-3, &truth, &load);
     let guess = WindowLoad::spring(record.params.aero_stiffness, 0.0);
-    let held = HeldComponents::shorts_of(&truth);
+    let held = HeldComponents::of_preflight(&truth);
     let problem = window.problem(guess).with_held(held);
     let reading =
         identify::<_, POPULATION>(&problem, window_ga(&record.ga), 1, &WindowLimits::REFERENCE)
             .unwrap();
     let found = reading.faults.as_array();
     assert_eq!(&found[2..5], &genes[2..5], "{found:?}");
+    assert_eq!(found[8], genes[8], "demagnetization {found:?}");
     assert!((found[0] - 0.2).abs() < 0.03, "friction {found:?}");
     let (u, _) = reading.uncertainty.expect("a determined curvature");
     assert!(u.std[2..5].iter().all(|s| s.is_nan()), "{:?}", u.std);
+    assert!(u.std[8].is_nan(), "{:?}", u.std);
     assert!(u.std[0].is_finite());
     // The curvature's columns for the held shorts are zero.
     let c = problem.curvature(&reading.faults);
-    for i in 2..5 {
+    for i in [2, 3, 4, 8] {
         assert!(
             c.normal[i].iter().all(|&x| x == 0.0),
             "row {i}: {:?}",
@@ -153,7 +156,7 @@ fn held_shorts_stay_at_the_preflights_reading() {
     // Held where they are not (nominal), the shorts cannot be fitted away.
     let nominal = window
         .problem(reading.load)
-        .with_held(HeldComponents::shorts_of(&FaultVector::NOMINAL));
+        .with_held(HeldComponents::of_preflight(&FaultVector::NOMINAL));
     let at_wrong = nominal.evaluate(&reading.faults).error;
     assert!(
         at_wrong > 10.0 * reading.fit.error,

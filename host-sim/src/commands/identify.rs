@@ -232,8 +232,9 @@ pub(crate) struct FlightFiles<'a> {
     pub preflight: Option<&'a Path>,
 }
 
-/// The components the windows of a flight hold: the stator shorts at the reading of the
-/// flight's `preflight` trace when it is `within`, with a line for the report that says so.
+/// The components the windows of a flight hold: the stator shorts and the demagnetization
+/// at the reading of the flight's `preflight` trace when it is `within`, with a line for the
+/// report that says so.
 fn held_from_preflight(
     actuator: &Actuator,
     preflight: Option<&Path>,
@@ -242,8 +243,9 @@ fn held_from_preflight(
     let Some(path) = preflight else {
         return Ok((
             shared::window::HeldComponents::NONE,
-            "shorts read from the window (no --preflight: a window cannot tell a short from \
-             an eccentricity)"
+            "shorts and demagnetization read from the window (no --preflight: a window cannot \
+             tell a short from an eccentricity, nor a demagnetization from friction under its \
+             unknown load)"
                 .into(),
         ));
     };
@@ -273,17 +275,19 @@ pub(crate) fn held_from_preflight_trace(
         return Ok((
             HeldComponents::NONE,
             format!(
-                "shorts read from the window: the preflight {name} is outside ({})",
+                "shorts and demagnetization read from the window: the preflight {name} is \
+                 outside ({})",
                 shared::health::DomainCode::from(domain).name()
             ),
         ));
     }
     let k = id.result.faults.as_array();
     Ok((
-        HeldComponents::shorts_of(&id.result.faults),
+        HeldComponents::of_preflight(&id.result.faults),
         format!(
-            "shorts held at the preflight's ({name}): A {:.3}, B {:.3}, C {:.3}",
-            k[2], k[3], k[4]
+            "shorts held at the preflight's ({name}): A {:.3}, B {:.3}, C {:.3}; \
+             demagnetization {:.3}",
+            k[2], k[3], k[4], k[8]
         ),
     ))
 }

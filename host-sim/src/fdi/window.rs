@@ -184,7 +184,7 @@ pub fn window_series(
 
 /// Identifies the faults behind a window of flight recorded in `trace`, conditioned into
 /// `measured`, with the actuator `record` (its chirp-only test), the `held` components at
-/// values from outside the window (`HeldComponents::shorts_of` the same flight's preflight
+/// values from outside the window (`HeldComponents::of_preflight` the same flight's preflight
 /// reading, when it was `within`; `HeldComponents::NONE` without one).
 pub fn identify_window(
     trace: &Trace,
