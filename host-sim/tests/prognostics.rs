@@ -247,9 +247,9 @@ fn a_demagnetizing_actuator_gets_its_own_trend_and_rul() {
 /// With windows of flight, each flight's history holds its preflight, each window's own
 /// entry and — when a window entered — the flight's reading from its windows fused (window
 /// `flight`, the windows fused counted); the trend takes the preflights and the flights'
-/// readings that are `within`, never a window's own entry. Six windows per flight: a
-/// flight's friction must be read to σ ≤ 0.04 (`shared::fusion::FLIGHT_MAX_FRICTION_STD`),
-/// which three light windows seldom reach.
+/// readings that are `within`, never a window's own entry. Eight windows per flight (the
+/// design): a flight's friction must be read to σ ≤ 0.03
+/// (`shared::fusion::FLIGHT_MAX_FRICTION_STD`), which fewer light windows seldom reach.
 #[test]
 fn degrade_with_windows_writes_each_flights_reading_and_the_trend_takes_it() {
     let dir = tempfile::tempdir().unwrap();
@@ -263,7 +263,7 @@ fn degrade_with_windows_writes_each_flights_reading_and_the_trend_takes_it() {
         "--flights",
         "4",
         "--windows",
-        "6",
+        "8",
         "--out",
         path_str(&out),
     ]);
@@ -285,15 +285,15 @@ fn degrade_with_windows_writes_each_flights_reading_and_the_trend_takes_it() {
         let of: Vec<&Vec<&str>> = rows.iter().filter(|r| r[0] == flight.to_string()).collect();
         let windows: Vec<&str> = of.iter().map(|r| r[1]).collect();
         assert!(
-            windows[..7] == ["0", "1", "2", "3", "4", "5", "6"] && of.len() <= 8,
+            windows[..9] == ["0", "1", "2", "3", "4", "5", "6", "7", "8"] && of.len() <= 10,
             "flight {flight}: {windows:?}"
         );
         trended += usize::from(of[0][domain] == "within");
-        if let Some(read) = of.get(7) {
+        if let Some(read) = of.get(9) {
             assert_eq!(read[1], "flight", "{read:?}");
             let fused: u32 = read[2].parse().unwrap();
-            assert!((1..=6).contains(&fused), "{read:?}");
-            assert!(of[1..7].iter().all(|w| w[2] == "0"), "{of:?}");
+            assert!((1..=8).contains(&fused), "{read:?}");
+            assert!(of[1..9].iter().all(|w| w[2] == "0"), "{of:?}");
             if read[domain] == "within" {
                 flights_read += 1;
                 trended += 1;
