@@ -420,15 +420,18 @@ mod tests {
         let c = curvature([100.0; FAULT_COUNT], [0.0; FAULT_COUNT], 0.0);
         let mut fusion = WindowFusion::EMPTY;
         let mut std = [(0.0f32, 0.0f32); 17];
-        for n in 1..=16 {
+        for slot in std.iter_mut().skip(1) {
             fusion.add(&k, &c, &ONES).unwrap();
             let s = fusion.reading(1.0).unwrap().uncertainty.0.std;
-            std[n] = (s[0], s[5]);
+            *slot = (s[0], s[5]);
         }
         let shrink = |n: usize| 1.0 / (n as f32).sqrt();
         for n in [2, 8, 12, 16] {
             let (friction, eccentricity) = std[n];
-            assert!((friction / std[1].0 - shrink(n)).abs() < 1e-4, "friction at {n}");
+            assert!(
+                (friction / std[1].0 - shrink(n)).abs() < 1e-4,
+                "friction at {n}"
+            );
             let expected = shrink(n.min(CALIBRATED_WINDOWS as usize));
             assert!(
                 (eccentricity / std[1].1 - expected).abs() < 1e-4,

@@ -569,7 +569,9 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             command_range: hi - lo,
             held: HeldComponents::NONE,
         };
-        problem.energy = problem.residual_fit(&[0.0; DRIFT_TERMS], &mut NoCurrent).error;
+        problem.energy = problem
+            .residual_fit(&[0.0; DRIFT_TERMS], &mut NoCurrent)
+            .error;
         Ok(problem)
     }
 

@@ -598,8 +598,9 @@ mod tests {
             .collect();
         // Uniform k9 0.1, 0.2, 0.5, 0.2 with a short, the short alone, the healthy actuator.
         assert_eq!(k9, [0.1, 0.2, 0.5, 0.2, 0.0, 0.0]);
-        assert!(cases.iter().all(|(name, _)| !name.contains("magnet")
-            && !name.contains(" K")));
+        assert!(cases
+            .iter()
+            .all(|(name, _)| !name.contains("magnet") && !name.contains(" K")));
         assert_eq!(cases.last().map(|c| c.0), Some("healthy"));
         let refused = flight_cases(Some(CampaignTable::Random)).unwrap_err();
         assert!(refused.to_string().contains("demagnetization"), "{refused}");
