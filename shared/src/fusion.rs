@@ -31,8 +31,8 @@ use crate::window::WindowReason;
 /// none above 6 %, one healthy component above 0.05; at 0.05 166, five: a healthy
 /// eccentricity read 0.05–0.06 in flight). With the demagnetization held too and the
 /// windows' friction widened 1.8 times: **0.03** (111 read, none above 6 %, one healthy
-/// component above 0.05; at 0.04 155 read, two: a friction of 0.057–0.059 read on healthy
-/// gears in moderate cruise); docs/in-flight.md §4.
+/// component above 0.05; at 0.04 155 read, two, in moderate cruise: a healthy gear's
+/// friction read 0.057, a friction flight's eccentricity 0.058); docs/in-flight.md §4.
 pub const FLIGHT_MAX_FRICTION_STD: f32 = 0.03;
 
 /// How many times a flight's standard deviation per component must be taken beyond what its
