@@ -676,7 +676,9 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         let half = 0.5 * (DRIFT_BLOCK - 1) as f32;
         let reference = self.measured.samples();
         let reference = reference.get(..self.samples).unwrap_or(reference);
-        let (settle, fitted) = reference.split_at(SETTLE_SAMPLES.min(reference.len()));
+        let (settle, fitted) = reference
+            .split_at_checked(SETTLE_SAMPLES)
+            .unwrap_or((reference, &[]));
         for (i, &r) in settle.iter().enumerate() {
             modelled.next(i, 0.0);
             previous = r;

@@ -287,7 +287,10 @@ pub(crate) fn held_from_preflight_trace(
         format!(
             "shorts held at the preflight's ({name}): A {:.3}, B {:.3}, C {:.3}; \
              demagnetization {:.3}",
-            k[2], k[3], k[4], k[8]
+            k[2],
+            k[3],
+            k[4],
+            k[shared::fault::DEMAGNETIZATION_INDEX]
         ),
     ))
 }
