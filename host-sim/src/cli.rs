@@ -140,8 +140,9 @@ pub(crate) struct ActuatorArgs {
     /// corrections (0.5 / 1 / 3 mrad RMS up to 1 / 1.5 / 2 Hz in cruise / climb / approach,
     /// plus a slow trim change) with the test's chirp alone superimposed, and the hinge moment
     /// of the file's `[surface]` at the phase's dynamic pressure (10 / 14 / 2.5 kPa) and trim.
-    /// The trace's command column is what the position loop followed. The FDI does not yet
-    /// identify flight windows (docs/in-flight.md).
+    /// The trace's command column is what the position loop followed; `identify` reads the
+    /// trace as a window of flight (`# test: flight`; with `--preflight`, the same seed's
+    /// preflight trace holds its shorts and demagnetization; docs/in-flight.md §4).
     #[arg(long, value_enum, value_name = "PHASE", conflicts_with_all = ["wind", "gust"])]
     pub(crate) flight: Option<FlightPhase>,
     /// Turbulence of the flight window (Dryden, vertical gust σ 1.5 / 3 m/s).

@@ -24,7 +24,8 @@
 //! [`LOAD_SEARCH_EVALUATIONS`] evaluations; a curvature twelve lockstep runs and
 //! O(N·(9 + 12)²) f32 multiply-adds summed in f64 per block; the whole identification
 //! ([`identify`]: two load searches, two GA runs of at most [`WINDOW_GA_EVALUATIONS`], the
-//! polish, the uncertainty widened by [`WINDOW_INFLATION`], the verdict) at most
+//! polish — Gauss–Newton steps that move the load's stiffness and moment with the faults —,
+//! the uncertainty widened by [`WINDOW_INFLATION`], the verdict) at most
 //! 2 × [`LOAD_SEARCH_EVALUATIONS`] + 2 × [`WINDOW_GA_EVALUATIONS`] + 7 curvatures + 10
 //! evaluations, and [`identify_stepwise`] does it in polls of at most one evaluation or
 //! [`CURVATURE_CHUNK`] curvature samples. No allocation, no panic. Run by the host on every
@@ -751,6 +752,14 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
     /// [`CURVATURE_CHUNK`] samples of the twelve lockstep runs.
     #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // indices < FAULT_COUNT, NUISANCES on fixed arrays
     pub async fn curvature_stepwise(&self, k: &FaultVector) -> Curvature {
+        self.curvature_and_load_stepwise(k).await.0
+    }
+
+    /// [`curvature_stepwise`](Self::curvature_stepwise), with how the load's best stiffness
+    /// and moment move with the faults ([`LoadResponse`]): the polish steps the load with
+    /// the faults, as the profiled curvature assumes.
+    #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // indices < FAULT_COUNT, NUISANCES on fixed arrays
+    async fn curvature_and_load_stepwise(&self, k: &FaultVector) -> (Curvature, LoadResponse) {
         let k = &self.held.apply(k);
         let load = self.load;
         let start = self.measured.initial_angles();
@@ -893,27 +902,33 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
                 q[u][t] = row[u];
             }
         }
-        // Profile the nuisances out (a regular Q; a singular one leaves the sums as they are).
+        // Profile the nuisances out (a regular Q; a singular one leaves the sums as they are,
+        // and the load where it is).
+        let mut response = LoadResponse::NONE;
         if let Some(qi) = invert(&q) {
             let solve = |v: &dyn Fn(usize) -> f64| -> [f64; NUISANCES] {
                 core::array::from_fn(|t| (0..NUISANCES).map(|u| qi[t][u] * v(u)).sum())
             };
             let qr = solve(&|u| q_residual[u]);
             rss -= (0..NUISANCES).map(|t| qr[t] * q_residual[t]).sum::<f64>();
+            response.at_zero = [qr[DRIFT_TERMS], qr[DRIFT_TERMS + 1]];
             for a in 0..FAULT_COUNT {
                 let qa = solve(&|u| cross[u][a]);
+                response.per_fault[0][a] = -qa[DRIFT_TERMS];
+                response.per_fault[1][a] = -qa[DRIFT_TERMS + 1];
                 gradient[a] -= (0..NUISANCES).map(|t| qa[t] * q_residual[t]).sum::<f64>();
                 for c in 0..FAULT_COUNT {
                     normal[a][c] -= (0..NUISANCES).map(|t| qa[t] * cross[t][c]).sum::<f64>();
                 }
             }
         }
-        Curvature {
+        let curvature = Curvature {
             normal,
             rss: rss.max(0.0),
             gradient,
             fitted,
-        }
+        };
+        (curvature, response)
     }
 
     /// How much the window's load moved beyond its spring: the RMS over the window of the
@@ -1168,6 +1183,45 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
     }
 }
 
+/// How the load's best stiffness and moment move with a step of the faults, from a
+/// window's curvature: the nuisances' least-squares step given the faults' step `δ` is
+/// `Q⁻¹(Cᵀ… r) − Q⁻¹C·δ` (linearised at the curvature's vector); its load rows are kept.
+#[derive(Clone, Copy, Debug)]
+struct LoadResponse {
+    /// The load's step for no fault step: [ln stiffness, moment in N·m] (the curvature's
+    /// columns are the current's change per relative stiffness and per N·m).
+    at_zero: [f64; 2],
+    /// Its change per unit of each fault component.
+    per_fault: [[f64; FAULT_COUNT]; 2],
+}
+
+impl LoadResponse {
+    const NONE: Self = Self {
+        at_zero: [0.0; 2],
+        per_fault: [[0.0; FAULT_COUNT]; 2],
+    };
+
+    /// `load` moved with the faults' step from `from` to `to` (the phase's step taken the
+    /// short way round). O(9).
+    fn step(&self, load: WindowLoad, from: &FaultVector, to: &FaultVector) -> WindowLoad {
+        let [mut ln_k, mut moment] = self.at_zero;
+        for (i, (a, b)) in from.as_array().iter().zip(to.as_array()).enumerate() {
+            let mut d = b - a;
+            if crate::fault::CIRCULAR.get(i).copied().unwrap_or(false) {
+                d -= crate::math::floor(d + 0.5);
+            }
+            let d = f64::from(d);
+            ln_k += self.per_fault[0].get(i).copied().unwrap_or(0.0) * d;
+            moment += self.per_fault[1].get(i).copied().unwrap_or(0.0) * d;
+        }
+        WindowLoad {
+            stiffness: load.stiffness * crate::math::exp64(ln_k) as f32,
+            moment: load.moment + moment as f32,
+            trend: load.trend,
+        }
+    }
+}
+
 /// Samples of a window curvature's twelve lockstep runs between two pauses of
 /// [`WindowProblem::curvature_stepwise`] (about one window evaluation's work).
 pub const CURVATURE_CHUNK: usize = 400;
@@ -1281,7 +1335,8 @@ pub struct WindowReading {
     pub faults: FaultVector,
     /// The fit at `faults` under `load`: eq. (3) after the drift [A²·s] and the drift.
     pub fit: WindowFit,
-    /// The load fitted at the first GA's best (the one `faults` was searched under).
+    /// The load fitted at the first GA's best, as the polish moved it with the faults (the
+    /// one `fit` is under).
     pub load: WindowLoad,
     /// Standard deviation and 90 % interval per component (the preflight's inflation, then
     /// [`WINDOW_INFLATION`]) with the correlations; `None` if the curvature is singular.
@@ -1303,7 +1358,8 @@ pub struct WindowReading {
 /// a spring of the actuator's stiffness): the load fitted at the nominal vector, a GA of
 /// `settings` under it, the load fitted again at the GA's best and a second GA (seed
 /// `seed + 0x5eed`) under that, the better of the two polished by at most
-/// [`POLISH_STEPS`] damped Gauss–Newton steps on the window's curvature, the uncertainty
+/// [`POLISH_STEPS`] damped Gauss–Newton steps on the window's curvature (the load's
+/// stiffness and moment stepped with the faults by their profiled response), the uncertainty
 /// there and the verdict under `limits`. Bounded: 2 × [`LOAD_SEARCH_EVALUATIONS`], two GA
 /// runs of `settings`, ≤ 2 + 7 × [`CURVATURE_RUNS`] + [`POLISH_STEPS`] model runs and the
 /// verdict's two; no allocation (one [`SteadyStateGa`](crate::SteadyStateGa) of `P` on the
@@ -1362,21 +1418,26 @@ pub async fn identify_stepwise<const N: usize, const P: usize>(
     };
     // The polish: damped Gauss–Newton steps on the window's curvature, each kept only if it
     // lowers the error; then the uncertainty at the result.
+    // The load steps with the faults (the curvature profiles it out: its step assumes the
+    // load's best response), so that a fault the load was fitted against can still move.
     let mut damping = POLISH_DAMPING;
-    let mut curvature = problem.curvature_stepwise(&faults).await;
+    let mut load = problem.load();
+    let (mut curvature, mut response) = problem.curvature_and_load_stepwise(&faults).await;
     pause().await;
     evaluations += CURVATURE_RUNS;
     for _ in 0..POLISH_STEPS {
         let Some(next) = curvature.gauss_newton_step(&faults, damping) else {
             break;
         };
-        let next_fit = problem.evaluate(&next);
+        let next_load = response.step(load, &faults, &next);
+        let next_fit = problem.evaluate_under(&next, next_load);
         pause().await;
         evaluations += 1;
         if next_fit.error < fit.error {
-            (faults, fit) = (next, next_fit);
+            (faults, fit, load) = (next, next_fit, next_load);
+            problem.set_load(load);
             damping = (damping * 0.3).max(1e-3);
-            curvature = problem.curvature_stepwise(&faults).await;
+            (curvature, response) = problem.curvature_and_load_stepwise(&faults).await;
             pause().await;
             evaluations += CURVATURE_RUNS;
         } else {
@@ -1574,6 +1635,88 @@ impl<const N: usize> Problem for WindowProblem<'_, N> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The load's response read from a window's curvature moves a load whose moment is off
+    /// most of the way back, and lowers the fit: a window recorded from the monitor model
+    /// (the controller's gain halved, friction 0.1) under a spring carrying 120 N·m, the
+    /// problem under the same spring carrying 124 N·m, the faults not moved; then a step of
+    /// the gain alone, the load moved with it, fits better than the load left where it is.
+    #[test]
+    fn the_polish_moves_the_load_with_the_faults() {
+        use crate::actuator::ActuatorRecord;
+        use crate::fdi::{OnboardMeasured, TEST_SAMPLES};
+        let record = ActuatorRecord::REFERENCE;
+        let test = record.test.chirp_only();
+        let model = MonitorModel::new(
+            record.params,
+            &crate::Calibration::reference_actuator(&test),
+        )
+        .with_test(&test);
+        let period = record.params.control_period;
+        let sampler = model.sampler();
+        let command: std::vec::Vec<f32> = (0..TEST_SAMPLES)
+            .map(|i| synthetic_command(&sampler, 1.0e-3, period, i))
+            .collect();
+        let mut genes = *FaultVector::NOMINAL.as_array();
+        (genes[0], genes[7]) = (0.1, 0.0);
+        let truth = FaultVector::new(genes).unwrap();
+        let stiffness = 1.4 * record.params.aero_stiffness;
+        let load = WindowLoad::spring(stiffness, 120.0);
+        let mut measured = std::boxed::Box::new(OnboardMeasured::ZEROED);
+        measured.set_filter(LowPass::for_control_period(period).unwrap());
+        measured.clear_for(test);
+        let full = RecordedCommand::new(&command);
+        record_monitor_window(
+            &model,
+            &truth,
+            &load,
+            &full,
+            TEST_SAMPLES,
+            0.3,
+            &mut measured,
+        )
+        .unwrap();
+        let kept: std::vec::Vec<f32> = command.iter().step_by(COMMAND_STRIDE).copied().collect();
+        // The fit is sharp in the moment (where the gear reverses): a few N·m off.
+        let off = WindowLoad::spring(stiffness, 124.0);
+        let problem = WindowProblem::new(
+            &measured,
+            RecordedCommand::kept_every(COMMAND_STRIDE, &kept),
+            model,
+            off,
+        )
+        .unwrap();
+
+        let (_, response) = run_to_end(problem.curvature_and_load_stepwise(&truth));
+        let moved = response.step(off, &truth, &truth);
+        assert!(
+            (moved.moment - 120.0).abs() < 0.6 * 4.0,
+            "moment moved to {}",
+            moved.moment
+        );
+        assert!(
+            (moved.stiffness / stiffness - 1.0).abs() < 0.01,
+            "{moved:?}"
+        );
+        assert!(
+            problem.evaluate_under(&truth, moved).error
+                < 0.5 * problem.evaluate_under(&truth, off).error
+        );
+
+        // From the gain read 0.06 under the load best for it, the step to the true gain
+        // with the load moved fits better than the step alone.
+        let mut high = genes;
+        high[7] = 0.06;
+        let high = FaultVector::new(high).unwrap();
+        let (fitted, _) = problem.fit_load(&high, stiffness);
+        let mut at_high = problem.clone();
+        at_high.set_load(fitted);
+        let (_, response) = run_to_end(at_high.curvature_and_load_stepwise(&high));
+        let stepped = response.step(fitted, &high, &truth);
+        let with_load = at_high.evaluate_under(&truth, stepped).error;
+        let without = at_high.evaluate_under(&truth, fitted).error;
+        assert!(with_load < without, "{with_load} against {without}");
+    }
 
     #[test]
     fn recorded_command_holds_its_last_sample() {

@@ -1,7 +1,8 @@
 //! The identification of a window of flight on the host (issue 36; `shared::window`): the
 //! window's load fitted at the nominal vector, the GA over the faults under it, the load
 //! fitted again at the GA's best and the GA run again from that load, the better of the two
-//! polished by damped Gauss–Newton steps on the window's curvature, and the uncertainty
+//! polished by damped Gauss–Newton steps on the window's curvature (the load's stiffness
+//! and moment moved with the faults), and the uncertainty
 //! there — `shared::window::identify`, the code a controller would run — and the window's
 //! report around it. Two GA runs of at most `shared::window::WINDOW_GA_EVALUATIONS` each
 //! (`window_ga`), 2 × `shared::window::LOAD_SEARCH_EVALUATIONS` and at most 90 more
