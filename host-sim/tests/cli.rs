@@ -421,7 +421,7 @@ fn windows_of_one_flight_are_read_together() {
     let std = flight["std"][0].as_f64().unwrap();
     let friction = flight["faults"][0].as_f64().unwrap();
     // One window reads friction to σ ≈ 0.07 here (calibrated), eight to about a third of
-    // that: below the flight's limit 0.04 (`shared::fusion::FLIGHT_MAX_FRICTION_STD`).
+    // that: below the flight's limit 0.03 (`shared::fusion::FLIGHT_MAX_FRICTION_STD`).
     assert!(std < 0.045, "friction σ {std}: {flight}");
     assert!(
         (friction - 0.2).abs() < 0.06,

@@ -248,7 +248,7 @@ fn a_demagnetizing_actuator_gets_its_own_trend_and_rul() {
 /// entry and — when a window entered — the flight's reading from its windows fused (window
 /// `flight`, the windows fused counted); the trend takes the preflights and the flights'
 /// readings that are `within`, never a window's own entry. Eight windows per flight (the
-/// design): a flight's friction must be read to σ ≤ 0.04
+/// design): a flight's friction must be read to σ ≤ 0.03
 /// (`shared::fusion::FLIGHT_MAX_FRICTION_STD`), which fewer light windows seldom reach.
 #[test]
 fn degrade_with_windows_writes_each_flights_reading_and_the_trend_takes_it() {
