@@ -752,7 +752,6 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
 
     /// [`curvature`](Self::curvature) in steps: the future pauses after every
     /// [`CURVATURE_CHUNK`] samples of the twelve lockstep runs.
-    #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // indices < FAULT_COUNT, NUISANCES on fixed arrays
     pub async fn curvature_stepwise(&self, k: &FaultVector) -> Curvature {
         self.curvature_and_load_stepwise(k, self.load).await.0
     }
@@ -1190,7 +1189,8 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
 
 /// How the load's best stiffness and moment move with a step of the faults, from a
 /// window's curvature: the nuisances' least-squares step given the faults' step `δ` is
-/// `Q⁻¹(Cᵀ… r) − Q⁻¹C·δ` (linearised at the curvature's vector); its load rows are kept.
+/// `Q⁻¹(NᵀWr − C·δ)` (`N` the nuisances' columns, `Q = NᵀWN`, `C = NᵀWJ` their cross terms
+/// with the faults; linearised at the curvature's vector); its two load rows are kept.
 #[derive(Clone, Copy, Debug)]
 struct LoadResponse {
     /// The load's step for no fault step: [ln stiffness, moment in N·m] (the curvature's
