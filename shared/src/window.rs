@@ -1421,10 +1421,10 @@ pub async fn identify_stepwise<const N: usize, const P: usize>(
     } else {
         (first, first_fit)
     };
-    // The polish: damped Gauss–Newton steps on the window's curvature, each kept only if it
+    // The polish: damped Gauss–Newton steps on the window's curvature, the load stepped with
+    // the faults (the curvature profiles it out, so its step assumes the load's best
+    // response: a fault the load was fitted against can still move), each kept only if it
     // lowers the error; then the uncertainty at the result.
-    // The load steps with the faults (the curvature profiles it out: its step assumes the
-    // load's best response), so that a fault the load was fitted against can still move.
     let mut damping = POLISH_DAMPING;
     let (mut curvature, mut response) = problem.curvature_and_load_stepwise(&faults, load).await;
     pause().await;
