@@ -142,7 +142,7 @@ pub(crate) struct ActuatorArgs {
     /// of the file's `[surface]` at the phase's dynamic pressure (10 / 14 / 2.5 kPa) and trim.
     /// The trace's command column is what the position loop followed; `identify` reads the
     /// trace as a window of flight (`# test: flight`; with `--preflight`, the same seed's
-    /// preflight trace holds its shorts and demagnetization; docs/in-flight.md §4).
+    /// preflight trace holds its shorts, eccentricity and demagnetization; docs/in-flight.md §4).
     #[arg(long, value_enum, value_name = "PHASE", conflicts_with_all = ["wind", "gust"])]
     pub(crate) flight: Option<FlightPhase>,
     /// Turbulence of the flight window (Dryden, vertical gust σ 1.5 / 3 m/s).

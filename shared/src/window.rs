@@ -14,9 +14,9 @@
 //! The load's stiffness, moment and trend are nuisances fitted per window
 //! ([`WindowProblem::fit_load`]); the uncertainty's curvature profiles them out beside the
 //! drift ([`WindowProblem::curvature`]); [`WindowProblem::judge`] gives the window's own
-//! `Outside` reasons ([`WindowReason`]). The stator shorts are held at the same flight's
-//! preflight reading when there is one ([`HeldComponents`]): without a standstill segment a
-//! window cannot tell a short from an eccentricity.
+//! `Outside` reasons ([`WindowReason`]). The stator shorts and the eccentricity are held at
+//! the same flight's preflight reading when there is one ([`HeldComponents`]): without a
+//! standstill segment a window cannot tell a short from an eccentricity.
 //!
 //! Work: one evaluation = one monitor-model run over the window (O(N), a few multiply-adds
 //! more per sample: the drift's polynomials are expanded per block of [`DRIFT_BLOCK`]
@@ -258,15 +258,19 @@ pub enum WindowError {
 }
 
 /// Components a window does not identify but holds at values from outside it: the stator
-/// shorts and the demagnetization at the same flight's preflight reading
-/// ([`HeldComponents::of_preflight`]). A window has no standstill segment, and without it a
-/// short's phase asymmetry and the rotor's eccentricity trade against each other (a short A
-/// of 0.2 read as an eccentricity of 0.4 in cruise); its hinge load is unknown (fitted), and
-/// a weaker torque constant then reads as friction (a demagnetization of 0.2 read 0.05
-/// beside a friction of 0.17 in approach, docs/in-flight.md §4). The preflight, on its
-/// known spring, with its pair circuits, tells them apart, and neither changes within a
-/// flight. The GA's genes for held components are ignored, the curvature does not vary
-/// them (their deviations read "not determined").
+/// shorts, the eccentricity (amplitude and phase) and the demagnetization at the same
+/// flight's preflight reading ([`HeldComponents::of_preflight`]). A window has no standstill
+/// segment, and without it a short's phase asymmetry and the rotor's eccentricity trade
+/// against each other (a short A of 0.2 read as an eccentricity of 0.4 in cruise). Holding
+/// the shorts alone left the eccentricity free to take what the monitor model's short does
+/// not play of a real half-shorted phase: beside a held short A of 0.5 one window read an
+/// eccentricity of 0.29 `within` at 10.6 % e_tot, and flights of eight read 0.06–0.10
+/// (one false `FAULT`) — so the eccentricity is held with them. Its hinge load is unknown
+/// (fitted), and a weaker torque constant then reads as friction (a demagnetization of 0.2
+/// read 0.05 beside a friction of 0.17 in approach, docs/in-flight.md §4). The preflight,
+/// on its known spring, with its pair circuits, tells them apart, and none of them changes
+/// within a flight. The GA's genes for held components are ignored, the curvature does not
+/// vary them (their deviations read "not determined").
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct HeldComponents {
@@ -281,11 +285,12 @@ impl HeldComponents {
         values: [0.0; FAULT_COUNT],
     };
 
-    /// The three stator shorts (k3, k4, k5) and the demagnetization (k9) held at
-    /// `preflight`'s.
+    /// The three stator shorts (k3, k4, k5), the eccentricity and its phase (k6, k7) and the
+    /// demagnetization (k9) held at `preflight`'s.
     pub fn of_preflight(preflight: &FaultVector) -> Self {
-        let held: [bool; FAULT_COUNT] =
-            core::array::from_fn(|i| SHORTS.contains(&i) || i == DEMAGNETIZATION_INDEX);
+        let held: [bool; FAULT_COUNT] = core::array::from_fn(|i| {
+            SHORTS.contains(&i) || ECCENTRICITY.contains(&i) || i == DEMAGNETIZATION_INDEX
+        });
         Self {
             held,
             values: *preflight.as_array(),
@@ -321,6 +326,9 @@ impl HeldComponents {
 
 /// Indices of the stator shorts A, B, C in a fault vector.
 const SHORTS: [usize; 3] = [2, 3, 4];
+
+/// Indices of the eccentricity's amplitude and phase in a fault vector.
+const ECCENTRICITY: [usize; 2] = [5, 6];
 
 /// Eq. (3) over one window with the drift profiled out: what the GA minimises in flight.
 #[derive(Clone, Debug)]

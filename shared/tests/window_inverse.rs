@@ -115,18 +115,18 @@ fn a_window_recorded_from_the_monitor_model_is_identified() {
     );
 }
 
-/// The stator shorts and the demagnetization held at the same flight's preflight reading
-/// (`HeldComponents`): a window recorded with a short A of 0.2, a demagnetization of 0.2
-/// and friction 0.2 is identified with the shorts and the demagnetization at their held
-/// values exactly — the GA's genes for them ignored, the curvature not varying
-/// them (their deviations not determined) — and the rest read right. Held at nominal
-/// instead, the same window cannot fit as well. Fails if a held component leaks into the
-/// search, the polish or the curvature.
+/// The stator shorts, the eccentricity and the demagnetization held at the same flight's
+/// preflight reading (`HeldComponents`): a window recorded with a short A of 0.2, an
+/// eccentricity of 0.1 at phase 0.3, a demagnetization of 0.2 and friction 0.2 is
+/// identified with the held components at their held values exactly — the GA's genes for
+/// them ignored, the curvature not varying them (their deviations not determined) — and
+/// the rest read right. Held at nominal instead, the same window cannot fit as well. Fails
+/// if a held component leaks into the search, the polish or the curvature.
 #[test]
-fn held_shorts_stay_at_the_preflights_reading() {
+fn held_components_stay_at_the_preflights_reading() {
     let record = ActuatorRecord::REFERENCE;
     let mut genes = *FaultVector::NOMINAL.as_array();
-    (genes[0], genes[2], genes[8]) = (0.2, 0.2, 0.2);
+    (genes[0], genes[2], genes[5], genes[6], genes[8]) = (0.2, 0.2, 0.1, 0.3, 0.2);
     let truth = FaultVector::new(genes).unwrap();
     let load = WindowLoad::spring(1.4 * record.params.aero_stiffness, 120.0);
     let window = Recorded::new(1.0e-3, &truth, &load);
@@ -137,23 +137,27 @@ fn held_shorts_stay_at_the_preflights_reading() {
         identify::<_, POPULATION>(&problem, window_ga(&record.ga), 1, &WindowLimits::REFERENCE)
             .unwrap();
     let found = reading.faults.as_array();
-    assert_eq!(&found[2..5], &genes[2..5], "{found:?}");
-    assert_eq!(found[8], genes[8], "demagnetization {found:?}");
+    const HELD: [usize; 6] = [2, 3, 4, 5, 6, 8];
+    for i in HELD {
+        assert_eq!(found[i], genes[i], "component {i}: {found:?}");
+    }
     assert!((found[0] - 0.2).abs() < 0.03, "friction {found:?}");
     let (u, _) = reading.uncertainty.expect("a determined curvature");
-    assert!(u.std[2..5].iter().all(|s| s.is_nan()), "{:?}", u.std);
-    assert!(u.std[8].is_nan(), "{:?}", u.std);
+    for i in HELD {
+        assert!(u.std[i].is_nan(), "component {i}: {:?}", u.std);
+    }
     assert!(u.std[0].is_finite());
-    // The curvature's columns for the held shorts are zero.
+    // The curvature's columns for the held components are zero.
     let c = problem.curvature(&reading.faults);
-    for i in [2, 3, 4, 8] {
+    for i in HELD {
         assert!(
             c.normal[i].iter().all(|&x| x == 0.0),
             "row {i}: {:?}",
             c.normal[i]
         );
     }
-    // Held where they are not (nominal), the shorts cannot be fitted away.
+    // Held where they are not (nominal), the short and the eccentricity cannot be fitted
+    // away.
     let nominal = window
         .problem(reading.load)
         .with_held(HeldComponents::of_preflight(&FaultVector::NOMINAL));

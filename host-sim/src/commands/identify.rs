@@ -243,9 +243,9 @@ fn held_from_preflight(
     let Some(path) = preflight else {
         return Ok((
             shared::window::HeldComponents::NONE,
-            "shorts and demagnetization read from the window (no --preflight: a window cannot \
-             tell a short from an eccentricity, nor a demagnetization from friction under its \
-             unknown load)"
+            "shorts, eccentricity and demagnetization read from the window (no --preflight: a \
+             window cannot tell a short from an eccentricity, nor a demagnetization from \
+             friction under its unknown load)"
                 .into(),
         ));
     };
@@ -275,8 +275,8 @@ pub(crate) fn held_from_preflight_trace(
         return Ok((
             HeldComponents::NONE,
             format!(
-                "shorts and demagnetization read from the window: the preflight {name} is \
-                 outside ({})",
+                "shorts, eccentricity and demagnetization read from the window: the \
+                 preflight {name} is outside ({})",
                 shared::health::DomainCode::from(domain).name()
             ),
         ));
@@ -286,10 +286,12 @@ pub(crate) fn held_from_preflight_trace(
         HeldComponents::of_preflight(&id.result.faults),
         format!(
             "shorts held at the preflight's ({name}): A {:.3}, B {:.3}, C {:.3}; \
-             demagnetization {:.3}",
+             eccentricity {:.3} at phase {:.3}; demagnetization {:.3}",
             k[2],
             k[3],
             k[4],
+            k[5],
+            k[6],
             k[shared::fault::DEMAGNETIZATION_INDEX]
         ),
     ))
