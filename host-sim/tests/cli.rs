@@ -474,7 +474,7 @@ fn a_window_holds_the_shorts_its_flights_preflight_read() {
         v["shorts"]
             .as_str()
             .unwrap()
-            .starts_with("shorts held at the preflight's"),
+            .starts_with("shorts, eccentricity and demagnetization held at the preflight's"),
         "{v}"
     );
     for held in ["eccentricity", "demagnetization"] {

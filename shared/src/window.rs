@@ -14,9 +14,10 @@
 //! The load's stiffness, moment and trend are nuisances fitted per window
 //! ([`WindowProblem::fit_load`]); the uncertainty's curvature profiles them out beside the
 //! drift ([`WindowProblem::curvature`]); [`WindowProblem::judge`] gives the window's own
-//! `Outside` reasons ([`WindowReason`]). The stator shorts and the eccentricity are held at
-//! the same flight's preflight reading when there is one ([`HeldComponents`]): without a
-//! standstill segment a window cannot tell a short from an eccentricity.
+//! `Outside` reasons ([`WindowReason`]). The stator shorts, the eccentricity and the
+//! demagnetization are held at the same flight's preflight reading when there is one
+//! ([`HeldComponents`]): without a standstill segment a window cannot tell a short from an
+//! eccentricity, and under its fitted load a demagnetization reads as friction.
 //!
 //! Work: one evaluation = one monitor-model run over the window (O(N), a few multiply-adds
 //! more per sample: the drift's polynomials are expanded per block of [`DRIFT_BLOCK`]

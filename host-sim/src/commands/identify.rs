@@ -285,8 +285,9 @@ pub(crate) fn held_from_preflight_trace(
     Ok((
         HeldComponents::of_preflight(&id.result.faults),
         format!(
-            "shorts held at the preflight's ({name}): A {:.3}, B {:.3}, C {:.3}; \
-             eccentricity {:.3} at phase {:.3}; demagnetization {:.3}",
+            "shorts, eccentricity and demagnetization held at the preflight's ({name}): \
+             shorts A {:.3}, B {:.3}, C {:.3}; eccentricity {:.3} at phase {:.3}; \
+             demagnetization {:.3}",
             k[2],
             k[3],
             k[4],
