@@ -444,8 +444,8 @@ fn windows_of_one_flight_are_read_together() {
 
 /// A window of flight cannot tell a stator short from an eccentricity (it has no standstill
 /// segment): given the same flight's preflight (`--preflight`), it holds the shorts and the
-/// eccentricity at the preflight's reading and reads the window right; a preflight given as a window, or a
-/// window given as the preflight, is refused by name.
+/// eccentricity at the preflight's reading and reads the window right; a preflight given as
+/// a window, or a window given as the preflight, is refused by name.
 #[test]
 fn a_window_holds_the_shorts_its_flights_preflight_read() {
     let dir = tempfile::tempdir().unwrap();

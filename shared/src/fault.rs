@@ -28,6 +28,12 @@ pub const PAPER_FAULT_COUNT: usize = 8;
 /// Index of k9, demagnetization, in the vector (after the paper's eight).
 pub const DEMAGNETIZATION_INDEX: usize = PAPER_FAULT_COUNT;
 
+/// Index of k6, the static eccentricity's amplitude, in the vector.
+pub const ECCENTRICITY_INDEX: usize = 5;
+
+/// Index of k7, the eccentricity's phase (the one circular component), in the vector.
+pub const ECCENTRICITY_PHASE_INDEX: usize = 6;
+
 /// Share of the magnets' flux lost at full demagnetization (k9 = 1): half the flux, past
 /// which the actuator has lost its torque margin long before.
 pub const DEMAGNETIZATION_LOSS_MAX: f32 = 0.5;
@@ -57,6 +63,7 @@ pub const FAULT_NAMES: [&str; FAULT_COUNT] = [
 /// Which component of the vector is circular (the eccentricity phase wraps at 0 ≡ 1).
 pub const CIRCULAR: [bool; FAULT_COUNT] =
     [false, false, false, false, false, false, true, false, false];
+const _: () = assert!(CIRCULAR[ECCENTRICITY_PHASE_INDEX]);
 
 /// Why a fault vector was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -98,8 +98,7 @@ pub fn flight_inflation(windows: u32) -> [f32; FAULT_COUNT] {
 pub const FUSION_SWEEPS: usize = 200;
 
 /// Index of the circular component (the eccentricity's phase).
-const PHASE: usize = 6;
-const _: () = assert!(CIRCULAR[PHASE]);
+const PHASE: usize = crate::fault::ECCENTRICITY_PHASE_INDEX;
 
 /// The windows of one flight added so far.
 #[derive(Clone, Copy, Debug, PartialEq)]

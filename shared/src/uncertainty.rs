@@ -41,7 +41,7 @@ pub const INFLATION: f32 = 8.0;
 pub const RAYLEIGH_99: f32 = 3.034_854;
 
 /// Index of the eccentricity's amplitude in the fault vector.
-const ECCENTRICITY: usize = 5;
+const ECCENTRICITY: usize = crate::fault::ECCENTRICITY_INDEX;
 
 /// Correlation beyond which two components are read as not separable by one test.
 pub const AMBIGUOUS_CORRELATION: f32 = 0.9;

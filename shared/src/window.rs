@@ -330,7 +330,10 @@ impl HeldComponents {
 const SHORTS: [usize; 3] = [2, 3, 4];
 
 /// Indices of the eccentricity's amplitude and phase in a fault vector.
-const ECCENTRICITY: [usize; 2] = [5, 6];
+const ECCENTRICITY: [usize; 2] = [
+    crate::fault::ECCENTRICITY_INDEX,
+    crate::fault::ECCENTRICITY_PHASE_INDEX,
+];
 
 /// Eq. (3) over one window with the drift profiled out: what the GA minimises in flight.
 #[derive(Clone, Debug)]

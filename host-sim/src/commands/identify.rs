@@ -291,8 +291,8 @@ pub(crate) fn held_from_preflight_trace(
             k[2],
             k[3],
             k[4],
-            k[5],
-            k[6],
+            k[shared::fault::ECCENTRICITY_INDEX],
+            k[shared::fault::ECCENTRICITY_PHASE_INDEX],
             k[shared::fault::DEMAGNETIZATION_INDEX]
         ),
     ))
