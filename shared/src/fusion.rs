@@ -43,7 +43,13 @@ use crate::window::WindowReason;
 /// rule gives 0.05 (179 read, none above 6 %, one healthy friction 0.075 in moderate
 /// cruise; at 0.06 195, three); **kept at 0.03** for the same reason: at 0.05 the
 /// degradation's flight reads friction 0.39 for 0.30 at σ 0.034 (four windows at 0.31–0.48
-/// entered); docs/in-flight.md §4.
+/// entered). With Table I in cruise added to the selection (the same seeds, the windows'
+/// gain drift widened 2.0 times, the flights' friction 1.1 times): over both sets 345
+/// flights read at 0.03, none above 6 %, no false `FAULT`; at 0.04 459, one false `FAULT`
+/// (a healthy friction in moderate cruise) — the rule's `FAULT` target keeps **0.03**. Its
+/// 1 % target is missed at every limit on Table I: 6 of the 345 read a free healthy
+/// component above 0.05 (friction beside a halved gain or a wide eccentricity, a bias a
+/// smaller limit does not remove: 2 of 22 at 0.02); docs/in-flight.md §4.
 pub const FLIGHT_MAX_FRICTION_STD: f32 = 0.03;
 
 /// How many times a flight's standard deviation per component must be taken beyond what its
@@ -58,9 +64,14 @@ pub const FLIGHT_MAX_FRICTION_STD: f32 = 0.03;
 /// no longer share its deviation, and the windows of a flight lean alike) → **1.5**; the
 /// others ×0.66–0.97, left alone. With the windows' eccentricity held too (a trusted
 /// preflight's), the eccentricity's factor applies only to flights without one; the others
-/// on the same seeds at the limit: friction ×0.97, backlash ×0.82, gain drift ×0.95 — left;
+/// on the same seeds at the limit: friction ×0.97, backlash ×0.82, gain drift ×0.95 — left.
+/// With Table I in cruise added to the selection (seeds 10–29, eight windows, the windows'
+/// gain drift widened 2.0 times: 345 flights read at the limit over both sets, 251 of them
+/// Table I's): gain drift ×1.56 (×1.75 on Table I alone: with a short, a wide eccentricity
+/// or a halved gain every window of a flight reads the gain 0.01–0.02 off alike) → 1.2 ×
+/// 1.56 = 1.87 → **1.9**; friction ×1.06 → **1.1**; backlash ×0.73 — left;
 /// docs/in-flight.md §4.
-pub const FLIGHT_INFLATION: [f32; FAULT_COUNT] = [1.0, 1.0, 1.0, 1.0, 1.0, 1.5, 1.0, 1.2, 1.0];
+pub const FLIGHT_INFLATION: [f32; FAULT_COUNT] = [1.1, 1.0, 1.0, 1.0, 1.0, 1.5, 1.0, 1.9, 1.0];
 
 /// The windows per flight [`FLIGHT_INFLATION`] was chosen at.
 pub const CALIBRATED_WINDOWS: u32 = 8;

@@ -88,8 +88,13 @@ const MOMENT_SCAN: usize = 81;
 /// polish stepping the load with the faults (same seeds, the 121 `within` first windows):
 /// friction ×0.96, gain drift ×0.86, the backlash ×0.72, the eccentricity ×0.71 — left as
 /// they are. With the eccentricity held too (same seeds, the 124 `within` first windows):
-/// friction ×0.96, gain drift ×0.97, the backlash ×0.62 — left. Reported on seeds 0–9.
-pub const WINDOW_INFLATION: [f32; FAULT_COUNT] = [1.8, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.6, 1.0];
+/// friction ×0.96, gain drift ×0.97, the backlash ×0.62 — left. With Table I in cruise
+/// added to the selection (seeds 10–29, eight windows per flight: 255 `within` first
+/// windows; with the 124 above, 379): gain drift ×1.34 on Table I alone (its interval held
+/// the truth in 200 of 255: with a short, a wide eccentricity or a halved gain the window
+/// reads the gain 0.01–0.02 off, an error the curvature does not see), ×1.24 on the union →
+/// 1.6 × 1.24 = 1.98 → **2.0**; friction ×0.97 on the union — left. Reported on seeds 0–9.
+pub const WINDOW_INFLATION: [f32; FAULT_COUNT] = [1.8, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 2.0, 1.0];
 
 /// How often the controller keeps the command it followed over a window: every
 /// `COMMAND_STRIDE`-th sample (2.5 kHz at the reference's 10 kHz loop), linear in between
