@@ -412,7 +412,8 @@ mod tests {
 
     #[test]
     fn windows_add_their_evidence() {
-        // Four windows reading friction 0.16, 0.24, 0.20, 0.20 at σ 0.1 each: 0.2 at σ 0.05.
+        // Four windows reading friction 0.16, 0.24, 0.20, 0.20 at σ 0.1 each: 0.2 at σ 0.05
+        // (times the flight's friction factor).
         let mut fusion = WindowFusion::EMPTY;
         for friction in [0.16, 0.24, 0.20, 0.20] {
             let mut genes = *FaultVector::NOMINAL.as_array();
@@ -431,7 +432,7 @@ mod tests {
         }
         let flight = fusion.reading(FLIGHT_MAX_FRICTION_STD).unwrap();
         assert!((flight.faults.friction() - 0.2).abs() < 1e-5);
-        assert!((flight.uncertainty.0.std[0] - 0.05).abs() < 1e-6);
+        assert!((flight.uncertainty.0.std[0] - 0.05 * FLIGHT_INFLATION[0]).abs() < 1e-6);
         // The phase: no window determines it.
         assert!(flight.uncertainty.0.std[PHASE].is_nan());
     }
