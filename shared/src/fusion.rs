@@ -49,8 +49,9 @@ use crate::window::WindowReason;
 /// (a healthy friction in moderate cruise) — the rule's `FAULT` target keeps **0.03**. Its
 /// 1 % target is missed at every limit on Table I: 6 of the 345 read a free healthy
 /// component above 0.05 (friction 0.051–0.088 beside short A 0.5, a halved gain or
-/// eccentricity 0.5: a bias a smaller limit does not remove, 2 of 22 at 0.02); 15 more carry
-/// short A 0.5's preflight eccentricity (held); docs/in-flight.md §4.
+/// eccentricity 0.5: a bias a smaller limit does not remove, 2 of 22 at 0.02); of the 19
+/// with any healthy component above 0.05, 15 carry short A 0.5's preflight eccentricity
+/// (held); docs/in-flight.md §4.
 pub const FLIGHT_MAX_FRICTION_STD: f32 = 0.03;
 
 /// How many times a flight's standard deviation per component must be taken beyond what its
