@@ -139,11 +139,11 @@ impl FaultVector {
     }
     /// k6: normalised eccentricity amplitude.
     pub fn eccentricity(&self) -> f32 {
-        self.0[5]
+        self.0[ECCENTRICITY_INDEX]
     }
     /// k7: normalised eccentricity phase (circular).
     pub fn eccentricity_phase(&self) -> f32 {
-        self.0[6]
+        self.0[ECCENTRICITY_PHASE_INDEX]
     }
     /// k8: normalised proportional-gain drift (0.5 = none).
     pub fn gain_drift(&self) -> f32 {

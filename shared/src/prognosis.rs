@@ -196,14 +196,15 @@ impl TrendSettings {
         // evaluation's seeds 0–2 (0.004–0.008 against 0.01–0.02: interval coverage 85–95 %)
         // and checked on seeds 3–5 (docs/prognostics.md).
         noise_floor: 0.005,
-        // A flight's reading against what it states, over a preflight's: 4.28 for the gain
-        // drift, the most optimistic component (friction 4.27), on the evaluation's seed 0
-        // with eight windows per flight fused into its reading and the windows' shorts,
-        // eccentricity and demagnetization held at the preflight's (388 readings `within`),
-        // rounded up to a half. Before the eccentricity was held it was the eccentricity's
-        // 5.63 → 6; 3.94 → 4 with four windows and the shorts held, 4.57 → 5 before, and
-        // one window's own entry per flight gave 4.61 → 5 before flights' readings
-        // (docs/prognostics.md, "In-flight entries").
+        // A flight's reading against what it states, over a preflight's: 4.23 for friction,
+        // the most optimistic component (gain drift 2.52), on the evaluation's seed 0 with
+        // eight windows per flight fused into its reading, the windows' shorts, eccentricity
+        // and demagnetization held at the preflight's and the intervals' factors set with
+        // Table I (259 readings `within`), rounded up to a half; 4.28 (the gain drift's, 388
+        // readings) before those factors. Before the eccentricity was held it was the
+        // eccentricity's 5.63 → 6; 3.94 → 4 with four windows and the shorts held, 4.57 → 5
+        // before, and one window's own entry per flight gave 4.61 → 5 before flights'
+        // readings (docs/prognostics.md, "In-flight entries").
         flight_scale: 4.5,
         // Mean errors of 0.011–0.018 on the Table II and random multi-fault vectors
         // (docs/accuracy.md): the level-correlated part of a test's error, which a history
