@@ -242,6 +242,17 @@ enum Command {
             value_parser = clap::value_parser!(u32).range(1..=16)
         )]
         flight_windows: u32,
+        /// With --flight-windows: a flight flies more windows, one at a time up to this
+        /// many, while only its friction deviation keeps its reading out and more windows
+        /// can bring it within the limit (`shared::fusion::FlightLength`, docs/in-flight.md
+        /// §4) — a long phase's rule (cruise). Default: --flight-windows exactly.
+        #[arg(
+            long,
+            requires = "flight_windows",
+            value_name = "N",
+            value_parser = clap::value_parser!(u32).range(2..=32)
+        )]
+        flight_windows_max: Option<u32>,
         /// Runs (seeds) per case.
         #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..=1000))]
         runs: u64,
@@ -675,6 +686,7 @@ fn main() -> ExitCode {
             test_amplitudes,
             first_seed,
             flight_windows,
+            flight_windows_max,
             phase,
             runs,
             out,
@@ -687,13 +699,24 @@ fn main() -> ExitCode {
             _ if wind => wind_campaign_command(&actuator, runs, out.as_deref()),
             _ if flight => {
                 let seeds = first_seed..first_seed.saturating_add(runs);
+                let most = flight_windows_max.unwrap_or(flight_windows);
+                if most < flight_windows || (most > flight_windows && flight_windows < 2) {
+                    anyhow::bail!(
+                        "--flight-windows-max {most}: at least --flight-windows \
+                         ({flight_windows}), and a flight that may fly more needs \
+                         --flight-windows 2 or more (one window is never read alone)"
+                    );
+                }
                 flight_campaign_command(
                     &actuator,
                     seeds,
                     &FlightCampaignRun {
                         table,
                         phases: &phase,
-                        per_flight: flight_windows,
+                        length: shared::fusion::FlightLength {
+                            least: flight_windows,
+                            most,
+                        },
                     },
                     test_amplitudes.as_deref(),
                     out.as_deref(),

@@ -9,6 +9,7 @@ use host_sim::plant::reference::{ReferenceModel, ReferenceSettings};
 use host_sim::studies::flight::{flight_campaign, ALL_WINDOWS, FLIGHT_CASES};
 use shared::actuator::ActuatorRecord;
 use shared::domain::Domain;
+use shared::fusion::FlightLength;
 
 #[test]
 fn no_flight_window_is_read_within() {
@@ -18,7 +19,7 @@ fn no_flight_window_is_read_within() {
         &rm,
         &ActuatorRecord::REFERENCE,
         0..1,
-        2,
+        FlightLength::fixed(2),
         &ALL_WINDOWS,
         &FLIGHT_CASES,
         |_| {},

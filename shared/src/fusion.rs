@@ -107,6 +107,86 @@ pub fn flight_inflation(windows: u32) -> [f32; FAULT_COUNT] {
     })
 }
 
+/// How many windows a flight phase flies before its reading is formed (issue 36): at least
+/// `least`, then one more at a time while the only thing that keeps the reading out is its
+/// friction deviation ([`WindowReason::TurbulenceTooHigh`]) and that deviation, shrinking as
+/// `1/√n` with the windows entered, can still reach the limit by `most`; never more than
+/// `most`. A long phase (cruise) can afford more windows than the calibrated eight; climb
+/// and approach last minutes ([`FlightLength::fixed`]). Stopping when the deviation crosses
+/// the limit reads the flight at the window count its turbulence needs: the deviation
+/// depends on the windows' information, not on where their readings fall, so the rule picks
+/// no reading by its value. The windows' readings disagreeing (`Unconfirmed`) ends the
+/// flight: more windows are not asked to outvote one that is wrong.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FlightLength {
+    /// Windows flown before the first reading is formed.
+    pub least: u32,
+    /// Windows flown at most.
+    pub most: u32,
+}
+
+/// What a flight does after a window ([`FlightLength::after`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FlightProgress {
+    /// Fly another window.
+    MoreWindows,
+    /// Form the flight's reading now: why the flight stops.
+    Done(FlightEnd),
+}
+
+/// Why a flight's windows stop.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FlightEnd {
+    /// Its reading is `within`, or named for a reason more windows do not mend
+    /// (`Unconfirmed`), or no window entered by `least`.
+    Settled,
+    /// `most` windows flown.
+    WindowCap,
+    /// The friction deviation cannot reach the limit by `most` windows.
+    OutOfReach,
+}
+
+impl FlightLength {
+    /// Exactly `windows` windows.
+    pub const fn fixed(windows: u32) -> Self {
+        Self {
+            least: windows,
+            most: windows,
+        }
+    }
+
+    /// After `flown` windows of a flight (entered or not), `reading` its fusion's reading
+    /// (`None` when no window entered) against `max_friction_std`: another window, or done
+    /// and why. O(1).
+    pub fn after(
+        &self,
+        flown: u32,
+        reading: Option<&FlightReading>,
+        max_friction_std: f32,
+    ) -> FlightProgress {
+        if flown < self.least {
+            return FlightProgress::MoreWindows;
+        }
+        if flown >= self.most {
+            return FlightProgress::Done(FlightEnd::WindowCap);
+        }
+        match reading.map(|r| (r.verdict, r.windows)) {
+            Some((Err(WindowReason::TurbulenceTooHigh { friction_std }), entered)) => {
+                // At best every remaining window enters: σ·√(entered / (entered + left)).
+                let left = self.most - flown;
+                let reach = friction_std
+                    * crate::math::sqrt(entered as f32 / entered.saturating_add(left) as f32);
+                if reach <= max_friction_std {
+                    FlightProgress::MoreWindows
+                } else {
+                    FlightProgress::Done(FlightEnd::OutOfReach)
+                }
+            }
+            _ => FlightProgress::Done(FlightEnd::Settled),
+        }
+    }
+}
+
 /// Projected Gauss–Seidel sweeps of [`WindowFusion::reading`]'s box-constrained minimum.
 pub const FUSION_SWEEPS: usize = 200;
 
@@ -577,5 +657,79 @@ mod tests {
         let flat = curvature([0.0; FAULT_COUNT], [0.0; FAULT_COUNT], 0.0);
         assert!(fusion.add(&FaultVector::NOMINAL, &flat, &ONES).is_err());
         assert_eq!(fusion, WindowFusion::EMPTY);
+    }
+
+    /// Flies identical windows (friction 0.2 at information `normal` each) under `length`
+    /// until it says done: the windows flown, why it stopped and the last reading's verdict.
+    fn fly(length: FlightLength, normal: f64) -> (u32, FlightEnd, Result<(), WindowReason>) {
+        let mut genes = *FaultVector::NOMINAL.as_array();
+        genes[0] = 0.2;
+        let k = FaultVector::new(genes).unwrap();
+        let c = curvature([normal; FAULT_COUNT], [0.0; FAULT_COUNT], 0.0);
+        let mut fusion = WindowFusion::EMPTY;
+        for flown in 1..=64 {
+            fusion.add(&k, &c, &ONES).unwrap();
+            let reading = fusion.reading(FLIGHT_MAX_FRICTION_STD).ok();
+            match length.after(flown, reading.as_ref(), FLIGHT_MAX_FRICTION_STD) {
+                FlightProgress::MoreWindows => {}
+                FlightProgress::Done(end) => return (flown, end, reading.unwrap().verdict),
+            }
+        }
+        panic!("no end in 64 windows");
+    }
+
+    #[test]
+    fn a_long_phase_flies_windows_until_the_friction_deviation_reaches_the_limit() {
+        // Information 100 per window: σ = 1.1 / √(100 n), above 0.03 up to 13 windows.
+        let sigma = |n: f32| FLIGHT_INFLATION[0] / (100.0 * n).sqrt();
+        assert!(sigma(13.0) > FLIGHT_MAX_FRICTION_STD && sigma(14.0) <= FLIGHT_MAX_FRICTION_STD);
+        // Eight fixed: named for turbulence after eight.
+        let (n, end, verdict) = fly(FlightLength::fixed(8), 100.0);
+        assert_eq!((n, end), (8, FlightEnd::WindowCap));
+        assert!(matches!(
+            verdict,
+            Err(WindowReason::TurbulenceTooHigh { .. })
+        ));
+        // Up to 24: read at the fourteenth.
+        let (n, end, verdict) = fly(FlightLength { least: 8, most: 24 }, 100.0);
+        assert_eq!((n, end, verdict), (14, FlightEnd::Settled, Ok(())));
+        // Up to 12: fourteen are out of reach, known after eight.
+        let (n, end, _) = fly(FlightLength { least: 8, most: 12 }, 100.0);
+        assert_eq!((n, end), (8, FlightEnd::OutOfReach));
+        // Windows rich enough to read at eight stop there.
+        let (n, end, verdict) = fly(FlightLength { least: 8, most: 24 }, 400.0);
+        assert_eq!((n, end, verdict), (8, FlightEnd::Settled, Ok(())));
+    }
+
+    #[test]
+    fn windows_that_disagree_or_never_enter_end_the_flight() {
+        let length = FlightLength { least: 2, most: 24 };
+        assert_eq!(
+            length.after(1, None, FLIGHT_MAX_FRICTION_STD),
+            FlightProgress::MoreWindows
+        );
+        assert_eq!(
+            length.after(2, None, FLIGHT_MAX_FRICTION_STD),
+            FlightProgress::Done(FlightEnd::Settled)
+        );
+        let mut fusion = WindowFusion::EMPTY;
+        for friction in [0.0, 0.4] {
+            let mut genes = *FaultVector::NOMINAL.as_array();
+            genes[0] = friction;
+            // σ 0.05 each: eight deviations apart, χ² 32 on 8 degrees of freedom.
+            let c = curvature([400.0; FAULT_COUNT], [0.0; FAULT_COUNT], 0.0);
+            fusion
+                .add(&FaultVector::new(genes).unwrap(), &c, &ONES)
+                .unwrap();
+        }
+        let reading = fusion.reading(FLIGHT_MAX_FRICTION_STD).unwrap();
+        assert!(matches!(
+            reading.verdict,
+            Err(WindowReason::Unconfirmed { .. })
+        ));
+        assert_eq!(
+            length.after(2, Some(&reading), FLIGHT_MAX_FRICTION_STD),
+            FlightProgress::Done(FlightEnd::Settled)
+        );
     }
 }

@@ -303,11 +303,12 @@ pub(crate) fn wind_campaign_command(
 }
 
 /// What `campaign --flight` flies: the cases (`--table`, else `FLIGHT_CASES`), the
-/// phases (`--phase`, else all three) and the windows per flight.
+/// phases (`--phase`, else all three) and the windows per flight (`--flight-windows`, up
+/// to `--flight-windows-max`).
 pub(crate) struct FlightCampaignRun<'a> {
     pub table: Option<CampaignTable>,
     pub phases: &'a [FlightPhase],
-    pub per_flight: u32,
+    pub length: shared::fusion::FlightLength,
 }
 
 /// The flight campaign's cases for `table`: Table I, or Table II without its noise case (a
@@ -361,7 +362,6 @@ pub(crate) fn flight_campaign_command(
     runs_csv: Option<&Path>,
 ) -> Result<()> {
     let runs = seeds.end - seeds.start;
-    let per_flight = run.per_flight;
     if let Some(amplitudes) = amplitudes {
         if runs_csv.is_some() {
             anyhow::bail!("--runs-csv: not written by the --test-amplitudes study");
@@ -410,7 +410,7 @@ pub(crate) fn flight_campaign_command(
         &rm,
         &actuator.record,
         seeds,
-        per_flight,
+        run.length,
         &windows,
         &cases,
         |row| {

@@ -20,7 +20,7 @@ use crate::fdi::identify::identify_for;
 use crate::fdi::window::identify_window;
 use crate::plant::aero::{FlightPhase, FlightWindow, Turbulence};
 use crate::plant::reference::{ReferenceModel, Scenario};
-use shared::fusion::{WindowFusion, FLIGHT_MAX_FRICTION_STD};
+use shared::fusion::{FlightLength, FlightProgress, WindowFusion, FLIGHT_MAX_FRICTION_STD};
 use shared::uncertainty::{Assessment, Uncertainty};
 use shared::window::{HeldComponents, WindowReason};
 
@@ -61,6 +61,8 @@ pub struct FlightRun {
     /// Components whose window interval meets the same flight's preflight interval, and
     /// components compared (both determined; none when the preflight was not `within`).
     pub agreement: (usize, usize),
+    /// Windows flown: 1 for a window, the flight's count for a flight's reading.
+    pub windows: u32,
 }
 
 /// The preflight's seed offset from the window's (its own noise).
@@ -128,13 +130,13 @@ const fn window(phase: FlightPhase, turbulence: Turbulence) -> FlightWindow {
 }
 
 /// Every case of `cases` ([`FLIGHT_CASES`] by default) in every phase and turbulence of
-/// `windows` ([`ALL_WINDOWS`] by default), one flight per seed of `seeds` with `per_flight`
+/// `windows` ([`ALL_WINDOWS`] by default), one flight per seed of `seeds` flying `length`'s
 /// windows (fused into the flight's reading when more than one).
 pub fn flight_campaign(
     rm: &ReferenceModel,
     record: &ActuatorRecord,
     seeds: std::ops::Range<u64>,
-    per_flight: u32,
+    length: FlightLength,
     windows: &[FlightWindow],
     cases: &[(&'static str, [f32; shared::FAULT_COUNT])],
     progress: impl FnMut(&FlightRow),
@@ -144,7 +146,7 @@ pub fn flight_campaign(
         record,
         &flight_record(record),
         seeds,
-        per_flight,
+        length,
         windows,
         cases,
         progress,
@@ -180,7 +182,7 @@ pub fn test_amplitude_study(
                 record,
                 &window_record,
                 0..runs,
-                1,
+                FlightLength::fixed(1),
                 &windows,
                 &cases,
                 |row| progress(a, row),
@@ -231,17 +233,17 @@ fn against_truth(
     (healthy_max, false_faults, covered)
 }
 
-/// `cases` in `windows`, one flight per seed of `seeds` with `per_flight` windows each: every
-/// window played with `record`'s test and identified with it, the flight's windows fused
-/// into its reading (when more than one), and the same flight's preflight with
-/// `ground_record`.
+/// `cases` in `windows`, one flight per seed of `seeds` flying windows as `length` says
+/// (`FlightLength::after`): every window played with `record`'s test and identified with
+/// it, the flight's windows fused into its reading (when more than one), and the same
+/// flight's preflight with `ground_record`.
 #[allow(clippy::too_many_arguments)]
 fn fly_windows(
     rm: &ReferenceModel,
     ground_record: &ActuatorRecord,
     record: &ActuatorRecord,
     seeds: std::ops::Range<u64>,
-    per_flight: u32,
+    length: FlightLength,
     windows: &[FlightWindow],
     cases: &[(&'static str, [f32; shared::FAULT_COUNT])],
     mut progress: impl FnMut(&FlightRow),
@@ -282,7 +284,7 @@ fn fly_windows(
                     let mut runs = Vec::new();
                     let mut fusion = WindowFusion::EMPTY;
                     let mut first_reason = None;
-                    for j in 0..per_flight {
+                    for j in 0..length.most {
                         let seed = window_seed(seed, j);
                         let sim = flying.simulate(&Scenario {
                             seed,
@@ -310,9 +312,16 @@ fn fly_windows(
                             healthy_max,
                             false_faults,
                             covered,
+                            windows: 1,
                         });
+                        let reading = fusion.reading(FLIGHT_MAX_FRICTION_STD).ok();
+                        if let FlightProgress::Done(_) =
+                            length.after(j + 1, reading.as_ref(), FLIGHT_MAX_FRICTION_STD)
+                        {
+                            break;
+                        }
                     }
-                    if per_flight < 2 {
+                    if length.most < 2 {
                         return Ok((runs, None));
                     }
                     let mean = |f: fn(&FlightRun) -> f32| {
@@ -344,6 +353,7 @@ fn fly_windows(
                                 healthy_max,
                                 false_faults,
                                 covered,
+                                windows: runs.len() as u32,
                             }
                         }
                         // No window of the flight could be fused: the flight is named by
@@ -368,6 +378,7 @@ fn fly_windows(
                             healthy_max: 0.0,
                             false_faults: 0,
                             covered: (0, 0),
+                            windows: runs.len() as u32,
                         },
                     };
                     Ok((runs, Some(flight)))
@@ -449,17 +460,34 @@ pub fn flight_markdown(rows: &[FlightRow], actuator: &str) -> String {
     );
     text.push_str(&readings_table(rows, |r| &r.runs, "windows"));
     let flights = rows.first().map_or(0, |r| r.flights.len());
-    if let Some(per_flight) = runs.checked_div(flights) {
+    if flights > 0 {
+        let counts = rows
+            .iter()
+            .flat_map(|r| r.flights.iter().map(|f| f.windows));
+        let (least, most) = counts.fold((u32::MAX, 0), |(a, b), n| (a.min(n), b.max(n)));
+        let per_flight = if least == most {
+            format!("{least} windows each")
+        } else {
+            let all: Vec<u32> = rows
+                .iter()
+                .flat_map(|r| r.flights.iter().map(|f| f.windows))
+                .collect();
+            format!(
+                "{least}–{most} windows each (a flight flies more while only its friction \
+                 deviation keeps it out and more can bring it within, `shared::fusion::\
+                 FlightLength`; {:.1} on average)",
+                all.iter().sum::<u32>() as f64 / all.len().max(1) as f64
+            )
+        };
         text.push_str(&format!(
             "### A flight's reading from its windows: {actuator}, {flights} flights per row, \
-             {} windows each\n\n\
+             {per_flight}\n\n\
              Each flight's windows that are `within` or named `turbulence_too_high` fused \
              (`shared::fusion`: their fits' quadratics added, minimised in the fault box); \
              the flight named `unconfirmed` with fewer than two such windows or when they \
              disagree beyond their deviations, `turbulence_too_high` when its fused \
              friction deviation is above {FLIGHT_MAX_FRICTION_STD}, and by its first window's reason when no \
              window could be fused. Columns as above, per flight.\n\n",
-            per_flight
         ));
         text.push_str(&readings_table(rows, |r| &r.flights, "flights"));
     }
@@ -617,7 +645,7 @@ pub fn interval_calibration(
 /// flight has several windows): phase, turbulence, case, seed, `window` or `flight`, the
 /// verdict, e_tot [%], its false `FAULT`s and largest healthy component, the turbulence
 /// level and misfit (a flight's: its windows' mean), the preflight FDI's verdict on the
-/// (first) window, the vector found and its deviations.
+/// (first) window, the vector found and its deviations, the windows flown (1 for a window).
 pub fn flight_runs_csv(rows: &[FlightRow]) -> String {
     let mut text = String::from(
         "phase,turbulence,case,seed,reading,verdict,e_tot_pct,false_faults,healthy_max,\
@@ -629,7 +657,7 @@ pub fn flight_runs_csv(rows: &[FlightRow]) -> String {
     for j in 1..=shared::FAULT_COUNT {
         text.push_str(&format!(",std_k{j}"));
     }
-    text.push('\n');
+    text.push_str(",windows\n");
     for (reading, select) in [
         (
             "window",
@@ -656,7 +684,7 @@ pub fn flight_runs_csv(rows: &[FlightRow]) -> String {
                 for x in r.found.as_array().iter().chain(&r.std) {
                     text.push_str(&format!(",{x:.5}"));
                 }
-                text.push('\n');
+                text.push_str(&format!(",{}\n", r.windows));
             }
         }
     }
@@ -726,6 +754,7 @@ mod tests {
             found: FaultVector::saturating(genes),
             std: stds,
             agreement: (0, 0),
+            windows: 1,
         }
     }
 
