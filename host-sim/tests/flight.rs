@@ -58,6 +58,53 @@ fn no_flight_window_is_read_within() {
     }
 }
 
+/// A flight in moderate cruise that eight windows leave out (its fused friction deviation
+/// above the limit) flies more, up to the cruise's cap, and is read once the deviation is
+/// within: right to 6 % e_tot, its friction within its 90 % interval, no healthy component
+/// `FAULT` (friction 0.2, seed 1: read at fourteen windows in `campaign --flight --phase
+/// cruise --flight-windows 8 --flight-windows-max 24`).
+#[test]
+fn a_cruise_flight_flies_windows_until_its_friction_is_read() {
+    use host_sim::plant::aero::{FlightPhase, FlightWindow, Turbulence};
+    use shared::fusion::{CRUISE_LENGTH, FLIGHT_MAX_FRICTION_STD};
+    let rm = ReferenceModel::new(ReferenceSettings::REFERENCE);
+    let rows = flight_campaign(
+        &rm,
+        &ActuatorRecord::REFERENCE,
+        1..2,
+        CRUISE_LENGTH,
+        &[FlightWindow {
+            phase: FlightPhase::Cruise,
+            turbulence: Turbulence::Moderate,
+        }],
+        &FLIGHT_CASES[1..2],
+        |_| {},
+    )
+    .expect("the campaign runs");
+    let flight = &rows[0].flights[0];
+    // More than eight flown: the reading of the first eight was out for its friction only.
+    assert!(
+        (CRUISE_LENGTH.least + 1..=CRUISE_LENGTH.most).contains(&flight.windows),
+        "{} windows flown",
+        flight.windows
+    );
+    assert_eq!(rows[0].runs.len() as u32, flight.windows);
+    assert_eq!(flight.window.0, Ok(()), "{:?}", flight.window.0);
+    assert!(
+        flight.std[0] <= FLIGHT_MAX_FRICTION_STD,
+        "σ {}",
+        flight.std[0]
+    );
+    assert!(flight.window.1 <= 6.0, "e_tot {:.2} %", flight.window.1);
+    assert!(
+        (flight.found.friction() - 0.2).abs() <= shared::uncertainty::Z90 * flight.std[0],
+        "friction {} at σ {}",
+        flight.found.friction(),
+        flight.std[0]
+    );
+    assert_eq!(flight.false_faults, 0);
+}
+
 /// The window identification on the calmest windows (approach, light turbulence: the load
 /// reverses, the play is crossed): the healthy actuator and friction 0.2 are identified
 /// `within`, friction read within 0.05 and e_tot under 3 %; Table II medium (a backlash

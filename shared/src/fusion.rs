@@ -125,6 +125,20 @@ pub struct FlightLength {
     pub most: u32,
 }
 
+/// Climb and approach: [`CALIBRATED_WINDOWS`] windows (the phases last minutes; whether a
+/// real climb gives eight windows that enter is not measured).
+pub const SHORT_PHASE_LENGTH: FlightLength = FlightLength::fixed(CALIBRATED_WINDOWS);
+
+/// Cruise: [`CALIBRATED_WINDOWS`] windows, then more up to 24 while only the friction's
+/// deviation keeps the reading out — 24 identifications of 57.8 s at a 30 % share are 23 min
+/// of cruise. On seeds 0–9 of the flight campaign (cruise, the healthy actuator, friction 0.2
+/// and Table II medium) moderate turbulence is read in 19 of 20 flights (none at eight);
+/// checked on seeds 10–29 and Table I; docs/in-flight.md §4.
+pub const CRUISE_LENGTH: FlightLength = FlightLength {
+    least: CALIBRATED_WINDOWS,
+    most: 24,
+};
+
 /// What a flight does after a window ([`FlightLength::after`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FlightProgress {

@@ -434,6 +434,40 @@ pub(crate) fn identify_command(
     verdict
 }
 
+/// What would bring a flight's reading named `outside` within: for its friction deviation,
+/// the windows that, adding as these did (σ ∝ 1/√n), reach the limit — and whether a
+/// cruise flies that many (`shared::fusion::CRUISE_LENGTH`); for disagreeing windows, not
+/// more of them.
+fn more_windows(f: &shared::fusion::FlightReading) -> String {
+    use shared::fusion::{CRUISE_LENGTH, FLIGHT_MAX_FRICTION_STD};
+    use shared::window::WindowReason;
+    match f.verdict {
+        Err(WindowReason::TurbulenceTooHigh { friction_std }) if friction_std.is_finite() => {
+            let ratio = f64::from(friction_std) / f64::from(FLIGHT_MAX_FRICTION_STD);
+            let needed = (f64::from(f.windows) * ratio * ratio).ceil();
+            format!(
+                "its friction σ {friction_std:.3} is above {FLIGHT_MAX_FRICTION_STD}; windows \
+                 adding as these did reach it at {needed:.0} ({}a cruise flies at most {})",
+                if needed <= f64::from(CRUISE_LENGTH.most) {
+                    ""
+                } else {
+                    "more than "
+                },
+                CRUISE_LENGTH.most
+            )
+        }
+        Err(WindowReason::Unconfirmed { windows, .. }) if windows < 2 => {
+            "a reading needs two windows that can be fused".to_string()
+        }
+        Err(WindowReason::Unconfirmed { .. }) => {
+            "the windows disagree beyond their deviations: one of them is wrong, and more \
+             windows do not outvote it"
+                .to_string()
+        }
+        _ => "more windows are needed".to_string(),
+    }
+}
+
 /// Identifies a window of flight (`# test: flight`; `host_sim::fdi::window`) and prints the
 /// window's verdict, the faults, the fitted load and, given the truth, e_tot; with `others`
 /// (further windows of the same flight, each a source name and its trace), each of them in a
@@ -579,10 +613,11 @@ pub(crate) fn window_report(
                         f.windows, f.uncertainty.0.std[0]
                     ),
                     Err(reason) => println!(
-                        "the flight's reading from {} windows: outside — {} ({reason:?}): more \
-                         windows are needed; the faults below are not a reading",
+                        "the flight's reading from {} windows: outside — {} ({reason:?}): {}; \
+                         the faults below are not a reading",
                         f.windows,
-                        window_reason(&f.verdict)
+                        window_reason(&f.verdict),
+                        more_windows(f)
                     ),
                 }
                 let u = &f.uncertainty.0;
