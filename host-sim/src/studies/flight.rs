@@ -461,22 +461,22 @@ pub fn flight_markdown(rows: &[FlightRow], actuator: &str) -> String {
     text.push_str(&readings_table(rows, |r| &r.runs, "windows"));
     let flights = rows.first().map_or(0, |r| r.flights.len());
     if flights > 0 {
-        let counts = rows
+        let counts: Vec<u32> = rows
             .iter()
-            .flat_map(|r| r.flights.iter().map(|f| f.windows));
-        let (least, most) = counts.fold((u32::MAX, 0), |(a, b), n| (a.min(n), b.max(n)));
+            .flat_map(|r| r.flights.iter().map(|f| f.windows))
+            .collect();
+        let (least, most) = (
+            counts.iter().copied().min().unwrap_or(0),
+            counts.iter().copied().max().unwrap_or(0),
+        );
         let per_flight = if least == most {
             format!("{least} windows each")
         } else {
-            let all: Vec<u32> = rows
-                .iter()
-                .flat_map(|r| r.flights.iter().map(|f| f.windows))
-                .collect();
             format!(
                 "{least}–{most} windows each (a flight flies more while only its friction \
                  deviation keeps it out and more can bring it within, `shared::fusion::\
                  FlightLength`; {:.1} on average)",
-                all.iter().sum::<u32>() as f64 / all.len().max(1) as f64
+                counts.iter().sum::<u32>() as f64 / counts.len().max(1) as f64
             )
         };
         text.push_str(&format!(
