@@ -117,6 +117,13 @@ pub fn flight_inflation(windows: u32) -> [f32; FAULT_COUNT] {
 /// depends on the windows' information, not on where their readings fall, so the rule picks
 /// no reading by its value. The windows' readings disagreeing (`Unconfirmed`) ends the
 /// flight: more windows are not asked to outvote one that is wrong.
+///
+/// Measured, not the design: flights are read at [`CALIBRATED_WINDOWS`]. Cruise flown on
+/// to 24 windows reads moderate turbulence on the healthy actuator and friction 0.2 (19 of
+/// 20 flights on seeds 0–9, none at eight), but on Table I's selection seeds (10–29) it
+/// reads two healthy frictions `FAULT` (0.10 and 0.12 beside a short, at σ 0.026–0.030):
+/// a friction bias in moderate turbulence with other faults present, which more windows do
+/// not shrink and eight windows' deviation hid; docs/in-flight.md §4.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct FlightLength {
     /// Windows flown before the first reading is formed.
@@ -124,20 +131,6 @@ pub struct FlightLength {
     /// Windows flown at most.
     pub most: u32,
 }
-
-/// Climb and approach: [`CALIBRATED_WINDOWS`] windows (the phases last minutes; whether a
-/// real climb gives eight windows that enter is not measured).
-pub const SHORT_PHASE_LENGTH: FlightLength = FlightLength::fixed(CALIBRATED_WINDOWS);
-
-/// Cruise: [`CALIBRATED_WINDOWS`] windows, then more up to 24 while only the friction's
-/// deviation keeps the reading out — 24 identifications of 57.8 s at a 30 % share are 23 min
-/// of cruise. On seeds 0–9 of the flight campaign (cruise, the healthy actuator, friction 0.2
-/// and Table II medium) moderate turbulence is read in 19 of 20 flights (none at eight);
-/// checked on seeds 10–29 and Table I; docs/in-flight.md §4.
-pub const CRUISE_LENGTH: FlightLength = FlightLength {
-    least: CALIBRATED_WINDOWS,
-    most: 24,
-};
 
 /// What a flight does after a window ([`FlightLength::after`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

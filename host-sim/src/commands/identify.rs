@@ -435,11 +435,10 @@ pub(crate) fn identify_command(
 }
 
 /// What would bring a flight's reading named `outside` within: for its friction deviation,
-/// the windows that, adding as these did (σ ∝ 1/√n), reach the limit — and whether a
-/// cruise flies that many (`shared::fusion::CRUISE_LENGTH`); for disagreeing windows, not
-/// more of them.
+/// the windows that, adding as these did (σ ∝ 1/√n), reach the limit; for disagreeing
+/// windows, not more of them.
 fn more_windows(f: &shared::fusion::FlightReading) -> String {
-    use shared::fusion::{CRUISE_LENGTH, FLIGHT_MAX_FRICTION_STD};
+    use shared::fusion::{CALIBRATED_WINDOWS, FLIGHT_MAX_FRICTION_STD};
     use shared::window::WindowReason;
     match f.verdict {
         Err(WindowReason::TurbulenceTooHigh { friction_std }) if friction_std.is_finite() => {
@@ -447,13 +446,9 @@ fn more_windows(f: &shared::fusion::FlightReading) -> String {
             let needed = (f64::from(f.windows) * ratio * ratio).ceil();
             format!(
                 "its friction σ {friction_std:.3} is above {FLIGHT_MAX_FRICTION_STD}; windows \
-                 adding as these did reach it at {needed:.0} ({}a cruise flies at most {})",
-                if needed <= f64::from(CRUISE_LENGTH.most) {
-                    ""
-                } else {
-                    "more than "
-                },
-                CRUISE_LENGTH.most
+                 adding as these did would reach it at {needed:.0} (the limit is calibrated \
+                 at {CALIBRATED_WINDOWS}: beyond, a friction bias in turbulence no longer \
+                 hides in the deviation — docs/in-flight.md §4)"
             )
         }
         Err(WindowReason::Unconfirmed { windows, .. }) if windows < 2 => {
