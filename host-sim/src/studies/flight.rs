@@ -791,12 +791,13 @@ mod tests {
         assert_eq!(calibration[ECCENTRICITY_PHASE].1, 0);
         // The flights' readings are counted apart.
         assert_eq!(interval_calibration(&rows, |r| &r.flights)[0].1, 1);
-        // The runs' CSV: a header, one line per window, then one per flight, 12 + 2 × 9
-        // fields each.
+        // The runs' CSV: a header, one line per window, then one per flight, 12 + 2 × 9 + 1
+        // fields each (the last the windows flown).
         let csv = flight_runs_csv(&rows);
         let lines: Vec<&str> = csv.lines().collect();
         assert_eq!(lines.len(), 23);
-        assert!(lines.iter().all(|l| l.split(',').count() == 30), "{csv}");
+        assert!(lines.iter().all(|l| l.split(',').count() == 31), "{csv}");
+        assert!(lines[0].ends_with(",windows") && lines[22].ends_with(",1"));
         assert!(lines[21].contains(",window,play_unseen,"));
         assert!(lines[22].contains(",7,flight,within,"));
     }
