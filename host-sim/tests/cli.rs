@@ -307,7 +307,10 @@ fn a_campaign_writes_every_run_as_a_csv_row() {
         "one row per Table I case: {text}"
     );
     for r in &rows {
-        assert_eq!(r.len(), 18, "{r:?}");
+        assert_eq!(r.len(), 27, "{r:?}");
+        // The friction's standard deviation is determined on every Table I case.
+        let std: f64 = r[18].parse().unwrap();
+        assert!(std > 0.0 && std < 1.0, "{r:?}");
         let e_tot: f64 = r[2].parse().unwrap();
         let evaluations: u32 = r[6].parse().unwrap();
         assert!((0.0..20.0).contains(&e_tot), "{r:?}");

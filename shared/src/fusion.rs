@@ -19,7 +19,7 @@
 use crate::fault::{FaultVector, CIRCULAR, FAULT_COUNT};
 use crate::math::invert;
 use crate::uncertainty::{Curvature, Uncertainty, UncertaintyError, INFLATION};
-use crate::window::WindowReason;
+use crate::window::{propagated_std, HeldComponents, HeldCoupling, WindowReason};
 
 /// The largest friction standard deviation of a flight's reading [fault-vector units]:
 /// above it the flight is named [`WindowReason::TurbulenceTooHigh`]. The window limit's rule
@@ -178,12 +178,18 @@ impl FlightLength {
         if flown >= self.most {
             return FlightProgress::Done(FlightEnd::WindowCap);
         }
-        match reading.map(|r| (r.verdict, r.windows)) {
-            Some((Err(WindowReason::TurbulenceTooHigh { friction_std }), entered)) => {
-                // At best every remaining window enters: σ·√(entered / (entered + left)).
+        match reading.map(|r| (r.verdict, r.windows, r.shared_std[0])) {
+            Some((Err(WindowReason::TurbulenceTooHigh { friction_std }), entered, shared)) => {
+                // At best every remaining window enters: the windows' own part of the
+                // deviation shrinks as √(entered / (entered + left)), the held values'
+                // part (`shared`) stays.
                 let left = self.most - flown;
-                let reach = friction_std
-                    * crate::math::sqrt(entered as f32 / entered.saturating_add(left) as f32);
+                let own = friction_std * friction_std - shared * shared;
+                // (A NaN deviation stays NaN: out of reach.)
+                let own = if own < 0.0 { 0.0 } else { own };
+                let reach = crate::math::sqrt(
+                    own * (entered as f32 / entered.saturating_add(left) as f32) + shared * shared,
+                );
                 if reach <= max_friction_std {
                     FlightProgress::MoreWindows
                 } else {
@@ -215,6 +221,13 @@ pub struct WindowFusion {
     last: FaultVector,
     /// Σ of the windows' residual standard deviations [A].
     residual_std: f32,
+    /// Σ of each window's inverse covariance times its sensitivity to the held values
+    /// (`crate::window::HeldComponents::sensitivity`): with the summed information, how
+    /// the flight's reading moves with the held values' error, which its windows share.
+    leaning: [[f64; FAULT_COUNT]; FAULT_COUNT],
+    /// The held values' covariance (the last window's; a flight's windows hold the same
+    /// preflight).
+    held_covariance: [[f32; FAULT_COUNT]; FAULT_COUNT],
     /// Σ of each window's point weighted by its inverse covariance, `p̃ᵀ·I·p̃`, and Σ of
     /// the components each window added: the windows' χ² about the reading
     /// ([`WindowFusion::reading`]).
@@ -234,6 +247,10 @@ pub struct FlightReading {
     pub uncertainty: (Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT]),
     /// Windows added.
     pub windows: u32,
+    /// The standard deviation per component that the held values' error adds, shared by
+    /// every window (already in `uncertainty`; zero when nothing was held with its
+    /// covariance): more windows do not shrink it.
+    pub shared_std: [f32; FAULT_COUNT],
     /// `Err(Unconfirmed)` or `Err(TurbulenceTooHigh)` (above).
     pub verdict: Result<(), WindowReason>,
 }
@@ -253,6 +270,8 @@ impl WindowFusion {
         phase: (0.0, 0.0),
         last: FaultVector::NOMINAL,
         residual_std: 0.0,
+        leaning: [[0.0; FAULT_COUNT]; FAULT_COUNT],
+        held_covariance: [[0.0; FAULT_COUNT]; FAULT_COUNT],
         square: 0.0,
         terms: 0,
     };
@@ -267,12 +286,33 @@ impl WindowFusion {
     /// component's deviation. Its covariance is `(c·s)²·F·(JᵀWJ)⁻¹·F` (as its uncertainty
     /// states it), its point `k + (JᵀWJ)⁻¹·JᵀW r` unbounded. `Err` (nothing added) when its
     /// curvature determines no component. O(9³).
-    #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // i, j < FAULT_COUNT on fixed 9×9 arrays
     pub fn add(
         &mut self,
         k: &FaultVector,
         curvature: &Curvature,
         factors: &[f32; FAULT_COUNT],
+    ) -> Result<(), UncertaintyError> {
+        self.add_holding(
+            k,
+            curvature,
+            factors,
+            &HeldComponents::NONE,
+            &HeldCoupling::NONE,
+        )
+    }
+
+    /// [`add`](Self::add) for a window that held `held` (its preflight's values with their
+    /// covariance) and leaned on them by `coupling` (`crate::window::WindowReading`): the
+    /// flight's reading then states the held values' error beside its windows' noise,
+    /// not averaged by their number. O(9³).
+    #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // i, j < FAULT_COUNT on fixed 9×9 arrays
+    pub fn add_holding(
+        &mut self,
+        k: &FaultVector,
+        curvature: &Curvature,
+        factors: &[f32; FAULT_COUNT],
+        held: &HeldComponents,
+        coupling: &HeldCoupling,
     ) -> Result<(), UncertaintyError> {
         let (inverse, determined) = curvature
             .inverse(0.0)
@@ -311,23 +351,32 @@ impl WindowFusion {
                 .sum();
             point[i] = f64::from(k.as_array()[i]) + step;
         }
+        let sensitivity = HeldComponents::sensitivity(curvature, coupling)
+            .unwrap_or([[0.0; FAULT_COUNT]; FAULT_COUNT]);
         let mut sum = self.information;
         let mut linear = self.linear;
         let mut square = self.square;
+        let mut leaning = self.leaning;
         for i in (0..FAULT_COUNT).filter(|&i| added(i)) {
             for j in (0..FAULT_COUNT).filter(|&j| added(j)) {
                 sum[i][j] += information[i][j];
                 linear[i] += information[i][j] * point[j];
                 square += point[i] * information[i][j] * point[j];
+                for h in 0..FAULT_COUNT {
+                    leaning[i][h] += information[i][j] * sensitivity[j][h];
+                }
             }
         }
         if !(linear.iter().all(|x| x.is_finite())
             && sum.iter().flatten().all(|x| x.is_finite())
+            && leaning.iter().flatten().all(|x| x.is_finite())
             && square.is_finite())
         {
             return Err(UncertaintyError::Undetermined);
         }
         (self.information, self.linear, self.square) = (sum, linear, square);
+        self.leaning = leaning;
+        self.held_covariance = *held.covariance();
         self.terms = self
             .terms
             .saturating_add((0..FAULT_COUNT).filter(|&i| added(i)).count() as u32);
@@ -391,7 +440,22 @@ impl WindowFusion {
             fitted: p as u32 + 1,
         };
         let (uncertainty, correlation) = summed.uncertainty(&faults)?;
-        let mut uncertainty = uncertainty.widened(&faults, &flight_inflation(self.windows));
+        // How the reading moves with the held values: (Σ I)⁻¹ · Σ I·A.
+        let mut moved = [[0.0f64; FAULT_COUNT]; FAULT_COUNT];
+        if let Some((inverse, determined)) = summed.inverse(0.0) {
+            for i in (0..FAULT_COUNT).filter(|&i| determined[i] && !CIRCULAR[i]) {
+                for h in 0..FAULT_COUNT {
+                    moved[i][h] = (0..FAULT_COUNT)
+                        .filter(|&j| determined[j] && !CIRCULAR[j])
+                        .map(|j| inverse[i][j] * self.leaning[j][h])
+                        .sum();
+                }
+            }
+        }
+        let shared_std = propagated_std(&moved, &self.held_covariance);
+        let mut uncertainty = uncertainty
+            .widened(&faults, &flight_inflation(self.windows))
+            .with_shared(&faults, &shared_std);
         uncertainty.residual_std = self.residual_std / self.windows as f32;
         let friction_std = uncertainty.std[0];
         let disagreement = self.disagreement(&k, &free);
@@ -413,6 +477,7 @@ impl WindowFusion {
             faults,
             uncertainty: (uncertainty, correlation),
             windows: self.windows,
+            shared_std,
             verdict,
         })
     }
@@ -707,6 +772,76 @@ mod tests {
         // Windows rich enough to read at eight stop there.
         let (n, end, verdict) = fly(FlightLength { least: 8, most: 24 }, 400.0);
         assert_eq!((n, end, verdict), (8, FlightEnd::Settled, Ok(())));
+    }
+
+    /// A flight's windows that held the same preflight values share their error: each
+    /// window's friction leans on the held eccentricity by `A = 50 / 100 = 0.5`, the
+    /// eccentricity's error is σ 0.04, so every window's friction carries 0.02
+    /// of it — in a flight of one window or of sixteen, while the windows' own 0.1 shrinks
+    /// as 1/√n. A flight whose shared part alone is above the limit is out of reach at
+    /// once. Fails if the fusion averages the held error away or drops it.
+    #[test]
+    fn the_held_values_error_is_shared_by_a_flights_windows() {
+        use crate::window::{HeldComponents, HeldCoupling};
+        let mut genes = *FaultVector::NOMINAL.as_array();
+        genes[0] = 0.2;
+        let k = FaultVector::new(genes).unwrap();
+        // The held components' rows and columns are zero, as a window's curvature has them.
+        let mut normal = [0.0; FAULT_COUNT];
+        (normal[0], normal[1], normal[7]) = (100.0, 100.0, 100.0);
+        let c = curvature(normal, [0.0; FAULT_COUNT], 0.0);
+        let mut coupling = HeldCoupling::NONE;
+        coupling.normal[0][5] = 50.0;
+        // The preflight stated σ 0.2: taken `HELD_ERROR_SCALE` times, 0.04.
+        let mut std = [f32::NAN; FAULT_COUNT];
+        std[5] = 0.04 / crate::window::HELD_ERROR_SCALE[5];
+        let mut correlation = [[0.0f32; FAULT_COUNT]; FAULT_COUNT];
+        for (i, row) in correlation.iter_mut().enumerate() {
+            row[i] = 1.0;
+        }
+        let held = HeldComponents::of_preflight(&FaultVector::NOMINAL)
+            .with_preflight_uncertainty(&std, &correlation);
+        let mut fusion = WindowFusion::EMPTY;
+        let mut unheld = WindowFusion::EMPTY;
+        for n in 1..=16u32 {
+            fusion.add_holding(&k, &c, &ONES, &held, &coupling).unwrap();
+            unheld.add(&k, &c, &ONES).unwrap();
+            let r = fusion.reading(1.0).unwrap();
+            let plain = unheld.reading(1.0).unwrap();
+            assert!(
+                (r.shared_std[0] - 0.02).abs() < 1e-6,
+                "{n}: {:?}",
+                r.shared_std
+            );
+            assert_eq!(r.shared_std[1], 0.0);
+            let own = FLIGHT_INFLATION[0] * 0.1 / (n as f32).sqrt();
+            let expect = (own * own + 0.02 * 0.02).sqrt();
+            assert!((r.uncertainty.0.std[0] - expect).abs() < 1e-6, "{n}: {r:?}");
+            assert!(
+                (plain.uncertainty.0.std[0] - own).abs() < 1e-6,
+                "{n}: {plain:?}"
+            );
+            assert_eq!(plain.shared_std, [0.0; FAULT_COUNT]);
+            // The same reading: the held error widens it, does not move it.
+            assert_eq!(r.faults, plain.faults);
+        }
+        // The windows' own deviation could reach 0.015 by 64 windows (0.11 / 8 = 0.014),
+        // the shared 0.02 never: out of reach after eight.
+        let length = FlightLength { least: 8, most: 64 };
+        let mut fusion = WindowFusion::EMPTY;
+        for _ in 0..8 {
+            fusion.add_holding(&k, &c, &ONES, &held, &coupling).unwrap();
+        }
+        let r = fusion.reading(0.015).unwrap();
+        assert_eq!(
+            length.after(8, Some(&r), 0.015),
+            FlightProgress::Done(FlightEnd::OutOfReach)
+        );
+        let r = unheld.reading(0.015).unwrap();
+        assert_eq!(
+            length.after(16, Some(&r), 0.015),
+            FlightProgress::MoreWindows
+        );
     }
 
     #[test]

@@ -124,6 +124,34 @@ impl Uncertainty {
         out
     }
 
+    /// These intervals with `shared[i]` added to each determined component's standard
+    /// deviation in quadrature, around `k`: an error the reading shares with others (a
+    /// window's held values, `shared::window::HeldComponents`), independent of its own.
+    /// O(9).
+    #[must_use]
+    pub fn with_shared(&self, k: &FaultVector, shared: &[f32; FAULT_COUNT]) -> Self {
+        let mut out = *self;
+        for i in 0..FAULT_COUNT {
+            let (Some(s), Some(&e), Some(&x), Some(&circular)) = (
+                out.std.get_mut(i),
+                shared.get(i),
+                k.as_array().get(i),
+                CIRCULAR.get(i),
+            ) else {
+                continue;
+            };
+            if s.is_nan() || e.is_nan() || e <= 0.0 {
+                continue;
+            }
+            *s = crate::math::sqrt(*s * *s + e * e);
+            let (lo, hi) = interval(circular, x, *s);
+            if let (Some(l), Some(u)) = (out.lower.get_mut(i), out.upper.get_mut(i)) {
+                (*l, *u) = (lo, hi);
+            }
+        }
+        out
+    }
+
     /// Whether the true `k` lies inside every determined interval, per component (`None`
     /// where undetermined).
     pub fn covers(&self, truth: &FaultVector) -> [Option<bool>; FAULT_COUNT] {

@@ -96,6 +96,20 @@ const MOMENT_SCAN: usize = 81;
 /// 1.6 × 1.24 = 1.98 → **2.0**; friction ×0.97 on the union — left. Reported on seeds 0–9.
 pub const WINDOW_INFLATION: [f32; FAULT_COUNT] = [1.8, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 2.0, 1.0];
 
+/// How much of the preflight's stated standard deviation a held value's error is taken to
+/// be, per component ([`HeldComponents::with_preflight_uncertainty`]): the preflight's
+/// intervals are calibrated in bulk ([`crate::uncertainty::INFLATION`]) and are wide on the
+/// components a window holds (its Table I intervals hold the truth in 98.7 % of
+/// component-runs). Chosen on the preflight's own campaigns, Table I and II, 10 seeds each
+/// (`host-sim campaign --table 1 --runs 10 --runs-csv F`, `--table 2`; 210 `within` runs):
+/// per held component the 90th percentile of |error| / σ over
+/// [`crate::uncertainty::Z90`], rounded up to a tenth — short A 0.37 → 0.4 (0.16 on Table
+/// I alone, 1.24 on Table II), short B 0.59 → 0.6, short C 0.49 → 0.5, the eccentricity
+/// 0.19 → 0.2, its phase 0.29 → 0.3 (the 70 runs with an eccentricity), the
+/// demagnetization 0.09 → 0.1. Components a window does not hold: 1 (unused).
+/// docs/in-flight.md §4.
+pub const HELD_ERROR_SCALE: [f32; FAULT_COUNT] = [1.0, 1.0, 0.4, 0.6, 0.5, 0.2, 0.3, 1.0, 0.1];
+
 /// How often the controller keeps the command it followed over a window: every
 /// `COMMAND_STRIDE`-th sample (2.5 kHz at the reference's 10 kHz loop), linear in between
 /// ([`RecordedCommand::kept_every`]): 5.5 kB for a window instead of 22 kB. The chirp's
@@ -276,13 +290,37 @@ pub enum WindowError {
 /// (fitted), and a weaker torque constant then reads as friction (a demagnetization of 0.2
 /// read 0.05 beside a friction of 0.17 in approach, docs/in-flight.md §4). The preflight,
 /// on its known spring, with its pair circuits, tells them apart, and none of them changes
-/// within a flight. The GA's genes for held components are ignored, the curvature does not
-/// vary them (their deviations read "not determined").
+/// within a flight. The GA's genes for held components are ignored and the polish does not
+/// move them (their deviations read "not determined"). A held value is the preflight's
+/// reading, not the truth: its error, the same in every window of the flight, moves the
+/// free components the window fits beside it (a short A of 0.5 whose preflight read the
+/// eccentricity 0.09 high read a healthy friction 0.12 in moderate cruise). With the
+/// preflight's covariance ([`HeldComponents::with_preflight_uncertainty`]) the window's
+/// intervals carry that error ([`HeldComponents::shared_std`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct HeldComponents {
     held: [bool; FAULT_COUNT],
     values: [f32; FAULT_COUNT],
+    /// The held values' covariance (the preflight's, between held components; zero when
+    /// not given) [fault-vector units²].
+    covariance: [[f32; FAULT_COUNT]; FAULT_COUNT],
+}
+
+/// How a window's free components lean on its held ones: the window curvature's normal
+/// matrix (nuisances profiled out) between a free component's row and a held component's
+/// column, zero elsewhere [A² per unit²] ([`WindowProblem::curvature_with_coupling`],
+/// [`WindowReading::coupling`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HeldCoupling {
+    pub normal: [[f64; FAULT_COUNT]; FAULT_COUNT],
+}
+
+impl HeldCoupling {
+    /// No held component.
+    pub const NONE: Self = Self {
+        normal: [[0.0; FAULT_COUNT]; FAULT_COUNT],
+    };
 }
 
 impl HeldComponents {
@@ -290,6 +328,7 @@ impl HeldComponents {
     pub const NONE: Self = Self {
         held: [false; FAULT_COUNT],
         values: [0.0; FAULT_COUNT],
+        covariance: [[0.0; FAULT_COUNT]; FAULT_COUNT],
     };
 
     /// The three stator shorts (k3, k4, k5), the eccentricity and its phase (k6, k7) and the
@@ -301,7 +340,81 @@ impl HeldComponents {
         Self {
             held,
             values: *preflight.as_array(),
+            covariance: [[0.0; FAULT_COUNT]; FAULT_COUNT],
         }
+    }
+
+    /// These held values with the preflight's standard deviations `std` and correlations
+    /// `correlation` (its calibrated uncertainty): their covariance between held
+    /// components, each deviation taken [`HELD_ERROR_SCALE`] times; a deviation the
+    /// preflight did not determine (NaN) counts as none. O(9²).
+    #[must_use]
+    pub fn with_preflight_uncertainty(
+        mut self,
+        std: &[f32; FAULT_COUNT],
+        correlation: &[[f32; FAULT_COUNT]; FAULT_COUNT],
+    ) -> Self {
+        let held = self.held;
+        let s = |i: usize| match (std.get(i), held.get(i)) {
+            (Some(&x), Some(true)) if x.is_finite() => {
+                x * HELD_ERROR_SCALE.get(i).copied().unwrap_or(1.0)
+            }
+            _ => 0.0,
+        };
+        for (i, row) in self.covariance.iter_mut().enumerate() {
+            for (j, c) in row.iter_mut().enumerate() {
+                let r = if i == j {
+                    1.0
+                } else {
+                    correlation
+                        .get(i)
+                        .and_then(|r| r.get(j))
+                        .copied()
+                        .filter(|r| r.is_finite())
+                        .unwrap_or(0.0)
+                };
+                *c = s(i) * s(j) * r;
+            }
+        }
+        self
+    }
+
+    /// The held values' covariance [fault-vector units²] (zero where not given).
+    pub fn covariance(&self) -> &[[f32; FAULT_COUNT]; FAULT_COUNT] {
+        &self.covariance
+    }
+
+    /// How far each free component's reading moves per unit of each held component's
+    /// error, `A = N_ff⁻¹ · N_fh` from a window's `curvature` (held rows and columns zero)
+    /// and its `coupling`: row a free component, column a held one. `None` when the
+    /// curvature determines no component. O(9³).
+    #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // i, j < FAULT_COUNT on fixed 9×9 arrays
+    pub fn sensitivity(
+        curvature: &Curvature,
+        coupling: &HeldCoupling,
+    ) -> Option<[[f64; FAULT_COUNT]; FAULT_COUNT]> {
+        let (inverse, determined) = curvature.inverse(0.0)?;
+        let mut a = [[0.0f64; FAULT_COUNT]; FAULT_COUNT];
+        for i in (0..FAULT_COUNT).filter(|&i| determined[i]) {
+            for h in 0..FAULT_COUNT {
+                a[i][h] = (0..FAULT_COUNT)
+                    .filter(|&j| determined[j])
+                    .map(|j| inverse[i][j] * coupling.normal[j][h])
+                    .sum();
+            }
+        }
+        Some(a)
+    }
+
+    /// The standard deviation each free component takes from the held values' error
+    /// through `sensitivity` ([`HeldComponents::sensitivity`]): `√diag(A·Σ·Aᵀ)`, Σ the held
+    /// covariance [fault-vector units]. Shared by every window of a flight (the same held
+    /// values), so a flight's windows do not average it away. O(9³).
+    pub fn shared_std(
+        &self,
+        sensitivity: &[[f64; FAULT_COUNT]; FAULT_COUNT],
+    ) -> [f32; FAULT_COUNT] {
+        propagated_std(sensitivity, &self.covariance)
     }
 
     /// What a window holds given its flight's preflight reading `preflight`: the shorts and
@@ -329,6 +442,25 @@ impl HeldComponents {
         }
         FaultVector::saturating(genes)
     }
+}
+
+/// `√diag(A·Σ·Aᵀ)`: the standard deviation per component that an error of covariance
+/// `covariance` in the held components moves through `sensitivity` (`A`, row a free
+/// component, column a held one) [fault-vector units]. O(9³).
+#[allow(clippy::indexing_slicing)] // i, h, g < FAULT_COUNT on fixed 9×9 arrays
+pub fn propagated_std(
+    sensitivity: &[[f64; FAULT_COUNT]; FAULT_COUNT],
+    covariance: &[[f32; FAULT_COUNT]; FAULT_COUNT],
+) -> [f32; FAULT_COUNT] {
+    core::array::from_fn(|i| {
+        let mut v = 0.0f64;
+        for h in 0..FAULT_COUNT {
+            for g in 0..FAULT_COUNT {
+                v += sensitivity[i][h] * f64::from(covariance[h][g]) * sensitivity[i][g];
+            }
+        }
+        crate::math::sqrt64(v.max(0.0)) as f32
+    })
 }
 
 /// Indices of the stator shorts A, B, C in a fault vector.
@@ -762,10 +894,18 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
     /// matrix, `C` their cross terms with the faults): an interval then includes what the
     /// window cannot tell from its load (a moment against friction). Twelve model runs, no
     /// storage of residuals; f32 products summed in blocks joined in f64. For the window's
-    /// uncertainty and its polish. A held component ([`HeldComponents`]) is not varied: its
-    /// column is zero, its deviation not determined.
+    /// uncertainty and its polish. A held component ([`HeldComponents`]) is varied, but its
+    /// row and column leave the sums (its deviation not determined; the polish does not
+    /// move it); its cross terms with the free components are the [`HeldCoupling`].
     pub fn curvature(&self, k: &FaultVector) -> Curvature {
         run_to_end(self.curvature_stepwise(k))
+    }
+
+    /// [`curvature`](Self::curvature) with how the free components lean on the held ones
+    /// there ([`HeldCoupling`]; what [`identify`] hands a flight's reading).
+    pub fn curvature_with_coupling(&self, k: &FaultVector) -> (Curvature, HeldCoupling) {
+        let (c, _, coupling) = run_to_end(self.curvature_and_load_stepwise(k, self.load));
+        (c, coupling)
     }
 
     /// [`curvature`](Self::curvature) in steps: the future pauses after every
@@ -782,7 +922,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         &self,
         k: &FaultVector,
         load: WindowLoad,
-    ) -> (Curvature, LoadResponse) {
+    ) -> (Curvature, LoadResponse, HeldCoupling) {
         let k = &self.held.apply(k);
         let start = self.measured.initial_angles();
         let first = self.command.position_at(0);
@@ -795,7 +935,9 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             core::array::from_fn(|j| {
                 let mut genes = *k.as_array();
                 let (mut stiffness, mut moment) = (load.stiffness, load.moment);
-                if (1..=FAULT_COUNT).contains(&j) && !self.held.holds(j - 1) {
+                // Held components are varied too: their columns give how the free
+                // components lean on them ([`HeldCoupling`]), then leave the sums.
+                if (1..=FAULT_COUNT).contains(&j) {
                     let c = j - 1;
                     let x = genes[c];
                     let shifted = if x + STEP <= 1.0 { x + STEP } else { x - STEP };
@@ -944,13 +1086,28 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
                 }
             }
         }
+        // The held components' entries leave the sums (the polish does not move them, the
+        // uncertainty does not read them); what the free ones share with them is kept.
+        let mut coupling = HeldCoupling::NONE;
+        for h in (0..FAULT_COUNT).filter(|&h| self.held.holds(h)) {
+            for a in (0..FAULT_COUNT).filter(|&a| !self.held.holds(a)) {
+                coupling.normal[a][h] = normal[a][h];
+            }
+            for a in 0..FAULT_COUNT {
+                normal[a][h] = 0.0;
+                normal[h][a] = 0.0;
+            }
+            gradient[h] = 0.0;
+            response.per_fault[0][h] = 0.0;
+            response.per_fault[1][h] = 0.0;
+        }
         let curvature = Curvature {
             normal,
             rss: rss.max(0.0),
             gradient,
             fitted,
         };
-        (curvature, response)
+        (curvature, response, coupling)
     }
 
     /// How much the window's load moved beyond its spring: the RMS over the window of the
@@ -1372,6 +1529,14 @@ pub struct WindowReading {
     /// The Gauss–Newton sums at `faults` (the load and the drift profiled out): what a
     /// flight's reading adds of this window ([`crate::fusion::WindowFusion`]).
     pub curvature: Curvature,
+    /// How the free components lean on the held ones at `faults` (zero when nothing is
+    /// held): with the held values' covariance, what a flight's reading takes of their
+    /// error.
+    pub coupling: HeldCoupling,
+    /// The standard deviation per component the held values' error adds to the window's
+    /// own ([`HeldComponents::shared_std`]; zero when nothing is held or the held values
+    /// came without their covariance), already in `uncertainty`.
+    pub shared_std: [f32; FAULT_COUNT],
     /// Monitor-model runs spent (a curvature counts [`CURVATURE_RUNS`], the verdict's two
     /// runs not counted).
     pub evaluations: u32,
@@ -1444,7 +1609,8 @@ pub async fn identify_stepwise<const N: usize, const P: usize>(
     // response: a fault the load was fitted against can still move), each kept only if it
     // lowers the error; then the uncertainty at the result.
     let mut damping = POLISH_DAMPING;
-    let (mut curvature, mut response) = problem.curvature_and_load_stepwise(&faults, load).await;
+    let (mut curvature, mut response, mut coupling) =
+        problem.curvature_and_load_stepwise(&faults, load).await;
     pause().await;
     evaluations += CURVATURE_RUNS;
     for _ in 0..POLISH_STEPS {
@@ -1463,6 +1629,7 @@ pub async fn identify_stepwise<const N: usize, const P: usize>(
             let sums = problem.curvature_and_load_stepwise(&faults, load).await;
             curvature = sums.0;
             response = sums.1;
+            coupling = sums.2;
             pause().await;
             evaluations += CURVATURE_RUNS;
         } else {
@@ -1476,10 +1643,17 @@ pub async fn identify_stepwise<const N: usize, const P: usize>(
     for (to, from) in problem.load.trend.iter_mut().zip(load.trend) {
         *to = from;
     }
-    let uncertainty = curvature
-        .uncertainty(&faults)
-        .ok()
-        .map(|(u, c)| (u.widened(&faults, &WINDOW_INFLATION), c));
+    // The window's own deviations widened by its factors, then what the held values' error
+    // moves beside them (the same in every window of the flight: not widened).
+    let shared_std = HeldComponents::sensitivity(&curvature, &coupling)
+        .map_or([0.0; FAULT_COUNT], |a| problem.held.shared_std(&a));
+    let uncertainty = curvature.uncertainty(&faults).ok().map(|(u, c)| {
+        (
+            u.widened(&faults, &WINDOW_INFLATION)
+                .with_shared(&faults, &shared_std),
+            c,
+        )
+    });
     let friction_std = uncertainty
         .as_ref()
         .and_then(|(u, _)| u.std.first().copied())
@@ -1493,6 +1667,8 @@ pub async fn identify_stepwise<const N: usize, const P: usize>(
             .judge_stepwise(limits, &faults, fit.error, friction_std)
             .await,
         curvature,
+        coupling,
+        shared_std,
         evaluations,
     })
 }
@@ -1719,7 +1895,7 @@ mod tests {
         )
         .unwrap();
 
-        let (_, response) = run_to_end(problem.curvature_and_load_stepwise(&truth, off));
+        let (_, response, _) = run_to_end(problem.curvature_and_load_stepwise(&truth, off));
         let moved = response.step(off, &truth, &truth);
         assert!(
             (moved.moment - 120.0).abs() < 0.6 * 4.0,
@@ -1743,7 +1919,7 @@ mod tests {
         let (fitted, _) = problem.fit_load(&high, stiffness);
         let mut at_high = problem.clone();
         at_high.set_load(fitted);
-        let (_, response) = run_to_end(at_high.curvature_and_load_stepwise(&high, fitted));
+        let (_, response, _) = run_to_end(at_high.curvature_and_load_stepwise(&high, fitted));
         let stepped = response.step(fitted, &high, &truth);
         let with_load = at_high.evaluate_under(&truth, stepped).error;
         let without = at_high.evaluate_under(&truth, fitted).error;

@@ -119,9 +119,11 @@ fn a_window_recorded_from_the_monitor_model_is_identified() {
 /// preflight reading (`HeldComponents`): a window recorded with a short A of 0.2, an
 /// eccentricity of 0.1 at phase 0.3, a demagnetization of 0.2 and friction 0.2 is
 /// identified with the held components at their held values exactly — the GA's genes for
-/// them ignored, the curvature not varying them (their deviations not determined) — and
-/// the rest read right. Held at nominal instead, the same window cannot fit as well. Fails
-/// if a held component leaks into the search, the polish or the curvature.
+/// them ignored, their rows out of the curvature (their deviations not determined) — and
+/// the rest read right; the curvature's coupling to them predicts how a held value's error
+/// moves the free ones. Held at nominal instead, the same window cannot fit as well. Fails
+/// if a held component leaks into the search, the polish or the curvature, or its coupling
+/// is wrong.
 #[test]
 fn held_components_stay_at_the_preflights_reading() {
     let record = ActuatorRecord::REFERENCE;
@@ -147,15 +149,55 @@ fn held_components_stay_at_the_preflights_reading() {
         assert!(u.std[i].is_nan(), "component {i}: {:?}", u.std);
     }
     assert!(u.std[0].is_finite());
-    // The curvature's columns for the held components are zero.
-    let c = problem.curvature(&reading.faults);
+    // Without the preflight's covariance the held values add nothing to the deviations.
+    assert_eq!(reading.shared_std, [0.0; 9]);
+    // How the free components lean on the held ones: the coupling is what a Gauss–Newton
+    // step does when a held value moves. The eccentricity held 0.02 higher moves the step
+    // from the found vector by −A·0.02 (A = N_ff⁻¹·N_fh), to first order.
+    let at = window.problem(reading.load).with_held(held);
+    let (c, coupling) = at.curvature_with_coupling(&reading.faults);
+    assert_eq!(coupling, reading.coupling);
     for i in HELD {
-        assert!(
-            c.normal[i].iter().all(|&x| x == 0.0),
-            "row {i}: {:?}",
-            c.normal[i]
-        );
+        assert!(c.normal[i].iter().all(|&x| x == 0.0));
+        assert!(coupling.normal[i].iter().all(|&x| x == 0.0));
     }
+    let a = HeldComponents::sensitivity(&c, &coupling).unwrap();
+    let mut shifted = genes;
+    shifted[5] += 0.02;
+    let moved = window
+        .problem(reading.load)
+        .with_held(HeldComponents::of_preflight(
+            &FaultVector::new(shifted).unwrap(),
+        ))
+        .curvature(&reading.faults);
+    let step = |c: &shared::uncertainty::Curvature| {
+        c.gauss_newton_step(&reading.faults, 0.0)
+            .unwrap()
+            .as_array()[0]
+    };
+    let (predicted, found_step) = (-a[0][5] * 0.02, f64::from(step(&moved) - step(&c)));
+    assert!(
+        predicted.abs() > 1e-3 && (found_step - predicted).abs() < 0.25 * predicted.abs(),
+        "friction's step {found_step} against −A·δ {predicted} (A {:?})",
+        a[0]
+    );
+    // With the preflight's deviations (σ 0.03 on the eccentricity, uncorrelated), the
+    // window's friction carries |A|·0.03 (taken `HELD_ERROR_SCALE` times) beside its own
+    // deviation.
+    let mut std = [f32::NAN; 9];
+    std[5] = 0.03;
+    let mut correlation = [[0.0f32; 9]; 9];
+    for (i, row) in correlation.iter_mut().enumerate() {
+        row[i] = 1.0;
+    }
+    let shared = held
+        .with_preflight_uncertainty(&std, &correlation)
+        .shared_std(&a);
+    let expect = a[0][5].abs() * 0.03 * f64::from(shared::window::HELD_ERROR_SCALE[5]);
+    assert!(
+        expect > 0.0 && ((shared[0] as f64) - expect).abs() < 1e-6,
+        "{shared:?}"
+    );
     // Held where they are not (nominal), the short and the eccentricity cannot be fitted
     // away.
     let nominal = window

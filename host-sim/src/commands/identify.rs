@@ -283,7 +283,7 @@ pub(crate) fn held_from_preflight_trace(
     }
     let k = id.result.faults.as_array();
     Ok((
-        HeldComponents::of_preflight(&id.result.faults),
+        host_sim::fdi::window::held_from(&id, true),
         format!(
             "shorts, eccentricity and demagnetization held at the preflight's ({name}): \
              shorts A {:.3}, B {:.3}, C {:.3}; eccentricity {:.3} at phase {:.3}; \

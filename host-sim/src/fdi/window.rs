@@ -17,8 +17,8 @@ use shared::fusion::{FlightReading, WindowFusion};
 use shared::health::{HealthRecord, RecordedDay};
 use shared::uncertainty::{Assessment, Uncertainty};
 use shared::window::{
-    HeldComponents, RecordedCommand, WindowLimits, WindowLoad, WindowProblem, WindowReason,
-    COMMAND_STRIDE, WINDOW_INFLATION,
+    HeldComponents, HeldCoupling, RecordedCommand, WindowLimits, WindowLoad, WindowProblem,
+    WindowReason, COMMAND_STRIDE, WINDOW_INFLATION,
 };
 use shared::{FaultVector, MonitorModel, FAULT_COUNT};
 
@@ -52,6 +52,12 @@ pub struct WindowIdentified {
     /// The Gauss–Newton sums at `faults`: what the flight's reading adds of this window
     /// (`shared::fusion`).
     pub curvature: shared::uncertainty::Curvature,
+    /// What the window held (the preflight's values and covariance) and how its free
+    /// components lean on them: the flight's reading states the held values' error.
+    pub held: HeldComponents,
+    pub coupling: HeldCoupling,
+    /// The deviation per component the held values' error adds (in `uncertainty`).
+    pub shared_std: [f32; FAULT_COUNT],
 }
 
 impl WindowIdentified {
@@ -75,7 +81,13 @@ impl WindowIdentified {
     pub fn enter(&self, fusion: &mut WindowFusion) -> bool {
         fusable(&self.verdict)
             && fusion
-                .add(&self.faults, &self.curvature, &WINDOW_INFLATION)
+                .add_holding(
+                    &self.faults,
+                    &self.curvature,
+                    &WINDOW_INFLATION,
+                    &self.held,
+                    &self.coupling,
+                )
                 .is_ok()
     }
 
@@ -183,10 +195,21 @@ pub fn window_series(
     Ok(out)
 }
 
+/// What a flight's windows hold of its preflight `pre` (its reading and calibrated
+/// uncertainty): the shorts, the eccentricity and the demagnetization with their
+/// covariance when the preflight was `within`, else nothing.
+pub fn held_from(pre: &crate::fdi::identify::Identified, within: bool) -> HeldComponents {
+    let held = HeldComponents::from_preflight(&pre.result.faults, within);
+    match &pre.uncertainty {
+        Some((u, correlation)) if within => held.with_preflight_uncertainty(&u.std, correlation),
+        _ => held,
+    }
+}
+
 /// Identifies the faults behind a window of flight recorded in `trace`, conditioned into
 /// `measured`, with the actuator `record` (its chirp-only test), the `held` components at
-/// values from outside the window (`HeldComponents::of_preflight` the same flight's preflight
-/// reading, when it was `within`; `HeldComponents::NONE` without one).
+/// values from outside the window (`held_from` the same flight's preflight reading, when
+/// it was `within`; `HeldComponents::NONE` without one).
 pub fn identify_window(
     trace: &Trace,
     measured: &OnboardMeasured,
@@ -215,6 +238,9 @@ pub fn identify_window(
         verdict: reading.verdict,
         uncertainty: reading.uncertainty,
         curvature: reading.curvature,
+        held,
+        coupling: reading.coupling,
+        shared_std: reading.shared_std,
         load: reading.load,
         drift: reading.fit.drift,
         conditions,

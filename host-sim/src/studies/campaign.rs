@@ -430,14 +430,18 @@ pub struct CaseSummary {
 }
 
 /// Every run of `summaries` as CSV: `case,run,e_tot,e_tot_all,fitness,fitness_at_truth,
-/// evaluations,curvatures,within,k1…k9` (the run index is its seed offset; `e_tot` over the
-/// paper's eight components, `e_tot_all` over all nine).
+/// evaluations,curvatures,within,k1…k9,std_k1…std_k9` (the run index is its seed offset;
+/// `e_tot` over the paper's eight components, `e_tot_all` over all nine; the standard
+/// deviations with the inflation, NaN where undetermined).
 pub fn runs_csv(summaries: &[CaseSummary]) -> String {
     let mut out = String::from(
         "case,run,e_tot,e_tot_all,fitness,fitness_at_truth,evaluations,curvatures,within",
     );
     for n in shared::fault::FAULT_NAMES {
         out += &format!(",{n}");
+    }
+    for n in shared::fault::FAULT_NAMES {
+        out += &format!(",std_{n}");
     }
     out.push('\n');
     for s in summaries {
@@ -455,6 +459,10 @@ pub fn runs_csv(summaries: &[CaseSummary]) -> String {
             );
             for k in r.found.as_array() {
                 out += &format!(",{k}");
+            }
+            let std = r.uncertainty.map_or([f32::NAN; FAULT_COUNT], |u| u.std);
+            for s in std {
+                out += &format!(",{s}");
             }
             out.push('\n');
         }
@@ -831,6 +839,32 @@ pub fn markdown(title: &str, summaries: &[CaseSummary], runs: u64) -> String {
         })
         .collect();
     let _ = writeln!(s, "Inside at other inflations: {}.", grid.join(", "));
+    // Per component: what a flight's windows take of a preflight's deviation when they
+    // hold its value (`shared::window::HELD_ERROR_SCALE`).
+    let per: Vec<String> = (0..FAULT_COUNT)
+        .filter(|&i| i != shared::fault::ECCENTRICITY_PHASE_INDEX)
+        .map(|i| {
+            let mut z: Vec<f64> = summaries
+                .iter()
+                .flat_map(|c| c.runs.iter().filter_map(move |r| r.z_raw[i]))
+                .collect();
+            z.sort_by(f64::total_cmp);
+            let needed = z
+                .get(((z.len() as f64 * 0.9).ceil() as usize).saturating_sub(1))
+                .map_or(f64::NAN, |q| q / f64::from(shared::uncertainty::Z90));
+            format!(
+                "{} {needed:.2} ({})",
+                shared::fault::FAULT_NAMES[i],
+                z.len()
+            )
+        })
+        .collect();
+    let _ = writeln!(
+        s,
+        "Per component, the inflation that would make 90 % of its intervals hold the truth \
+         (component-runs): {}.",
+        per.join(", ")
+    );
     s
 }
 

@@ -17,12 +17,12 @@ use shared::metrics::total_error;
 use shared::{Calibration, FaultVector};
 
 use crate::fdi::identify::identify_for;
-use crate::fdi::window::identify_window;
+use crate::fdi::window::{held_from, identify_window};
 use crate::plant::aero::{FlightPhase, FlightWindow, Turbulence};
 use crate::plant::reference::{ReferenceModel, Scenario};
 use shared::fusion::{FlightLength, FlightProgress, WindowFusion, FLIGHT_MAX_FRICTION_STD};
 use shared::uncertainty::{Assessment, Uncertainty};
-use shared::window::{HeldComponents, WindowReason};
+use shared::window::WindowReason;
 
 /// The cases: the healthy actuator, friction 0.2 and Table II medium.
 pub const FLIGHT_CASES: [(&str, [f32; shared::FAULT_COUNT]); 3] = [
@@ -58,6 +58,9 @@ pub struct FlightRun {
     /// The window identification's vector and its standard deviations (NaN: undetermined).
     pub found: FaultVector,
     pub std: [f32; shared::FAULT_COUNT],
+    /// The part of `std` the held preflight values' error adds, shared by a flight's
+    /// windows (`shared::window::HeldComponents::shared_std`; zero where none).
+    pub shared_std: [f32; shared::FAULT_COUNT],
     /// Components whose window interval meets the same flight's preflight interval, and
     /// components compared (both determined; none when the preflight was not `within`).
     pub agreement: (usize, usize),
@@ -276,7 +279,7 @@ fn fly_windows(
                     ) == Domain::Within;
                     // The window holds the shorts at the same flight's preflight reading
                     // (a window cannot tell them from an eccentricity), when it is `within`.
-                    let held = HeldComponents::from_preflight(&pre.result.faults, pre_within);
+                    let held = held_from(&pre, pre_within);
                     let agree = |u: Option<&Uncertainty>| match (u, &pre.uncertainty, pre_within) {
                         (Some(a), Some((b, _)), true) => agreement(a, b),
                         _ => (0, 0),
@@ -306,6 +309,7 @@ fn fly_windows(
                             misfit: w.misfit,
                             found: w.faults,
                             std: u.map_or([f32::NAN; shared::FAULT_COUNT], |u| u.std),
+                            shared_std: w.shared_std,
                             agreement: agree(u),
                             preflight: (domain, f64::from(total_error(&id.result.faults, &truth))),
                             window: (w.verdict, f64::from(total_error(&w.faults, &truth))),
@@ -347,6 +351,7 @@ fn fly_windows(
                                 misfit,
                                 found: f.faults,
                                 std: u.std,
+                                shared_std: f.shared_std,
                                 agreement: agree(Some(u)),
                                 preflight,
                                 window: (f.verdict, f64::from(total_error(&f.faults, &truth))),
@@ -364,6 +369,7 @@ fn fly_windows(
                             misfit,
                             found: FaultVector::NOMINAL,
                             std: [f32::NAN; shared::FAULT_COUNT],
+                            shared_std: [0.0; shared::FAULT_COUNT],
                             agreement: (0, 0),
                             preflight,
                             window: (
@@ -645,7 +651,8 @@ pub fn interval_calibration(
 /// flight has several windows): phase, turbulence, case, seed, `window` or `flight`, the
 /// verdict, e_tot [%], its false `FAULT`s and largest healthy component, the turbulence
 /// level and misfit (a flight's: its windows' mean), the preflight FDI's verdict on the
-/// (first) window, the vector found and its deviations, the windows flown (1 for a window).
+/// (first) window, the vector found, its deviations and the part of them the held preflight
+/// values' error adds (shared by a flight's windows), the windows flown (1 for a window).
 pub fn flight_runs_csv(rows: &[FlightRow]) -> String {
     let mut text = String::from(
         "phase,turbulence,case,seed,reading,verdict,e_tot_pct,false_faults,healthy_max,\
@@ -656,6 +663,9 @@ pub fn flight_runs_csv(rows: &[FlightRow]) -> String {
     }
     for j in 1..=shared::FAULT_COUNT {
         text.push_str(&format!(",std_k{j}"));
+    }
+    for j in 1..=shared::FAULT_COUNT {
+        text.push_str(&format!(",shared_k{j}"));
     }
     text.push_str(",windows\n");
     for (reading, select) in [
@@ -681,7 +691,7 @@ pub fn flight_runs_csv(rows: &[FlightRow]) -> String {
                     r.misfit,
                     reason(&r.preflight.0),
                 ));
-                for x in r.found.as_array().iter().chain(&r.std) {
+                for x in r.found.as_array().iter().chain(&r.std).chain(&r.shared_std) {
                     text.push_str(&format!(",{x:.5}"));
                 }
                 text.push_str(&format!(",{}\n", r.windows));
@@ -753,6 +763,7 @@ mod tests {
             misfit: 0.003,
             found: FaultVector::saturating(genes),
             std: stds,
+            shared_std: [0.0; shared::FAULT_COUNT],
             agreement: (0, 0),
             windows: 1,
         }
@@ -791,12 +802,13 @@ mod tests {
         assert_eq!(calibration[ECCENTRICITY_PHASE].1, 0);
         // The flights' readings are counted apart.
         assert_eq!(interval_calibration(&rows, |r| &r.flights)[0].1, 1);
-        // The runs' CSV: a header, one line per window, then one per flight, 12 + 2 × 9 + 1
+        // The runs' CSV: a header, one line per window, then one per flight, 12 + 3 × 9 + 1
         // fields each (the last the windows flown).
         let csv = flight_runs_csv(&rows);
         let lines: Vec<&str> = csv.lines().collect();
         assert_eq!(lines.len(), 23);
-        assert!(lines.iter().all(|l| l.split(',').count() == 31), "{csv}");
+        assert!(lines.iter().all(|l| l.split(',').count() == 40), "{csv}");
+        assert!(lines[0].contains(",std_k9,shared_k1,"));
         assert!(lines[0].ends_with(",windows") && lines[22].ends_with(",1"));
         assert!(lines[21].contains(",window,play_unseen,"));
         assert!(lines[22].contains(",7,flight,within,"));

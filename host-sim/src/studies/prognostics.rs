@@ -18,11 +18,10 @@ use shared::fault::{FAULT_COUNT, FAULT_NAMES};
 use shared::fusion::{WindowFusion, FLIGHT_MAX_FRICTION_STD};
 use shared::health::{HealthRecord, RecordedDay};
 use shared::prognosis::{FaultTrend, Growth, HealthTrend, TrendEstimate, TrendSettings};
-use shared::window::HeldComponents;
 use shared::{ActuatorParams, Calibration, FaultVector};
 
 use crate::fdi::identify::identify;
-use crate::fdi::window::{flight_entry, identify_window, WindowIdentified};
+use crate::fdi::window::{flight_entry, held_from, identify_window, WindowIdentified};
 use crate::files::health::{HistoryRow, Intrusion};
 use crate::plant::aero::FlightWindow;
 use crate::plant::reference::{Anomaly, ReferenceModel, ReferenceSettings, Scenario};
@@ -214,12 +213,10 @@ pub fn degrade(
                 truth: Some(truth),
                 intrusion: intruded,
             }];
-            // The windows hold the shorts at this flight's preflight reading when it is
-            // `within` (a window cannot tell them from an eccentricity).
-            let held = HeldComponents::from_preflight(
-                &id.result.faults,
-                domain == shared::domain::Domain::Within,
-            );
+            // The windows hold the shorts at this flight's preflight reading, with its
+            // uncertainty, when it is `within` (a window cannot tell them from an
+            // eccentricity).
+            let held = held_from(&id, domain == shared::domain::Domain::Within);
             let mut fusion = WindowFusion::EMPTY;
             let mut entered = Vec::new();
             for n in 1..=windows {
