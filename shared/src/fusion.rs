@@ -12,7 +12,7 @@
 //!
 //! Units: the fault vector's [0, 1] range. Work: [`WindowFusion::add`] O(9³) (one 9 × 9
 //! inverse), [`WindowFusion::reading`] O([`FUSION_SWEEPS`] · 9²) + O(9³), whether a flight
-//! flies another window ([`FlightLength::after`]) O(1); state 792 B, no allocation, no
+//! flies another window ([`FlightLength::after`]) O(1); state 1 768 B, no allocation, no
 //! panic. Windows must be independent: a minute apart in flight (the
 //! turbulence's correlation is seconds), not overlapping.
 
