@@ -102,26 +102,7 @@ impl Uncertainty {
     /// to exceed what its curvature states (a window of flight, `shared::window`). O(9).
     #[must_use]
     pub fn widened(&self, k: &FaultVector, factors: &[f32; FAULT_COUNT]) -> Self {
-        let mut out = *self;
-        for i in 0..FAULT_COUNT {
-            let (Some(s), Some(&f), Some(&x), Some(&circular)) = (
-                out.std.get_mut(i),
-                factors.get(i),
-                k.as_array().get(i),
-                CIRCULAR.get(i),
-            ) else {
-                continue;
-            };
-            if s.is_nan() {
-                continue;
-            }
-            *s *= f;
-            let (lo, hi) = interval(circular, x, *s);
-            if let (Some(l), Some(u)) = (out.lower.get_mut(i), out.upper.get_mut(i)) {
-                (*l, *u) = (lo, hi);
-            }
-        }
-        out
+        self.redrawn(k, |i, s| s * factors.get(i).copied().unwrap_or(1.0))
     }
 
     /// These intervals with `shared[i]` added to each determined component's standard
@@ -130,20 +111,26 @@ impl Uncertainty {
     /// O(9).
     #[must_use]
     pub fn with_shared(&self, k: &FaultVector, shared: &[f32; FAULT_COUNT]) -> Self {
+        self.redrawn(k, |i, s| match shared.get(i) {
+            Some(&e) if e > 0.0 => crate::math::sqrt(s * s + e * e),
+            _ => s,
+        })
+    }
+
+    /// Each determined component's standard deviation `s` replaced by `std(i, s)` and its
+    /// interval redrawn around `k`; undetermined ones untouched. O(9).
+    fn redrawn(&self, k: &FaultVector, std: impl Fn(usize, f32) -> f32) -> Self {
         let mut out = *self;
         for i in 0..FAULT_COUNT {
-            let (Some(s), Some(&e), Some(&x), Some(&circular)) = (
-                out.std.get_mut(i),
-                shared.get(i),
-                k.as_array().get(i),
-                CIRCULAR.get(i),
-            ) else {
+            let (Some(s), Some(&x), Some(&circular)) =
+                (out.std.get_mut(i), k.as_array().get(i), CIRCULAR.get(i))
+            else {
                 continue;
             };
-            if s.is_nan() || e.is_nan() || e <= 0.0 {
+            if s.is_nan() {
                 continue;
             }
-            *s = crate::math::sqrt(*s * *s + e * e);
+            *s = std(i, *s);
             let (lo, hi) = interval(circular, x, *s);
             if let (Some(l), Some(u)) = (out.lower.get_mut(i), out.upper.get_mut(i)) {
                 (*l, *u) = (lo, hi);
