@@ -17,7 +17,9 @@
 //! `Outside` reasons ([`WindowReason`]). The stator shorts, the eccentricity and the
 //! demagnetization are held at the same flight's preflight reading when there is one
 //! ([`HeldComponents`]): without a standstill segment a window cannot tell a short from an
-//! eccentricity, and under its fitted load a demagnetization reads as friction.
+//! eccentricity, and under its fitted load a demagnetization reads as friction. The held
+//! values' error enters the window's deviations through the curvature's cross terms with
+//! them ([`HeldCoupling`], the preflight's deviations taken [`HELD_ERROR_SCALE`] times).
 //!
 //! Work: one evaluation = one monitor-model run over the window (O(N), a few multiply-adds
 //! more per sample: the drift's polynomials are expanded per block of [`DRIFT_BLOCK`]
