@@ -282,18 +282,35 @@ pub(crate) fn held_from_preflight_trace(
         ));
     }
     let k = id.result.faults.as_array();
+    let held = host_sim::fdi::window::held_from(&id, true);
+    // The held values' error the window's deviations carry (the preflight's σ scaled by
+    // `shared::window::HELD_ERROR_SCALE`).
+    let c = held.covariance();
+    let s = |i: usize| c[i][i].max(0.0).sqrt();
+    let (ecc, phase, demag) = (
+        shared::fault::ECCENTRICITY_INDEX,
+        shared::fault::ECCENTRICITY_PHASE_INDEX,
+        shared::fault::DEMAGNETIZATION_INDEX,
+    );
     Ok((
-        host_sim::fdi::window::held_from(&id, true),
+        held,
         format!(
-            "shorts, eccentricity and demagnetization held at the preflight's ({name}): \
-             shorts A {:.3}, B {:.3}, C {:.3}; eccentricity {:.3} at phase {:.3}; \
-             demagnetization {:.3}",
+            "shorts, eccentricity and demagnetization held at the preflight's ({name}), their \
+             error carried into the deviations: shorts A {:.3} ± {:.3}, B {:.3} ± {:.3}, \
+             C {:.3} ± {:.3}; eccentricity {:.3} ± {:.3} at phase {:.3} ± {:.3}; \
+             demagnetization {:.3} ± {:.3} (1 σ)",
             k[2],
+            s(2),
             k[3],
+            s(3),
             k[4],
-            k[shared::fault::ECCENTRICITY_INDEX],
-            k[shared::fault::ECCENTRICITY_PHASE_INDEX],
-            k[shared::fault::DEMAGNETIZATION_INDEX]
+            s(4),
+            k[ecc],
+            s(ecc),
+            k[phase],
+            s(phase),
+            k[demag],
+            s(demag)
         ),
     ))
 }
