@@ -10,6 +10,11 @@
 //! component above 0 by the mean of its clamped noise. The eccentricity's phase is circular
 //! and not added: the flight takes it from the window that reads it best.
 //!
+//! A flight is read only when its windows agree: their χ² about the reading over every
+//! window and component, and the friction of the one window that reads it closest against
+//! the others' — a window whose deviation is a third of the others' weighs as much as nine
+//! of them, and one such window reading wrong carries the flight with it.
+//!
 //! Units: the fault vector's [0, 1] range. Work: [`WindowFusion::add`] O(9³) (one 9 × 9
 //! inverse), [`WindowFusion::reading`] O([`FUSION_SWEEPS`] · 9²) + O(9³), whether a flight
 //! flies another window ([`FlightLength::after`]) O(1); state 1 768 B, no allocation, no
@@ -236,6 +241,28 @@ pub struct WindowFusion {
     /// ([`WindowFusion::reading`]).
     square: f64,
     terms: u32,
+    /// The window that reads friction closest (the smallest friction variance of the
+    /// windows added): its information and `I·p̃` over its added components, and its
+    /// friction's point and variance — to ask whether it alone outweighs the others
+    /// ([`WindowFusion::reading`]). Chosen by its deviation, never by its reading.
+    closest: ClosestWindow,
+}
+
+/// The window of a flight with the smallest friction variance ([`WindowFusion`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct ClosestWindow {
+    information: [[f64; FAULT_COUNT]; FAULT_COUNT],
+    linear: [f64; FAULT_COUNT],
+    /// Its unbounded friction point and the friction's variance (∞: no window yet).
+    friction: (f64, f64),
+}
+
+impl ClosestWindow {
+    const NONE: Self = Self {
+        information: [[0.0; FAULT_COUNT]; FAULT_COUNT],
+        linear: [0.0; FAULT_COUNT],
+        friction: (0.0, f64::INFINITY),
+    };
 }
 
 /// The flight's reading from its windows ([`WindowFusion::reading`]). Its verdict:
@@ -277,6 +304,7 @@ impl WindowFusion {
         held_covariance: [[0.0; FAULT_COUNT]; FAULT_COUNT],
         square: 0.0,
         terms: 0,
+        closest: ClosestWindow::NONE,
     };
 
     /// Windows added.
@@ -379,6 +407,19 @@ impl WindowFusion {
         }
         (self.information, self.linear, self.square) = (sum, linear, square);
         self.leaning = leaning;
+        if added(0) && covariance[0][0] < self.closest.friction.1 {
+            let mut closest = ClosestWindow {
+                friction: (point[0], covariance[0][0]),
+                ..ClosestWindow::NONE
+            };
+            for i in (0..FAULT_COUNT).filter(|&i| added(i)) {
+                for j in (0..FAULT_COUNT).filter(|&j| added(j)) {
+                    closest.information[i][j] = information[i][j];
+                    closest.linear[i] += information[i][j] * point[j];
+                }
+            }
+            self.closest = closest;
+        }
         self.held_covariance = *held.covariance();
         self.terms = self
             .terms
@@ -461,7 +502,11 @@ impl WindowFusion {
             .with_shared(&faults, &shared_std);
         uncertainty.residual_std = self.residual_std / self.windows as f32;
         let friction_std = uncertainty.std[0];
-        let disagreement = self.disagreement(&k, &free);
+        // The larger of the two tests (NaN, no degree of freedom, stays NaN).
+        let disagreement = match (self.disagreement(&k, &free), self.outweighed()) {
+            (all, Some(closest)) if closest > all => closest,
+            (all, _) => all,
+        };
         let verdict = if self.windows < 2 || disagreement.is_nan() || disagreement > 1.0 {
             Err(WindowReason::Unconfirmed {
                 windows: self.windows,
@@ -508,6 +553,66 @@ impl WindowFusion {
         (chi2.max(0.0) / (df * root * root * root)) as f32
     }
 }
+
+impl WindowFusion {
+    /// Whether the window that reads friction closest outweighs the others it disagrees
+    /// with: its friction point against the others' (their summed information without it,
+    /// unbounded), `(p̃_c − p̃_rest)² / (σ_c² + σ_rest²)` over χ²₁'s 99 % quantile (above 1:
+    /// they disagree). One window with a deviation a third of the others' carries as much
+    /// as nine of them: the χ² over every window and component ([`Self::disagreement`])
+    /// dilutes one such window among the rest, this does not. `None` with fewer than two
+    /// windows or when the others do not determine friction. O(9³).
+    #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // i, j < FAULT_COUNT on fixed 9×9 arrays
+    fn outweighed(&self) -> Option<f32> {
+        let (point, variance) = self.closest.friction;
+        if self.windows < 2 || !variance.is_finite() {
+            return None;
+        }
+        // The others' information: the sum without the closest window, over the components
+        // they determine (the others an identity row and column).
+        let mut rest = [[0.0f64; FAULT_COUNT]; FAULT_COUNT];
+        let mut linear = [0.0f64; FAULT_COUNT];
+        let kept: [bool; FAULT_COUNT] = core::array::from_fn(|i| {
+            let left = self.information[i][i] - self.closest.information[i][i];
+            !CIRCULAR[i] && left > FLAT_SHARE * self.information[i][i]
+        });
+        if !kept[0] {
+            return None;
+        }
+        for i in 0..FAULT_COUNT {
+            for j in 0..FAULT_COUNT {
+                rest[i][j] = if kept[i] && kept[j] {
+                    self.information[i][j] - self.closest.information[i][j]
+                } else if i == j {
+                    1.0
+                } else {
+                    0.0
+                };
+            }
+            linear[i] = if kept[i] {
+                self.linear[i] - self.closest.linear[i]
+            } else {
+                0.0
+            };
+        }
+        let covariance = invert(&rest)?;
+        let others: f64 = (0..FAULT_COUNT)
+            .filter(|&j| kept[j])
+            .map(|j| covariance[0][j] * linear[j])
+            .sum();
+        let spread = variance + covariance[0][0];
+        let ratio = (point - others) * (point - others) / spread / CHI2_1_99;
+        (spread > 0.0 && ratio.is_finite()).then_some(ratio as f32)
+    }
+}
+
+/// Below this share of the flight's information on a component, the windows other than
+/// the closest one do not determine it ([`WindowFusion::outweighed`]): its difference is
+/// rounding, not evidence.
+const FLAT_SHARE: f64 = 1e-6;
+
+/// The 99 % quantile of χ² with one degree of freedom.
+const CHI2_1_99: f64 = 6.634_897;
 
 /// One-sided 99 % quantile of the normal distribution.
 const Z99: f64 = 2.326_348;
@@ -715,15 +820,66 @@ mod tests {
         ));
         // Two within a deviation of each other: confirmed.
         assert_eq!(fused(&[0.17, 0.23]), Ok(()));
-        // Eight deviations apart (χ² 32 on 8 degrees of freedom, its 99 % quantile 20.1):
-        // one of them is wrong.
+        // Eight deviations apart (χ² 32 on 8 degrees of freedom, its 99 % quantile 20.1:
+        // 1.6; the friction alone 32 against χ²₁'s 6.63: 4.8, the larger): one of them is
+        // wrong.
         match fused(&[0.0, 0.4]) {
             Err(WindowReason::Unconfirmed {
                 windows: 2,
                 disagreement,
-            }) => assert!((1.4..1.8).contains(&disagreement), "{disagreement}"),
+            }) => assert!((4.6..5.0).contains(&disagreement), "{disagreement}"),
             other => panic!("{other:?}"),
         }
+    }
+
+    #[test]
+    fn one_close_window_does_not_outweigh_the_others_it_disagrees_with() {
+        // Friction read at σ 0.1 by eight windows around 0.1 and at σ 0.035 by a ninth
+        // (its information that of eight: half the flight's), the others well determined.
+        let window = |friction: f32, std: f64| {
+            let mut genes = *FaultVector::NOMINAL.as_array();
+            genes[0] = friction;
+            let normal = [1.0 / (std * std), 1e4, 1e4, 1e4, 1e4, 1e4, 0.0, 1e4, 1e4];
+            (
+                FaultVector::new(genes).unwrap(),
+                curvature(normal, [0.0; FAULT_COUNT], 0.0),
+            )
+        };
+        let flight = |closest: f32| {
+            let mut fusion = WindowFusion::EMPTY;
+            for f in [0.0, 0.15, 0.05, 0.2, 0.1, 0.18, 0.02, 0.1] {
+                let (k, c) = window(f, 0.1);
+                fusion.add(&k, &c, &ONES).unwrap();
+            }
+            let (k, c) = window(closest, 0.035);
+            fusion.add(&k, &c, &ONES).unwrap();
+            fusion
+        };
+        // Reading 0.30: four of the pair's deviations from the others' 0.10 (χ² 16 against
+        // χ²₁'s 6.63: 2.5), while the χ² over all nine windows and components stays far
+        // below its quantile (the one window diluted among 64 degrees of freedom).
+        let apart = flight(0.30);
+        let reading = apart.reading(0.04).unwrap();
+        let k = reading.faults.as_array().map(f64::from);
+        let free: [bool; FAULT_COUNT] = core::array::from_fn(|i| i != PHASE);
+        assert!(apart.disagreement(&k, &free) < 0.5);
+        match reading.verdict {
+            Err(WindowReason::Unconfirmed {
+                windows: 9,
+                disagreement,
+            }) => assert!((2.2..2.8).contains(&disagreement), "{disagreement}"),
+            other => panic!("{other:?}"),
+        }
+        // Reading 0.12, within its and the others' deviations: the flight is read.
+        assert_eq!(flight(0.12).reading(0.04).unwrap().verdict, Ok(()));
+        // The closest window is chosen by its deviation, not its reading: the same nine
+        // readings with the ninth as loose as the others are confirmed.
+        let mut even = WindowFusion::EMPTY;
+        for f in [0.0, 0.15, 0.05, 0.2, 0.1, 0.18, 0.02, 0.1, 0.30] {
+            let (k, c) = window(f, 0.1);
+            even.add(&k, &c, &ONES).unwrap();
+        }
+        assert_eq!(even.reading(0.04).unwrap().verdict, Ok(()));
     }
 
     #[test]

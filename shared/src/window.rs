@@ -230,8 +230,9 @@ pub enum WindowReason {
     TurbulenceTooHigh { friction_std: f32 },
     /// A flight's reading from its windows (`crate::fusion`) that no second window
     /// confirms: fewer than two windows fused (`disagreement` NaN), or their readings farther
-    /// apart than their deviations allow — `disagreement` is their χ² over its 99 % quantile
-    /// (above 1: one of them is wrong).
+    /// apart than their deviations allow — `disagreement` is their χ² over its 99 % quantile,
+    /// or the friction of the window that reads it closest against the others' over χ²₁'s
+    /// (the larger; above 1: one of them is wrong).
     Unconfirmed { windows: u32, disagreement: f32 },
 }
 
