@@ -17,7 +17,7 @@
 //!
 //! Units: the fault vector's [0, 1] range. Work: [`WindowFusion::add`] O(9³) (one 9 × 9
 //! inverse), [`WindowFusion::reading`] O([`FUSION_SWEEPS`] · 9²) + O(9³), whether a flight
-//! flies another window ([`FlightLength::after`]) O(1); state 1 768 B, no allocation, no
+//! flies another window ([`FlightLength::after`]) O(1); state 2 504 B, no allocation, no
 //! panic. Windows must be independent: a minute apart in flight (the
 //! turbulence's correlation is seconds), not overlapping.
 
@@ -131,8 +131,9 @@ pub fn flight_inflation(windows: u32) -> [f32; FAULT_COUNT] {
 /// a friction bias in moderate turbulence with other faults present, which more windows do
 /// not shrink and eight windows' deviation hid. With the held preflight values' error
 /// carried (stop 52: [`FlightReading::shared_std`]) the flight at 0.12 is no longer
-/// `FAULT` (it reads 0.083 at twelve windows), the one at 0.10 still is; docs/in-flight.md
-/// §4.
+/// `FAULT` (it reads 0.083 at twelve windows), the one at 0.10 still was — one of its
+/// windows outweighing the rest, now `Unconfirmed` (stop 53: [`WindowFusion::reading`]'s
+/// closest-window test); docs/in-flight.md §4.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct FlightLength {
     /// Windows flown before the first reading is formed.
@@ -267,8 +268,9 @@ impl ClosestWindow {
 
 /// The flight's reading from its windows ([`WindowFusion::reading`]). Its verdict:
 /// [`WindowReason::Unconfirmed`] with fewer than two windows, or when the windows' readings
-/// disagree beyond their deviations (their χ² about the reading above its 99 % quantile:
-/// one of them is wrong, a worn gear's window read in the wrong basin, say); else
+/// disagree beyond their deviations (their χ² about the reading above its 99 % quantile,
+/// or the window that reads friction closest against the others' above χ²₁'s: one of them
+/// is wrong, a worn gear's window read in the wrong basin, say); else
 /// [`WindowReason::TurbulenceTooHigh`] when the friction's deviation is above the limit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FlightReading {
@@ -600,6 +602,9 @@ impl WindowFusion {
             .filter(|&j| kept[j])
             .map(|j| covariance[0][j] * linear[j])
             .sum();
+        if covariance[0][0].is_nan() || covariance[0][0] <= 0.0 {
+            return None;
+        }
         let spread = variance + covariance[0][0];
         let ratio = (point - others) * (point - others) / spread / CHI2_1_99;
         (spread > 0.0 && ratio.is_finite()).then_some(ratio as f32)
