@@ -363,18 +363,9 @@ impl WindowFusion {
         // The window's covariance over its determined non-circular components, the others
         // an identity row and column (so the inverse of this block is the block's own).
         let added = |i: usize| determined[i] && !CIRCULAR[i];
-        let mut covariance = [[0.0f64; FAULT_COUNT]; FAULT_COUNT];
-        for i in 0..FAULT_COUNT {
-            for j in 0..FAULT_COUNT {
-                covariance[i][j] = if added(i) && added(j) {
-                    scale * f(i) * f(j) * inverse[i][j]
-                } else if i == j {
-                    1.0
-                } else {
-                    0.0
-                };
-            }
-        }
+        let covariance = padded(&core::array::from_fn(added), |i, j| {
+            scale * f(i) * f(j) * inverse[i][j]
+        });
         let information = invert(&covariance).ok_or(UncertaintyError::Undetermined)?;
         let mut point = [0.0f64; FAULT_COUNT];
         for i in 0..FAULT_COUNT {
@@ -572,8 +563,6 @@ impl WindowFusion {
         }
         // The others' information: the sum without the closest window, over the components
         // they determine (the others an identity row and column).
-        let mut rest = [[0.0f64; FAULT_COUNT]; FAULT_COUNT];
-        let mut linear = [0.0f64; FAULT_COUNT];
         let kept: [bool; FAULT_COUNT] = core::array::from_fn(|i| {
             let left = self.information[i][i] - self.closest.information[i][i];
             !CIRCULAR[i] && left > FLAT_SHARE * self.information[i][i]
@@ -581,22 +570,16 @@ impl WindowFusion {
         if !kept[0] {
             return None;
         }
-        for i in 0..FAULT_COUNT {
-            for j in 0..FAULT_COUNT {
-                rest[i][j] = if kept[i] && kept[j] {
-                    self.information[i][j] - self.closest.information[i][j]
-                } else if i == j {
-                    1.0
-                } else {
-                    0.0
-                };
-            }
-            linear[i] = if kept[i] {
+        let rest = padded(&kept, |i, j| {
+            self.information[i][j] - self.closest.information[i][j]
+        });
+        let linear: [f64; FAULT_COUNT] = core::array::from_fn(|i| {
+            if kept[i] {
                 self.linear[i] - self.closest.linear[i]
             } else {
                 0.0
-            };
-        }
+            }
+        });
         let covariance = invert(&rest)?;
         let others: f64 = (0..FAULT_COUNT)
             .filter(|&j| kept[j])
@@ -609,6 +592,21 @@ impl WindowFusion {
         let ratio = (point - others) * (point - others) / spread / CHI2_1_99;
         (spread > 0.0 && ratio.is_finite()).then_some(ratio as f32)
     }
+}
+
+/// A 9 × 9 matrix of `value(i, j)` over the `kept` components, an identity row and column
+/// for the others (so that inverting it inverts the kept block alone). O(9²).
+fn padded(
+    kept: &[bool; FAULT_COUNT],
+    value: impl Fn(usize, usize) -> f64,
+) -> [[f64; FAULT_COUNT]; FAULT_COUNT] {
+    core::array::from_fn(|i| {
+        core::array::from_fn(|j| match (kept.get(i), kept.get(j)) {
+            (Some(true), Some(true)) => value(i, j),
+            _ if i == j => 1.0,
+            _ => 0.0,
+        })
+    })
 }
 
 /// Below this share of the flight's information on a component, the windows other than
