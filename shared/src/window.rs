@@ -650,6 +650,21 @@ impl SampleCurrent for LoadedRunCurrent<'_, '_> {
     }
 }
 
+/// A run's current pushed by a moment per sample from outside the problem
+/// ([`WindowProblem::evaluate_with_moment_samples`]) instead of the load's trend.
+struct MomentSamples<'m, C: SampleCurrent> {
+    current: C,
+    moments: &'m [f32],
+}
+
+impl<C: SampleCurrent> SampleCurrent for MomentSamples<'_, C> {
+    #[inline(always)]
+    fn next(&mut self, i: usize, _trend: f32) -> f32 {
+        let h = self.moments.get(i).copied().unwrap_or(0.0);
+        self.current.next(i, h)
+    }
+}
+
 /// The eq. (3) weight of each fitted sample: `1 / ((ΔI_r)²/κ + 1)`.
 #[inline(always)]
 fn weight(delta: f32, inv_kappa: f32) -> f32 {
@@ -783,22 +798,58 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
 
     /// As [`evaluate`](Self::evaluate) under `load`.
     pub fn evaluate_under(&self, k: &FaultVector, load: WindowLoad) -> WindowFit {
+        let (model, mut run) = self.loaded_start(k, load);
+        let trending = load.trend != [0.0; DRIFT_TERMS];
+        let mut current = self.loaded_current(&model, &mut run, trending);
+        self.residual_fit(&load.trend, &mut current)
+    }
+
+    /// As [`evaluate_under`](Self::evaluate_under) with the load's trend replaced by a
+    /// moment per sample from outside the problem, `moments[i]` [N·m] the hinge moment the
+    /// motor must hold at sample `i` beyond the spring's, relative to the window's start
+    /// (0 past the slice's end). For studies of what the window's load must follow
+    /// (host-sim's example `window_moment`, docs/in-flight.md §6); not flown. O(samples).
+    pub fn evaluate_with_moment_samples(
+        &self,
+        k: &FaultVector,
+        load: WindowLoad,
+        moments: &[f32],
+    ) -> WindowFit {
+        let (model, mut run) = self.loaded_start(k, load);
+        let current = self.loaded_current(&model, &mut run, true);
+        self.residual_fit(&[0.0; DRIFT_TERMS], &mut MomentSamples { current, moments })
+    }
+
+    /// The model under `load`'s stiffness and its run started in equilibrium under its
+    /// moment, at the held components' values of `k`.
+    #[inline(always)]
+    fn loaded_start(&self, k: &FaultVector, load: WindowLoad) -> (MonitorModel, MonitorRun) {
         let k = &self.held.apply(k);
         let model = self.model.with_load_stiffness(load.stiffness);
         let start = self.measured.initial_angles();
         let first = self.command.position_at(0);
-        let (model, mut run) = model.start_loaded_run(k, start, load.moment, first);
-        let mut current = LoadedRunCurrent {
-            model: &model,
-            run: &mut run,
+        model.start_loaded_run(k, start, load.moment, first)
+    }
+
+    /// The run's current through the measurement's filter, pushing a moment each step
+    /// when `trending`.
+    #[inline(always)]
+    fn loaded_current<'s>(
+        &'s self,
+        model: &'s MonitorModel,
+        run: &'s mut MonitorRun,
+        trending: bool,
+    ) -> LoadedRunCurrent<'s, 'a> {
+        LoadedRunCurrent {
+            model,
+            run,
             command: &self.command,
             filter: self.measured.filter(),
             state: LowPassState::default(),
-            trending: load.trend != [0.0; DRIFT_TERMS],
+            trending,
             // A window's test has no standstill segment: its model steps inline.
             motion_only: model.lead_samples() == 0,
-        };
-        self.residual_fit(&load.trend, &mut current)
+        }
     }
 
     /// Eq. (3) of the modelled current `modelled.next(i, h)` (filtered; called once per

@@ -350,3 +350,40 @@ fn the_window_identification_in_steps_is_the_same_and_pauses() {
         whole.evaluations
     );
 }
+
+/// A moment per sample from outside the problem (`evaluate_with_moment_samples`, for the
+/// studies of what a window's load must follow): none is the load without a trend, to the
+/// bit; a moment the recorded window did not carry (20 N·m from halfway on) spoils the fit
+/// at the truth many times over, and the same moment pushed the other way spoils it too.
+/// Fails if the moments are not pushed, or pushed where the trend's would not be.
+#[test]
+fn a_moment_per_sample_is_pushed_as_the_trend_would_be() {
+    let record = ActuatorRecord::REFERENCE;
+    let mut genes = *FaultVector::NOMINAL.as_array();
+    genes[0] = 0.2;
+    let truth = FaultVector::new(genes).unwrap();
+    let load = WindowLoad::spring(1.4 * record.params.aero_stiffness, 120.0);
+    let window = Recorded::new(1.0e-3, &truth, &load);
+    let problem = window.problem(load);
+    let plain = problem.evaluate_under(&truth, load);
+    let none = problem.evaluate_with_moment_samples(&truth, load, &[]);
+    assert_eq!(plain.error.to_bits(), none.error.to_bits());
+    assert_eq!(plain.drift, none.drift);
+    let zeros = vec![0.0f32; TEST_SAMPLES];
+    let zero = problem.evaluate_with_moment_samples(&truth, load, &zeros);
+    assert_eq!(plain.error.to_bits(), zero.error.to_bits());
+
+    let step: Vec<f32> = (0..TEST_SAMPLES)
+        .map(|i| if i < TEST_SAMPLES / 2 { 0.0 } else { 20.0 })
+        .collect();
+    let pushed = problem
+        .evaluate_with_moment_samples(&truth, load, &step)
+        .error;
+    let back: Vec<f32> = step.iter().map(|h| -h).collect();
+    let pulled = problem
+        .evaluate_with_moment_samples(&truth, load, &back)
+        .error;
+    for e in [pushed, pulled] {
+        assert!(e > 100.0 * plain.error.max(1e-9), "{e} vs {}", plain.error);
+    }
+}
