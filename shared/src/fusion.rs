@@ -287,6 +287,43 @@ pub struct FlightReading {
     pub verdict: Result<(), WindowReason>,
 }
 
+impl FlightReading {
+    /// The windows at which this reading's friction deviation would reach `limit` if the
+    /// windows still to come added as these did: their own part shrinking as `1/√n`, the
+    /// held values' part (`shared_std`) staying. `None` when that part alone is at or above
+    /// `limit`, or the deviation is not finite; the windows so far when it is already within.
+    /// [`FlightLength::after`] asks the same of the windows left. O(1).
+    pub fn windows_to_reach(&self, limit: f32) -> Option<u32> {
+        let std = self.uncertainty.0.std.first().copied().unwrap_or(f32::NAN);
+        let held = self.shared_std.first().copied().unwrap_or(0.0);
+        let room = limit * limit - held * held;
+        if !std.is_finite() || !(room > 0.0) {
+            return None;
+        }
+        if std <= limit {
+            return Some(self.windows);
+        }
+        let own = std * std - held * held;
+        let own = if own < 0.0 { 0.0 } else { own };
+        let needed = round_up(self.windows as f32 * own / room);
+        if needed < u32::MAX as f32 {
+            Some((needed as u32).max(self.windows))
+        } else {
+            None
+        }
+    }
+}
+
+/// `x` rounded up to a whole number (`x` ≥ 0, below 2²³: exact in f32). O(1).
+fn round_up(x: f32) -> f32 {
+    let whole = x as u32 as f32;
+    if whole < x {
+        whole + 1.0
+    } else {
+        whole
+    }
+}
+
 impl Default for WindowFusion {
     fn default() -> Self {
         Self::EMPTY
@@ -911,6 +948,45 @@ mod tests {
             }
         }
         panic!("no end in 64 windows");
+    }
+
+    /// The windows a reading needs (`FlightReading::windows_to_reach`): eight identical
+    /// windows at information 100 read friction to σ 1.1 / √800 = 0.0389; at the limit 0.03
+    /// they need 14, the count a flight under `FlightLength` is read at (below); with a held
+    /// part of 0.02 that does not shrink, more; with one of 0.03 or more, never.
+    #[test]
+    fn the_windows_a_reading_needs_count_its_held_part_as_staying() {
+        let mut genes = *FaultVector::NOMINAL.as_array();
+        genes[0] = 0.2;
+        let k = FaultVector::new(genes).unwrap();
+        let c = curvature([100.0; FAULT_COUNT], [0.0; FAULT_COUNT], 0.0);
+        let mut fusion = WindowFusion::EMPTY;
+        for _ in 0..8 {
+            fusion.add(&k, &c, &ONES).unwrap();
+        }
+        let reading = fusion.reading(FLIGHT_MAX_FRICTION_STD).unwrap();
+        let std = reading.uncertainty.0.std[0];
+        assert!((std - 1.1 / 800f32.sqrt()).abs() < 1e-4, "{std}");
+        assert_eq!(reading.windows_to_reach(FLIGHT_MAX_FRICTION_STD), Some(14));
+        assert_eq!(reading.windows_to_reach(0.05), Some(8));
+        let (n, _, _) = fly(FlightLength { least: 8, most: 24 }, 100.0);
+        assert_eq!(n, 14);
+
+        let mut held = reading.clone();
+        held.shared_std[0] = 0.02;
+        // 8 · (σ² − 0.02²) / (0.03² − 0.02²) = 17.8.
+        let own = std * std - 0.0004;
+        let expected = (8.0 * own / 0.0005).ceil() as u32;
+        assert_eq!(
+            held.windows_to_reach(FLIGHT_MAX_FRICTION_STD),
+            Some(expected)
+        );
+        assert!(expected > 14);
+        held.shared_std[0] = 0.03;
+        assert_eq!(held.windows_to_reach(FLIGHT_MAX_FRICTION_STD), None);
+        held.shared_std[0] = 0.0;
+        held.uncertainty.0.std[0] = f32::NAN;
+        assert_eq!(held.windows_to_reach(FLIGHT_MAX_FRICTION_STD), None);
     }
 
     #[test]

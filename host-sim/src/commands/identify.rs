@@ -452,21 +452,28 @@ pub(crate) fn identify_command(
 }
 
 /// What would bring a flight's reading named `outside` within: for its friction deviation,
-/// the windows that, adding as these did (σ ∝ 1/√n), reach the limit; for disagreeing
-/// windows, not more of them.
+/// the windows that, adding as these did (their own part of σ ∝ 1/√n, the held values'
+/// part staying), reach the limit, or that none can; for disagreeing windows, not more of
+/// them.
 fn more_windows(f: &shared::fusion::FlightReading) -> String {
     use shared::fusion::{CALIBRATED_WINDOWS, FLIGHT_MAX_FRICTION_STD};
     use shared::window::WindowReason;
     match f.verdict {
         Err(WindowReason::TurbulenceTooHigh { friction_std }) if friction_std.is_finite() => {
-            let ratio = f64::from(friction_std) / f64::from(FLIGHT_MAX_FRICTION_STD);
-            let needed = (f64::from(f.windows) * ratio * ratio).ceil();
-            format!(
-                "its friction σ {friction_std:.3} is above {FLIGHT_MAX_FRICTION_STD}; windows \
-                 adding as these did would reach it at {needed:.0} (the limit is calibrated \
-                 at {CALIBRATED_WINDOWS}: beyond, a friction bias in turbulence no longer \
-                 hides in the deviation — docs/in-flight.md §4)"
-            )
+            match f.windows_to_reach(FLIGHT_MAX_FRICTION_STD) {
+                Some(needed) => format!(
+                    "its friction σ {friction_std:.3} is above {FLIGHT_MAX_FRICTION_STD}; \
+                     windows adding as these did would reach it at {needed} (the limit is \
+                     calibrated at {CALIBRATED_WINDOWS}: beyond, a friction bias in \
+                     turbulence no longer hides in the deviation — docs/in-flight.md §4)"
+                ),
+                None => format!(
+                    "its friction σ {friction_std:.3} is above {FLIGHT_MAX_FRICTION_STD}, and \
+                     the preflight's held values alone leave σ {:.3}: no number of windows \
+                     brings it within",
+                    f.shared_std[0]
+                ),
+            }
         }
         Err(WindowReason::Unconfirmed { windows, .. }) if windows < 2 => {
             "a reading needs two windows that can be fused".to_string()
