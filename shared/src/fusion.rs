@@ -297,7 +297,8 @@ impl FlightReading {
         let std = self.uncertainty.0.std.first().copied().unwrap_or(f32::NAN);
         let held = self.shared_std.first().copied().unwrap_or(0.0);
         let room = limit * limit - held * held;
-        if !std.is_finite() || !(room > 0.0) {
+        // (A NaN room is no room.)
+        if !std.is_finite() || room.is_nan() || room <= 0.0 {
             return None;
         }
         if std <= limit {
@@ -972,7 +973,7 @@ mod tests {
         let (n, _, _) = fly(FlightLength { least: 8, most: 24 }, 100.0);
         assert_eq!(n, 14);
 
-        let mut held = reading.clone();
+        let mut held = reading;
         held.shared_std[0] = 0.02;
         // 8 · (σ² − 0.02²) / (0.03² − 0.02²) = 17.8.
         let own = std * std - 0.0004;
