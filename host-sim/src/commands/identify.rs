@@ -456,16 +456,23 @@ pub(crate) fn identify_command(
 /// part staying), reach the limit, or that none can; for disagreeing windows, not more of
 /// them.
 fn more_windows(f: &shared::fusion::FlightReading) -> String {
-    use shared::fusion::{CALIBRATED_WINDOWS, FLIGHT_MAX_FRICTION_STD};
+    use shared::fusion::{CALIBRATED_WINDOWS, CRUISE_LENGTH, FLIGHT_MAX_FRICTION_STD};
     use shared::window::WindowReason;
     match f.verdict {
         Err(WindowReason::TurbulenceTooHigh { friction_std }) if friction_std.is_finite() => {
             match f.windows_to_reach(FLIGHT_MAX_FRICTION_STD) {
+                Some(needed) if needed <= CRUISE_LENGTH.most => format!(
+                    "its friction σ {friction_std:.3} is above {FLIGHT_MAX_FRICTION_STD}; \
+                     windows adding as these did would reach it at {needed} (in cruise the \
+                     rule flies up to {} while only the friction keeps the reading out; \
+                     climb and approach fly {CALIBRATED_WINDOWS} — docs/in-flight.md §4)",
+                    CRUISE_LENGTH.most
+                ),
                 Some(needed) => format!(
                     "its friction σ {friction_std:.3} is above {FLIGHT_MAX_FRICTION_STD}; \
-                     windows adding as these did would reach it at {needed} (the limit is \
-                     calibrated at {CALIBRATED_WINDOWS}: beyond, a friction bias in \
-                     turbulence no longer hides in the deviation — docs/in-flight.md §4)"
+                     windows adding as these did would reach it at {needed}, beyond the \
+                     cruise rule's {}: this flight's friction stays unread",
+                    CRUISE_LENGTH.most
                 ),
                 None => format!(
                     "its friction σ {friction_std:.3} is above {FLIGHT_MAX_FRICTION_STD}, and \
