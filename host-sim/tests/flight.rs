@@ -60,10 +60,10 @@ fn no_flight_window_is_read_within() {
 
 /// A flight in moderate cruise that eight windows leave out (its fused friction deviation
 /// above the limit), flown under the cruise rule (`shared::fusion::CRUISE_LENGTH`: eight,
-/// then more while the friction deviation alone keeps it out, up to 24), flies more and is read once the deviation is within: right to 6 % e_tot, its
-/// friction within its 90 % interval, no healthy component `FAULT` (friction 0.2, seed 1:
-/// read at fourteen windows in `campaign --flight --phase cruise --flight-windows 8
-/// --flight-windows-max 24`).
+/// then more while the friction deviation alone keeps it out, up to 24), flies more and is
+/// read once the deviation is within: right to 6 % e_tot, its friction within its 90 %
+/// interval, no healthy component `FAULT` (friction 0.2, seed 1: read at fourteen windows in
+/// `campaign --flight --phase cruise --flight-windows 8 --flight-windows-max 24`).
 #[test]
 fn a_cruise_flight_flies_windows_until_its_friction_is_read() {
     use host_sim::plant::aero::{FlightPhase, FlightWindow, Turbulence};
