@@ -12,6 +12,7 @@ use shared::actuator::ActuatorRecord;
 use shared::domain::Domain;
 use shared::fault::Verdict;
 use shared::metrics::total_error;
+use shared::uncertainty::Assessment;
 use shared::FaultVector;
 
 use crate::fdi::identify::identify_for;
@@ -23,8 +24,13 @@ use crate::studies::campaign::TABLE_2;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WindRun {
     pub e_tot: f64,
-    /// Healthy components (true nominal) read `FAULT`.
+    /// Healthy components (true nominal) the FDI calls `FAULT`: their whole 90 % interval
+    /// beyond the detection threshold (`shared::uncertainty::Assessment::Faulty`, the verdict
+    /// `identify` prints and the health log keeps).
     pub false_faults: u32,
+    /// Healthy components whose reading alone is beyond the detection threshold (`FAULT` or
+    /// `suspect`).
+    pub healthy_above: u32,
     pub domain: Domain,
     /// The flown check's statistics ([`shared::domain::LoadSigns`]).
     pub load: shared::domain::LoadSigns,
@@ -62,15 +68,23 @@ fn one_run(
     let id = identify_for(&measured, record, 1 + seed, false)?;
     let found = id.result.faults;
     let domain = id.domain(&sim.trace.domain_monitor(&params), &record.domain);
-    let false_faults = found
+    let healthy = |j: usize| truth.as_array()[j] == FaultVector::NOMINAL.as_array()[j];
+    let false_faults = id
+        .assessments_at(record.detection_threshold)
+        .iter()
+        .enumerate()
+        .filter(|&(j, a)| *a == Assessment::Faulty && healthy(j))
+        .count() as u32;
+    let healthy_above = found
         .verdicts_at(record.detection_threshold)
         .iter()
-        .zip(truth.as_array().iter().zip(FaultVector::NOMINAL.as_array()))
-        .filter(|(v, (t, n))| **v == Verdict::Faulty && t == n)
+        .enumerate()
+        .filter(|&(j, v)| *v == Verdict::Faulty && healthy(j))
         .count() as u32;
     Ok(WindRun {
         e_tot: f64::from(total_error(&found, &truth)),
         false_faults,
+        healthy_above,
         domain,
         load: id.load,
     })
@@ -172,10 +186,12 @@ pub fn wind_markdown(rows: &[WindRow], actuator: &str) -> String {
          domain check put outside as a moved load (`LoadMoved` over the chirp, \
          `LoadMovedAtRest` in the standstill segment); `other outside`: any other reason; \
          then over the runs left `within`: e_tot median and largest [%], their healthy \
-         components read `FAULT` (component-runs); `off > 5 %`: runs whose e_tot is above 5 % \
+         components the FDI calls `FAULT` (its verdict: the whole 90 % interval beyond the \
+         detection threshold) and those read beyond the threshold at all (`FAULT` or \
+         `suspect`; component-runs); `off > 5 %`: runs whose e_tot is above 5 % \
          and of them named; largest load signs (offset, standstill) over the row.\n\n\
-         | case | wind | named | other outside | within: e_tot median / max | within: false FAULT | off > 5 %: named / all | largest offset / standstill |\n\
-         | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |\n",
+         | case | wind | named | other outside | within: e_tot median / max | within: false FAULT | within: healthy read > threshold | off > 5 %: named / all | largest offset / standstill |\n\
+         | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n",
         rows.first().map_or(0, |r| r.runs.len())
     );
     for row in rows {
@@ -190,6 +206,7 @@ pub fn wind_markdown(rows: &[WindRow], actuator: &str) -> String {
         let max = e.last().copied();
         let other = row.runs.len() - within.len() - row.named();
         let false_faults: u32 = within.iter().map(|r| r.false_faults).sum();
+        let healthy_above: u32 = within.iter().map(|r| r.healthy_above).sum();
         let off: Vec<&WindRun> = row.runs.iter().filter(|r| r.e_tot > 5.0).collect();
         let off_named = off.iter().filter(|r| load_moved(&r.domain)).count();
         let offset = row
@@ -211,7 +228,7 @@ pub fn wind_markdown(rows: &[WindRow], actuator: &str) -> String {
         };
         let fmt = |v: Option<f64>| v.map_or("–".to_string(), |v| format!("{v:.2}"));
         text.push_str(&format!(
-            "| {} | {wind} | {} | {other} | {} / {} | {false_faults} | {off_named} / {} | {offset:.4} / {standstill:.4} |\n",
+            "| {} | {wind} | {} | {other} | {} / {} | {false_faults} | {healthy_above} | {off_named} / {} | {offset:.4} / {standstill:.4} |\n",
             row.case,
             row.named(),
             fmt(median),
@@ -236,10 +253,16 @@ pub fn wind_markdown(rows: &[WindRow], actuator: &str) -> String {
             .filter(|r| r.domain == Domain::Within && r.false_faults > 0)
             .count()
     };
+    let within_above = |runs: &[&WindRun]| {
+        runs.iter()
+            .filter(|r| r.domain == Domain::Within && r.healthy_above > 0)
+            .count()
+    };
     text.push_str(&format!(
         "\nIn wind: {} runs, {} named as a moved load; of the {} runs off by more than 5 %, {} \
-         named ({:.0} %); runs left `within` with a healthy component read `FAULT`: {} (in \
-         still air {} of {}; still-air runs named as a moved load: {}).\n",
+         named ({:.0} %); runs left `within` with a healthy component the FDI calls `FAULT`: {} \
+         (in still air {} of {}); with one read beyond the threshold (`FAULT` or `suspect`): \
+         {} (in still air {}); still-air runs named as a moved load: {}.\n",
         windy.len(),
         windy.iter().filter(|r| load_moved(&r.domain)).count(),
         off.len(),
@@ -248,7 +271,60 @@ pub fn wind_markdown(rows: &[WindRow], actuator: &str) -> String {
         within_ff(&windy),
         within_ff(&still),
         still.len(),
+        within_above(&windy),
+        within_above(&still),
         still.iter().filter(|r| load_moved(&r.domain)).count(),
     ));
     text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use shared::domain::LoadSigns;
+
+    fn run(domain: Domain, false_faults: u32, healthy_above: u32) -> WindRun {
+        WindRun {
+            e_tot: 1.0,
+            false_faults,
+            healthy_above,
+            domain,
+            load: LoadSigns {
+                offset: 0.0,
+                standstill: 0.0,
+            },
+        }
+    }
+
+    /// The table counts the FDI's `FAULT` apart from a reading merely beyond the threshold,
+    /// and only over the runs left `within`.
+    #[test]
+    fn a_suspect_healthy_component_is_not_counted_as_a_false_fault() {
+        let named = Domain::Outside(shared::domain::OutsideReason::LoadMoved { offset: 0.02 });
+        let rows = [
+            WindRow {
+                case: "backlash",
+                wind: (0.0, 0.0),
+                runs: vec![run(Domain::Within, 0, 1), run(Domain::Within, 0, 0)],
+            },
+            WindRow {
+                case: "backlash",
+                wind: (5.0, 5.0),
+                runs: vec![run(Domain::Within, 1, 2), run(named, 3, 3)],
+            },
+        ];
+        let text = wind_markdown(&rows, "test");
+        assert!(
+            text.contains("| backlash | still | 0 | 0 | 1.00 / 1.00 | 0 | 1 |"),
+            "{text}"
+        );
+        assert!(
+            text.contains("| backlash | 5 | 1 | 0 | 1.00 / 1.00 | 1 | 2 |"),
+            "{text}"
+        );
+        assert!(
+            text.contains("calls `FAULT`: 1 (in still air 0 of 2); with one read beyond the threshold (`FAULT` or `suspect`): 1 (in still air 1)"),
+            "{text}"
+        );
+    }
 }
