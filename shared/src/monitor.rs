@@ -746,6 +746,15 @@ impl MonitorRun {
         self.state.user_speed += m.dt_over_user_inertia * moment;
     }
 
+    /// Puts the surface where its sensor read it for the coming step: `measured` [rad] as
+    /// the sensor reads it (the run's transducer offset taken off), moving at `speed`
+    /// [rad/s]. The gear then carries what the motor's side and the measured surface make
+    /// of it, whatever moment moved the surface. O(1).
+    pub fn pin_surface(&mut self, measured: f32, speed: f32) {
+        self.state.user_angle = measured - self.state.user_offset;
+        self.state.user_speed = speed;
+    }
+
     /// The next sample of a run without a standstill segment (a window's: `m.lead_samples()`
     /// is 0), inlined into its caller's loop: the same bits as
     /// [`next_sample`](Self::next_sample) there. O(1).

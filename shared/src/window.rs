@@ -665,6 +665,55 @@ impl<C: SampleCurrent> SampleCurrent for MomentSamples<'_, C> {
     }
 }
 
+/// A run whose surface follows its sensor ([`WindowProblem::evaluate_with_surface_samples`]),
+/// summing the squared difference of its motor angle from the measured.
+struct PinnedSurface<'m, 'a, 'c> {
+    current: LoadedRunCurrent<'a, 'c>,
+    surface: &'m SurfaceSamples<'m>,
+    motor_error: f64,
+    motor_sum: f64,
+    counted: u32,
+    trajectory: &'m mut [f32],
+}
+
+/// What the sensors read of a window's shafts, per sample: the surface's angle [rad] and
+/// speed [rad/s], the motor's unwrapped angle [rad].
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceSamples<'m> {
+    pub angles: &'m [f32],
+    pub speeds: &'m [f32],
+    pub motor: &'m [f32],
+}
+
+impl SampleCurrent for PinnedSurface<'_, '_, '_> {
+    #[inline(always)]
+    fn next(&mut self, i: usize, _trend: f32) -> f32 {
+        let c = &mut self.current;
+        if let (Some(&angle), Some(&speed)) =
+            (self.surface.angles.get(i), self.surface.speeds.get(i))
+        {
+            c.run.pin_surface(angle, speed);
+        }
+        let command = c.command.position_at(i);
+        let sample = if c.motion_only {
+            c.run.next_motion_sample(c.model, command)
+        } else {
+            c.run.next_sample(c.model, command)
+        };
+        let moving = i >= c.model.lead_samples();
+        if let (Some(&motor), true) = (self.surface.motor.get(i), moving) {
+            let e = f64::from(sample.motor_angle - motor);
+            self.motor_error += e * e;
+            self.motor_sum += e;
+            self.counted += 1;
+        }
+        if let Some(t) = self.trajectory.get_mut(i) {
+            *t = sample.motor_angle;
+        }
+        c.filter.apply(&mut c.state, sample.current)
+    }
+}
+
 /// The eq. (3) weight of each fitted sample: `1 / ((ΔI_r)²/κ + 1)`.
 #[inline(always)]
 fn weight(delta: f32, inv_kappa: f32) -> f32 {
@@ -818,6 +867,34 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         let (model, mut run) = self.loaded_start(k, load);
         let current = self.loaded_current(&model, &mut run, true);
         self.residual_fit(&[0.0; DRIFT_TERMS], &mut MomentSamples { current, moments })
+    }
+
+    /// As [`evaluate_with_moment_samples`](Self::evaluate_with_moment_samples) with no
+    /// moment at all: the surface is put, each sample, where its sensor read it, so the gear
+    /// carries whatever moved it; `load` sets where the run starts in the play. Also returns
+    /// the mean and the mean square of the run's motor angle against the measured [rad,
+    /// rad²] over the samples stepped past the test's lead; the run's motor angle [rad] goes to `trajectory`
+    /// (as far as it reaches).  For studies; not flown. O(samples).
+    pub fn evaluate_with_surface_samples(
+        &self,
+        k: &FaultVector,
+        load: WindowLoad,
+        surface: &SurfaceSamples<'_>,
+        trajectory: &mut [f32],
+    ) -> (WindowFit, f64, f64) {
+        let (model, mut run) = self.loaded_start(k, load);
+        let current = self.loaded_current(&model, &mut run, false);
+        let mut pinned = PinnedSurface {
+            current,
+            surface,
+            motor_error: 0.0,
+            motor_sum: 0.0,
+            counted: 0,
+            trajectory,
+        };
+        let fit = self.residual_fit(&[0.0; DRIFT_TERMS], &mut pinned);
+        let n = f64::from(pinned.counted.max(1));
+        (fit, pinned.motor_sum / n, pinned.motor_error / n)
     }
 
     /// The model under `load`'s stiffness and its run started in equilibrium under its

@@ -11,8 +11,9 @@ use shared::fdi::{OnboardMeasured, POPULATION, TEST_SAMPLES};
 use shared::test_design::PreflightTest;
 use shared::window::{
     identify, identify_stepwise, record_monitor_window, synthetic_command, window_ga,
-    HeldComponents, RecordedCommand, WindowLimits, WindowLoad, WindowProblem, COMMAND_STRIDE,
-    CURVATURE_CHUNK, CURVATURE_RUNS, LOAD_SEARCH_EVALUATIONS, WINDOW_GA_EVALUATIONS,
+    HeldComponents, RecordedCommand, SurfaceSamples, WindowLimits, WindowLoad, WindowProblem,
+    COMMAND_STRIDE, CURVATURE_CHUNK, CURVATURE_RUNS, LOAD_SEARCH_EVALUATIONS,
+    WINDOW_GA_EVALUATIONS,
 };
 use shared::{Calibration, FaultVector, LowPass, MonitorModel};
 
@@ -386,4 +387,102 @@ fn a_moment_per_sample_is_pushed_as_the_trend_would_be() {
     for e in [pushed, pulled] {
         assert!(e > 100.0 * plain.error.max(1e-9), "{e} vs {}", plain.error);
     }
+}
+
+/// The surface pinned to what its sensor read (`evaluate_with_surface_samples`, for the
+/// studies of a window whose hinge moment is not known): pinned to the recording model's own
+/// surface path, the run replays the recording — the fit at the truth about as exact as the
+/// plain evaluation's, the motor angle where the recording's was — and no load is needed for
+/// it (the start's moment aside); a surface path moved by 20 µrad from halfway on (200 N·m
+/// through the gear) spoils the fit at the truth many times over. Fails if the surface is
+/// not pinned, pinned one sample off, or the motor angle is compared with the wrong one.
+#[test]
+fn a_surface_pinned_to_its_sensor_replays_the_recording() {
+    let record = ActuatorRecord::REFERENCE;
+    let mut genes = *FaultVector::NOMINAL.as_array();
+    (genes[0], genes[1]) = (0.2, 0.3);
+    let truth = FaultVector::new(genes).unwrap();
+    let load = WindowLoad::spring(1.4 * record.params.aero_stiffness, 120.0);
+    let window = Recorded::new(1.0e-3, &truth, &load);
+    // The recording's own shafts, as `Recorded::new` stepped them, and its whole command:
+    // the run driven by what the recording followed, sample for sample.
+    let (model, _) = model();
+    let period = record.params.control_period;
+    let sampler = model.sampler();
+    let full: Vec<f32> = (0..TEST_SAMPLES)
+        .map(|i| synthetic_command(&sampler, 1.0e-3, period, i))
+        .collect();
+    let problem = WindowProblem::new(
+        &window.measured,
+        RecordedCommand::new(&full),
+        window.model,
+        load,
+    )
+    .unwrap();
+    let plain = problem.evaluate_under(&truth, load);
+    let first = full[0];
+    let start = shared::conditioning::ShaftAngles {
+        motor: 0.3,
+        user: first,
+        currents: [0.0; 3],
+    };
+    let (m, mut run) = model.with_load_stiffness(load.stiffness).start_loaded_run(
+        &truth,
+        start,
+        load.moment,
+        first,
+    );
+    let (mut angles, mut motor) = (Vec::new(), Vec::new());
+    for &c in &full {
+        let s = run.next_sample(&m, c);
+        angles.push(s.user_angle);
+        motor.push(s.motor_angle);
+    }
+    let speeds: Vec<f32> = (0..TEST_SAMPLES)
+        .map(|i| {
+            if i == 0 {
+                0.0
+            } else {
+                (angles[i] - angles[i - 1]) / period
+            }
+        })
+        .collect();
+    let surface = SurfaceSamples {
+        angles: &angles,
+        speeds: &speeds,
+        motor: &motor,
+    };
+    let mut trajectory = vec![0.0f32; TEST_SAMPLES];
+    let (pinned, mean, square) =
+        problem.evaluate_with_surface_samples(&truth, load, &surface, &mut trajectory);
+    let at_nominal = problem.evaluate_under(&FaultVector::NOMINAL, load).error;
+    assert!(
+        pinned.error < 1e-3 * at_nominal && pinned.error <= 10.0 * plain.error.max(1e-9),
+        "pinned {} plain {} nominal {at_nominal}",
+        pinned.error,
+        plain.error
+    );
+    assert!(
+        mean.abs() < 1e-4 && square.sqrt() < 1e-4,
+        "motor off by {mean} / {square}"
+    );
+    assert_eq!(trajectory.len(), TEST_SAMPLES);
+    assert!((trajectory[TEST_SAMPLES - 1] - motor[TEST_SAMPLES - 1]).abs() < 1e-4);
+
+    let moved: Vec<f32> = angles
+        .iter()
+        .enumerate()
+        .map(|(i, a)| if i < TEST_SAMPLES / 2 { *a } else { a + 2.0e-5 })
+        .collect();
+    let surface = SurfaceSamples {
+        angles: &moved,
+        ..surface
+    };
+    let (spoiled, _, _) = problem.evaluate_with_surface_samples(&truth, load, &surface, &mut []);
+    assert!(
+        spoiled.error > 100.0 * pinned.error.max(1e-9),
+        "{} vs {}",
+        spoiled.error,
+        pinned.error
+    );
 }
