@@ -19,13 +19,14 @@
 //!
 //! A study, not the product: the window identification does not use a moment per sample.
 
-use host_sim::fdi::window::recorded_command;
-use host_sim::plant::aero::{FlightPhase, FlightWindow, Turbulence};
-use host_sim::plant::reference::{ReferenceModel, ReferenceSettings, Scenario, WIND_SETTLE};
+mod cruise_window;
+
+use cruise_window::{CruiseWindow, CASES, RECORD, SETTINGS};
+use host_sim::plant::aero::Turbulence;
+use host_sim::plant::reference::WIND_SETTLE;
 use shared::actuator::ActuatorRecord;
-use shared::conditions::TestConditions;
-use shared::window::{RecordedCommand, WindowLoad, WindowProblem, COMMAND_STRIDE};
-use shared::{FaultVector, MonitorModel};
+use shared::window::{WindowLoad, WindowProblem};
+use shared::FaultVector;
 
 /// Half the width of the moving averages [samples].
 const HALF_WIDTH: usize = 10;
@@ -35,48 +36,18 @@ fn main() {
         .nth(1)
         .map(|a| a.parse().expect("N: a count of seeds"))
         .unwrap_or(4);
-    let settings = ReferenceSettings::REFERENCE;
-    let record = ActuatorRecord::REFERENCE;
-    let cases: [(&str, [f32; 9]); 2] = [
-        ("healthy", [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]),
-        (
-            "Table II medium",
-            [0.4, 0.4, 0.2, 0.1, 0.05, 0.2, 0.75, 0.6, 0.0],
-        ),
-    ];
+    let (settings, record) = (SETTINGS, RECORD);
     println!(
         "| turbulence | case | seed | moment RMS [N·m] | fitted | true | L10 | L40 | angles | angles' error RMS [N·m] |"
     );
     println!("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |");
     for turbulence in [Turbulence::Light, Turbulence::Moderate] {
-        for (name, faults) in cases {
+        for (name, faults) in CASES {
             for seed in 0..seeds {
                 let truth = FaultVector::new(faults).expect("a valid vector");
-                let window = FlightWindow {
-                    phase: FlightPhase::Cruise,
-                    turbulence,
-                };
-                let rm = ReferenceModel::new(settings)
-                    .with_test(record.test)
-                    .with_flight(Some(window));
-                let sim = rm.simulate(&Scenario {
-                    seed,
-                    ..Scenario::new(truth)
-                });
-                let measured = sim.trace.measured(&record.params).expect("a sound trace");
-                let command = recorded_command(&sim.trace);
-                let conditions =
-                    TestConditions::estimate(&measured, &record.params, &record.calibration);
-                let model = MonitorModel::new(record.params, &record.calibration)
-                    .with_test(measured.test())
-                    .with_conditions(&conditions);
-                let problem = WindowProblem::new(
-                    &measured,
-                    RecordedCommand::kept_every(COMMAND_STRIDE, &command),
-                    model,
-                    WindowLoad::spring(record.params.aero_stiffness, 0.0),
-                )
-                .expect("a window");
+                let cruise = CruiseWindow::simulate(&truth, turbulence, seed);
+                let (window, sim) = (cruise.window, &cruise.sim);
+                let problem = cruise.problem();
                 let (load, fitted) = problem.fit_load(&truth, record.params.aero_stiffness);
 
                 // The true turbulence moment on the surface, relative to the window's start:

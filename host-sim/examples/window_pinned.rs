@@ -26,13 +26,13 @@
 //!
 //! A study, not the product: the window identification does not pin the surface.
 
-use host_sim::fdi::window::recorded_command;
-use host_sim::plant::aero::{FlightPhase, FlightWindow, Turbulence};
-use host_sim::plant::reference::{ReferenceModel, ReferenceSettings, Scenario};
-use shared::actuator::ActuatorRecord;
-use shared::conditions::TestConditions;
-use shared::window::{RecordedCommand, SurfaceSamples, WindowLoad, WindowProblem, COMMAND_STRIDE};
-use shared::{FaultVector, MonitorModel};
+#[allow(dead_code)] // each study reads a part of what the module sets up
+mod cruise_window;
+
+use cruise_window::{CruiseWindow, CASES, RECORD};
+use host_sim::plant::aero::Turbulence;
+use shared::window::{SurfaceSamples, WindowLoad};
+use shared::FaultVector;
 
 /// Half the span of the surface speed's central difference [samples].
 const HALF_SPAN: usize = 2;
@@ -49,48 +49,18 @@ fn main() {
         .nth(2)
         .map(|a| a.parse().expect("W: the motor angle's weight"))
         .unwrap_or(0.0);
-    let settings = ReferenceSettings::REFERENCE;
-    let record = ActuatorRecord::REFERENCE;
-    let cases: [(&str, [f32; 9]); 2] = [
-        ("healthy", [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]),
-        (
-            "Table II medium",
-            [0.4, 0.4, 0.2, 0.1, 0.05, 0.2, 0.75, 0.6, 0.0],
-        ),
-    ];
+    let record = RECORD;
     println!(
         "| turbulence | case | seed | fitted | pinned | pinned, friction ±0.3 | start moment [N·m] | identified: misfit | e_tot [%] | friction, backlash, gain drift |"
     );
     println!("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- |");
     for turbulence in [Turbulence::Light, Turbulence::Moderate] {
-        for (name, faults) in cases {
+        for (name, faults) in CASES {
             for seed in 0..seeds {
                 let truth = FaultVector::new(faults).expect("a valid vector");
-                let window = FlightWindow {
-                    phase: FlightPhase::Cruise,
-                    turbulence,
-                };
-                let rm = ReferenceModel::new(settings)
-                    .with_test(record.test)
-                    .with_flight(Some(window));
-                let sim = rm.simulate(&Scenario {
-                    seed,
-                    ..Scenario::new(truth)
-                });
-                let measured = sim.trace.measured(&record.params).expect("a sound trace");
-                let command = recorded_command(&sim.trace);
-                let conditions =
-                    TestConditions::estimate(&measured, &record.params, &record.calibration);
-                let model = MonitorModel::new(record.params, &record.calibration)
-                    .with_test(measured.test())
-                    .with_conditions(&conditions);
-                let problem = WindowProblem::new(
-                    &measured,
-                    RecordedCommand::kept_every(COMMAND_STRIDE, &command),
-                    model,
-                    WindowLoad::spring(record.params.aero_stiffness, 0.0),
-                )
-                .expect("a window");
+                let cruise = CruiseWindow::simulate(&truth, turbulence, seed);
+                let sim = &cruise.sim;
+                let problem = cruise.problem();
                 let (load, fitted) = problem.fit_load(&truth, record.params.aero_stiffness);
 
                 let period = f64::from(record.params.control_period);
