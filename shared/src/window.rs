@@ -873,8 +873,9 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
     /// moment at all: the surface is put, each sample, where its sensor read it, so the gear
     /// carries whatever moved it; `load` sets where the run starts in the play. Also returns
     /// the mean and the mean square of the run's motor angle against the measured [rad,
-    /// rad²] over the samples stepped past the test's lead; the run's motor angle [rad] goes to `trajectory`
-    /// (as far as it reaches).  For studies; not flown. O(samples).
+    /// rad²] over the samples stepped past the test's lead; the run's motor angle [rad]
+    /// goes to `trajectory`, as far as it reaches. For studies (host-sim's example
+    /// `window_pinned`, docs/in-flight.md §6); not flown. O(samples).
     pub fn evaluate_with_surface_samples(
         &self,
         k: &FaultVector,
