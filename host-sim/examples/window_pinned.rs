@@ -1,28 +1,26 @@
 //! Whether a window of flight fits when the model's surface follows its sensor (issue 36,
 //! docs/in-flight.md §6): the window model at the true vector, cruise, the healthy actuator
-//! and Table II medium, light and moderate turbulence, seeds 0…N−1
-//! (`cargo run --release -p host-sim --example window_pinned [N]`, N = 4 by default).
-//! Per window, the share of the measured current's energy the fit leaves (the window's
-//! `fitness_floor` is 1 %) under:
+//! and Table II medium, light and moderate turbulence, seeds FIRST … FIRST + N − 1
+//! (`cargo run --release -p host-sim --example window_pinned [N [W [FIRST [more]]]]`: N = 4,
+//! W = 0, FIRST = 0 by default, ≈ 10 s; `more` adds six of Table I's cases, ≈ 1 min for ten
+//! seeds). Per window, the share of the measured current's energy the fit leaves (the
+//! window's `fitness_floor` is 1 %) under:
 //!
 //! - `fitted`: the window's own load (`WindowProblem::fit_load`: a spring, its moment at the
 //!   start and a trend of ten Legendre terms);
 //! - `pinned`: no load at all — each sample the model's surface is put where the surface
-//!   sensor read it, moving at the sensor's smoothed central difference
+//!   sensor read it, moving at the sensor's central difference over four samples
 //!   (`WindowProblem::evaluate_with_surface_samples`): the gear carries what the motor's
 //!   side and the measured surface make of it. Where the run starts in the play (the moment
-//!   at the start) is scanned.
-//!
+//!   at the start) is scanned;
+//! - `pinned, friction ±0.3`: the same start with the friction moved by 0.3;
 //! - `identified`: friction, backlash and gain drift searched from nominal with the pinned
 //!   surface (Nelder–Mead over them and the start, three starts of the backlash; the other
 //!   components at the truth, as a flight holds them at its preflight's reading), its
 //!   misfit and e_tot [%] against the truth.
 //!
-//! - `pinned, friction ±0.3`: the same at the truth's start with the friction moved by 0.3.
-//!
-//! A second argument W weighs the motor angle's variance about its mean against the
-//! measured motor encoder (in units of 1 mrad², against the current's misfit; 0 by
-//! default: the current alone).
+//! W weighs the motor angle's variance about its mean against the measured motor encoder
+//! (in units of 1 mrad², against the current's misfit; 0: the current alone).
 //!
 //! A study, not the product: the window identification does not pin the surface.
 
@@ -33,6 +31,31 @@ use cruise_window::{CruiseWindow, CASES, RECORD};
 use host_sim::plant::aero::Turbulence;
 use shared::window::{SurfaceSamples, WindowLoad};
 use shared::FaultVector;
+
+/// Table I's cases beside them (the fourth argument `more`).
+const MORE_CASES: [(&str, [f32; 9]); 6] = [
+    (
+        "friction 0.2",
+        [0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0],
+    ),
+    (
+        "backlash 0.1",
+        [0.0, 0.1, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0],
+    ),
+    (
+        "backlash 1.0",
+        [0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0],
+    ),
+    ("short A 0.2", [0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]),
+    (
+        "gain drift 0.0",
+        [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.0, 0.0],
+    ),
+    (
+        "gain drift 1.0",
+        [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 1.0, 0.0],
+    ),
+];
 
 /// Half the span of the surface speed's central difference [samples].
 const HALF_SPAN: usize = 2;
@@ -49,14 +72,23 @@ fn main() {
         .nth(2)
         .map(|a| a.parse().expect("W: the motor angle's weight"))
         .unwrap_or(0.0);
+    let first: u64 = std::env::args()
+        .nth(3)
+        .map(|a| a.parse().expect("FIRST: the first seed"))
+        .unwrap_or(0);
+    let more = std::env::args().nth(4).is_some_and(|a| a == "more");
+    let cases: Vec<(&str, [f32; 9])> = CASES
+        .into_iter()
+        .chain(more.then_some(MORE_CASES).into_iter().flatten())
+        .collect();
     let record = RECORD;
     println!(
         "| turbulence | case | seed | fitted | pinned | pinned, friction ±0.3 | start moment [N·m] | identified: misfit | e_tot [%] | friction, backlash, gain drift |"
     );
     println!("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- |");
     for turbulence in [Turbulence::Light, Turbulence::Moderate] {
-        for (name, faults) in CASES {
-            for seed in 0..seeds {
+        for &(name, faults) in &cases {
+            for seed in first..first + seeds {
                 let truth = FaultVector::new(faults).expect("a valid vector");
                 let cruise = CruiseWindow::simulate(&truth, turbulence, seed);
                 let sim = &cruise.sim;
