@@ -445,6 +445,48 @@ fn windows_of_one_flight_are_read_together() {
     );
 }
 
+/// A window whose current the window's load cannot follow (a gear play a hundred times
+/// nominal, cruise) is named `fitness_floor` and says what that most often means, in text
+/// and JSON; a window identified says nothing of the kind.
+#[test]
+fn a_window_at_the_fitness_floor_names_the_play_as_its_known_cause() {
+    let dir = tempfile::tempdir().unwrap();
+    let window = |faults: &str, name: &str| {
+        let file = path(&dir, name);
+        let o = host_sim(&[
+            "simulate",
+            "--flight",
+            "cruise",
+            "--turbulence",
+            "light",
+            "--faults",
+            faults,
+            "--seed",
+            "1",
+            "--out",
+            &file,
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        file
+    };
+    let worn = window("0,1,0,0,0,0,0.5,0.5,0", "worn.csv");
+    let o = host_sim(&["identify", &worn]);
+    assert!(!o.status.success());
+    let text = String::from_utf8_lossy(&o.stdout).to_string();
+    assert!(text.contains("fitness_floor"), "{text}");
+    assert!(text.contains("gear play several times nominal"), "{text}");
+    let v = json(&host_sim(&["identify", &worn, "--json"]));
+    assert_eq!(v["verdict"], "fitness_floor", "{v}");
+    assert!(v["hint"]
+        .as_str()
+        .is_some_and(|h| h.contains("preflight reads the backlash")));
+
+    let sound = window("0.2,0,0,0,0,0,0.5,0.5,0", "sound.csv");
+    let v = json(&host_sim(&["identify", &sound, "--json"]));
+    assert_eq!(v["verdict"], "within", "{v}");
+    assert!(v["hint"].is_null(), "{v}");
+}
+
 /// A window of flight cannot tell a stator short from an eccentricity (it has no standstill
 /// segment): given the same flight's preflight (`--preflight`), it holds the shorts and the
 /// eccentricity at the preflight's reading and reads the window right; a preflight given as

@@ -556,6 +556,7 @@ pub(crate) fn window_report(
             "e_tot": e_tot,
             "seconds": seconds,
             "shorts": held_line,
+            "hint": floor_hint(&id.verdict),
         });
         if let Some(flight) = &flight {
             obj["windows"] = windows
@@ -594,6 +595,9 @@ pub(crate) fn window_report(
             "verdict: outside — {verdict} ({reason:?}): the window is not identified; the \
              faults below are not a reading"
         ),
+    }
+    if let Some(hint) = floor_hint(&id.verdict) {
+        println!("  {hint}");
     }
     println!(
         "load fitted: stiffness {:.0} N·m/rad, moment at the start {:.1} N·m; fit {:.3e} A²·s, \
@@ -665,6 +669,22 @@ pub(crate) fn window_report(
     let runs: u32 = windows.iter().map(|(_, w, _)| w.evaluations).sum();
     println!("{runs} model runs, {seconds:.2} s");
     status
+}
+
+/// What a window named `fitness_floor` most often means, from the campaigns (none for
+/// another verdict).
+fn floor_hint(verdict: &Result<(), shared::window::WindowReason>) -> Option<&'static str> {
+    matches!(
+        verdict,
+        Err(shared::window::WindowReason::FitnessFloor { .. })
+    )
+    .then_some(
+        "the window's load model does not explain this current. The known cause is a gear \
+         play several times nominal: in cruise no flight of backlash 0.4 or 1.0 and one in \
+         60 of Table II's mixes was read (docs/in-flight.md §4, §6); the light actuator's \
+         windows in moderate turbulence are named so too. Not a reading of the play: the \
+         next preflight reads the backlash.",
+    )
 }
 
 /// The exit status of a window's report: outside is [`EXIT_OUTSIDE_DOMAIN`], as for a
