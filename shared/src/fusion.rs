@@ -260,6 +260,9 @@ pub struct WindowFusion {
     /// friction's point and variance — to ask whether it alone outweighs the others
     /// ([`WindowFusion::reading`]). Chosen by its deviation, never by its reading.
     closest: ClosestWindow,
+    /// Whether a window held the friction at its preflight's (`crate::pinned`): the value
+    /// a flight whose windows read no friction takes, not judged by the friction limit.
+    friction_held: bool,
 }
 
 /// The window of a flight with the smallest friction variance ([`WindowFusion`]).
@@ -298,6 +301,10 @@ pub struct FlightReading {
     pub shared_std: [f32; FAULT_COUNT],
     /// `Err(Unconfirmed)` or `Err(TurbulenceTooHigh)` (above).
     pub verdict: Result<(), WindowReason>,
+    /// No window read the friction and they held it at the preflight's
+    /// ([`crate::pinned`]): `faults`' friction is the preflight's reading, its deviation
+    /// NaN, and the friction limit does not apply.
+    pub friction_held: bool,
 }
 
 impl FlightReading {
@@ -358,6 +365,7 @@ impl WindowFusion {
         square: 0.0,
         terms: 0,
         closest: ClosestWindow::NONE,
+        friction_held: false,
     };
 
     /// Windows added.
@@ -465,6 +473,10 @@ impl WindowFusion {
             self.closest = closest;
         }
         self.held_covariance = *held.covariance();
+        if !determined[0] && held.holds(0) {
+            // The window's friction is its preflight's: so is `last`'s below.
+            self.friction_held = true;
+        }
         self.terms = self
             .terms
             .saturating_add((0..FAULT_COUNT).filter(|&i| added(i)).count() as u32);
@@ -546,6 +558,7 @@ impl WindowFusion {
             .with_shared(&faults, &shared_std);
         uncertainty.residual_std = self.residual_std / self.windows as f32;
         let friction_std = uncertainty.std[0];
+        let friction_held = self.friction_held && !free[0];
         // The larger of the two tests (NaN, no degree of freedom, stays NaN).
         let disagreement = match (self.disagreement(&k, &free), self.outweighed()) {
             (all, Some(closest)) if closest > all => closest,
@@ -560,7 +573,7 @@ impl WindowFusion {
                     disagreement
                 },
             })
-        } else if friction_std.is_nan() || friction_std > max_friction_std {
+        } else if !friction_held && (friction_std.is_nan() || friction_std > max_friction_std) {
             Err(WindowReason::TurbulenceTooHigh { friction_std })
         } else {
             Ok(())
@@ -571,6 +584,7 @@ impl WindowFusion {
             windows: self.windows,
             shared_std,
             verdict,
+            friction_held,
         })
     }
 
@@ -1126,5 +1140,49 @@ mod tests {
             length.after(2, Some(&reading), FLIGHT_MAX_FRICTION_STD),
             FlightProgress::Done(FlightEnd::Settled)
         );
+    }
+
+    #[test]
+    fn windows_that_hold_the_friction_give_the_flight_the_preflights() {
+        // Two windows that read the backlash and the gain drift alone (σ 0.05 each), the
+        // friction not determined: held at the preflight's 0.4, or not held at all.
+        let preflight = FaultVector::new([0.4, 0.4, 0.2, 0.1, 0.05, 0.2, 0.75, 0.6, 0.0]).unwrap();
+        let mut normal = [0.0; FAULT_COUNT];
+        (normal[1], normal[7]) = (400.0, 400.0);
+        let c = curvature(normal, [0.0; FAULT_COUNT], 0.0);
+        let held = HeldComponents::of_preflight(&preflight).also_holding(0);
+        let mut holding = WindowFusion::EMPTY;
+        let mut free = WindowFusion::EMPTY;
+        for _ in 0..2 {
+            holding
+                .add_holding(&preflight, &c, &ONES, &held, &HeldCoupling::NONE)
+                .unwrap();
+            free.add(&preflight, &c, &ONES).unwrap();
+        }
+        let reading = holding.reading(FLIGHT_MAX_FRICTION_STD).unwrap();
+        assert_eq!(reading.verdict, Ok(()));
+        assert!(reading.friction_held);
+        assert_eq!(reading.faults.as_array()[0], 0.4);
+        assert!(reading.uncertainty.0.std[0].is_nan());
+        // Not held: the friction is read by no window, the flight cannot be judged on it.
+        let reading = free.reading(FLIGHT_MAX_FRICTION_STD).unwrap();
+        assert!(!reading.friction_held);
+        assert!(matches!(
+            reading.verdict,
+            Err(WindowReason::TurbulenceTooHigh { friction_std }) if friction_std.is_nan()
+        ));
+        // A window that reads the friction beside them: the flight's friction is read.
+        let mut read = holding;
+        let mut normal = [0.0; FAULT_COUNT];
+        (normal[0], normal[1], normal[7]) = (2500.0, 400.0, 400.0);
+        read.add(
+            &preflight,
+            &curvature(normal, [0.0; FAULT_COUNT], 0.0),
+            &ONES,
+        )
+        .unwrap();
+        let reading = read.reading(FLIGHT_MAX_FRICTION_STD).unwrap();
+        assert!(!reading.friction_held);
+        assert!(reading.uncertainty.0.std[0] > 0.0);
     }
 }

@@ -27,6 +27,8 @@
 //! * [`random`] — the GA's seeded xoshiro128++ (state readable for checkpoints).
 //! * [`steps`] — work in bounded steps: a future that pauses once, and one to poll to the end.
 //! * [`window`] — identification from a window of flight (its command, load and drift).
+//! * [`pinned`] — a window the load model cannot fit, read with the surface pinned to its
+//!   sensor (the backlash and the gain drift).
 //! * [`fusion`] — a flight's reading from several windows (their fits' quadratics added).
 #![cfg_attr(not(test), no_std)]
 // No panic on any input (issue 7): these lints make unwraps, panics and unchecked indexing
@@ -60,6 +62,7 @@ pub mod math;
 pub mod metrics;
 pub mod monitor;
 pub mod params;
+pub mod pinned;
 pub mod polish;
 pub mod prognosis;
 pub mod random;

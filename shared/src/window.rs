@@ -430,6 +430,16 @@ impl HeldComponents {
         }
     }
 
+    /// These held components with component `i` held too, at the preflight's value these
+    /// hold (`crate::pinned`: the friction of a window read with its surface pinned).
+    #[must_use]
+    pub fn also_holding(mut self, i: usize) -> Self {
+        if let Some(h) = self.held.get_mut(i) {
+            *h = true;
+        }
+        self
+    }
+
     /// Whether component `i` is held.
     pub fn holds(&self, i: usize) -> bool {
         self.held.get(i).copied().unwrap_or(false)
@@ -797,6 +807,22 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
 
     pub fn load(&self) -> WindowLoad {
         self.load
+    }
+
+    /// The window's samples (the measured and the commanded, the shorter).
+    pub fn samples(&self) -> usize {
+        self.samples
+    }
+
+    /// The samples eq. (3) sums over (the window's after [`SETTLE_SAMPLES`]).
+    pub fn fitted_samples(&self) -> usize {
+        self.samples.saturating_sub(SETTLE_SAMPLES)
+    }
+
+    /// The error of a model that gives no current [A²·s]: what
+    /// [`misfit`](Self::misfit) divides by.
+    pub fn energy(&self) -> f32 {
+        self.energy
     }
 
     pub fn model(&self) -> &MonitorModel {

@@ -8,6 +8,7 @@
 
 use shared::actuator::ActuatorRecord;
 use shared::fdi::{OnboardMeasured, POPULATION, TEST_SAMPLES};
+use shared::pinned::{identify_pinned, PinnedError, PinnedLimits, PINNED_EVALUATIONS};
 use shared::test_design::PreflightTest;
 use shared::window::{
     identify, identify_stepwise, record_monitor_window, synthetic_command, window_ga,
@@ -64,6 +65,50 @@ impl Recorded {
         let command = RecordedCommand::kept_every(COMMAND_STRIDE, &self.kept);
         WindowProblem::new(&self.measured, command, self.model, load).unwrap()
     }
+}
+
+/// The whole command of a window recorded as [`Recorded::new`] records it, and the
+/// recording's own shafts as it stepped them: the surface's angle [rad] and its backward
+/// difference [rad/s], the motor's angle [rad].
+fn recorded_shafts(
+    correction: f32,
+    truth: &FaultVector,
+    load: &WindowLoad,
+) -> (Vec<f32>, Vec<f32>, Vec<f32>, Vec<f32>) {
+    let (model, _) = model();
+    let period = ActuatorRecord::REFERENCE.params.control_period;
+    let sampler = model.sampler();
+    let full: Vec<f32> = (0..TEST_SAMPLES)
+        .map(|i| synthetic_command(&sampler, correction, period, i))
+        .collect();
+    let first = full[0];
+    let start = shared::conditioning::ShaftAngles {
+        motor: 0.3,
+        user: first,
+        currents: [0.0; 3],
+    };
+    let (m, mut run) = model.with_load_stiffness(load.stiffness).start_loaded_run(
+        truth,
+        start,
+        load.moment,
+        first,
+    );
+    let (mut angles, mut motor) = (Vec::new(), Vec::new());
+    for &c in &full {
+        let s = run.next_sample(&m, c);
+        angles.push(s.user_angle);
+        motor.push(s.motor_angle);
+    }
+    let speeds: Vec<f32> = (0..TEST_SAMPLES)
+        .map(|i| {
+            if i == 0 {
+                0.0
+            } else {
+                (angles[i] - angles[i - 1]) / period
+            }
+        })
+        .collect();
+    (full, angles, speeds, motor)
 }
 
 #[test]
@@ -404,14 +449,7 @@ fn a_surface_pinned_to_its_sensor_replays_the_recording() {
     let truth = FaultVector::new(genes).unwrap();
     let load = WindowLoad::spring(1.4 * record.params.aero_stiffness, 120.0);
     let window = Recorded::new(1.0e-3, &truth, &load);
-    // The recording's own shafts, as `Recorded::new` stepped them, and its whole command:
-    // the run driven by what the recording followed, sample for sample.
-    let (model, _) = model();
-    let period = record.params.control_period;
-    let sampler = model.sampler();
-    let full: Vec<f32> = (0..TEST_SAMPLES)
-        .map(|i| synthetic_command(&sampler, 1.0e-3, period, i))
-        .collect();
+    let (full, angles, speeds, motor) = recorded_shafts(1.0e-3, &truth, &load);
     let problem = WindowProblem::new(
         &window.measured,
         RecordedCommand::new(&full),
@@ -420,33 +458,6 @@ fn a_surface_pinned_to_its_sensor_replays_the_recording() {
     )
     .unwrap();
     let plain = problem.evaluate_under(&truth, load);
-    let first = full[0];
-    let start = shared::conditioning::ShaftAngles {
-        motor: 0.3,
-        user: first,
-        currents: [0.0; 3],
-    };
-    let (m, mut run) = model.with_load_stiffness(load.stiffness).start_loaded_run(
-        &truth,
-        start,
-        load.moment,
-        first,
-    );
-    let (mut angles, mut motor) = (Vec::new(), Vec::new());
-    for &c in &full {
-        let s = run.next_sample(&m, c);
-        angles.push(s.user_angle);
-        motor.push(s.motor_angle);
-    }
-    let speeds: Vec<f32> = (0..TEST_SAMPLES)
-        .map(|i| {
-            if i == 0 {
-                0.0
-            } else {
-                (angles[i] - angles[i - 1]) / period
-            }
-        })
-        .collect();
     let surface = SurfaceSamples {
         angles: &angles,
         speeds: &speeds,
@@ -484,5 +495,77 @@ fn a_surface_pinned_to_its_sensor_replays_the_recording() {
         "{} vs {}",
         spoiled.error,
         pinned.error
+    );
+}
+
+#[test]
+fn a_pinned_window_reads_a_wide_play_and_the_gain_drift() {
+    let record = ActuatorRecord::REFERENCE;
+    let truth = FaultVector::new([0.2, 0.4, 0.0, 0.0, 0.0, 0.0, 0.5, 0.6, 0.0]).unwrap();
+    let load = WindowLoad::spring(1.4 * record.params.aero_stiffness, 120.0);
+    let window = Recorded::new(1.0e-3, &truth, &load);
+    let (full, angles, speeds, _) = recorded_shafts(1.0e-3, &truth, &load);
+    let problem = WindowProblem::new(
+        &window.measured,
+        RecordedCommand::new(&full),
+        window.model,
+        load,
+    )
+    .unwrap();
+    let surface = SurfaceSamples {
+        angles: &angles,
+        speeds: &speeds,
+        motor: &[],
+    };
+    let held = HeldComponents::of_preflight(&truth);
+    let limits = PinnedLimits::REFERENCE;
+    let stiffness = record.params.aero_stiffness;
+    let guess = problem.held_moment();
+    let reading = identify_pinned(&problem, &surface, &held, stiffness, guess, &limits).unwrap();
+    let k = reading.faults.as_array();
+    assert!(
+        (k[1] - 0.4).abs() < 0.03 && (k[7] - 0.6).abs() < 0.01,
+        "backlash {} gain drift {} (misfit {})",
+        k[1],
+        k[7],
+        reading.misfit
+    );
+    // Every other component at the preflight's, the friction too.
+    for i in [0, 2, 3, 4, 5, 6, 8] {
+        assert_eq!(k[i], truth.as_array()[i], "component {i}");
+    }
+    assert_eq!(reading.verdict, Ok(()));
+    let (u, _) = reading.uncertainty.expect("an uncertainty");
+    assert!(
+        u.std[1] > 0.0 && u.std[7] > 0.0 && u.std[0].is_nan(),
+        "{:?}",
+        u.std
+    );
+    assert!(
+        reading.evaluations <= PINNED_EVALUATIONS,
+        "{}",
+        reading.evaluations
+    );
+
+    // Nothing held (no preflight): nothing to hold the friction at.
+    assert_eq!(
+        identify_pinned(
+            &problem,
+            &surface,
+            &HeldComponents::NONE,
+            stiffness,
+            guess,
+            &limits
+        ),
+        Err(PinnedError::NoPreflight)
+    );
+    // The surface's samples one short of the window.
+    let short = SurfaceSamples {
+        angles: &angles[..angles.len() - 1],
+        ..surface
+    };
+    assert_eq!(
+        identify_pinned(&problem, &short, &held, stiffness, guess, &limits),
+        Err(PinnedError::SurfaceTooShort)
     );
 }

@@ -7,6 +7,12 @@
 //! report around it. Two GA runs of at most `shared::window::WINDOW_GA_EVALUATIONS` each
 //! (`window_ga`), 2 × `shared::window::LOAD_SEARCH_EVALUATIONS` and at most 90 more
 //! monitor-model runs (≈ 1 500 in all): ≈ 0.2–0.5 s on one core.
+//!
+//! A window the load model leaves at its fitness floor is read again with the model's surface
+//! pinned to its sensor (`shared::pinned`: the backlash and the gain drift, the friction held
+//! at the same flight's preflight reading with the shorts, the eccentricity and the
+//! demagnetization), when that preflight was trusted: at most
+//! `shared::pinned::PINNED_EVALUATIONS` more runs (≈ 750).
 
 use anyhow::Result;
 use shared::actuator::ActuatorRecord;
@@ -15,10 +21,11 @@ use shared::domain::Domain;
 use shared::fdi::{OnboardMeasured, POPULATION};
 use shared::fusion::{FlightReading, WindowFusion};
 use shared::health::{HealthRecord, RecordedDay};
+use shared::pinned::{identify_pinned, PinnedLimits, PINNED_INFLATION};
 use shared::uncertainty::{Assessment, Uncertainty};
 use shared::window::{
-    HeldComponents, HeldCoupling, RecordedCommand, WindowLimits, WindowLoad, WindowProblem,
-    WindowReason, COMMAND_STRIDE, WINDOW_INFLATION,
+    HeldComponents, HeldCoupling, RecordedCommand, SurfaceSamples, WindowLimits, WindowLoad,
+    WindowProblem, WindowReason, COMMAND_STRIDE, WINDOW_INFLATION,
 };
 use shared::{FaultVector, MonitorModel, FAULT_COUNT};
 
@@ -58,6 +65,30 @@ pub struct WindowIdentified {
     pub coupling: HeldCoupling,
     /// The deviation per component the held values' error adds (in `uncertainty`).
     pub shared_std: [f32; FAULT_COUNT],
+    /// Which model read the window: its load fitted, or its surface pinned to its sensor.
+    pub model: WindowModel,
+    /// The misfit of the pinned reading when one was tried (the load model at its fitness
+    /// floor, a trusted preflight), whatever its verdict.
+    pub pinned_misfit: Option<f32>,
+}
+
+/// The model a window was read with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WindowModel {
+    /// The hinge load a spring with its moment and trend, fitted (`shared::window`).
+    Load,
+    /// The surface pinned to its sensor, no load (`shared::pinned`).
+    Pinned,
+}
+
+impl WindowModel {
+    /// The word reports and CSV files use.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Load => "load",
+            Self::Pinned => "pinned",
+        }
+    }
 }
 
 impl WindowIdentified {
@@ -79,12 +110,16 @@ impl WindowIdentified {
     /// Adds this window to its flight's `fusion` when its verdict lets it enter
     /// ([`fusable`]) and its curvature determines a component; whether it entered.
     pub fn enter(&self, fusion: &mut WindowFusion) -> bool {
+        let factors = match self.model {
+            WindowModel::Load => &WINDOW_INFLATION,
+            WindowModel::Pinned => &PINNED_INFLATION,
+        };
         fusable(&self.verdict)
             && fusion
                 .add_holding(
                     &self.faults,
                     &self.curvature,
-                    &WINDOW_INFLATION,
+                    factors,
                     &self.held,
                     &self.coupling,
                 )
@@ -230,7 +265,7 @@ pub fn identify_window(
     )
     .map_err(|e| anyhow::anyhow!("GA settings: {e:?}"))?;
     let problem = problem.with_load(reading.load);
-    Ok(WindowIdentified {
+    let loaded = WindowIdentified {
         faults: reading.faults,
         fitness: reading.fit.error,
         misfit: problem.misfit(reading.fit.error),
@@ -245,5 +280,82 @@ pub fn identify_window(
         drift: reading.fit.drift,
         conditions,
         evaluations: reading.evaluations,
+        model: WindowModel::Load,
+        pinned_misfit: None,
+    };
+    if !matches!(reading.verdict, Err(WindowReason::FitnessFloor { .. })) || !held.holds(2) {
+        return Ok(loaded);
+    }
+    // The load model cannot follow the window: read it again with the surface pinned.
+    let (angles, speeds) = surface_samples(trace, f64::from(record.params.control_period));
+    let surface = SurfaceSamples {
+        angles: &angles,
+        speeds: &speeds,
+        motor: &[],
+    };
+    let Ok(pinned) = identify_pinned(
+        &problem,
+        &surface,
+        &held,
+        guess,
+        reading.load.moment,
+        &PinnedLimits::REFERENCE,
+    ) else {
+        return Ok(loaded);
+    };
+    let evaluations = loaded.evaluations + pinned.evaluations;
+    if pinned.verdict.is_err() {
+        return Ok(WindowIdentified {
+            pinned_misfit: Some(pinned.misfit),
+            evaluations,
+            ..loaded
+        });
+    }
+    let load = WindowLoad::spring(guess, pinned.start_moment);
+    Ok(WindowIdentified {
+        faults: pinned.faults,
+        fitness: pinned.fit.error,
+        misfit: pinned.misfit,
+        turbulence: problem.with_load(load).unmodelled_moment(&pinned.fit),
+        verdict: pinned.verdict,
+        uncertainty: pinned.uncertainty,
+        curvature: pinned.curvature,
+        held: held.also_holding(0),
+        coupling: HeldCoupling::NONE,
+        shared_std: [0.0; FAULT_COUNT],
+        load,
+        drift: pinned.fit.drift,
+        conditions,
+        evaluations,
+        model: WindowModel::Pinned,
+        pinned_misfit: Some(pinned.misfit),
     })
+}
+
+/// Half the span of the surface speed's central difference [samples].
+const SPEED_HALF_SPAN: usize = 2;
+
+/// The surface sensor's angle (`theta_u`) [rad] per sample of `trace` and its speed
+/// [rad/s], a central difference over `2 · SPEED_HALF_SPAN` samples of `period` [s]
+/// (shorter at the ends).
+pub fn surface_samples(trace: &Trace, period: f64) -> (Vec<f32>, Vec<f32>) {
+    let samples = trace.samples();
+    let n = samples.len();
+    let speeds = (0..n)
+        .map(|i| {
+            let (a, b) = (
+                i.saturating_sub(SPEED_HALF_SPAN),
+                (i + SPEED_HALF_SPAN).min(n - 1),
+            );
+            if b > a {
+                ((samples[b].user_angle - samples[a].user_angle) / ((b - a) as f64 * period)) as f32
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    (
+        samples.iter().map(|s| s.user_angle as f32).collect(),
+        speeds,
+    )
 }

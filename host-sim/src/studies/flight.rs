@@ -17,7 +17,7 @@ use shared::metrics::total_error;
 use shared::{Calibration, FaultVector};
 
 use crate::fdi::identify::identify_for;
-use crate::fdi::window::{held_from, identify_window};
+use crate::fdi::window::{held_from, identify_window, WindowModel};
 use crate::plant::aero::{FlightPhase, FlightWindow, Turbulence};
 use crate::plant::reference::{ReferenceModel, Scenario};
 use shared::fusion::{FlightLength, FlightProgress, WindowFusion, FLIGHT_MAX_FRICTION_STD};
@@ -66,6 +66,11 @@ pub struct FlightRun {
     pub agreement: (usize, usize),
     /// Windows flown: 1 for a window, the flight's count for a flight's reading.
     pub windows: u32,
+    /// Windows read with the surface pinned (`shared::pinned`): 0 or 1 for a window, the
+    /// count entered for a flight's reading; and a window's pinned misfit when one was
+    /// tried (NaN otherwise, and for a flight).
+    pub pinned: u32,
+    pub pinned_misfit: f32,
 }
 
 /// The preflight's seed offset from the window's (its own noise).
@@ -287,6 +292,7 @@ fn fly_windows(
                     let mut runs = Vec::new();
                     let mut fusion = WindowFusion::EMPTY;
                     let mut first_reason = None;
+                    let mut pinned_entered = 0u32;
                     for j in 0..length.most {
                         let seed = window_seed(seed, j);
                         let sim = flying.simulate(&Scenario {
@@ -298,7 +304,8 @@ fn fly_windows(
                         let domain =
                             id.domain(&sim.trace.domain_monitor(&record.params), &record.domain);
                         let w = identify_window(&sim.trace, &measured, &record, held, 1 + seed)?;
-                        w.enter(&mut fusion);
+                        let entered = w.enter(&mut fusion);
+                        pinned_entered += u32::from(entered && w.model == WindowModel::Pinned);
                         first_reason.get_or_insert(w.verdict);
                         let u = w.uncertainty.as_ref().map(|(u, _)| u);
                         let (healthy_max, false_faults, covered) =
@@ -317,6 +324,8 @@ fn fly_windows(
                             false_faults,
                             covered,
                             windows: 1,
+                            pinned: u32::from(w.model == WindowModel::Pinned),
+                            pinned_misfit: w.pinned_misfit.unwrap_or(f32::NAN),
                         });
                         let reading = fusion.reading(FLIGHT_MAX_FRICTION_STD).ok();
                         if let FlightProgress::Done(_) =
@@ -359,6 +368,8 @@ fn fly_windows(
                                 false_faults,
                                 covered,
                                 windows: runs.len() as u32,
+                                pinned: pinned_entered,
+                                pinned_misfit: f32::NAN,
                             }
                         }
                         // No window of the flight could be fused: the flight is named by
@@ -385,6 +396,8 @@ fn fly_windows(
                             false_faults: 0,
                             covered: (0, 0),
                             windows: runs.len() as u32,
+                            pinned: 0,
+                            pinned_misfit: f32::NAN,
                         },
                     };
                     Ok((runs, Some(flight)))
@@ -652,7 +665,8 @@ pub fn interval_calibration(
 /// verdict, e_tot [%], its false `FAULT`s and largest healthy component, the turbulence
 /// level and misfit (a flight's: its windows' mean), the preflight FDI's verdict on the
 /// (first) window, the vector found, its deviations and the part of them the held preflight
-/// values' error adds (shared by a flight's windows), the windows flown (1 for a window).
+/// values' error adds (shared by a flight's windows), the windows flown (1 for a window),
+/// the windows read pinned and a window's pinned misfit (NaN: not tried).
 pub fn flight_runs_csv(rows: &[FlightRow]) -> String {
     let mut text = String::from(
         "phase,turbulence,case,seed,reading,verdict,e_tot_pct,false_faults,healthy_max,\
@@ -667,7 +681,7 @@ pub fn flight_runs_csv(rows: &[FlightRow]) -> String {
     for j in 1..=shared::FAULT_COUNT {
         text.push_str(&format!(",shared_k{j}"));
     }
-    text.push_str(",windows\n");
+    text.push_str(",windows,pinned,pinned_misfit\n");
     for (reading, select) in [
         (
             "window",
@@ -694,7 +708,10 @@ pub fn flight_runs_csv(rows: &[FlightRow]) -> String {
                 for x in r.found.as_array().iter().chain(&r.std).chain(&r.shared_std) {
                     text.push_str(&format!(",{x:.5}"));
                 }
-                text.push_str(&format!(",{}\n", r.windows));
+                text.push_str(&format!(
+                    ",{},{},{:.5}\n",
+                    r.windows, r.pinned, r.pinned_misfit
+                ));
             }
         }
     }
@@ -766,6 +783,8 @@ mod tests {
             shared_std: [0.0; shared::FAULT_COUNT],
             agreement: (0, 0),
             windows: 1,
+            pinned: 0,
+            pinned_misfit: f32::NAN,
         }
     }
 

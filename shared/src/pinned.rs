@@ -1,0 +1,448 @@
+//! The second window model (issue 36): a window of flight the load model leaves at its
+//! fitness floor — most often a gear play several times nominal, whose crossings the
+//! window's spring and trend cannot follow — read with the model's surface pinned, each
+//! sample, to where its sensor read it ([`WindowProblem::evaluate_with_surface_samples`]).
+//! No hinge moment is modelled: the gear carries whatever moved the measured surface.
+//!
+//! It reads the backlash and the gain drift ([`FREE`]). The friction is held at the same
+//! flight's preflight reading beside the shorts, the eccentricity and the demagnetization
+//! (a window holds those already, [`HeldComponents`]): given the surface's path the
+//! controller's current hardly depends on the friction — moving it by 0.3 changes the pinned
+//! fit by at most 0.3 points of the current's energy (docs/in-flight.md §6) — so a pinned
+//! window needs a trusted preflight and says nothing of the friction. The one nuisance is
+//! where the run starts in the play: the moment at the window's start [N·m]
+//! ([`MonitorModel::start_loaded_run`](crate::MonitorModel::start_loaded_run)), profiled out
+//! of the curvature.
+//!
+//! The search: a scan of the start's moment at three plays ([`SCAN_PLAYS`] ×
+//! [`SCAN_MOMENTS`] evaluations), then Nelder–Mead over (backlash, gain drift, moment) from
+//! the scan's best two points, [`SEARCH_EVALUATIONS`] each; the curvature by central
+//! differences ([`CURVATURE_EVALUATIONS`]), the uncertainty there widened by
+//! [`PINNED_INFLATION`], and the verdict against [`PinnedLimits`]. Units: fault-vector units,
+//! N·m, A²·s. Work: at most [`PINNED_EVALUATIONS`] evaluations, each one monitor-model run
+//! over the window (O(N)); O(1) memory beyond the problem; no allocation, no panic.
+//!
+//! Run by the host on every window the load model names `fitness_floor` when the flight's
+//! preflight was trusted (`host-sim`'s window identification). Not on the controller: it
+//! needs the surface's angle per sample (4 bytes × the window's samples), and the board
+//! image has no flash for either window model (docs/in-flight.md §6).
+
+use crate::fault::FAULT_COUNT;
+use crate::uncertainty::{Curvature, Uncertainty};
+use crate::window::{
+    HeldComponents, SurfaceSamples, WindowFit, WindowLoad, WindowProblem, WindowReason,
+};
+use crate::FaultVector;
+
+/// The components a pinned window reads: the backlash (k2) and the gain drift (k8).
+pub const FREE: [usize; 2] = [1, 7];
+
+/// The friction's index: held at the preflight's in a pinned window.
+const FRICTION: usize = 0;
+
+/// The start's moment in the search's units [N·m per unit]: a play crossed in the window's
+/// settle moves it by a few hundred N·m.
+const MOMENT_UNIT: f32 = 100.0;
+
+/// The backlash values the start's scan tries (the search starts from the best two pairs).
+pub const SCAN_PLAYS: [f32; 3] = [0.0, 0.5, 1.0];
+
+/// The gain drifts the start's scan tries with each play.
+pub const SCAN_GAINS: [f32; 3] = [0.1, 0.5, 0.9];
+
+/// Moments per pair in the start's scan: the guess ± 10 steps of [`SCAN_STEP`].
+pub const SCAN_MOMENTS: usize = 21;
+
+/// The scan's step [N·m].
+const SCAN_STEP: f32 = 60.0;
+
+/// Evaluations each Nelder–Mead search spends at most.
+pub const SEARCH_EVALUATIONS: u32 = 300;
+
+/// Evaluations of the central-difference curvature: at two step sizes, the centre, two per
+/// parameter and four per pair each.
+pub const CURVATURE_EVALUATIONS: u32 = 2 * 19;
+
+/// Evaluations of one pinned identification at most.
+pub const PINNED_EVALUATIONS: u32 = (SCAN_PLAYS.len() * SCAN_GAINS.len() * SCAN_MOMENTS) as u32
+    + 2 * SEARCH_EVALUATIONS
+    + CURVATURE_EVALUATIONS
+    + 1;
+
+/// The central differences' steps: backlash, gain drift [fault-vector units], the start's
+/// moment [`MOMENT_UNIT`]s.
+const STEPS: [f32; 3] = [0.02, 0.01, 0.1];
+
+/// The Nelder–Mead simplex's first edges, as [`STEPS`].
+const SIMPLEX: [f32; 3] = [0.2, 0.1, 1.0];
+
+/// How many times a pinned window's standard deviation per component must be taken beyond
+/// what its curvature states (after the preflight's
+/// [`INFLATION`](crate::uncertainty::INFLATION)) for its 90 % interval to hold the truth in
+/// 90 % of identified windows.
+pub const PINNED_INFLATION: [f32; FAULT_COUNT] = [1.0; FAULT_COUNT];
+
+/// What a pinned window must satisfy to be identified.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PinnedLimits {
+    /// The largest [`WindowProblem::misfit`] of an identified pinned window.
+    pub max_misfit: f32,
+    /// The largest backlash standard deviation (after [`PINNED_INFLATION`])
+    /// [fault-vector units]: beyond it the window did not cross its play enough to read it.
+    pub max_backlash_std: f32,
+}
+
+impl PinnedLimits {
+    /// The limits of the built-in actuator's flight campaign.
+    pub const REFERENCE: Self = Self {
+        max_misfit: 0.03,
+        max_backlash_std: 0.1,
+    };
+}
+
+/// Why a window cannot be read pinned at all.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum PinnedError {
+    /// The window holds nothing from a preflight: the friction has no value to be held at.
+    NoPreflight,
+    /// The surface's samples do not cover the window.
+    SurfaceTooShort,
+}
+
+/// What the pinned identification of one window found ([`identify_pinned`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PinnedReading {
+    /// The vector: [`FREE`] read, every other component at the preflight's.
+    pub faults: FaultVector,
+    /// The fit at `faults` from `start_moment`: eq. (3) after the drift [A²·s].
+    pub fit: WindowFit,
+    /// The moment the run starts under [N·m] (where it starts in the play).
+    pub start_moment: f32,
+    /// [`WindowProblem::misfit`] of `fit`.
+    pub misfit: f32,
+    /// The Gauss–Newton sums of [`FREE`] at `faults` (the start's moment and the drift
+    /// profiled out; every other row and column zero): what a flight's reading adds.
+    pub curvature: Curvature,
+    /// Standard deviation and 90 % interval per component (NaN: held, not read here) with
+    /// the correlations; `None` if the curvature is not positive.
+    pub uncertainty: Option<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT])>,
+    /// The window's verdict under the limits it was judged with.
+    pub verdict: Result<(), WindowReason>,
+    /// Monitor-model runs spent.
+    pub evaluations: u32,
+}
+
+/// A point of the search: backlash, gain drift, the start's moment in [`MOMENT_UNIT`]s.
+type Point = [f32; 3];
+
+/// The pinned window's objective: one evaluation per call, counted.
+struct Objective<'p, 'a, const N: usize> {
+    problem: &'p WindowProblem<'a, N>,
+    surface: &'p SurfaceSamples<'p>,
+    base: FaultVector,
+    stiffness: f32,
+    evaluations: u32,
+}
+
+impl<const N: usize> Objective<'_, '_, N> {
+    /// The vector of point `x` (its components clamped into the box).
+    fn vector(&self, x: &Point) -> FaultVector {
+        let mut genes = *self.base.as_array();
+        for (&i, &v) in FREE.iter().zip(x) {
+            if let Some(g) = genes.get_mut(i) {
+                *g = v;
+            }
+        }
+        FaultVector::saturating(genes)
+    }
+
+    fn fit(&mut self, x: &Point) -> WindowFit {
+        self.evaluations = self.evaluations.saturating_add(1);
+        let load = WindowLoad::spring(self.stiffness, x[2] * MOMENT_UNIT);
+        self.problem
+            .evaluate_with_surface_samples(&self.vector(x), load, self.surface, &mut [])
+            .0
+    }
+
+    /// The error at `x`, with a point outside the box paid for by its squared distance
+    /// from it in units of the window's energy (so the search comes back).
+    fn error(&mut self, x: &Point) -> f32 {
+        let outside: f32 = x[..2]
+            .iter()
+            .map(|&v| {
+                let d = v - v.clamp(0.0, 1.0);
+                d * d
+            })
+            .sum();
+        let e = self.fit(x).error;
+        let energy = self.problem.energy();
+        if e.is_finite() {
+            e + outside * energy
+        } else {
+            f32::INFINITY
+        }
+    }
+}
+
+/// Reads the backlash and the gain drift of the window of `problem` with its surface pinned
+/// to `surface` (the sensor's angle and speed per sample; the motor's angle unused), every
+/// other component at `held`'s values and the friction at the preflight's beside them (the
+/// preflight whose reading `held` holds), the run's spring at `stiffness` [N·m/rad] and its
+/// start scanned around `start_guess` [N·m]; judged under `limits`. At most
+/// [`PINNED_EVALUATIONS`] model runs; `Err` when `held` holds nothing (no preflight) or the
+/// surface's samples end before the window.
+pub fn identify_pinned<const N: usize>(
+    problem: &WindowProblem<'_, N>,
+    surface: &SurfaceSamples<'_>,
+    held: &HeldComponents,
+    stiffness: f32,
+    start_guess: f32,
+    limits: &PinnedLimits,
+) -> Result<PinnedReading, PinnedError> {
+    if !held.holds(2) {
+        return Err(PinnedError::NoPreflight);
+    }
+    let samples = problem.samples();
+    if surface.angles.len() < samples || surface.speeds.len() < samples {
+        return Err(PinnedError::SurfaceTooShort);
+    }
+    let held = held.also_holding(FRICTION);
+    let problem = problem.clone().with_held(held);
+    let mut f = Objective {
+        problem: &problem,
+        surface,
+        base: held.apply(&FaultVector::NOMINAL),
+        stiffness,
+        evaluations: 0,
+    };
+    // The start's scan: the best moment at each play and gain, the two best pairs kept.
+    let centre = start_guess / MOMENT_UNIT;
+    const PAIRS: usize = SCAN_PLAYS.len() * SCAN_GAINS.len();
+    let mut best: [(Point, f32); PAIRS] = [([0.0; 3], f32::INFINITY); PAIRS];
+    for (n, slot) in best.iter_mut().enumerate() {
+        let play = SCAN_PLAYS.get(n / SCAN_GAINS.len()).copied().unwrap_or(0.0);
+        let gain = SCAN_GAINS.get(n % SCAN_GAINS.len()).copied().unwrap_or(0.5);
+        for j in 0..SCAN_MOMENTS {
+            let step = j as f32 - (SCAN_MOMENTS / 2) as f32;
+            let x = [play, gain, centre + step * SCAN_STEP / MOMENT_UNIT];
+            let e = f.error(&x);
+            if e < slot.1 {
+                *slot = (x, e);
+            }
+        }
+    }
+    best.sort_unstable_by(|a, b| a.1.total_cmp(&b.1));
+    let mut found = (best[0].0, f32::INFINITY);
+    for (start, _) in best.iter().take(2) {
+        let x = nelder_mead(&mut f, *start, SEARCH_EVALUATIONS);
+        if x.1 < found.1 {
+            found = x;
+        }
+    }
+    let mut x = found.0;
+    x[0] = x[0].clamp(0.0, 1.0);
+    x[1] = x[1].clamp(0.0, 1.0);
+    let fit = f.fit(&x);
+    let faults = f.vector(&x);
+    let fine = curvature(&mut f, &x, fit.error, 1.0);
+    let curvature = wider(fine, curvature(&mut f, &x, fit.error, 2.0));
+    let uncertainty = curvature
+        .uncertainty(&faults)
+        .ok()
+        .map(|(u, c)| (u.widened(&faults, &PINNED_INFLATION), c));
+    let misfit = problem.misfit(fit.error);
+    let verdict = judge(limits, misfit, uncertainty.as_ref().map(|(u, _)| u));
+    Ok(PinnedReading {
+        faults,
+        fit,
+        start_moment: x[2] * MOMENT_UNIT,
+        misfit,
+        curvature,
+        uncertainty,
+        verdict,
+        evaluations: f.evaluations,
+    })
+}
+
+/// The verdict of a pinned window: its misfit under the limit, its backlash read.
+fn judge(
+    limits: &PinnedLimits,
+    misfit: f32,
+    uncertainty: Option<&Uncertainty>,
+) -> Result<(), WindowReason> {
+    if misfit.is_nan() || misfit > limits.max_misfit {
+        return Err(WindowReason::FitnessFloor { misfit });
+    }
+    let backlash_std = uncertainty
+        .and_then(|u| u.std.get(FREE[0]).copied())
+        .unwrap_or(f32::NAN);
+    if backlash_std.is_nan() || backlash_std > limits.max_backlash_std {
+        return Err(WindowReason::PlayUnseen { contrast: f32::NAN });
+    }
+    Ok(())
+}
+
+/// Of two curvatures of the same point, the one that states the larger variance: `b` when
+/// its profiled 2 × 2 block of [`FREE`] has the smaller determinant or `a`'s is not
+/// positive definite (a Hessian the play's crossings make rough at one step size reads as
+/// information it does not carry); empty when neither is positive definite.
+#[allow(clippy::indexing_slicing)] // FREE's indices < FAULT_COUNT
+fn wider(a: Curvature, b: Curvature) -> Curvature {
+    let det = |c: &Curvature| {
+        let (p, q, r) = (
+            c.normal[FREE[0]][FREE[0]],
+            c.normal[FREE[0]][FREE[1]],
+            c.normal[FREE[1]][FREE[1]],
+        );
+        if p > 0.0 && r > 0.0 && p * r - q * q > 0.0 {
+            p * r - q * q
+        } else {
+            f64::NAN
+        }
+    };
+    match (det(&a), det(&b)) {
+        (x, y) if x.is_nan() && y.is_nan() => Curvature::EMPTY,
+        (x, _) if x.is_nan() => b,
+        (_, y) if y.is_nan() => a,
+        (x, y) if y < x => b,
+        _ => a,
+    }
+}
+
+/// The Gauss–Newton sums of [`FREE`] at `x` (error `error`) from the error's central
+/// differences at `scale` times [`STEPS`]: `JᵀWJ = H / (2·dt)`, `JᵀW r = −∇E / (2·dt)`, the
+/// start's moment profiled out (Schur complement); the differences' centre moved into the
+/// box where a step would leave it, the gradient carried back to `x` along the Hessian.
+/// [`CURVATURE_EVALUATIONS`]` / 2` evaluations.
+#[allow(clippy::indexing_slicing)] // indices < 3 on fixed 3-arrays, < FAULT_COUNT on 9-arrays
+fn curvature<const N: usize>(
+    f: &mut Objective<'_, '_, N>,
+    x: &Point,
+    error: f32,
+    scale: f32,
+) -> Curvature {
+    let steps = STEPS.map(|s| s * scale);
+    let mut c = *x;
+    for i in 0..2 {
+        c[i] = c[i].clamp(steps[i], 1.0 - steps[i]);
+    }
+    let at = |f: &mut Objective<'_, '_, N>, d: [f32; 3]| -> f64 {
+        let p = [c[0] + d[0], c[1] + d[1], c[2] + d[2]];
+        f64::from(f.fit(&p).error)
+    };
+    let step = |i: usize, s: f32| -> [f32; 3] {
+        let mut d = [0.0; 3];
+        d[i] = s * steps[i];
+        d
+    };
+    let e0 = at(f, [0.0; 3]);
+    let mut hessian = [[0.0f64; 3]; 3];
+    let mut gradient = [0.0f64; 3];
+    for i in 0..3 {
+        let h = f64::from(steps[i]);
+        let up = at(f, step(i, 1.0));
+        let down = at(f, step(i, -1.0));
+        hessian[i][i] = (up - 2.0 * e0 + down) / (h * h);
+        gradient[i] = (up - down) / (2.0 * h);
+    }
+    for i in 0..3 {
+        for j in i + 1..3 {
+            let pair = |si: f32, sj: f32| {
+                let mut d = step(i, si);
+                d[j] = sj * steps[j];
+                d
+            };
+            let pp = at(f, pair(1.0, 1.0));
+            let pm = at(f, pair(1.0, -1.0));
+            let mp = at(f, pair(-1.0, 1.0));
+            let mm = at(f, pair(-1.0, -1.0));
+            let h = (pp - pm - mp + mm) / (4.0 * f64::from(steps[i]) * f64::from(steps[j]));
+            hessian[i][j] = h;
+            hessian[j][i] = h;
+        }
+    }
+    // The gradient at x, not at the centre.
+    for (i, g) in gradient.iter_mut().enumerate() {
+        *g += (0..3)
+            .map(|j| hessian[i][j] * f64::from(x[j] - c[j]))
+            .sum::<f64>();
+    }
+    let dt = f64::from(f.problem.model().params().control_period);
+    let normal = hessian.map(|row| row.map(|h| h / (2.0 * dt)));
+    let residual = gradient.map(|g| -g / (2.0 * dt));
+    // The start's moment profiled out.
+    let mut out = Curvature::EMPTY;
+    let m = normal[2][2];
+    for (a, &i) in FREE.iter().enumerate() {
+        let lean = if m > 0.0 { normal[a][2] / m } else { 0.0 };
+        out.gradient[i] = residual[a] - lean * residual[2];
+        for (b, &j) in FREE.iter().enumerate() {
+            out.normal[i][j] = normal[a][b] - lean * normal[2][b];
+        }
+    }
+    out.rss = f64::from(error) / dt;
+    out.fitted = f.problem.fitted_samples() as u32;
+    out
+}
+
+/// Nelder–Mead from `start` (edges [`SIMPLEX`]) over `f`, at most `budget` evaluations: the
+/// best point and its error.
+#[allow(clippy::indexing_slicing)] // indices < 4 on the fixed simplex
+fn nelder_mead<const N: usize>(
+    f: &mut Objective<'_, '_, N>,
+    start: Point,
+    budget: u32,
+) -> (Point, f32) {
+    let mut simplex = [(start, 0.0f32); 4];
+    for (j, vertex) in simplex.iter_mut().enumerate() {
+        if j > 0 {
+            vertex.0[j - 1] += SIMPLEX[j - 1];
+        }
+        vertex.1 = f.error(&vertex.0);
+    }
+    let mut used = 4u32;
+    while used + 5 <= budget {
+        simplex.sort_unstable_by(|a, b| a.1.total_cmp(&b.1));
+        let mut centre = [0.0f32; 3];
+        for (x, _) in &simplex[..3] {
+            for d in 0..3 {
+                centre[d] += x[d] / 3.0;
+            }
+        }
+        let worst = simplex[3];
+        let along = |t: f32| -> Point {
+            core::array::from_fn(|d| centre[d] + t * (worst.0[d] - centre[d]))
+        };
+        let r = along(-1.0);
+        let fr = f.error(&r);
+        used += 1;
+        if fr < simplex[0].1 {
+            let e = along(-2.0);
+            let fe = f.error(&e);
+            used += 1;
+            simplex[3] = if fe < fr { (e, fe) } else { (r, fr) };
+        } else if fr < simplex[2].1 {
+            simplex[3] = (r, fr);
+        } else {
+            let c = along(0.5);
+            let fc = f.error(&c);
+            used += 1;
+            if fc < worst.1 {
+                simplex[3] = (c, fc);
+            } else {
+                let best = simplex[0].0;
+                for vertex in simplex.iter_mut().skip(1) {
+                    for (v, b) in vertex.0.iter_mut().zip(best) {
+                        *v = b + 0.5 * (*v - b);
+                    }
+                    vertex.1 = f.error(&vertex.0);
+                }
+                used += 3;
+            }
+        }
+    }
+    simplex.sort_unstable_by(|a, b| a.1.total_cmp(&b.1));
+    simplex[0]
+}
