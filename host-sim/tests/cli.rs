@@ -447,9 +447,10 @@ fn windows_of_one_flight_are_read_together() {
 
 /// A window whose current the window's load cannot follow (a gear play a hundred times
 /// nominal, cruise) is named `fitness_floor` and says what that most often means, in text
-/// and JSON; a window identified says nothing of the kind.
+/// and JSON; a window identified says nothing of the kind. Given the same flight's
+/// preflight, the worn window is read with its surface pinned to its sensor instead.
 #[test]
-fn a_window_at_the_fitness_floor_names_the_play_as_its_known_cause() {
+fn a_window_at_the_fitness_floor_names_the_play_and_is_read_pinned_after_a_preflight() {
     let dir = tempfile::tempdir().unwrap();
     let window = |faults: &str, name: &str| {
         let file = path(&dir, name);
@@ -485,6 +486,42 @@ fn a_window_at_the_fitness_floor_names_the_play_as_its_known_cause() {
     let v = json(&host_sim(&["identify", &sound, "--json"]));
     assert_eq!(v["verdict"], "within", "{v}");
     assert!(v["hint"].is_null(), "{v}");
+    assert_eq!(v["model"], "load", "{v}");
+
+    // With the same flight's preflight the worn window is read again with its surface
+    // pinned to its sensor: the play and the gain drift read, the friction the preflight's.
+    let pre = path(&dir, "worn-preflight.csv");
+    let o = host_sim(&[
+        "simulate",
+        "--faults",
+        "0,1,0,0,0,0,0.5,0.5,0",
+        "--seed",
+        "1",
+        "--out",
+        &pre,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = json(&host_sim(&[
+        "identify",
+        &worn,
+        "--preflight",
+        &pre,
+        "--truth",
+        "0,1,0,0,0,0,0.5,0.5,0",
+        "--json",
+    ]));
+    assert_eq!(v["verdict"], "within", "{v}");
+    assert_eq!(v["model"], "pinned", "{v}");
+    let k = v["faults"].as_array().unwrap();
+    assert!(k[1].as_f64().unwrap() > 0.95, "backlash {v}");
+    assert!(
+        (k[7].as_f64().unwrap() - 0.5).abs() < 0.01,
+        "gain drift {v}"
+    );
+    assert!(v["e_tot"].as_f64().unwrap() < 2.0, "{v}");
+    let o = host_sim(&["identify", &worn, "--preflight", &pre]);
+    let text = String::from_utf8_lossy(&o.stdout).to_string();
+    assert!(text.contains("read with the surface pinned"), "{text}");
 }
 
 /// A window of flight cannot tell a stator short from an eccentricity (it has no standstill

@@ -79,8 +79,13 @@ const SIMPLEX: [f32; 3] = [0.2, 0.1, 1.0];
 /// How many times a pinned window's standard deviation per component must be taken beyond
 /// what its curvature states (after the preflight's
 /// [`INFLATION`](crate::uncertainty::INFLATION)) for its 90 % interval to hold the truth in
-/// 90 % of identified windows.
-pub const PINNED_INFLATION: [f32; FAULT_COUNT] = [1.0; FAULT_COUNT];
+/// 90 % of identified windows. The window factors' rule — each component's 90th percentile
+/// of |error| / σ over [`Z90`](crate::uncertainty::Z90), rounded up to a tenth where above
+/// one — on Table II in cruise, selection seeds 10–29, light and moderate turbulence, flights
+/// of eight (`campaign --flight --table 2 --phase cruise --runs 20 --first-seed 10
+/// --flight-windows 8`): 450 windows read pinned under [`PinnedLimits::REFERENCE`] — the
+/// backlash ×1.11 → **1.2**, the gain drift ×0.53 (left). The others are held.
+pub const PINNED_INFLATION: [f32; FAULT_COUNT] = [1.0, 1.2, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0];
 
 /// What a pinned window must satisfy to be identified.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -94,9 +99,16 @@ pub struct PinnedLimits {
 }
 
 impl PinnedLimits {
-    /// The limits of the built-in actuator's flight campaign.
+    /// The limits of the built-in actuator's flight campaign. The misfit's on the selection
+    /// of [`PINNED_INFLATION`] (788 windows at the load model's floor with a trusted
+    /// preflight, tried at a limit of 3 %: 457 read): 446 of them fit within 0.3 % of the
+    /// current's energy, 450 within **0.5 %**, one of those off by more than four
+    /// deviations (backlash 0.42 for 1.0: a basin the search ended in); of the 7 between
+    /// 0.5 and 3 %, 5 are off by 4–8 deviations (the fit biased) — one such window in a
+    /// flight of eight makes the flight `unconfirmed`. The backlash deviation's limit is a
+    /// guard, not a choice: a curvature that does not determine the play is NaN.
     pub const REFERENCE: Self = Self {
-        max_misfit: 0.03,
+        max_misfit: 0.005,
         max_backlash_std: 0.1,
     };
 }
@@ -314,7 +326,8 @@ fn wider(a: Curvature, b: Curvature) -> Curvature {
 /// The Gauss–Newton sums of [`FREE`] at `x` (error `error`) from the error's central
 /// differences at `scale` times [`STEPS`]: `JᵀWJ = H / (2·dt)`, `JᵀW r = −∇E / (2·dt)`, the
 /// start's moment profiled out (Schur complement); the differences' centre moved into the
-/// box where a step would leave it, the gradient carried back to `x` along the Hessian.
+/// box where a step would leave it, the gradient carried back to `x` along the Hessian and
+/// kept only where it pushes a component at a bound beyond it.
 /// [`CURVATURE_EVALUATIONS`]` / 2` evaluations.
 #[allow(clippy::indexing_slicing)] // indices < 3 on fixed 3-arrays, < FAULT_COUNT on 9-arrays
 fn curvature<const N: usize>(
@@ -377,7 +390,15 @@ fn curvature<const N: usize>(
     let m = normal[2][2];
     for (a, &i) in FREE.iter().enumerate() {
         let lean = if m > 0.0 { normal[a][2] / m } else { 0.0 };
-        out.gradient[i] = residual[a] - lean * residual[2];
+        // Inside the box the search's end is the minimum: the differences' gradient there is
+        // their noise (a rough error surface at these steps), not a step the point still
+        // has to take. At a bound the push beyond it is kept (`crate::fusion`).
+        let g = residual[a] - lean * residual[2];
+        out.gradient[i] = match x[a] {
+            v if v <= 0.0 && g < 0.0 => g,
+            v if v >= 1.0 && g > 0.0 => g,
+            _ => 0.0,
+        };
         for (b, &j) in FREE.iter().enumerate() {
             out.normal[i][j] = normal[a][b] - lean * normal[2][b];
         }

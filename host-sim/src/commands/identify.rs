@@ -510,6 +510,7 @@ pub(crate) fn window_report(
     truth: Option<FaultVector>,
     json: bool,
 ) -> Result<()> {
+    use host_sim::fdi::window::WindowModel;
     use host_sim::studies::flight::{flight_record, window_reason};
     use shared::fusion::{WindowFusion, FLIGHT_MAX_FRICTION_STD};
     let record = flight_record(&actuator.record);
@@ -556,7 +557,9 @@ pub(crate) fn window_report(
             "e_tot": e_tot,
             "seconds": seconds,
             "shorts": held_line,
-            "hint": floor_hint(&id.verdict),
+            "hint": floor_hint(&id.verdict, id.pinned_misfit.is_some()),
+            "model": id.model.name(),
+            "pinned_misfit": id.pinned_misfit,
         });
         if let Some(flight) = &flight {
             obj["windows"] = windows
@@ -567,6 +570,7 @@ pub(crate) fn window_report(
                         "verdict": window_reason(&w.verdict),
                         "faults": w.faults.as_array().to_vec(),
                         "fused": fused,
+                        "model": w.model.name(),
                     })
                 })
                 .collect();
@@ -579,6 +583,7 @@ pub(crate) fn window_report(
                     "lower": f.uncertainty.0.lower.to_vec(),
                     "upper": f.uncertainty.0.upper.to_vec(),
                     "e_tot": truth.map(|t| shared::metrics::total_error(&f.faults, &t)),
+                    "friction_held": f.friction_held,
                 })
             });
         }
@@ -596,19 +601,39 @@ pub(crate) fn window_report(
              faults below are not a reading"
         ),
     }
-    if let Some(hint) = floor_hint(&id.verdict) {
+    if let Some(hint) = floor_hint(&id.verdict, id.pinned_misfit.is_some()) {
         println!("  {hint}");
     }
-    println!(
-        "load fitted: stiffness {:.0} N·m/rad, moment at the start {:.1} N·m; fit {:.3e} A²·s, \
-         {:.2} % of the current unexplained; the load moved beyond its spring by {:.0} % of \
-         the test's moment (RMS: turbulence, trim)",
-        id.load.stiffness,
-        id.load.moment,
-        id.fitness,
-        100.0 * id.misfit,
-        100.0 * id.turbulence
-    );
+    match (id.model, id.pinned_misfit) {
+        (WindowModel::Pinned, _) => println!(
+            "read with the surface pinned to its sensor (the fitted load left the window at its \
+             fitness floor): start in the play under {:.1} N·m; fit {:.3e} A²·s, {:.2} % of the \
+             current unexplained; the backlash and the gain drift read, the friction held at \
+             the preflight's beside the components the next line names",
+            id.load.moment,
+            id.fitness,
+            100.0 * id.misfit
+        ),
+        (WindowModel::Load, pinned) => {
+            println!(
+                "load fitted: stiffness {:.0} N·m/rad, moment at the start {:.1} N·m; fit \
+                 {:.3e} A²·s, {:.2} % of the current unexplained; the load moved beyond its \
+                 spring by {:.0} % of the test's moment (RMS: turbulence, trim)",
+                id.load.stiffness,
+                id.load.moment,
+                id.fitness,
+                100.0 * id.misfit,
+                100.0 * id.turbulence
+            );
+            if let Some(m) = pinned {
+                println!(
+                    "  with the surface pinned to its sensor: {:.2} % unexplained, not read \
+                     either",
+                    100.0 * m
+                );
+            }
+        }
+    }
     println!("{held_line}");
     let names = shared::fault::FAULT_NAMES;
     for (name, k) in names.iter().zip(id.faults.as_array()) {
@@ -638,6 +663,11 @@ pub(crate) fn window_report(
             ),
             Some(f) => {
                 match f.verdict {
+                    Ok(()) if f.friction_held => println!(
+                        "the flight's reading from {} windows: within (no window read the \
+                         friction: it is the preflight's)",
+                        f.windows
+                    ),
                     Ok(()) => println!(
                         "the flight's reading from {} windows: within (friction read to σ {:.3})",
                         f.windows, f.uncertainty.0.std[0]
@@ -671,20 +701,29 @@ pub(crate) fn window_report(
     status
 }
 
-/// What a window named `fitness_floor` most often means, from the campaigns (none for
-/// another verdict).
-fn floor_hint(verdict: &Result<(), shared::window::WindowReason>) -> Option<&'static str> {
-    matches!(
+/// What a window named `fitness_floor` most often means, from the campaigns, and whether
+/// the pinned surface was tried (`pinned`: a trusted preflight was given); none for another
+/// verdict.
+fn floor_hint(
+    verdict: &Result<(), shared::window::WindowReason>,
+    pinned: bool,
+) -> Option<&'static str> {
+    if !matches!(
         verdict,
         Err(shared::window::WindowReason::FitnessFloor { .. })
-    )
-    .then_some(
+    ) {
+        return None;
+    }
+    Some(if pinned {
+        "neither the window's load model nor its surface pinned to its sensor explains this \
+         current. Not a reading: the next preflight reads the actuator."
+    } else {
         "the window's load model does not explain this current. The known cause is a gear \
-         play several times nominal: in cruise no flight of backlash 0.4 or 1.0 and one in \
-         60 of Table II's mixes was read (docs/in-flight.md §4, §6); the light actuator's \
-         windows in moderate turbulence are named so too. Not a reading of the play: the \
-         next preflight reads the backlash.",
-    )
+         play several times nominal (docs/in-flight.md §4, §6); the light actuator's windows \
+         in moderate turbulence are named so too. Given the same flight's preflight \
+         (--preflight), a window at this floor is read again with its surface pinned to its \
+         sensor, which reads the play; without it, the next preflight reads the backlash."
+    })
 }
 
 /// The exit status of a window's report: outside is [`EXIT_OUTSIDE_DOMAIN`], as for a
