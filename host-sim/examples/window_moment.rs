@@ -21,7 +21,7 @@
 
 mod cruise_window;
 
-use cruise_window::{CruiseWindow, CASES, RECORD, SETTINGS};
+use cruise_window::{CruiseWindow, CASES, SETTINGS};
 use host_sim::plant::aero::Turbulence;
 use host_sim::plant::reference::WIND_SETTLE;
 use shared::actuator::ActuatorRecord;
@@ -36,7 +36,7 @@ fn main() {
         .nth(1)
         .map(|a| a.parse().expect("N: a count of seeds"))
         .unwrap_or(4);
-    let (settings, record) = (SETTINGS, RECORD);
+    let (settings, record) = (SETTINGS, cruise_window::record());
     println!(
         "| turbulence | case | seed | moment RMS [N·m] | fitted | true | L10 | L40 | angles | angles' error RMS [N·m] |"
     );

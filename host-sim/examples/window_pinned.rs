@@ -27,7 +27,7 @@
 #[allow(dead_code)] // each study reads a part of what the module sets up
 mod cruise_window;
 
-use cruise_window::{CruiseWindow, CASES, RECORD};
+use cruise_window::{CruiseWindow, CASES};
 use host_sim::plant::aero::Turbulence;
 use shared::window::{SurfaceSamples, WindowLoad};
 use shared::FaultVector;
@@ -81,7 +81,7 @@ fn main() {
         .into_iter()
         .chain(more.then_some(MORE_CASES).into_iter().flatten())
         .collect();
-    let record = RECORD;
+    let record = cruise_window::record();
     println!(
         "| turbulence | case | seed | fitted | pinned | pinned, friction ±0.3 | start moment [N·m] | identified: misfit | e_tot [%] | friction, backlash, gain drift |"
     );

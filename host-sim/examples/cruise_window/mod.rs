@@ -22,7 +22,13 @@ pub const CASES: [(&str, [f32; 9]); 2] = [
 ];
 
 pub const SETTINGS: ReferenceSettings = ReferenceSettings::REFERENCE;
-pub const RECORD: ActuatorRecord = ActuatorRecord::REFERENCE;
+/// The actuator as the flight's windows carry it: the built-in record with its chirp-only
+/// test and the calibration on it (`host_sim::studies::flight::flight_record`, what the
+/// flight campaign plays and identifies with). Before stop 56 the studies used the preflight's
+/// record, whose test is not what a window carries.
+pub fn record() -> ActuatorRecord {
+    host_sim::studies::flight::flight_record(&ActuatorRecord::REFERENCE)
+}
 
 /// A cruise window of `faults` in `turbulence`, seed `seed`, as the controller recorded it.
 pub struct CruiseWindow {
@@ -39,17 +45,18 @@ impl CruiseWindow {
             phase: FlightPhase::Cruise,
             turbulence,
         };
+        let record = record();
         let rm = ReferenceModel::new(SETTINGS)
-            .with_test(RECORD.test)
+            .with_test(record.test)
             .with_flight(Some(window));
         let sim = rm.simulate(&Scenario {
             seed,
             ..Scenario::new(*faults)
         });
-        let measured = sim.trace.measured(&RECORD.params).expect("a sound trace");
+        let measured = sim.trace.measured(&record.params).expect("a sound trace");
         let command = recorded_command(&sim.trace);
-        let conditions = TestConditions::estimate(&measured, &RECORD.params, &RECORD.calibration);
-        let model = MonitorModel::new(RECORD.params, &RECORD.calibration)
+        let conditions = TestConditions::estimate(&measured, &record.params, &record.calibration);
+        let model = MonitorModel::new(record.params, &record.calibration)
             .with_test(measured.test())
             .with_conditions(&conditions);
         Self {
@@ -63,11 +70,12 @@ impl CruiseWindow {
 
     /// The window problem on it, the load at the actuator's spring.
     pub fn problem(&self) -> WindowProblem<'_, TEST_SAMPLES> {
+        let record = record();
         WindowProblem::new(
             &self.measured,
             RecordedCommand::kept_every(COMMAND_STRIDE, &self.command),
             self.model,
-            WindowLoad::spring(RECORD.params.aero_stiffness, 0.0),
+            WindowLoad::spring(record.params.aero_stiffness, 0.0),
         )
         .expect("a window")
     }
