@@ -522,6 +522,44 @@ fn a_window_at_the_fitness_floor_names_the_play_and_is_read_pinned_after_a_prefl
     let o = host_sim(&["identify", &worn, "--preflight", &pre]);
     let text = String::from_utf8_lossy(&o.stdout).to_string();
     assert!(text.contains("read with the surface pinned"), "{text}");
+
+    // A healthy gear in moderate climb whose load model is at its floor: pinned, the play's
+    // two ends fit alike (read as a play of 0.99 before the contrast was judged).
+    let healthy = "0,0,0,0,0,0,0.5,0.5,0";
+    let (climb, ground) = (path(&dir, "climb.csv"), path(&dir, "ground.csv"));
+    for (args, out) in [
+        (
+            vec![
+                "--flight",
+                "climb",
+                "--turbulence",
+                "moderate",
+                "--seed",
+                "7",
+            ],
+            &climb,
+        ),
+        (vec!["--seed", "1007"], &ground),
+    ] {
+        let mut a = vec!["simulate", "--faults", healthy, "--out", out.as_str()];
+        a.extend(args);
+        let o = host_sim(&a);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let v = json(&host_sim(&[
+        "identify",
+        &climb,
+        "--preflight",
+        &ground,
+        "--seed",
+        "8",
+        "--json",
+    ]));
+    assert_eq!(v["verdict"], "fitness_floor", "{v}");
+    assert_eq!(v["pinned_verdict"], "play_unseen", "{v}");
+    assert!(v["hint"]
+        .as_str()
+        .is_some_and(|h| h.contains("two ends fit about as well")));
 }
 
 /// A window of flight cannot tell a stator short from an eccentricity (it has no standstill

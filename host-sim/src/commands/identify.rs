@@ -557,9 +557,10 @@ pub(crate) fn window_report(
             "e_tot": e_tot,
             "seconds": seconds,
             "shorts": held_line,
-            "hint": floor_hint(&id.verdict, id.pinned_misfit.is_some()),
+            "hint": floor_hint(&id.verdict, id.pinned_reason.as_ref()),
             "model": id.model.name(),
             "pinned_misfit": id.pinned_misfit,
+            "pinned_verdict": id.pinned_reason.as_ref().map(|r| window_reason(&Err(*r))),
         });
         if let Some(flight) = &flight {
             obj["windows"] = windows
@@ -601,7 +602,7 @@ pub(crate) fn window_report(
              faults below are not a reading"
         ),
     }
-    if let Some(hint) = floor_hint(&id.verdict, id.pinned_misfit.is_some()) {
+    if let Some(hint) = floor_hint(&id.verdict, id.pinned_reason.as_ref()) {
         println!("  {hint}");
     }
     match (id.model, id.pinned_misfit) {
@@ -625,11 +626,12 @@ pub(crate) fn window_report(
                 100.0 * id.misfit,
                 100.0 * id.turbulence
             );
-            if let Some(m) = pinned {
+            if let (Some(m), Some(r)) = (pinned, id.pinned_reason) {
                 println!(
                     "  with the surface pinned to its sensor: {:.2} % unexplained, not read \
-                     either",
-                    100.0 * m
+                     either ({})",
+                    100.0 * m,
+                    window_reason(&Err(r))
                 );
             }
         }
@@ -701,28 +703,36 @@ pub(crate) fn window_report(
     status
 }
 
-/// What a window named `fitness_floor` most often means, from the campaigns, and whether
-/// the pinned surface was tried (`pinned`: a trusted preflight was given); none for another
-/// verdict.
+/// What a window named `fitness_floor` most often means, from the campaigns, and why the
+/// pinned surface did not read it when it was tried (`pinned`: a trusted preflight was
+/// given); none for another verdict.
 fn floor_hint(
     verdict: &Result<(), shared::window::WindowReason>,
-    pinned: bool,
+    pinned: Option<&shared::window::WindowReason>,
 ) -> Option<&'static str> {
-    if !matches!(
-        verdict,
-        Err(shared::window::WindowReason::FitnessFloor { .. })
-    ) {
+    use shared::window::WindowReason;
+    if !matches!(verdict, Err(WindowReason::FitnessFloor { .. })) {
         return None;
     }
-    Some(if pinned {
-        "neither the window's load model nor its surface pinned to its sensor explains this \
-         current. Not a reading: the next preflight reads the actuator."
-    } else {
-        "the window's load model does not explain this current. The known cause is a gear \
-         play several times nominal (docs/in-flight.md §4, §6); the light actuator's windows \
-         in moderate turbulence are named so too. Given the same flight's preflight \
-         (--preflight), a window at this floor is read again with its surface pinned to its \
-         sensor, which reads the play; without it, the next preflight reads the backlash."
+    Some(match pinned {
+        Some(WindowReason::PlayUnseen { .. }) => {
+            "the window's load model does not explain this current, and with its surface \
+             pinned to its sensor the play's two ends fit about as well: the window cannot \
+             tell a wide play from none (campaigns: a halved or doubled gain, a healthy gear \
+             in moderate climb). Not a reading: the next preflight reads the backlash."
+        }
+        Some(_) => {
+            "neither the window's load model nor its surface pinned to its sensor explains \
+             this current. Not a reading: the next preflight reads the actuator."
+        }
+        None => {
+            "the window's load model does not explain this current. The known cause is a \
+             gear play several times nominal (docs/in-flight.md §4, §6); the light \
+             actuator's windows in moderate turbulence are named so too. Given the same \
+             flight's preflight (--preflight), a window at this floor is read again with its \
+             surface pinned to its sensor, which reads the play; without it, the next \
+             preflight reads the backlash."
+        }
     })
 }
 

@@ -68,8 +68,10 @@ pub struct WindowIdentified {
     /// Which model read the window: its load fitted, or its surface pinned to its sensor.
     pub model: WindowModel,
     /// The misfit of the pinned reading when one was tried (the load model at its fitness
-    /// floor, a trusted preflight), whatever its verdict.
+    /// floor, a trusted preflight), whatever its verdict, and why it was not read (`None`:
+    /// read, or not tried).
     pub pinned_misfit: Option<f32>,
+    pub pinned_reason: Option<WindowReason>,
 }
 
 /// The model a window was read with.
@@ -282,6 +284,7 @@ pub fn identify_window(
         evaluations: reading.evaluations,
         model: WindowModel::Load,
         pinned_misfit: None,
+        pinned_reason: None,
     };
     if !matches!(reading.verdict, Err(WindowReason::FitnessFloor { .. })) || !held.holds(2) {
         return Ok(loaded);
@@ -304,9 +307,10 @@ pub fn identify_window(
         return Ok(loaded);
     };
     let evaluations = loaded.evaluations + pinned.evaluations;
-    if pinned.verdict.is_err() {
+    if let Err(reason) = pinned.verdict {
         return Ok(WindowIdentified {
             pinned_misfit: Some(pinned.misfit),
+            pinned_reason: Some(reason),
             evaluations,
             ..loaded
         });
@@ -329,6 +333,7 @@ pub fn identify_window(
         evaluations,
         model: WindowModel::Pinned,
         pinned_misfit: Some(pinned.misfit),
+        pinned_reason: None,
     })
 }
 
