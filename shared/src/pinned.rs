@@ -8,16 +8,18 @@
 //! flight's preflight reading beside the shorts, the eccentricity and the demagnetization
 //! (a window holds those already, [`HeldComponents`]): given the surface's path the
 //! controller's current hardly depends on the friction — moving it by 0.3 changes the pinned
-//! fit by at most 0.3 points of the current's energy (docs/in-flight.md §6) — so a pinned
+//! fit by at most 0.1–0.6 points of the current's energy and a search scatters it over
+//! 0–0.43 for 0.4 (docs/in-flight.md §6) — so a pinned
 //! window needs a trusted preflight and says nothing of the friction. The one nuisance is
 //! where the run starts in the play: the moment at the window's start [N·m]
 //! ([`MonitorModel::start_loaded_run`](crate::MonitorModel::start_loaded_run)), profiled out
 //! of the curvature.
 //!
-//! The search: a scan of the start's moment at three plays ([`SCAN_PLAYS`] ×
-//! [`SCAN_MOMENTS`] evaluations), then Nelder–Mead over (backlash, gain drift, moment) from
-//! the scan's best two points, [`SEARCH_EVALUATIONS`] each; the curvature by central
-//! differences ([`CURVATURE_EVALUATIONS`]), the uncertainty there widened by
+//! The search: a scan of the start's moment at three plays and three gain drifts
+//! ([`SCAN_PLAYS`] × [`SCAN_GAINS`] × [`SCAN_MOMENTS`] evaluations), then Nelder–Mead over
+//! (backlash, gain drift, moment) from the scan's best two points, [`SEARCH_EVALUATIONS`]
+//! each; the curvature by central differences at two step sizes
+//! ([`CURVATURE_EVALUATIONS`]), the uncertainty there widened by
 //! [`PINNED_INFLATION`], and the verdict against [`PinnedLimits`] (the play's other end
 //! tried at [`SCAN_MOMENTS`] starts). Units: fault-vector units,
 //! N·m, A²·s. Work: at most [`PINNED_EVALUATIONS`] evaluations, each one monitor-model run
@@ -114,7 +116,7 @@ impl PinnedLimits {
     /// flight of eight makes the flight `unconfirmed`. The play's contrast is the load
     /// model's limit ([`WindowLimits::REFERENCE`](crate::window::WindowLimits::REFERENCE)),
     /// not chosen anew: added after Table I's evaluation seeds 0–3 read windows of the
-    /// halved and the doubled gain `within` with the play at 0.34–0.98 (e_tot 12–35 %),
+    /// halved and the doubled gain `within` with the play at 0.07–0.98 (e_tot 2.6–35 %),
     /// their fit as good at either end of the play (docs/in-flight.md §6's study: the
     /// halved gain's windows search to a play of 1.0 on every seed). The backlash
     /// deviation's limit is a guard, not a choice: a curvature that does not determine the
