@@ -821,14 +821,15 @@ mod tests {
         assert_eq!(calibration[ECCENTRICITY_PHASE].1, 0);
         // The flights' readings are counted apart.
         assert_eq!(interval_calibration(&rows, |r| &r.flights)[0].1, 1);
-        // The runs' CSV: a header, one line per window, then one per flight, 12 + 3 × 9 + 1
-        // fields each (the last the windows flown).
+        // The runs' CSV: a header, one line per window, then one per flight, 12 + 3 × 9 + 3
+        // fields each (the last the windows flown, those read pinned, the pinned misfit).
         let csv = flight_runs_csv(&rows);
         let lines: Vec<&str> = csv.lines().collect();
         assert_eq!(lines.len(), 23);
-        assert!(lines.iter().all(|l| l.split(',').count() == 40), "{csv}");
+        assert!(lines.iter().all(|l| l.split(',').count() == 42), "{csv}");
         assert!(lines[0].contains(",std_k9,shared_k1,"));
-        assert!(lines[0].ends_with(",windows") && lines[22].ends_with(",1"));
+        assert!(lines[0].ends_with(",windows,pinned,pinned_misfit"));
+        assert!(lines[22].ends_with(",1,0,NaN"), "{}", lines[22]);
         assert!(lines[21].contains(",window,play_unseen,"));
         assert!(lines[22].contains(",7,flight,within,"));
     }
