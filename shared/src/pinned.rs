@@ -20,8 +20,10 @@
 //! (backlash, gain drift, moment) from the scan's best two points, [`SEARCH_EVALUATIONS`]
 //! each; the curvature by central differences at two step sizes
 //! ([`CURVATURE_EVALUATIONS`]), the uncertainty there widened by
-//! [`PINNED_INFLATION`], and the verdict against [`PinnedLimits`] (the play's other end
-//! tried at [`SCAN_MOMENTS`] starts). Units: fault-vector units,
+//! [`PINNED_INFLATION`] with the held values' error carried beside it (their coupling by
+//! mixed central differences, [`COUPLING_EVALUATIONS`]: the preflight's friction, shorts,
+//! eccentricity and demagnetization, each with its stated deviation), and the verdict
+//! against [`PinnedLimits`] (the play's other end tried at [`SCAN_MOMENTS`] starts). Units: fault-vector units,
 //! N·m, A²·s. Work: at most [`PINNED_EVALUATIONS`] evaluations, each one monitor-model run
 //! over the window (O(N)); O(1) memory beyond the problem; no allocation, no panic.
 //!
@@ -33,7 +35,8 @@
 use crate::fault::FAULT_COUNT;
 use crate::uncertainty::{Curvature, Uncertainty};
 use crate::window::{
-    HeldComponents, SurfaceSamples, WindowFit, WindowLoad, WindowProblem, WindowReason,
+    HeldComponents, HeldCoupling, SurfaceSamples, WindowFit, WindowLoad, WindowProblem,
+    WindowReason,
 };
 use crate::FaultVector;
 
@@ -66,16 +69,26 @@ pub const SEARCH_EVALUATIONS: u32 = 300;
 /// parameter and four per pair each.
 pub const CURVATURE_EVALUATIONS: u32 = 2 * 19;
 
+/// Evaluations of the coupling to the held values at most: four per pair of a search
+/// parameter (backlash, gain drift, start) and a held component whose value carries an
+/// error ([`HeldComponents::covariance`]).
+pub const COUPLING_EVALUATIONS: u32 = 4 * 3 * (FAULT_COUNT - FREE.len()) as u32;
+
 /// Evaluations of one pinned identification at most.
 pub const PINNED_EVALUATIONS: u32 = (SCAN_PLAYS.len() * SCAN_GAINS.len() * SCAN_MOMENTS) as u32
     + 2 * SEARCH_EVALUATIONS
     + CURVATURE_EVALUATIONS
+    + COUPLING_EVALUATIONS
     + 1
     + SCAN_MOMENTS as u32;
 
 /// The central differences' steps: backlash, gain drift [fault-vector units], the start's
 /// moment [`MOMENT_UNIT`]s.
 const STEPS: [f32; 3] = [0.02, 0.01, 0.1];
+
+/// The held values' steps in the coupling's differences, per component [fault-vector
+/// units] (0: a free component); taken at the kept curvature's scale.
+const HELD_STEPS: [f32; FAULT_COUNT] = [0.02, 0.0, 0.01, 0.01, 0.01, 0.02, 0.02, 0.0, 0.01];
 
 /// The Nelder–Mead simplex's first edges, as [`STEPS`].
 const SIMPLEX: [f32; 3] = [0.2, 0.1, 1.0];
@@ -152,6 +165,13 @@ pub struct PinnedReading {
     /// The Gauss–Newton sums of [`FREE`] at `faults` (the start's moment and the drift
     /// profiled out; every other row and column zero): what a flight's reading adds.
     pub curvature: Curvature,
+    /// How the backlash and the gain drift lean on the held values (the friction among
+    /// them) at `faults`, the start profiled out: with the held values' covariance, what a
+    /// flight's reading takes of their error (zero columns where a held value has none).
+    pub coupling: HeldCoupling,
+    /// The standard deviation per component the held values' error adds
+    /// ([`HeldComponents::shared_std`]), already in `uncertainty`.
+    pub shared_std: [f32; FAULT_COUNT],
     /// Standard deviation and 90 % interval per component (NaN: held, not read here) with
     /// the correlations; `None` if the curvature is not positive.
     pub uncertainty: Option<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT])>,
@@ -186,9 +206,14 @@ impl<const N: usize> Objective<'_, '_, N> {
     }
 
     fn fit(&mut self, x: &Point) -> WindowFit {
+        self.fit_on(self.problem, x)
+    }
+
+    /// [`Self::fit`] on `problem` (this window with other held values).
+    fn fit_on(&mut self, problem: &WindowProblem<'_, N>, x: &Point) -> WindowFit {
         self.evaluations = self.evaluations.saturating_add(1);
         let load = WindowLoad::spring(self.stiffness, x[2] * MOMENT_UNIT);
-        self.problem
+        problem
             .evaluate_with_surface_samples(&self.vector(x), load, self.surface, &mut [])
             .0
     }
@@ -274,11 +299,21 @@ pub fn identify_pinned<const N: usize>(
     let fit = f.fit(&x);
     let faults = f.vector(&x);
     let fine = curvature(&mut f, &x, fit.error, 1.0);
-    let curvature = wider(fine, curvature(&mut f, &x, fit.error, 2.0));
-    let uncertainty = curvature
-        .uncertainty(&faults)
-        .ok()
-        .map(|(u, c)| (u.widened(&faults, &PINNED_INFLATION), c));
+    let coarse = curvature(&mut f, &x, fit.error, 2.0);
+    let (curvature, raw, scale) = wider(fine, coarse);
+    // The held values' error (the preflight's friction among them) moves the backlash and
+    // the gain drift found beside them alike in every window of the flight: carried into
+    // the deviations, not widened.
+    let coupling = held_coupling(&mut f, &x, &raw, scale);
+    let shared_std = HeldComponents::sensitivity(&curvature, &coupling)
+        .map_or([0.0; FAULT_COUNT], |a| held.shared_std(&a));
+    let uncertainty = curvature.uncertainty(&faults).ok().map(|(u, c)| {
+        (
+            u.widened(&faults, &PINNED_INFLATION)
+                .with_shared(&faults, &shared_std),
+            c,
+        )
+    });
     let misfit = problem.misfit(fit.error);
     // The play's other end: the farther bound at the same gain drift, the start scanned.
     let other = if x[0] > 0.5 { 0.0 } else { 1.0 };
@@ -301,6 +336,8 @@ pub fn identify_pinned<const N: usize>(
         start_moment: x[2] * MOMENT_UNIT,
         misfit,
         curvature,
+        coupling,
+        shared_std,
         uncertainty,
         verdict,
         evaluations: f.evaluations,
@@ -331,12 +368,12 @@ fn judge(
     Ok(())
 }
 
-/// Of two curvatures of the same point, the one that states the larger variance: `b` when
-/// its profiled 2 × 2 block of [`FREE`] has the smaller determinant or `a`'s is not
-/// positive definite (a Hessian the play's crossings make rough at one step size reads as
-/// information it does not carry); empty when neither is positive definite.
+/// Of two curvatures of the same point ([`curvature`]'s), the one that states the larger
+/// variance: `b` when its profiled 2 × 2 block of [`FREE`] has the smaller determinant or
+/// `a`'s is not positive definite (a Hessian the play's crossings make rough at one step
+/// size reads as information it does not carry); empty when neither is positive definite.
 #[allow(clippy::indexing_slicing)] // FREE's indices < FAULT_COUNT
-fn wider(a: Curvature, b: Curvature) -> Curvature {
+fn wider(a: Sums, b: Sums) -> Sums {
     let det = |c: &Curvature| {
         let (p, q, r) = (
             c.normal[FREE[0]][FREE[0]],
@@ -349,13 +386,27 @@ fn wider(a: Curvature, b: Curvature) -> Curvature {
             f64::NAN
         }
     };
-    match (det(&a), det(&b)) {
-        (x, y) if x.is_nan() && y.is_nan() => Curvature::EMPTY,
+    match (det(&a.0), det(&b.0)) {
+        (x, y) if x.is_nan() && y.is_nan() => (Curvature::EMPTY, [[0.0; 3]; 3], b.2),
         (x, _) if x.is_nan() => b,
         (_, y) if y.is_nan() => a,
         (x, y) if y < x => b,
         _ => a,
     }
+}
+
+/// A curvature of [`FREE`], the unprofiled 3 × 3 sums it came from (backlash, gain drift,
+/// start) and the scale of [`STEPS`] it was taken at.
+type Sums = (Curvature, [[f64; 3]; 3], f32);
+
+/// Where a point's differences at `steps` are centred: `x` moved into the box where a step
+/// would leave it.
+fn centred(x: &Point, steps: &[f32; 3]) -> Point {
+    let mut c = *x;
+    for (v, s) in c.iter_mut().zip(steps).take(2) {
+        *v = v.clamp(*s, 1.0 - *s);
+    }
+    c
 }
 
 /// The Gauss–Newton sums of [`FREE`] at `x` (error `error`) from the error's central
@@ -369,12 +420,9 @@ fn curvature<const N: usize>(
     x: &Point,
     error: f32,
     scale: f32,
-) -> Curvature {
+) -> Sums {
     let steps = STEPS.map(|s| s * scale);
-    let mut c = *x;
-    for i in 0..2 {
-        c[i] = c[i].clamp(steps[i], 1.0 - steps[i]);
-    }
+    let c = centred(x, &steps);
     let at = |f: &mut Objective<'_, '_, N>, d: [f32; 3]| -> f64 {
         let p = [c[0] + d[0], c[1] + d[1], c[2] + d[2]];
         f64::from(f.fit(&p).error)
@@ -430,6 +478,52 @@ fn curvature<const N: usize>(
     }
     out.rss = f64::from(error) / dt;
     out.fitted = f.problem.fitted_samples() as u32;
+    (out, normal, scale)
+}
+
+/// How the search's parameters at `x` lean on each held value that carries an error: the
+/// error's mixed central differences between a parameter (at `scale` times [`STEPS`]) and
+/// the held value (at `scale` times [`HELD_STEPS`], centred into the box), over `2·dt`, the
+/// start profiled out with `raw`'s (the kept curvature's) sums: rows [`FREE`], columns the
+/// held components, as the load model's [`HeldCoupling`]. At most [`COUPLING_EVALUATIONS`]
+/// evaluations.
+#[allow(clippy::indexing_slicing)] // indices < 3 on fixed 3-arrays, < FAULT_COUNT on 9-arrays
+fn held_coupling<const N: usize>(
+    f: &mut Objective<'_, '_, N>,
+    x: &Point,
+    raw: &[[f64; 3]; 3],
+    scale: f32,
+) -> HeldCoupling {
+    let steps = STEPS.map(|s| s * scale);
+    let c = centred(x, &steps);
+    let held = *f.problem.held();
+    let dt = f64::from(f.problem.model().params().control_period);
+    let mut out = HeldCoupling::NONE;
+    for (h, &step) in HELD_STEPS.iter().enumerate() {
+        let s = step * scale;
+        if !held.holds(h) || s <= 0.0 || held.covariance()[h][h] <= 0.0 {
+            continue;
+        }
+        let value = held.value(h);
+        let centre = value.clamp(s, 1.0 - s) - value;
+        let up = f.problem.clone().with_held(held.shifted(h, centre + s));
+        let down = f.problem.clone().with_held(held.shifted(h, centre - s));
+        let mut cross = [0.0f64; 3];
+        for (a, cross) in cross.iter_mut().enumerate() {
+            let mut at = |p: &WindowProblem<'_, N>, sign: f32| {
+                let mut q = c;
+                q[a] += sign * steps[a];
+                f64::from(f.fit_on(p, &q).error)
+            };
+            let e = at(&up, 1.0) - at(&up, -1.0) - at(&down, 1.0) + at(&down, -1.0);
+            *cross = e / (4.0 * f64::from(steps[a]) * f64::from(s)) / (2.0 * dt);
+        }
+        let m = raw[2][2];
+        let lean = if m > 0.0 { cross[2] / m } else { 0.0 };
+        for (a, &i) in FREE.iter().enumerate() {
+            out.normal[i][h] = cross[a] - raw[a][2] * lean;
+        }
+    }
     out
 }
 

@@ -108,9 +108,10 @@ pub const WINDOW_INFLATION: [f32; FAULT_COUNT] = [1.8, 1.0, 1.0, 1.0, 1.0, 1.0, 
 /// [`crate::uncertainty::Z90`], rounded up to a tenth — short A 0.37 → 0.4 (0.16 on Table
 /// I alone, 1.24 on Table II), short B 0.59 → 0.6, short C 0.49 → 0.5, the eccentricity
 /// 0.19 → 0.2, its phase 0.29 → 0.3 (the 70 runs with an eccentricity), the
-/// demagnetization 0.09 → 0.1. Components a window does not hold: 1 (unused).
-/// docs/in-flight.md §4.
-pub const HELD_ERROR_SCALE: [f32; FAULT_COUNT] = [1.0, 1.0, 0.4, 0.6, 0.5, 0.2, 0.3, 1.0, 0.1];
+/// demagnetization 0.09 → 0.1; the friction, held by a window read with its surface pinned
+/// (`crate::pinned`, stop 57, the same rule on the same campaigns): 0.22 → 0.3. Components
+/// a window never holds: 1 (unused). docs/in-flight.md §4.
+pub const HELD_ERROR_SCALE: [f32; FAULT_COUNT] = [0.3, 1.0, 0.4, 0.6, 0.5, 0.2, 0.3, 1.0, 0.1];
 
 /// How often the controller keeps the command it followed over a window: every
 /// `COMMAND_STRIDE`-th sample (2.5 kHz at the reference's 10 kHz loop), linear in between
@@ -348,20 +349,20 @@ impl HeldComponents {
     }
 
     /// These held values with the preflight's standard deviations `std` and correlations
-    /// `correlation` (its calibrated uncertainty): their covariance between held
-    /// components, each deviation taken [`HELD_ERROR_SCALE`] times; a deviation the
-    /// preflight did not determine (NaN) counts as none. O(9²).
+    /// `correlation` (its calibrated uncertainty): its covariance, each deviation taken
+    /// [`HELD_ERROR_SCALE`] times; a deviation the preflight did not determine (NaN) counts
+    /// as none. Kept for every component, held or not: a window reads only the held ones'
+    /// part (its coupling has no other column), and a component held later
+    /// ([`HeldComponents::also_holding`]: the friction of a pinned window) brings its
+    /// error with it. O(9²).
     #[must_use]
     pub fn with_preflight_uncertainty(
         mut self,
         std: &[f32; FAULT_COUNT],
         correlation: &[[f32; FAULT_COUNT]; FAULT_COUNT],
     ) -> Self {
-        let held = self.held;
-        let s = |i: usize| match (std.get(i), held.get(i)) {
-            (Some(&x), Some(true)) if x.is_finite() => {
-                x * HELD_ERROR_SCALE.get(i).copied().unwrap_or(1.0)
-            }
+        let s = |i: usize| match std.get(i) {
+            Some(&x) if x.is_finite() => x * HELD_ERROR_SCALE.get(i).copied().unwrap_or(1.0),
             _ => 0.0,
         };
         for (i, row) in self.covariance.iter_mut().enumerate() {
@@ -438,6 +439,22 @@ impl HeldComponents {
             *h = true;
         }
         self
+    }
+
+    /// These held values with component `i`'s moved by `by` (the pinned window's
+    /// differences in a held value, `crate::pinned`); the box is the vector's
+    /// ([`HeldComponents::apply`] saturates).
+    #[must_use]
+    pub fn shifted(mut self, i: usize, by: f32) -> Self {
+        if let Some(v) = self.values.get_mut(i) {
+            *v += by;
+        }
+        self
+    }
+
+    /// Component `i`'s held value (NaN beyond the vector).
+    pub fn value(&self, i: usize) -> f32 {
+        self.values.get(i).copied().unwrap_or(f32::NAN)
     }
 
     /// Whether component `i` is held.

@@ -546,6 +546,51 @@ fn a_pinned_window_reads_a_wide_play_and_the_gain_drift() {
         "{}",
         reading.evaluations
     );
+    // Held values without their error: nothing carried.
+    assert_eq!(reading.shared_std, [0.0; shared::FAULT_COUNT]);
+
+    // The preflight's friction read with a deviation of 0.03: its error moves the play and
+    // the gain drift found beside it, and their deviations carry it. The coupling predicts
+    // how far a pinned reading moves when the held friction does (read again with it 0.1
+    // high: the play moves by ≈ 5 × 10⁻⁴, the gain drift by ≈ 4 × 10⁻⁵ — within half the
+    // predicted move or 2 × 10⁻⁴; a coupling of zero or of the wrong sign fails).
+    let mut std = [f32::NAN; shared::FAULT_COUNT];
+    std[0] = 0.03;
+    let correlation = core::array::from_fn(|i| core::array::from_fn(|j| f32::from(i == j)));
+    let uncertain = held.with_preflight_uncertainty(&std, &correlation);
+    let carried =
+        identify_pinned(&problem, &surface, &uncertain, stiffness, guess, &limits).unwrap();
+    let (uc, _) = carried.uncertainty.expect("an uncertainty");
+    let a = HeldComponents::sensitivity(&carried.curvature, &carried.coupling).unwrap();
+    for i in [1, 7] {
+        let expected = (a[i][0].abs() * 0.03) as f32 * shared::window::HELD_ERROR_SCALE[0];
+        assert!(
+            (carried.shared_std[i] - expected).abs() <= 1e-6 + 1e-3 * expected,
+            "component {i}: {} vs {expected}",
+            carried.shared_std[i]
+        );
+        assert!(uc.std[i] >= u.std[i], "{} < {}", uc.std[i], u.std[i]);
+    }
+    let mut high = *truth.as_array();
+    high[0] += 0.1;
+    let moved = identify_pinned(
+        &problem,
+        &surface,
+        &HeldComponents::of_preflight(&FaultVector::new(high).unwrap())
+            .with_preflight_uncertainty(&std, &correlation),
+        stiffness,
+        guess,
+        &limits,
+    )
+    .unwrap();
+    for i in [1, 7] {
+        let predicted = -(a[i][0] * 0.1) as f32;
+        let actual = moved.faults.as_array()[i] - carried.faults.as_array()[i];
+        assert!(
+            (actual - predicted).abs() <= (predicted.abs() / 2.0).max(2e-4),
+            "component {i}: moved {actual}, predicted {predicted}"
+        );
+    }
 
     // Nothing held (no preflight): nothing to hold the friction at.
     assert_eq!(

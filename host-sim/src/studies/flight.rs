@@ -71,6 +71,10 @@ pub struct FlightRun {
     /// tried (NaN otherwise, and for a flight).
     pub pinned: u32,
     pub pinned_misfit: f32,
+    /// The same flight's preflight reading and its deviations (NaN: undetermined, or the
+    /// preflight not `within`): what `agreement` compares with.
+    pub pre_found: FaultVector,
+    pub pre_std: [f32; shared::FAULT_COUNT],
 }
 
 /// The preflight's seed offset from the window's (its own noise).
@@ -289,6 +293,11 @@ fn fly_windows(
                         (Some(a), Some((b, _)), true) => agreement(a, b),
                         _ => (0, 0),
                     };
+                    let pre_found = pre.result.faults;
+                    let pre_std = match &pre.uncertainty {
+                        Some((u, _)) if pre_within => u.std,
+                        _ => [f32::NAN; shared::FAULT_COUNT],
+                    };
                     let mut runs = Vec::new();
                     let mut fusion = WindowFusion::EMPTY;
                     let mut first_reason = None;
@@ -326,6 +335,8 @@ fn fly_windows(
                             windows: 1,
                             pinned: u32::from(w.model == WindowModel::Pinned),
                             pinned_misfit: w.pinned_misfit.unwrap_or(f32::NAN),
+                            pre_found,
+                            pre_std,
                         });
                         let reading = fusion.reading(FLIGHT_MAX_FRICTION_STD).ok();
                         if let FlightProgress::Done(_) =
@@ -370,6 +381,8 @@ fn fly_windows(
                                 windows: runs.len() as u32,
                                 pinned: pinned_entered,
                                 pinned_misfit: f32::NAN,
+                                pre_found,
+                                pre_std,
                             }
                         }
                         // No window of the flight could be fused: the flight is named by
@@ -398,6 +411,8 @@ fn fly_windows(
                             windows: runs.len() as u32,
                             pinned: 0,
                             pinned_misfit: f32::NAN,
+                            pre_found,
+                            pre_std,
                         },
                     };
                     Ok((runs, Some(flight)))
@@ -666,7 +681,8 @@ pub fn interval_calibration(
 /// level and misfit (a flight's: its windows' mean), the preflight FDI's verdict on the
 /// (first) window, the vector found, its deviations and the part of them the held preflight
 /// values' error adds (shared by a flight's windows), the windows flown (1 for a window),
-/// the windows read pinned and a window's pinned misfit (NaN: not tried).
+/// the windows read pinned and a window's pinned misfit (NaN: not tried), then the same
+/// flight's preflight reading and its deviations (NaN where not `within`).
 pub fn flight_runs_csv(rows: &[FlightRow]) -> String {
     let mut text = String::from(
         "phase,turbulence,case,seed,reading,verdict,e_tot_pct,false_faults,healthy_max,\
@@ -681,7 +697,14 @@ pub fn flight_runs_csv(rows: &[FlightRow]) -> String {
     for j in 1..=shared::FAULT_COUNT {
         text.push_str(&format!(",shared_k{j}"));
     }
-    text.push_str(",windows,pinned,pinned_misfit\n");
+    text.push_str(",windows,pinned,pinned_misfit");
+    for j in 1..=shared::FAULT_COUNT {
+        text.push_str(&format!(",pre_k{j}"));
+    }
+    for j in 1..=shared::FAULT_COUNT {
+        text.push_str(&format!(",pre_std_k{j}"));
+    }
+    text.push('\n');
     for (reading, select) in [
         (
             "window",
@@ -709,9 +732,13 @@ pub fn flight_runs_csv(rows: &[FlightRow]) -> String {
                     text.push_str(&format!(",{x:.5}"));
                 }
                 text.push_str(&format!(
-                    ",{},{},{:.5}\n",
+                    ",{},{},{:.5}",
                     r.windows, r.pinned, r.pinned_misfit
                 ));
+                for x in r.pre_found.as_array().iter().chain(&r.pre_std) {
+                    text.push_str(&format!(",{x:.5}"));
+                }
+                text.push('\n');
             }
         }
     }
@@ -785,6 +812,8 @@ mod tests {
             windows: 1,
             pinned: 0,
             pinned_misfit: f32::NAN,
+            pre_found: FaultVector::NOMINAL,
+            pre_std: [0.02; shared::FAULT_COUNT],
         }
     }
 
@@ -822,14 +851,20 @@ mod tests {
         // The flights' readings are counted apart.
         assert_eq!(interval_calibration(&rows, |r| &r.flights)[0].1, 1);
         // The runs' CSV: a header, one line per window, then one per flight, 12 + 3 × 9 + 3
-        // fields each (the last the windows flown, those read pinned, the pinned misfit).
+        // + 2 × 9 fields each (the windows flown, those read pinned, the pinned misfit, then
+        // the preflight's reading and deviations).
         let csv = flight_runs_csv(&rows);
         let lines: Vec<&str> = csv.lines().collect();
         assert_eq!(lines.len(), 23);
-        assert!(lines.iter().all(|l| l.split(',').count() == 42), "{csv}");
+        assert!(lines.iter().all(|l| l.split(',').count() == 60), "{csv}");
         assert!(lines[0].contains(",std_k9,shared_k1,"));
-        assert!(lines[0].ends_with(",windows,pinned,pinned_misfit"));
-        assert!(lines[22].ends_with(",1,0,NaN"), "{}", lines[22]);
+        assert!(lines[0].contains(",windows,pinned,pinned_misfit,pre_k1,"));
+        assert!(lines[0].ends_with(",pre_std_k9"));
+        assert!(
+            lines[22].ends_with(",1,0,NaN,0.00000,0.00000,0.00000,0.00000,0.00000,0.00000,0.50000,0.50000,0.00000,0.02000,0.02000,0.02000,0.02000,0.02000,0.02000,0.02000,0.02000,0.02000"),
+            "{}",
+            lines[22]
+        );
         assert!(lines[21].contains(",window,play_unseen,"));
         assert!(lines[22].contains(",7,flight,within,"));
     }
