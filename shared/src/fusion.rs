@@ -81,6 +81,19 @@ pub const FLIGHT_MAX_FRICTION_STD: f32 = 0.03;
 /// docs/in-flight.md §4.
 pub const FLIGHT_INFLATION: [f32; FAULT_COUNT] = [1.1, 1.0, 1.0, 1.0, 1.0, 1.5, 1.0, 1.9, 1.0];
 
+/// [`FLIGHT_INFLATION`]'s further factor per component for a flight into which a window read
+/// with its surface pinned entered (`crate::pinned`: a window that held the friction): its
+/// windows read the play with one small bias alike (−0.001 to −0.002 on Table II medium's
+/// 0.4, at a flight's σ of 0.0005), which adding windows does not shrink. The window
+/// factors' rule on Table II in cruise under the cruise rule, selection seeds 10–29 (`host-sim
+/// campaign --flight --table 2 --phase cruise --runs 20 --first-seed 10 --flight-windows 8
+/// --flight-windows-max 24 --runs-csv F`, stop 57, the held values' error carried): 87
+/// flights read with a pinned window, the backlash's intervals held the truth in 52 — ×1.82
+/// → **1.9** (80 of 87 with it); the gain drift ×0.56, the friction ×0.33 — left; the 29
+/// flights read without one: backlash ×0.89. docs/in-flight.md §4.
+pub const PINNED_FLIGHT_INFLATION: [f32; FAULT_COUNT] =
+    [1.0, 1.9, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0];
+
 /// The windows per flight [`FLIGHT_INFLATION`] was chosen at.
 pub const CALIBRATED_WINDOWS: u32 = 8;
 
@@ -260,8 +273,10 @@ pub struct WindowFusion {
     /// friction's point and variance — to ask whether it alone outweighs the others
     /// ([`WindowFusion::reading`]). Chosen by its deviation, never by its reading.
     closest: ClosestWindow,
-    /// Whether a window held the friction at its preflight's (`crate::pinned`): the value
-    /// a flight whose windows read no friction takes, not judged by the friction limit.
+    /// Whether a window held the friction at its preflight's (`crate::pinned`, a window read
+    /// with its surface pinned): the value a flight whose windows read no friction takes,
+    /// not judged by the friction limit; its deviations widened by
+    /// [`PINNED_FLIGHT_INFLATION`].
     friction_held: bool,
 }
 
@@ -553,8 +568,15 @@ impl WindowFusion {
             }
         }
         let shared_std = propagated_std(&moved, &self.held_covariance);
+        let mut factors = flight_inflation(self.windows);
+        if self.friction_held {
+            // A pinned window entered ([`PINNED_FLIGHT_INFLATION`]).
+            for (f, p) in factors.iter_mut().zip(PINNED_FLIGHT_INFLATION) {
+                *f *= p;
+            }
+        }
         let mut uncertainty = uncertainty
-            .widened(&faults, &flight_inflation(self.windows))
+            .widened(&faults, &factors)
             .with_shared(&faults, &shared_std);
         uncertainty.residual_std = self.residual_std / self.windows as f32;
         let friction_std = uncertainty.std[0];
@@ -1164,6 +1186,18 @@ mod tests {
         assert!(reading.friction_held);
         assert_eq!(reading.faults.as_array()[0], 0.4);
         assert!(reading.uncertainty.0.std[0].is_nan());
+        // Its windows were pinned ones: the play's deviation is taken
+        // `PINNED_FLIGHT_INFLATION` times the same windows' unpinned, the gain drift's not.
+        let unpinned = free.reading(FLIGHT_MAX_FRICTION_STD).unwrap().uncertainty.0;
+        let pinned = &reading.uncertainty.0;
+        for i in [1, 7] {
+            let ratio = pinned.std[i] / unpinned.std[i];
+            assert!(
+                (ratio - PINNED_FLIGHT_INFLATION[i]).abs() < 1e-4,
+                "component {i}: {ratio}"
+            );
+        }
+        assert!(PINNED_FLIGHT_INFLATION[1] > 1.0);
         // Not held: the friction is read by no window, the flight cannot be judged on it.
         let reading = free.reading(FLIGHT_MAX_FRICTION_STD).unwrap();
         assert!(!reading.friction_held);
