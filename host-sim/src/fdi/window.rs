@@ -11,8 +11,8 @@
 //! A window the load model leaves at its fitness floor is read again with the model's surface
 //! pinned to its sensor (`shared::pinned`: the backlash and the gain drift, the friction held
 //! at the same flight's preflight reading with the shorts, the eccentricity and the
-//! demagnetization), when that preflight was trusted: at most
-//! `shared::pinned::PINNED_EVALUATIONS` more runs (≤ 849).
+//! demagnetization, their error carried into its deviations), when that preflight was
+//! trusted: at most `shared::pinned::PINNED_EVALUATIONS` more runs (≤ 933).
 
 use anyhow::Result;
 use shared::actuator::ActuatorRecord;
