@@ -83,8 +83,8 @@ pub const FLIGHT_INFLATION: [f32; FAULT_COUNT] = [1.1, 1.0, 1.0, 1.0, 1.0, 1.5, 
 
 /// [`FLIGHT_INFLATION`]'s further factor per component for a flight into which a window read
 /// with its surface pinned entered (`crate::pinned`: a window that held the friction): its
-/// windows read the play with one small bias alike (−0.001 to −0.002 on Table II medium's
-/// 0.4, at a flight's σ of 0.0005), which adding windows does not shrink. The window
+/// windows read the play with one small bias alike (−0.0005 to −0.0021 on Table II medium's
+/// 0.4 in all 38 such flights, at a flight's σ of 0.0005), which adding windows does not shrink. The window
 /// factors' rule on Table II in cruise under the cruise rule, selection seeds 10–29 (`host-sim
 /// campaign --flight --table 2 --phase cruise --runs 20 --first-seed 10 --flight-windows 8
 /// --flight-windows-max 24 --runs-csv F`, stop 57, the held values' error carried): 87
