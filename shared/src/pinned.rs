@@ -24,8 +24,9 @@
 //! mixed central differences, [`COUPLING_EVALUATIONS`]: the preflight's friction, shorts,
 //! eccentricity and demagnetization, each with its stated deviation), and the verdict
 //! against [`PinnedLimits`] (the play's other end tried at [`SCAN_MOMENTS`] starts).
-//! Units: fault-vector units, N·m, A²·s. Work: at most [`PINNED_EVALUATIONS`] evaluations, each one monitor-model run
-//! over the window (O(N)); O(1) memory beyond the problem; no allocation, no panic.
+//! Units: fault-vector units, N·m, A²·s. Work: at most [`PINNED_EVALUATIONS`] evaluations,
+//! each one monitor-model run over the window (O(N)); O(1) memory beyond the problem; no
+//! allocation, no panic.
 //!
 //! Run by the host on every window the load model names `fitness_floor` when the flight's
 //! preflight was trusted (`host-sim`'s window identification). Not on the controller: it
