@@ -47,9 +47,28 @@ pub const FREE: [usize; 2] = [1, 7];
 /// The friction's index: held at the preflight's in a pinned window.
 const FRICTION: usize = 0;
 
-/// The start's moment in the search's units [N·m per unit]: a play crossed in the window's
-/// settle moves it by a few hundred N·m.
+/// The start's moment in the search's units [N·m per unit] on the built-in actuator: a play
+/// crossed in the window's settle moves it by a few hundred N·m. Another actuator's unit
+/// and scan step are these times its spring's moment at the test's amplitude over the
+/// built-in one's ([`moment_scale`]: a trim tab's 10 N·m against 250).
 const MOMENT_UNIT: f32 = 100.0;
+
+/// The built-in actuator's spring moment at the test's amplitude [N·m]: its hinge stiffness
+/// times the chirp's amplitude, the scale [`MOMENT_UNIT`] and [`SCAN_STEP`] were set at.
+const REFERENCE_MOMENT: f32 = crate::params::ActuatorParams::REFERENCE.aero_stiffness
+    * crate::ChirpCommand::PREFLIGHT.amplitude;
+
+/// How much larger than the built-in actuator's an actuator's moments are: its spring's
+/// moment at the test's amplitude (`stiffness` [N·m/rad] × `amplitude` [rad]) over
+/// [`REFERENCE_MOMENT`]; exactly 1 on the built-in actuator, 1 where either is not positive.
+fn moment_scale(stiffness: f32, amplitude: f32) -> f32 {
+    let scale = stiffness * amplitude / REFERENCE_MOMENT;
+    if scale.is_finite() && scale > 0.0 {
+        scale
+    } else {
+        1.0
+    }
+}
 
 /// The backlash values the start's scan tries (the search starts from the best two pairs).
 pub const SCAN_PLAYS: [f32; 3] = [0.0, 0.5, 1.0];
@@ -191,6 +210,8 @@ struct Objective<'p, 'a, const N: usize> {
     surface: &'p SurfaceSamples<'p>,
     base: FaultVector,
     stiffness: f32,
+    /// The start moment's unit on this actuator [N·m] ([`MOMENT_UNIT`] × [`moment_scale`]).
+    unit: f32,
     evaluations: u32,
 }
 
@@ -213,7 +234,7 @@ impl<const N: usize> Objective<'_, '_, N> {
     /// [`Self::fit`] on `problem` (this window with other held values).
     fn fit_on(&mut self, problem: &WindowProblem<'_, N>, x: &Point) -> WindowFit {
         self.evaluations = self.evaluations.saturating_add(1);
-        let load = WindowLoad::spring(self.stiffness, x[2] * MOMENT_UNIT);
+        let load = WindowLoad::spring(self.stiffness, x[2] * self.unit);
         problem
             .evaluate_with_surface_samples(&self.vector(x), load, self.surface, &mut [])
             .0
@@ -268,10 +289,11 @@ pub fn identify_pinned<const N: usize>(
         surface,
         base: held.apply(&FaultVector::NOMINAL),
         stiffness,
+        unit: MOMENT_UNIT * moment_scale(stiffness, problem.model().command().amplitude),
         evaluations: 0,
     };
     // The start's scan: the best moment at each play and gain, the two best pairs kept.
-    let centre = start_guess / MOMENT_UNIT;
+    let centre = start_guess / f.unit;
     const PAIRS: usize = SCAN_PLAYS.len() * SCAN_GAINS.len();
     let mut best: [(Point, f32); PAIRS] = [([0.0; 3], f32::INFINITY); PAIRS];
     for (n, slot) in best.iter_mut().enumerate() {
@@ -334,7 +356,7 @@ pub fn identify_pinned<const N: usize>(
     Ok(PinnedReading {
         faults,
         fit,
-        start_moment: x[2] * MOMENT_UNIT,
+        start_moment: x[2] * f.unit,
         misfit,
         curvature,
         coupling,
@@ -586,4 +608,23 @@ fn nelder_mead<const N: usize>(
     }
     simplex.sort_unstable_by(|a, b| a.1.total_cmp(&b.1));
     simplex[0]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_start_moments_scale_follows_the_actuators_spring() {
+        // The built-in actuator: exactly the unit the search was set at (its bits kept).
+        let built_in = crate::params::ActuatorParams::REFERENCE.aero_stiffness;
+        let amplitude = crate::ChirpCommand::PREFLIGHT.amplitude;
+        assert_eq!(moment_scale(built_in, amplitude), 1.0);
+        // A trim tab's spring (10 N·m at the chirp's 5 mrad against 250): 1/25 of it.
+        assert!((moment_scale(2.0e3, amplitude) - 0.04).abs() < 1e-6);
+        // Twice the amplitude, twice the moments; no spring: the built-in unit.
+        assert!((moment_scale(built_in, 2.0 * amplitude) - 2.0).abs() < 1e-6);
+        assert_eq!(moment_scale(0.0, amplitude), 1.0);
+        assert_eq!(moment_scale(f32::NAN, amplitude), 1.0);
+    }
 }
