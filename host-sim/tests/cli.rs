@@ -562,6 +562,66 @@ fn a_window_at_the_fitness_floor_names_the_play_and_is_read_pinned_after_a_prefl
         .is_some_and(|h| h.contains("two ends fit about as well")));
 }
 
+/// Another actuator's window of flight (its file's test plays tones before the chirp, a window
+/// carries the chirp alone) is identified and plotted from the command line with the same
+/// flight's preflight, read with that actuator's record (refused with exit 7 before stop 58:
+/// the window's test was checked against the preflight's); a window does not calibrate.
+#[test]
+fn another_actuators_window_is_identified_and_plotted_from_the_command_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let light = "../actuators/light-28v.toml";
+    let healthy = "0,0,0,0,0,0,0.5,0.5,0";
+    let (window, pre) = (path(&dir, "window.csv"), path(&dir, "preflight.csv"));
+    for (args, out) in [
+        (vec!["--flight", "cruise", "--turbulence", "light"], &window),
+        (vec![], &pre),
+    ] {
+        let mut a = vec![
+            "simulate",
+            "--actuator",
+            light,
+            "--faults",
+            healthy,
+            "--seed",
+            "1",
+            "--out",
+            out.as_str(),
+        ];
+        a.extend(args);
+        let o = host_sim(&a);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let o = host_sim(&[
+        "identify",
+        &window,
+        "--actuator",
+        light,
+        "--preflight",
+        &pre,
+        "--json",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v = json(&o);
+    assert_eq!(v["window"], true, "{v}");
+    assert_eq!(v["verdict"], "within", "{v}");
+    assert_eq!(v["model"], "load", "{v}");
+    // The light actuator's spring (2 kN·m/rad) and cruise's aerodynamic stiffness, not the
+    // built-in aileron's 50 kN·m/rad.
+    let stiffness = v["stiffness"].as_f64().unwrap();
+    assert!((1_500.0..4_000.0).contains(&stiffness), "{v}");
+    let friction = v["faults"][0].as_f64().unwrap();
+    assert!(friction < 0.05, "{v}");
+    let svg = path(&dir, "window.svg");
+    let o = host_sim(&["plot", &window, "--actuator", light, "--out", &svg]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(std::fs::read_to_string(&svg).unwrap().contains("<svg"));
+    // A window of flight does not calibrate an actuator (its load is not the test's).
+    let rec = path(&dir, "unit.rec");
+    let o = host_sim(&["calibrate", &window, "--actuator", light, "--out", &rec]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("cannot calibrate"), "{}", stderr(&o));
+}
+
 /// A window of flight cannot tell a stator short from an eccentricity (it has no standstill
 /// segment): given the same flight's preflight (`--preflight`), it holds the shorts and the
 /// eccentricity at the preflight's reading and reads the window right; a preflight given as

@@ -17,6 +17,7 @@ pub(crate) fn calibrate_command(
         );
     }
     let trace = actuator.read_trace(trace_path)?;
+    refuse_flight(&trace, trace_path)?;
     let mut record = ActuatorRecord {
         test: *trace.test(),
         ..actuator.record
@@ -45,6 +46,7 @@ pub(crate) fn calibrate_command(
         let mut traces = Vec::new();
         for path in at {
             let other = actuator.read_trace(path)?;
+            refuse_flight(&other, path)?;
             let measured = other.measured(&record.params)?;
             let celsius = measured.conditions().temperature().with_context(|| {
                 format!(
@@ -223,4 +225,17 @@ fn same_file(a: &Path, b: &Path) -> bool {
             (std::fs::canonicalize(a), std::fs::canonicalize(b)),
             (Ok(x), Ok(y)) if x == y
         )
+}
+
+/// A calibration is measured on the preflight test of a healthy actuator on the ground, never
+/// on a window of flight (its hinge load and the flight's commands are not the test's).
+fn refuse_flight(trace: &host_sim::files::trace::Trace, path: &Path) -> Result<()> {
+    if trace.is_flight() {
+        anyhow::bail!(
+            "{}: a window of flight (`# test: flight`) cannot calibrate: give a healthy \
+             actuator's preflight trace",
+            path.display()
+        );
+    }
+    Ok(())
 }

@@ -309,11 +309,26 @@ impl Actuator {
         )
     }
 
-    /// The trace at `path`, its test resolved against this actuator ([`Self::test_for`]).
+    /// The trace at `path`, its test resolved against this actuator ([`Self::test_for`]); a
+    /// window of flight carries the actuator's chirp alone, whatever its preflight test.
     pub fn read_trace(&self, path: &Path) -> Result<crate::files::trace::Trace> {
         let trace = crate::files::trace::Trace::read(path)?;
-        let test = self.test_for(trace.test())?;
+        let test = if trace.is_flight() {
+            self.flight_test(trace.test())
+        } else {
+            self.test_for(trace.test())?
+        };
         Ok(trace.with_test(test))
+    }
+
+    /// The test a window of flight of this actuator carries: the record's chirp alone (the
+    /// built-in actuator follows the trace).
+    pub fn flight_test(&self, trace_test: &PreflightTest) -> PreflightTest {
+        if self.built_in {
+            *trace_test
+        } else {
+            self.record.test.chirp_only()
+        }
     }
 
     /// The record with the calibration for `test` (the built-in actuator has one per test).
