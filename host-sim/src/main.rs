@@ -105,9 +105,16 @@ enum Command {
         /// (default: the actuator file's `[rig] scales`, else 1).
         #[arg(long, value_parser = RigFormat::parse_scales)]
         scales: Option<std::collections::BTreeMap<String, f64>>,
-        /// Start of the test in the recording [s] (default: found from the command column).
+        /// Start of the test in the recording [s] (default: found from the command column;
+        /// with --flight, required: where the superimposed chirp starts).
         #[arg(long)]
         start: Option<f64>,
+        /// The recording is a window of flight (issue 36): the actuator's chirp superimposed
+        /// on the flight control computer's commands, under the flight's hinge load. The
+        /// trace holds the chirp's length from --start and is marked `# test: flight` (CSV
+        /// only), for `identify` (with `--preflight`, `--same-flight`) and `plot`.
+        #[arg(long)]
+        flight: bool,
         /// Field delimiter (default: sniffed from the header: `,`, `;` or tab).
         #[arg(long)]
         delimiter: Option<char>,
@@ -630,6 +637,7 @@ fn main() -> ExitCode {
             columns,
             scales,
             start,
+            flight,
             delimiter,
             anti_alias_hz,
             out,
@@ -639,6 +647,7 @@ fn main() -> ExitCode {
             columns,
             scales,
             start,
+            flight,
             delimiter,
             anti_alias_hz,
             &out,

@@ -565,7 +565,8 @@ fn a_window_at_the_fitness_floor_names_the_play_and_is_read_pinned_after_a_prefl
 /// Another actuator's window of flight (its file's test plays tones before the chirp, a window
 /// carries the chirp alone) is identified and plotted from the command line with the same
 /// flight's preflight, read with that actuator's record (refused with exit 7 before stop 58:
-/// the window's test was checked against the preflight's); a window does not calibrate.
+/// the window's test was checked against the preflight's); a window does not calibrate; the
+/// same window from a rig's logger is imported as a window of flight (`import --flight`).
 #[test]
 fn another_actuators_window_is_identified_and_plotted_from_the_command_line() {
     let dir = tempfile::tempdir().unwrap();
@@ -620,6 +621,82 @@ fn another_actuators_window_is_identified_and_plotted_from_the_command_line() {
     let o = host_sim(&["calibrate", &window, "--actuator", light, "--out", &rec]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("cannot calibrate"), "{}", stderr(&o));
+
+    // The same window as a rig's logger wrote it (its own column names, milliseconds, `;`,
+    // 50 ms of flight before the window whose command never rests at 0), imported as a
+    // window of flight, identifies as the simulated one.
+    let trace = host_sim::files::trace::Trace::read(std::path::Path::new(&window)).unwrap();
+    let rows = trace.samples();
+    let dt = rows[1].time - rows[0].time;
+    let mut rig = String::from("Time [ms];Cmd;Ia;Ib;Ic;MotorAngle;SurfaceAngle\n");
+    let lead = 500;
+    for k in 0..lead + rows.len() {
+        let r = &rows[k.saturating_sub(lead)];
+        let command = if k < lead { 1e-3 } else { r.command };
+        rig += &format!(
+            "{};{};{};{};{};{};{}\n",
+            k as f64 * dt * 1e3,
+            command,
+            r.phase_currents[0],
+            r.phase_currents[1],
+            r.phase_currents[2],
+            r.motor_angle,
+            r.user_angle
+        );
+    }
+    let recording = path(&dir, "logger.csv");
+    std::fs::write(&recording, rig).unwrap();
+    let imported = path(&dir, "imported.csv");
+    let columns =
+        "t=Time [ms],theta_cmd=Cmd,i_a=Ia,i_b=Ib,i_c=Ic,theta_m=MotorAngle,theta_u=SurfaceAngle";
+    let import = |extra: &[&str], out: &str| {
+        let mut a = vec![
+            "import",
+            &recording,
+            "--actuator",
+            light,
+            "--flight",
+            "--columns",
+            columns,
+            "--scales",
+            "t=1e-3",
+            "--out",
+            out,
+        ];
+        a.extend(extra);
+        host_sim(&a)
+    };
+    let o = import(&[], &imported);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("give --start"), "{}", stderr(&o));
+    let start = format!("{}", lead as f64 * dt);
+    let o = import(&["--start", &start], &path(&dir, "imported.bin"));
+    assert!(stderr(&o).contains("written as CSV"), "{}", stderr(&o));
+    let o = import(&["--start", &start], &imported);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(std::fs::read_to_string(&imported)
+        .unwrap()
+        .starts_with("# test: flight"));
+    let w = json(&host_sim(&[
+        "identify",
+        &imported,
+        "--actuator",
+        light,
+        "--preflight",
+        &pre,
+        "--json",
+    ]));
+    assert_eq!(w["verdict"], "within", "{w}");
+    for j in 0..9 {
+        let (a, b) = (
+            v["faults"][j].as_f64().unwrap(),
+            w["faults"][j].as_f64().unwrap(),
+        );
+        assert!(
+            (a - b).abs() < 2e-3,
+            "component {j}: {a} simulated, {b} imported: {w}"
+        );
+    }
 }
 
 /// A window of flight cannot tell a stator short from an eccentricity (it has no standstill

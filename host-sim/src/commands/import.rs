@@ -10,6 +10,7 @@ pub(crate) fn import_command(
     columns: Option<std::collections::BTreeMap<String, String>>,
     scales: Option<std::collections::BTreeMap<String, f64>>,
     start: Option<f64>,
+    flight: bool,
     delimiter: Option<char>,
     anti_alias_hz: Option<f64>,
     out: &Path,
@@ -31,20 +32,46 @@ pub(crate) fn import_command(
         start,
         anti_alias_hz,
     };
+    let out_format = format_from_extension(out);
+    if flight {
+        if start.is_none() {
+            anyhow::bail!(
+                "--flight: give --start SECONDS, where the superimposed chirp starts in the \
+                 recording (a flight's command never rests at 0, so the start cannot be found \
+                 from it)"
+            );
+        }
+        if out_format != TraceFormat::Csv {
+            anyhow::bail!(
+                "--flight: a window of flight is written as CSV (`# test: flight`); the binary \
+                 trace has no flight mark: name the output .csv"
+            );
+        }
+    }
     let bytes =
         std::fs::read(recording).with_context(|| format!("reading {}", recording.display()))?;
-    let test = actuator.record.test;
+    // A window of flight carries the actuator's chirp alone (no standstill segment).
+    let test = if flight {
+        actuator.record.test.chirp_only()
+    } else {
+        actuator.record.test
+    };
     let period = f64::from(actuator.params().control_period);
     let trace = host_sim::files::rig::import(&bytes, &format, &test, period)
         .map_err(anyhow::Error::new)
         .and_then(|t| t.checked().map_err(anyhow::Error::new))
         .with_context(|| format!("recording {} refused", recording.display()))?;
-    trace.write(out, format_from_extension(out))?;
+    let trace = if flight { trace.as_flight() } else { trace };
+    trace.write(out, out_format)?;
     println!(
-        "wrote {} ({} samples of the {} test at {:.0} Hz, from {})",
+        "wrote {} ({} samples of {} at {:.0} Hz, from {})",
         out.display(),
         trace.samples().len(),
-        test.kind_name(),
+        if flight {
+            "a window of flight (the chirp alone on the flight's commands)".to_string()
+        } else {
+            format!("the {} test", test.kind_name())
+        },
         1.0 / period,
         recording.display()
     );
