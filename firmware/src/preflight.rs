@@ -512,7 +512,7 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                 Ok(match done {
                     None => State::Uncertainty { result },
                     Some(curvature) => {
-                        let uncertainty = curvature.uncertainty(&result.faults).ok();
+                        let uncertainty = curvature.preflight_uncertainty(&result.faults).ok();
                         State::Report {
                             result,
                             assessments: self.assess(&result, uncertainty.as_ref()),

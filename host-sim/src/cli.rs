@@ -284,6 +284,10 @@ pub(crate) enum CampaignTable {
     #[value(name = "2")]
     Two,
     Random,
+    /// Tables I and II together: the runs the preflight's uncertainty is calibrated on
+    /// (`shared::uncertainty::INFLATION` and `SYSTEMATIC`).
+    #[value(name = "1+2")]
+    OneAndTwo,
     /// The ninth fault: demagnetization in both forms, mixed with a short and a hot day.
     #[value(name = "demagnetization")]
     Demagnetization,

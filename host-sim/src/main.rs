@@ -195,7 +195,8 @@ enum Command {
     /// identified by the onboard FDI, several seeds per case, in parallel.
     Campaign {
         /// Which cases: 1 (paper Table I, single faults), 2 (Table II, multiple faults, plus
-        /// the healthy actuator with noise), random (multi-fault vectors nobody tuned on),
+        /// the healthy actuator with noise), 1+2 (both: what the preflight's uncertainty is
+        /// calibrated on), random (multi-fault vectors nobody tuned on),
         /// demagnetization (the ninth fault: uniform and one magnet, with a short, on a hot
         /// and a cold day, and the short and the days that must not read as it).
         #[arg(long, value_enum, required_unless_present_any = ["conditions", "wind", "flight"])]

@@ -424,12 +424,13 @@ impl<const N: usize> FitnessProblem<'_, N> {
     }
 
     /// A standard deviation, a 90 % interval and the correlations of each component of the
-    /// identified `k` ([`crate::uncertainty`]). 10 monitor-model runs.
+    /// identified `k` ([`crate::uncertainty`], with the preflight's systematic error). 10
+    /// monitor-model runs.
     pub fn uncertainty(
         &self,
         k: &FaultVector,
     ) -> Result<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT]), UncertaintyError> {
-        self.curvature(k).uncertainty(k)
+        self.curvature(k).preflight_uncertainty(k)
     }
 }
 

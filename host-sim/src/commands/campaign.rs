@@ -18,6 +18,15 @@ pub(crate) fn campaign_command(
             v.push(HEALTHY);
             v
         }),
+        CampaignTable::OneAndTwo => (
+            "Tables I and II: the preflight's uncertainty's calibration",
+            {
+                let mut v = TABLE_1.to_vec();
+                v.extend(TABLE_2);
+                v.push(HEALTHY);
+                v
+            },
+        ),
         CampaignTable::Random => (
             "Random multi-fault vectors (not tuned on)",
             campaign::untuned_random_cases(8),
@@ -344,8 +353,8 @@ fn flight_cases(table: Option<CampaignTable>) -> Result<Vec<(&'static str, [f32;
             cases.push(FLIGHT_CASES[0]);
             cases
         }
-        Some(CampaignTable::Random) => anyhow::bail!(
-            "--table random: the flight campaign flies Table I (1), Table II (2) or \
+        Some(CampaignTable::Random | CampaignTable::OneAndTwo) => anyhow::bail!(
+            "--table: the flight campaign flies Table I (1), Table II (2) or \
              demagnetization only"
         ),
     })

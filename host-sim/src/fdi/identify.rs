@@ -264,7 +264,7 @@ pub fn identify_checkpointed(
     let seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
     let curvature = id.problem().curvature_in(&mut run, &result.faults);
-    let uncertainty = curvature.uncertainty(&result.faults).ok();
+    let uncertainty = curvature.preflight_uncertainty(&result.faults).ok();
     Ok((
         Outcome::Finished(Box::new(Identified {
             result,
