@@ -843,7 +843,11 @@ pub fn markdown(title: &str, summaries: &[CaseSummary], runs: u64) -> String {
             format!("{c}: {n}/{}", z.len())
         })
         .collect();
-    let _ = writeln!(s, "Inside at other inflations: {}.", grid.join(", "));
+    let _ = writeln!(
+        s,
+        "Inside at other inflations (without the systematic error): {}.",
+        grid.join(", ")
+    );
     // Per component: what a flight's windows take of a preflight's deviation when they
     // hold its value (`shared::window::HELD_ERROR_SCALE`).
     let per: Vec<String> = (0..FAULT_COUNT)
