@@ -323,7 +323,7 @@ impl Actuator {
 
     /// The test a window of flight of this actuator carries: the record's chirp alone (the
     /// built-in actuator follows the trace).
-    pub fn flight_test(&self, trace_test: &PreflightTest) -> PreflightTest {
+    fn flight_test(&self, trace_test: &PreflightTest) -> PreflightTest {
         if self.built_in {
             *trace_test
         } else {
