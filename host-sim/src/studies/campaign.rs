@@ -679,11 +679,7 @@ pub fn run_once(
     let mut z_raw = [None; FAULT_COUNT];
     if let Some(u) = &uncertainty {
         for (i, z) in z_raw.iter_mut().enumerate() {
-            // The stated deviation without the preflight's systematic error, before the
-            // inflation.
-            let (std, systematic) = (f64::from(u.std[i]), f64::from(SYSTEMATIC[i]));
-            let raw = (std * std - systematic * systematic).max(0.0).sqrt()
-                / f64::from(shared::uncertainty::INFLATION);
+            let raw = without_systematic(u, i) / f64::from(shared::uncertainty::INFLATION);
             let skip = i == 6 && truth.eccentricity() == 0.0;
             if raw.is_finite() && raw > 0.0 && !skip {
                 let mut e = f64::from(found.as_array()[i] - truth.as_array()[i]).abs();
@@ -884,6 +880,13 @@ pub fn markdown(title: &str, summaries: &[CaseSummary], runs: u64) -> String {
     s
 }
 
+/// Component `i`'s stated deviation in `u` without the preflight's systematic error
+/// (`shared::uncertainty::SYSTEMATIC`, added in quadrature): the inflated curvature's.
+fn without_systematic(u: &Uncertainty, i: usize) -> f64 {
+    let (std, systematic) = (f64::from(u.std[i]), f64::from(SYSTEMATIC[i]));
+    (std * std - systematic * systematic).max(0.0).sqrt()
+}
+
 /// Per component (not the phase): the least systematic error in steps of 0.001 (up to 0.1)
 /// which, added in quadrature to each run's inflated deviation, makes 90 % of the
 /// component's intervals hold the truth (the rule of `shared::uncertainty::SYSTEMATIC`).
@@ -897,9 +900,7 @@ fn least_systematic(summaries: &[CaseSummary]) -> Vec<String> {
                 .iter()
                 .flat_map(|c| c.runs.iter().map(move |r| (c.case.faults, r)))
                 .filter_map(|(truth, r)| {
-                    let std = f64::from(r.uncertainty.as_ref()?.std[i]);
-                    let systematic = f64::from(SYSTEMATIC[i]);
-                    let own = (std * std - systematic * systematic).max(0.0).sqrt();
+                    let own = without_systematic(r.uncertainty.as_ref()?, i);
                     let e = f64::from(r.found.as_array()[i] - truth[i]).abs();
                     own.is_finite().then_some((e, own))
                 })
