@@ -23,7 +23,10 @@
 //! [`PINNED_INFLATION`] with the held values' error carried beside it (their coupling by
 //! mixed central differences, [`COUPLING_EVALUATIONS`]: the preflight's friction, shorts,
 //! eccentricity and demagnetization, each with its stated deviation), and the verdict
-//! against [`PinnedLimits`] (the play's other end tried at [`SCAN_MOMENTS`] starts).
+//! against [`PinnedLimits`] (the play's other end tried at [`SCAN_MOMENTS`] starts), the
+//! misfit's limit raised by what the surface sensor's own error leaves (the found point run
+//! once more on the surface with that error drawn again — by the caller, from the error the
+//! angles' own second differences show —, one evaluation).
 //! Units: fault-vector units, N·m, A²·s. Work: at most [`PINNED_EVALUATIONS`] evaluations,
 //! each one monitor-model run over the window (O(N)); O(1) memory beyond the problem; no
 //! allocation, no panic.
@@ -99,7 +102,7 @@ pub const PINNED_EVALUATIONS: u32 = (SCAN_PLAYS.len() * SCAN_GAINS.len() * SCAN_
     + 2 * SEARCH_EVALUATIONS
     + CURVATURE_EVALUATIONS
     + COUPLING_EVALUATIONS
-    + 1
+    + 2
     + SCAN_MOMENTS as u32;
 
 /// The central differences' steps: backlash, gain drift [fault-vector units], the start's
@@ -128,7 +131,8 @@ pub const PINNED_INFLATION: [f32; FAULT_COUNT] = [1.0, 1.2, 1.0, 1.0, 1.0, 1.0, 
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct PinnedLimits {
-    /// The largest [`WindowProblem::misfit`] of an identified pinned window.
+    /// The largest [`WindowProblem::misfit`] of an identified pinned window beyond the
+    /// share its surface sensor's own error leaves ([`PinnedReading::sensor_floor`]).
     pub max_misfit: f32,
     /// The smallest excess of the play's other end's error (the farther bound, its start
     /// scanned) over the found one's, over the found one's: below it the window cannot tell
@@ -182,6 +186,10 @@ pub struct PinnedReading {
     pub start_moment: f32,
     /// [`WindowProblem::misfit`] of `fit`.
     pub misfit: f32,
+    /// The share of the window's energy the surface sensor's own error leaves unexplained
+    /// at `faults` (the misfit's excess on the surface with that error drawn again; 0
+    /// without such a surface): added to [`PinnedLimits::max_misfit`] in the verdict.
+    pub sensor_floor: f32,
     /// The Gauss–Newton sums of [`FREE`] at `faults` (the start's moment and the drift
     /// profiled out; every other row and column zero): what a flight's reading adds.
     pub curvature: Curvature,
@@ -264,12 +272,16 @@ impl<const N: usize> Objective<'_, '_, N> {
 /// to `surface` (the sensor's angle and speed per sample; the motor's angle unused), every
 /// other component at `held`'s values and the friction at the preflight's beside them (the
 /// preflight whose reading `held` holds), the run's spring at `stiffness` [N·m/rad] and its
-/// start scanned around `start_guess` [N·m]; judged under `limits`. At most
+/// start scanned around `start_guess` [N·m]; judged under `limits`, the misfit's limit
+/// raised by the sensor's floor measured on `redrawn` — the same surface with the sensor's
+/// error drawn again on its angles, its speeds from them as `surface`'s (`None`: no
+/// floor). At most
 /// [`PINNED_EVALUATIONS`] model runs; `Err` when `held` holds nothing (no preflight) or the
-/// surface's samples end before the window.
+/// surface's samples (or `redrawn`'s) end before the window.
 pub fn identify_pinned<const N: usize>(
     problem: &WindowProblem<'_, N>,
     surface: &SurfaceSamples<'_>,
+    redrawn: Option<&SurfaceSamples<'_>>,
     held: &HeldComponents,
     stiffness: f32,
     start_guess: f32,
@@ -279,7 +291,8 @@ pub fn identify_pinned<const N: usize>(
         return Err(PinnedError::NoPreflight);
     }
     let samples = problem.samples();
-    if surface.angles.len() < samples || surface.speeds.len() < samples {
+    let covers = |s: &SurfaceSamples<'_>| s.angles.len() >= samples && s.speeds.len() >= samples;
+    if !covers(surface) || !redrawn.is_none_or(covers) {
         return Err(PinnedError::SurfaceTooShort);
     }
     let held = held.also_holding(FRICTION);
@@ -338,6 +351,26 @@ pub fn identify_pinned<const N: usize>(
         )
     });
     let misfit = problem.misfit(fit.error);
+    // What the sensor's own error leaves: the found point's misfit grows by as much again
+    // when that error is drawn a second time (the two draws independent, their effects on
+    // the current add in energy).
+    let sensor_floor = redrawn.map_or(0.0, |r| {
+        f.evaluations = f.evaluations.saturating_add(1);
+        let again = problem
+            .evaluate_with_surface_samples(
+                &faults,
+                WindowLoad::spring(f.stiffness, x[2] * f.unit),
+                r,
+                &mut [],
+            )
+            .0;
+        let excess = problem.misfit(again.error) - misfit;
+        if excess.is_finite() && excess > 0.0 {
+            excess
+        } else {
+            0.0
+        }
+    });
     // The play's other end: the farther bound at the same gain drift, the start scanned.
     let other = if x[0] > 0.5 { 0.0 } else { 1.0 };
     let mut other_error = f32::INFINITY;
@@ -350,6 +383,7 @@ pub fn identify_pinned<const N: usize>(
     let verdict = judge(
         limits,
         misfit,
+        sensor_floor,
         contrast,
         uncertainty.as_ref().map(|(u, _)| u),
     );
@@ -358,6 +392,7 @@ pub fn identify_pinned<const N: usize>(
         fit,
         start_moment: x[2] * f.unit,
         misfit,
+        sensor_floor,
         curvature,
         coupling,
         shared_std,
@@ -367,16 +402,18 @@ pub fn identify_pinned<const N: usize>(
     })
 }
 
-/// The verdict of a pinned window: its misfit under the limit, the play's other end
+/// The verdict of a pinned window: its misfit beyond its sensor's floor under the limit
+/// (the whole misfit reported when it is not), the play's other end
 /// fitting worse by `contrast` (its error's excess over the found one's, over the found
 /// one's), its backlash read.
 fn judge(
     limits: &PinnedLimits,
     misfit: f32,
+    sensor_floor: f32,
     contrast: f32,
     uncertainty: Option<&Uncertainty>,
 ) -> Result<(), WindowReason> {
-    if misfit.is_nan() || misfit > limits.max_misfit {
+    if misfit.is_nan() || misfit - sensor_floor > limits.max_misfit {
         return Err(WindowReason::FitnessFloor { misfit });
     }
     if contrast.is_nan() || contrast < limits.min_play_contrast {

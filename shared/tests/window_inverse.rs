@@ -13,7 +13,7 @@ use shared::test_design::PreflightTest;
 use shared::window::{
     identify, identify_stepwise, record_monitor_window, synthetic_command, window_ga,
     HeldComponents, RecordedCommand, SurfaceSamples, WindowLimits, WindowLoad, WindowProblem,
-    COMMAND_STRIDE, CURVATURE_CHUNK, CURVATURE_RUNS, LOAD_SEARCH_EVALUATIONS,
+    WindowReason, COMMAND_STRIDE, CURVATURE_CHUNK, CURVATURE_RUNS, LOAD_SEARCH_EVALUATIONS,
     WINDOW_GA_EVALUATIONS,
 };
 use shared::{Calibration, FaultVector, LowPass, MonitorModel};
@@ -521,7 +521,8 @@ fn a_pinned_window_reads_a_wide_play_and_the_gain_drift() {
     let limits = PinnedLimits::REFERENCE;
     let stiffness = record.params.aero_stiffness;
     let guess = problem.held_moment();
-    let reading = identify_pinned(&problem, &surface, &held, stiffness, guess, &limits).unwrap();
+    let reading =
+        identify_pinned(&problem, &surface, None, &held, stiffness, guess, &limits).unwrap();
     let k = reading.faults.as_array();
     assert!(
         (k[1] - 0.4).abs() < 0.03 && (k[7] - 0.6).abs() < 0.01,
@@ -558,8 +559,10 @@ fn a_pinned_window_reads_a_wide_play_and_the_gain_drift() {
     std[0] = 0.03;
     let correlation = core::array::from_fn(|i| core::array::from_fn(|j| f32::from(i == j)));
     let uncertain = held.with_preflight_uncertainty(&std, &correlation);
-    let carried =
-        identify_pinned(&problem, &surface, &uncertain, stiffness, guess, &limits).unwrap();
+    let carried = identify_pinned(
+        &problem, &surface, None, &uncertain, stiffness, guess, &limits,
+    )
+    .unwrap();
     let (uc, _) = carried.uncertainty.expect("an uncertainty");
     let a = HeldComponents::sensitivity(&carried.curvature, &carried.coupling).unwrap();
     for i in [1, 7] {
@@ -576,6 +579,7 @@ fn a_pinned_window_reads_a_wide_play_and_the_gain_drift() {
     let moved = identify_pinned(
         &problem,
         &surface,
+        None,
         &HeldComponents::of_preflight(&FaultVector::new(high).unwrap())
             .with_preflight_uncertainty(&std, &correlation),
         stiffness,
@@ -597,6 +601,7 @@ fn a_pinned_window_reads_a_wide_play_and_the_gain_drift() {
         identify_pinned(
             &problem,
             &surface,
+            None,
             &HeldComponents::NONE,
             stiffness,
             guess,
@@ -610,7 +615,147 @@ fn a_pinned_window_reads_a_wide_play_and_the_gain_drift() {
         ..surface
     };
     assert_eq!(
-        identify_pinned(&problem, &short, &held, stiffness, guess, &limits),
+        identify_pinned(&problem, &short, None, &held, stiffness, guess, &limits),
         Err(PinnedError::SurfaceTooShort)
     );
 }
+
+/// `angles` with a white error of deviation `sigma` [rad] (Irwin–Hall draws of a seeded
+/// xorshift) and their backward-difference speeds, as `recorded_shafts` gives them.
+fn with_sensor_error(angles: &[f32], sigma: f32, seed: u64) -> (Vec<f32>, Vec<f32>) {
+    let mut state = seed.max(1);
+    let mut uniform = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let noisy: Vec<f32> = angles
+        .iter()
+        .map(|a| {
+            let sum: f32 = (0..4).map(|_| uniform()).sum();
+            a + sigma * (sum - 2.0) * 3f32.sqrt()
+        })
+        .collect();
+    let period = ActuatorRecord::REFERENCE.params.control_period;
+    let speeds = (0..noisy.len())
+        .map(|i| {
+            if i == 0 {
+                0.0
+            } else {
+                (noisy[i] - noisy[i - 1]) / period
+            }
+        })
+        .collect();
+    (noisy, speeds)
+}
+
+#[test]
+fn a_pinned_windows_limit_counts_what_its_surface_sensors_own_error_leaves() {
+    let record = ActuatorRecord::REFERENCE;
+    let truth = FaultVector::new([0.2, 0.4, 0.0, 0.0, 0.0, 0.0, 0.5, 0.6, 0.0]).unwrap();
+    let load = WindowLoad::spring(1.4 * record.params.aero_stiffness, 120.0);
+    let window = Recorded::new(1.0e-3, &truth, &load);
+    let (full, angles, _, _) = recorded_shafts(1.0e-3, &truth, &load);
+    let problem = WindowProblem::new(
+        &window.measured,
+        RecordedCommand::new(&full),
+        window.model,
+        load,
+    )
+    .unwrap();
+    // A coarse surface sensor: its error alone leaves more than the limit's 0.5 %.
+    let sigma = SENSOR_ERROR;
+    let (noisy, noisy_speeds) = with_sensor_error(&angles, sigma, 7);
+    let (again, again_speeds) = with_sensor_error(&noisy, sigma, 8);
+    let surface = SurfaceSamples {
+        angles: &noisy,
+        speeds: &noisy_speeds,
+        motor: &[],
+    };
+    let redrawn = SurfaceSamples {
+        angles: &again,
+        speeds: &again_speeds,
+        motor: &[],
+    };
+    let held = HeldComponents::of_preflight(&truth);
+    let limits = PinnedLimits::REFERENCE;
+    let stiffness = record.params.aero_stiffness;
+    let guess = problem.held_moment();
+    let plain =
+        identify_pinned(&problem, &surface, None, &held, stiffness, guess, &limits).unwrap();
+    assert_eq!(plain.sensor_floor, 0.0);
+    assert!(
+        matches!(plain.verdict, Err(WindowReason::FitnessFloor { misfit }) if misfit > limits.max_misfit),
+        "{:?} at {}",
+        plain.verdict,
+        plain.misfit
+    );
+    // Drawn again, the sensor's error shows its floor: about the misfit (0.84 % against
+    // 0.66 % here), and the window is read, near the truth — the play a little wide (0.417
+    // for 0.4: a sensor this coarse jitters the gear's contact, docs/in-flight.md).
+    let read = identify_pinned(
+        &problem,
+        &surface,
+        Some(&redrawn),
+        &held,
+        stiffness,
+        guess,
+        &limits,
+    )
+    .unwrap();
+    assert!(
+        read.sensor_floor > 0.5 * read.misfit && read.sensor_floor < 2.0 * read.misfit,
+        "floor {} of misfit {}",
+        read.sensor_floor,
+        read.misfit
+    );
+    assert_eq!(
+        read.verdict,
+        Ok(()),
+        "misfit {} floor {}",
+        read.misfit,
+        read.sensor_floor
+    );
+    let k = read.faults.as_array();
+    assert!(
+        (k[1] - 0.4).abs() < 0.03 && (k[7] - 0.6).abs() < 0.01,
+        "backlash {} gain drift {}",
+        k[1],
+        k[7]
+    );
+    assert!(read.evaluations <= PINNED_EVALUATIONS);
+    // The surface itself as its redraw: no floor, and the limit stays.
+    let same = identify_pinned(
+        &problem,
+        &surface,
+        Some(&surface),
+        &held,
+        stiffness,
+        guess,
+        &limits,
+    )
+    .unwrap();
+    assert_eq!(same.sensor_floor, 0.0);
+    assert_eq!(same.verdict, plain.verdict);
+    // A redraw shorter than the window is refused as the surface is.
+    let short = SurfaceSamples {
+        angles: &again[..again.len() - 1],
+        ..redrawn
+    };
+    assert_eq!(
+        identify_pinned(
+            &problem,
+            &surface,
+            Some(&short),
+            &held,
+            stiffness,
+            guess,
+            &limits
+        ),
+        Err(PinnedError::SurfaceTooShort)
+    );
+}
+
+/// The coarse sensor's error of the test above [rad].
+const SENSOR_ERROR: f32 = 2.5e-6;

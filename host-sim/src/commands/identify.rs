@@ -560,6 +560,7 @@ pub(crate) fn window_report(
             "hint": floor_hint(&id.verdict, id.pinned_reason.as_ref()),
             "model": id.model.name(),
             "pinned_misfit": id.pinned_misfit,
+            "pinned_sensor_floor": id.pinned_sensor_floor,
             "pinned_verdict": id.pinned_reason.as_ref().map(|r| window_reason(&Err(*r))),
         });
         if let Some(flight) = &flight {
@@ -609,11 +610,13 @@ pub(crate) fn window_report(
         (WindowModel::Pinned, _) => println!(
             "read with the surface pinned to its sensor (the fitted load left the window at its \
              fitness floor): start in the play under {:.1} N·m; fit {:.3e} A²·s, {:.2} % of the \
-             current unexplained; the backlash and the gain drift read, the friction held at \
-             the preflight's beside the components the next line names",
+             current unexplained ({:.2} % of it the surface sensor's own error); the \
+             backlash and the gain drift read, the friction held at the preflight's beside the \
+             components the next line names",
             id.load.moment,
             id.fitness,
-            100.0 * id.misfit
+            100.0 * id.misfit,
+            100.0 * id.pinned_sensor_floor.unwrap_or(0.0)
         ),
         (WindowModel::Load, pinned) => {
             println!(
@@ -628,9 +631,10 @@ pub(crate) fn window_report(
             );
             if let (Some(m), Some(r)) = (pinned, id.pinned_reason) {
                 println!(
-                    "  with the surface pinned to its sensor: {:.2} % unexplained, not read \
-                     either ({})",
+                    "  with the surface pinned to its sensor: {:.2} % unexplained ({:.2} % of \
+                     it the surface sensor's own error), not read either ({})",
                     100.0 * m,
+                    100.0 * id.pinned_sensor_floor.unwrap_or(0.0),
                     window_reason(&Err(r))
                 );
             }

@@ -71,6 +71,10 @@ pub struct WindowIdentified {
     /// floor, a trusted preflight), whatever its verdict, and why it was not read (`None`:
     /// read, or not tried).
     pub pinned_misfit: Option<f32>,
+    /// The share of the current the surface sensor's own error leaves unexplained in that
+    /// reading (`shared::pinned::PinnedReading::sensor_floor`): the pinned misfit's limit
+    /// is `PinnedLimits::max_misfit` beyond it.
+    pub pinned_sensor_floor: Option<f32>,
     pub pinned_reason: Option<WindowReason>,
 }
 
@@ -284,6 +288,7 @@ pub fn identify_window(
         evaluations: reading.evaluations,
         model: WindowModel::Load,
         pinned_misfit: None,
+        pinned_sensor_floor: None,
         pinned_reason: None,
     };
     if !matches!(reading.verdict, Err(WindowReason::FitnessFloor { .. })) || !held.holds(2) {
@@ -296,9 +301,17 @@ pub fn identify_window(
         speeds: &speeds,
         motor: &[],
     };
+    let (again, again_speeds) =
+        redrawn_surface(trace, f64::from(record.params.control_period), seed);
+    let redrawn = SurfaceSamples {
+        angles: &again,
+        speeds: &again_speeds,
+        motor: &[],
+    };
     let Ok(pinned) = identify_pinned(
         &problem,
         &surface,
+        Some(&redrawn),
         &held,
         guess,
         reading.load.moment,
@@ -310,6 +323,7 @@ pub fn identify_window(
     if let Err(reason) = pinned.verdict {
         return Ok(WindowIdentified {
             pinned_misfit: Some(pinned.misfit),
+            pinned_sensor_floor: Some(pinned.sensor_floor),
             pinned_reason: Some(reason),
             evaluations,
             ..loaded
@@ -333,6 +347,7 @@ pub fn identify_window(
         evaluations,
         model: WindowModel::Pinned,
         pinned_misfit: Some(pinned.misfit),
+        pinned_sensor_floor: Some(pinned.sensor_floor),
         pinned_reason: None,
     })
 }
@@ -344,8 +359,13 @@ const SPEED_HALF_SPAN: usize = 2;
 /// [rad/s], a central difference over `2 · SPEED_HALF_SPAN` samples of `period` [s]
 /// (shorter at the ends).
 pub fn surface_samples(trace: &Trace, period: f64) -> (Vec<f32>, Vec<f32>) {
-    let samples = trace.samples();
-    let n = samples.len();
+    let angles: Vec<f64> = trace.samples().iter().map(|s| s.user_angle).collect();
+    surface_of(&angles, period)
+}
+
+/// `angles` [rad] as the pinned model reads them, with their speeds ([`surface_samples`]).
+fn surface_of(angles: &[f64], period: f64) -> (Vec<f32>, Vec<f32>) {
+    let n = angles.len();
     let speeds = (0..n)
         .map(|i| {
             let (a, b) = (
@@ -353,14 +373,104 @@ pub fn surface_samples(trace: &Trace, period: f64) -> (Vec<f32>, Vec<f32>) {
                 (i + SPEED_HALF_SPAN).min(n - 1),
             );
             if b > a {
-                ((samples[b].user_angle - samples[a].user_angle) / ((b - a) as f64 * period)) as f32
+                ((angles[b] - angles[a]) / ((b - a) as f64 * period)) as f32
             } else {
                 0.0
             }
         })
         .collect();
-    (
-        samples.iter().map(|s| s.user_angle as f32).collect(),
-        speeds,
-    )
+    (angles.iter().map(|&a| a as f32).collect(), speeds)
+}
+
+/// The surface sensor's error per sample [rad] as its angles show it: the RMS of their
+/// third differences over √20 (a white error's, or a quantizer's step over √12). The
+/// surface's own motion is left in — the chirp's third difference, ≈ 4 nrad at its 15 Hz
+/// end at 10 kHz, and the jerks where a play is crossed —, so the estimate errs high, by
+/// little.
+pub fn sensor_error(angles: &[f64]) -> f64 {
+    let (sum, n) = angles
+        .windows(4)
+        .map(|w| w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0])
+        .fold((0.0, 0usize), |(s, n), d| (s + d * d, n + 1));
+    if n == 0 {
+        0.0
+    } else {
+        (sum / (20.0 * n as f64)).sqrt()
+    }
+}
+
+/// The surface of `trace` with its sensor's error ([`sensor_error`]) drawn once more on its
+/// angles (a seeded normal draw of that deviation added to each), its speeds from them:
+/// what the pinned model's misfit would be with the sensor's error counted twice.
+pub fn redrawn_surface(trace: &Trace, period: f64, seed: u64) -> (Vec<f32>, Vec<f32>) {
+    let angles: Vec<f64> = trace.samples().iter().map(|s| s.user_angle).collect();
+    let sigma = sensor_error(&angles);
+    let mut draw = crate::plant::noise::Gaussian::new(seed ^ REDRAW_STREAM);
+    let redrawn: Vec<f64> = angles.iter().map(|a| a + sigma * draw.next()).collect();
+    surface_of(&redrawn, period)
+}
+
+/// The redrawn sensor error's stream, apart from the GA's seed of the same window.
+const REDRAW_STREAM: u64 = 0x5e45_0f10_0a15_e000;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A chirp-like surface path at 10 kHz: 5 mrad at 15 Hz, the window's fastest.
+    fn path(n: usize) -> Vec<f64> {
+        (0..n)
+            .map(|i| 5.0e-3 * (std::f64::consts::TAU * 15.0 * i as f64 * 1.0e-4).sin())
+            .collect()
+    }
+
+    #[test]
+    fn the_surface_sensors_error_is_read_from_its_angles() {
+        let clean = path(5_000);
+        // A white error: its deviation, within 10 % (the path's own curvature adds little).
+        let mut draw = crate::plant::noise::Gaussian::new(3);
+        for sigma in [5.0e-7, 2.0e-6] {
+            let noisy: Vec<f64> = clean.iter().map(|a| a + sigma * draw.next()).collect();
+            let read = sensor_error(&noisy);
+            assert!((read / sigma - 1.0).abs() < 0.1, "{read} for {sigma}");
+        }
+        // A quantized sensor: about its step over √12 (1 µrad steps).
+        let lsb = 1.0e-6;
+        let quantized: Vec<f64> = clean.iter().map(|a| (a / lsb).round() * lsb).collect();
+        let read = sensor_error(&quantized);
+        let expected = lsb / 12f64.sqrt();
+        assert!((read / expected - 1.0).abs() < 0.1, "{read} for {expected}");
+        // A clean path: its own motion reads a hundredth of either, and too few samples
+        // nothing.
+        assert!(sensor_error(&clean) < 5.0e-9, "{}", sensor_error(&clean));
+        assert_eq!(sensor_error(&clean[..3]), 0.0);
+    }
+
+    #[test]
+    fn a_redrawn_surface_adds_the_sensors_error_once_more() {
+        let mut draw = crate::plant::noise::Gaussian::new(4);
+        let sigma = 1.0e-6;
+        let noisy: Vec<f64> = path(5_000)
+            .iter()
+            .map(|a| a + sigma * draw.next())
+            .collect();
+        let (angles, speeds) = surface_of(&noisy, 1.0e-4);
+        assert_eq!((angles.len(), speeds.len()), (5_000, 5_000));
+        // The speed: a central difference over four samples.
+        let expected = (noisy[12] - noisy[8]) / 4.0e-4;
+        assert!((f64::from(speeds[10]) - expected).abs() < 1e-3 * expected.abs().max(1e-3));
+        // What a redraw adds per sample: the error's deviation again (within 10 %).
+        let again: Vec<f64> = noisy
+            .iter()
+            .map(|a| a + sensor_error(&noisy) * draw.next())
+            .collect();
+        let added = (noisy
+            .iter()
+            .zip(&again)
+            .map(|(a, b)| (a - b) * (a - b))
+            .sum::<f64>()
+            / noisy.len() as f64)
+            .sqrt();
+        assert!((added / sigma - 1.0).abs() < 0.1, "{added}");
+    }
 }
