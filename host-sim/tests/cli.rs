@@ -697,6 +697,70 @@ fn another_actuators_window_is_identified_and_plotted_from_the_command_line() {
             "component {j}: {a} simulated, {b} imported: {w}"
         );
     }
+
+    // A worn gear (Table II medium) in the same cruise: the load model is at its floor and
+    // the pinned model's misfit is above the built-in actuator's 0.5 % by the light
+    // actuator's surface sensor (1 µrad steps over a spring a twenty-fifth of the built-in
+    // one's): counted, the window is read.
+    let medium = "0.4,0.4,0.2,0.1,0.05,0.2,0.75,0.6,0";
+    let (window, pre) = (path(&dir, "worn.csv"), path(&dir, "worn-pre.csv"));
+    for (args, out) in [
+        (vec!["--flight", "cruise", "--turbulence", "light"], &window),
+        (vec![], &pre),
+    ] {
+        let mut a = vec![
+            "simulate",
+            "--actuator",
+            light,
+            "--faults",
+            medium,
+            "--seed",
+            "1",
+            "--out",
+            out.as_str(),
+        ];
+        a.extend(args);
+        let o = host_sim(&a);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let o = host_sim(&[
+        "identify",
+        &window,
+        "--actuator",
+        light,
+        "--preflight",
+        &pre,
+        "--truth",
+        medium,
+        "--json",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v = json(&o);
+    assert_eq!(
+        (&v["verdict"], &v["model"]),
+        (&"within".into(), &"pinned".into()),
+        "{v}"
+    );
+    let (misfit, floor) = (
+        v["pinned_misfit"].as_f64().unwrap(),
+        v["pinned_sensor_floor"].as_f64().unwrap(),
+    );
+    assert!(
+        misfit > 0.005 && floor > 0.0 && misfit - floor <= 0.005,
+        "{v}"
+    );
+    assert!((v["faults"][1].as_f64().unwrap() - 0.4).abs() < 0.01, "{v}");
+    assert!(v["e_tot"].as_f64().unwrap() < 2.0, "{v}");
+    let o = host_sim(&[
+        "identify",
+        &window,
+        "--actuator",
+        light,
+        "--preflight",
+        &pre,
+    ]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("the surface sensor's own error"), "{text}");
 }
 
 /// A window of flight cannot tell a stator short from an eccentricity (it has no standstill
