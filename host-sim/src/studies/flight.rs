@@ -71,6 +71,8 @@ pub struct FlightRun {
     /// tried (NaN otherwise, and for a flight).
     pub pinned: u32,
     pub pinned_misfit: f32,
+    /// The surface sensor's share of that misfit (NaN where not tried).
+    pub pinned_floor: f32,
     /// The same flight's preflight reading and its deviations (NaN: undetermined, or the
     /// preflight not `within`): what `agreement` compares with.
     pub pre_found: FaultVector,
@@ -335,6 +337,7 @@ fn fly_windows(
                             windows: 1,
                             pinned: u32::from(w.model == WindowModel::Pinned),
                             pinned_misfit: w.pinned_misfit.unwrap_or(f32::NAN),
+                            pinned_floor: w.pinned_sensor_floor.unwrap_or(f32::NAN),
                             pre_found,
                             pre_std,
                         });
@@ -381,6 +384,7 @@ fn fly_windows(
                                 windows: runs.len() as u32,
                                 pinned: pinned_entered,
                                 pinned_misfit: f32::NAN,
+                                pinned_floor: f32::NAN,
                                 pre_found,
                                 pre_std,
                             }
@@ -411,6 +415,7 @@ fn fly_windows(
                             windows: runs.len() as u32,
                             pinned: 0,
                             pinned_misfit: f32::NAN,
+                            pinned_floor: f32::NAN,
                             pre_found,
                             pre_std,
                         },
@@ -697,7 +702,7 @@ pub fn flight_runs_csv(rows: &[FlightRow]) -> String {
     for j in 1..=shared::FAULT_COUNT {
         text.push_str(&format!(",shared_k{j}"));
     }
-    text.push_str(",windows,pinned,pinned_misfit");
+    text.push_str(",windows,pinned,pinned_misfit,pinned_floor");
     for j in 1..=shared::FAULT_COUNT {
         text.push_str(&format!(",pre_k{j}"));
     }
@@ -732,8 +737,8 @@ pub fn flight_runs_csv(rows: &[FlightRow]) -> String {
                     text.push_str(&format!(",{x:.5}"));
                 }
                 text.push_str(&format!(
-                    ",{},{},{:.5}",
-                    r.windows, r.pinned, r.pinned_misfit
+                    ",{},{},{:.5},{:.5}",
+                    r.windows, r.pinned, r.pinned_misfit, r.pinned_floor
                 ));
                 for x in r.pre_found.as_array().iter().chain(&r.pre_std) {
                     text.push_str(&format!(",{x:.5}"));
@@ -812,6 +817,7 @@ mod tests {
             windows: 1,
             pinned: 0,
             pinned_misfit: f32::NAN,
+            pinned_floor: f32::NAN,
             pre_found: FaultVector::NOMINAL,
             pre_std: [0.02; shared::FAULT_COUNT],
         }
@@ -850,18 +856,18 @@ mod tests {
         assert_eq!(calibration[ECCENTRICITY_PHASE].1, 0);
         // The flights' readings are counted apart.
         assert_eq!(interval_calibration(&rows, |r| &r.flights)[0].1, 1);
-        // The runs' CSV: a header, one line per window, then one per flight, 12 + 3 × 9 + 3
-        // + 2 × 9 fields each (the windows flown, those read pinned, the pinned misfit, then
-        // the preflight's reading and deviations).
+        // The runs' CSV: a header, one line per window, then one per flight, 12 + 3 × 9 + 4
+        // + 2 × 9 fields each (the windows flown, those read pinned, the pinned misfit and
+        // its sensor's share, then the preflight's reading and deviations).
         let csv = flight_runs_csv(&rows);
         let lines: Vec<&str> = csv.lines().collect();
         assert_eq!(lines.len(), 23);
-        assert!(lines.iter().all(|l| l.split(',').count() == 60), "{csv}");
+        assert!(lines.iter().all(|l| l.split(',').count() == 61), "{csv}");
         assert!(lines[0].contains(",std_k9,shared_k1,"));
-        assert!(lines[0].contains(",windows,pinned,pinned_misfit,pre_k1,"));
+        assert!(lines[0].contains(",windows,pinned,pinned_misfit,pinned_floor,pre_k1,"));
         assert!(lines[0].ends_with(",pre_std_k9"));
         assert!(
-            lines[22].ends_with(",1,0,NaN,0.00000,0.00000,0.00000,0.00000,0.00000,0.00000,0.50000,0.50000,0.00000,0.02000,0.02000,0.02000,0.02000,0.02000,0.02000,0.02000,0.02000,0.02000"),
+            lines[22].ends_with(",1,0,NaN,NaN,0.00000,0.00000,0.00000,0.00000,0.00000,0.00000,0.50000,0.50000,0.00000,0.02000,0.02000,0.02000,0.02000,0.02000,0.02000,0.02000,0.02000,0.02000"),
             "{}",
             lines[22]
         );
