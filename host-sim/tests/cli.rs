@@ -562,6 +562,37 @@ fn a_window_at_the_fitness_floor_names_the_play_and_is_read_pinned_after_a_prefl
         .is_some_and(|h| h.contains("two ends fit about as well")));
 }
 
+/// The light actuator with `faults` simulated in a cruise window (light turbulence, seed 1)
+/// and in the same flight's preflight, into `window` and `preflight` under `dir`.
+fn light_cruise(
+    dir: &tempfile::TempDir,
+    faults: &str,
+    window: &str,
+    preflight: &str,
+) -> (String, String) {
+    let (window, pre) = (path(dir, window), path(dir, preflight));
+    for (args, out) in [
+        (vec!["--flight", "cruise", "--turbulence", "light"], &window),
+        (vec![], &pre),
+    ] {
+        let mut a = vec![
+            "simulate",
+            "--actuator",
+            "../actuators/light-28v.toml",
+            "--faults",
+            faults,
+            "--seed",
+            "1",
+            "--out",
+            out.as_str(),
+        ];
+        a.extend(args);
+        let o = host_sim(&a);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    (window, pre)
+}
+
 /// Another actuator's window of flight (its file's test plays tones before the chirp, a window
 /// carries the chirp alone) is identified and plotted from the command line with the same
 /// flight's preflight, read with that actuator's record (refused with exit 7 before stop 58:
@@ -572,26 +603,7 @@ fn another_actuators_window_is_identified_and_plotted_from_the_command_line() {
     let dir = tempfile::tempdir().unwrap();
     let light = "../actuators/light-28v.toml";
     let healthy = "0,0,0,0,0,0,0.5,0.5,0";
-    let (window, pre) = (path(&dir, "window.csv"), path(&dir, "preflight.csv"));
-    for (args, out) in [
-        (vec!["--flight", "cruise", "--turbulence", "light"], &window),
-        (vec![], &pre),
-    ] {
-        let mut a = vec![
-            "simulate",
-            "--actuator",
-            light,
-            "--faults",
-            healthy,
-            "--seed",
-            "1",
-            "--out",
-            out.as_str(),
-        ];
-        a.extend(args);
-        let o = host_sim(&a);
-        assert!(o.status.success(), "{}", stderr(&o));
-    }
+    let (window, pre) = light_cruise(&dir, healthy, "window.csv", "preflight.csv");
     let o = host_sim(&[
         "identify",
         &window,
@@ -703,26 +715,7 @@ fn another_actuators_window_is_identified_and_plotted_from_the_command_line() {
     // actuator's surface sensor (1 µrad steps over a spring a twenty-fifth of the built-in
     // one's): counted, the window is read.
     let medium = "0.4,0.4,0.2,0.1,0.05,0.2,0.75,0.6,0";
-    let (window, pre) = (path(&dir, "worn.csv"), path(&dir, "worn-pre.csv"));
-    for (args, out) in [
-        (vec!["--flight", "cruise", "--turbulence", "light"], &window),
-        (vec![], &pre),
-    ] {
-        let mut a = vec![
-            "simulate",
-            "--actuator",
-            light,
-            "--faults",
-            medium,
-            "--seed",
-            "1",
-            "--out",
-            out.as_str(),
-        ];
-        a.extend(args);
-        let o = host_sim(&a);
-        assert!(o.status.success(), "{}", stderr(&o));
-    }
+    let (window, pre) = light_cruise(&dir, medium, "worn.csv", "worn-pre.csv");
     let o = host_sim(&[
         "identify",
         &window,

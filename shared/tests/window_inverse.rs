@@ -498,23 +498,55 @@ fn a_surface_pinned_to_its_sensor_replays_the_recording() {
     );
 }
 
+/// The pinned tests' window: friction 0.2, backlash 0.4, gain drift 0.6 under a spring 1.4
+/// times the actuator's carrying 120 N·m, with its command and the surface's angles and
+/// speeds as `recorded_shafts` gives them.
+struct WidePlay {
+    truth: FaultVector,
+    load: WindowLoad,
+    window: Recorded,
+    full: Vec<f32>,
+    angles: Vec<f32>,
+    speeds: Vec<f32>,
+}
+
+impl WidePlay {
+    fn new() -> Self {
+        let record = ActuatorRecord::REFERENCE;
+        let truth = FaultVector::new([0.2, 0.4, 0.0, 0.0, 0.0, 0.0, 0.5, 0.6, 0.0]).unwrap();
+        let load = WindowLoad::spring(1.4 * record.params.aero_stiffness, 120.0);
+        let window = Recorded::new(1.0e-3, &truth, &load);
+        let (full, angles, speeds, _) = recorded_shafts(1.0e-3, &truth, &load);
+        Self {
+            truth,
+            load,
+            window,
+            full,
+            angles,
+            speeds,
+        }
+    }
+
+    fn problem(&self) -> WindowProblem<'_, TEST_SAMPLES> {
+        WindowProblem::new(
+            &self.window.measured,
+            RecordedCommand::new(&self.full),
+            self.window.model,
+            self.load,
+        )
+        .unwrap()
+    }
+}
+
 #[test]
 fn a_pinned_window_reads_a_wide_play_and_the_gain_drift() {
     let record = ActuatorRecord::REFERENCE;
-    let truth = FaultVector::new([0.2, 0.4, 0.0, 0.0, 0.0, 0.0, 0.5, 0.6, 0.0]).unwrap();
-    let load = WindowLoad::spring(1.4 * record.params.aero_stiffness, 120.0);
-    let window = Recorded::new(1.0e-3, &truth, &load);
-    let (full, angles, speeds, _) = recorded_shafts(1.0e-3, &truth, &load);
-    let problem = WindowProblem::new(
-        &window.measured,
-        RecordedCommand::new(&full),
-        window.model,
-        load,
-    )
-    .unwrap();
+    let wide = WidePlay::new();
+    let (truth, angles, speeds) = (wide.truth, &wide.angles, &wide.speeds);
+    let problem = wide.problem();
     let surface = SurfaceSamples {
-        angles: &angles,
-        speeds: &speeds,
+        angles,
+        speeds,
         motor: &[],
     };
     let held = HeldComponents::of_preflight(&truth);
@@ -653,20 +685,12 @@ fn with_sensor_error(angles: &[f32], sigma: f32, seed: u64) -> (Vec<f32>, Vec<f3
 #[test]
 fn a_pinned_windows_limit_counts_what_its_surface_sensors_own_error_leaves() {
     let record = ActuatorRecord::REFERENCE;
-    let truth = FaultVector::new([0.2, 0.4, 0.0, 0.0, 0.0, 0.0, 0.5, 0.6, 0.0]).unwrap();
-    let load = WindowLoad::spring(1.4 * record.params.aero_stiffness, 120.0);
-    let window = Recorded::new(1.0e-3, &truth, &load);
-    let (full, angles, _, _) = recorded_shafts(1.0e-3, &truth, &load);
-    let problem = WindowProblem::new(
-        &window.measured,
-        RecordedCommand::new(&full),
-        window.model,
-        load,
-    )
-    .unwrap();
+    let wide = WidePlay::new();
+    let (truth, angles) = (wide.truth, &wide.angles);
+    let problem = wide.problem();
     // A coarse surface sensor: its error alone leaves more than the limit's 0.5 %.
     let sigma = SENSOR_ERROR;
-    let (noisy, noisy_speeds) = with_sensor_error(&angles, sigma, 7);
+    let (noisy, noisy_speeds) = with_sensor_error(angles, sigma, 7);
     let (again, again_speeds) = with_sensor_error(&noisy, sigma, 8);
     let surface = SurfaceSamples {
         angles: &noisy,
