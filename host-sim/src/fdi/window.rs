@@ -359,8 +359,12 @@ const SPEED_HALF_SPAN: usize = 2;
 /// [rad/s], a central difference over `2 · SPEED_HALF_SPAN` samples of `period` [s]
 /// (shorter at the ends).
 pub fn surface_samples(trace: &Trace, period: f64) -> (Vec<f32>, Vec<f32>) {
-    let angles: Vec<f64> = trace.samples().iter().map(|s| s.user_angle).collect();
-    surface_of(&angles, period)
+    surface_of(&surface_angles(trace), period)
+}
+
+/// The surface sensor's angle (`theta_u`) [rad] per sample of `trace`.
+fn surface_angles(trace: &Trace) -> Vec<f64> {
+    trace.samples().iter().map(|s| s.user_angle).collect()
 }
 
 /// `angles` [rad] as the pinned model reads them, with their speeds ([`surface_samples`]).
@@ -417,11 +421,14 @@ const TRIMMED_VARIANCE: f64 = 0.924_76;
 /// angles (a seeded normal draw of that deviation added to each), its speeds from them:
 /// what the pinned model's misfit would be with the sensor's error counted twice.
 pub fn redrawn_surface(trace: &Trace, period: f64, seed: u64) -> (Vec<f32>, Vec<f32>) {
-    let angles: Vec<f64> = trace.samples().iter().map(|s| s.user_angle).collect();
-    let sigma = sensor_error(&angles);
+    surface_of(&redrawn(&surface_angles(trace), seed), period)
+}
+
+/// `angles` [rad] with their error ([`sensor_error`]) drawn once more (seeded).
+fn redrawn(angles: &[f64], seed: u64) -> Vec<f64> {
+    let sigma = sensor_error(angles);
     let mut draw = crate::plant::noise::Gaussian::new(seed ^ REDRAW_STREAM);
-    let redrawn: Vec<f64> = angles.iter().map(|a| a + sigma * draw.next()).collect();
-    surface_of(&redrawn, period)
+    angles.iter().map(|a| a + sigma * draw.next()).collect()
 }
 
 /// The redrawn sensor error's stream, apart from the GA's seed of the same window.
@@ -483,11 +490,11 @@ mod tests {
         // The speed: a central difference over four samples.
         let expected = (noisy[12] - noisy[8]) / 4.0e-4;
         assert!((f64::from(speeds[10]) - expected).abs() < 1e-3 * expected.abs().max(1e-3));
-        // What a redraw adds per sample: the error's deviation again (within 10 %).
-        let again: Vec<f64> = noisy
-            .iter()
-            .map(|a| a + sensor_error(&noisy) * draw.next())
-            .collect();
+        // What a redraw adds per sample: the error's deviation again (within 10 %); the same
+        // seed the same draw, another seed another.
+        let again = redrawn(&noisy, 9);
+        assert_eq!(again, redrawn(&noisy, 9));
+        assert_ne!(again, redrawn(&noisy, 10));
         let added = (noisy
             .iter()
             .zip(&again)
