@@ -26,7 +26,7 @@
 //! against [`PinnedLimits`] (the play's other end tried at [`SCAN_MOMENTS`] starts), the
 //! misfit's limit raised by what the surface sensor's own error leaves (the found point run
 //! once more on the surface with that error drawn again — by the caller, from the error the
-//! angles' own second differences show —, one evaluation).
+//! angles themselves show —, one evaluation).
 //! Units: fault-vector units, N·m, A²·s. Work: at most [`PINNED_EVALUATIONS`] evaluations,
 //! each one monitor-model run over the window (O(N)); O(1) memory beyond the problem; no
 //! allocation, no panic.
@@ -241,10 +241,20 @@ impl<const N: usize> Objective<'_, '_, N> {
 
     /// [`Self::fit`] on `problem` (this window with other held values).
     fn fit_on(&mut self, problem: &WindowProblem<'_, N>, x: &Point) -> WindowFit {
+        self.fit_pinned_to(problem, x, self.surface)
+    }
+
+    /// [`Self::fit_on`] with the surface pinned to `surface` (another draw of its sensor).
+    fn fit_pinned_to(
+        &mut self,
+        problem: &WindowProblem<'_, N>,
+        x: &Point,
+        surface: &SurfaceSamples<'_>,
+    ) -> WindowFit {
         self.evaluations = self.evaluations.saturating_add(1);
         let load = WindowLoad::spring(self.stiffness, x[2] * self.unit);
         problem
-            .evaluate_with_surface_samples(&self.vector(x), load, self.surface, &mut [])
+            .evaluate_with_surface_samples(&self.vector(x), load, surface, &mut [])
             .0
     }
 
@@ -355,15 +365,7 @@ pub fn identify_pinned<const N: usize>(
     // when that error is drawn a second time (the two draws independent, their effects on
     // the current add in energy).
     let sensor_floor = redrawn.map_or(0.0, |r| {
-        f.evaluations = f.evaluations.saturating_add(1);
-        let again = problem
-            .evaluate_with_surface_samples(
-                &faults,
-                WindowLoad::spring(f.stiffness, x[2] * f.unit),
-                r,
-                &mut [],
-            )
-            .0;
+        let again = f.fit_pinned_to(&problem, &x, r);
         let excess = problem.misfit(again.error) - misfit;
         if excess.is_finite() && excess > 0.0 {
             excess

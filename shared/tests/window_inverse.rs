@@ -99,7 +99,15 @@ fn recorded_shafts(
         angles.push(s.user_angle);
         motor.push(s.motor_angle);
     }
-    let speeds: Vec<f32> = (0..TEST_SAMPLES)
+    let speeds = backward_speeds(&angles);
+    (full, angles, speeds, motor)
+}
+
+/// The surface's speed per sample [rad/s] from its `angles`: a backward difference over one
+/// control period (0 at the first sample).
+fn backward_speeds(angles: &[f32]) -> Vec<f32> {
+    let period = ActuatorRecord::REFERENCE.params.control_period;
+    (0..angles.len())
         .map(|i| {
             if i == 0 {
                 0.0
@@ -107,8 +115,7 @@ fn recorded_shafts(
                 (angles[i] - angles[i - 1]) / period
             }
         })
-        .collect();
-    (full, angles, speeds, motor)
+        .collect()
 }
 
 #[test]
@@ -669,16 +676,7 @@ fn with_sensor_error(angles: &[f32], sigma: f32, seed: u64) -> (Vec<f32>, Vec<f3
             a + sigma * (sum - 2.0) * 3f32.sqrt()
         })
         .collect();
-    let period = ActuatorRecord::REFERENCE.params.control_period;
-    let speeds = (0..noisy.len())
-        .map(|i| {
-            if i == 0 {
-                0.0
-            } else {
-                (noisy[i] - noisy[i - 1]) / period
-            }
-        })
-        .collect();
+    let speeds = backward_speeds(&noisy);
     (noisy, speeds)
 }
 

@@ -295,14 +295,15 @@ pub fn identify_window(
         return Ok(loaded);
     }
     // The load model cannot follow the window: read it again with the surface pinned.
-    let (angles, speeds) = surface_samples(trace, f64::from(record.params.control_period));
+    let period = f64::from(record.params.control_period);
+    let measured_angles = surface_angles(trace);
+    let (angles, speeds) = surface_of(&measured_angles, period);
     let surface = SurfaceSamples {
         angles: &angles,
         speeds: &speeds,
         motor: &[],
     };
-    let (again, again_speeds) =
-        redrawn_surface(trace, f64::from(record.params.control_period), seed);
+    let (again, again_speeds) = surface_of(&redrawn(&measured_angles, seed), period);
     let redrawn = SurfaceSamples {
         angles: &again,
         speeds: &again_speeds,
@@ -355,19 +356,13 @@ pub fn identify_window(
 /// Half the span of the surface speed's central difference [samples].
 const SPEED_HALF_SPAN: usize = 2;
 
-/// The surface sensor's angle (`theta_u`) [rad] per sample of `trace` and its speed
-/// [rad/s], a central difference over `2 · SPEED_HALF_SPAN` samples of `period` [s]
-/// (shorter at the ends).
-pub fn surface_samples(trace: &Trace, period: f64) -> (Vec<f32>, Vec<f32>) {
-    surface_of(&surface_angles(trace), period)
-}
-
 /// The surface sensor's angle (`theta_u`) [rad] per sample of `trace`.
 fn surface_angles(trace: &Trace) -> Vec<f64> {
     trace.samples().iter().map(|s| s.user_angle).collect()
 }
 
-/// `angles` [rad] as the pinned model reads them, with their speeds ([`surface_samples`]).
+/// `angles` [rad] as the pinned model reads them, with their speeds [rad/s]: a central
+/// difference over `2 · SPEED_HALF_SPAN` samples of `period` [s] (shorter at the ends).
 fn surface_of(angles: &[f64], period: f64) -> (Vec<f32>, Vec<f32>) {
     let n = angles.len();
     let speeds = (0..n)
@@ -417,14 +412,9 @@ const SENSOR_TRIM: f64 = 0.01;
 /// variance: `1 − 2·z·φ(z)/0.99`.
 const TRIMMED_VARIANCE: f64 = 0.924_76;
 
-/// The surface of `trace` with its sensor's error ([`sensor_error`]) drawn once more on its
-/// angles (a seeded normal draw of that deviation added to each), its speeds from them:
-/// what the pinned model's misfit would be with the sensor's error counted twice.
-pub fn redrawn_surface(trace: &Trace, period: f64, seed: u64) -> (Vec<f32>, Vec<f32>) {
-    surface_of(&redrawn(&surface_angles(trace), seed), period)
-}
-
-/// `angles` [rad] with their error ([`sensor_error`]) drawn once more (seeded).
+/// `angles` [rad] with their error ([`sensor_error`]) drawn once more (a seeded normal draw
+/// of that deviation added to each): the surface the pinned model's misfit is measured on
+/// with the sensor's error counted twice.
 fn redrawn(angles: &[f64], seed: u64) -> Vec<f64> {
     let sigma = sensor_error(angles);
     let mut draw = crate::plant::noise::Gaussian::new(seed ^ REDRAW_STREAM);
