@@ -15,11 +15,15 @@
 //! ([`MonitorModel::start_loaded_run`](crate::MonitorModel::start_loaded_run)), profiled out
 //! of the curvature.
 //!
-//! The search: a scan of the start's moment at three plays and three gain drifts
-//! ([`SCAN_PLAYS`] × [`SCAN_GAINS`] × [`SCAN_MOMENTS`] evaluations), then Nelder–Mead over
-//! (backlash, gain drift, moment) from the scan's best two points, [`SEARCH_EVALUATIONS`]
-//! each; the curvature by central differences at two step sizes
-//! ([`CURVATURE_EVALUATIONS`]), the uncertainty there widened by
+//! The search: with the surface pinned the gain drift is a needle — 0.02 off it the model's
+//! current is several times the measured — and the play a notch a few hundredths wide at
+//! its value, flat above it where the window never crosses it (docs/in-flight.md §6). So
+//! first the gain drift over its whole range at a middle play and the guessed start
+//! ([`SCAN_GAIN_STEPS`] evaluations), then the start's moment at every play of a grid at
+//! that gain ([`SCAN_PLAYS`] × [`SCAN_MOMENTS`]), then Nelder–Mead over (backlash, gain
+//! drift, moment) from the grid's best two points, [`SEARCH_EVALUATIONS`] each; the
+//! curvature by central differences at two step sizes ([`CURVATURE_EVALUATIONS`]), the
+//! uncertainty there widened by
 //! [`PINNED_INFLATION`] with the held values' error carried beside it (their coupling by
 //! mixed central differences, [`COUPLING_EVALUATIONS`]: the preflight's friction, shorts,
 //! eccentricity and demagnetization, each with its stated deviation), and the verdict
@@ -73,13 +77,20 @@ fn moment_scale(stiffness: f32, amplitude: f32) -> f32 {
     }
 }
 
-/// The backlash values the start's scan tries (the search starts from the best two pairs).
-pub const SCAN_PLAYS: [f32; 3] = [0.0, 0.5, 1.0];
+/// The backlash values the start's scan tries, every 0.05 from 0 to 1 (the search starts
+/// from the best two): finer than the play's notch is wide at a window's start scanned
+/// (stop 60; a grid of 0, 0.5 and 1 ended beside it on the low mix's play of 0.1).
+pub const SCAN_PLAYS: usize = 21;
 
-/// The gain drifts the start's scan tries with each play.
-pub const SCAN_GAINS: [f32; 3] = [0.1, 0.5, 0.9];
+/// The gain drifts the first scan tries, every 0.01 from 0 to 1, at [`SCAN_GAIN_PLAY`] and
+/// the guessed start: the needle is ±0.01 wide and its place hardly moves with the play or
+/// the start (stop 60: three gains, 0.1, 0.5 and 0.9, missed it on most low-mix windows).
+pub const SCAN_GAIN_STEPS: usize = 101;
 
-/// Moments per pair in the start's scan: the guess ± 10 steps of [`SCAN_STEP`].
+/// The play the gain drift is scanned at.
+const SCAN_GAIN_PLAY: f32 = 0.5;
+
+/// Moments per play in the start's scan: the guess ± 10 steps of [`SCAN_STEP`].
 pub const SCAN_MOMENTS: usize = 21;
 
 /// The scan's step [N·m].
@@ -98,7 +109,8 @@ pub const CURVATURE_EVALUATIONS: u32 = 2 * 19;
 pub const COUPLING_EVALUATIONS: u32 = 4 * 3 * (FAULT_COUNT - FREE.len()) as u32;
 
 /// Evaluations of one pinned identification at most.
-pub const PINNED_EVALUATIONS: u32 = (SCAN_PLAYS.len() * SCAN_GAINS.len() * SCAN_MOMENTS) as u32
+pub const PINNED_EVALUATIONS: u32 = SCAN_GAIN_STEPS as u32
+    + (SCAN_PLAYS * SCAN_MOMENTS) as u32
     + 2 * SEARCH_EVALUATIONS
     + CURVATURE_EVALUATIONS
     + COUPLING_EVALUATIONS
@@ -315,13 +327,21 @@ pub fn identify_pinned<const N: usize>(
         unit: MOMENT_UNIT * moment_scale(stiffness, problem.model().command().amplitude),
         evaluations: 0,
     };
-    // The start's scan: the best moment at each play and gain, the two best pairs kept.
+    // The gain drift's needle: its whole range at a middle play and the guessed start.
     let centre = start_guess / f.unit;
-    const PAIRS: usize = SCAN_PLAYS.len() * SCAN_GAINS.len();
-    let mut best: [(Point, f32); PAIRS] = [([0.0; 3], f32::INFINITY); PAIRS];
+    let mut gain = (0.5, f32::INFINITY);
+    for n in 0..SCAN_GAIN_STEPS {
+        let g = n as f32 / (SCAN_GAIN_STEPS - 1) as f32;
+        let e = f.error(&[SCAN_GAIN_PLAY, g, centre]);
+        if e < gain.1 {
+            gain = (g, e);
+        }
+    }
+    let gain = gain.0;
+    // The start's scan at that gain: the best moment at each play, the two best plays kept.
+    let mut best: [(Point, f32); SCAN_PLAYS] = [([0.0; 3], f32::INFINITY); SCAN_PLAYS];
     for (n, slot) in best.iter_mut().enumerate() {
-        let play = SCAN_PLAYS.get(n / SCAN_GAINS.len()).copied().unwrap_or(0.0);
-        let gain = SCAN_GAINS.get(n % SCAN_GAINS.len()).copied().unwrap_or(0.5);
+        let play = n as f32 / (SCAN_PLAYS - 1) as f32;
         for j in 0..SCAN_MOMENTS {
             let step = j as f32 - (SCAN_MOMENTS / 2) as f32;
             let x = [play, gain, centre + step * SCAN_STEP / MOMENT_UNIT];
