@@ -57,9 +57,6 @@ const MORE_CASES: [(&str, [f32; 9]); 6] = [
     ),
 ];
 
-/// Half the span of the surface speed's central difference [samples].
-const HALF_SPAN: usize = 2;
-
 /// The motor angle's error that weighs as much as the whole current [rad, motor side].
 const MOTOR_SCALE: f64 = 1.0e-3;
 
@@ -95,16 +92,8 @@ fn main() {
                 let problem = cruise.problem();
                 let (load, fitted) = problem.fit_load(&truth, record.params.aero_stiffness);
 
-                let period = f64::from(record.params.control_period);
-                let angles: Vec<f64> = sim.trace.samples().iter().map(|s| s.user_angle).collect();
+                let (angles, speeds) = cruise.sensed_surface();
                 let n = angles.len();
-                let speeds: Vec<f32> = (0..n)
-                    .map(|i| {
-                        let (a, b) = (i.saturating_sub(HALF_SPAN), (i + HALF_SPAN).min(n - 1));
-                        ((angles[b] - angles[a]) / ((b - a) as f64 * period)) as f32
-                    })
-                    .collect();
-                let angles: Vec<f32> = angles.iter().map(|a| *a as f32).collect();
                 let mut motor = Vec::with_capacity(n);
                 let (mut turned, mut last) = (0.0f64, sim.trace.samples()[0].motor_angle);
                 for s in sim.trace.samples() {

@@ -16,9 +16,6 @@ use host_sim::plant::aero::Turbulence;
 use shared::window::{HeldComponents, SurfaceSamples, WindowLoad};
 use shared::FaultVector;
 
-/// Half the span of the surface speed's central difference [samples].
-const HALF_SPAN: usize = 2;
-
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let faults = match args.get(1).map(String::as_str) {
@@ -40,22 +37,7 @@ fn main() {
     let problem = cruise.problem();
     let (load, _) = problem.fit_load(&truth, stiffness);
     let problem = problem.with_held(HeldComponents::of_preflight(&truth).also_holding(0));
-    let period = f64::from(record.params.control_period);
-    let angles: Vec<f64> = cruise
-        .sim
-        .trace
-        .samples()
-        .iter()
-        .map(|s| s.user_angle)
-        .collect();
-    let n = angles.len();
-    let speeds: Vec<f32> = (0..n)
-        .map(|i| {
-            let (a, b) = (i.saturating_sub(HALF_SPAN), (i + HALF_SPAN).min(n - 1));
-            ((angles[b] - angles[a]) / ((b - a) as f64 * period)) as f32
-        })
-        .collect();
-    let angles: Vec<f32> = angles.iter().map(|&a| a as f32).collect();
+    let (angles, speeds) = cruise.sensed_surface();
     let surface = SurfaceSamples {
         angles: &angles,
         speeds: &speeds,
@@ -79,32 +61,31 @@ fn main() {
         load.moment
     );
     let starts = [-120.0f32, -60.0, 0.0, 60.0, 120.0];
-    println!("\nunexplained [‰] along the gain drift at backlash {play}:\n");
-    print!("| start − guess [N·m] |");
+    let table = |title: &str, along: &[f32], at: &dyn Fn(f32, f32) -> u32| {
+        println!("\nunexplained [‰] {title}:\n");
+        print!("| start − guess [N·m] |");
+        for x in along {
+            print!(" {x:.2} |");
+        }
+        println!("\n| ---: |{}", " ---: |".repeat(along.len()));
+        for d in starts {
+            print!("| {d:+.0} |");
+            for &x in along {
+                print!(" {} |", at(x, load.moment + d));
+            }
+            println!();
+        }
+    };
     let gains: Vec<f32> = (0..=10).map(|i| gain - 0.05 + 0.01 * i as f32).collect();
-    for g in &gains {
-        print!(" {g:.2} |");
-    }
-    println!("\n| ---: |{}", " ---: |".repeat(gains.len()));
-    for d in starts {
-        print!("| {d:+.0} |");
-        for &g in &gains {
-            print!(" {} |", misfit(play, g, load.moment + d));
-        }
-        println!();
-    }
-    println!("\nunexplained [‰] along the backlash at gain drift {gain}:\n");
-    print!("| start − guess [N·m] |");
+    table(
+        &format!("along the gain drift at backlash {play}"),
+        &gains,
+        &|g, m| misfit(play, g, m),
+    );
     let plays: Vec<f32> = (0..=20).map(|i| 0.05 * i as f32).collect();
-    for p in &plays {
-        print!(" {p:.2} |");
-    }
-    println!("\n| ---: |{}", " ---: |".repeat(plays.len()));
-    for d in starts {
-        print!("| {d:+.0} |");
-        for &p in &plays {
-            print!(" {} |", misfit(p, gain, load.moment + d));
-        }
-        println!();
-    }
+    table(
+        &format!("along the backlash at gain drift {gain}"),
+        &plays,
+        &|p, m| misfit(p, gain, m),
+    );
 }

@@ -68,6 +68,28 @@ impl CruiseWindow {
         }
     }
 
+    /// The surface as its sensor read it: the angle [rad] and its central difference over
+    /// four samples [rad/s] per sample (what the pinned model is pinned to).
+    pub fn sensed_surface(&self) -> (Vec<f32>, Vec<f32>) {
+        const HALF_SPAN: usize = 2;
+        let period = f64::from(record().params.control_period);
+        let angles: Vec<f64> = self
+            .sim
+            .trace
+            .samples()
+            .iter()
+            .map(|s| s.user_angle)
+            .collect();
+        let n = angles.len();
+        let speeds = (0..n)
+            .map(|i| {
+                let (a, b) = (i.saturating_sub(HALF_SPAN), (i + HALF_SPAN).min(n - 1));
+                ((angles[b] - angles[a]) / ((b - a) as f64 * period)) as f32
+            })
+            .collect();
+        (angles.iter().map(|&a| a as f32).collect(), speeds)
+    }
+
     /// The window problem on it, the load at the actuator's spring.
     pub fn problem(&self) -> WindowProblem<'_, TEST_SAMPLES> {
         let record = record();
