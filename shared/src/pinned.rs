@@ -15,9 +15,10 @@
 //! ([`MonitorModel::start_loaded_run`](crate::MonitorModel::start_loaded_run)), profiled out
 //! of the curvature.
 //!
-//! The search: with the surface pinned the gain drift is a needle — 0.02 off it the model's
-//! current is several times the measured — and the play a notch a few hundredths wide at
-//! its value, flat above it where the window never crosses it (docs/in-flight.md §6). So
+//! The search: with the surface pinned the gain drift is a needle — 0.01 off it the fit
+//! leaves 20–40 % of the current, 0.05 off the model's current is several times the
+//! measured — and the play a notch a few hundredths wide at its value, flat above it where
+//! the window never crosses it (docs/in-flight.md §4, stop 60). So
 //! first the gain drift over its whole range at a middle play and the guessed start
 //! ([`SCAN_GAIN_STEPS`] evaluations), then the start's moment at every play of a grid at
 //! that gain ([`SCAN_PLAYS`] × [`SCAN_MOMENTS`]), then Nelder–Mead over (backlash, gain
