@@ -547,25 +547,45 @@ impl WidePlay {
         )
         .unwrap()
     }
+
+    /// The surface as its (ideal) sensor read it.
+    fn surface(&self) -> SurfaceSamples<'_> {
+        SurfaceSamples {
+            angles: &self.angles,
+            speeds: &self.speeds,
+            motor: &[],
+        }
+    }
+
+    /// The window read pinned: the preflight at the truth, the actuator's spring, the
+    /// start guessed at the held moment, no redraw of the sensor, the reference limits.
+    fn read_pinned(&self) -> shared::pinned::PinnedReading {
+        let problem = self.problem();
+        identify_pinned(
+            &problem,
+            &self.surface(),
+            None,
+            &HeldComponents::of_preflight(&self.truth),
+            ActuatorRecord::REFERENCE.params.aero_stiffness,
+            problem.held_moment(),
+            &PinnedLimits::REFERENCE,
+        )
+        .unwrap()
+    }
 }
 
 #[test]
 fn a_pinned_window_reads_a_wide_play_and_the_gain_drift() {
     let record = ActuatorRecord::REFERENCE;
     let wide = WidePlay::new();
-    let (truth, angles, speeds) = (wide.truth, &wide.angles, &wide.speeds);
+    let truth = wide.truth;
     let problem = wide.problem();
-    let surface = SurfaceSamples {
-        angles,
-        speeds,
-        motor: &[],
-    };
+    let surface = wide.surface();
     let held = HeldComponents::of_preflight(&truth);
     let limits = PinnedLimits::REFERENCE;
     let stiffness = record.params.aero_stiffness;
     let guess = problem.held_moment();
-    let reading =
-        identify_pinned(&problem, &surface, None, &held, stiffness, guess, &limits).unwrap();
+    let reading = wide.read_pinned();
     let k = reading.faults.as_array();
     assert!(
         (k[1] - 0.4).abs() < 0.03 && (k[7] - 0.6).abs() < 0.01,
@@ -654,7 +674,7 @@ fn a_pinned_window_reads_a_wide_play_and_the_gain_drift() {
     );
     // The surface's samples one short of the window.
     let short = SurfaceSamples {
-        angles: &angles[..angles.len() - 1],
+        angles: &wide.angles[..wide.angles.len() - 1],
         ..surface
     };
     assert_eq!(
@@ -690,26 +710,9 @@ fn a_pinned_window_finds_a_small_play_beside_its_gain_drifts_needle() {
     // 0.02 of gain drift off makes the model's current several times the measured, and the
     // play is a notch a few hundredths wide; a scan of three plays and three gains (before
     // stop 60) ended on the play's flat side, backlash 0.6–1.0.
-    let record = ActuatorRecord::REFERENCE;
     let wide =
         WidePlay::of(FaultVector::new([0.1, 0.1, 0.0, 0.0, 0.0, 0.0, 0.5, 0.4, 0.0]).unwrap());
-    let problem = wide.problem();
-    let surface = SurfaceSamples {
-        angles: &wide.angles,
-        speeds: &wide.speeds,
-        motor: &[],
-    };
-    let held = HeldComponents::of_preflight(&wide.truth);
-    let reading = identify_pinned(
-        &problem,
-        &surface,
-        None,
-        &held,
-        record.params.aero_stiffness,
-        problem.held_moment(),
-        &PinnedLimits::REFERENCE,
-    )
-    .unwrap();
+    let reading = wide.read_pinned();
     let k = reading.faults.as_array();
     assert!(
         (k[1] - 0.1).abs() < 0.01 && (k[7] - 0.4).abs() < 0.005,
