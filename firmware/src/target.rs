@@ -523,12 +523,6 @@ fn print_report(report: &Report, observed: &Observed, total_cycles: u64) {
                 u.lower,
                 u.upper
             );
-            defmt::println!(
-                "uncertainty_bits std={:08x} lower={:08x} upper={:08x}",
-                u.std.map(f32::to_bits),
-                u.lower.map(f32::to_bits),
-                u.upper.map(f32::to_bits)
-            );
         }
         None => defmt::println!("uncertainty none"),
     }

@@ -58,8 +58,29 @@ pub const INFLATION: f32 = 8.0;
 /// on the random multi-fault vectors (`--table random --runs 10`), the gain drift's
 /// intervals hold the truth in 54 of 80 `within` runs (51 without it): those vectors carry
 /// more systematic error than either table. A window of flight's own deviations do not
-/// take it (their factors are their own, `shared::window`).
+/// take it (their factors are their own, `shared::window`). A preflight that reads a gear
+/// play takes [`PLAY_GAIN_DRIFT_SYSTEMATIC`] for the gain drift instead.
 pub const SYSTEMATIC: [f32; FAULT_COUNT] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.006, 0.0];
+
+/// The gain drift's [`SYSTEMATIC`] error in a preflight that reads a gear play (backlash at
+/// or above [`DETECTION_THRESHOLD`]) [fault-vector units] (PLACEHOLDER DOC).
+pub const PLAY_GAIN_DRIFT_SYSTEMATIC: f32 = 0.011;
+
+/// Index of the backlash in the fault vector.
+const BACKLASH_INDEX: usize = 1;
+
+/// Index of the gain drift in the fault vector.
+const GAIN_DRIFT_INDEX: usize = 7;
+
+// The deviations add the gain drift's systematic error alone (flash: the loop reads no
+// table); another component's would need the loop changed.
+const _: () = {
+    let mut i = 0;
+    while i < FAULT_COUNT {
+        assert!(i == GAIN_DRIFT_INDEX || SYSTEMATIC[i] == 0.0);
+        i += 1;
+    }
+};
 
 /// The eccentricity's amplitude is the length of a two-dimensional quantity: noise alone
 /// gives it a Rayleigh-distributed value, beyond `σ·√(−2 ln 0.01)` in 1 % of healthy tests
@@ -109,6 +130,27 @@ pub enum Assessment {
     Ambiguous { with: u8 },
     /// Not a fault on its own (the eccentricity phase).
     NotApplicable,
+}
+
+/// Whether `k` reads a gear play: its backlash at or above [`DETECTION_THRESHOLD`] (the
+/// preflight's deviations then take [`PLAY_GAIN_DRIFT_SYSTEMATIC`]).
+#[inline(always)]
+#[must_use]
+pub fn reads_play(k: &FaultVector) -> bool {
+    k.as_array()[BACKLASH_INDEX] >= DETECTION_THRESHOLD
+}
+
+/// The systematic error [fault-vector units] a preflight that read `k` adds in quadrature to
+/// each component's deviation ([`Curvature::preflight_uncertainty`]): [`SYSTEMATIC`], the
+/// gain drift's [`PLAY_GAIN_DRIFT_SYSTEMATIC`] when `k` reads a play. For reports and
+/// studies; the deviations themselves are computed without this table (flash).
+#[must_use]
+pub fn preflight_systematic(k: &FaultVector) -> [f32; FAULT_COUNT] {
+    let mut e = SYSTEMATIC;
+    if reads_play(k) {
+        e[GAIN_DRIFT_INDEX] = PLAY_GAIN_DRIFT_SYSTEMATIC;
+    }
+    e
 }
 
 /// The 90 % interval of a component at `x` with standard deviation `s`: clamped to [0, 1],
@@ -345,20 +387,23 @@ impl Curvature {
         &self,
         k: &FaultVector,
     ) -> Result<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT]), UncertaintyError> {
-        self.uncertainty_with(k, &[0.0; FAULT_COUNT])
+        self.uncertainty_with(k, false)
     }
 
     /// [`Self::uncertainty`] of a preflight identification: each component's deviation with
-    /// its [`SYSTEMATIC`] error added in quadrature, the intervals to match.
+    /// its systematic error added in quadrature ([`preflight_systematic`]: [`SYSTEMATIC`],
+    /// the gain drift's [`PLAY_GAIN_DRIFT_SYSTEMATIC`] when `k` reads a gear play), the
+    /// intervals to match.
     pub fn preflight_uncertainty(
         &self,
         k: &FaultVector,
     ) -> Result<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT]), UncertaintyError> {
-        self.uncertainty_with(k, &SYSTEMATIC)
+        self.uncertainty_with(k, true)
     }
 
-    /// [`Self::uncertainty`] with `systematic` [fault-vector units] added in quadrature to
-    /// each determined component's deviation. The correlations stay the curvature's: what
+    /// [`Self::uncertainty`], with a `preflight`'s systematic error ([`preflight_systematic`])
+    /// added in quadrature to each determined component's deviation (read from the
+    /// constants, not from that table: 72 B less flash). The correlations stay the curvature's: what
     /// the test can tell apart (the verdicts' `Ambiguous`); the systematic error is taken as
     /// correlated with nothing.
     #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 9×9 arrays
@@ -366,7 +411,7 @@ impl Curvature {
     fn uncertainty_with(
         &self,
         k: &FaultVector,
-        systematic: &[f32; FAULT_COUNT],
+        preflight: bool,
     ) -> Result<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT]), UncertaintyError> {
         let (inverse, determined) = self.inverse(0.0).ok_or(UncertaintyError::Undetermined)?;
         let p = determined.iter().filter(|&&x| x).count();
@@ -398,7 +443,15 @@ impl Curvature {
                 continue;
             }
             let s = sqrt64(variance(i)) as f32;
-            let e = systematic[i];
+            // `preflight_systematic(k)[i]`: only the gain drift has one (asserted below the
+            // constants).
+            let e = if !preflight || i != GAIN_DRIFT_INDEX {
+                0.0
+            } else if reads_play(k) {
+                PLAY_GAIN_DRIFT_SYSTEMATIC
+            } else {
+                SYSTEMATIC[GAIN_DRIFT_INDEX]
+            };
             let s = if e > 0.0 {
                 crate::math::sqrt(s * s + e * e)
             } else {
@@ -537,7 +590,10 @@ mod tests {
         let k = FaultVector::new([0.0, 0.4, 0.0, 0.0, 0.0, 0.0, 0.5, 0.615, 0.0]).unwrap();
         let (own, own_corr) = c.uncertainty(&k).unwrap();
         let (pre, pre_corr) = c.preflight_uncertainty(&k).unwrap();
-        for (i, e) in SYSTEMATIC.iter().enumerate() {
+        assert!(reads_play(&k));
+        let systematic = preflight_systematic(&k);
+        assert_eq!(systematic[7], PLAY_GAIN_DRIFT_SYSTEMATIC);
+        for (i, e) in systematic.iter().enumerate() {
             let want = (own.std[i] * own.std[i] + e * e).sqrt();
             assert!(
                 (pre.std[i] - want).abs() < 1e-7,
@@ -557,11 +613,22 @@ mod tests {
         assert!(pre.std[7] > own.std[7]);
         assert_eq!(pre_corr, own_corr);
         assert_eq!(pre.worst_pair, own.worst_pair);
-        // A gain drift read 0.012 high at a play's typical deviation 0.0045 is outside its
-        // interval without the systematic error, inside with it.
-        let (read, own) = (k.as_array()[7] - 0.003, 0.0045f32);
-        assert!(read - Z90 * own > 0.6);
-        assert!(read - Z90 * (own * own + SYSTEMATIC[7] * SYSTEMATIC[7]).sqrt() <= 0.6);
+        // Table II medium's gain drift, read 0.018 high at a play's typical deviation 0.0045,
+        // is outside its interval with the systematic error of all runs, inside with a play's.
+        let (read, own) = (0.618f32, 0.0045f32);
+        let with = |e: f32| read - Z90 * (own * own + e * e).sqrt();
+        assert!(with(SYSTEMATIC[7]) > 0.6);
+        assert!(with(PLAY_GAIN_DRIFT_SYSTEMATIC) <= 0.6);
+        // Without a play read, the same curvature takes the systematic error of all runs.
+        let mut no_play = *k.as_array();
+        no_play[1] = 0.04;
+        let no_play = FaultVector::new(no_play).unwrap();
+        assert!(!reads_play(&no_play));
+        let (pre, _) = c.preflight_uncertainty(&no_play).unwrap();
+        let (own, _) = c.uncertainty(&no_play).unwrap();
+        let want = (own.std[7] * own.std[7] + SYSTEMATIC[7] * SYSTEMATIC[7]).sqrt();
+        assert!((pre.std[7] - want).abs() < 1e-7, "{} {want}", pre.std[7]);
+        assert_eq!(preflight_systematic(&no_play), SYSTEMATIC);
     }
 
     #[test]

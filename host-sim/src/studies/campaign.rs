@@ -15,7 +15,7 @@ use shared::fault::{
 };
 use shared::fault::{FAULT_COUNT, PAPER_FAULT_COUNT};
 use shared::metrics::{total_error, total_error_all};
-use shared::uncertainty::{Assessment, Uncertainty, SYSTEMATIC};
+use shared::uncertainty::{preflight_systematic, reads_play, Assessment, Uncertainty};
 use shared::FaultVector;
 
 use crate::fdi::identify::identify_for;
@@ -365,7 +365,7 @@ pub struct RunResult {
     /// The identification's uncertainty (`None` if this test determines no component).
     pub uncertainty: Option<Uncertainty>,
     /// Per component, |found − true| / std without the inflation and the systematic error
-    /// (`shared::uncertainty::SYSTEMATIC`: the raw Gauss–Newton std); `None` where
+    /// (`shared::uncertainty::preflight_systematic`: the raw Gauss–Newton std); `None` where
     /// undetermined or for the phase without an eccentricity.
     pub z_raw: [Option<f64>; FAULT_COUNT],
     /// Verdicts with the uncertainty (`Faulty` only when the 90 % interval clears the
@@ -679,7 +679,8 @@ pub fn run_once(
     let mut z_raw = [None; FAULT_COUNT];
     if let Some(u) = &uncertainty {
         for (i, z) in z_raw.iter_mut().enumerate() {
-            let raw = without_systematic(u, i) / f64::from(shared::uncertainty::INFLATION);
+            let raw =
+                without_systematic(u, &found, i) / f64::from(shared::uncertainty::INFLATION);
             let skip = i == 6 && truth.eccentricity() == 0.0;
             if raw.is_finite() && raw > 0.0 && !skip {
                 let mut e = f64::from(found.as_array()[i] - truth.as_array()[i]).abs();
@@ -875,22 +876,33 @@ pub fn markdown(title: &str, summaries: &[CaseSummary], runs: u64) -> String {
         "Per component, the least systematic error (steps of 0.001; `shared::uncertainty::\
          SYSTEMATIC`) with which 90 % of its intervals at inflation {} hold the truth: {}.",
         shared::uncertainty::INFLATION,
-        least_systematic(summaries).join(", ")
+        least_systematic(summaries, |_| true).join(", ")
+    );
+    let _ = writeln!(
+        s,
+        "The same over the runs that read a gear play (backlash ≥ {}; `shared::uncertainty::\
+         PLAY_GAIN_DRIFT_SYSTEMATIC` the gain drift's): {}; over those that do not: {}.",
+        shared::fault::DETECTION_THRESHOLD,
+        least_systematic(summaries, reads_play).join(", "),
+        least_systematic(summaries, |k| !reads_play(k)).join(", ")
     );
     s
 }
 
-/// Component `i`'s stated deviation in `u` without the preflight's systematic error
-/// (`shared::uncertainty::SYSTEMATIC`, added in quadrature): the inflated curvature's.
-fn without_systematic(u: &Uncertainty, i: usize) -> f64 {
-    let (std, systematic) = (f64::from(u.std[i]), f64::from(SYSTEMATIC[i]));
+/// Component `i`'s stated deviation in `u` (a preflight that read `found`) without the
+/// preflight's systematic error (`shared::uncertainty::preflight_systematic`, added in
+/// quadrature): the inflated curvature's.
+fn without_systematic(u: &Uncertainty, found: &FaultVector, i: usize) -> f64 {
+    let std = f64::from(u.std[i]);
+    let systematic = f64::from(preflight_systematic(found)[i]);
     (std * std - systematic * systematic).max(0.0).sqrt()
 }
 
 /// Per component (not the phase): the least systematic error in steps of 0.001 (up to 0.1)
 /// which, added in quadrature to each run's inflated deviation, makes 90 % of the
-/// component's intervals hold the truth (the rule of `shared::uncertainty::SYSTEMATIC`).
-fn least_systematic(summaries: &[CaseSummary]) -> Vec<String> {
+/// component's intervals hold the truth (the rule of `shared::uncertainty::SYSTEMATIC`), over
+/// the runs whose found vector passes `runs`.
+fn least_systematic(summaries: &[CaseSummary], runs: impl Fn(&FaultVector) -> bool) -> Vec<String> {
     let z90 = f64::from(shared::uncertainty::Z90);
     (0..FAULT_COUNT)
         .filter(|&i| i != shared::fault::ECCENTRICITY_PHASE_INDEX)
@@ -899,8 +911,9 @@ fn least_systematic(summaries: &[CaseSummary]) -> Vec<String> {
             let runs: Vec<(f64, f64)> = summaries
                 .iter()
                 .flat_map(|c| c.runs.iter().map(move |r| (c.case.faults, r)))
+                .filter(|(_, r)| runs(&r.found))
                 .filter_map(|(truth, r)| {
-                    let own = without_systematic(r.uncertainty.as_ref()?, i);
+                    let own = without_systematic(r.uncertainty.as_ref()?, &r.found, i);
                     let e = f64::from(r.found.as_array()[i] - truth[i]).abs();
                     own.is_finite().then_some((e, own))
                 })
