@@ -73,7 +73,8 @@ const BACKLASH_INDEX: usize = 1;
 const GAIN_DRIFT_INDEX: usize = 7;
 
 // The deviations add the gain drift's systematic error alone (flash: the loop reads no
-// table); another component's would need the loop changed.
+// table); another component's would need the loop changed. (Checked when compiling.)
+#[allow(clippy::indexing_slicing)]
 const _: () = {
     let mut i = 0;
     while i < FAULT_COUNT {
