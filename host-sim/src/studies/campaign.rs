@@ -679,8 +679,7 @@ pub fn run_once(
     let mut z_raw = [None; FAULT_COUNT];
     if let Some(u) = &uncertainty {
         for (i, z) in z_raw.iter_mut().enumerate() {
-            let raw =
-                without_systematic(u, &found, i) / f64::from(shared::uncertainty::INFLATION);
+            let raw = without_systematic(u, &found, i) / f64::from(shared::uncertainty::INFLATION);
             let skip = i == 6 && truth.eccentricity() == 0.0;
             if raw.is_finite() && raw > 0.0 && !skip {
                 let mut e = f64::from(found.as_array()[i] - truth.as_array()[i]).abs();
