@@ -71,7 +71,7 @@ pub const SYSTEMATIC: [f32; FAULT_COUNT] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0
 /// interval (docs/in-flight.md). The rule of [`SYSTEMATIC`] over the 70 of Table I and II's
 /// 210 runs that read a play (backlash 0.1, 0.4, 1.0; the low, medium and high mixes; the
 /// medium mix with noise): 0.011, with which 63 of the 70 gain-drift intervals hold the
-/// truth (36 with 0.006); over the 140 runs without a play the rule gives 0 for every
+/// truth (49 with 0.006); over the 140 runs without a play the rule gives 0 for every
 /// component. `host-sim campaign --table 1+2 --runs 10` prints the rule per stratum. Not
 /// taken: short A's 0.005 over the play runs (60 of 70 hold the truth without one, 200 of
 /// 210 over all): a flight's windows hold the preflight's short with its deviation
