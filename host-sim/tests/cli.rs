@@ -315,7 +315,29 @@ fn a_campaign_writes_every_run_as_a_csv_row() {
         let evaluations: u32 = r[6].parse().unwrap();
         assert!((0.0..20.0).contains(&e_tot), "{r:?}");
         assert!((32..=6000).contains(&evaluations), "{r:?}");
+        // A preflight's gain-drift deviation states its systematic error: a play's where it
+        // reads one (Table I's backlash cases), the one of all runs elsewhere.
+        let (backlash, std_gain_drift): (f32, f32) =
+            (r[10].parse().unwrap(), r[25].parse().unwrap());
+        let systematic = if backlash >= shared::fault::DETECTION_THRESHOLD {
+            shared::uncertainty::PLAY_GAIN_DRIFT_SYSTEMATIC
+        } else {
+            shared::uncertainty::SYSTEMATIC[7]
+        };
+        assert!(std_gain_drift >= systematic, "{r:?}");
     }
+    assert!(
+        rows.iter()
+            .any(|r| r[0].starts_with("backlash") && r[10].parse::<f32>().unwrap() >= 0.05),
+        "a backlash case reads its play: {text}"
+    );
+    // The calibration's rule, over all runs and over those that read a play.
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("the least systematic error"), "{out}");
+    assert!(
+        out.contains("The same over the runs that read a gear play"),
+        "{out}"
+    );
 }
 
 /// The board's record pair: the image `flash-pair --write` makes from `actuator --out`'s
