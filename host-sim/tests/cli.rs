@@ -327,8 +327,8 @@ fn a_campaign_writes_every_run_as_a_csv_row() {
         assert!(std_gain_drift >= systematic, "{r:?}");
     }
     assert!(
-        rows.iter()
-            .any(|r| r[0].starts_with("backlash") && r[10].parse::<f32>().unwrap() >= 0.05),
+        rows.iter().any(|r| r[0].starts_with("backlash")
+            && r[10].parse::<f32>().unwrap() >= shared::fault::DETECTION_THRESHOLD),
         "a backlash case reads its play: {text}"
     );
     // The calibration's rule, over all runs and over those that read a play.

@@ -163,10 +163,18 @@ pub fn reads_play(k: &FaultVector) -> bool {
 #[must_use]
 pub fn preflight_systematic(k: &FaultVector) -> [f32; FAULT_COUNT] {
     let mut e = SYSTEMATIC;
-    if reads_play(k) {
-        e[GAIN_DRIFT_INDEX] = PLAY_GAIN_DRIFT_SYSTEMATIC;
-    }
+    e[GAIN_DRIFT_INDEX] = gain_drift_systematic(k);
     e
+}
+
+/// The gain drift's entry of [`preflight_systematic`]: the one place the play chooses it.
+#[inline(always)]
+fn gain_drift_systematic(k: &FaultVector) -> f32 {
+    if reads_play(k) {
+        PLAY_GAIN_DRIFT_SYSTEMATIC
+    } else {
+        SYSTEMATIC[GAIN_DRIFT_INDEX]
+    }
 }
 
 /// The 90 % interval of a component at `x` with standard deviation `s`: clamped to [0, 1],
@@ -418,10 +426,10 @@ impl Curvature {
     }
 
     /// [`Self::uncertainty`], with a `preflight`'s systematic error ([`preflight_systematic`])
-    /// added in quadrature to each determined component's deviation (read from the
-    /// constants, not from that table: 104 B less flash than two tables). The correlations stay the curvature's: what
-    /// the test can tell apart (the verdicts' `Ambiguous`); the systematic error is taken as
-    /// correlated with nothing.
+    /// added in quadrature to each determined component's deviation (its one nonzero entry
+    /// taken alone, not through that table: 104 B less flash than two tables). The
+    /// correlations stay the curvature's: what the test can tell apart (the verdicts'
+    /// `Ambiguous`); the systematic error is taken as correlated with nothing.
     #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 9×9 arrays
     #[inline(never)]
     fn uncertainty_with(
@@ -461,12 +469,10 @@ impl Curvature {
             let s = sqrt64(variance(i)) as f32;
             // `preflight_systematic(k)[i]`: only the gain drift has one (asserted below the
             // constants).
-            let e = if !preflight || i != GAIN_DRIFT_INDEX {
-                0.0
-            } else if reads_play(k) {
-                PLAY_GAIN_DRIFT_SYSTEMATIC
+            let e = if preflight && i == GAIN_DRIFT_INDEX {
+                gain_drift_systematic(k)
             } else {
-                SYSTEMATIC[GAIN_DRIFT_INDEX]
+                0.0
             };
             let s = if e > 0.0 {
                 crate::math::sqrt(s * s + e * e)
