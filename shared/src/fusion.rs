@@ -282,6 +282,10 @@ pub struct WindowFusion {
     /// not judged by the friction limit; its deviations widened by
     /// [`PINNED_FLIGHT_INFLATION`].
     friction_held: bool,
+    /// The friction such a window held (its preflight's reading; 0 while none did): the
+    /// value [`WindowFusion::final_reading`] holds a flight at when the other windows read
+    /// the friction too loosely for the limit.
+    held_friction: f32,
 }
 
 /// The window of a flight with the smallest friction variance ([`WindowFusion`]).
@@ -385,6 +389,7 @@ impl WindowFusion {
         terms: 0,
         closest: ClosestWindow::NONE,
         friction_held: false,
+        held_friction: 0.0,
     };
 
     /// Windows added.
@@ -495,6 +500,7 @@ impl WindowFusion {
         if !determined[0] && held.holds(0) {
             // The window's friction is its preflight's: so is `last`'s below.
             self.friction_held = true;
+            self.held_friction = held.value(0);
         }
         self.terms = self
             .terms
@@ -520,18 +526,63 @@ impl WindowFusion {
     /// [`flight_inflation`]), and the friction limit
     /// `max_friction_std` on it ([`FLIGHT_MAX_FRICTION_STD`]). `Err` before any window.
     /// O(`FUSION_SWEEPS` · 9²) + O(9³).
-    #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // i, j < FAULT_COUNT on fixed 9×9 arrays
     pub fn reading(&self, max_friction_std: f32) -> Result<FlightReading, UncertaintyError> {
+        self.reading_at(max_friction_std, None)
+    }
+
+    /// The reading a flight ends with, after its last window: [`Self::reading`], except
+    /// that a flight the friction limit alone keeps out
+    /// ([`WindowReason::TurbulenceTooHigh`]) into which a window read with its surface
+    /// pinned entered is read with the friction that window held, its preflight's
+    /// (`friction_held`): its other components are the windows' summed quadratics'
+    /// minimum at that friction, their deviations conditional on it, with the held
+    /// friction's error carried through their coupling to it ([`FlightReading::shared_std`]).
+    /// A pinned window reads the play and the gain drift from the surface's sensor, which
+    /// the turbulence does not spoil; the windows that read the friction loosely are the
+    /// turbulence's. The windows must still agree, about that friction too. Not used to
+    /// decide whether to fly another window ([`FlightLength::after`] asks
+    /// [`Self::reading`]): a flight flies on while more windows can bring its own friction
+    /// within the limit. O(`FUSION_SWEEPS` · 9²) + O(9³).
+    pub fn final_reading(&self, max_friction_std: f32) -> Result<FlightReading, UncertaintyError> {
+        let reading = self.reading(max_friction_std)?;
+        match reading.verdict {
+            Err(WindowReason::TurbulenceTooHigh { .. })
+                if self.friction_held
+                    && !reading.friction_held
+                    && self.held_friction.is_finite() =>
+            {
+                self.reading_at(max_friction_std, Some(f64::from(self.held_friction)))
+            }
+            _ => Ok(reading),
+        }
+    }
+
+    /// [`Self::reading`], with the friction fixed at `friction` when given (its row and
+    /// column out of the summed information: not determined, the others conditional on it).
+    #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // i, j < FAULT_COUNT on fixed 9×9 arrays
+    fn reading_at(
+        &self,
+        max_friction_std: f32,
+        friction: Option<f64>,
+    ) -> Result<FlightReading, UncertaintyError> {
         if self.windows == 0 {
             return Err(UncertaintyError::Undetermined);
         }
         let mut k = self.last.as_array().map(f64::from);
-        let free: [bool; FAULT_COUNT] =
-            core::array::from_fn(|i| !CIRCULAR[i] && self.information[i][i] > 0.0);
+        let free: [bool; FAULT_COUNT] = core::array::from_fn(|i| {
+            !CIRCULAR[i] && self.information[i][i] > 0.0 && (i != 0 || friction.is_none())
+        });
+        // The components the windows' quadratics are taken over: the free ones and a fixed
+        // friction the windows read.
+        let counted: [bool; FAULT_COUNT] =
+            core::array::from_fn(|i| free[i] || (i == 0 && friction.is_some()));
+        if let Some(f) = friction {
+            k[0] = f;
+        }
         for _ in 0..FUSION_SWEEPS {
             for i in (0..FAULT_COUNT).filter(|&i| free[i]) {
                 let coupled: f64 = (0..FAULT_COUNT)
-                    .filter(|&j| j != i && free[j])
+                    .filter(|&j| j != i && counted[j])
                     .map(|j| self.information[i][j] * k[j])
                     .sum();
                 k[i] = ((self.linear[i] - coupled) / self.information[i][i]).clamp(0.0, 1.0);
@@ -539,6 +590,11 @@ impl WindowFusion {
         }
         let mut genes = k.map(|x| x as f32);
         let mut normal = self.information;
+        if friction.is_some() {
+            for i in 0..FAULT_COUNT {
+                (normal[0][i], normal[i][0]) = (0.0, 0.0);
+            }
+        }
         if self.phase.1 > 0.0 {
             genes[PHASE] = self.phase.0;
             normal[PHASE][PHASE] = self.phase.1;
@@ -559,14 +615,22 @@ impl WindowFusion {
             fitted: p as u32 + 1,
         };
         let (uncertainty, correlation) = summed.uncertainty(&faults)?;
-        // How the reading moves with the held values: (Σ I)⁻¹ · Σ I·A.
+        // How the reading moves with the held values: (Σ I)⁻¹ · Σ I·A; with the friction
+        // fixed, also −(Σ I)⁻¹ · (Σ I)·e₀ per unit of its error.
         let mut moved = [[0.0f64; FAULT_COUNT]; FAULT_COUNT];
         if let Some((inverse, determined)) = summed.inverse(0.0) {
             for i in (0..FAULT_COUNT).filter(|&i| determined[i] && !CIRCULAR[i]) {
                 for h in 0..FAULT_COUNT {
                     moved[i][h] = (0..FAULT_COUNT)
                         .filter(|&j| determined[j] && !CIRCULAR[j])
-                        .map(|j| inverse[i][j] * self.leaning[j][h])
+                        .map(|j| {
+                            let fixed = if h == 0 && friction.is_some() {
+                                self.information[j][0]
+                            } else {
+                                0.0
+                            };
+                            inverse[i][j] * (self.leaning[j][h] - fixed)
+                        })
                         .sum();
                 }
             }
@@ -586,7 +650,7 @@ impl WindowFusion {
         let friction_std = uncertainty.std[0];
         let friction_held = self.friction_held && !free[0];
         // The larger of the two tests (NaN, no degree of freedom, stays NaN).
-        let disagreement = match (self.disagreement(&k, &free), self.outweighed()) {
+        let disagreement = match (self.disagreement(&k, &counted, &free), self.outweighed()) {
             (all, Some(closest)) if closest > all => closest,
             (all, _) => all,
         };
@@ -614,16 +678,22 @@ impl WindowFusion {
         })
     }
 
-    /// The windows' χ² about the reading `k` (over the `free` components), over its 99 %
-    /// quantile: `Σ_w (p̃_w − k)ᵀ·I_w·(p̃_w − k)` = `Σ p̃ᵀIp̃ − 2·kᵀ·Σ Ip̃ + kᵀ·(Σ I)·k`, with
-    /// `Σ_w p_w − p` degrees of freedom (Wilson–Hilferty's quantile). NaN without a degree
+    /// The windows' χ² about the reading `k` (over the `counted` components: the `free`
+    /// ones, and a friction held fixed), over its 99 % quantile: `Σ_w (p̃_w − k)ᵀ·I_w·(p̃_w
+    /// − k)` = `Σ p̃ᵀIp̃ − 2·kᵀ·Σ Ip̃ + kᵀ·(Σ I)·k`, with `Σ_w p_w − p` degrees of freedom,
+    /// `p` the `free` components fitted (Wilson–Hilferty's quantile). NaN without a degree
     /// of freedom. O(9²).
     #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 9×9 arrays
-    fn disagreement(&self, k: &[f64; FAULT_COUNT], free: &[bool; FAULT_COUNT]) -> f32 {
+    fn disagreement(
+        &self,
+        k: &[f64; FAULT_COUNT],
+        counted: &[bool; FAULT_COUNT],
+        free: &[bool; FAULT_COUNT],
+    ) -> f32 {
         let mut chi2 = self.square;
-        for i in (0..FAULT_COUNT).filter(|&i| free[i]) {
+        for i in (0..FAULT_COUNT).filter(|&i| counted[i]) {
             chi2 -= 2.0 * k[i] * self.linear[i];
-            for j in (0..FAULT_COUNT).filter(|&j| free[j]) {
+            for j in (0..FAULT_COUNT).filter(|&j| counted[j]) {
                 chi2 += k[i] * self.information[i][j] * k[j];
             }
         }
@@ -956,7 +1026,7 @@ mod tests {
         let reading = apart.reading(0.04).unwrap();
         let k = reading.faults.as_array().map(f64::from);
         let free: [bool; FAULT_COUNT] = core::array::from_fn(|i| i != PHASE);
-        assert!(apart.disagreement(&k, &free) < 0.5);
+        assert!(apart.disagreement(&k, &free, &free) < 0.5);
         match reading.verdict {
             Err(WindowReason::Unconfirmed {
                 windows: 9,
@@ -1222,5 +1292,106 @@ mod tests {
         let reading = read.reading(FLIGHT_MAX_FRICTION_STD).unwrap();
         assert!(!reading.friction_held);
         assert!(reading.uncertainty.0.std[0] > 0.0);
+    }
+
+    #[test]
+    #[allow(clippy::needless_range_loop)] // i indexes FAULT_COUNT arrays
+    fn a_flight_the_friction_limit_keeps_out_ends_on_its_pinned_windows_friction() {
+        use crate::window::HeldComponents;
+        // Two pinned windows read the play and the gain drift (σ 0.05 each), the friction
+        // held at the preflight's 0.3 (σ 0.1, taken `HELD_ERROR_SCALE` times); two windows
+        // of the load model read the friction 0.1 loose (σ 0.1) and the gain drift coupled
+        // to it.
+        let preflight = FaultVector::new([0.3, 0.1, 0.0, 0.0, 0.0, 0.0, 0.5, 0.45, 0.0]).unwrap();
+        let mut std = [f32::NAN; FAULT_COUNT];
+        std[0] = 0.1;
+        let mut correlation = [[0.0f32; FAULT_COUNT]; FAULT_COUNT];
+        for (i, row) in correlation.iter_mut().enumerate() {
+            row[i] = 1.0;
+        }
+        // A flight's windows hold the preflight's shorts with its covariance; a pinned one
+        // its friction too.
+        let shorts =
+            HeldComponents::of_preflight(&preflight).with_preflight_uncertainty(&std, &correlation);
+        let held = shorts.also_holding(0);
+        let mut normal = [0.0; FAULT_COUNT];
+        (normal[1], normal[7]) = (400.0, 400.0);
+        let pinned = curvature(normal, [0.0; FAULT_COUNT], 0.0);
+        let mut normal = [0.0; FAULT_COUNT];
+        (normal[0], normal[7]) = (100.0, 400.0);
+        // The load model's windows read friction 0.35 and gain drift 0.45 (at their own
+        // point), coupled: a friction 0.05 lower moves their gain drift up.
+        let loose = curvature(normal, [0.0; FAULT_COUNT], 100.0);
+        let read = FaultVector::new([0.35, 0.1, 0.0, 0.0, 0.0, 0.0, 0.5, 0.45, 0.0]).unwrap();
+        let mut fusion = WindowFusion::EMPTY;
+        for _ in 0..2 {
+            fusion
+                .add_holding(&preflight, &pinned, &ONES, &held, &HeldCoupling::NONE)
+                .unwrap();
+            fusion
+                .add_holding(&read, &loose, &ONES, &shorts, &HeldCoupling::NONE)
+                .unwrap();
+        }
+        // Read as it goes: the friction limit keeps it out (its windows' friction σ 0.07).
+        let going = fusion.reading(FLIGHT_MAX_FRICTION_STD).unwrap();
+        assert!(matches!(
+            going.verdict,
+            Err(WindowReason::TurbulenceTooHigh { friction_std }) if friction_std > 0.03
+        ));
+        assert!(!going.friction_held);
+        // At its end: the pinned windows' friction, the others conditional on it.
+        let end = fusion.final_reading(FLIGHT_MAX_FRICTION_STD).unwrap();
+        assert_eq!(end.verdict, Ok(()));
+        assert!(end.friction_held);
+        assert_eq!(end.faults.as_array()[0], 0.3);
+        assert!(end.uncertainty.0.std[0].is_nan());
+        // The gain drift at friction 0.3: the loose windows' quadratic, (0.45 − k8) and
+        // (0.35 − 0.3) coupled by 100 against 400 on k8, pulls it to 0.45 + 0.05·100/400 /
+        // 2 against the pinned windows' 0.45 (equal information): 0.45625.
+        let k8 = end.faults.as_array()[7];
+        assert!((k8 - 0.45625).abs() < 1e-5, "{k8}");
+        assert!((end.faults.as_array()[1] - 0.1).abs() < 1e-6);
+        // The held friction's error (σ 0.1 × 0.3 = 0.03) moves the gain drift by
+        // 200 / 1600 per unit: 0.00375 shared, more windows do not shrink it.
+        let shared = 0.1 * crate::window::HELD_ERROR_SCALE[0] * 200.0 / 1600.0;
+        assert!(
+            (end.shared_std[7] - shared).abs() < 1e-6,
+            "{:?}",
+            end.shared_std
+        );
+        // Windows that disagree with the held friction (read 0.9 at σ 0.1, twice) are not
+        // read at their end either.
+        let far = FaultVector::new([0.9, 0.1, 0.0, 0.0, 0.0, 0.0, 0.5, 0.45, 0.0]).unwrap();
+        let mut apart = WindowFusion::EMPTY;
+        for _ in 0..2 {
+            apart
+                .add_holding(&preflight, &pinned, &ONES, &held, &HeldCoupling::NONE)
+                .unwrap();
+            apart
+                .add_holding(&far, &loose, &ONES, &shorts, &HeldCoupling::NONE)
+                .unwrap();
+        }
+        assert!(matches!(
+            apart
+                .final_reading(FLIGHT_MAX_FRICTION_STD)
+                .unwrap()
+                .verdict,
+            Err(WindowReason::Unconfirmed { .. })
+        ));
+        // Without a pinned window the end is the reading as it goes.
+        let mut plain = WindowFusion::EMPTY;
+        for _ in 0..4 {
+            plain.add(&read, &loose, &ONES).unwrap();
+        }
+        let (end, going) = (
+            plain.final_reading(FLIGHT_MAX_FRICTION_STD).unwrap(),
+            plain.reading(FLIGHT_MAX_FRICTION_STD).unwrap(),
+        );
+        assert!(matches!(
+            end.verdict,
+            Err(WindowReason::TurbulenceTooHigh { .. })
+        ));
+        assert_eq!((end.faults, end.verdict), (going.faults, going.verdict));
+        assert!(!end.friction_held);
     }
 }

@@ -165,7 +165,7 @@ fn main() -> ! {
     let added = fusion
         .add(&reading.faults, &reading.curvature, &WINDOW_INFLATION)
         .is_ok();
-    let flight = fusion.reading(FLIGHT_MAX_FRICTION_STD);
+    let flight = fusion.final_reading(FLIGHT_MAX_FRICTION_STD);
     let fusion_instructions = instructions_under_icount(cycles().saturating_sub(start));
     let flight_friction = flight.map_or(f32::NAN, |f| f.faults.friction());
     defmt::println!(

@@ -532,7 +532,7 @@ pub(crate) fn window_report(
         let fused = w.enter(&mut fusion);
         windows.push((name.to_string(), w, fused));
     }
-    let flight = (!others.is_empty()).then(|| fusion.reading(FLIGHT_MAX_FRICTION_STD).ok());
+    let flight = (!others.is_empty()).then(|| fusion.final_reading(FLIGHT_MAX_FRICTION_STD).ok());
     let seconds = start.elapsed().as_secs_f64();
     let verdict = window_reason(&id.verdict);
     let e_tot = truth.map(|t| shared::metrics::total_error(&id.faults, &t));
@@ -670,8 +670,9 @@ pub(crate) fn window_report(
             Some(f) => {
                 match f.verdict {
                     Ok(()) if f.friction_held => println!(
-                        "the flight's reading from {} windows: within (no window read the \
-                         friction: it is the preflight's)",
+                        "the flight's reading from {} windows: within (the friction is the \
+                         preflight's, as a window read with its surface pinned held it: no \
+                         window read it, or they read it too loosely for the limit)",
                         f.windows
                     ),
                     Ok(()) => println!(

@@ -359,7 +359,7 @@ fn fly_windows(
                     let preflight = runs
                         .first()
                         .map_or((Domain::Within, f64::NAN), |r| r.preflight);
-                    let flight = match fusion.reading(FLIGHT_MAX_FRICTION_STD) {
+                    let flight = match fusion.final_reading(FLIGHT_MAX_FRICTION_STD) {
                         Ok(f) => {
                             let (u, corr) = &f.uncertainty;
                             let (healthy_max, false_faults, covered) = against_truth(

@@ -240,7 +240,7 @@ pub fn degrade(
                 }
             }
             if windows >= 2 {
-                if let Ok(reading) = fusion.reading(FLIGHT_MAX_FRICTION_STD) {
+                if let Ok(reading) = fusion.final_reading(FLIGHT_MAX_FRICTION_STD) {
                     let entered: Vec<&WindowIdentified> = entered.iter().collect();
                     rows.push(HistoryRow {
                         record: flight_entry(flight, &reading, &entered),
