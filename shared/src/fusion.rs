@@ -13,12 +13,15 @@
 //! A flight is read only when its windows agree: their χ² about the reading over every
 //! window and component, and the friction of the one window that reads it closest against
 //! the others' — a window whose deviation is a third of the others' weighs as much as nine
-//! of them, and one such window reading wrong carries the flight with it.
+//! of them, and one such window reading wrong carries the flight with it. A flight whose
+//! friction the turbulence alone keeps too loose, into which a window read with its surface
+//! pinned entered, ends on the friction that window held, its preflight's
+//! ([`WindowFusion::final_reading`]).
 //!
 //! Units: the fault vector's [0, 1] range. Work: [`WindowFusion::add`] O(9³) (one 9 × 9
-//! inverse), [`WindowFusion::reading`] O([`FUSION_SWEEPS`] · 9²) + O(9³), whether a flight
-//! flies another window ([`FlightLength::after`]) O(1); state 2 504 B, no allocation, no
-//! panic. Windows must be independent: a minute apart in flight (the
+//! inverse), [`WindowFusion::reading`] O([`FUSION_SWEEPS`] · 9²) + O(9³) (the final reading
+//! at most twice that), whether a flight flies another window ([`FlightLength::after`])
+//! O(1); state 2 512 B, no allocation, no panic. Windows must be independent: a minute apart in flight (the
 //! turbulence's correlation is seconds), not overlapping.
 
 use crate::fault::{FaultVector, CIRCULAR, FAULT_COUNT};
