@@ -106,6 +106,60 @@ fn a_cruise_flight_flies_windows_until_its_friction_is_read() {
     assert_eq!(flight.false_faults, 0);
 }
 
+/// A flight the friction limit alone keeps out, into which a window read with its surface
+/// pinned entered, ends on the friction that window held, the preflight's
+/// (`shared::fusion::WindowFusion::final_reading`): moderate cruise, friction 0.2, seed 2,
+/// eight windows (`campaign --flight --flight-windows 8`; `turbulence_too_high` before stop
+/// 62, its load-model windows reading the friction to σ above 0.03). Right to 6 % e_tot,
+/// every interval holding the truth, no healthy component `FAULT`.
+#[test]
+fn a_flight_the_turbulence_keeps_out_ends_on_its_pinned_windows_friction() {
+    use host_sim::plant::aero::{FlightPhase, FlightWindow, Turbulence};
+    use shared::window::WindowReason;
+    let rm = ReferenceModel::new(ReferenceSettings::REFERENCE);
+    let rows = flight_campaign(
+        &rm,
+        &ActuatorRecord::REFERENCE,
+        2..3,
+        FlightLength::fixed(8),
+        &[FlightWindow {
+            phase: FlightPhase::Cruise,
+            turbulence: Turbulence::Moderate,
+        }],
+        &FLIGHT_CASES[1..2],
+        |_| {},
+    )
+    .expect("the campaign runs");
+    let (windows, flight) = (&rows[0].runs, &rows[0].flights[0]);
+    // Windows of both models entered: a pinned one and at least one that read the friction.
+    let entered = |pinned: u32| {
+        windows
+            .iter()
+            .filter(|w| {
+                w.pinned == pinned
+                    && matches!(
+                        w.window.0,
+                        Ok(()) | Err(WindowReason::TurbulenceTooHigh { .. })
+                    )
+            })
+            .count()
+    };
+    assert!(
+        entered(1) >= 1 && entered(0) >= 1,
+        "{} pinned, {} load",
+        entered(1),
+        entered(0)
+    );
+    assert_eq!(flight.window.0, Ok(()), "{:?}", flight.window.0);
+    // The friction is the preflight's, not read in flight.
+    assert!(flight.std[0].is_nan(), "σ {}", flight.std[0]);
+    assert_eq!(flight.found.friction(), flight.pre_found.friction());
+    assert!(flight.window.1 <= 6.0, "e_tot {:.2} %", flight.window.1);
+    assert_eq!(flight.false_faults, 0);
+    assert!(flight.covered.1 >= 2, "{:?}", flight.covered);
+    assert_eq!(flight.covered.0, flight.covered.1, "{:?}", flight.covered);
+}
+
 /// The window identification on the calmest windows (approach, light turbulence: the load
 /// reverses, the play is crossed): the healthy actuator and friction 0.2 are identified
 /// `within`, friction read within 0.05 and e_tot under 3 %; Table II medium (a backlash
