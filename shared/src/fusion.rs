@@ -1325,16 +1325,21 @@ mod tests {
         // The load model's windows read friction 0.35 and gain drift 0.45 (at their own
         // point), coupled: a friction 0.05 lower moves their gain drift up.
         let loose = curvature(normal, [0.0; FAULT_COUNT], 100.0);
-        let read = FaultVector::new([0.35, 0.1, 0.0, 0.0, 0.0, 0.0, 0.5, 0.45, 0.0]).unwrap();
-        let mut fusion = WindowFusion::EMPTY;
-        for _ in 0..2 {
+        // Two pinned windows and two of the load model reading `loose_at`.
+        let flight = |loose_at: [f32; FAULT_COUNT]| {
+            let read = FaultVector::new(loose_at).unwrap();
+            let mut fusion = WindowFusion::EMPTY;
+            for _ in 0..2 {
+                fusion
+                    .add_holding(&preflight, &pinned, &ONES, &held, &HeldCoupling::NONE)
+                    .unwrap();
+                fusion
+                    .add_holding(&read, &loose, &ONES, &shorts, &HeldCoupling::NONE)
+                    .unwrap();
+            }
             fusion
-                .add_holding(&preflight, &pinned, &ONES, &held, &HeldCoupling::NONE)
-                .unwrap();
-            fusion
-                .add_holding(&read, &loose, &ONES, &shorts, &HeldCoupling::NONE)
-                .unwrap();
-        }
+        };
+        let fusion = flight([0.35, 0.1, 0.0, 0.0, 0.0, 0.0, 0.5, 0.45, 0.0]);
         // Read as it goes: the friction limit keeps it out (its windows' friction σ 0.07).
         let going = fusion.reading(FLIGHT_MAX_FRICTION_STD).unwrap();
         assert!(matches!(
@@ -1364,16 +1369,7 @@ mod tests {
         );
         // Windows that disagree with the held friction (read 0.9 at σ 0.1, twice) are not
         // read at their end either.
-        let far = FaultVector::new([0.9, 0.1, 0.0, 0.0, 0.0, 0.0, 0.5, 0.45, 0.0]).unwrap();
-        let mut apart = WindowFusion::EMPTY;
-        for _ in 0..2 {
-            apart
-                .add_holding(&preflight, &pinned, &ONES, &held, &HeldCoupling::NONE)
-                .unwrap();
-            apart
-                .add_holding(&far, &loose, &ONES, &shorts, &HeldCoupling::NONE)
-                .unwrap();
-        }
+        let apart = flight([0.9, 0.1, 0.0, 0.0, 0.0, 0.0, 0.5, 0.45, 0.0]);
         assert!(matches!(
             apart
                 .final_reading(FLIGHT_MAX_FRICTION_STD)
@@ -1382,6 +1378,7 @@ mod tests {
             Err(WindowReason::Unconfirmed { .. })
         ));
         // Without a pinned window the end is the reading as it goes.
+        let read = FaultVector::new([0.35, 0.1, 0.0, 0.0, 0.0, 0.0, 0.5, 0.45, 0.0]).unwrap();
         let mut plain = WindowFusion::EMPTY;
         for _ in 0..4 {
             plain.add(&read, &loose, &ONES).unwrap();
