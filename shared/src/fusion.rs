@@ -21,8 +21,8 @@
 //! Units: the fault vector's [0, 1] range. Work: [`WindowFusion::add`] O(9³) (one 9 × 9
 //! inverse), [`WindowFusion::reading`] O([`FUSION_SWEEPS`] · 9²) + O(9³) (the final reading
 //! at most twice that), whether a flight flies another window ([`FlightLength::after`])
-//! O(1); state 2 512 B, no allocation, no panic. Windows must be independent: a minute apart in flight (the
-//! turbulence's correlation is seconds), not overlapping.
+//! O(1); state 2 512 B, no allocation, no panic. Windows must be independent: a minute
+//! apart in flight (the turbulence's correlation is seconds), not overlapping.
 
 use crate::fault::{FaultVector, CIRCULAR, FAULT_COUNT};
 use crate::math::invert;
