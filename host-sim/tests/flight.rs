@@ -58,6 +58,28 @@ fn no_flight_window_is_read_within() {
     }
 }
 
+/// Friction 0.2 flown in moderate cruise on the reference actuator, seeds `seeds`, each
+/// flight `length` long: the campaign's rows.
+fn moderate_cruise_friction_flights(
+    seeds: std::ops::Range<u64>,
+    length: FlightLength,
+) -> Vec<host_sim::studies::flight::FlightRow> {
+    use host_sim::plant::aero::{FlightPhase, FlightWindow, Turbulence};
+    flight_campaign(
+        &ReferenceModel::new(ReferenceSettings::REFERENCE),
+        &ActuatorRecord::REFERENCE,
+        seeds,
+        length,
+        &[FlightWindow {
+            phase: FlightPhase::Cruise,
+            turbulence: Turbulence::Moderate,
+        }],
+        &FLIGHT_CASES[1..2],
+        |_| {},
+    )
+    .expect("the campaign runs")
+}
+
 /// A flight in moderate cruise that eight windows leave out (its fused friction deviation
 /// above the limit), flown under the cruise rule (`shared::fusion::CRUISE_LENGTH`: eight,
 /// then more while the friction deviation alone keeps it out, up to 24), flies more and is
@@ -66,22 +88,8 @@ fn no_flight_window_is_read_within() {
 /// `campaign --flight --phase cruise --flight-windows 8 --flight-windows-max 24`).
 #[test]
 fn a_cruise_flight_flies_windows_until_its_friction_is_read() {
-    use host_sim::plant::aero::{FlightPhase, FlightWindow, Turbulence};
     use shared::fusion::{CRUISE_LENGTH, FLIGHT_MAX_FRICTION_STD};
-    let rm = ReferenceModel::new(ReferenceSettings::REFERENCE);
-    let rows = flight_campaign(
-        &rm,
-        &ActuatorRecord::REFERENCE,
-        1..2,
-        CRUISE_LENGTH,
-        &[FlightWindow {
-            phase: FlightPhase::Cruise,
-            turbulence: Turbulence::Moderate,
-        }],
-        &FLIGHT_CASES[1..2],
-        |_| {},
-    )
-    .expect("the campaign runs");
+    let rows = moderate_cruise_friction_flights(1..2, CRUISE_LENGTH);
     let flight = &rows[0].flights[0];
     // More than eight flown: the reading of the first eight was out for its friction only.
     assert!(
@@ -114,22 +122,8 @@ fn a_cruise_flight_flies_windows_until_its_friction_is_read() {
 /// every interval holding the truth, no healthy component `FAULT`.
 #[test]
 fn a_flight_the_turbulence_keeps_out_ends_on_its_pinned_windows_friction() {
-    use host_sim::plant::aero::{FlightPhase, FlightWindow, Turbulence};
     use shared::window::WindowReason;
-    let rm = ReferenceModel::new(ReferenceSettings::REFERENCE);
-    let rows = flight_campaign(
-        &rm,
-        &ActuatorRecord::REFERENCE,
-        2..3,
-        FlightLength::fixed(8),
-        &[FlightWindow {
-            phase: FlightPhase::Cruise,
-            turbulence: Turbulence::Moderate,
-        }],
-        &FLIGHT_CASES[1..2],
-        |_| {},
-    )
-    .expect("the campaign runs");
+    let rows = moderate_cruise_friction_flights(2..3, FlightLength::fixed(8));
     let (windows, flight) = (&rows[0].runs, &rows[0].flights[0]);
     // Windows of both models entered: a pinned one and at least one that read the friction.
     let entered = |pinned: u32| {
