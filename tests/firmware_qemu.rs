@@ -17,6 +17,7 @@ use host_sim::files::trace::Trace;
 use host_sim::plant::reference::{ReferenceModel, ReferenceSettings, Scenario};
 use shared::fdi::TEST_SAMPLES;
 use shared::test_design::PreflightTest;
+use shared::uncertainty::SystematicError;
 use shared::{ActuatorParams, Calibration, FaultVector, FAULT_COUNT};
 
 fn workspace_root() -> PathBuf {
@@ -185,7 +186,9 @@ fn firmware_under_qemu_gives_the_hosts_bits() {
         &Calibration::REFERENCE_ACTUATOR,
     )
     .expect("a fitness");
-    let (u, _) = problem.uncertainty(&host.faults).expect("determined");
+    let (u, _) = problem
+        .uncertainty(&host.faults, &SystematicError::REFERENCE_ACTUATOR)
+        .expect("determined");
     // The readable line's decimals are the shortest that read back to the same `f32` (as the
     // `result` line's below), so they carry the bits; a NaN (an undetermined component) is
     // printed without its payload.

@@ -33,7 +33,7 @@ fn both_verdicts(wind: Option<GroundWind>, seed: u64) -> (Report, Domain) {
     let mut buffer = Box::new(OnboardMeasured::new(filter));
     let mut curvature = Box::new(CurvatureRun::IDLE);
     let mut preflight =
-        Preflight::new(settings, source, &mut buffer).with_curvature_buffer(&mut curvature);
+        Preflight::new(&settings, source, &mut buffer).with_curvature_buffer(&mut curvature);
     let report = loop {
         if let Progress::Finished(report) = preflight.poll().expect("the preflight runs") {
             break report;

@@ -441,8 +441,8 @@ async fn preflight(spawner: Spawner) -> Result<(), Stop> {
             converter: Converter::new(SensorScaling::REFERENCE_BOARD),
             frames: 0,
         };
-        let mut preflight =
-            Preflight::new(settings, source, &mut *measured).with_curvature_buffer(&mut *curvature);
+        let mut preflight = Preflight::new(&settings, source, &mut *measured)
+            .with_curvature_buffer(&mut *curvature);
         let mut stage = preflight.stage();
         let report = loop {
             match preflight.poll() {

@@ -231,7 +231,9 @@ enum State<'m> {
 
 /// One preflight self-test in progress.
 pub struct Preflight<'m, S> {
-    settings: PreflightSettings,
+    /// Lent, as the buffers are: the caller keeps the one copy of the actuator's record
+    /// (≈ 0.5 kB of the task's RAM that a second copy here would take).
+    settings: &'m PreflightSettings,
     source: S,
     state: State<'m>,
     /// The uncertainty's lockstep runs (≈ 3 kB), lent in like the measured buffer; without
@@ -273,7 +275,11 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
     }
 
     /// A self-test that fills `measured` (cleared first) from `source`.
-    pub fn new(settings: PreflightSettings, source: S, measured: &'m mut OnboardMeasured) -> Self {
+    pub fn new(
+        settings: &'m PreflightSettings,
+        source: S,
+        measured: &'m mut OnboardMeasured,
+    ) -> Self {
         measured.clear_for(settings.actuator.test);
         Self {
             settings,
@@ -512,7 +518,12 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                 Ok(match done {
                     None => State::Uncertainty { result },
                     Some(curvature) => {
-                        let uncertainty = curvature.preflight_uncertainty(&result.faults).ok();
+                        let uncertainty = curvature
+                            .preflight_uncertainty(
+                                &result.faults,
+                                &self.settings.actuator.systematic,
+                            )
+                            .ok();
                         State::Report {
                             result,
                             assessments: self.assess(&result, uncertainty.as_ref()),

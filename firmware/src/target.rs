@@ -195,14 +195,11 @@ async fn preflight(spawner: Spawner) -> i32 {
         }
     }
     defmt::info!(
-        "preflight on {=[u8]:a}: {=u32} rows, GA seed {=u64}, {=u32} evaluations per tick",
+        "preflight on {=[u8]:a}: {=u32} rows, GA seed {=u64}, {=u32} evaluations per tick, calibration at {=f32} C",
         path_text,
         source.header().rows,
         settings.seed,
-        settings.evaluations_per_poll
-    );
-    defmt::info!(
-        "calibration at {=f32} C",
+        settings.evaluations_per_poll,
         settings.actuator.calibration.temperature
     );
 
@@ -212,7 +209,8 @@ async fn preflight(spawner: Spawner) -> i32 {
     let mut next_checkpoint = CHECKPOINT_EVERY;
 
     let started = cycles();
-    let mut preflight = Preflight::new(settings, source, measured).with_curvature_buffer(curvature);
+    let mut preflight =
+        Preflight::new(&settings, source, measured).with_curvature_buffer(curvature);
     let mut stage = preflight.stage();
     let mut observed = Observed::default();
     let mut next_progress = PROGRESS_EVERY;
@@ -323,13 +321,13 @@ fn preflight_settings(
 }
 
 /// The preflight this image runs: frames from a trace file on the host.
-type HostPreflight = Preflight<'static, TraceSource<HostFile>>;
+type HostPreflight<'a> = Preflight<'a, TraceSource<HostFile>>;
 
 /// Resumes the identification from the GA record at `path`, if there is one of this run.
 /// Out of line, as [`save_checkpoint`]: the record's buffer (1 412 B) is on the stack only
 /// during the call, not in the preflight task's state nor under its deepest calls.
 #[inline(never)]
-fn resume_checkpoint(preflight: &mut HostPreflight, path: &CStr) {
+fn resume_checkpoint(preflight: &mut HostPreflight<'_>, path: &CStr) {
     let mut record: OnboardRecord = [0; core::mem::size_of::<OnboardRecord>()];
     match read_record_file(path, &mut record) {
         // A checkpoint of an older version is shorter: its header tells.
@@ -344,7 +342,7 @@ fn resume_checkpoint(preflight: &mut HostPreflight, path: &CStr) {
 
 /// Writes the identification's GA record to `path`.
 #[inline(never)]
-fn save_checkpoint(preflight: &HostPreflight, path: &CStr) {
+fn save_checkpoint(preflight: &HostPreflight<'_>, path: &CStr) {
     let mut record: OnboardRecord = [0; core::mem::size_of::<OnboardRecord>()];
     let saved = preflight.checkpoint(&mut record);
     match saved.map(|n| (n, write_record_file(path, &record))) {

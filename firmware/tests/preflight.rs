@@ -149,7 +149,7 @@ fn the_uncertainty_stage_is_bounded_and_gives_the_shared_bits() {
     let mut buffer = empty_buffer();
     let mut curvature = Box::new(CurvatureRun::IDLE);
     let mut preflight =
-        Preflight::new(s, source, &mut buffer).with_curvature_buffer(&mut curvature);
+        Preflight::new(&s, source, &mut buffer).with_curvature_buffer(&mut curvature);
     let mut uncertainty_polls = 0u32;
     let report = loop {
         match preflight.poll().expect("the preflight runs") {
@@ -179,7 +179,9 @@ fn the_uncertainty_stage_is_bounded_and_gives_the_shared_bits() {
     measured.finish().unwrap();
     let problem =
         shared::FitnessProblem::new(&measured, s.actuator.params, &s.actuator.calibration).unwrap();
-    let (expected, correlation) = problem.uncertainty(&report.result.faults).unwrap();
+    let (expected, correlation) = problem
+        .uncertainty(&report.result.faults, &s.actuator.systematic)
+        .unwrap();
     assert_eq!(u.std.map(f32::to_bits), expected.std.map(f32::to_bits));
     assert_eq!(u.lower.map(f32::to_bits), expected.lower.map(f32::to_bits));
     assert_eq!(
@@ -206,7 +208,7 @@ fn preflight_walks_the_stages_in_bounded_polls_and_matches_the_shared_loop() {
     let source = TraceSource::open(SliceBytes::new(&bytes)).expect("a valid trace");
     let s = settings();
     let mut buffer = empty_buffer();
-    let mut preflight = Preflight::new(s, source, &mut buffer);
+    let mut preflight = Preflight::new(&s, source, &mut buffer);
 
     let mut stages = vec![preflight.stage()];
     let mut evaluations = 0;
@@ -295,7 +297,8 @@ fn acquire_ends_a_poll_when_the_source_has_nothing_yet() {
         wait: false,
     };
     let mut buffer = empty_buffer();
-    let mut preflight = Preflight::new(settings(), source, &mut buffer);
+    let s = settings();
+    let mut preflight = Preflight::new(&s, source, &mut buffer);
     let mut acquire_polls = 0;
     while preflight.stage() == Stage::Acquire {
         preflight.poll().expect("acquisition runs");
@@ -326,7 +329,8 @@ fn too_many_frames_are_refused_not_truncated() {
     let bytes = trace_bytes(&rows, SAMPLE_RATE_HZ);
     let source = TraceSource::open(SliceBytes::new(&bytes)).expect("a valid trace");
     let mut buffer = empty_buffer();
-    let mut preflight = Preflight::new(settings(), source, &mut buffer);
+    let s = settings();
+    let mut preflight = Preflight::new(&s, source, &mut buffer);
     let error = poll_until_error(&mut preflight);
     assert_eq!(
         error,
@@ -343,7 +347,8 @@ fn a_too_short_test_fails_in_condition() {
     let bytes = trace_bytes(&rows, SAMPLE_RATE_HZ);
     let source = TraceSource::open(SliceBytes::new(&bytes)).expect("a valid trace");
     let mut buffer = empty_buffer();
-    let mut preflight = Preflight::new(settings(), source, &mut buffer);
+    let s = settings();
+    let mut preflight = Preflight::new(&s, source, &mut buffer);
     let error = poll_until_error(&mut preflight);
     assert!(
         matches!(error, PreflightError::Conditioning(_)),
@@ -367,7 +372,8 @@ fn a_clipped_current_stretch_is_refused_in_acquire() {
     let bytes = trace_bytes(&rows, SAMPLE_RATE_HZ);
     let source = TraceSource::open(SliceBytes::new(&bytes)).expect("a valid header");
     let mut buffer = empty_buffer();
-    let mut preflight = Preflight::new(settings(), source, &mut buffer);
+    let s = settings();
+    let mut preflight = Preflight::new(&s, source, &mut buffer);
     let error = poll_until_error(&mut preflight);
     assert_eq!(
         error,
@@ -390,7 +396,8 @@ fn run_preflight(
 ) {
     let source = TraceSource::open(SliceBytes::new(bytes)).expect("a valid trace");
     let mut buffer = empty_buffer();
-    let mut preflight = Preflight::new(settings(), source, &mut buffer);
+    let s = settings();
+    let mut preflight = Preflight::new(&s, source, &mut buffer);
     let mut resumed = None;
     let mut stop_after = stop_after;
     loop {

@@ -285,7 +285,8 @@ pub(crate) enum CampaignTable {
     Two,
     Random,
     /// Tables I and II together: the runs the preflight's uncertainty is calibrated on
-    /// (`shared::uncertainty::INFLATION` and `SYSTEMATIC`).
+    /// (`shared::uncertainty::INFLATION`) and an actuator's systematic error surveyed on
+    /// (its file's `[uncertainty]`, printed on the last lines).
     #[value(name = "1+2")]
     OneAndTwo,
     /// The ninth fault: demagnetization in both forms, mixed with a short and a hot day.

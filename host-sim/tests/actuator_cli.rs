@@ -30,6 +30,12 @@ fn a_record_is_written_read_back_and_refused_when_damaged() {
     let o = host_sim(&["actuator", rec.to_str().unwrap()]);
     assert!(o.status.success(), "{}", text(&o));
     assert!(text(&o).contains("5 pole pairs"), "{}", text(&o));
+    // The light actuator's own systematic error, from its file's `[uncertainty]`.
+    assert!(
+        text(&o).contains("systematic     gain drift 0.009 (0.018 where a gear play is read)"),
+        "{}",
+        text(&o)
+    );
 
     let mut damaged = bytes.clone();
     damaged[100] ^= 0x04;

@@ -20,6 +20,7 @@ use crate::params::{ActuatorParams, PARAM_WORDS};
 use crate::polish::{PolishSettings, MAX_PROBES};
 use crate::test_design::{MotionSegment, PreflightTest, StandstillSegment};
 use crate::trace::Crc32;
+use crate::uncertainty::SystematicError;
 
 /// First bytes of every actuator record.
 pub const RECORD_MAGIC: [u8; 4] = *b"EMAA";
@@ -31,8 +32,10 @@ pub const RECORD_MAGIC: [u8; 4] = *b"EMAA";
 /// calibration's duty delay, which reads as 0: the controller of those records applied
 /// each period's volts at its sample; none before 7 has the grease's drag law, which reads
 /// as none: friction follows the measured temperature; none before 8 has the GA's initial
-/// guess of the ninth component, demagnetization, which reads as 0: no flux lost).
-pub const RECORD_VERSION: u16 = 8;
+/// guess of the ninth component, demagnetization, which reads as 0: no flux lost; none
+/// before 9 has the preflight's systematic error, which reads as
+/// [`SystematicError::REFERENCE_ACTUATOR`], the values those records were used with).
+pub const RECORD_VERSION: u16 = 9;
 /// 32-bit words in the body of version 1.
 const BODY_WORDS_V1: usize = 72;
 /// Words version 2 adds at the end of [`run_words`]: the injection's frequency, the pair
@@ -67,8 +70,36 @@ const BODY_WORDS_V7: usize = BODY_WORDS_V6 + GREASE_WORDS;
 /// Words version 8 adds at the end: the initial guess's components past the paper's eight
 /// (demagnetization). The body's guess before it keeps the paper's eight.
 const NINTH_WORDS: usize = GENES - PAPER_FAULT_COUNT;
+/// 32-bit words in the body of version 8.
+const BODY_WORDS_V8: usize = BODY_WORDS_V7 + NINTH_WORDS;
+/// Words version 9 adds at the end: the preflight's systematic error in the gain drift,
+/// without and with a gear play ([`SystematicError`]).
+const SYSTEMATIC_WORDS: usize = 2;
 /// 32-bit words in the body.
-const BODY_WORDS: usize = BODY_WORDS_V7 + NINTH_WORDS;
+const BODY_WORDS: usize = BODY_WORDS_V8 + SYSTEMATIC_WORDS;
+/// The body's 32-bit words by version, from 1 (bytes, not a `match`: 36 B less flash).
+#[allow(clippy::indexing_slicing)] // evaluated when compiling: an index out of range fails the build
+const BODY_WORDS_OF_VERSION: [u8; RECORD_VERSION as usize] = {
+    let words = [
+        BODY_WORDS_V1,
+        BODY_WORDS_V2,
+        BODY_WORDS_V3,
+        BODY_WORDS_V4,
+        BODY_WORDS_V5,
+        BODY_WORDS_V6,
+        BODY_WORDS_V7,
+        BODY_WORDS_V8,
+        BODY_WORDS,
+    ];
+    let mut out = [0u8; RECORD_VERSION as usize];
+    let mut i = 0;
+    while i < out.len() {
+        assert!(words[i] <= u8::MAX as usize);
+        out[i] = words[i] as u8;
+        i += 1;
+    }
+    out
+};
 /// Bytes of one record: magic, version, length, body, CRC-32.
 pub const RECORD_BYTES: usize = 8 + 4 * BODY_WORDS + 4;
 /// Bytes of a version 1 record.
@@ -85,6 +116,8 @@ pub const RECORD_BYTES_V5: usize = 8 + 4 * BODY_WORDS_V5 + 4;
 pub const RECORD_BYTES_V6: usize = 8 + 4 * BODY_WORDS_V6 + 4;
 /// Bytes of a version 7 record.
 pub const RECORD_BYTES_V7: usize = 8 + 4 * BODY_WORDS_V7 + 4;
+/// Bytes of a version 8 record.
+pub const RECORD_BYTES_V8: usize = 8 + 4 * BODY_WORDS_V8 + 4;
 
 /// Why a record was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -193,6 +226,8 @@ record_fields! {
     TestSegmentSamples => "test",
     CalibrationViscous => "calibration.viscous",
     CalibrationDragPoints => "calibration.drag_points",
+    UncertaintyGainDriftSystematic => "uncertainty.gain_drift_systematic",
+    UncertaintyPlayGainDriftSystematic => "uncertainty.play_gain_drift_systematic",
 }
 
 /// One actuator, as the FDI needs it. Plain data.
@@ -212,6 +247,9 @@ pub struct ActuatorRecord {
     pub drive: DriveSettings,
     /// Deviation from nominal above which a component reads as a fault.
     pub detection_threshold: f32,
+    /// The preflight's systematic error on this actuator, surveyed on its own campaign
+    /// (`crate::uncertainty::SystematicError`).
+    pub systematic: SystematicError,
 }
 
 impl ActuatorRecord {
@@ -225,6 +263,7 @@ impl ActuatorRecord {
         domain: DomainLimits::REFERENCE_ACTUATOR,
         drive: DriveSettings::TYPICAL,
         detection_threshold: DETECTION_THRESHOLD,
+        systematic: SystematicError::REFERENCE_ACTUATOR,
     };
 
     /// The record's bytes. Validate first: encoding does not check ranges.
@@ -283,6 +322,8 @@ impl ActuatorRecord {
         for &v in guess.get(PAPER_FAULT_COUNT..).unwrap_or(&[]) {
             w.f32(v);
         }
+        w.f32(self.systematic.gain_drift);
+        w.f32(self.systematic.play_gain_drift);
         let mut crc = Crc32::new();
         crc.update(w.out.get(..RECORD_BYTES - 4).unwrap_or(&[]));
         w.bytes(&crc.finish().to_le_bytes());
@@ -304,17 +345,13 @@ impl ActuatorRecord {
         }
         let [v0, v1, l0, l1] = r.word();
         let version = u16::from_le_bytes([v0, v1]);
-        let body_words = match version {
-            1 => BODY_WORDS_V1,
-            2 => BODY_WORDS_V2,
-            3 => BODY_WORDS_V3,
-            4 => BODY_WORDS_V4,
-            5 => BODY_WORDS_V5,
-            6 => BODY_WORDS_V6,
-            7 => BODY_WORDS_V7,
-            RECORD_VERSION => BODY_WORDS,
-            _ => return Err(ActuatorRecordError::UnsupportedVersion { found: version }),
+        let Some(&body_words) = usize::from(version)
+            .checked_sub(1)
+            .and_then(|v| BODY_WORDS_OF_VERSION.get(v))
+        else {
+            return Err(ActuatorRecordError::UnsupportedVersion { found: version });
         };
+        let body_words = usize::from(body_words);
         // Magic, version, length, body, CRC-32 (as `RECORD_BYTES_V*`).
         let total = 8 + 4 * body_words + 4;
         let Some(bytes) = bytes.get(..total) else {
@@ -464,6 +501,11 @@ impl ActuatorRecord {
                 *g = r.f32();
             }
         }
+        let mut systematic = SystematicError::REFERENCE_ACTUATOR;
+        if version >= 9 {
+            systematic.gain_drift = r.f32();
+            systematic.play_gain_drift = r.f32();
+        }
         let ga = GaSettings {
             max_evaluations,
             max_generations,
@@ -497,6 +539,7 @@ impl ActuatorRecord {
                 temperature,
             },
             detection_threshold,
+            systematic,
         };
         record.validate()?;
         Ok(record)
@@ -548,7 +591,7 @@ impl ActuatorRecord {
         if let Some(field) = first_outside(&positive, false) {
             return fail(field);
         }
-        let non_negative: [(f32, RecordField); 13] = [
+        let non_negative: [(f32, RecordField); 15] = [
             (p.gear_damping, RecordField::MechanicsGearDamping),
             (p.aero_stiffness, RecordField::MechanicsAeroStiffness),
             (p.position_ki, RecordField::ControllerPositionKi),
@@ -564,6 +607,14 @@ impl ActuatorRecord {
             (
                 self.drive.compensation_threshold,
                 RecordField::DriveCompensationThreshold,
+            ),
+            (
+                self.systematic.gain_drift,
+                RecordField::UncertaintyGainDriftSystematic,
+            ),
+            (
+                self.systematic.play_gain_drift,
+                RecordField::UncertaintyPlayGainDriftSystematic,
             ),
         ];
         if let Some(field) = first_outside(&non_negative, true) {
@@ -988,7 +1039,7 @@ mod tests {
         assert_eq!(r.polish, custom.polish);
         // A compensation word other than 0 or 1, re-sealed: refused, not read as "on".
         let mut flag = v6;
-        let at = RECORD_BYTES - 4 - 12 - 4 * (GREASE_WORDS + NINTH_WORDS);
+        let at = RECORD_BYTES - 4 - 12 - 4 * (GREASE_WORDS + NINTH_WORDS + SYSTEMATIC_WORDS);
         flag[at..at + 4].copy_from_slice(&7u32.to_le_bytes());
         let mut crc = Crc32::new();
         crc.update(&flag[..RECORD_BYTES - 4]);
@@ -1041,6 +1092,50 @@ mod tests {
         // Without a guess the ninth word is not read into one.
         custom.ga.initial_guess = None;
         assert_eq!(ActuatorRecord::decode(&custom.encode()), Ok(custom));
+    }
+
+    #[test]
+    fn a_version_8_record_reads_with_the_reference_actuators_systematic_error() {
+        let custom = ActuatorRecord {
+            systematic: SystematicError {
+                gain_drift: 0.009,
+                play_gain_drift: 0.018,
+            },
+            ..ActuatorRecord::REFERENCE
+        };
+        let v9 = custom.encode();
+        assert_eq!(ActuatorRecord::decode(&v9), Ok(custom));
+        let v8 = older_record(8, &v9[8..8 + 4 * BODY_WORDS_V8]);
+        assert_eq!(v8.len(), RECORD_BYTES_V8);
+        let r = ActuatorRecord::decode(&v8).unwrap();
+        assert_eq!(r.systematic, SystematicError::REFERENCE_ACTUATOR);
+        assert_eq!(
+            ActuatorRecord {
+                systematic: custom.systematic,
+                ..r
+            },
+            custom
+        );
+        for (gain_drift, play_gain_drift, field) in [
+            (-0.001, 0.018, RecordField::UncertaintyGainDriftSystematic),
+            (
+                0.009,
+                f32::NAN,
+                RecordField::UncertaintyPlayGainDriftSystematic,
+            ),
+        ] {
+            let bad = ActuatorRecord {
+                systematic: SystematicError {
+                    gain_drift,
+                    play_gain_drift,
+                },
+                ..custom
+            };
+            assert_eq!(
+                ActuatorRecord::decode(&bad.encode()),
+                Err(ActuatorRecordError::OutOfRange { field })
+            );
+        }
     }
 
     #[test]
@@ -1170,10 +1265,10 @@ mod tests {
             Err(ActuatorRecordError::TooShort { found: 100 })
         );
         let mut other = bytes;
-        other[4] = 9;
+        other[4] = 10;
         assert_eq!(
             ActuatorRecord::decode(&other),
-            Err(ActuatorRecordError::UnsupportedVersion { found: 9 })
+            Err(ActuatorRecordError::UnsupportedVersion { found: 10 })
         );
         let mut other = bytes;
         other[0] = b'X';

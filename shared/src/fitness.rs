@@ -27,7 +27,7 @@ use crate::fault::{FaultVector, FAULT_COUNT};
 use crate::ga::Problem;
 use crate::monitor::{MonitorModel, MonitorRun, MonitorSample, SampleSink};
 use crate::params::ActuatorParams;
-use crate::uncertainty::{Curvature, Uncertainty, UncertaintyError, STEP};
+use crate::uncertainty::{Curvature, SystematicError, Uncertainty, UncertaintyError, STEP};
 
 /// Why a fitness problem could not be set up.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -424,13 +424,14 @@ impl<const N: usize> FitnessProblem<'_, N> {
     }
 
     /// A standard deviation, a 90 % interval and the correlations of each component of the
-    /// identified `k` ([`crate::uncertainty`], with the preflight's systematic error). 10
-    /// monitor-model runs.
+    /// identified `k` ([`crate::uncertainty`], with the preflight's systematic error that
+    /// the actuator's record carries). 10 monitor-model runs.
     pub fn uncertainty(
         &self,
         k: &FaultVector,
+        systematic: &SystematicError,
     ) -> Result<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT]), UncertaintyError> {
-        self.curvature(k).preflight_uncertainty(k)
+        self.curvature(k).preflight_uncertainty(k, systematic)
     }
 }
 

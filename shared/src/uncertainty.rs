@@ -81,6 +81,50 @@ pub const SYSTEMATIC: [f32; FAULT_COUNT] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0
 /// and II play runs 52 of 70 (43), which would take 0.018 (docs/accuracy.md).
 pub const PLAY_GAIN_DRIFT_SYSTEMATIC: f32 = 0.011;
 
+/// One actuator's preflight systematic error in its gain drift [fault-vector units], added in
+/// quadrature to the inflated deviation ([`Curvature::preflight_uncertainty`]): the
+/// actuator record carries it (`uncertainty` in the actuator description file), surveyed on
+/// that actuator's own Table I and II campaign by the rule of [`SYSTEMATIC`] — over all runs
+/// for `gain_drift`, over the runs that read a gear play for `play_gain_drift`
+/// (`host-sim campaign --table 1+2 --runs 10 --actuator FILE` prints both). The monitor
+/// model's play is simpler than a real gear's, and how much gain drift that leaves unread
+/// depends on the actuator: the light actuator's play runs take 0.018 where the reference
+/// actuator's take 0.011 (docs/accuracy.md).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SystematicError {
+    /// The gain drift's, where the preflight reads no gear play.
+    pub gain_drift: f32,
+    /// The gain drift's, where it reads one ([`reads_play`]).
+    pub play_gain_drift: f32,
+}
+
+impl SystematicError {
+    /// The reference actuator's ([`SYSTEMATIC`], [`PLAY_GAIN_DRIFT_SYSTEMATIC`]); a record
+    /// written before version 9 reads as these, the values it was used with.
+    pub const REFERENCE_ACTUATOR: Self = Self {
+        gain_drift: SYSTEMATIC[GAIN_DRIFT_INDEX],
+        play_gain_drift: PLAY_GAIN_DRIFT_SYSTEMATIC,
+    };
+
+    /// None: a reading whose deviations are its curvature's alone (a window of flight's).
+    pub const NONE: Self = Self {
+        gain_drift: 0.0,
+        play_gain_drift: 0.0,
+    };
+
+    /// The gain drift's entry for a preflight that read `k`: the one place the play chooses.
+    #[inline(always)]
+    #[must_use]
+    pub fn gain_drift_for(&self, k: &FaultVector) -> f32 {
+        if reads_play(k) {
+            self.play_gain_drift
+        } else {
+            self.gain_drift
+        }
+    }
+}
+
 /// Index of the backlash in the fault vector.
 const BACKLASH_INDEX: usize = 1;
 
@@ -157,24 +201,15 @@ pub fn reads_play(k: &FaultVector) -> bool {
 }
 
 /// The systematic error [fault-vector units] a preflight that read `k` adds in quadrature to
-/// each component's deviation ([`Curvature::preflight_uncertainty`]): [`SYSTEMATIC`], the
-/// gain drift's [`PLAY_GAIN_DRIFT_SYSTEMATIC`] when `k` reads a play. For reports and
-/// studies; the deviations themselves are computed without this table (flash).
+/// each component's deviation ([`Curvature::preflight_uncertainty`]) on an actuator whose
+/// record carries `systematic`: [`SYSTEMATIC`]'s zeros, the gain drift's from `systematic`.
+/// For reports and studies; the deviations themselves are computed without this table
+/// (flash).
 #[must_use]
-pub fn preflight_systematic(k: &FaultVector) -> [f32; FAULT_COUNT] {
+pub fn preflight_systematic(k: &FaultVector, systematic: &SystematicError) -> [f32; FAULT_COUNT] {
     let mut e = SYSTEMATIC;
-    e[GAIN_DRIFT_INDEX] = gain_drift_systematic(k);
+    e[GAIN_DRIFT_INDEX] = systematic.gain_drift_for(k);
     e
-}
-
-/// The gain drift's entry of [`preflight_systematic`]: the one place the play chooses it.
-#[inline(always)]
-fn gain_drift_systematic(k: &FaultVector) -> f32 {
-    if reads_play(k) {
-        PLAY_GAIN_DRIFT_SYSTEMATIC
-    } else {
-        SYSTEMATIC[GAIN_DRIFT_INDEX]
-    }
 }
 
 /// The 90 % interval of a component at `x` with standard deviation `s`: clamped to [0, 1],
@@ -411,31 +446,33 @@ impl Curvature {
         &self,
         k: &FaultVector,
     ) -> Result<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT]), UncertaintyError> {
-        self.uncertainty_with(k, false)
+        self.uncertainty_with(k, &SystematicError::NONE)
     }
 
-    /// [`Self::uncertainty`] of a preflight identification: each component's deviation with
-    /// its systematic error added in quadrature ([`preflight_systematic`]: [`SYSTEMATIC`],
-    /// the gain drift's [`PLAY_GAIN_DRIFT_SYSTEMATIC`] when `k` reads a gear play), the
-    /// intervals to match.
+    /// [`Self::uncertainty`] of a preflight identification on an actuator whose record
+    /// carries `systematic`: each component's deviation with its systematic error added in
+    /// quadrature ([`preflight_systematic`]: the gain drift's alone, a gear play's where `k`
+    /// reads one), the intervals to match.
     pub fn preflight_uncertainty(
         &self,
         k: &FaultVector,
+        systematic: &SystematicError,
     ) -> Result<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT]), UncertaintyError> {
-        self.uncertainty_with(k, true)
+        self.uncertainty_with(k, systematic)
     }
 
-    /// [`Self::uncertainty`], with a `preflight`'s systematic error ([`preflight_systematic`])
-    /// added in quadrature to each determined component's deviation (its one nonzero entry
-    /// taken alone, not through that table: 104 B less flash than two tables). The
-    /// correlations stay the curvature's: what the test can tell apart (the verdicts'
-    /// `Ambiguous`); the systematic error is taken as correlated with nothing.
+    /// [`Self::uncertainty`], with a preflight's `systematic` error ([`preflight_systematic`];
+    /// [`SystematicError::NONE`] for none) added in quadrature to the gain drift's deviation
+    /// (the table's one nonzero entry taken alone, not through the table: 104 B less flash
+    /// than two tables). The correlations stay the curvature's: what the test can
+    /// tell apart (the verdicts' `Ambiguous`); the systematic error is taken as correlated
+    /// with nothing.
     #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 9×9 arrays
     #[inline(never)]
     fn uncertainty_with(
         &self,
         k: &FaultVector,
-        preflight: bool,
+        systematic: &SystematicError,
     ) -> Result<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT]), UncertaintyError> {
         let (inverse, determined) = self.inverse(0.0).ok_or(UncertaintyError::Undetermined)?;
         let p = determined.iter().filter(|&&x| x).count();
@@ -469,8 +506,8 @@ impl Curvature {
             let s = sqrt64(variance(i)) as f32;
             // `preflight_systematic(k)[i]`: only the gain drift has one (asserted below the
             // constants).
-            let e = if preflight && i == GAIN_DRIFT_INDEX {
-                gain_drift_systematic(k)
+            let e = if i == GAIN_DRIFT_INDEX {
+                systematic.gain_drift_for(k)
             } else {
                 0.0
             };
@@ -611,9 +648,10 @@ mod tests {
         };
         let k = FaultVector::new([0.0, 0.4, 0.0, 0.0, 0.0, 0.0, 0.5, 0.615, 0.0]).unwrap();
         let (own, own_corr) = c.uncertainty(&k).unwrap();
-        let (pre, pre_corr) = c.preflight_uncertainty(&k).unwrap();
+        let reference = SystematicError::REFERENCE_ACTUATOR;
+        let (pre, pre_corr) = c.preflight_uncertainty(&k, &reference).unwrap();
         assert!(reads_play(&k));
-        let systematic = preflight_systematic(&k);
+        let systematic = preflight_systematic(&k, &reference);
         assert_eq!(systematic[7], PLAY_GAIN_DRIFT_SYSTEMATIC);
         for (i, e) in systematic.iter().enumerate() {
             let want = (own.std[i] * own.std[i] + e * e).sqrt();
@@ -646,11 +684,52 @@ mod tests {
         no_play[1] = 0.04;
         let no_play = FaultVector::new(no_play).unwrap();
         assert!(!reads_play(&no_play));
-        let (pre, _) = c.preflight_uncertainty(&no_play).unwrap();
+        let (pre, _) = c.preflight_uncertainty(&no_play, &reference).unwrap();
         let (own, _) = c.uncertainty(&no_play).unwrap();
         let want = (own.std[7] * own.std[7] + SYSTEMATIC[7] * SYSTEMATIC[7]).sqrt();
         assert!((pre.std[7] - want).abs() < 1e-7, "{} {want}", pre.std[7]);
-        assert_eq!(preflight_systematic(&no_play), SYSTEMATIC);
+        assert_eq!(preflight_systematic(&no_play, &reference), SYSTEMATIC);
+    }
+
+    #[test]
+    fn a_preflight_takes_the_systematic_error_its_actuator_record_carries() {
+        let c = Curvature {
+            gradient: [0.0; FAULT_COUNT],
+            normal: diagonal([4.0; FAULT_COUNT]),
+            rss: 1.0,
+            fitted: 1000,
+        };
+        // The light actuator's survey: 0.009 over all runs, 0.018 over those with a play.
+        let light = SystematicError {
+            gain_drift: 0.009,
+            play_gain_drift: 0.018,
+        };
+        let play = FaultVector::new([0.0, 0.4, 0.0, 0.0, 0.0, 0.0, 0.5, 0.625, 0.0]).unwrap();
+        let mut none = *play.as_array();
+        none[1] = 0.0;
+        let none = FaultVector::new(none).unwrap();
+        for (k, e) in [(play, 0.018f32), (none, 0.009)] {
+            let (own, _) = c.uncertainty(&k).unwrap();
+            let (pre, _) = c.preflight_uncertainty(&k, &light).unwrap();
+            let (reference, _) = c
+                .preflight_uncertainty(&k, &SystematicError::REFERENCE_ACTUATOR)
+                .unwrap();
+            let want = (own.std[7] * own.std[7] + e * e).sqrt();
+            assert!((pre.std[7] - want).abs() < 1e-7, "{} {want}", pre.std[7]);
+            assert!(pre.std[7] > reference.std[7]);
+            // Only the gain drift moves.
+            for i in (0..FAULT_COUNT).filter(|&i| i != 7) {
+                assert_eq!(pre.std[i].to_bits(), reference.std[i].to_bits(), "{i}");
+            }
+            assert_eq!(preflight_systematic(&k, &light)[7], e);
+        }
+        // A flight's windows read that mix's gain drift 0.600; the light preflight read it
+        // 0.625 (docs/in-flight.md): outside the interval a play takes on the reference
+        // actuator, inside the light actuator's own.
+        let (read, own) = (0.625f32, 0.005f32);
+        let lower = |e: f32| read - Z90 * (own * own + e * e).sqrt();
+        assert!(lower(PLAY_GAIN_DRIFT_SYSTEMATIC) > 0.6);
+        assert!(lower(light.play_gain_drift) <= 0.6);
     }
 
     #[test]

@@ -30,6 +30,11 @@ pub(crate) fn actuator_command(file: &Path, out: Option<&Path>) -> Result<()> {
         }
     );
     println!("threshold      {}", r.detection_threshold);
+    println!(
+        "systematic     gain drift {} ({} where a gear play is read), added to a preflight's \
+         deviation",
+        r.systematic.gain_drift, r.systematic.play_gain_drift
+    );
     if let Some(path) = out {
         std::fs::write(path, actuator.record_bytes())
             .with_context(|| format!("writing {}", path.display()))?;

@@ -208,6 +208,7 @@ pub fn identify_checkpointed(
     }
     let settings = record.ga;
     let polish = record.polish;
+    let systematic = record.systematic;
     let start = Instant::now();
     // The table is built inside the timed span.
     let table = command_table(measured, record);
@@ -264,7 +265,9 @@ pub fn identify_checkpointed(
     let seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
     let curvature = id.problem().curvature_in(&mut run, &result.faults);
-    let uncertainty = curvature.preflight_uncertainty(&result.faults).ok();
+    let uncertainty = curvature
+        .preflight_uncertainty(&result.faults, &systematic)
+        .ok();
     Ok((
         Outcome::Finished(Box::new(Identified {
             result,

@@ -25,6 +25,7 @@ use shared::command::ChirpCommand;
 use shared::domain::DomainLimits;
 use shared::polish::{PolishSettings, Probe, MAX_PROBES};
 use shared::test_design::{PreflightTest, StandstillSegment};
+use shared::uncertainty::SystematicError;
 use shared::{ActuatorParams, Calibration, GaSettings};
 
 use crate::plant::aero::SurfaceAerodynamics;
@@ -594,6 +595,7 @@ fn range_text(field: &str) -> &'static str {
             || f.ends_with("damping")
             || f.ends_with("aero_stiffness")
             || f.ends_with("nominal_residual")
+            || f.starts_with("uncertainty.")
             || (f.starts_with("domain.") && f != "domain.max_fitness") =>
         {
             "must be finite and not negative"
@@ -656,6 +658,8 @@ struct Description {
     #[serde(default)]
     polish: PolishSection,
     detection: Detection,
+    #[serde(default)]
+    uncertainty: UncertaintySection,
     domain: Domain,
     calibration: Option<Cal>,
     #[serde(default)]
@@ -814,6 +818,16 @@ struct Ga {
 #[serde(deny_unknown_fields)]
 struct Detection {
     threshold: f32,
+}
+
+/// The preflight's systematic error on this actuator (`shared::uncertainty::SystematicError`),
+/// surveyed by `host-sim campaign --table 1+2 --runs 10 --actuator FILE`; absent: the
+/// reference actuator's.
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct UncertaintySection {
+    gain_drift_systematic: Option<f32>,
+    play_gain_drift_systematic: Option<f32>,
 }
 
 #[derive(Deserialize)]
@@ -1211,6 +1225,13 @@ impl Description {
                 domain,
                 drive: reference.bridge.drive(),
                 detection_threshold: self.detection.threshold,
+                systematic: {
+                    let (u, r) = (&self.uncertainty, SystematicError::REFERENCE_ACTUATOR);
+                    SystematicError {
+                        gain_drift: u.gain_drift_systematic.unwrap_or(r.gain_drift),
+                        play_gain_drift: u.play_gain_drift_systematic.unwrap_or(r.play_gain_drift),
+                    }
+                },
             },
             calibrated: calibration.is_some(),
             reference: Some(reference),
@@ -1271,6 +1292,56 @@ mod tests {
         let a = Actuator::parse(&text).unwrap();
         assert_eq!(a.record.params.pole_pairs, 5.0);
         assert!(a.record.params.dc_bus_voltage < 30.0);
+        // Its own survey's systematic error, not the reference actuator's.
+        assert_eq!(
+            a.record.systematic,
+            SystematicError {
+                gain_drift: 0.009,
+                play_gain_drift: 0.018
+            }
+        );
+    }
+
+    #[test]
+    fn the_systematic_error_is_the_files_or_the_reference_actuators() {
+        let text = reference_text();
+        let start = text.find("[uncertainty]").unwrap();
+        let end = start + text[start..].find("\n[").unwrap() + 1;
+        let without = format!("{}{}", &text[..start], &text[end..]);
+        assert!(!without.contains("gain_drift_systematic"));
+        assert_eq!(
+            Actuator::parse(&without).unwrap().record.systematic,
+            SystematicError::REFERENCE_ACTUATOR
+        );
+        let one = text.replace("play_gain_drift_systematic = 0.011", "");
+        let a = Actuator::parse(&one.replace(
+            "gain_drift_systematic = 0.006",
+            "gain_drift_systematic = 0.02",
+        ))
+        .unwrap();
+        assert_eq!(
+            a.record.systematic,
+            SystematicError {
+                gain_drift: 0.02,
+                play_gain_drift: shared::uncertainty::PLAY_GAIN_DRIFT_SYSTEMATIC
+            }
+        );
+        let bad = text.replace(
+            "play_gain_drift_systematic = 0.011",
+            "play_gain_drift_systematic = -0.011",
+        );
+        let line = bad
+            .lines()
+            .position(|l| l.starts_with("play_gain_drift_systematic"))
+            .unwrap()
+            + 1;
+        let e = refusal(&bad);
+        assert!(
+            e.contains("uncertainty.play_gain_drift_systematic")
+                && e.contains("not negative")
+                && e.contains(&format!("line {line}")),
+            "{e}"
+        );
     }
 
     fn refusal(text: &str) -> String {

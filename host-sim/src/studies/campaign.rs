@@ -15,7 +15,9 @@ use shared::fault::{
 };
 use shared::fault::{FAULT_COUNT, PAPER_FAULT_COUNT};
 use shared::metrics::{total_error, total_error_all};
-use shared::uncertainty::{preflight_systematic, reads_play, Assessment, Uncertainty};
+use shared::uncertainty::{
+    preflight_systematic, reads_play, Assessment, SystematicError, Uncertainty,
+};
 use shared::FaultVector;
 
 use crate::fdi::identify::identify_for;
@@ -368,6 +370,9 @@ pub struct RunResult {
     /// (`shared::uncertainty::preflight_systematic`: the raw Gauss–Newton std); `None` where
     /// undetermined or for the phase without an eccentricity.
     pub z_raw: [Option<f64>; FAULT_COUNT],
+    /// Per component, the stated deviation without the actuator's systematic error (the
+    /// inflated curvature's; NaN where undetermined): what the survey of that error reads.
+    pub own_std: [f64; FAULT_COUNT],
     /// Verdicts with the uncertainty (`Faulty` only when the 90 % interval clears the
     /// detection threshold).
     pub assessments: [Assessment; FAULT_COUNT],
@@ -677,9 +682,11 @@ pub fn run_once(
     let assessments = id.assessments();
     let uncertainty = id.uncertainty.map(|(u, _)| u);
     let mut z_raw = [None; FAULT_COUNT];
+    let mut own_std = [f64::NAN; FAULT_COUNT];
     if let Some(u) = &uncertainty {
         for (i, z) in z_raw.iter_mut().enumerate() {
-            let raw = without_systematic(u, &found, i) / f64::from(shared::uncertainty::INFLATION);
+            own_std[i] = without_systematic(u, &found, &record.systematic, i);
+            let raw = own_std[i] / f64::from(shared::uncertainty::INFLATION);
             let skip = i == 6 && truth.eccentricity() == 0.0;
             if raw.is_finite() && raw > 0.0 && !skip {
                 let mut e = f64::from(found.as_array()[i] - truth.as_array()[i]).abs();
@@ -703,6 +710,7 @@ pub fn run_once(
         seconds: id.seconds,
         uncertainty,
         z_raw,
+        own_std,
         assessments,
         winding_disagreement: id.conditions.winding_disagreement,
         within: domain == shared::domain::Domain::Within,
@@ -872,15 +880,16 @@ pub fn markdown(title: &str, summaries: &[CaseSummary], runs: u64) -> String {
     );
     let _ = writeln!(
         s,
-        "Per component, the least systematic error (steps of 0.001; `shared::uncertainty::\
-         SYSTEMATIC`) with which 90 % of its intervals at inflation {} hold the truth: {}.",
+        "Per component, the least systematic error (steps of 0.001; the gain drift's is the \
+         actuator file's `[uncertainty] gain_drift_systematic`) with which 90 % of its \
+         intervals at inflation {} hold the truth: {}.",
         shared::uncertainty::INFLATION,
         least_systematic(summaries, |_| true).join(", ")
     );
     let _ = writeln!(
         s,
-        "The same over the runs that read a gear play (backlash ≥ {}; `shared::uncertainty::\
-         PLAY_GAIN_DRIFT_SYSTEMATIC` the gain drift's): {}; over those that do not: {}.",
+        "The same over the runs that read a gear play (backlash ≥ {}; the gain drift's is \
+         `[uncertainty] play_gain_drift_systematic`): {}; over those that do not: {}.",
         shared::fault::DETECTION_THRESHOLD,
         least_systematic(summaries, reads_play).join(", "),
         least_systematic(summaries, |k| !reads_play(k)).join(", ")
@@ -889,11 +898,16 @@ pub fn markdown(title: &str, summaries: &[CaseSummary], runs: u64) -> String {
 }
 
 /// Component `i`'s stated deviation in `u` (a preflight that read `found`) without the
-/// preflight's systematic error (`shared::uncertainty::preflight_systematic`, added in
-/// quadrature): the inflated curvature's.
-fn without_systematic(u: &Uncertainty, found: &FaultVector, i: usize) -> f64 {
+/// systematic error (`shared::uncertainty::preflight_systematic`, added in quadrature) of
+/// the actuator whose record carries `systematic`: the inflated curvature's.
+fn without_systematic(
+    u: &Uncertainty,
+    found: &FaultVector,
+    systematic: &SystematicError,
+    i: usize,
+) -> f64 {
     let std = f64::from(u.std[i]);
-    let systematic = f64::from(preflight_systematic(found)[i]);
+    let systematic = f64::from(preflight_systematic(found, systematic)[i]);
     (std * std - systematic * systematic).max(0.0).sqrt()
 }
 
@@ -912,7 +926,7 @@ fn least_systematic(summaries: &[CaseSummary], runs: impl Fn(&FaultVector) -> bo
                 .flat_map(|c| c.runs.iter().map(move |r| (c.case.faults, r)))
                 .filter(|(_, r)| runs(&r.found))
                 .filter_map(|(truth, r)| {
-                    let own = without_systematic(r.uncertainty.as_ref()?, &r.found, i);
+                    let own = r.own_std[i];
                     let e = f64::from(r.found.as_array()[i] - truth[i]).abs();
                     own.is_finite().then_some((e, own))
                 })
