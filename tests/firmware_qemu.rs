@@ -591,8 +591,9 @@ fn firmware_with_an_actuator_record_gives_the_hosts_bits_for_both_actuators() {
         damaged[40] ^= 0x10;
         let damaged_path = temp_trace(&format!("{file}-damaged.rec"), &damaged);
         let mut other_version = record.encode();
-        other_version[4] = 9;
-        let other_version_path = temp_trace(&format!("{file}-v9.rec"), &other_version);
+        // The version this code writes, plus one.
+        other_version[4] = shared::actuator::RECORD_VERSION as u8 + 1;
+        let other_version_path = temp_trace(&format!("{file}-newer.rec"), &other_version);
         let mut paper = record;
         paper.test.standstill = None;
         let paper_path = temp_trace(&format!("{file}-paper.rec"), &paper.encode());

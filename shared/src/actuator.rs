@@ -1,11 +1,12 @@
 //! The actuator record: everything the onboard FDI knows about one actuator — its physical
 //! parameters, the preflight test it commands, the monitor model's calibration, the GA
-//! settings, the domain limits and the detection threshold — as versioned, CRC-32-checked
-//! bytes beside one verified executable (DO-178C's parameter data items).
+//! settings, the domain limits, the detection threshold and the preflight's systematic error
+//! on this actuator — as versioned, CRC-32-checked bytes beside one verified executable
+//! (DO-178C's parameter data items).
 //!
 //! Layout (little endian): `"EMAA"`, version `u16`, body length `u16`, the body as 32-bit
 //! words in the order of [`ActuatorRecord::encode`], CRC-32 of everything before it.
-//! [`RECORD_BYTES`] in all. Encoding and decoding are O(1) (a fixed 448 bytes), allocate
+//! [`RECORD_BYTES`] in all. Encoding and decoding are O(1) (a fixed 484 bytes), allocate
 //! nothing and never panic; a decoded record is range-checked ([`ActuatorRecord::validate`])
 //! before it is handed out.
 

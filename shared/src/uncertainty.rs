@@ -12,8 +12,9 @@
 //! calibrated on the Table I campaign so that the 90 % interval covers the truth in about
 //! 90 % of component-runs, and checked on Table II and random vectors
 //! (docs/identifiability.md). A preflight's deviations then take the systematic error one
-//! scale cannot carry for every component ([`SYSTEMATIC`], in quadrature;
-//! [`Curvature::preflight_uncertainty`]); a window of flight's take their own factors. Units:
+//! scale cannot carry for every component (the actuator record's [`SystematicError`], in
+//! quadrature; [`Curvature::preflight_uncertainty`]); a window of flight's take their own
+//! factors. Units:
 //! the fault vector's [0, 1] range.
 //!
 //! [`FitnessProblem::uncertainty`]: crate::fitness::FitnessProblem::uncertainty
@@ -42,8 +43,9 @@ pub const Z90: f32 = 1.644_854;
 /// these deviations (`shared::window::HELD_ERROR_SCALE`).
 pub const INFLATION: f32 = 8.0;
 
-/// Standard deviation of the preflight identification's systematic error per component
-/// [fault-vector units], added in quadrature to the inflated deviation
+/// Standard deviation of the reference actuator's preflight systematic error per component
+/// (its gain drift's is [`SystematicError::REFERENCE_ACTUATOR`]'s; an actuator record carries
+/// its own) [fault-vector units], added in quadrature to the inflated deviation
 /// ([`Curvature::preflight_uncertainty`]): the monitor model's mismatch that one scale
 /// ([`INFLATION`]) cannot carry for every component. The rule: per component, the least
 /// value in steps of 0.001 for which the 90 % intervals of the Table I and II campaigns
@@ -77,8 +79,10 @@ pub const SYSTEMATIC: [f32; FAULT_COUNT] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0
 /// 210 over all): a flight's windows hold the preflight's short with its deviation
 /// (`shared::window::HELD_ERROR_SCALE`, chosen on today's), so it would move their readings
 /// and the factors chosen on them. Held out, the random vectors' gain drift (every one reads
-/// a play): 69 of 80 intervals hold the truth (54 with 0.006); the light actuator's Table I
-/// and II play runs 52 of 70 (43), which would take 0.018 (docs/accuracy.md).
+/// a play): 69 of 80 intervals hold the truth (54 with 0.006). These are the reference
+/// actuator's ([`SystematicError::REFERENCE_ACTUATOR`]); another actuator's record carries its
+/// own, surveyed by the same rule (the light actuator's play runs held the truth in 52 of 70
+/// with 0.011, and take 0.018: docs/accuracy.md).
 pub const PLAY_GAIN_DRIFT_SYSTEMATIC: f32 = 0.011;
 
 /// One actuator's preflight systematic error in its gain drift [fault-vector units], added in
