@@ -584,6 +584,66 @@ fn a_window_at_the_fitness_floor_names_the_play_and_is_read_pinned_after_a_prefl
         .is_some_and(|h| h.contains("two ends fit about as well")));
 }
 
+/// A healthy gear's window whose gain-drift needle lies elsewhere at a middle play than at
+/// none (the light actuator in moderate approach, seed 7): its pinned search scans the
+/// needle at both plays and reads it (`fitness_floor` when it scanned at 0.5 alone: 3.7 %
+/// of the current left).
+#[test]
+fn a_healthy_gears_window_is_read_pinned_with_its_gain_drift_scanned_at_no_play() {
+    let dir = tempfile::tempdir().unwrap();
+    let healthy = "0,0,0,0,0,0,0.5,0.5,0";
+    let (window, ground) = (path(&dir, "approach.csv"), path(&dir, "ground.csv"));
+    for (args, out) in [
+        (
+            vec![
+                "--flight",
+                "approach",
+                "--turbulence",
+                "moderate",
+                "--seed",
+                "7",
+            ],
+            &window,
+        ),
+        (vec!["--seed", "1007"], &ground),
+    ] {
+        let mut a = vec![
+            "simulate",
+            "--actuator",
+            "../actuators/light-28v.toml",
+            "--faults",
+            healthy,
+            "--out",
+            out.as_str(),
+        ];
+        a.extend(args);
+        let o = host_sim(&a);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let v = json(&host_sim(&[
+        "identify",
+        &window,
+        "--actuator",
+        "../actuators/light-28v.toml",
+        "--preflight",
+        &ground,
+        "--seed",
+        "8",
+        "--truth",
+        healthy,
+        "--json",
+    ]));
+    assert_eq!(v["verdict"], "within", "{v}");
+    assert_eq!(v["model"], "pinned", "{v}");
+    let k = v["faults"].as_array().unwrap();
+    assert!(k[1].as_f64().unwrap() < 0.05, "backlash {v}");
+    assert!(
+        (k[7].as_f64().unwrap() - 0.5).abs() < 0.01,
+        "gain drift {v}"
+    );
+    assert!(v["e_tot"].as_f64().unwrap() < 1.0, "{v}");
+}
+
 /// The light actuator with `faults` simulated in a cruise window (light turbulence, seed 1)
 /// and in the same flight's preflight, into `window` and `preflight` under `dir`.
 fn light_cruise(

@@ -19,10 +19,11 @@
 //! leaves 20–40 % of the current, 0.05 off the model's current is several times the
 //! measured — and the play a notch a few hundredths wide at its value, flat above it where
 //! the window never crosses it (docs/in-flight.md §4, stop 60). So
-//! first the gain drift over its whole range at a middle play and the guessed start
-//! ([`SCAN_GAIN_STEPS`] evaluations), then the start's moment at every play of a grid at
-//! that gain ([`SCAN_PLAYS`] × [`SCAN_MOMENTS`]), then Nelder–Mead over (backlash, gain
-//! drift, moment) from the grid's best two points, [`SEARCH_EVALUATIONS`] each; the
+//! first the gain drift over its whole range at the guessed start, at a middle play and at
+//! none ([`SCAN_GAIN_STEPS`] evaluations each), then the start's moment at every play of a
+//! grid at each gain found ([`SCAN_PLAYS`] × [`SCAN_MOMENTS`] each; one grid when both
+//! found the same), then Nelder–Mead over (backlash, gain drift, moment) from the grids'
+//! best two points, [`SEARCH_EVALUATIONS`] each; the
 //! curvature by central differences at two step sizes ([`CURVATURE_EVALUATIONS`]), the
 //! uncertainty there widened by
 //! [`PINNED_INFLATION`] with the held values' error carried beside it (their coupling by
@@ -83,13 +84,16 @@ fn moment_scale(stiffness: f32, amplitude: f32) -> f32 {
 /// (stop 60; a grid of 0, 0.5 and 1 ended beside it on the low mix's play of 0.1).
 pub const SCAN_PLAYS: usize = 21;
 
-/// The gain drifts the first scan tries, every 0.01 from 0 to 1, at [`SCAN_GAIN_PLAY`] and
-/// the guessed start: the needle is ±0.01 wide and its place hardly moves with the play or
-/// the start (stop 60: three gains, 0.1, 0.5 and 0.9, missed it on most low-mix windows).
+/// The gain drifts the first scan tries, every 0.01 from 0 to 1, at each of
+/// [`SCAN_GAIN_PLAYS`] and the guessed start: the needle is ±0.01 wide and its place hardly
+/// moves with the start (stop 60: three gains, 0.1, 0.5 and 0.9, missed it on most low-mix
+/// windows).
 pub const SCAN_GAIN_STEPS: usize = 101;
 
-/// The play the gain drift is scanned at.
-const SCAN_GAIN_PLAY: f32 = 0.5;
+/// The plays the gain drift is scanned at: a middle one, and none. On a gear with no play
+/// the needle scanned at 0.5 alone can land off it (two of the light actuator's healthy-gear
+/// windows left `fitness_floor`, stop 60; docs/in-flight.md §4, stop 63).
+const SCAN_GAIN_PLAYS: [f32; 2] = [0.5, 0.0];
 
 /// Moments per play in the start's scan: the guess ± 10 steps of [`SCAN_STEP`].
 pub const SCAN_MOMENTS: usize = 21;
@@ -110,8 +114,8 @@ pub const CURVATURE_EVALUATIONS: u32 = 2 * 19;
 pub const COUPLING_EVALUATIONS: u32 = 4 * 3 * (FAULT_COUNT - FREE.len()) as u32;
 
 /// Evaluations of one pinned identification at most.
-pub const PINNED_EVALUATIONS: u32 = SCAN_GAIN_STEPS as u32
-    + (SCAN_PLAYS * SCAN_MOMENTS) as u32
+pub const PINNED_EVALUATIONS: u32 = (SCAN_GAIN_PLAYS.len() * SCAN_GAIN_STEPS) as u32
+    + (SCAN_GAIN_PLAYS.len() * SCAN_PLAYS * SCAN_MOMENTS) as u32
     + 2 * SEARCH_EVALUATIONS
     + CURVATURE_EVALUATIONS
     + COUPLING_EVALUATIONS
@@ -328,27 +332,35 @@ pub fn identify_pinned<const N: usize>(
         unit: MOMENT_UNIT * moment_scale(stiffness, problem.model().command().amplitude),
         evaluations: 0,
     };
-    // The gain drift's needle: its whole range at a middle play and the guessed start.
+    // The gain drift's needle: its whole range at the guessed start, at a middle play and
+    // at none (a needle found at one play can lie off it at the other).
     let centre = start_guess / f.unit;
-    let mut gain = (0.5, f32::INFINITY);
-    for n in 0..SCAN_GAIN_STEPS {
-        let g = n as f32 / (SCAN_GAIN_STEPS - 1) as f32;
-        let e = f.error(&[SCAN_GAIN_PLAY, g, centre]);
-        if e < gain.1 {
-            gain = (g, e);
+    let [at_middle, at_none] = SCAN_GAIN_PLAYS.map(|play| {
+        let mut gain = (0.5, f32::INFINITY);
+        for n in 0..SCAN_GAIN_STEPS {
+            let g = n as f32 / (SCAN_GAIN_STEPS - 1) as f32;
+            let e = f.error(&[play, g, centre]);
+            if e < gain.1 {
+                gain = (g, e);
+            }
         }
-    }
-    let gain = gain.0;
-    // The start's scan at that gain: the best moment at each play, the two best plays kept.
-    let mut best: [(Point, f32); SCAN_PLAYS] = [([0.0; 3], f32::INFINITY); SCAN_PLAYS];
-    for (n, slot) in best.iter_mut().enumerate() {
-        let play = n as f32 / (SCAN_PLAYS - 1) as f32;
-        for j in 0..SCAN_MOMENTS {
-            let step = j as f32 - (SCAN_MOMENTS / 2) as f32;
-            let x = [play, gain, centre + step * SCAN_STEP / MOMENT_UNIT];
-            let e = f.error(&x);
-            if e < slot.1 {
-                *slot = (x, e);
+        gain.0
+    });
+    // The start's scan at each gain found (once when both plays found the same): the best
+    // moment at each play, the two best points of both grids kept.
+    let mut best: [(Point, f32); 2 * SCAN_PLAYS] = [([0.0; 3], f32::INFINITY); 2 * SCAN_PLAYS];
+    let gains = [Some(at_middle), (at_none != at_middle).then_some(at_none)];
+    for (grid, gain) in best.chunks_exact_mut(SCAN_PLAYS).zip(gains) {
+        let Some(gain) = gain else { continue };
+        for (n, slot) in grid.iter_mut().enumerate() {
+            let play = n as f32 / (SCAN_PLAYS - 1) as f32;
+            for j in 0..SCAN_MOMENTS {
+                let step = j as f32 - (SCAN_MOMENTS / 2) as f32;
+                let x = [play, gain, centre + step * SCAN_STEP / MOMENT_UNIT];
+                let e = f.error(&x);
+                if e < slot.1 {
+                    *slot = (x, e);
+                }
             }
         }
     }
