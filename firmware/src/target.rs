@@ -385,10 +385,9 @@ fn load_actuator(path: &CStr, trace_test: &PreflightTest) -> Result<PreflightSet
         return Err(status::ACTUATOR_RECORD);
     }
     defmt::info!(
-        "actuator record {=[u8]:a}: {=f32} V, {=f32} pole pairs, gear {=f32}, {=str} test",
+        "actuator record {=[u8]:a}: {=f32} V, gear {=f32}, {=str} test",
         name,
         record.params.dc_bus_voltage,
-        record.params.pole_pairs,
         record.params.gear_ratio,
         record.test.kind_name()
     );
