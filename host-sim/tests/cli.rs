@@ -547,41 +547,42 @@ fn a_window_at_the_fitness_floor_names_the_play_and_is_read_pinned_after_a_prefl
 
     // A healthy gear in moderate climb whose load model is at its floor: pinned, the play's
     // two ends fit alike (read as a play of 0.99 before the contrast was judged).
-    let healthy = "0,0,0,0,0,0,0.5,0.5,0";
-    let (climb, ground) = (path(&dir, "climb.csv"), path(&dir, "ground.csv"));
-    for (args, out) in [
-        (
-            vec![
-                "--flight",
-                "climb",
-                "--turbulence",
-                "moderate",
-                "--seed",
-                "7",
-            ],
-            &climb,
-        ),
-        (vec!["--seed", "1007"], &ground),
-    ] {
-        let mut a = vec!["simulate", "--faults", healthy, "--out", out.as_str()];
-        a.extend(args);
-        let o = host_sim(&a);
-        assert!(o.status.success(), "{}", stderr(&o));
-    }
-    let v = json(&host_sim(&[
-        "identify",
-        &climb,
-        "--preflight",
-        &ground,
-        "--seed",
-        "8",
-        "--json",
-    ]));
+    let v = healthy_moderate_window(&dir, &[], "climb");
     assert_eq!(v["verdict"], "fitness_floor", "{v}");
     assert_eq!(v["pinned_verdict"], "play_unseen", "{v}");
     assert!(v["hint"]
         .as_str()
         .is_some_and(|h| h.contains("two ends fit about as well")));
+}
+
+/// A healthy gear flown in `phase` in moderate turbulence (seed 7) and its flight's preflight
+/// (seed 1007), simulated under `dir` for the actuator `actuator` names (`--actuator FILE`,
+/// or none: the built-in one), and the window identified with that preflight (GA seed 8,
+/// the truth given): `identify --json`'s answer.
+fn healthy_moderate_window(
+    dir: &tempfile::TempDir,
+    actuator: &[&str],
+    phase: &str,
+) -> serde_json::Value {
+    let healthy = "0,0,0,0,0,0,0.5,0.5,0";
+    let (window, ground) = (path(dir, &format!("{phase}.csv")), path(dir, "ground.csv"));
+    for (args, out) in [
+        (
+            vec!["--flight", phase, "--turbulence", "moderate", "--seed", "7"],
+            &window,
+        ),
+        (vec!["--seed", "1007"], &ground),
+    ] {
+        let mut a = vec!["simulate", "--faults", healthy, "--out", out.as_str()];
+        a.extend(actuator);
+        a.extend(args);
+        let o = host_sim(&a);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let mut a = vec!["identify", &window, "--preflight", &ground, "--seed", "8"];
+    a.extend(actuator);
+    a.extend(["--truth", healthy, "--json"]);
+    json(&host_sim(&a))
 }
 
 /// A healthy gear's window whose gain-drift needle lies elsewhere at a middle play than at
@@ -591,48 +592,11 @@ fn a_window_at_the_fitness_floor_names_the_play_and_is_read_pinned_after_a_prefl
 #[test]
 fn a_healthy_gears_window_is_read_pinned_with_its_gain_drift_scanned_at_no_play() {
     let dir = tempfile::tempdir().unwrap();
-    let healthy = "0,0,0,0,0,0,0.5,0.5,0";
-    let (window, ground) = (path(&dir, "approach.csv"), path(&dir, "ground.csv"));
-    for (args, out) in [
-        (
-            vec![
-                "--flight",
-                "approach",
-                "--turbulence",
-                "moderate",
-                "--seed",
-                "7",
-            ],
-            &window,
-        ),
-        (vec!["--seed", "1007"], &ground),
-    ] {
-        let mut a = vec![
-            "simulate",
-            "--actuator",
-            "../actuators/light-28v.toml",
-            "--faults",
-            healthy,
-            "--out",
-            out.as_str(),
-        ];
-        a.extend(args);
-        let o = host_sim(&a);
-        assert!(o.status.success(), "{}", stderr(&o));
-    }
-    let v = json(&host_sim(&[
-        "identify",
-        &window,
-        "--actuator",
-        "../actuators/light-28v.toml",
-        "--preflight",
-        &ground,
-        "--seed",
-        "8",
-        "--truth",
-        healthy,
-        "--json",
-    ]));
+    let v = healthy_moderate_window(
+        &dir,
+        &["--actuator", "../actuators/light-28v.toml"],
+        "approach",
+    );
     assert_eq!(v["verdict"], "within", "{v}");
     assert_eq!(v["model"], "pinned", "{v}");
     let k = v["faults"].as_array().unwrap();
