@@ -22,8 +22,8 @@
 //! first the gain drift over its whole range at the guessed start, at a middle play and at
 //! none ([`SCAN_GAIN_STEPS`] evaluations each), then the start's moment at every play of a
 //! grid at each gain found ([`SCAN_PLAYS`] × [`SCAN_MOMENTS`] each; one grid when both
-//! found the same), then Nelder–Mead over (backlash, gain drift, moment) from the grids'
-//! best two points, [`SEARCH_EVALUATIONS`] each; the
+//! found the same), then Nelder–Mead over (backlash, gain drift, moment) from each grid's
+//! best two points, [`SEARCH_EVALUATIONS`] each, the best end kept; the
 //! curvature by central differences at two step sizes ([`CURVATURE_EVALUATIONS`]), the
 //! uncertainty there widened by
 //! [`PINNED_INFLATION`] with the held values' error carried beside it (their coupling by
@@ -116,7 +116,7 @@ pub const COUPLING_EVALUATIONS: u32 = 4 * 3 * (FAULT_COUNT - FREE.len()) as u32;
 /// Evaluations of one pinned identification at most.
 pub const PINNED_EVALUATIONS: u32 = (SCAN_GAIN_PLAYS.len() * SCAN_GAIN_STEPS) as u32
     + (SCAN_GAIN_PLAYS.len() * SCAN_PLAYS * SCAN_MOMENTS) as u32
-    + 2 * SEARCH_EVALUATIONS
+    + 2 * SCAN_GAIN_PLAYS.len() as u32 * SEARCH_EVALUATIONS
     + CURVATURE_EVALUATIONS
     + COUPLING_EVALUATIONS
     + 2
@@ -347,12 +347,13 @@ pub fn identify_pinned<const N: usize>(
         gain.0
     });
     // The start's scan at each gain found (once when both plays found the same): the best
-    // moment at each play, the two best points of both grids kept.
-    let mut best: [(Point, f32); 2 * SCAN_PLAYS] = [([0.0; 3], f32::INFINITY); 2 * SCAN_PLAYS];
+    // moment at each play; Nelder–Mead from each grid's two best points, the best end kept
+    // (the middle play's grid first: with one gain, the search as it was).
     let gains = [Some(at_middle), (at_none != at_middle).then_some(at_none)];
-    for (grid, gain) in best.chunks_exact_mut(SCAN_PLAYS).zip(gains) {
-        let Some(gain) = gain else { continue };
-        for (n, slot) in grid.iter_mut().enumerate() {
+    let mut found: (Point, f32) = ([0.0; 3], f32::INFINITY);
+    for gain in gains.into_iter().flatten() {
+        let mut best: [(Point, f32); SCAN_PLAYS] = [([0.0; 3], f32::INFINITY); SCAN_PLAYS];
+        for (n, slot) in best.iter_mut().enumerate() {
             let play = n as f32 / (SCAN_PLAYS - 1) as f32;
             for j in 0..SCAN_MOMENTS {
                 let step = j as f32 - (SCAN_MOMENTS / 2) as f32;
@@ -363,13 +364,15 @@ pub fn identify_pinned<const N: usize>(
                 }
             }
         }
-    }
-    best.sort_unstable_by(|a, b| a.1.total_cmp(&b.1));
-    let mut found = (best[0].0, f32::INFINITY);
-    for (start, _) in best.iter().take(2) {
-        let x = nelder_mead(&mut f, *start, SEARCH_EVALUATIONS);
-        if x.1 < found.1 {
-            found = x;
+        best.sort_unstable_by(|a, b| a.1.total_cmp(&b.1));
+        if found.1 == f32::INFINITY {
+            found.0 = best[0].0;
+        }
+        for (start, _) in best.iter().take(2) {
+            let x = nelder_mead(&mut f, *start, SEARCH_EVALUATIONS);
+            if x.1 < found.1 {
+                found = x;
+            }
         }
     }
     let mut x = found.0;

@@ -12,7 +12,7 @@
 //! pinned to its sensor (`shared::pinned`: the backlash and the gain drift, the friction held
 //! at the same flight's preflight reading with the shorts, the eccentricity and the
 //! demagnetization, their error carried into its deviations), when that preflight was
-//! trusted: at most `shared::pinned::PINNED_EVALUATIONS` more runs (≤ 1 829).
+//! trusted: at most `shared::pinned::PINNED_EVALUATIONS` more runs (≤ 2 429).
 
 use anyhow::Result;
 use shared::actuator::ActuatorRecord;
