@@ -320,6 +320,21 @@ pub(crate) fn parse_share(text: &str) -> Result<f64, String> {
     }
 }
 
+/// `--ideal-readings`: an ideal identification's standard deviation, in fault-vector units.
+pub(crate) fn parse_ideal_sigma(text: &str) -> Result<f32, String> {
+    let x: f32 = text
+        .trim()
+        .parse()
+        .map_err(|_| format!("{text:?} is not a number"))?;
+    if (0.0..=0.5).contains(&x) {
+        Ok(x)
+    } else {
+        Err(format!(
+            "{text} is outside [0, 0.5] (a standard deviation of the fault vector's components)"
+        ))
+    }
+}
+
 pub(crate) fn progress_wanted(json: bool) -> bool {
     !json && std::io::stderr().is_terminal()
 }

@@ -528,6 +528,17 @@ enum Command {
         /// preflights alone.
         #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=8))]
         windows: u8,
+        /// Replace the FDI's readings by an ideal identification of this standard deviation
+        /// (the same runs: each preflight without an intrusion reads its true fault vector
+        /// plus seeded Gaussian noise of SIGMA, stating SIGMA): the trend's ceiling with
+        /// readings of that precision. Preflights only.
+        #[arg(long, value_name = "SIGMA", conflicts_with = "windows", value_parser = parse_ideal_sigma)]
+        ideal_readings: Option<f32>,
+        /// Take each run's mean error per component (reading − truth, over its trusted
+        /// preflights at least 0.05 from nominal) off the FDI's readings: an oracle that says
+        /// what the identification's lean costs the trend, beside its scatter. Preflights only.
+        #[arg(long, conflicts_with_all = ["windows", "ideal_readings"])]
+        lean_removed: bool,
         /// Keep each run's history CSV in this folder, and read it from there when present
         /// (re-evaluate the trend without simulating again).
         #[arg(long)]
@@ -845,6 +856,8 @@ fn main() -> ExitCode {
             noise_floor,
             flight_scale,
             windows,
+            ideal_readings,
+            lean_removed,
             histories,
             alpha,
             out,
@@ -868,6 +881,11 @@ fn main() -> ExitCode {
                     noises: noise,
                     intrusions: out_of_domain,
                     windows,
+                    readings: match (ideal_readings, lean_removed) {
+                        (Some(sigma), _) => prognostics::Readings::Ideal(sigma),
+                        (None, true) => prognostics::Readings::LeanRemoved,
+                        (None, false) => prognostics::Readings::Fdi,
+                    },
                     settings,
                     histories,
                     alpha,

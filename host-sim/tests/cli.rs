@@ -55,6 +55,31 @@ fn prognostics_help_gives_the_controllers_trend_defaults() {
 }
 
 #[test]
+fn the_prognostics_reading_studies_are_refused_beside_windows_or_out_of_range() {
+    for (args, expected) in [
+        (
+            &["--ideal-readings", "0.005", "--windows", "4"][..],
+            "--windows",
+        ),
+        (&["--lean-removed", "--windows", "4"][..], "--windows"),
+        (
+            &["--lean-removed", "--ideal-readings", "0"][..],
+            "--ideal-readings",
+        ),
+        (&["--ideal-readings", "0.7"][..], "outside [0, 0.5]"),
+        (&["--ideal-readings", "x"][..], "not a number"),
+    ] {
+        let o = host_sim(&[&["prognostics"][..], args].concat());
+        assert!(!o.status.success(), "{args:?}");
+        let e = stderr(&o);
+        assert!(
+            e.contains(expected) && !e.contains("panicked"),
+            "{args:?}: {e}"
+        );
+    }
+}
+
+#[test]
 fn every_command_has_help() {
     for cmd in [
         vec!["--help"],

@@ -158,6 +158,8 @@ pub(crate) struct EvalRun {
     pub noises: Vec<f64>,
     pub intrusions: f64,
     pub windows: u8,
+    /// Whose readings the trend takes.
+    pub readings: prognostics::Readings,
     pub settings: TrendSettings,
     pub histories: Option<PathBuf>,
     pub alpha: f64,
@@ -186,13 +188,31 @@ pub(crate) fn prognostics_command(
             flights: run.flights,
             intrusions: run.intrusions,
             windows: run.windows,
+            readings: run.readings,
         },
         &run.settings,
         run.histories.as_deref(),
         &|n| bar.inc(n),
     )?;
     bar.finish_and_clear();
-    let mut text = prognostics::eval_markdown(&eval, run.alpha);
+    let mut text = String::new();
+    match run.readings {
+        prognostics::Readings::Fdi => {}
+        prognostics::Readings::Ideal(sigma) => {
+            text += &format!(
+                "**Ideal readings, not the FDI's:** every preflight without an intrusion reads its \
+                 true fault vector plus Gaussian noise of standard deviation {sigma} and states \
+                 {sigma} (the trend's noise floor still applies); the flights with an intrusion \
+                 keep the FDI's records.\n\n"
+            );
+        }
+        prognostics::Readings::LeanRemoved => {
+            text += "**The FDI's readings with their lean taken off (an oracle):** each run's \
+                     mean error per component, over its trusted preflights at least 0.05 from \
+                     nominal, subtracted from every preflight.\n\n";
+        }
+    }
+    text += &prognostics::eval_markdown(&eval, run.alpha);
     let t = &run.settings.thresholds;
     text += &format!(
         "\n{} runs × {} flights (seeds {}–{}; {} simulated, {} read from the history folder); thresholds \

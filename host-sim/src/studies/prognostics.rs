@@ -160,6 +160,96 @@ pub fn flown_window(seed: u64, flight: u32, n: u8) -> FlightWindow {
     ALL_WINDOWS[(z % ALL_WINDOWS.len() as u64) as usize]
 }
 
+/// A standard normal number drawn deterministically from `key` (SplitMix64, Box–Muller).
+fn normal_of(key: u64) -> f64 {
+    let a = splitmix(key);
+    let b = splitmix(a ^ 0x6A09_E667_F3BC_C909);
+    let u1 = ((a >> 11) as f64 + 0.5) / (1u64 << 53) as f64;
+    let u2 = (b >> 11) as f64 / (1u64 << 53) as f64;
+    (-2.0 * u1.ln()).sqrt() * (core::f64::consts::TAU * u2).cos()
+}
+
+/// The history of run `seed` as an ideal identification of standard deviation `sigma` would
+/// have logged it, in place of the onboard FDI: each preflight without an intrusion reads its
+/// true fault vector plus Gaussian noise of `sigma` on every component but the eccentricity
+/// phase (drawn from the run, the flight and the component; clamped to each range), states
+/// `sigma` as every component's deviation and is `within` the domain. A flight with an
+/// intrusion keeps the FDI's record (its domain verdict); in-flight entries are left out, and
+/// so is a row without a truth. What the trend would predict from readings of that precision
+/// (docs/prognostics.md, "What the readings cost").
+pub fn ideal_readings(rows: &[HistoryRow], sigma: f32, seed: u64) -> Vec<HistoryRow> {
+    rows.iter()
+        .filter(|r| r.record.window == 0)
+        .filter_map(|r| {
+            let truth = r.truth?;
+            if r.intrusion.is_some() {
+                return Some(*r);
+            }
+            let mut k = *truth.as_array();
+            for (i, x) in k.iter_mut().enumerate() {
+                if shared::prognosis::is_trended(i) {
+                    let key = seed
+                        .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+                        .wrapping_add(
+                            u64::from(r.record.flight).wrapping_mul(0xD1B5_4A32_D192_ED03),
+                        )
+                        .wrapping_add(i as u64);
+                    *x += sigma * normal_of(key) as f32;
+                }
+            }
+            let mut record = HealthRecord::new(
+                r.record.flight,
+                FaultVector::saturating(k),
+                r.record.fitness,
+                shared::domain::Domain::Within,
+            );
+            record.std = shared::health::ComponentStd::new([sigma; FAULT_COUNT]);
+            record.day = r.record.day;
+            Some(HistoryRow { record, ..*r })
+        })
+        .collect()
+}
+
+/// The preflights of a history with their lean taken off, an oracle that knows the truth:
+/// each component's mean error (reading − truth, in the fault vector's units) over the run's
+/// trusted preflights whose true deviation is at least [`shared::fault::DETECTION_THRESHOLD`]
+/// (nearer nominal a deviation folds at zero) is subtracted from every preflight's reading of
+/// it. In-flight entries and rows without a truth are left out. What the trend would predict
+/// if the identification's error were its scatter alone (docs/prognostics.md, "What the
+/// readings cost").
+pub fn lean_removed(rows: &[HistoryRow]) -> Vec<HistoryRow> {
+    let preflights = || {
+        rows.iter()
+            .filter(|r| r.record.window == 0 && r.truth.is_some())
+    };
+    let mut sum = [0.0f64; FAULT_COUNT];
+    let mut count = [0u32; FAULT_COUNT];
+    for r in preflights().filter(|r| r.record.is_trusted()) {
+        let Some(truth) = r.truth else { continue };
+        let deviations = truth.deviations();
+        let pairs = truth.as_array().iter().zip(r.record.faults.as_array());
+        for (i, (t, y)) in pairs.enumerate() {
+            if deviations[i].is_some_and(|d| d >= shared::fault::DETECTION_THRESHOLD) {
+                sum[i] += f64::from(y - t);
+                count[i] += 1;
+            }
+        }
+    }
+    preflights()
+        .map(|r| {
+            let mut k = *r.record.faults.as_array();
+            for (i, x) in k.iter_mut().enumerate() {
+                if count[i] > 0 {
+                    *x -= (sum[i] / f64::from(count[i])) as f32;
+                }
+            }
+            let mut row = *r;
+            row.record.faults = FaultVector::saturating(k);
+            row
+        })
+        .collect()
+}
+
 /// Simulates the preflight of every flight of `path` (RM trace with I_ref noise `noise`,
 /// onboard identification with its uncertainty, domain verdict), in parallel; a share
 /// `intrusions` of the flights meets an [`Intrusion`]. With `windows` > 0, each flight then
@@ -837,9 +927,96 @@ fn scatter_markdown(scatter: &[[Scatter; FAULT_COUNT]; 2]) -> String {
     out
 }
 
+/// One component's reading errors (reading − truth, deviations from nominal) over trusted
+/// preflights at least [`shared::fault::DETECTION_THRESHOLD`] from nominal: their mean (the
+/// lean) and their scatter about each run's own mean (what a trend sees about its fit).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ReadingErrors {
+    pub readings: u32,
+    sum: f64,
+    /// Σ (error − its run's mean error)².
+    within_run: f64,
+}
+
+impl ReadingErrors {
+    /// Adds one run's errors.
+    pub fn add_run(&mut self, errors: &[f64]) {
+        if errors.is_empty() {
+            return;
+        }
+        let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+        self.readings += errors.len() as u32;
+        self.sum += mean * errors.len() as f64;
+        self.within_run += errors.iter().map(|e| (e - mean).powi(2)).sum::<f64>();
+    }
+
+    /// Mean error (the lean).
+    pub fn mean(&self) -> f64 {
+        self.sum / f64::from(self.readings.max(1))
+    }
+
+    /// Standard deviation about each run's mean.
+    pub fn scatter(&self) -> f64 {
+        (self.within_run / f64::from(self.readings.max(1))).sqrt()
+    }
+
+    /// Each trended component's errors in the trusted preflights of one run.
+    pub fn of_run(rows: &[HistoryRow]) -> [Vec<f64>; FAULT_COUNT] {
+        let mut out: [Vec<f64>; FAULT_COUNT] = Default::default();
+        let preflights = rows
+            .iter()
+            .filter(|r| r.record.window == 0 && r.record.is_trusted());
+        for r in preflights {
+            let Some(truth) = r.truth else { continue };
+            let (found, truth) = (r.record.faults.deviations(), truth.deviations());
+            for (i, errors) in out.iter_mut().enumerate() {
+                if let (Some(Some(f)), Some(Some(t))) = (found.get(i), truth.get(i)) {
+                    if *t >= shared::fault::DETECTION_THRESHOLD {
+                        errors.push(f64::from(f - t));
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
+fn reading_errors_markdown(errors: &[(f64, [ReadingErrors; FAULT_COUNT])]) -> String {
+    let mut out = String::from(
+        "
+The preflights' reading errors (reading − truth in deviations from nominal, trusted \
+         preflights at least 0.05 from nominal): mean (the lean) / standard deviation about each \
+         run's own mean (the scatter a trend sees), by I_ref noise:\n\n| component |",
+    );
+    for (noise, _) in errors {
+        out += &format!(" {:.0} % |", 100.0 * noise);
+    }
+    out += "\n| --- |";
+    out += &" ---: |".repeat(errors.len());
+    out += "\n";
+    for (i, name) in FAULT_NAMES.iter().enumerate() {
+        if errors.iter().all(|(_, e)| e[i].readings == 0) {
+            continue;
+        }
+        out += &format!("| {name} |");
+        for (_, e) in errors {
+            let e = e[i];
+            out += &if e.readings == 0 {
+                " – |".to_string()
+            } else {
+                format!(" {:+.4} / {:.4} ({}) |", e.mean(), e.scatter(), e.readings)
+            };
+        }
+        out += "\n";
+    }
+    out
+}
+
 /// The evaluation's tracks and intrusion counts.
 #[derive(Clone, Debug, Default)]
 pub struct Evaluation {
+    /// The preflights' reading errors per I_ref noise level, each component's.
+    pub errors: Vec<(f64, [ReadingErrors; FAULT_COUNT])>,
     pub tracks: Vec<Track>,
     /// With in-flight windows: the same runs' tracks from their preflights alone.
     pub preflight_only: Vec<Track>,
@@ -915,6 +1092,19 @@ pub struct EvalRuns {
     pub flights: u32,
     pub intrusions: f64,
     pub windows: u8,
+    /// Whose readings the trend takes.
+    pub readings: Readings,
+}
+
+/// Whose readings the trend takes: the FDI's, or a study of what they cost (preflights only).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Readings {
+    /// The onboard FDI's, as identified.
+    Fdi,
+    /// An ideal identification of this standard deviation ([`ideal_readings`]).
+    Ideal(f32),
+    /// The FDI's with each run's mean error per component taken off ([`lean_removed`]).
+    LeanRemoved,
 }
 
 /// Runs every scenario for the `seeds` over `flights` flights, a share `intrusions` of
@@ -935,6 +1125,7 @@ pub fn evaluate(
         flights,
         intrusions,
         windows,
+        readings,
     } = runs.clone();
     let mut eval = Evaluation::default();
     for sc in scenarios {
@@ -962,6 +1153,25 @@ pub fn evaluate(
                     rows
                 }
             };
+            let rows = match readings {
+                Readings::Fdi => rows,
+                Readings::Ideal(sigma) => ideal_readings(&rows, sigma, seed),
+                Readings::LeanRemoved => lean_removed(&rows),
+            };
+            let at = match eval.errors.iter().position(|(n, _)| *n == sc.noise) {
+                Some(at) => at,
+                None => {
+                    eval.errors.push((sc.noise, Default::default()));
+                    eval.errors.len() - 1
+                }
+            };
+            for (e, run) in eval.errors[at]
+                .1
+                .iter_mut()
+                .zip(ReadingErrors::of_run(&rows))
+            {
+                e.add_run(&run);
+            }
             // Preflights `[0]` and flights' readings `[1]`: the entries the trend takes.
             for r in rows.iter().filter(|r| !r.record.is_window()) {
                 for (i, s) in eval.scatter[usize::from(r.record.window != 0)]
@@ -1248,6 +1458,7 @@ pub fn eval_markdown(eval: &Evaluation, alpha: f64) -> String {
         "I_ref noise",
         grouped(tracks, |t| t.noise, |n| format!("{:.0} %", 100.0 * n)),
     );
+    out += &reading_errors_markdown(&eval.errors);
     if !eval.preflight_only.is_empty() {
         let (within, flown) = eval.windows;
         let (read, flights) = eval.flights_read;
@@ -1445,6 +1656,119 @@ mod tests {
         for k in Intrusion::ALL {
             assert!(kinds.iter().filter(|&&x| x == k).count() > 500, "{k:?}");
         }
+    }
+
+    /// A linear friction path's preflights as the FDI might log them: each reading `lean`
+    /// above the truth, flight 3 with an intrusion (its record outside), and one in-flight
+    /// entry after flight 5.
+    fn logged(lean: f32) -> Vec<HistoryRow> {
+        let p = path(PathShape::Linear);
+        let mut rows = Vec::new();
+        for flight in 0..40 {
+            let truth = p.at(flight);
+            let mut k = *truth.as_array();
+            k[0] += lean;
+            let intrusion = (flight == 3).then_some(Intrusion::Jammed);
+            let domain = match intrusion {
+                Some(_) => {
+                    shared::domain::Domain::Outside(shared::domain::OutsideReason::NoMotion {
+                        travel: 0.0,
+                    })
+                }
+                None => shared::domain::Domain::Within,
+            };
+            let record = HealthRecord::new(flight, FaultVector::saturating(k), 1e-4, domain);
+            rows.push(HistoryRow {
+                record,
+                truth: Some(truth),
+                intrusion,
+            });
+            if flight == 5 {
+                let mut window = record;
+                window.window = shared::health::FLIGHT_READING;
+                rows.push(HistoryRow {
+                    record: window,
+                    truth: Some(truth),
+                    intrusion: None,
+                });
+            }
+        }
+        rows
+    }
+
+    #[test]
+    fn ideal_readings_are_the_truth_with_the_stated_scatter_and_keep_the_fdis_intrusions() {
+        let rows = logged(0.03);
+        let exact = ideal_readings(&rows, 0.0, 4);
+        assert_eq!(exact.len(), 40, "the in-flight entry is left out");
+        for r in &exact {
+            if r.record.flight == 3 {
+                assert!(
+                    !r.record.is_trusted(),
+                    "the intrusion keeps the FDI's verdict"
+                );
+                continue;
+            }
+            assert!(r.record.is_trusted());
+            assert_eq!(
+                r.record.faults,
+                r.truth.unwrap(),
+                "flight {}",
+                r.record.flight
+            );
+            assert_eq!(r.record.std.get(0), Some(0.0));
+        }
+        let sigma = 0.01;
+        let noisy = ideal_readings(&rows, sigma, 4);
+        assert_eq!(noisy, ideal_readings(&rows, sigma, 4), "seeded");
+        assert_ne!(
+            noisy,
+            ideal_readings(&rows, sigma, 5),
+            "another run, other noise"
+        );
+        // The friction readings' errors: about zero mean, about `sigma` (39 readings).
+        let errors: Vec<f64> = noisy
+            .iter()
+            .filter(|r| r.record.is_trusted())
+            .map(|r| f64::from(r.record.faults.friction() - r.truth.unwrap().friction()))
+            .collect();
+        let n = errors.len() as f64;
+        let mean = errors.iter().sum::<f64>() / n;
+        let sd = (errors.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / n).sqrt();
+        assert!(mean.abs() < 0.005, "mean {mean}");
+        assert!((0.007..0.013).contains(&sd), "sd {sd}");
+        assert_eq!(
+            noisy[10]
+                .record
+                .std
+                .get(7)
+                .map(|s| (s - sigma).abs() < 1e-4),
+            Some(true)
+        );
+    }
+
+    #[test]
+    fn the_lean_is_taken_off_and_the_reading_errors_say_it() {
+        let rows = logged(0.03);
+        let errors = ReadingErrors::of_run(&rows);
+        // Friction is at least 0.05 from flight 4 on; flight 3 is outside.
+        let mut friction = ReadingErrors::default();
+        friction.add_run(&errors[0]);
+        assert!((friction.mean() - 0.03).abs() < 1e-6, "{}", friction.mean());
+        assert!(friction.scatter() < 1e-6);
+        assert!(errors[1].is_empty(), "the backlash never leaves nominal");
+        let taken = lean_removed(&rows);
+        assert_eq!(taken.len(), 40);
+        for r in taken.iter().filter(|r| r.record.is_trusted()) {
+            let e = r.record.faults.friction() - r.truth.unwrap().friction();
+            assert!(e.abs() < 1e-5, "flight {}: {e}", r.record.flight);
+        }
+        // Two runs: their means make the lean, each run's own spread the scatter.
+        let mut two = ReadingErrors::default();
+        two.add_run(&[0.01, 0.03]);
+        two.add_run(&[0.05, 0.07]);
+        assert!((two.mean() - 0.04).abs() < 1e-12);
+        assert!((two.scatter() - 0.01).abs() < 1e-12);
     }
 
     fn track(predict: impl Fn(f64) -> RulEstimate) -> Track {
