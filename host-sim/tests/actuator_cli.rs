@@ -37,6 +37,29 @@ fn a_record_is_written_read_back_and_refused_when_damaged() {
         text(&o)
     );
 
+    assert!(
+        !text(&o).contains("survey this actuator's own"),
+        "{}",
+        text(&o)
+    );
+    // A description without its own survey is told to make one.
+    let reference = std::fs::read_to_string(example("reference.toml")).unwrap();
+    let start = reference.find("[uncertainty]").unwrap();
+    let end = start + reference[start..].find("\n[").unwrap() + 1;
+    let unsurveyed = dir.path().join("unsurveyed.toml");
+    std::fs::write(
+        &unsurveyed,
+        format!("{}{}", &reference[..start], &reference[end..]),
+    )
+    .unwrap();
+    let o = host_sim(&["actuator", unsurveyed.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        text(&o).contains("survey this actuator's own with `host-sim campaign --table 1+2"),
+        "{}",
+        text(&o)
+    );
+
     let mut damaged = bytes.clone();
     damaged[100] ^= 0x04;
     let bad = dir.path().join("damaged.rec");

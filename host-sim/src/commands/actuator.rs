@@ -35,6 +35,14 @@ pub(crate) fn actuator_command(file: &Path, out: Option<&Path>) -> Result<()> {
          deviation",
         r.systematic.gain_drift, r.systematic.play_gain_drift
     );
+    if !actuator.systematic_stated {
+        println!(
+            "               (the reference actuator's where [uncertainty] gain_drift_systematic \
+             or play_gain_drift_systematic is missing: survey this actuator's own with \
+             `host-sim campaign --table 1+2 --runs 10 --actuator {}`, README step 4)",
+            file.display()
+        );
+    }
     if let Some(path) = out {
         std::fs::write(path, actuator.record_bytes())
             .with_context(|| format!("writing {}", path.display()))?;

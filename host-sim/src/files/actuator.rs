@@ -51,6 +51,11 @@ pub struct Actuator {
     pub built_in: bool,
     /// The file it was loaded from.
     pub source: Option<std::path::PathBuf>,
+    /// Whether the preflight's systematic error is this actuator's own: the description
+    /// states both `[uncertainty]` values, or this is a record (it carries its values) or
+    /// the built-in actuator. False: the reference actuator's values stand in for one or
+    /// both, which fit only an actuator like it (README step 4 surveys its own).
+    pub systematic_stated: bool,
 }
 
 /// A rig recording's column names and unit scales (value in SI = recorded value × scale).
@@ -76,6 +81,7 @@ impl Actuator {
             rig: None,
             built_in: true,
             source: None,
+            systematic_stated: true,
         }
     }
 
@@ -110,6 +116,7 @@ impl Actuator {
                 rig: None,
                 built_in: false,
                 source: Some(path.to_path_buf()),
+                systematic_stated: true,
             });
         }
         let text = String::from_utf8(bytes).map_err(|_| {
@@ -1007,6 +1014,8 @@ impl Drive {
 
 impl Description {
     fn build(self) -> Actuator {
+        let systematic_stated = self.uncertainty.gain_drift_systematic.is_some()
+            && self.uncertainty.play_gain_drift_systematic.is_some();
         let m = &self.motor;
         let k = &self.mechanics;
         let c = &self.controller;
@@ -1238,6 +1247,7 @@ impl Description {
             rig: self.rig,
             built_in: false,
             source: None,
+            systematic_stated,
         }
     }
 }
@@ -1309,10 +1319,10 @@ mod tests {
         let end = start + text[start..].find("\n[").unwrap() + 1;
         let without = format!("{}{}", &text[..start], &text[end..]);
         assert!(!without.contains("gain_drift_systematic"));
-        assert_eq!(
-            Actuator::parse(&without).unwrap().record.systematic,
-            SystematicError::REFERENCE_ACTUATOR
-        );
+        let a = Actuator::parse(&without).unwrap();
+        assert_eq!(a.record.systematic, SystematicError::REFERENCE_ACTUATOR);
+        assert!(!a.systematic_stated, "the reference's values stand in");
+        assert!(Actuator::parse(&text).unwrap().systematic_stated);
         let one = text.replace("play_gain_drift_systematic = 0.011", "");
         let a = Actuator::parse(&one.replace(
             "gain_drift_systematic = 0.006",
@@ -1326,6 +1336,7 @@ mod tests {
                 play_gain_drift: shared::uncertainty::PLAY_GAIN_DRIFT_SYSTEMATIC
             }
         );
+        assert!(!a.systematic_stated, "one value of two is the reference's");
         let bad = text.replace(
             "play_gain_drift_systematic = 0.011",
             "play_gain_drift_systematic = -0.011",
