@@ -531,9 +531,11 @@ enum Command {
         /// Replace the FDI's readings by an ideal identification of this standard deviation
         /// (the same runs: each preflight without an intrusion reads its true fault vector
         /// plus seeded Gaussian noise of SIGMA, stating SIGMA): the trend's ceiling with
-        /// readings of that precision. Preflights only.
-        #[arg(long, value_name = "SIGMA", conflicts_with = "windows", value_parser = parse_ideal_sigma)]
-        ideal_readings: Option<f32>,
+        /// readings of that precision. Preflights only. Several, comma-separated: a sweep
+        /// (needs --histories), one row each beside the FDI's readings and the lean-removed
+        /// oracle; --out and --plot then take the sweep's table and picture.
+        #[arg(long, value_name = "SIGMA", value_delimiter = ',', conflicts_with = "windows", value_parser = parse_ideal_sigma)]
+        ideal_readings: Vec<f32>,
         /// Take each run's mean error per component (reading − truth, over its trusted
         /// preflights at least 0.05 from nominal) off the FDI's readings: an oracle that says
         /// what the identification's lean costs the trend, beside its scatter. Preflights only.
@@ -881,10 +883,17 @@ fn main() -> ExitCode {
                     noises: noise,
                     intrusions: out_of_domain,
                     windows,
-                    readings: match (ideal_readings, lean_removed) {
-                        (Some(sigma), _) => prognostics::Readings::Ideal(sigma),
-                        (None, true) => prognostics::Readings::LeanRemoved,
-                        (None, false) => prognostics::Readings::Fdi,
+                    readings: match (&ideal_readings[..], lean_removed) {
+                        ([], false) => vec![prognostics::Readings::Fdi],
+                        ([], true) => vec![prognostics::Readings::LeanRemoved],
+                        (&[sigma], _) => vec![prognostics::Readings::Ideal(sigma)],
+                        (sweep, _) => [
+                            prognostics::Readings::Fdi,
+                            prognostics::Readings::LeanRemoved,
+                        ]
+                        .into_iter()
+                        .chain(sweep.iter().map(|&s| prognostics::Readings::Ideal(s)))
+                        .collect(),
                     },
                     settings,
                     histories,

@@ -68,6 +68,7 @@ fn the_prognostics_reading_studies_are_refused_beside_windows_or_out_of_range() 
         ),
         (&["--ideal-readings", "0.7"][..], "outside [0, 0.5]"),
         (&["--ideal-readings", "x"][..], "not a number"),
+        (&["--ideal-readings", "0,0.01"][..], "give --histories DIR"),
     ] {
         let o = host_sim(&[&["prognostics"][..], args].concat());
         assert!(!o.status.success(), "{args:?}");

@@ -158,8 +158,9 @@ pub(crate) struct EvalRun {
     pub noises: Vec<f64>,
     pub intrusions: f64,
     pub windows: u8,
-    /// Whose readings the trend takes.
-    pub readings: prognostics::Readings,
+    /// Whose readings the trend takes; more than one: a sweep (each from the same kept
+    /// histories, one table row each).
+    pub readings: Vec<prognostics::Readings>,
     pub settings: TrendSettings,
     pub histories: Option<PathBuf>,
     pub alpha: f64,
@@ -167,6 +168,81 @@ pub(crate) struct EvalRun {
 
 pub(crate) fn prognostics_command(
     run: &EvalRun,
+    out: Option<&Path>,
+    plot_out: Option<&Path>,
+) -> Result<()> {
+    if let [readings] = run.readings[..] {
+        return evaluation_command(run, readings, out, plot_out);
+    }
+    let Some(dir) = &run.histories else {
+        anyhow::bail!(
+            "a sweep of --ideal-readings evaluates the same runs once per value: give \
+             --histories DIR (the runs are simulated into it once, or read from it)"
+        );
+    };
+    let start = Instant::now();
+    let scenarios = prognostics::eval_scenarios(&run.noises);
+    let runs = scenarios.len() as u64 * run.seeds;
+    let bar = host_sim::progress_bar(
+        runs * u64::from(run.flights) * run.readings.len() as u64,
+        "{elapsed_precise} [{bar:40}] {pos}/{len} flights (ETA {eta})",
+        std::io::stderr().is_terminal(),
+    );
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let mut rows = Vec::new();
+    let mut simulated = 0;
+    for &readings in &run.readings {
+        let eval = prognostics::evaluate(
+            &scenarios,
+            &prognostics::EvalRuns {
+                seeds: run.first_seed..run.first_seed + run.seeds,
+                flights: run.flights,
+                intrusions: run.intrusions,
+                windows: run.windows,
+                readings,
+            },
+            &run.settings,
+            Some(dir),
+            &|n| bar.inc(n),
+        )?;
+        simulated += eval.simulated;
+        rows.push(prognostics::SweepRow {
+            readings,
+            totals: prognostics::Totals::of(
+                &eval.tracks,
+                run.alpha,
+                prognostics::PredictionStart::Detection,
+            ),
+        });
+    }
+    bar.finish_and_clear();
+    let mut text = format!(
+        "The same {runs} runs × {} flights (seeds {}–{}; {simulated} simulated, the rest read \
+         from {}) evaluated from each kind of readings; every prediction from detection. \
+         Ideal readings: each preflight without an intrusion reads its true fault vector plus \
+         seeded Gaussian noise of σ and states σ (the trend's noise floor, {}, still applies).\n\n",
+        run.flights,
+        run.first_seed,
+        run.first_seed + run.seeds - 1,
+        dir.display(),
+        run.settings.noise_floor
+    );
+    text += &prognostics::sweep_markdown(&rows, run.alpha);
+    text += &format!("\n{:.0} s.\n", start.elapsed().as_secs_f64());
+    print!("{text}");
+    if let Some(path) = out {
+        std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(path) = plot_out {
+        prognostics::sweep_svg(path, &rows)?;
+    }
+    Ok(())
+}
+
+/// One evaluation from one kind of readings: every table.
+fn evaluation_command(
+    run: &EvalRun,
+    readings: prognostics::Readings,
     out: Option<&Path>,
     plot_out: Option<&Path>,
 ) -> Result<()> {
@@ -188,7 +264,7 @@ pub(crate) fn prognostics_command(
             flights: run.flights,
             intrusions: run.intrusions,
             windows: run.windows,
-            readings: run.readings,
+            readings,
         },
         &run.settings,
         run.histories.as_deref(),
@@ -196,7 +272,7 @@ pub(crate) fn prognostics_command(
     )?;
     bar.finish_and_clear();
     let mut text = String::new();
-    match run.readings {
+    match readings {
         prognostics::Readings::Fdi => {}
         prognostics::Readings::Ideal(sigma) => {
             text += &format!(

@@ -1533,6 +1533,141 @@ pub fn eval_markdown(eval: &Evaluation, alpha: f64) -> String {
 
 /// The α-λ picture: predicted RUL against flight, both over the true EOL, for every track,
 /// with the truth and the ±α cone; one panel per path shape.
+/// One row of a readings sweep: whose readings the trend took, and how it did from them
+/// (every prediction from detection).
+#[derive(Clone, Copy, Debug)]
+pub struct SweepRow {
+    pub readings: Readings,
+    pub totals: Totals,
+}
+
+impl Readings {
+    fn name(self) -> String {
+        match self {
+            Self::Fdi => "the FDI's readings".into(),
+            Self::LeanRemoved => "the FDI's, lean taken off (oracle)".into(),
+            Self::Ideal(sigma) => format!("ideal, σ {sigma}"),
+        }
+    }
+}
+
+/// The sweep as a Markdown table.
+pub fn sweep_markdown(rows: &[SweepRow], alpha: f64) -> String {
+    let mut out = format!(
+        "| readings | tracks | α-λ (α = {:.0} %) at λ = 0.5 | within ±{:.0} % after half life | 90 % interval holds the truth |\n\
+         | --- | ---: | ---: | ---: | ---: |\n",
+        100.0 * alpha,
+        100.0 * alpha
+    );
+    for r in rows {
+        let t = &r.totals;
+        out += &format!(
+            "| {} | {} | {}/{} ({:.0} %) | {:.0} % | {:.0} % |\n",
+            r.readings.name(),
+            t.tracks,
+            t.alpha_lambda_half,
+            t.tracks,
+            100.0 * t.alpha_lambda(),
+            100.0 * t.within_after_half(),
+            100.0 * t.coverage()
+        );
+    }
+    out
+}
+
+/// The sweep as a picture: each metric against the ideal readings' σ, the FDI's (and its
+/// lean-removed oracle's) as horizontal lines, the issue's targets shaded.
+pub fn sweep_svg(out: &Path, rows: &[SweepRow]) -> Result<()> {
+    let root = SVGBackend::new(out, (1200, 460)).into_drawing_area();
+    let e = |e: DrawingAreaErrorKind<_>| anyhow!("drawing {}: {e:?}", out.display());
+    root.fill(&WHITE).map_err(e)?;
+    let ideal: Vec<(f64, Totals)> = rows
+        .iter()
+        .filter_map(|r| match r.readings {
+            Readings::Ideal(sigma) => Some((f64::from(sigma), r.totals)),
+            _ => None,
+        })
+        .collect();
+    let top = ideal.iter().map(|p| p.0).fold(0.01, f64::max) * 1.05;
+    let metrics: [(&str, fn(&Totals) -> f64, Option<(f64, f64)>); 3] = [
+        ("α-λ at λ = 0.5", Totals::alpha_lambda, Some((0.85, 1.0))),
+        (
+            "within ±α after half life",
+            Totals::within_after_half,
+            Some((0.80, 1.0)),
+        ),
+        (
+            "90 % interval holds the truth",
+            Totals::coverage,
+            Some((0.85, 0.95)),
+        ),
+    ];
+    for (panel, (name, metric, target)) in root.split_evenly((1, 3)).iter().zip(metrics) {
+        let mut chart = ChartBuilder::on(panel)
+            .caption(name, ("sans-serif", 15))
+            .margin(10)
+            .x_label_area_size(36)
+            .y_label_area_size(50)
+            .build_cartesian_2d(0.0..top, 0.0..1.0)
+            .map_err(e)?;
+        chart
+            .configure_mesh()
+            .x_desc("ideal readings' σ (fault-vector units)")
+            .y_desc("share")
+            .draw()
+            .map_err(e)?;
+        if let Some((lo, hi)) = target {
+            chart
+                .draw_series(std::iter::once(Rectangle::new(
+                    [(0.0, lo), (top, hi)],
+                    GREEN.mix(0.15).filled(),
+                )))
+                .map_err(e)?
+                .label("target")
+                .legend(|(x, y)| {
+                    Rectangle::new([(x, y - 4), (x + 20, y + 4)], GREEN.mix(0.15).filled())
+                });
+        }
+        chart
+            .draw_series(LineSeries::new(
+                ideal.iter().map(|(s, t)| (*s, metric(t))),
+                BLUE.stroke_width(2),
+            ))
+            .map_err(e)?
+            .label("ideal readings")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE));
+        chart
+            .draw_series(
+                ideal
+                    .iter()
+                    .map(|(s, t)| Circle::new((*s, metric(t)), 3, BLUE.filled())),
+            )
+            .map_err(e)?;
+        for (readings, colour) in [(Readings::Fdi, RED), (Readings::LeanRemoved, MAGENTA)] {
+            if let Some(r) = rows.iter().find(|r| r.readings == readings) {
+                let y = metric(&r.totals);
+                chart
+                    .draw_series(LineSeries::new(
+                        vec![(0.0, y), (top, y)],
+                        colour.stroke_width(2),
+                    ))
+                    .map_err(e)?
+                    .label(readings.name())
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
+            }
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::LowerLeft)
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK.mix(0.3))
+            .draw()
+            .map_err(e)?;
+    }
+    root.present().context("writing the plot")?;
+    Ok(())
+}
+
 pub fn eval_svg(out: &Path, tracks: &[Track], alpha: f64) -> Result<()> {
     let root = SVGBackend::new(out, (1500, 520)).into_drawing_area();
     let e = |e: DrawingAreaErrorKind<_>| anyhow!("drawing {}: {e:?}", out.display());
@@ -1769,6 +1904,51 @@ mod tests {
         two.add_run(&[0.05, 0.07]);
         assert!((two.mean() - 0.04).abs() < 1e-12);
         assert!((two.scatter() - 0.01).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_sweep_names_each_kind_of_readings_and_draws_them() {
+        let t = |a| Totals {
+            tracks: 10,
+            alpha_lambda_half: a,
+            late: 4,
+            late_within: 3,
+            all: 8,
+            all_covered: 7,
+            ..Totals::default()
+        };
+        let rows = [
+            SweepRow {
+                readings: Readings::Fdi,
+                totals: t(6),
+            },
+            SweepRow {
+                readings: Readings::LeanRemoved,
+                totals: t(7),
+            },
+            SweepRow {
+                readings: Readings::Ideal(0.0),
+                totals: t(9),
+            },
+            SweepRow {
+                readings: Readings::Ideal(0.01),
+                totals: t(5),
+            },
+        ];
+        let text = sweep_markdown(&rows, 0.2);
+        for line in [
+            "| the FDI's readings | 10 | 6/10 (60 %) | 75 % | 88 % |",
+            "| the FDI's, lean taken off (oracle) | 10 | 7/10 (70 %) |",
+            "| ideal, σ 0 | 10 | 9/10 (90 %) |",
+            "| ideal, σ 0.01 | 10 | 5/10 (50 %) |",
+        ] {
+            assert!(text.contains(line), "{line}\n{text}");
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let svg = dir.path().join("sweep.svg");
+        sweep_svg(&svg, &rows).unwrap();
+        let drawn = std::fs::read_to_string(&svg).unwrap();
+        assert!(drawn.contains("ideal readings") && drawn.contains("lean taken off"));
     }
 
     fn track(predict: impl Fn(f64) -> RulEstimate) -> Track {
