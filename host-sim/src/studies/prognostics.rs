@@ -1575,6 +1575,10 @@ pub fn sweep_markdown(rows: &[SweepRow], alpha: f64) -> String {
     out
 }
 
+/// A panel of the sweep's picture: its title, the metric, and the target band (if
+/// any).
+type SweepMetric = (&'static str, fn(&Totals) -> f64, Option<(f64, f64)>);
+
 /// The sweep as a picture: each metric against the ideal readings' σ, the FDI's (and its
 /// lean-removed oracle's) as horizontal lines, the targets shaded.
 pub fn sweep_svg(out: &Path, rows: &[SweepRow]) -> Result<()> {
@@ -1589,7 +1593,7 @@ pub fn sweep_svg(out: &Path, rows: &[SweepRow]) -> Result<()> {
         })
         .collect();
     let top = ideal.iter().map(|p| p.0).fold(0.01, f64::max) * 1.05;
-    let metrics: [(&str, fn(&Totals) -> f64, Option<(f64, f64)>); 3] = [
+    let metrics: [SweepMetric; 3] = [
         ("α-λ at λ = 0.5", Totals::alpha_lambda, Some((0.85, 1.0))),
         (
             "within ±α after half life",
