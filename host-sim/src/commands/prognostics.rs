@@ -166,6 +166,19 @@ pub(crate) struct EvalRun {
     pub alpha: f64,
 }
 
+impl EvalRun {
+    /// The runs to evaluate from `readings`.
+    fn runs(&self, readings: prognostics::Readings) -> prognostics::EvalRuns {
+        prognostics::EvalRuns {
+            seeds: self.first_seed..self.first_seed + self.seeds,
+            flights: self.flights,
+            intrusions: self.intrusions,
+            windows: self.windows,
+            readings,
+        }
+    }
+}
+
 pub(crate) fn prognostics_command(
     run: &EvalRun,
     out: Option<&Path>,
@@ -194,13 +207,7 @@ pub(crate) fn prognostics_command(
     for &readings in &run.readings {
         let eval = prognostics::evaluate(
             &scenarios,
-            &prognostics::EvalRuns {
-                seeds: run.first_seed..run.first_seed + run.seeds,
-                flights: run.flights,
-                intrusions: run.intrusions,
-                windows: run.windows,
-                readings,
-            },
+            &run.runs(readings),
             &run.settings,
             Some(dir),
             &|n| bar.inc(n),
@@ -259,13 +266,7 @@ fn evaluation_command(
     }
     let eval = prognostics::evaluate(
         &scenarios,
-        &prognostics::EvalRuns {
-            seeds: run.first_seed..run.first_seed + run.seeds,
-            flights: run.flights,
-            intrusions: run.intrusions,
-            windows: run.windows,
-            readings,
-        },
+        &run.runs(readings),
         &run.settings,
         run.histories.as_deref(),
         &|n| bar.inc(n),
