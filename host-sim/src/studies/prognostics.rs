@@ -960,17 +960,25 @@ impl ReadingErrors {
         (self.within_run / f64::from(self.readings.max(1))).sqrt()
     }
 
-    /// Each trended component's errors in the trusted preflights of one run.
-    pub fn of_run(rows: &[HistoryRow]) -> [Vec<f64>; FAULT_COUNT] {
+    /// Each trended component's errors in the trusted entries of one run of one kind: the
+    /// preflights (`in_flight` false) or the flights' readings (true: the components read in
+    /// flight, those with a stated deviation; a held one is its preflight's).
+    pub fn of_run(rows: &[HistoryRow], in_flight: bool) -> [Vec<f64>; FAULT_COUNT] {
         let mut out: [Vec<f64>; FAULT_COUNT] = Default::default();
-        let preflights = rows
+        let kind = if in_flight {
+            shared::health::FLIGHT_READING
+        } else {
+            0
+        };
+        let entries = rows
             .iter()
-            .filter(|r| r.record.window == 0 && r.record.is_trusted());
-        for r in preflights {
+            .filter(|r| r.record.window == kind && r.record.is_trusted());
+        for r in entries {
             let Some(truth) = r.truth else { continue };
             let (found, truth) = (r.record.faults.deviations(), truth.deviations());
             for (i, errors) in out.iter_mut().enumerate() {
-                if let (Some(Some(f)), Some(Some(t))) = (found.get(i), truth.get(i)) {
+                let read = !in_flight || r.record.std.get(i).is_some();
+                if let (Some(Some(f)), Some(Some(t)), true) = (found.get(i), truth.get(i), read) {
                     if *t >= shared::fault::DETECTION_THRESHOLD {
                         errors.push(f64::from(f - t));
                     }
@@ -981,11 +989,19 @@ impl ReadingErrors {
     }
 }
 
-fn reading_errors_markdown(errors: &[(f64, [ReadingErrors; FAULT_COUNT])]) -> String {
-    let mut out = String::from(
-        "
-The preflights' reading errors (reading − truth in deviations from nominal, trusted \
-         preflights at least 0.05 from nominal): mean (the lean) / standard deviation about each \
+/// Each I_ref noise level's reading errors, each component's.
+pub type ErrorsByNoise = Vec<(f64, [ReadingErrors; FAULT_COUNT])>;
+
+fn reading_errors_markdown(errors: &ErrorsByNoise, entries: &str) -> String {
+    if errors
+        .iter()
+        .all(|(_, e)| e.iter().all(|c| c.readings == 0))
+    {
+        return String::new();
+    }
+    let mut out = format!(
+        "\nThe {entries}' reading errors (reading − truth in deviations from nominal, trusted \
+         {entries} at least 0.05 from nominal): mean (the lean) / standard deviation about each \
          run's own mean (the scatter a trend sees), by I_ref noise:\n\n| component |",
     );
     for (noise, _) in errors {
@@ -1015,8 +1031,9 @@ The preflights' reading errors (reading − truth in deviations from nominal, tr
 /// The evaluation's tracks and intrusion counts.
 #[derive(Clone, Debug, Default)]
 pub struct Evaluation {
-    /// The preflights' reading errors per I_ref noise level, each component's.
-    pub errors: Vec<(f64, [ReadingErrors; FAULT_COUNT])>,
+    /// The reading errors per I_ref noise level, each component's: the preflights' `[0]`,
+    /// the flights' readings' `[1]`.
+    pub errors: [ErrorsByNoise; 2],
     pub tracks: Vec<Track>,
     /// With in-flight windows: the same runs' tracks from their preflights alone.
     pub preflight_only: Vec<Track>,
@@ -1158,19 +1175,21 @@ pub fn evaluate(
                 Readings::Ideal(sigma) => ideal_readings(&rows, sigma, seed),
                 Readings::LeanRemoved => lean_removed(&rows),
             };
-            let at = match eval.errors.iter().position(|(n, _)| *n == sc.noise) {
-                Some(at) => at,
-                None => {
-                    eval.errors.push((sc.noise, Default::default()));
-                    eval.errors.len() - 1
+            for (in_flight, errors) in [false, true].into_iter().zip(eval.errors.iter_mut()) {
+                let at = match errors.iter().position(|(n, _)| *n == sc.noise) {
+                    Some(at) => at,
+                    None => {
+                        errors.push((sc.noise, Default::default()));
+                        errors.len() - 1
+                    }
+                };
+                for (e, run) in errors[at]
+                    .1
+                    .iter_mut()
+                    .zip(ReadingErrors::of_run(&rows, in_flight))
+                {
+                    e.add_run(&run);
                 }
-            };
-            for (e, run) in eval.errors[at]
-                .1
-                .iter_mut()
-                .zip(ReadingErrors::of_run(&rows))
-            {
-                e.add_run(&run);
             }
             // Preflights `[0]` and flights' readings `[1]`: the entries the trend takes.
             for r in rows.iter().filter(|r| !r.record.is_window()) {
@@ -1458,7 +1477,8 @@ pub fn eval_markdown(eval: &Evaluation, alpha: f64) -> String {
         "I_ref noise",
         grouped(tracks, |t| t.noise, |n| format!("{:.0} %", 100.0 * n)),
     );
-    out += &reading_errors_markdown(&eval.errors);
+    out += &reading_errors_markdown(&eval.errors[0], "preflights");
+    out += &reading_errors_markdown(&eval.errors[1], "flights' readings");
     if !eval.preflight_only.is_empty() {
         let (within, flown) = eval.windows;
         let (read, flights) = eval.flights_read;
@@ -1889,13 +1909,22 @@ mod tests {
     #[test]
     fn the_lean_is_taken_off_and_the_reading_errors_say_it() {
         let rows = logged(0.03);
-        let errors = ReadingErrors::of_run(&rows);
+        let errors = ReadingErrors::of_run(&rows, false);
         // Friction is at least 0.05 from flight 4 on; flight 3 is outside.
         let mut friction = ReadingErrors::default();
         friction.add_run(&errors[0]);
         assert!((friction.mean() - 0.03).abs() < 1e-6, "{}", friction.mean());
         assert!(friction.scatter() < 1e-6);
         assert!(errors[1].is_empty(), "the backlash never leaves nominal");
+        // The flight's reading after flight 5: its friction counts only when read in flight.
+        assert!(ReadingErrors::of_run(&rows, true)[0].is_empty(), "held");
+        let mut read = rows.clone();
+        for r in read.iter_mut().filter(|r| r.record.window != 0) {
+            r.record.std = shared::health::ComponentStd::new([0.01; FAULT_COUNT]);
+        }
+        let flights = ReadingErrors::of_run(&read, true);
+        assert_eq!(flights[0].len(), 1);
+        assert!((flights[0][0] - 0.03).abs() < 1e-6);
         let taken = lean_removed(&rows);
         assert_eq!(taken.len(), 40);
         for r in taken.iter().filter(|r| r.record.is_trusted()) {
