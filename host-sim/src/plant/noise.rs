@@ -5,26 +5,29 @@ use rand_core::{RngCore, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 use std::f64::consts::TAU;
 
-/// Standard normal draws (Box–Muller) from a seeded xoshiro256++.
-pub(crate) struct Gaussian {
+/// Standard normal draws (Box–Muller) from a seeded xoshiro256++ (public for the studies'
+/// examples).
+pub struct Gaussian {
     rng: Xoshiro256PlusPlus,
     spare: Option<f64>,
 }
 
 impl Gaussian {
-    pub(crate) fn new(seed: u64) -> Self {
+    pub fn new(seed: u64) -> Self {
         Self {
             rng: Xoshiro256PlusPlus::seed_from_u64(seed),
             spare: None,
         }
     }
 
-    pub(crate) fn uniform(&mut self) -> f64 {
+    pub fn uniform(&mut self) -> f64 {
         // 53 random bits in (0, 1].
         ((self.rng.next_u64() >> 11) as f64 + 1.0) * (1.0 / (1u64 << 53) as f64)
     }
 
-    pub(crate) fn next(&mut self) -> f64 {
+    /// The next standard normal draw (an endless stream, not an `Iterator`).
+    #[allow(clippy::should_implement_trait)]
+    pub fn next(&mut self) -> f64 {
         if let Some(x) = self.spare.take() {
             return x;
         }
