@@ -524,6 +524,7 @@ fn a_window_at_the_fitness_floor_names_the_play_and_is_read_pinned_after_a_prefl
     let text = String::from_utf8_lossy(&o.stdout).to_string();
     assert!(text.contains("fitness_floor"), "{text}");
     assert!(text.contains("gear play several times nominal"), "{text}");
+    assert!(text.contains("Noise on the current"), "{text}");
     let v = json(&host_sim(&["identify", &worn, "--json"]));
     assert_eq!(v["verdict"], "fitness_floor", "{v}");
     assert!(v["hint"]
@@ -609,6 +610,38 @@ fn healthy_moderate_window(
     a.extend(actuator);
     a.extend(["--truth", healthy, "--json"]);
     json(&host_sim(&a))
+}
+
+/// A healthy window flown under the paper's 50 % I_ref noise is named `fitness_floor`, never
+/// read, and its hint names the noise beside the play.
+#[test]
+fn a_noisy_window_is_named_at_the_floor_and_its_hint_names_the_noise() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = path(&dir, "noisy.csv");
+    let o = host_sim(&[
+        "simulate",
+        "--flight",
+        "cruise",
+        "--turbulence",
+        "light",
+        "--faults",
+        "0,0,0,0,0,0,0.5,0.5,0",
+        "--noise",
+        "0.5",
+        "--seed",
+        "2",
+        "--out",
+        &file,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = json(&host_sim(&["identify", &file, "--json"]));
+    assert_eq!(v["verdict"], "fitness_floor", "{v}");
+    assert!(
+        v["hint"]
+            .as_str()
+            .is_some_and(|h| h.contains("Noise on the current") && h.contains("gear play")),
+        "{v}"
+    );
 }
 
 /// A healthy gear's window whose gain-drift needle lies elsewhere at a middle play than at

@@ -708,6 +708,17 @@ pub(crate) fn window_report(
     status
 }
 
+/// The other known cause of a window at its fitness floor: noise on the measured current,
+/// told by the same flight's preflight (stop 65's measurements, docs/prognostics.md).
+macro_rules! noise_cause {
+    () => {
+        "Noise on the current puts a window here too: at the paper's 50 % I_ref noise 6 711 \
+         of 6 720 windows were at this floor, and the same flight's preflight then leaves a \
+         fitness of about 0.06 A²·s, where a quiet one leaves under 0.005 \
+         (docs/prognostics.md)."
+    };
+}
+
 /// What a window named `fitness_floor` most often means, from the campaigns, and why the
 /// pinned surface did not read it when it was tried (`pinned`: a trusted preflight was
 /// given); none for another verdict.
@@ -726,18 +737,21 @@ fn floor_hint(
              tell a wide play from none (campaigns: a halved or doubled gain, a healthy gear \
              in moderate climb). Not a reading: the next preflight reads the backlash."
         }
-        Some(_) => {
+        Some(_) => concat!(
             "neither the window's load model nor its surface pinned to its sensor explains \
-             this current. Not a reading: the next preflight reads the actuator."
-        }
-        None => {
+             this current. ",
+            noise_cause!(),
+            " Not a reading: the next preflight reads the actuator."
+        ),
+        None => concat!(
             "the window's load model does not explain this current. The known cause is a \
              gear play several times nominal (docs/in-flight.md §4, §6); the light \
-             actuator's windows in moderate turbulence are named so too. Given the same \
-             flight's preflight (--preflight), a window at this floor is read again with its \
-             surface pinned to its sensor, which reads the play; without it, the next \
-             preflight reads the backlash."
-        }
+             actuator's windows in moderate turbulence are named so too. ",
+            noise_cause!(),
+            " Given the same flight's preflight (--preflight), a window at this floor is read \
+             again with its surface pinned to its sensor, which reads the play; without it, \
+             the next preflight reads the backlash."
+        ),
     })
 }
 
