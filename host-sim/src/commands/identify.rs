@@ -713,9 +713,9 @@ pub(crate) fn window_report(
 macro_rules! noise_cause {
     () => {
         "Noise on the current puts a window here too: at the paper's 50 % I_ref noise 6 711 \
-         of 6 720 windows were at this floor, and the same flight's preflight then leaves a \
-         fitness of about 0.06 A²·s, where a quiet one leaves under 0.005 \
-         (docs/prognostics.md)."
+         of 6 720 windows were at this floor. The same flight's preflight then leaves a fitness \
+         of about 0.06 A²·s on an actuator whose quiet test leaves under 0.005 (a large \
+         multi-fault leaves up to 0.04 without noise; docs/prognostics.md)."
     };
 }
 
@@ -744,7 +744,7 @@ fn floor_hint(
             " Not a reading: the next preflight reads the actuator."
         ),
         None => concat!(
-            "the window's load model does not explain this current. The known cause is a \
+            "the window's load model does not explain this current. One known cause is a \
              gear play several times nominal (docs/in-flight.md §4, §6); the light \
              actuator's windows in moderate turbulence are named so too. ",
             noise_cause!(),
