@@ -92,6 +92,14 @@ fn main() -> Result<()> {
     let mut args = std::env::args().skip(1);
     let seeds: u64 = args.next().map_or(Ok(16), |a| a.parse())?;
     let noise: f64 = args.next().map_or(Ok(0.5), |a| a.parse())?;
+    anyhow::ensure!(
+        seeds >= 2,
+        "SEEDS must be at least 2 (a scatter needs two runs)"
+    );
+    anyhow::ensure!(
+        (0.0..=1.0).contains(&noise),
+        "NOISE is a fraction of the nominal I_ref RMS, 0 … 1"
+    );
     let actuator = Actuator::reference();
     let record = actuator.record;
     let params: ActuatorParams = record.params;
