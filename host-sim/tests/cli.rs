@@ -582,36 +582,6 @@ fn a_window_at_the_fitness_floor_names_the_play_and_is_read_pinned_after_a_prefl
         .is_some_and(|h| h.contains("two ends fit about as well")));
 }
 
-/// A healthy gear flown in `phase` in moderate turbulence (seed 7) and its flight's preflight
-/// (seed 1007), simulated under `dir` for the actuator `actuator` names (`--actuator FILE`,
-/// or none: the built-in one), and the window identified with that preflight (GA seed 8,
-/// the truth given): `identify --json`'s answer.
-fn healthy_moderate_window(
-    dir: &tempfile::TempDir,
-    actuator: &[&str],
-    phase: &str,
-) -> serde_json::Value {
-    let healthy = "0,0,0,0,0,0,0.5,0.5,0";
-    let (window, ground) = (path(dir, &format!("{phase}.csv")), path(dir, "ground.csv"));
-    for (args, out) in [
-        (
-            vec!["--flight", phase, "--turbulence", "moderate", "--seed", "7"],
-            &window,
-        ),
-        (vec!["--seed", "1007"], &ground),
-    ] {
-        let mut a = vec!["simulate", "--faults", healthy, "--out", out.as_str()];
-        a.extend(actuator);
-        a.extend(args);
-        let o = host_sim(&a);
-        assert!(o.status.success(), "{}", stderr(&o));
-    }
-    let mut a = vec!["identify", &window, "--preflight", &ground, "--seed", "8"];
-    a.extend(actuator);
-    a.extend(["--truth", healthy, "--json"]);
-    json(&host_sim(&a))
-}
-
 /// A healthy window flown under the paper's 50 % I_ref noise is named `fitness_floor`, never
 /// read, and its hint names the noise beside the play.
 #[test]
@@ -642,6 +612,36 @@ fn a_noisy_window_is_named_at_the_floor_and_its_hint_names_the_noise() {
             .is_some_and(|h| h.contains("Noise on the current") && h.contains("gear play")),
         "{v}"
     );
+}
+
+/// A healthy gear flown in `phase` in moderate turbulence (seed 7) and its flight's preflight
+/// (seed 1007), simulated under `dir` for the actuator `actuator` names (`--actuator FILE`,
+/// or none: the built-in one), and the window identified with that preflight (GA seed 8,
+/// the truth given): `identify --json`'s answer.
+fn healthy_moderate_window(
+    dir: &tempfile::TempDir,
+    actuator: &[&str],
+    phase: &str,
+) -> serde_json::Value {
+    let healthy = "0,0,0,0,0,0,0.5,0.5,0";
+    let (window, ground) = (path(dir, &format!("{phase}.csv")), path(dir, "ground.csv"));
+    for (args, out) in [
+        (
+            vec!["--flight", phase, "--turbulence", "moderate", "--seed", "7"],
+            &window,
+        ),
+        (vec!["--seed", "1007"], &ground),
+    ] {
+        let mut a = vec!["simulate", "--faults", healthy, "--out", out.as_str()];
+        a.extend(actuator);
+        a.extend(args);
+        let o = host_sim(&a);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let mut a = vec!["identify", &window, "--preflight", &ground, "--seed", "8"];
+    a.extend(actuator);
+    a.extend(["--truth", healthy, "--json"]);
+    json(&host_sim(&a))
 }
 
 /// A healthy gear's window whose gain-drift needle lies elsewhere at a middle play than at
