@@ -2,7 +2,10 @@
 //! module; a file imports another when it names that module's path after `crate::` (or
 //! `super::`). A module and the folder it heads (`x.rs` or `x/mod.rs` and `x/…`) are one
 //! concern and may refer to each other. The host-sim binary's modules (those `main.rs`
-//! declares) form their own tree. Sources are read, not built: O(lines of the workspace).
+//! declares) form their own tree. `shared` is built in floors ([`SHARED_FLOORS`], ground
+//! first): no module imports a floor above its own, the crate's top level holds at most eight
+//! floors beside lib.rs, and no file of it is over 1 200 lines. Sources are read, not built:
+//! O(lines of the workspace).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -181,4 +184,110 @@ fn the_check_finds_a_pair_and_passes_a_folder() {
         named_paths("use crate::x::y::Z; notcrate::q", "crate::"),
         [vec!["x".to_string(), "y".to_string()]]
     );
+}
+
+/// `shared`'s floors from the ground up (shared/src/lib.rs): a module may name paths of its
+/// own floor and of the floors below it, never of one above.
+const SHARED_FLOORS: [&str; 8] = [
+    "base",
+    "physics",
+    "test",
+    "model",
+    "solver",
+    "preflight",
+    "flight",
+    "prognostics",
+];
+
+/// Modules that name a floor above their own: (module, the floor it names).
+fn floors_imported_upwards(
+    tree: &BTreeMap<String, String>,
+    floors: &[&str],
+) -> Vec<(String, String)> {
+    let level = |name: &str| floors.iter().position(|f| *f == name);
+    let mut found = Vec::new();
+    for (module, text) in tree {
+        let Some(own) = module.split("::").next().and_then(level) else {
+            continue;
+        };
+        for path in named_paths(text, "crate::") {
+            if let Some(named) = path.first().and_then(|f| level(f)) {
+                if named > own {
+                    found.push((module.clone(), path[0].clone()));
+                }
+            }
+        }
+    }
+    found.sort();
+    found.dedup();
+    found
+}
+
+#[test]
+fn shared_is_built_in_floors() {
+    let src = workspace().join("shared").join("src");
+    let tree = modules(&src, &|_| true);
+    // Every module of the crate lives in a floor.
+    let loose: Vec<&String> = tree
+        .keys()
+        .filter(|m| !m.is_empty() && !SHARED_FLOORS.contains(&m.split("::").next().unwrap()))
+        .collect();
+    assert!(loose.is_empty(), "modules outside the floors: {loose:?}");
+    let upwards = floors_imported_upwards(&tree, &SHARED_FLOORS);
+    assert!(
+        upwards.is_empty(),
+        "modules importing a floor above their own: {upwards:?}"
+    );
+    // The top level: lib.rs and the floors.
+    let mut top: Vec<String> = std::fs::read_dir(&src)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n != "lib.rs")
+        .collect();
+    top.sort();
+    assert!(
+        top.len() <= 8,
+        "shared/src holds {} entries beside lib.rs: {top:?}",
+        top.len()
+    );
+    // No file over 1 200 lines.
+    let mut long = Vec::new();
+    let mut stack = vec![src];
+    while let Some(dir) = stack.pop() {
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+            } else {
+                let lines = std::fs::read_to_string(&path).unwrap().lines().count();
+                if lines > 1200 {
+                    long.push((path, lines));
+                }
+            }
+        }
+    }
+    assert!(long.is_empty(), "files over 1 200 lines: {long:?}");
+}
+
+#[test]
+fn the_floor_check_finds_an_upward_import() {
+    let tree: BTreeMap<String, String> = [
+        ("", "pub mod low; pub mod high;"),
+        ("low", "pub mod a;"),
+        (
+            "low::a",
+            "use crate::high::b::Thing; // crate::low in a comment",
+        ),
+        ("high", "pub mod b;"),
+        ("high::b", "use crate::low::a::X; use crate::high::b::Y;"),
+    ]
+    .into_iter()
+    .map(|(m, t)| (m.to_string(), t.to_string()))
+    .collect();
+    assert_eq!(
+        floors_imported_upwards(&tree, &["low", "high"]),
+        [("low::a".to_string(), "high".to_string())]
+    );
+    assert!(floors_imported_upwards(&tree, &["high", "low"])
+        .contains(&("high::b".to_string(), "low".to_string())));
 }

@@ -1,5 +1,5 @@
 //! What a window's load must follow for a wide play to be read in flight (issue 36,
-//! docs/in-flight.md §6 "Backlash in flight"): the window model at the true vector, cruise,
+//! docs/in-flight.md "Backlash in flight"): the window model at the true vector, cruise,
 //! the healthy actuator and Table II medium, light and moderate turbulence, seeds 0…N−1
 //! (`cargo run --release -p host-sim --example window_moment [N]`, N = 4 by default,
 //! ≈ 1 min). Per window, the share of the measured current's energy the fit leaves (the

@@ -1,5 +1,5 @@
 //! Whether a window of flight fits when the model's surface follows its sensor (issue 36,
-//! docs/in-flight.md §6): the window model at the true vector, cruise, the healthy actuator
+//! docs/in-flight.md): the window model at the true vector, cruise, the healthy actuator
 //! and Table II medium, light and moderate turbulence, seeds FIRST … FIRST + N − 1
 //! (`cargo run --release -p host-sim --example window_pinned [N [W [FIRST [more]]]]`: N = 4,
 //! W = 0, FIRST = 0 by default, ≈ 10 s; `more` adds six of Table I's cases, ≈ 1 min for ten

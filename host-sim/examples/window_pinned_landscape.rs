@@ -1,4 +1,4 @@
-//! The pinned window's error landscape (issue 36, stop 60; docs/in-flight.md §6): why its
+//! The pinned window's error landscape (issue 36; docs/in-flight.md): why its
 //! search scans the gain drift finely first and the play on a grid of 0.05. A cruise window
 //! of the built-in actuator simulated by the reference model, every component but the
 //! backlash, the gain drift and the start's moment at the truth (as a flight holds them at

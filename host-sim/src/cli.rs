@@ -60,6 +60,132 @@ model's domain (jammed, open phase, another command, unexplained residual; the r
 printed but must not be acted on), or a window of flight was named outside (its reason printed); 5 identify stopped by --stop-after (checkpoint written); \
 7 the --actuator file was refused (the message names the key and its line).";
 
+/// The commands by task, as `host-sim --help` lists them (the top-level help template).
+/// Every subcommand is named here once: `the_help_groups_every_command_by_task` checks it.
+pub(crate) const COMMANDS_BY_TASK: &[(&str, &[(&str, &str)])] = &[
+    (
+        "A preflight",
+        &[
+            (
+                "preflight",
+                "the reference model plays an actuator with --faults, the onboard FDI reads it",
+            ),
+            (
+                "simulate",
+                "write the reference model's test as a trace (CSV or binary)",
+            ),
+            (
+                "identify",
+                "read the faults behind a trace (a preflight, or a window with --preflight)",
+            ),
+            (
+                "plot",
+                "measured against fitted current and the search's history (SVG)",
+            ),
+            (
+                "test-schedule",
+                "the test as the controller commands it, period by period, for a bench drive",
+            ),
+        ],
+    ),
+    (
+        "Your own actuator and its calibration",
+        &[
+            (
+                "actuator",
+                "check a description file (TOML) and write the record the firmware loads",
+            ),
+            (
+                "calibrate",
+                "fit the monitor model to a healthy trace (and --at other temperatures)",
+            ),
+            (
+                "domain",
+                "survey the domain limits on the actuator (--write them into its file)",
+            ),
+            (
+                "campaign",
+                "accuracy over the paper's cases, the day grid, wind or windows of flight",
+            ),
+        ],
+    ),
+    (
+        "Rig recordings",
+        &[(
+            "import",
+            "a data logger's CSV into a trace of the test (--flight: a window of flight)",
+        )],
+    ),
+    (
+        "Health log, prognostics and the fleet",
+        &[
+            (
+                "degrade",
+                "simulate a degrading actuator's preflights (and windows) into a history",
+            ),
+            (
+                "prognose",
+                "trend and remaining useful life of each fault from a history or a log",
+            ),
+            (
+                "prognostics",
+                "evaluate the prognosis over simulated degradations (α-λ, coverage)",
+            ),
+            (
+                "fleet",
+                "store every controller's health log (SQLite) and report the fleet (HTML)",
+            ),
+        ],
+    ),
+    (
+        "The firmware and the board",
+        &[
+            (
+                "flash-pair",
+                "the board's records as flash images (--write a record, --read a dump)",
+            ),
+            ("footprint", "bytes of the onboard FDI state"),
+        ],
+    ),
+    (
+        "Studies and benchmarks",
+        &[
+            (
+                "identifiability",
+                "which test design tells the faults apart (and --bias, --day, --grease)",
+            ),
+            ("separability", "can one test tell two fault vectors apart?"),
+            ("inverse", "identify monitor-model traces at known faults"),
+            (
+                "optimisers",
+                "our GA against other optimisers on the same fitness",
+            ),
+            (
+                "stopping",
+                "stop rules for the flown GA, replayed on recorded identifications",
+            ),
+            (
+                "bench",
+                "time one model evaluation, one fitness and one reference-model test",
+            ),
+        ],
+    ),
+];
+
+/// The top-level help: about, usage, the commands grouped by task, the options.
+pub(crate) fn help_template() -> String {
+    let mut t = String::from("{about-with-newline}\n{usage-heading} {usage}\n");
+    for (task, commands) in COMMANDS_BY_TASK {
+        t.push_str(&format!("\n{task}:\n"));
+        for (name, what) in *commands {
+            t.push_str(&format!("  {name:<16} {what}\n"));
+        }
+    }
+    t.push_str("\n`host-sim help COMMAND` or `host-sim COMMAND --help` says more of each.\n");
+    t.push_str("\nOptions:\n{options}{after-help}");
+    t
+}
+
 /// Exit status when the actuator file or record is refused.
 pub(crate) const EXIT_ACTUATOR_REFUSED: u8 = 7;
 
@@ -142,7 +268,7 @@ pub(crate) struct ActuatorArgs {
     /// of the file's `[surface]` at the phase's dynamic pressure (10 / 14 / 2.5 kPa) and trim.
     /// The trace's command column is what the position loop followed; `identify` reads the
     /// trace as a window of flight (`# test: flight`; with `--preflight`, the same seed's
-    /// preflight trace holds its shorts, eccentricity and demagnetization; docs/in-flight.md §4).
+    /// preflight trace holds its shorts, eccentricity and demagnetization; docs/in-flight.md).
     #[arg(long, value_enum, value_name = "PHASE", conflicts_with_all = ["wind", "gust"])]
     pub(crate) flight: Option<FlightPhase>,
     /// Turbulence of the flight window (Dryden, vertical gust σ 1.5 / 3 m/s).

@@ -24,6 +24,7 @@ use commands::{
     name = "host-sim",
     version,
     about = "Ground tools for the ema-fdi onboard actuator prognostics",
+    help_template = help_template(),
     after_help = EXIT_HELP
 )]
 struct Cli {
@@ -53,7 +54,8 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Simulate the 0.5 s preflight test with the reference model and write the trace.
+    /// Simulate the actuator's preflight test with the reference model and write the trace
+    /// (default: the injection test, 46 ms of tones at standstill then the 0.5 s chirp).
     Simulate {
         #[command(flatten)]
         actuator: ActuatorArgs,
@@ -141,14 +143,14 @@ enum Command {
         trace: PathBuf,
         /// Further windows of the same flight as TRACE (a window of flight, `# test: flight`),
         /// repeatable: each is identified, and those identified or named only for their
-        /// turbulence are fused with TRACE into the flight's reading (docs/in-flight.md §4),
+        /// turbulence are fused with TRACE into the flight's reading (docs/in-flight.md),
         /// whose verdict sets the exit status. Windows must not overlap.
         #[arg(long, value_name = "WINDOW")]
         same_flight: Vec<PathBuf>,
         /// With a window of flight: the same flight's preflight trace. It is identified
         /// first; when `within`, the windows hold the stator shorts at its reading (a window
         /// has no standstill segment and cannot tell a short from an eccentricity,
-        /// docs/in-flight.md §4). Without it the window reads the shorts itself.
+        /// docs/in-flight.md). Without it the window reads the shorts itself.
         #[arg(long, value_name = "PREFLIGHT")]
         preflight: Option<PathBuf>,
         /// Calibration file from `calibrate` (default: the built-in calibration against this
@@ -226,7 +228,7 @@ enum Command {
         phase: Vec<FlightPhase>,
         /// With --flight: the superimposed test's study instead — the window's chirp at each
         /// of these amplitudes [mrad, comma-separated], in cruise, light and moderate
-        /// turbulence, the healthy actuator and friction 0.2 (docs/in-flight.md §5).
+        /// turbulence, the healthy actuator and friction 0.2 (docs/in-flight.md).
         #[arg(long, requires = "flight", value_delimiter = ',', value_name = "MRAD")]
         test_amplitudes: Option<Vec<f64>>,
         /// With --flight: the first seed of each row (seeds FIRST … FIRST + runs − 1), e.g.
@@ -240,7 +242,7 @@ enum Command {
         first_seed: u64,
         /// With --flight: windows per flight (each seed a flight). Above one, each flight's
         /// windows that are identified or named only for turbulence are fused into the
-        /// flight's reading (`shared::fusion`, docs/in-flight.md §4), reported in a table of
+        /// flight's reading (`shared::fusion`, docs/in-flight.md), reported in a table of
         /// its own after the windows'.
         #[arg(
             long,
@@ -316,7 +318,7 @@ enum Command {
         seeds: u64,
     },
     /// Identifiability study: for each test design, the sensitivity J of what the FDI fits to
-    /// the 8 fault components (central differences on the reference model, averaged over
+    /// the nine fault components (central differences on the reference model, averaged over
     /// noise seeds) at the healthy point and the Table II low and medium vectors; singular
     /// values, condition number and the predicted one-test standard deviation of each
     /// component. How the default test was chosen (docs/identifiability.md).
@@ -324,7 +326,8 @@ enum Command {
         /// Designs to study (default: all).
         #[arg(long, value_delimiter = ',')]
         designs: Vec<host_sim::studies::identifiability::Design>,
-        /// Noise seeds per point (each costs 1 + 2 × 8 reference-model runs).
+        /// Noise seeds per point (each costs one reference-model run plus two per component
+        /// studied: nine, eight where no eccentricity gives its phase a meaning).
         #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u64).range(3..=200))]
         seeds: u64,
         /// Difference step h in fault-vector units.
@@ -357,8 +360,8 @@ enum Command {
         /// thermistor (docs/identifiability.md §0c). Runs on `--actuator`'s file too.
         #[arg(long, conflicts_with_all = ["bias", "day"])]
         grease: bool,
-        /// Instead of the designs: the demagnetization study — what today's eight-component
-        /// FDI reads on a healthy actuator whose magnets lost flux (every pole, or one
+        /// Instead of the designs: the demagnetization study — what an eight-component FDI
+        /// (without the ninth component) reads on a healthy actuator whose magnets lost flux (every pole, or one
         /// magnet; 5 to 25 % of the flux), beside the same actuator with a hot winding (the
         /// reversible flux change the day already plays), then whether the test finds the
         /// flux lost: the FDI run at ten flux scales per test, the least fitness kept (a few
@@ -956,5 +959,41 @@ fn main() -> ExitCode {
                 ExitCode::FAILURE
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn the_help_groups_every_command_by_task() {
+        let listed: Vec<&str> = COMMANDS_BY_TASK
+            .iter()
+            .flat_map(|(_, commands)| commands.iter().map(|(name, _)| *name))
+            .collect();
+        let mut names: Vec<String> = Cli::command()
+            .get_subcommands()
+            .map(|c| c.get_name().to_string())
+            .collect();
+        names.sort();
+        let mut sorted = listed.clone();
+        sorted.sort();
+        assert_eq!(
+            sorted, names,
+            "every command listed once by task, and no other"
+        );
+        let help = Cli::command().render_help().to_string();
+        for name in &listed {
+            assert!(
+                help.contains(&format!("  {name} ")),
+                "{name} missing from:\n{help}"
+            );
+        }
+        assert!(
+            help.contains("Options:") && help.contains("--actuator"),
+            "{help}"
+        );
     }
 }

@@ -700,8 +700,8 @@ fn light_cruise(
 
 /// Another actuator's window of flight (its file's test plays tones before the chirp, a window
 /// carries the chirp alone) is identified and plotted from the command line with the same
-/// flight's preflight, read with that actuator's record (refused with exit 7 before stop 58:
-/// the window's test was checked against the preflight's); a window does not calibrate; the
+/// flight's preflight, read with that actuator's record (the window's test is not checked against the
+/// preflight's); a window does not calibrate; the
 /// same window from a rig's logger is imported as a window of flight (`import --flight`).
 #[test]
 fn another_actuators_window_is_identified_and_plotted_from_the_command_line() {

@@ -251,7 +251,7 @@ fn a_demagnetizing_actuator_gets_its_own_trend_and_rul() {
 /// design): a flight's friction must be read to σ ≤ 0.03
 /// (`shared::fusion::FLIGHT_MAX_FRICTION_STD`), which fewer light windows seldom reach. Six
 /// flights: with the flights' friction widened 1.1 times (`FLIGHT_INFLATION`) none of the
-/// first four reaches it (σ 0.031–0.039), the fifth and sixth do; since stop 62 a flight
+/// first four reaches it (σ 0.031–0.039), the fifth and sixth do; a flight
 /// kept out by that limit alone into which a pinned window entered ends on the preflight's
 /// friction (`WindowFusion::final_reading`: read, its friction not counted again).
 #[test]

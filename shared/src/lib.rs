@@ -3,33 +3,21 @@
 //!
 //! `no_std`, no heap, no panics on flight paths; capacity in types; time passed in.
 //!
-//! * [`params`] — the actuator's physical parameters, in one documented struct.
-//! * [`actuator`] — the actuator record: parameters, test, calibration, settings, as checked bytes.
-//! * [`fault`] — the 8-component fault vector and its physical mapping.
-//! * [`command`] — the preflight chirp.
-//! * [`conditioning`] — ADC frames → equivalent current → low-pass; the measured buffer.
-//! * [`conditions`] — the day of one test: winding temperature from the injection, friction
-//!   from the measured temperature, the measured bus.
-//! * [`monitor`] — the monitor model (single-phase equivalent, fixed step).
-//! * [`calibration`] — how the monitor model is fitted to one actuator (plain data).
-//! * [`fitness`] — eq. (3) (the problem).
-//! * [`ga`] — the memory-bounded steady-state GA (solver, ask/tell, `step(budget)`).
-//! * [`metrics`] — e_i and e_tot, eq. (4).
-//! * [`fdi`] — the pieces wired together with the onboard sizes and settings.
-//! * [`trace`] — the binary preflight trace format (header, fixed-point rows, CRC-32).
-//! * [`domain`] — is the actuator inside the monitor model's domain (jam, open phase, other
-//!   command, fitness floor)?
-//! * [`grease`] — the grease's drag and dry friction read from the chirp's torque balance.
-//! * [`health`] — the health log: one record per preflight, a bounded ring, its store.
-//! * [`prognosis`] — degradation trend and remaining useful life per fault, from the log.
-//! * [`test_design`] — the preflight test: standstill segment, chirp, what is commanded when.
-//! * [`uncertainty`] — a standard deviation and a 90 % interval per identified component.
-//! * [`random`] — the GA's seeded xoshiro128++ (state readable for checkpoints).
-//! * [`steps`] — work in bounded steps: a future that pauses once, and one to poll to the end.
-//! * [`window`] — identification from a window of flight (its command, load and drift).
-//! * [`pinned`] — a window the load model cannot fit, read with the surface pinned to its
-//!   sensor (the backlash and the gain drift).
-//! * [`fusion`] — a flight's reading from several windows (their fits' quadratics added).
+//! The crate is built in floors, one folder each; a floor imports only the floors below it
+//! (`tests/layout.rs` checks it), from the ground up:
+//!
+//! 1. [`base`] — bit-identical maths, the seeded generator, bounded steps, capacities.
+//! 2. [`physics`] — the actuator's parameters, bridge and grease; the fault vector.
+//! 3. [`test`] — the preflight test: chirp, test design, conditioning, the trace format.
+//! 4. [`model`] — the monitor model, its calibration, the day's conditions, its domain.
+//! 5. [`solver`] — eq. (3)'s fitness, the steady-state GA, the polish, the uncertainty.
+//! 6. [`preflight`] — the actuator record, the onboard wiring, eq. (4)'s metrics.
+//! 7. [`flight`] — a window of flight identified, pinned windows, a flight's fused reading.
+//! 8. [`prognostics`] — the health log, trends and remaining useful life.
+//!
+//! Every module is also re-exported at the crate root under its own name
+//! (`shared::monitor::MonitorModel` is `shared::model::monitor::MonitorModel`), so that
+//! code written against the flat layout keeps building.
 #![cfg_attr(not(test), no_std)]
 // No panic on any input (issue 7): these lints make unwraps, panics and unchecked indexing
 // compile errors in this crate; unit tests may use them.
@@ -43,34 +31,23 @@
     )
 )]
 
-pub mod actuator;
-pub mod calibration;
-pub mod capacity;
-pub mod command;
-pub mod conditioning;
-pub mod conditions;
-pub mod domain;
-pub mod drive;
-pub mod fault;
-pub mod fdi;
-pub mod fitness;
-pub mod fusion;
-pub mod ga;
-pub mod grease;
-pub mod health;
-pub mod math;
-pub mod metrics;
-pub mod monitor;
-pub mod params;
-pub mod pinned;
-pub mod polish;
-pub mod prognosis;
-pub mod random;
-pub mod steps;
-pub mod test_design;
-pub mod trace;
-pub mod uncertainty;
-pub mod window;
+pub mod base;
+pub mod flight;
+pub mod model;
+pub mod physics;
+pub mod preflight;
+pub mod prognostics;
+pub mod solver;
+pub mod test;
+
+pub use base::{capacity, math, random, steps};
+pub use flight::{fusion, pinned, window};
+pub use model::{calibration, conditions, domain, monitor};
+pub use physics::{drive, fault, grease, params};
+pub use preflight::{actuator, fdi, metrics};
+pub use prognostics::{health, prognosis};
+pub use solver::{fitness, ga, polish, uncertainty};
+pub use test::{command, conditioning, test_design, trace};
 
 pub use calibration::Calibration;
 pub use command::ChirpCommand;

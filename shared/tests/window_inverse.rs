@@ -708,8 +708,8 @@ fn with_sensor_error(angles: &[f32], sigma: f32, seed: u64) -> (Vec<f32>, Vec<f3
 fn a_pinned_window_finds_a_small_play_beside_its_gain_drifts_needle() {
     // The low mix's gear (Table II low): a play of 0.1 and the gain drift at 0.4. Pinned,
     // 0.02 of gain drift off makes the model's current several times the measured, and the
-    // play is a notch a few hundredths wide; a scan of three plays and three gains (before
-    // stop 60) ended on the play's flat side, backlash 0.6–1.0.
+    // play is a notch a few hundredths wide; a scan of three plays and three gains ended
+    // on the play's flat side, backlash 0.6–1.0.
     let wide =
         WidePlay::of(FaultVector::new([0.1, 0.1, 0.0, 0.0, 0.0, 0.0, 0.5, 0.4, 0.0]).unwrap());
     let reading = wide.read_pinned();

@@ -11,7 +11,7 @@
 //! (`shared::fusion`) and the reading formed.
 //!
 //! A bench, not the product: the product images have no flash left for the window
-//! identification (docs/in-flight.md §6), so this binary carries it alone (built only with
+//! identification (docs/in-flight.md), so this binary carries it alone (built only with
 //! feature `window-bench`). Its window is the monitor model's own, so the GA's stopping
 //! point is not a real window's: scale the per-run figure by a real window's count
 //! (`identify w.csv` prints it) for a real window's cost.

@@ -1,5 +1,5 @@
 //! What the window studies share (`window_moment`, `window_pinned`; issue 36,
-//! docs/in-flight.md §6): the built-in reference actuator, the two cases, a cruise window of
+//! docs/in-flight.md): the built-in reference actuator, the two cases, a cruise window of
 //! one simulated by the reference model, and the window model on it (the day estimated from
 //! the window, the load at the actuator's spring). One reference-model run per window.
 
@@ -24,8 +24,8 @@ pub const CASES: [(&str, [f32; 9]); 2] = [
 pub const SETTINGS: ReferenceSettings = ReferenceSettings::REFERENCE;
 /// The actuator as the flight's windows carry it: the built-in record with its chirp-only
 /// test and the calibration on it (`host_sim::studies::flight::flight_record`, what the
-/// flight campaign plays and identifies with). Before stop 56 the studies used the preflight's
-/// record, whose test is not what a window carries.
+/// flight campaign plays and identifies with), not the preflight's record, whose test is not
+/// what a window carries.
 pub fn record() -> ActuatorRecord {
     host_sim::studies::flight::flight_record(&ActuatorRecord::REFERENCE)
 }

@@ -465,7 +465,7 @@ fn more_windows(f: &shared::fusion::FlightReading) -> String {
                     "its friction σ {friction_std:.3} is above {FLIGHT_MAX_FRICTION_STD}; \
                      windows adding as these did would reach it at {needed} (in cruise the \
                      rule flies up to {} while only the friction keeps the reading out; \
-                     climb and approach fly {CALIBRATED_WINDOWS} — docs/in-flight.md §4)",
+                     climb and approach fly {CALIBRATED_WINDOWS} — docs/in-flight.md)",
                     CRUISE_LENGTH.most
                 ),
                 Some(needed) => format!(
@@ -709,7 +709,7 @@ pub(crate) fn window_report(
 }
 
 /// The other known cause of a window at its fitness floor: noise on the measured current,
-/// told by the same flight's preflight (stop 65's measurements, docs/prognostics.md).
+/// told by the same flight's preflight (measured in docs/prognostics.md, "Noise").
 macro_rules! noise_cause {
     () => {
         "Noise on the current puts a window here too: at the paper's 50 % I_ref noise 6 711 \
@@ -745,7 +745,7 @@ fn floor_hint(
         ),
         None => concat!(
             "the window's load model does not explain this current. One known cause is a \
-             gear play several times nominal (docs/in-flight.md §4, §6); the light \
+             gear play several times nominal (docs/in-flight.md, §6); the light \
              actuator's windows in moderate turbulence are named so too. ",
             noise_cause!(),
             " Given the same flight's preflight (--preflight), a window at this floor is read \

@@ -170,7 +170,7 @@ pub fn flight_campaign(
 /// The test amplitudes [rad] the superimposed-test study tries, in cruise.
 pub const TEST_AMPLITUDES: [f32; 4] = [1.25e-3, 2.5e-3, 5.0e-3, 10.0e-3];
 
-/// The superimposed test's amplitude (docs/in-flight.md §5): in cruise, light and moderate
+/// The superimposed test's amplitude (docs/in-flight.md): in cruise, light and moderate
 /// turbulence, the healthy actuator and friction 0.2, `runs` seeds, the window's chirp at
 /// each of `amplitudes` [rad] (the preflight beside it keeps its own test). One set of rows
 /// per amplitude.
@@ -490,9 +490,9 @@ pub fn flight_markdown(rows: &[FlightRow], actuator: &str) -> String {
         "### The window identification on flight windows: {actuator}, {runs} runs per row\n\n\
          The window: the test's chirp alone on the flight control computer's corrections, \
          the hinge moment of trim and Dryden turbulence at the phase's dynamic pressure \
-         (docs/in-flight.md §1). The monitor model follows the recorded command from an \
+         (docs/in-flight.md). The monitor model follows the recorded command from an \
          equilibrium under the fitted hinge moment, with the fitted stiffness and trend \
-         (docs/in-flight.md §4). Verdicts by reason; e_tot [%] of the windows left \
+         (docs/in-flight.md). Verdicts by reason; e_tot [%] of the windows left \
          `within`; on the healthy components of the `within` windows, the largest reading \
          and the false `FAULT` verdicts (a 90 % interval beyond the threshold); the 90 % \
          intervals that hold the truth.\n\n"

@@ -1,0 +1,311 @@
+//! A window's curvature: the Gauss–Newton sums at a fault vector with the drift and the
+//! load profiled out ([`WindowProblem::curvature`]), twelve lockstep model runs in polls of
+//! [`CURVATURE_CHUNK`] samples, f32 products summed in blocks of 64 joined in f64.
+
+use super::*;
+
+impl<'a, const N: usize> WindowProblem<'a, N> {
+    /// The Gauss–Newton sums at `k` under the problem's load ([`Curvature`]): one base run,
+    /// one run per component shifted by [`STEP`] (down where up would leave [0, 1]) and one
+    /// per fitted load parameter (the stiffness by 1 %, the moment by 1 % of the spring's
+    /// moment at the test's amplitude), stepped in lockstep. The nuisances — the drift's
+    /// polynomials and the two load parameters — are profiled out of the residual and of
+    /// every fault column (the Schur complement `JᵀWJ − CᵀQ⁻¹C`, `Q` the nuisances' normal
+    /// matrix, `C` their cross terms with the faults): an interval then includes what the
+    /// window cannot tell from its load (a moment against friction). Twelve model runs, no
+    /// storage of residuals; f32 products summed in blocks joined in f64. For the window's
+    /// uncertainty and its polish. A held component ([`HeldComponents`]) is varied, but its
+    /// row and column leave the sums (its deviation not determined; the polish does not
+    /// move it); its cross terms with the free components are the [`HeldCoupling`].
+    pub fn curvature(&self, k: &FaultVector) -> Curvature {
+        run_to_end(self.curvature_stepwise(k))
+    }
+
+    /// [`curvature`](Self::curvature) with how the free components lean on the held ones
+    /// there ([`HeldCoupling`]; what [`identify`] hands a flight's reading).
+    pub fn curvature_with_coupling(&self, k: &FaultVector) -> (Curvature, HeldCoupling) {
+        let (c, _, coupling) = run_to_end(self.curvature_and_load_stepwise(k, self.load));
+        (c, coupling)
+    }
+
+    /// [`curvature`](Self::curvature) in steps: the future pauses after every
+    /// [`CURVATURE_CHUNK`] samples of the twelve lockstep runs.
+    pub async fn curvature_stepwise(&self, k: &FaultVector) -> Curvature {
+        self.curvature_and_load_stepwise(k, self.load).await.0
+    }
+
+    /// [`curvature_stepwise`](Self::curvature_stepwise) under `load`, with how the load's
+    /// best stiffness and moment move with the faults ([`LoadResponse`]): the polish steps
+    /// the load with the faults, as the profiled curvature assumes.
+    #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // indices < FAULT_COUNT, NUISANCES on fixed arrays
+    pub(super) async fn curvature_and_load_stepwise(
+        &self,
+        k: &FaultVector,
+        load: WindowLoad,
+    ) -> (Curvature, LoadResponse, HeldCoupling) {
+        let k = &self.held.apply(k);
+        let start = self.measured.initial_angles();
+        let first = self.command.position_at(0);
+        let moment_step = LOAD_STEP * load.stiffness * self.model.command().amplitude;
+        let moment_step = if moment_step > 0.0 { moment_step } else { 1.0 };
+        let mut steps = [0.0f32; FAULT_COUNT];
+        // One model for the twelve runs, each run's rigging set before its step.
+        let mut model = self.model;
+        let mut runs: [(RunRigging, crate::model::monitor::MonitorRun, LowPassState); RUNS] =
+            core::array::from_fn(|j| {
+                let mut genes = *k.as_array();
+                let (mut stiffness, mut moment) = (load.stiffness, load.moment);
+                // Held components are varied too: their columns give how the free
+                // components lean on them ([`HeldCoupling`]), then leave the sums.
+                if (1..=FAULT_COUNT).contains(&j) {
+                    let c = j - 1;
+                    let x = genes[c];
+                    let shifted = if x + STEP <= 1.0 { x + STEP } else { x - STEP };
+                    steps[c] = shifted - x;
+                    genes[c] = shifted;
+                } else if j == FAULT_COUNT + 1 {
+                    stiffness *= 1.0 + LOAD_STEP;
+                } else if j == FAULT_COUNT + 2 {
+                    moment += moment_step;
+                }
+                let (m, r) = self.model.with_load_stiffness(stiffness).start_loaded_run(
+                    &FaultVector::saturating(genes),
+                    start,
+                    moment,
+                    first,
+                );
+                (m.rigging(), r, LowPassState::default())
+            });
+        let filter = self.measured.filter();
+        let mut totals = WindowTotals::ZERO;
+        let mut fitted = 0u32;
+        let mut previous = 0.0f32;
+        let mut block = WindowBlockSums::ZERO;
+        let mut in_block = 0u32;
+        for (i, &r) in self
+            .measured
+            .samples()
+            .iter()
+            .take(self.samples)
+            .enumerate()
+        {
+            let x = axis(i, self.samples);
+            let phi = legendre(x);
+            let push = -load.trend_at(&phi);
+            let command = self.command.position_at(i);
+            let mut current = [0.0f32; RUNS];
+            for ((rigging, run, state), out) in runs.iter_mut().zip(current.iter_mut()) {
+                model.rig(*rigging);
+                if push != 0.0 {
+                    run.push_surface(&model, push);
+                }
+                *out = filter.apply(state, run.next_sample(&model, command).current);
+            }
+            let d = r - previous;
+            previous = r;
+            if (i + 1) % CURVATURE_CHUNK == 0 {
+                pause().await;
+            }
+            if i < SETTLE_SAMPLES {
+                continue;
+            }
+            // f32 products summed in blocks of CURVATURE_BLOCK samples, each block added to
+            // the f64 totals (as the preflight's curvature): single precision per sample,
+            // the Cortex-M4F's FPU, no soft f64 in the loop.
+            let w = weight(d, self.inv_kappa);
+            let base = current[0];
+            let e = r - base;
+            let jac: [f32; FAULT_COUNT] = core::array::from_fn(|c| {
+                if steps[c] != 0.0 {
+                    (current[c + 1] - base) / steps[c]
+                } else {
+                    0.0
+                }
+            });
+            // The nuisance columns: the drift's polynomials, then d/d ln K and d/dM.
+            let nuisance: [f32; NUISANCES] = core::array::from_fn(|t| {
+                if t < DRIFT_TERMS {
+                    phi[t]
+                } else if t == DRIFT_TERMS {
+                    (current[FAULT_COUNT + 1] - base) / LOAD_STEP
+                } else {
+                    (current[FAULT_COUNT + 2] - base) / moment_step
+                }
+            });
+            let b = &mut block;
+            for a in 0..FAULT_COUNT {
+                let wa = w * jac[a];
+                b.gradient[a] += wa * e;
+                for c in a..FAULT_COUNT {
+                    b.normal[a][c] += wa * jac[c];
+                }
+            }
+            b.rss += w * e * e;
+            for t in 0..NUISANCES {
+                let wn = w * nuisance[t];
+                b.q_residual[t] += wn * e;
+                for c in 0..FAULT_COUNT {
+                    b.cross[t][c] += wn * jac[c];
+                }
+            }
+            for (row, &n) in b.q_load.iter_mut().zip(&nuisance[DRIFT_TERMS..]) {
+                let wn = w * n;
+                for (x, &m) in row.iter_mut().zip(&nuisance) {
+                    *x += wn * m;
+                }
+            }
+            fitted += 1;
+            in_block += 1;
+            if in_block == CURVATURE_BLOCK {
+                block.flush(&mut totals);
+                in_block = 0;
+            }
+        }
+        block.flush(&mut totals);
+        let WindowTotals {
+            mut normal,
+            mut gradient,
+            mut rss,
+            q_load,
+            cross,
+            q_residual,
+        } = totals;
+        for a in 0..FAULT_COUNT {
+            for c in 0..a {
+                normal[a][c] = normal[c][a];
+            }
+        }
+        let mut q = [[0.0f64; NUISANCES]; NUISANCES];
+        for (row, g) in q.iter_mut().zip(&self.gram) {
+            row[..DRIFT_TERMS].copy_from_slice(g);
+        }
+        for (t, row) in q_load.iter().enumerate() {
+            let t = DRIFT_TERMS + t;
+            q[t] = *row;
+            for u in 0..DRIFT_TERMS {
+                q[u][t] = row[u];
+            }
+        }
+        // Profile the nuisances out (a regular Q; a singular one leaves the sums as they are,
+        // and the load where it is).
+        let mut response = LoadResponse::NONE;
+        if let Some(qi) = invert(&q) {
+            let solve = |v: &dyn Fn(usize) -> f64| -> [f64; NUISANCES] {
+                core::array::from_fn(|t| (0..NUISANCES).map(|u| qi[t][u] * v(u)).sum())
+            };
+            let qr = solve(&|u| q_residual[u]);
+            rss -= (0..NUISANCES).map(|t| qr[t] * q_residual[t]).sum::<f64>();
+            response.at_zero = [qr[DRIFT_TERMS], qr[DRIFT_TERMS + 1]];
+            for a in 0..FAULT_COUNT {
+                let qa = solve(&|u| cross[u][a]);
+                response.per_fault[0][a] = -qa[DRIFT_TERMS];
+                response.per_fault[1][a] = -qa[DRIFT_TERMS + 1];
+                gradient[a] -= (0..NUISANCES).map(|t| qa[t] * q_residual[t]).sum::<f64>();
+                for c in 0..FAULT_COUNT {
+                    normal[a][c] -= (0..NUISANCES).map(|t| qa[t] * cross[t][c]).sum::<f64>();
+                }
+            }
+        }
+        // The held components' entries leave the sums (the polish does not move them, the
+        // uncertainty does not read them); what the free ones share with them is kept.
+        let mut coupling = HeldCoupling::NONE;
+        for h in (0..FAULT_COUNT).filter(|&h| self.held.holds(h)) {
+            for a in (0..FAULT_COUNT).filter(|&a| !self.held.holds(a)) {
+                coupling.normal[a][h] = normal[a][h];
+            }
+            for a in 0..FAULT_COUNT {
+                normal[a][h] = 0.0;
+                normal[h][a] = 0.0;
+            }
+            gradient[h] = 0.0;
+            response.per_fault[0][h] = 0.0;
+            response.per_fault[1][h] = 0.0;
+        }
+        let curvature = Curvature {
+            normal,
+            rss: rss.max(0.0),
+            gradient,
+            fitted,
+        };
+        (curvature, response, coupling)
+    }
+}
+
+/// Samples of a window curvature's twelve lockstep runs between two pauses of
+/// [`WindowProblem::curvature_stepwise`] (about one window evaluation's work).
+pub const CURVATURE_CHUNK: usize = 400;
+
+/// Fitted samples a window curvature sums in f32 before they join its f64 totals.
+pub(super) const CURVATURE_BLOCK: u32 = 64;
+
+/// One block of a window curvature's sums in f32 ([`WindowProblem::curvature`]): the
+/// faults' normal matrix (upper triangle) and gradient, the residual's squares, the
+/// nuisances' products with the residual and the fault columns, and the load columns'
+/// products with every nuisance.
+pub(super) struct WindowBlockSums {
+    pub(super) normal: [[f32; FAULT_COUNT]; FAULT_COUNT],
+    pub(super) gradient: [f32; FAULT_COUNT],
+    pub(super) rss: f32,
+    pub(super) q_residual: [f32; NUISANCES],
+    pub(super) cross: [[f32; FAULT_COUNT]; NUISANCES],
+    pub(super) q_load: [[f32; NUISANCES]; NUISANCES - DRIFT_TERMS],
+}
+
+impl WindowBlockSums {
+    pub(super) const ZERO: Self = Self {
+        normal: [[0.0; FAULT_COUNT]; FAULT_COUNT],
+        gradient: [0.0; FAULT_COUNT],
+        rss: 0.0,
+        q_residual: [0.0; NUISANCES],
+        cross: [[0.0; FAULT_COUNT]; NUISANCES],
+        q_load: [[0.0; NUISANCES]; NUISANCES - DRIFT_TERMS],
+    };
+
+    /// Adds the block to `totals` and empties it.
+    pub(super) fn flush(&mut self, totals: &mut WindowTotals) {
+        for (total, block) in totals.normal.iter_mut().zip(&self.normal) {
+            add(total, block);
+        }
+        add(&mut totals.gradient, &self.gradient);
+        totals.rss += f64::from(self.rss);
+        add(&mut totals.q_residual, &self.q_residual);
+        for (total, block) in totals.cross.iter_mut().zip(&self.cross) {
+            add(total, block);
+        }
+        for (total, block) in totals.q_load.iter_mut().zip(&self.q_load) {
+            add(total, block);
+        }
+        *self = Self::ZERO;
+    }
+}
+
+/// A window curvature's sums in f64, the blocks' totals: the faults' normal matrix (upper
+/// triangle) and gradient, the residual's squares, the nuisances' normal matrix's load rows
+/// (its drift block is the Gram matrix), their cross terms with the faults and their
+/// products with the residual.
+pub(super) struct WindowTotals {
+    pub(super) normal: [[f64; FAULT_COUNT]; FAULT_COUNT],
+    pub(super) gradient: [f64; FAULT_COUNT],
+    pub(super) rss: f64,
+    pub(super) q_load: [[f64; NUISANCES]; NUISANCES - DRIFT_TERMS],
+    pub(super) cross: [[f64; FAULT_COUNT]; NUISANCES],
+    pub(super) q_residual: [f64; NUISANCES],
+}
+
+impl WindowTotals {
+    pub(super) const ZERO: Self = Self {
+        normal: [[0.0; FAULT_COUNT]; FAULT_COUNT],
+        gradient: [0.0; FAULT_COUNT],
+        rss: 0.0,
+        q_load: [[0.0; NUISANCES]; NUISANCES - DRIFT_TERMS],
+        cross: [[0.0; FAULT_COUNT]; NUISANCES],
+        q_residual: [0.0; NUISANCES],
+    };
+}
+
+/// `total += block`, element by element.
+pub(super) fn add<const M: usize>(total: &mut [f64; M], block: &[f32; M]) {
+    for (t, &b) in total.iter_mut().zip(block) {
+        *t += f64::from(b);
+    }
+}

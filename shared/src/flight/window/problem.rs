@@ -1,0 +1,344 @@
+//! A window's problem: the monitor model run over the window under its load, and eq. (3)
+//! with the drift profiled out ([`WindowProblem::evaluate`]). One evaluation is one model
+//! run over the window, O(N), and O(`DRIFT_TERMS²`); [`WindowProblem::fitted`] two runs.
+
+use super::*;
+
+impl<'a, const N: usize> WindowProblem<'a, N> {
+    /// The window problem of `measured` (a finished buffer of the window's frames) driven by
+    /// `command` (one commanded angle per frame), with `model` on the window's day (the
+    /// chirp-only test's) and the load at `load`.
+    pub fn new(
+        measured: &'a MeasuredCurrent<N>,
+        command: RecordedCommand<'a>,
+        model: MonitorModel,
+        load: WindowLoad,
+    ) -> Result<Self, WindowError> {
+        let reference = measured.samples();
+        let samples = reference.len().min(command.len());
+        if samples < SETTLE_SAMPLES + 10 * DRIFT_TERMS {
+            return Err(WindowError::TooShort);
+        }
+        let inv_kappa = measured.inv_kappa().map_err(|_| WindowError::Flat)?;
+        let mut gram = [[0.0f64; DRIFT_TERMS]; DRIFT_TERMS];
+        let mut previous = 0.0f32;
+        for (i, &r) in reference.iter().take(samples).enumerate() {
+            let d = r - previous;
+            previous = r;
+            if i < SETTLE_SAMPLES {
+                continue;
+            }
+            let w = f64::from(weight(d, inv_kappa));
+            let phi = legendre(axis(i, samples));
+            for (row, &a) in gram.iter_mut().zip(&phi) {
+                for (x, &b) in row.iter_mut().zip(&phi) {
+                    *x += w * f64::from(a) * f64::from(b);
+                }
+            }
+        }
+        let drift_inverse = invert(&gram)
+            .ok_or(WindowError::Singular)?
+            .map(|row| row.map(|x| x as f32));
+        // The kept samples within the window (the line between two never leaves them).
+        let (lo, hi) = command
+            .kept()
+            .iter()
+            .take((samples - 1) / command.stride + 1)
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &x| {
+                (lo.min(x), hi.max(x))
+            });
+        let mut problem = Self {
+            measured,
+            command,
+            model,
+            load,
+            inv_kappa,
+            drift_inverse,
+            gram,
+            samples,
+            energy: 0.0,
+            peak_current: reference
+                .iter()
+                .take(samples)
+                .fold(0.0f32, |m, &x| m.max(abs(x))),
+            command_range: hi - lo,
+            held: HeldComponents::NONE,
+        };
+        problem.energy = problem
+            .residual_fit(&[0.0; DRIFT_TERMS], &mut NoCurrent)
+            .error;
+        Ok(problem)
+    }
+
+    pub fn load(&self) -> WindowLoad {
+        self.load
+    }
+
+    /// The window's samples (the measured and the commanded, the shorter).
+    pub fn samples(&self) -> usize {
+        self.samples
+    }
+
+    /// The samples eq. (3) sums over (the window's after [`SETTLE_SAMPLES`]).
+    pub fn fitted_samples(&self) -> usize {
+        self.samples.saturating_sub(SETTLE_SAMPLES)
+    }
+
+    /// The error of a model that gives no current [A²·s]: what
+    /// [`misfit`](Self::misfit) divides by.
+    pub fn energy(&self) -> f32 {
+        self.energy
+    }
+
+    pub fn model(&self) -> &MonitorModel {
+        &self.model
+    }
+
+    /// The same problem with `held` components held ([`HeldComponents`]).
+    pub fn with_held(mut self, held: HeldComponents) -> Self {
+        self.held = held;
+        self
+    }
+
+    /// The components held at values from outside the window.
+    pub fn held(&self) -> &HeldComponents {
+        &self.held
+    }
+
+    /// The same problem under another load.
+    pub fn with_load(mut self, load: WindowLoad) -> Self {
+        self.load = load;
+        self
+    }
+
+    /// Puts the problem under another load, in place.
+    pub fn set_load(&mut self, load: WindowLoad) {
+        self.load = load;
+    }
+
+    /// The moment [N·m] the measured current holds at the window's start, at the model's
+    /// torque constant: the mean over the 10 ms after the settle, times the gear ratio. The
+    /// load search's start.
+    pub fn held_moment(&self) -> f32 {
+        let span = self
+            .measured
+            .samples()
+            .iter()
+            .skip(SETTLE_SAMPLES / 2)
+            .take(SETTLE_SAMPLES / 2);
+        let (sum, n) = span.fold((0.0f32, 0u32), |(s, n), &x| (s + x, n + 1));
+        let mean = if n > 0 { sum / n as f32 } else { 0.0 };
+        mean * self.model.torque_constant() * self.model.params().gear_ratio
+    }
+
+    /// The error and drift of fault vector `k` under the problem's load. One model run.
+    pub fn evaluate(&self, k: &FaultVector) -> WindowFit {
+        self.evaluate_under(k, self.load)
+    }
+
+    /// As [`evaluate`](Self::evaluate) under `load`.
+    pub fn evaluate_under(&self, k: &FaultVector, load: WindowLoad) -> WindowFit {
+        let (model, mut run) = self.loaded_start(k, load);
+        let trending = load.trend != [0.0; DRIFT_TERMS];
+        let mut current = self.loaded_current(&model, &mut run, trending);
+        self.residual_fit(&load.trend, &mut current)
+    }
+
+    /// As [`evaluate_under`](Self::evaluate_under) with the load's trend replaced by a
+    /// moment per sample from outside the problem, `moments[i]` [N·m] the hinge moment the
+    /// motor must hold at sample `i` beyond the spring's, relative to the window's start
+    /// (0 past the slice's end). For studies of what the window's load must follow
+    /// (host-sim's example `window_moment`, docs/in-flight.md); not flown. O(samples).
+    pub fn evaluate_with_moment_samples(
+        &self,
+        k: &FaultVector,
+        load: WindowLoad,
+        moments: &[f32],
+    ) -> WindowFit {
+        let (model, mut run) = self.loaded_start(k, load);
+        let current = self.loaded_current(&model, &mut run, true);
+        self.residual_fit(&[0.0; DRIFT_TERMS], &mut MomentSamples { current, moments })
+    }
+
+    /// As [`evaluate_with_moment_samples`](Self::evaluate_with_moment_samples) with no
+    /// moment at all: the surface is put, each sample, where its sensor read it, so the gear
+    /// carries whatever moved it; `load` sets where the run starts in the play. Also returns
+    /// the mean and the mean square of the run's motor angle against the measured [rad,
+    /// rad²] over the samples stepped past the test's lead; the run's motor angle [rad]
+    /// goes to `trajectory`, as far as it reaches. For studies (host-sim's example
+    /// `window_pinned`, docs/in-flight.md); not flown. O(samples).
+    pub fn evaluate_with_surface_samples(
+        &self,
+        k: &FaultVector,
+        load: WindowLoad,
+        surface: &SurfaceSamples<'_>,
+        trajectory: &mut [f32],
+    ) -> (WindowFit, f64, f64) {
+        let (model, mut run) = self.loaded_start(k, load);
+        let current = self.loaded_current(&model, &mut run, false);
+        let mut pinned = PinnedSurface {
+            current,
+            surface,
+            motor_error: 0.0,
+            motor_sum: 0.0,
+            counted: 0,
+            trajectory,
+        };
+        let fit = self.residual_fit(&[0.0; DRIFT_TERMS], &mut pinned);
+        let n = f64::from(pinned.counted.max(1));
+        (fit, pinned.motor_sum / n, pinned.motor_error / n)
+    }
+
+    /// The model under `load`'s stiffness and its run started in equilibrium under its
+    /// moment, at the held components' values of `k`.
+    #[inline(always)]
+    pub(super) fn loaded_start(
+        &self,
+        k: &FaultVector,
+        load: WindowLoad,
+    ) -> (MonitorModel, MonitorRun) {
+        let k = &self.held.apply(k);
+        let model = self.model.with_load_stiffness(load.stiffness);
+        let start = self.measured.initial_angles();
+        let first = self.command.position_at(0);
+        model.start_loaded_run(k, start, load.moment, first)
+    }
+
+    /// The run's current through the measurement's filter, pushing a moment each step
+    /// when `trending`.
+    #[inline(always)]
+    pub(super) fn loaded_current<'s>(
+        &'s self,
+        model: &'s MonitorModel,
+        run: &'s mut MonitorRun,
+        trending: bool,
+    ) -> LoadedRunCurrent<'s, 'a> {
+        LoadedRunCurrent {
+            model,
+            run,
+            command: &self.command,
+            filter: self.measured.filter(),
+            state: LowPassState::default(),
+            trending,
+            // A window's test has no standstill segment: its model steps inline.
+            motion_only: model.lead_samples() == 0,
+        }
+    }
+
+    /// Eq. (3) of the modelled current `modelled.next(i, h)` (filtered; called once per
+    /// sample, in order, with `h` the moment [N·m] of `trend` there, relative to the window's
+    /// start) against the measured, after the settle, with the drift profiled out. The
+    /// settle and the fitted samples are two loops, each with the model stepped inline
+    /// ([`SampleCurrent`]).
+    ///
+    /// The drift's polynomials are not evaluated per sample: over each block of
+    /// [`DRIFT_BLOCK`] fitted samples they are expanded to second order about the block's
+    /// centre ([`TaylorBlock`]), so a sample adds three weighted powers of its distance from
+    /// the centre and the trend's moment is three multiply-adds. The expansion's error is
+    /// the third derivative's term: below 10⁻⁴ of the polynomials' range for degree 9.
+    #[inline(always)]
+    pub(super) fn residual_fit(
+        &self,
+        trend: &[f32; DRIFT_TERMS],
+        modelled: &mut impl SampleCurrent,
+    ) -> WindowFit {
+        let step = axis_step(self.samples);
+        let at_start: f32 = dot(trend, &legendre(-1.0));
+        let mut block = TaylorBlock::ZERO;
+        // The trend's expansion over the block: value, slope, half the bend.
+        let mut moment = (0.0f32, 0.0f32, 0.0f32);
+        // Σ w·e, Σ w·e·u, Σ w·e·u² over the block, u the distance from its centre.
+        let mut sums = (0.0f32, 0.0f32, 0.0f32);
+        let mut projections = [0.0f32; DRIFT_TERMS];
+        let mut previous = 0.0f32;
+        let mut squares = 0.0f32;
+        let mut in_block = 0usize;
+        let half = 0.5 * (DRIFT_BLOCK - 1) as f32;
+        let reference = self.measured.samples();
+        let reference = reference.get(..self.samples).unwrap_or(reference);
+        let (settle, fitted) = reference
+            .split_at_checked(SETTLE_SAMPLES)
+            .unwrap_or((reference, &[]));
+        for (i, &r) in settle.iter().enumerate() {
+            modelled.next(i, 0.0);
+            previous = r;
+        }
+        for (j, &r) in fitted.iter().enumerate() {
+            let i = SETTLE_SAMPLES + j;
+            if in_block == 0 {
+                block.add_to(&mut projections, sums);
+                sums = (0.0, 0.0, 0.0);
+                block = TaylorBlock::at(axis(i, self.samples) + half * step);
+                moment = (
+                    dot(trend, &block.value) - at_start,
+                    dot(trend, &block.slope),
+                    0.5 * dot(trend, &block.bend),
+                );
+            }
+            let u = (in_block as f32 - half) * step;
+            in_block = if in_block + 1 == DRIFT_BLOCK {
+                0
+            } else {
+                in_block + 1
+            };
+            let h = moment.0 + u * (moment.1 + u * moment.2);
+            let m = modelled.next(i, h);
+            let d = r - previous;
+            previous = r;
+            let w = weight(d, self.inv_kappa);
+            let e = r - m;
+            let we = w * e;
+            squares += we * e;
+            let weu = we * u;
+            sums.0 += we;
+            sums.1 += weu;
+            sums.2 += weu * u;
+        }
+        block.add_to(&mut projections, sums);
+        let mut drift = [0.0f32; DRIFT_TERMS];
+        for (c, row) in drift.iter_mut().zip(&self.drift_inverse) {
+            *c = row.iter().zip(&projections).map(|(a, b)| a * b).sum();
+        }
+        let explained: f32 = drift.iter().zip(&projections).map(|(c, b)| c * b).sum();
+        let dt = self.model.params().control_period;
+        let error = (squares - explained).max(0.0) * dt;
+        WindowFit {
+            error: if error.is_finite() {
+                error
+            } else {
+                f32::INFINITY
+            },
+            drift,
+        }
+    }
+
+    /// The window as fitted at `k` under the problem's load: for every sample, the time
+    /// [s], the measured current, the model's and the model's with the profiled drift [A]
+    /// (all filtered alike), handed to `sink`. Two model runs (the drift, then the trace).
+    pub fn fitted(&self, k: &FaultVector, mut sink: impl FnMut(f32, f32, f32, f32)) {
+        let k = &self.held.apply(k);
+        let load = self.load;
+        let drift = self.evaluate_under(k, load).drift;
+        let model = self.model.with_load_stiffness(load.stiffness);
+        let start = self.measured.initial_angles();
+        let first = self.command.position_at(0);
+        let (model, mut run) = model.start_loaded_run(k, start, load.moment, first);
+        let filter = self.measured.filter();
+        let mut state = LowPassState::default();
+        let dt = self.model.params().control_period;
+        for (i, &r) in self
+            .measured
+            .samples()
+            .iter()
+            .take(self.samples)
+            .enumerate()
+        {
+            let phi = legendre(axis(i, self.samples));
+            run.push_surface(&model, -load.trend_at(&phi));
+            let sample = run.next_sample(&model, self.command.position_at(i));
+            let modelled = filter.apply(&mut state, sample.current);
+            let d: f32 = drift.iter().zip(&phi).map(|(c, p)| c * p).sum();
+            sink(i as f32 * dt, r, modelled, modelled + d);
+        }
+    }
+}

@@ -1,0 +1,248 @@
+//! The onboard FDI wired together: sizes, settings and the executor-free identification loop.
+//!
+//! Memory (checked by `host-sim footprint`): [`OnboardMeasured`] `4·TEST_SAMPLES` bytes +
+//! [`OnboardGa`] `≈ 36·POPULATION` bytes + one [`MonitorModel`]; no heap. The firmware drives
+//! [`Identification`] a bounded number of evaluations at a time; the host calls
+//! [`Identification::run`].
+
+use crate::model::calibration::Calibration;
+use crate::model::monitor::MonitorModel;
+use crate::physics::fault::FaultVector;
+use crate::physics::params::ActuatorParams;
+use crate::solver::fitness::{CurvatureRun, FitnessError, FitnessProblem};
+use crate::solver::ga::{GaError, GaSettings, RecordError, Status, SteadyStateGa, StopReason};
+use crate::solver::polish::{Polish, PolishAsk, PolishSettings};
+#[cfg(feature = "command-table")]
+use crate::test::command::CommandTable;
+use crate::test::conditioning::{commutation_signs, AdcFrame, MeasuredCurrent};
+use crate::test::trace::Crc32;
+
+pub use crate::base::capacity::{POPULATION, TEST_SAMPLES};
+
+/// The measured-current buffer the controller fills during the test.
+pub type OnboardMeasured = MeasuredCurrent<TEST_SAMPLES>;
+
+/// The onboard GA.
+pub type OnboardGa = SteadyStateGa<POPULATION>;
+
+/// The onboard GA's checkpoint record (1 412 bytes; version 2, nine genes): a flash page on the controller, a file
+/// under emulation and on the host.
+pub type OnboardRecord = [u8; crate::solver::ga::record_bytes(POPULATION)];
+
+/// Result of an identification.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct IdentificationResult {
+    pub faults: FaultVector,
+    /// Eq. (3) of the best vector, residual subtracted [A²·s].
+    pub fitness: f32,
+    pub evaluations: u32,
+    pub stop_reason: StopReason,
+    /// Gauss–Newton sums the polish computed (ten monitor-model runs each: the point and one per component; 0 before it).
+    pub curvatures: u32,
+}
+
+/// Why an identification could not start.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FdiError {
+    Fitness(FitnessError),
+    Ga(GaError),
+}
+
+impl From<FitnessError> for FdiError {
+    fn from(e: FitnessError) -> Self {
+        Self::Fitness(e)
+    }
+}
+impl From<GaError> for FdiError {
+    fn from(e: GaError) -> Self {
+        Self::Ga(e)
+    }
+}
+
+/// One identification in progress: the problem (fitness against one measured test) and the
+/// solver state. Both the firmware task and the host loop drive this same value.
+#[derive(Clone, Debug)]
+pub struct Identification<'a, const N: usize, const P: usize> {
+    problem: FitnessProblem<'a, N>,
+    ga: SteadyStateGa<P>,
+    fingerprint: u32,
+}
+
+impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
+    pub fn new(
+        measured: &'a MeasuredCurrent<N>,
+        params: ActuatorParams,
+        calibration: &Calibration,
+        settings: GaSettings,
+        seed: u64,
+    ) -> Result<Self, FdiError> {
+        Ok(Self {
+            problem: FitnessProblem::new(measured, params, calibration)?,
+            ga: SteadyStateGa::new(settings, seed)?,
+            fingerprint: fingerprint(measured, &params, calibration, &settings, seed),
+        })
+    }
+
+    /// What ties a checkpoint to this run: a CRC-32 over the measured samples and initial
+    /// angles, the actuator (parameters, test, calibration, GA settings: what an actuator
+    /// record holds) and the seed. O(N), computed once.
+    pub fn fingerprint(&self) -> u32 {
+        self.fingerprint
+    }
+
+    /// Writes the GA's state into `record` (see [`crate::solver::ga::checkpoint`]). O(P).
+    pub fn save(&self, record: &mut [u8]) -> Result<(), RecordError> {
+        self.ga.save(self.fingerprint, record)
+    }
+
+    /// Continues from `record` if it is a sound checkpoint of this very run; returns the
+    /// evaluations it had done. On `Err` this identification is left exactly as it was
+    /// (a fresh one restarts cleanly). O(P).
+    pub fn resume(&mut self, record: &[u8]) -> Result<u32, RecordError> {
+        self.ga.resume_from(self.fingerprint, record)?;
+        Ok(self.ga.evaluations())
+    }
+
+    /// The same identification with the command read from `table` (see
+    /// [`FitnessProblem::with_command_table`]): the same bits, faster where RAM allows.
+    #[cfg(feature = "command-table")]
+    pub fn with_command_table(mut self, table: &'a CommandTable<N>) -> Result<Self, FdiError> {
+        self.problem = self.problem.with_command_table(table)?;
+        Ok(self)
+    }
+
+    /// At most `budget` monitor-model evaluations, then returns.
+    pub fn step(&mut self, budget: u32) -> Status {
+        self.ga.step(&mut self.problem, budget)
+    }
+
+    /// Runs to the end: the GA (bounded by its settings), then the flown polish
+    /// ([`PolishSettings::FDI`]) with its curvature runs on the stack (≈ 3.8 kB; the host's
+    /// executor — the firmware lends a static buffer and polls the polish in chunks).
+    pub fn run(&mut self) -> IdentificationResult {
+        self.ga.run(&mut self.problem);
+        let mut curvature = CurvatureRun::IDLE;
+        self.polished(PolishSettings::FDI, &mut curvature)
+    }
+
+    pub fn ga(&self) -> &SteadyStateGa<P> {
+        &self.ga
+    }
+
+    pub fn problem(&self) -> &FitnessProblem<'a, N> {
+        &self.problem
+    }
+
+    /// The best vector found so far (the stop reason says `EvaluationBudget` while running).
+    pub fn result_so_far(&self) -> IdentificationResult {
+        let best = self.ga.best();
+        IdentificationResult {
+            faults: FaultVector::saturating(best.genes),
+            fitness: best.fitness,
+            evaluations: self.ga.evaluations(),
+            stop_reason: match self.ga.status() {
+                Status::Done(reason) => reason,
+                Status::Running => StopReason::EvaluationBudget,
+            },
+            curvatures: 0,
+        }
+    }
+
+    /// The GA's result so far, polished to the end ([`crate::solver::polish`]) with whole curvature
+    /// runs in `run`: the host's executor (the firmware polls the same [`Polish`] in chunks).
+    /// Work: bounded by [`PolishSettings::max_curvatures`] and
+    /// [`PolishSettings::max_evaluations`].
+    pub fn polished(
+        &self,
+        settings: PolishSettings,
+        run: &mut CurvatureRun,
+    ) -> IdentificationResult {
+        let ga = self.result_so_far();
+        let mut polish = Polish::new(settings, ga.faults, ga.fitness);
+        let mut out = ga;
+        loop {
+            match polish.ask() {
+                PolishAsk::Curvature(k) => {
+                    out.curvatures = out.curvatures.saturating_add(1);
+                    polish.tell_curvature(&self.problem.curvature_in(run, &k));
+                }
+                PolishAsk::Fitness { k, bound } => {
+                    out.evaluations = out.evaluations.saturating_add(1);
+                    polish.tell_fitness(self.problem.error_below(&k, bound));
+                }
+                PolishAsk::Done { k, fitness } => {
+                    out.faults = k;
+                    out.fitness = fitness;
+                    return out;
+                }
+            }
+        }
+    }
+}
+
+fn fingerprint<const N: usize>(
+    measured: &MeasuredCurrent<N>,
+    params: &ActuatorParams,
+    calibration: &Calibration,
+    settings: &GaSettings,
+    seed: u64,
+) -> u32 {
+    let mut crc = Crc32::new();
+    for v in measured.samples() {
+        crc.update(&v.to_bits().to_le_bytes());
+    }
+    let angles = measured.initial_angles();
+    for v in [angles.motor, angles.user] {
+        crc.update(&v.to_bits().to_le_bytes());
+    }
+    // What an actuator record holds of this run, word for word as the record stores it.
+    crate::preflight::actuator::run_words(params, measured.test(), calibration, settings, |word| {
+        crc.update(&word.to_le_bytes())
+    });
+    crc.update(&calibration.duty_delay.to_bits().to_le_bytes());
+    // A friction law by drag (nothing added without one, so that earlier checkpoints still
+    // resume; the chirp's drag reading comes from the same frames as the samples).
+    if calibration.viscous > 0.0 {
+        for v in [calibration.viscous].iter().chain(&calibration.drag_points) {
+            crc.update(&v.to_bits().to_le_bytes());
+        }
+    }
+    crc.update(&seed.to_le_bytes());
+    crc.finish()
+}
+
+/// Records what the controller would measure if the actuator behaved exactly like the monitor
+/// model with faults `k`: three phase currents from the equivalent current and the commutation
+/// table (the driven pair during a standstill segment of `measured`'s test, which the model
+/// plays), quantised into [`AdcFrame`]s and conditioned into `measured` (cleared first). Used
+/// by the inverse check, which proves fitness and optimiser before any reference model.
+pub fn record_monitor_trace<const N: usize>(
+    model: &MonitorModel,
+    k: &FaultVector,
+    measured: &mut MeasuredCurrent<N>,
+) -> Result<(), FitnessError> {
+    measured.clear();
+    let pole_pairs = model.params().pole_pairs;
+    let model = model.with_test(measured.test());
+    let samples = model.test_samples().min(N);
+    let standstill = measured.test().standstill;
+    let mut index = 0usize;
+    model.run(k, samples, |s| {
+        // The driven pair's signs during a standstill segment, the commutated pair's after.
+        let signs = match standstill.and_then(|segment| segment.at(index)) {
+            Some(drive) => drive.signs(),
+            None => commutation_signs(pole_pairs * s.motor_angle),
+        };
+        index += 1;
+        let phases = signs.map(|x| f32::from(x) * s.current);
+        // Cannot be full: at most N samples are produced.
+        let _ = measured.push_frame(
+            AdcFrame::from_f32(phases, s.motor_angle, s.user_angle),
+            pole_pairs,
+        );
+    });
+    measured.finish()?;
+    Ok(())
+}

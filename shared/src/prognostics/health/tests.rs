@@ -1,0 +1,366 @@
+//! Unit tests of [`super`] (`health`).
+
+use super::*;
+
+fn record(flight: u32, friction: f32) -> HealthRecord {
+    let mut k = *FaultVector::NOMINAL.as_array();
+    k[0] = friction;
+    HealthRecord::new(flight, FaultVector::new(k).unwrap(), 0.01, Domain::Within)
+}
+
+#[test]
+fn record_round_trips_and_every_byte_is_covered() {
+    let r = HealthRecord::new(
+        7,
+        FaultVector::new([0.3, 0.01, 0.2, 0.0, 0.0, 0.1, 0.25, 0.6, 0.2]).unwrap(),
+        0.0123,
+        Domain::Outside(OutsideReason::NoMotion { travel: 1e-4 }),
+    );
+    // Friction, short A, eccentricity 0.1, gain drift 0.6 and demagnetization 0.2 are
+    // beyond 0.05 of nominal.
+    assert_eq!(r.detected, 0b1_1010_0101);
+    let bytes = r.encode();
+    assert_eq!(&bytes[..4], b"EMAH");
+    assert_eq!(HealthRecord::decode(&bytes), Ok(r));
+    for i in 0..RECORD_BYTES {
+        let mut b = bytes;
+        b[i] ^= 0x10;
+        assert!(
+            HealthRecord::decode(&b).is_err(),
+            "byte {i} damage accepted"
+        );
+    }
+}
+
+#[test]
+fn every_domain_reason_is_stored_by_its_own_code_and_name() {
+    use OutsideReason as R;
+    let reasons = [
+        R::NoMotion { travel: 0.0 },
+        R::OpenPhase {
+            phase: 0,
+            ratio: 0.0,
+        },
+        R::CommandMismatch { tracking: 0.0 },
+        R::FitnessFloor { fitness: 0.0 },
+        R::SegmentCarriedNothing { pair: 0 },
+        R::BusOutOfRange { volts: 0.0 },
+        R::TemperatureOutOfRange { celsius: 0.0 },
+        R::EncoderStuck { samples: 0 },
+        R::EncoderGlitch { step: 0.0 },
+        R::CurrentSenseOffset { amps: 0.0 },
+        R::CurrentSenseGain { amps: 0.0 },
+        R::TransducerDisagrees { spread: 0.0 },
+        R::InstallationChanged { kelvin: 0.0 },
+        R::GreaseOutOfRange { drag: f32::NAN },
+        R::LoadMoved { offset: 0.1 },
+        R::LoadMovedAtRest { travel: 0.1 },
+    ];
+    assert_eq!(DomainCode::from(Domain::Within), DomainCode::Within);
+    for (i, reason) in reasons.into_iter().enumerate() {
+        let code = DomainCode::from(Domain::Outside(reason));
+        // Codes are the stored bytes: in order, none reused, never changed.
+        assert_eq!(code as u8 as usize, i + 1, "{reason:?}");
+        assert_eq!(DomainCode::from_byte(code as u8), Some(code));
+        assert_eq!(DomainCode::from_name(code.name()), Some(code));
+        let r = HealthRecord::new(3, FaultVector::NOMINAL, 0.01, Domain::Outside(reason));
+        assert_eq!(
+            HealthRecord::decode(&r.encode()).map(|r| r.domain),
+            Ok(code)
+        );
+    }
+    // A window of flight's own reasons follow; its fit's floor is the preflight's code.
+    use crate::flight::window::WindowReason as W;
+    let windows = [
+        W::CurrentSaturated { peak: 1.0 },
+        W::ManoeuvreTooLarge { range: 1.0 },
+        W::PlayUnseen { contrast: 0.1 },
+        W::TurbulenceTooHigh { friction_std: 0.2 },
+        W::Unconfirmed {
+            windows: 1,
+            disagreement: f32::NAN,
+        },
+    ];
+    for (i, reason) in windows.into_iter().enumerate() {
+        let code = DomainCode::from(Err(reason));
+        assert_eq!(code as u8 as usize, reasons.len() + 1 + i, "{reason:?}");
+        assert_eq!(DomainCode::from_byte(code as u8), Some(code));
+        assert_eq!(DomainCode::from_name(code.name()), Some(code));
+    }
+    assert_eq!(
+        DomainCode::from(Err(W::FitnessFloor { misfit: 0.2 })),
+        DomainCode::FitnessFloor
+    );
+    assert_eq!(DomainCode::from(Ok(())), DomainCode::Within);
+    assert_eq!(DomainCode::from_byte(22), None);
+}
+
+#[test]
+fn an_in_flight_entry_is_kept_in_byte_70_and_an_older_record_reads_as_a_preflight() {
+    let r = record(9, 0.2).in_flight(3);
+    let bytes = r.encode();
+    assert_eq!(bytes[70], 3);
+    let back = HealthRecord::decode(&bytes).unwrap();
+    assert_eq!((back.window, back.flight), (3, 9));
+    assert_eq!(back, r);
+    // Every record written before in-flight entries has a 0 there: a preflight.
+    let before = record(9, 0.2).encode();
+    assert_eq!(before[70], 0);
+    assert_eq!(HealthRecord::decode(&before).map(|r| r.window), Ok(0));
+    // Byte 71 is a flight's reading's only: a window's with it set is refused.
+    let resealed = |mut b: EncodedRecord| {
+        let mut crc = Crc32::new();
+        crc.update(&b[..RECORD_BYTES - 4]);
+        b[RECORD_BYTES - 4..].copy_from_slice(&crc.finish().to_le_bytes());
+        b
+    };
+    let mut b = bytes;
+    b[71] = 1;
+    assert_eq!(
+        HealthRecord::decode(&resealed(b)),
+        Err(HealthRecordError::BadField)
+    );
+    // A flight's reading: byte 70 255, byte 71 the windows fused.
+    let flight = record(9, 0.2).flight_reading(6);
+    let bytes = flight.encode();
+    assert_eq!((bytes[70], bytes[71]), (FLIGHT_READING, 6));
+    assert_eq!(HealthRecord::decode(&bytes), Ok(flight));
+    assert_eq!((flight.window, flight.fused), (255, 6));
+    // The onboard log and store keep preflights: an in-flight entry is not appended.
+    let mut store = RamStore::<4>::erased();
+    let mut log = HealthLog::<4>::new();
+    for entry in [r, flight] {
+        assert_eq!(
+            log.append(&mut store, entry),
+            Err(HealthLogError::InFlightEntry)
+        );
+    }
+    assert!(log.is_empty());
+    assert_eq!(HealthLog::<4>::load(&mut store).unwrap().1.records, 0);
+}
+
+#[test]
+fn version_2_keeps_the_standard_deviations_and_version_1_is_still_read() {
+    let std = [
+        0.012,
+        0.5,
+        f32::NAN,
+        0.0,
+        2.0,
+        0.03,
+        f32::NAN,
+        -1.0,
+        f32::NAN,
+    ];
+    let r = record(9, 0.3).with_std(std);
+    assert_eq!(r.std.get(0), Some(786.0 / 65_536.0)); // 0.012 rounded to 2⁻¹⁶
+    assert_eq!(r.std.get(1), Some(0.5));
+    assert_eq!(r.std.get(2), None);
+    assert_eq!(r.std.get(3), Some(0.0));
+    assert_eq!(r.std.get(4), Some(65_534.0 / 65_536.0));
+    assert_eq!(r.std.get(7), None);
+    let v4 = r.encode();
+    assert_eq!(v4[4], 4);
+    assert_eq!(HealthRecord::decode(&v4), Ok(r));
+    let v3 = r.encode_v3();
+    assert_eq!(HealthRecord::decode(&v3), Ok(r));
+    let v2 = r.encode_v2();
+    assert_eq!(v2[4], 2);
+    assert_eq!(HealthRecord::decode(&v2), Ok(r)); // no day either way
+    let v1 = r.encode_v1();
+    assert_eq!(v1[4], 1);
+    let old = HealthRecord::decode(&v1).unwrap();
+    assert_eq!(old.std, ComponentStd::UNKNOWN);
+    assert_eq!(
+        (old.flight, old.faults, old.fitness),
+        (r.flight, r.faults, r.fitness)
+    );
+    // A version-1 record in an 84-byte slot (the rest erased) reads the same.
+    let mut slot = [0xFF; RECORD_BYTES];
+    slot[..RECORD_V1_BYTES].copy_from_slice(&v1);
+    assert_eq!(HealthRecord::decode(&slot), Ok(old));
+    // An unknown version is named, not mistaken for damage.
+    let mut v5 = v4;
+    v5[4] = 5;
+    assert_eq!(
+        HealthRecord::decode(&v5),
+        Err(HealthRecordError::UnsupportedVersion(5))
+    );
+    // A version-1 record cut short fails its checksum.
+    assert_eq!(
+        HealthRecord::decode(&v1[..40]),
+        Err(HealthRecordError::BadChecksum)
+    );
+}
+
+/// `bytes` with byte `at` set to `value` and the CRC-32 made good again.
+fn forged<const N: usize>(mut bytes: [u8; N], at: usize, value: u8) -> [u8; N] {
+    bytes[at] = value;
+    let mut crc = Crc32::new();
+    crc.update(&bytes[..N - 4]);
+    bytes[N - 4..].copy_from_slice(&crc.finish().to_le_bytes());
+    bytes
+}
+
+#[test]
+fn version_4_keeps_the_demagnetization_and_version_3_reads_none() {
+    let mut k = *FaultVector::NOMINAL.as_array();
+    k[0] = 0.1;
+    k[8] = 0.3;
+    let std = [0.01, 0.01, 0.01, 0.01, 0.01, 0.01, f32::NAN, 0.01, 0.02];
+    let r = HealthRecord::new(12, FaultVector::new(k).unwrap(), 0.01, Domain::Within).with_std(std);
+    assert_eq!(r.detected, 0b1_0000_0001);
+    assert_eq!(HealthRecord::decode(&r.encode()), Ok(r));
+    assert_eq!(r.std.get(8), Some(1311.0 / 65_536.0));
+    // What a controller before version 4 kept: eight components, no demagnetization.
+    let v3 = r.encode_v3();
+    assert_eq!((v3.len(), v3[4], v3[7]), (RECORD_V3_BYTES, 3, 0));
+    let old = HealthRecord::decode(&v3).unwrap();
+    assert_eq!(old.faults.demagnetization(), 0.0);
+    assert_eq!(old.faults.as_array()[..8], r.faults.as_array()[..8]);
+    assert_eq!((old.std.get(8), old.std.get(0)), (None, r.std.get(0)));
+    assert_eq!(old.detected, 0b1);
+    // Byte 7 of an older version was reserved: a bit there is damage, not a ninth fault.
+    assert_eq!(
+        HealthRecord::decode(&forged(v3, 7, 1)),
+        Err(HealthRecordError::BadField)
+    );
+    // In version 4 it holds one detected bit; the rest and bytes 78..80 stay 0.
+    let v4 = r.encode();
+    assert_eq!(v4[7], 1);
+    for (at, value) in [(7, 2), (78, 1), (79, 0x80)] {
+        assert_eq!(
+            HealthRecord::decode(&forged(v4, at, value)),
+            Err(HealthRecordError::BadField),
+            "byte {at}"
+        );
+    }
+    // A demagnetization beyond [0, 1] is refused as any other component.
+    let mut beyond = v4;
+    beyond[72..76].copy_from_slice(&1.5f32.to_le_bytes());
+    let beyond = forged(beyond, 0, b'E');
+    assert_eq!(
+        HealthRecord::decode(&beyond),
+        Err(HealthRecordError::BadField)
+    );
+}
+
+#[test]
+fn version_3_keeps_the_day() {
+    let day = RecordedDay::new(Some(271.337), Some(-40.004), Some(-58.5));
+    assert_eq!(day.bus_voltage(), Some(27_134.0 * 0.01));
+    assert_eq!(day.temperature(), Some(-4_000.0 * 0.01));
+    assert_eq!(day.winding_rise(), Some(-5_850.0 * 0.01));
+    let r = record(3, 0.2).with_day(day);
+    assert_eq!(HealthRecord::decode(&r.encode()), Ok(r));
+    let none = RecordedDay::new(None, Some(f32::NAN), Some(400.0));
+    assert_eq!(none, RecordedDay::UNKNOWN);
+    assert_eq!(
+        (none.bus_voltage(), none.temperature(), none.winding_rise()),
+        (None, None, None)
+    );
+    // The reserved byte must stay 0 (CRC made good again); byte 70 is the window now.
+    let mut b = r.encode();
+    b[71] = 1;
+    let mut crc = Crc32::new();
+    crc.update(&b[..RECORD_BYTES - 4]);
+    b[RECORD_BYTES - 4..].copy_from_slice(&crc.finish().to_le_bytes());
+    assert_eq!(HealthRecord::decode(&b), Err(HealthRecordError::BadField));
+}
+
+#[test]
+fn older_stores_are_upgraded_in_place() {
+    for (old_bytes, encode) in [
+        (
+            RECORD_V1_BYTES,
+            (|r: &HealthRecord| r.encode_v1().to_vec()) as fn(&HealthRecord) -> Vec<u8>,
+        ),
+        (RECORD_V2_BYTES, |r: &HealthRecord| r.encode_v2().to_vec()),
+        (RECORD_V3_BYTES, |r: &HealthRecord| r.encode_v3().to_vec()),
+    ] {
+        let mut store = RamStore::<4>::ZEROED;
+        let image = store.as_bytes_mut();
+        image.fill(0xFF);
+        // Flights 4..7 in slots 0..3 as an older controller kept them; slot 2 torn.
+        for f in 4..8u32 {
+            let s = (f % 4) as usize * old_bytes;
+            image[s..s + old_bytes].copy_from_slice(&encode(&record(f, 0.1 * f as f32)));
+        }
+        image[2 * old_bytes + 30] ^= 1;
+        assert_eq!(store.upgrade(old_bytes), 3, "{old_bytes}");
+        let (log, summary) = HealthLog::<4>::load(&mut store).unwrap();
+        assert_eq!(log.iter().map(|r| r.flight).collect::<Vec<_>>(), [4, 5, 7]);
+        assert_eq!(log.latest(), Some(&record(7, 0.7)));
+        assert_eq!((summary.records, summary.empty, summary.damaged), (3, 1, 0));
+    }
+    // A slot size of no version keeps nothing.
+    assert_eq!(RamStore::<4>::erased().upgrade(60), 0);
+}
+
+#[test]
+fn an_older_image_read_into_a_store_is_upgraded_by_its_length() {
+    let mut store = RamStore::<4>::erased();
+    for f in 0..3u32 {
+        let at = f as usize * RECORD_V3_BYTES;
+        store.as_bytes_mut()[at..at + RECORD_V3_BYTES].copy_from_slice(&record(f, 0.1).encode_v3());
+    }
+    assert_eq!(
+        store.upgrade_read(4 * RECORD_V3_BYTES),
+        Some((RECORD_V3_BYTES, 3))
+    );
+    let (log, summary) = HealthLog::<4>::load(&mut store).unwrap();
+    assert_eq!(log.iter().map(|r| r.flight).collect::<Vec<_>>(), [0, 1, 2]);
+    assert_eq!((summary.records, summary.damaged), (3, 0));
+    // The current image, or a length of no version: nothing done.
+    let before = store.clone();
+    assert_eq!(store.upgrade_read(4 * RECORD_BYTES), None);
+    assert_eq!(store.upgrade_read(100), None);
+    assert_eq!(store, before);
+}
+
+#[test]
+fn ring_hands_back_the_oldest_and_refuses_the_past() {
+    let mut log = HealthLog::<3>::new();
+    for f in 0..3 {
+        assert_eq!(log.push(record(f, 0.1)), Ok(None));
+    }
+    assert_eq!(log.push(record(3, 0.1)), Ok(Some(record(0, 0.1))));
+    assert_eq!(log.iter().map(|r| r.flight).collect::<Vec<_>>(), [1, 2, 3]);
+    let stale = record(3, 0.2);
+    assert_eq!(log.push(stale), Err(stale));
+    assert_eq!(
+        log.append(&mut RamStore::<3>::erased(), stale),
+        Err(HealthLogError::NotNewer { last: 3 })
+    );
+}
+
+#[test]
+fn store_keeps_the_newest_slots_and_skips_damage() {
+    let mut store = RamStore::<4>::erased();
+    let mut log = HealthLog::<4>::new();
+    for f in 10..17 {
+        log.append(&mut store, record(f, f as f32 / 100.0)).unwrap();
+    }
+    // Slots hold flights 16, 13, 14, 15 (f mod 4); damage the one of flight 14.
+    let (loaded, summary) = HealthLog::<4>::load(&mut store.clone()).unwrap();
+    assert_eq!(
+        loaded.iter().map(|r| r.flight).collect::<Vec<_>>(),
+        [13, 14, 15, 16]
+    );
+    assert_eq!(summary.records, 4);
+    let mut image = store.as_bytes().to_vec();
+    image[2 * RECORD_BYTES + 20] ^= 1;
+    let (loaded, summary) = HealthLog::<3>::load(&mut RamStore::<4>::from_image(&image)).unwrap();
+    assert_eq!(
+        loaded.iter().map(|r| r.flight).collect::<Vec<_>>(),
+        [13, 15, 16]
+    );
+    assert_eq!((summary.records, summary.damaged, summary.empty), (3, 1, 0));
+    // A smaller log keeps the newest.
+    let (small, summary) = HealthLog::<2>::load(&mut store).unwrap();
+    assert_eq!(small.iter().map(|r| r.flight).collect::<Vec<_>>(), [15, 16]);
+    assert_eq!(summary.dropped, 2);
+    let (empty, summary) = HealthLog::<4>::load(&mut RamStore::<5>::erased()).unwrap();
+    assert!(empty.is_empty());
+    assert_eq!(summary.empty, 5);
+}

@@ -1,0 +1,6 @@
+//! The top floor: what the readings become over an actuator's life. The health log, one
+//! record per preflight or flight reading in a bounded ring ([`health`]), and each fault's
+//! trend and remaining useful life from it ([`prognosis`]). May import: every floor below.
+
+pub mod health;
+pub mod prognosis;

@@ -1,0 +1,796 @@
+//! The uncertainty of an identified fault vector: a standard deviation and a 90 % interval
+//! per component, from the curvature of the fitness at the optimum, and verdicts that use
+//! them.
+//!
+//! Gauss–Newton: with the fitness's weighted residuals `r_i(k)`, `JᵀWJ` is accumulated from
+//! one base run and one run per component shifted by [`STEP`], stepped in lockstep
+//! ([`FitnessProblem::uncertainty`]): 10 monitor-model runs, O(N · 9²) multiply-adds in f64
+//! (IEEE operations only, the same bits on every target), no storage of residuals. The
+//! residual variance is `s² = RSS / (n − p)` over the fitted samples; the covariance is
+//! `(c · s)² · (JᵀWJ)⁻¹`, where [`INFLATION`] `c` accounts for what the white-noise formula
+//! leaves out (the residual is mostly correlated model mismatch, not white noise): it was
+//! calibrated on the Table I campaign so that the 90 % interval covers the truth in about
+//! 90 % of component-runs, and checked on Table II and random vectors
+//! (docs/identifiability.md). A preflight's deviations then take the systematic error one
+//! scale cannot carry for every component (the actuator record's [`SystematicError`], in
+//! quadrature; [`Curvature::preflight_uncertainty`]); a window of flight's take their own
+//! factors. Units:
+//! the fault vector's [0, 1] range.
+//!
+//! [`FitnessProblem::uncertainty`]: crate::solver::fitness::FitnessProblem::uncertainty
+
+use crate::base::math::{invert, sqrt64, INVERT_N};
+use crate::physics::fault::{FaultVector, CIRCULAR, DETECTION_THRESHOLD, FAULT_COUNT};
+
+const _: () = assert!(FAULT_COUNT == INVERT_N);
+
+/// Shift of each component for the finite differences [fault-vector units].
+pub const STEP: f32 = 0.01;
+
+/// Two-sided 90 % quantile of the normal distribution.
+pub const Z90: f32 = 1.644_854;
+
+/// Ratio of the real scatter of the identified components to the white-noise Gauss–Newton
+/// standard deviation (module docs). Calibrated on the Table I and II campaigns of the
+/// default test (10 seeds): with 8 the 90 % intervals hold the truth in 1 383 of 1 540
+/// component-runs (89.8 %); 6 gives 84.5 %, 10 gives 91.8 % (`host-sim campaign --table 1`
+/// and `--table 2`, their last lines). On the random vectors, which no choice used, 8 gives
+/// 73.1 %: multi-fault vectors carry more systematic error than the curvature shows.
+/// With [`SYSTEMATIC`] (`host-sim campaign --table 1+2 --runs 10`, its last lines):
+/// 1 711 of 1 750 component-runs (97.8 %) — wide on every component but
+/// the gain drift (the inflation each would need for 90 %: 0.72–4.71; the gain drift 11.75).
+/// Left at 8: the windows' held values' scales and the flights' factors were chosen on
+/// these deviations (`shared::window::HELD_ERROR_SCALE`).
+pub const INFLATION: f32 = 8.0;
+
+/// Standard deviation of the reference actuator's preflight systematic error per component
+/// (its gain drift's is [`SystematicError::REFERENCE_ACTUATOR`]'s; an actuator record carries
+/// its own) [fault-vector units], added in quadrature to the inflated deviation
+/// ([`Curvature::preflight_uncertainty`]): the monitor model's mismatch that one scale
+/// ([`INFLATION`]) cannot carry for every component. The rule: per component, the least
+/// value in steps of 0.001 for which the 90 % intervals of the Table I and II campaigns
+/// (10 seeds, the runs `INFLATION` was calibrated on: `host-sim campaign --table 1` and
+/// `--table 2` with `--runs-csv`) hold the truth in 90 % of `within` runs; 0 where they
+/// already do. Only the gain drift needs one: its intervals held the truth in 176 of 210
+/// runs, every miss a case with a gear play (backlash 0.4 and 1.0, Table II medium with and
+/// without noise) — the reference model's play, which the monitor model plays more simply,
+/// leaves the gain drift read 0.009–0.021 high at deviations of 0.004–0.007; 0.006 gives 189
+/// of 210 (0.005: 183; `host-sim campaign --table 1+2 --runs 10` prints the rule's value per
+/// component). The other components' intervals hold the truth in 200–210 of 210. Held out,
+/// on the random multi-fault vectors (`--table random --runs 10`), the gain drift's
+/// intervals hold the truth in 54 of 80 `within` runs (51 without it): those vectors carry
+/// more systematic error than either table. A window of flight's own deviations do not
+/// take it (their factors are their own, `shared::window`). A preflight that reads a gear
+/// play takes [`PLAY_GAIN_DRIFT_SYSTEMATIC`] for the gain drift instead.
+pub const SYSTEMATIC: [f32; FAULT_COUNT] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.006, 0.0];
+
+/// The gain drift's systematic error in a preflight that reads a gear play (backlash at or
+/// above [`DETECTION_THRESHOLD`], [`reads_play`]) [fault-vector units], in place of its
+/// [`SYSTEMATIC`]. The mismatch [`SYSTEMATIC`] covers lives in those runs (the monitor model
+/// plays the gear's play more simply than the reference model), and one value over all runs
+/// left them narrow: Table II medium's gain drift, read 0.014–0.021 high, held the truth in
+/// none of its 10 runs, and a flight's windows (which read it right) missed its preflight's
+/// interval (docs/in-flight.md). The rule of [`SYSTEMATIC`] over the 70 of Table I and II's
+/// 210 runs that read a play (backlash 0.1, 0.4, 1.0; the low, medium and high mixes; the
+/// medium mix with noise): 0.011, with which 63 of the 70 gain-drift intervals hold the
+/// truth (49 with 0.006); over the 140 runs without a play the rule gives 0 for every
+/// component. `host-sim campaign --table 1+2 --runs 10` prints the rule per stratum. Not
+/// taken: short A's 0.005 over the play runs (60 of 70 hold the truth without one, 200 of
+/// 210 over all): a flight's windows hold the preflight's short with its deviation
+/// (`shared::window::HELD_ERROR_SCALE`, chosen on today's), so it would move their readings
+/// and the factors chosen on them. Held out, the random vectors' gain drift (every one reads
+/// a play): 69 of 80 intervals hold the truth (54 with 0.006). These are the reference
+/// actuator's ([`SystematicError::REFERENCE_ACTUATOR`]); another actuator's record carries its
+/// own, surveyed by the same rule (the light actuator's play runs held the truth in 52 of 70
+/// with 0.011, and take 0.018: docs/accuracy.md).
+pub const PLAY_GAIN_DRIFT_SYSTEMATIC: f32 = 0.011;
+
+/// One actuator's preflight systematic error in its gain drift [fault-vector units], added in
+/// quadrature to the inflated deviation ([`Curvature::preflight_uncertainty`]): the
+/// actuator record carries it (`uncertainty` in the actuator description file), surveyed on
+/// that actuator's own Table I and II campaign by the rule of [`SYSTEMATIC`] — over all runs
+/// for `gain_drift`, over the runs that read a gear play for `play_gain_drift`
+/// (`host-sim campaign --table 1+2 --runs 10 --actuator FILE` prints both). The monitor
+/// model's play is simpler than a real gear's, and how much gain drift that leaves unread
+/// depends on the actuator: the light actuator's play runs take 0.018 where the reference
+/// actuator's take 0.011 (docs/accuracy.md).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SystematicError {
+    /// The gain drift's, where the preflight reads no gear play.
+    pub gain_drift: f32,
+    /// The gain drift's, where it reads one ([`reads_play`]).
+    pub play_gain_drift: f32,
+}
+
+impl SystematicError {
+    /// The reference actuator's ([`SYSTEMATIC`], [`PLAY_GAIN_DRIFT_SYSTEMATIC`]); a record
+    /// written before version 9 reads as these, the values it was used with.
+    pub const REFERENCE_ACTUATOR: Self = Self {
+        gain_drift: SYSTEMATIC[GAIN_DRIFT_INDEX],
+        play_gain_drift: PLAY_GAIN_DRIFT_SYSTEMATIC,
+    };
+
+    /// None: a reading whose deviations are its curvature's alone (a window of flight's).
+    pub const NONE: Self = Self {
+        gain_drift: 0.0,
+        play_gain_drift: 0.0,
+    };
+
+    /// The gain drift's entry for a preflight that read `k`: the one place the play chooses.
+    #[inline(always)]
+    #[must_use]
+    pub fn gain_drift_for(&self, k: &FaultVector) -> f32 {
+        if reads_play(k) {
+            self.play_gain_drift
+        } else {
+            self.gain_drift
+        }
+    }
+}
+
+/// Index of the backlash in the fault vector.
+const BACKLASH_INDEX: usize = 1;
+
+/// Index of the gain drift in the fault vector.
+const GAIN_DRIFT_INDEX: usize = 7;
+
+// The deviations add the gain drift's systematic error alone (flash: the loop reads no
+// table); another component's would need the loop changed. (Checked when compiling.)
+#[allow(clippy::indexing_slicing)]
+const _: () = {
+    let mut i = 0;
+    while i < FAULT_COUNT {
+        assert!(i == GAIN_DRIFT_INDEX || SYSTEMATIC[i] == 0.0);
+        i += 1;
+    }
+};
+
+/// The eccentricity's amplitude is the length of a two-dimensional quantity: noise alone
+/// gives it a Rayleigh-distributed value, beyond `σ·√(−2 ln 0.01)` in 1 % of healthy tests
+/// (σ the white-noise Gauss–Newton std, before [`INFLATION`]). Below that floor a reading is
+/// what noise makes of a round rotor: healthy, whatever the threshold says.
+pub const RAYLEIGH_99: f32 = 3.034_854;
+
+/// Index of the eccentricity's amplitude in the fault vector.
+const ECCENTRICITY: usize = crate::physics::fault::ECCENTRICITY_INDEX;
+
+/// Correlation beyond which two components are read as not separable by one test.
+pub const AMBIGUOUS_CORRELATION: f32 = 0.9;
+
+/// A component whose curvature is below this share of the largest is not identifiable at
+/// this point (the eccentricity phase without an eccentricity).
+const FLAT: f64 = 1.0e-9;
+
+/// What one test says about each component beyond its value.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Uncertainty {
+    /// Standard deviation per component; NaN where the test does not determine it.
+    pub std: [f32; FAULT_COUNT],
+    /// 90 % interval per component (clamped to [0, 1]; the circular phase is not clamped).
+    pub lower: [f32; FAULT_COUNT],
+    pub upper: [f32; FAULT_COUNT],
+    /// Largest |correlation| between two fault components (not the phase), and the pair.
+    pub worst_correlation: f32,
+    pub worst_pair: (u8, u8),
+    /// Residual standard deviation per fitted sample [A] (before inflation).
+    pub residual_std: f32,
+}
+
+/// The reading of one component with its uncertainty.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Assessment {
+    /// The 90 % interval of the deviation from nominal stays within the detection threshold,
+    /// or the value is within it.
+    Healthy,
+    /// The value is beyond the threshold but its interval is not: not proven.
+    Suspect,
+    /// The whole 90 % interval is beyond the detection threshold.
+    Faulty,
+    /// Beyond the threshold, but so correlated with component `with` (index) that one test
+    /// cannot say which of the two it is.
+    Ambiguous { with: u8 },
+    /// Not a fault on its own (the eccentricity phase).
+    NotApplicable,
+}
+
+/// Whether `k` reads a gear play: its backlash at or above [`DETECTION_THRESHOLD`] (the
+/// preflight's deviations then take [`PLAY_GAIN_DRIFT_SYSTEMATIC`]).
+#[inline(always)]
+#[must_use]
+pub fn reads_play(k: &FaultVector) -> bool {
+    k.as_array()[BACKLASH_INDEX] >= DETECTION_THRESHOLD
+}
+
+/// The systematic error [fault-vector units] a preflight that read `k` adds in quadrature to
+/// each component's deviation ([`Curvature::preflight_uncertainty`]) on an actuator whose
+/// record carries `systematic`: [`SYSTEMATIC`]'s zeros, the gain drift's from `systematic`.
+/// For reports and studies; the deviations themselves are computed without this table
+/// (flash).
+#[must_use]
+pub fn preflight_systematic(k: &FaultVector, systematic: &SystematicError) -> [f32; FAULT_COUNT] {
+    let mut e = SYSTEMATIC;
+    e[GAIN_DRIFT_INDEX] = systematic.gain_drift_for(k);
+    e
+}
+
+/// The 90 % interval of a component at `x` with standard deviation `s`: clamped to [0, 1],
+/// unless the component is circular (the eccentricity's phase).
+#[inline(always)]
+fn interval(circular: bool, x: f32, s: f32) -> (f32, f32) {
+    let (lo, hi) = (x - Z90 * s, x + Z90 * s);
+    if circular {
+        (lo, hi)
+    } else {
+        (lo.clamp(0.0, 1.0), hi.clamp(0.0, 1.0))
+    }
+}
+
+impl Uncertainty {
+    /// These intervals with each component's standard deviation taken `factors[i]` times,
+    /// around `k` (the identified vector they belong to): a reading whose scatter is known
+    /// to exceed what its curvature states (a window of flight, `shared::window`). O(9).
+    #[must_use]
+    pub fn widened(&self, k: &FaultVector, factors: &[f32; FAULT_COUNT]) -> Self {
+        self.redrawn(k, |i, s| s * factors.get(i).copied().unwrap_or(1.0))
+    }
+
+    /// These intervals with `shared[i]` added to each determined component's standard
+    /// deviation in quadrature, around `k`: an error the reading shares with others (a
+    /// window's held values, `shared::window::HeldComponents`), independent of its own.
+    /// O(9).
+    #[must_use]
+    pub fn with_shared(&self, k: &FaultVector, shared: &[f32; FAULT_COUNT]) -> Self {
+        self.redrawn(k, |i, s| match shared.get(i) {
+            Some(&e) if e > 0.0 => crate::base::math::sqrt(s * s + e * e),
+            _ => s,
+        })
+    }
+
+    /// Each determined component's standard deviation `s` replaced by `std(i, s)` and its
+    /// interval redrawn around `k`; undetermined ones untouched. O(9).
+    fn redrawn(&self, k: &FaultVector, std: impl Fn(usize, f32) -> f32) -> Self {
+        let mut out = *self;
+        for i in 0..FAULT_COUNT {
+            let (Some(s), Some(&x), Some(&circular)) =
+                (out.std.get_mut(i), k.as_array().get(i), CIRCULAR.get(i))
+            else {
+                continue;
+            };
+            if s.is_nan() {
+                continue;
+            }
+            *s = std(i, *s);
+            let (lo, hi) = interval(circular, x, *s);
+            if let (Some(l), Some(u)) = (out.lower.get_mut(i), out.upper.get_mut(i)) {
+                (*l, *u) = (lo, hi);
+            }
+        }
+        out
+    }
+
+    /// Whether the true `k` lies inside every determined interval, per component (`None`
+    /// where undetermined).
+    pub fn covers(&self, truth: &FaultVector) -> [Option<bool>; FAULT_COUNT] {
+        let mut out = [None; FAULT_COUNT];
+        for (i, slot) in out.iter_mut().enumerate() {
+            let (Some(&lo), Some(&hi), Some(&x), Some(&s)) = (
+                self.lower.get(i),
+                self.upper.get(i),
+                truth.as_array().get(i),
+                self.std.get(i),
+            ) else {
+                continue;
+            };
+            if s.is_nan() {
+                continue;
+            }
+            *slot = Some(lo <= x && x <= hi);
+        }
+        out
+    }
+
+    /// Verdicts of `k` (the identified vector these intervals belong to) against the
+    /// detection threshold, using the intervals and the correlations `correlation` (from
+    /// [`Curvature::uncertainty`]).
+    pub fn assess(
+        &self,
+        k: &FaultVector,
+        correlation: &[[f32; FAULT_COUNT]; FAULT_COUNT],
+    ) -> [Assessment; FAULT_COUNT] {
+        self.assess_at(k, correlation, DETECTION_THRESHOLD)
+    }
+
+    /// [`Self::assess`] against `threshold` (an actuator record's).
+    #[inline(never)]
+    pub fn assess_at(
+        &self,
+        k: &FaultVector,
+        correlation: &[[f32; FAULT_COUNT]; FAULT_COUNT],
+        threshold: f32,
+    ) -> [Assessment; FAULT_COUNT] {
+        let mut out = [Assessment::NotApplicable; FAULT_COUNT];
+        let deviations = k.deviations();
+        for (i, slot) in out.iter_mut().enumerate() {
+            let (Some(Some(d)), Some(&s)) = (deviations.get(i), self.std.get(i)) else {
+                continue;
+            };
+            let d = *d;
+            // The floor is NaN-safe: a NaN std leaves the threshold alone.
+            let floor = if i == ECCENTRICITY {
+                s * (RAYLEIGH_99 / INFLATION)
+            } else {
+                0.0
+            };
+            if d <= threshold.max(floor) {
+                *slot = Assessment::Healthy;
+                continue;
+            }
+            if !s.is_nan() && d - Z90 * s > threshold {
+                *slot = Assessment::Faulty;
+                continue;
+            }
+            // Not proven on its own: is it entangled with another fault component?
+            let row = correlation.get(i).copied().unwrap_or([0.0; FAULT_COUNT]);
+            let partner = row
+                .iter()
+                .enumerate()
+                .filter(|&(j, c)| {
+                    j != i && CIRCULAR.get(j) == Some(&false) && c.abs() > AMBIGUOUS_CORRELATION
+                })
+                .fold(None, |best: Option<(usize, f32)>, (j, &c)| match best {
+                    Some((_, b)) if b >= c.abs() => best,
+                    _ => Some((j, c.abs())),
+                });
+            *slot = match partner {
+                Some((j, _)) => Assessment::Ambiguous { with: j as u8 },
+                None => Assessment::Suspect,
+            };
+        }
+        out
+    }
+}
+
+/// The Gauss–Newton sums of one test ([`FitnessProblem::uncertainty`] fills them).
+///
+/// [`FitnessProblem::uncertainty`]: crate::solver::fitness::FitnessProblem::uncertainty
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Curvature {
+    /// `JᵀWJ` of the model's current w.r.t. each component [A² per unit²].
+    pub normal: [[f64; FAULT_COUNT]; FAULT_COUNT],
+    /// Weighted residual sum of squares at the identified vector [A²].
+    pub rss: f64,
+    /// `JᵀW r`, `r` = measured − modelled at the identified vector [A² per unit]: with
+    /// `normal`, a Gauss–Newton step ([`Curvature::gauss_newton_step`]).
+    pub gradient: [f64; FAULT_COUNT],
+    /// Samples with a non-zero weight.
+    pub fitted: u32,
+}
+
+/// Why no uncertainty could be computed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum UncertaintyError {
+    /// No component is determined by this test (all flat), or too few fitted samples.
+    Undetermined,
+}
+
+impl Curvature {
+    /// No sample yet.
+    pub const EMPTY: Self = Self {
+        normal: [[0.0; FAULT_COUNT]; FAULT_COUNT],
+        rss: 0.0,
+        gradient: [0.0; FAULT_COUNT],
+        fitted: 0,
+    };
+
+    /// `(JᵀWJ + λ·diag)⁻¹` over the determined components (diagonal above [`FLAT`] of the
+    /// largest), the others given an identity row and column so that they do not couple;
+    /// with which components are determined. `None` when none is, or the matrix is
+    /// singular. One copy for the uncertainty (λ = 0) and the polish. O(9³).
+    #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 9×9 arrays
+    #[inline(never)]
+    pub(crate) fn inverse(
+        &self,
+        damping: f64,
+    ) -> Option<([[f64; FAULT_COUNT]; FAULT_COUNT], [bool; FAULT_COUNT])> {
+        let largest = (0..FAULT_COUNT)
+            .map(|i| self.normal[i][i])
+            .fold(0.0f64, f64::max);
+        let determined: [bool; FAULT_COUNT] =
+            core::array::from_fn(|i| self.normal[i][i] > FLAT * largest && self.normal[i][i] > 0.0);
+        if !determined.contains(&true) {
+            return None;
+        }
+        let mut m = self.normal;
+        for i in 0..FAULT_COUNT {
+            for j in 0..FAULT_COUNT {
+                if !(determined[i] && determined[j]) {
+                    m[i][j] = if i == j { 1.0 } else { 0.0 };
+                } else if i == j {
+                    m[i][j] *= 1.0 + damping;
+                }
+            }
+        }
+        Some((invert(&m)?, determined))
+    }
+
+    /// The damped Gauss–Newton (Levenberg–Marquardt) step from `k`: `δ` solving
+    /// `(JᵀWJ + λ·diag(JᵀWJ)) δ = JᵀW r` over the determined components (the others stay),
+    /// then bounded components clamped to [0, 1] and the phase wrapped. `None` when no
+    /// component is determined. O(9³).
+    #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 9×9 arrays
+    pub fn gauss_newton_step(&self, k: &FaultVector, damping: f64) -> Option<FaultVector> {
+        let (inverse, determined) = self.inverse(damping)?;
+        let mut out = *k.as_array();
+        for i in 0..FAULT_COUNT {
+            if !determined[i] {
+                continue;
+            }
+            let mut d = 0.0;
+            for j in 0..FAULT_COUNT {
+                if determined[j] {
+                    d += inverse[i][j] * self.gradient[j];
+                }
+            }
+            let x = out[i] + d as f32;
+            out[i] = if CIRCULAR[i] {
+                crate::solver::ga::wrap_unit(x)
+            } else {
+                x.clamp(0.0, 1.0)
+            };
+        }
+        Some(FaultVector::saturating(out))
+    }
+
+    /// Standard deviations, intervals and correlations for the identified `k`. O(9³).
+    pub fn uncertainty(
+        &self,
+        k: &FaultVector,
+    ) -> Result<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT]), UncertaintyError> {
+        self.uncertainty_with(k, &SystematicError::NONE)
+    }
+
+    /// [`Self::uncertainty`] of a preflight identification on an actuator whose record
+    /// carries `systematic`: each component's deviation with its systematic error added in
+    /// quadrature ([`preflight_systematic`]: the gain drift's alone, a gear play's where `k`
+    /// reads one), the intervals to match.
+    pub fn preflight_uncertainty(
+        &self,
+        k: &FaultVector,
+        systematic: &SystematicError,
+    ) -> Result<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT]), UncertaintyError> {
+        self.uncertainty_with(k, systematic)
+    }
+
+    /// [`Self::uncertainty`], with a preflight's `systematic` error ([`preflight_systematic`];
+    /// [`SystematicError::NONE`] for none) added in quadrature to the gain drift's deviation
+    /// (the table's one nonzero entry taken alone, not through the table: 104 B less flash
+    /// than two tables). The correlations stay the curvature's: what the test can
+    /// tell apart (the verdicts' `Ambiguous`); the systematic error is taken as correlated
+    /// with nothing.
+    #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 9×9 arrays
+    #[inline(never)]
+    fn uncertainty_with(
+        &self,
+        k: &FaultVector,
+        systematic: &SystematicError,
+    ) -> Result<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT]), UncertaintyError> {
+        let (inverse, determined) = self.inverse(0.0).ok_or(UncertaintyError::Undetermined)?;
+        let p = determined.iter().filter(|&&x| x).count();
+        if (self.fitted as usize) <= p {
+            return Err(UncertaintyError::Undetermined);
+        }
+        let s2 = self.rss / (self.fitted as usize - p) as f64;
+        let c = f64::from(INFLATION);
+        let variance = |i: usize| {
+            c * c
+                * s2
+                * inverse
+                    .get(i)
+                    .and_then(|r| r.get(i))
+                    .copied()
+                    .unwrap_or(0.0)
+        };
+        let mut out = Uncertainty {
+            std: [f32::NAN; FAULT_COUNT],
+            lower: *k.as_array(),
+            upper: *k.as_array(),
+            worst_correlation: 0.0,
+            worst_pair: (0, 0),
+            residual_std: sqrt64(s2) as f32,
+        };
+        let mut correlation = [[0.0f32; FAULT_COUNT]; FAULT_COUNT];
+        for i in 0..FAULT_COUNT {
+            if !determined[i] {
+                continue;
+            }
+            let s = sqrt64(variance(i)) as f32;
+            // `preflight_systematic(k)[i]`: only the gain drift has one (asserted below the
+            // constants).
+            let e = if i == GAIN_DRIFT_INDEX {
+                systematic.gain_drift_for(k)
+            } else {
+                0.0
+            };
+            let s = if e > 0.0 {
+                crate::base::math::sqrt(s * s + e * e)
+            } else {
+                s
+            };
+            out.std[i] = s;
+            (out.lower[i], out.upper[i]) = interval(CIRCULAR[i], k.as_array()[i], s);
+            for j in 0..FAULT_COUNT {
+                if !determined[j] {
+                    continue;
+                }
+                let cij = inverse[i][j] / sqrt64(inverse[i][i] * inverse[j][j]);
+                correlation[i][j] = cij as f32;
+                if i < j && !CIRCULAR[i] && !CIRCULAR[j] && cij.abs() as f32 > out.worst_correlation
+                {
+                    out.worst_correlation = cij.abs() as f32;
+                    out.worst_pair = (i as u8, j as u8);
+                }
+            }
+        }
+        Ok((out, correlation))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn diagonal(values: [f64; FAULT_COUNT]) -> [[f64; FAULT_COUNT]; FAULT_COUNT] {
+        let mut m = [[0.0; FAULT_COUNT]; FAULT_COUNT];
+        for i in 0..FAULT_COUNT {
+            m[i][i] = values[i];
+        }
+        m
+    }
+
+    #[test]
+    fn a_diagonal_curvature_gives_its_standard_deviations() {
+        // s² = rss / (n − p) = 8 / (109 − 9) = 0.08; std_i = √(0.08 / d_i).
+        let c = Curvature {
+            gradient: [0.0; FAULT_COUNT],
+            normal: diagonal([8.0, 2.0, 0.5, 8.0, 8.0, 8.0, 8.0, 0.08, 2.0]),
+            rss: 8.0,
+            fitted: 109,
+        };
+        let k = FaultVector::new([0.5, 0.5, 0.5, 0.0, 0.0, 0.5, 0.5, 0.5, 0.0]).unwrap();
+        let (u, corr) = c.uncertainty(&k).unwrap();
+        let expect = [0.1, 0.2, 0.4, 0.1, 0.1, 0.1, 0.1, 1.0, 0.2];
+        for i in 0..FAULT_COUNT {
+            assert!(
+                (u.std[i] - expect[i] * INFLATION).abs() < 1e-6,
+                "{i}: {:?}",
+                u.std
+            );
+            assert!((corr[i][i] - 1.0).abs() < 1e-6);
+        }
+        // The interval is clamped to [0, 1].
+        assert!((u.lower[0] - (0.5 - Z90 * 0.1 * INFLATION).max(0.0)).abs() < 1e-6);
+        assert!((u.upper[0] - (0.5 + Z90 * 0.1 * INFLATION).min(1.0)).abs() < 1e-6);
+        assert_eq!(u.lower[3], 0.0); // clamped
+        assert_eq!(u.upper[7], 1.0);
+        assert_eq!(u.worst_correlation, 0.0);
+        assert!(u.covers(&k).iter().all(|c| *c == Some(true)));
+    }
+
+    #[test]
+    fn widening_scales_the_deviations_and_redraws_the_intervals() {
+        let u = Uncertainty {
+            std: [0.01, f32::NAN, 0.2, 0.01, 0.01, 0.01, 0.1, 0.02, 0.01],
+            lower: [0.0; FAULT_COUNT],
+            upper: [1.0; FAULT_COUNT],
+            worst_correlation: 0.3,
+            worst_pair: (0, 7),
+            residual_std: 0.5,
+        };
+        let k = FaultVector::new([0.1, 0.0, 0.9, 0.0, 0.0, 0.0, 0.95, 0.5, 0.0]).unwrap();
+        let mut factors = [1.0; FAULT_COUNT];
+        (factors[0], factors[1], factors[2], factors[6]) = (2.0, 5.0, 3.0, 2.0);
+        let w = u.widened(&k, &factors);
+        assert_eq!(w.std[0], 0.02);
+        assert!((w.lower[0] - (0.1 - Z90 * 0.02)).abs() < 1e-6);
+        assert!((w.upper[0] - (0.1 + Z90 * 0.02)).abs() < 1e-6);
+        // Undetermined stays undetermined, its interval untouched.
+        assert!(w.std[1].is_nan());
+        assert_eq!((w.lower[1], w.upper[1]), (0.0, 1.0));
+        // Clamped to [0, 1], except the circular phase.
+        assert_eq!((w.lower[2], w.upper[2]), (0.0, 1.0));
+        assert!((w.std[2] - 0.6).abs() < 1e-6);
+        assert!(w.upper[6] > 1.0);
+        // A factor of one redraws the interval around k at the same deviation.
+        assert_eq!(w.std[7], 0.02);
+        assert!((w.lower[7] - (0.5 - Z90 * 0.02)).abs() < 1e-6);
+        assert_eq!(
+            (w.worst_correlation, w.worst_pair, w.residual_std),
+            (0.3, (0, 7), 0.5)
+        );
+    }
+
+    #[test]
+    fn a_flat_component_is_undetermined_and_correlations_are_found() {
+        let mut normal = diagonal([4.0, 4.0, 4.0, 4.0, 4.0, 4.0, 0.0, 4.0, 4.0]);
+        // Shorts A and C nearly the same direction.
+        normal[2][4] = 3.96;
+        normal[4][2] = 3.96;
+        let c = Curvature {
+            gradient: [0.0; FAULT_COUNT],
+            normal,
+            rss: 1.0,
+            fitted: 1000,
+        };
+        let k = FaultVector::new([0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]).unwrap();
+        let (u, corr) = c.uncertainty(&k).unwrap();
+        assert!(u.std[6].is_nan());
+        assert_eq!(u.covers(&k)[6], None);
+        assert_eq!(u.worst_pair, (2, 4));
+        assert!((u.worst_correlation - 0.99).abs() < 1e-4);
+        // Short A at 0.2 with a wide interval, entangled with short C: ambiguous.
+        let verdicts = u.assess(&k, &corr);
+        assert_eq!(verdicts[2], Assessment::Ambiguous { with: 4 });
+        assert_eq!(verdicts[0], Assessment::Healthy);
+        assert_eq!(verdicts[6], Assessment::NotApplicable);
+    }
+
+    #[test]
+    fn a_preflight_adds_its_systematic_error_in_quadrature_and_keeps_the_correlations() {
+        // The gain drift's and short A's deviations 0.0045 and 0.03 before the error is added.
+        let mut normal = diagonal([4.0, 4.0, 4.0, 4.0, 4.0, 4.0, 4.0, 4.0, 4.0]);
+        normal[1][7] = 1.0;
+        normal[7][1] = 1.0;
+        let c = Curvature {
+            gradient: [0.0; FAULT_COUNT],
+            normal,
+            rss: 1.0,
+            fitted: 1000,
+        };
+        let k = FaultVector::new([0.0, 0.4, 0.0, 0.0, 0.0, 0.0, 0.5, 0.615, 0.0]).unwrap();
+        let (own, own_corr) = c.uncertainty(&k).unwrap();
+        let reference = SystematicError::REFERENCE_ACTUATOR;
+        let (pre, pre_corr) = c.preflight_uncertainty(&k, &reference).unwrap();
+        assert!(reads_play(&k));
+        let systematic = preflight_systematic(&k, &reference);
+        assert_eq!(systematic[7], PLAY_GAIN_DRIFT_SYSTEMATIC);
+        for (i, e) in systematic.iter().enumerate() {
+            let want = (own.std[i] * own.std[i] + e * e).sqrt();
+            assert!(
+                (pre.std[i] - want).abs() < 1e-7,
+                "{i}: {} {want}",
+                pre.std[i]
+            );
+            if *e == 0.0 {
+                // Exactly the curvature's: a window's deviations, which take none, keep
+                // their bits.
+                assert_eq!(pre.std[i].to_bits(), own.std[i].to_bits(), "{i}");
+                assert_eq!(pre.lower[i].to_bits(), own.lower[i].to_bits(), "{i}");
+            } else {
+                assert!(pre.std[i] > own.std[i], "{i}");
+                assert!((pre.upper[i] - (k.as_array()[i] + Z90 * pre.std[i])).abs() < 1e-6);
+            }
+        }
+        assert!(pre.std[7] > own.std[7]);
+        assert_eq!(pre_corr, own_corr);
+        assert_eq!(pre.worst_pair, own.worst_pair);
+        // Table II medium's gain drift, read 0.018 high at a play's typical deviation 0.0045,
+        // is outside its interval with the systematic error of all runs, inside with a play's.
+        let (read, own) = (0.618f32, 0.0045f32);
+        let with = |e: f32| read - Z90 * (own * own + e * e).sqrt();
+        assert!(with(SYSTEMATIC[7]) > 0.6);
+        assert!(with(PLAY_GAIN_DRIFT_SYSTEMATIC) <= 0.6);
+        // Without a play read, the same curvature takes the systematic error of all runs.
+        let mut no_play = *k.as_array();
+        no_play[1] = 0.04;
+        let no_play = FaultVector::new(no_play).unwrap();
+        assert!(!reads_play(&no_play));
+        let (pre, _) = c.preflight_uncertainty(&no_play, &reference).unwrap();
+        let (own, _) = c.uncertainty(&no_play).unwrap();
+        let want = (own.std[7] * own.std[7] + SYSTEMATIC[7] * SYSTEMATIC[7]).sqrt();
+        assert!((pre.std[7] - want).abs() < 1e-7, "{} {want}", pre.std[7]);
+        assert_eq!(preflight_systematic(&no_play, &reference), SYSTEMATIC);
+    }
+
+    #[test]
+    fn a_preflight_takes_the_systematic_error_its_actuator_record_carries() {
+        let c = Curvature {
+            gradient: [0.0; FAULT_COUNT],
+            normal: diagonal([4.0; FAULT_COUNT]),
+            rss: 1.0,
+            fitted: 1000,
+        };
+        // The light actuator's survey: 0.009 over all runs, 0.018 over those with a play.
+        let light = SystematicError {
+            gain_drift: 0.009,
+            play_gain_drift: 0.018,
+        };
+        let play = FaultVector::new([0.0, 0.4, 0.0, 0.0, 0.0, 0.0, 0.5, 0.625, 0.0]).unwrap();
+        let mut none = *play.as_array();
+        none[1] = 0.0;
+        let none = FaultVector::new(none).unwrap();
+        for (k, e) in [(play, 0.018f32), (none, 0.009)] {
+            let (own, _) = c.uncertainty(&k).unwrap();
+            let (pre, _) = c.preflight_uncertainty(&k, &light).unwrap();
+            let (reference, _) = c
+                .preflight_uncertainty(&k, &SystematicError::REFERENCE_ACTUATOR)
+                .unwrap();
+            let want = (own.std[7] * own.std[7] + e * e).sqrt();
+            assert!((pre.std[7] - want).abs() < 1e-7, "{} {want}", pre.std[7]);
+            assert!(pre.std[7] > reference.std[7]);
+            // Only the gain drift moves.
+            for i in (0..FAULT_COUNT).filter(|&i| i != 7) {
+                assert_eq!(pre.std[i].to_bits(), reference.std[i].to_bits(), "{i}");
+            }
+            assert_eq!(preflight_systematic(&k, &light)[7], e);
+        }
+        // A flight's windows read that mix's gain drift 0.600; the light preflight read it
+        // 0.625 (docs/in-flight.md): outside the interval a play takes on the reference
+        // actuator, inside the light actuator's own.
+        let (read, own) = (0.625f32, 0.005f32);
+        let lower = |e: f32| read - Z90 * (own * own + e * e).sqrt();
+        assert!(lower(PLAY_GAIN_DRIFT_SYSTEMATIC) > 0.6);
+        assert!(lower(light.play_gain_drift) <= 0.6);
+    }
+
+    #[test]
+    fn faulty_needs_the_interval_beyond_the_threshold() {
+        let c = Curvature {
+            gradient: [0.0; FAULT_COUNT],
+            normal: diagonal([1.0e4; FAULT_COUNT]),
+            rss: 1.0,
+            fitted: 10_009,
+        };
+        // std = √(1e-4 / 1e4)·c = 1e-4·c: tiny.
+        let k = FaultVector::new([0.3, 0.052, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]).unwrap();
+        let (u, corr) = c.uncertainty(&k).unwrap();
+        let v = u.assess(&k, &corr);
+        assert_eq!(v[0], Assessment::Faulty);
+        // Just beyond the threshold, but its interval is not when the std is larger.
+        let wide = Curvature { rss: 1.0e6, ..c };
+        let (u, corr) = wide.uncertainty(&k).unwrap();
+        assert_eq!(u.assess(&k, &corr)[1], Assessment::Suspect);
+        assert!(Curvature {
+            gradient: [0.0; FAULT_COUNT],
+            normal: [[0.0; FAULT_COUNT]; FAULT_COUNT],
+            rss: 1.0,
+            fitted: 10
+        }
+        .uncertainty(&k)
+        .is_err());
+    }
+
+    #[test]
+    fn an_eccentricity_within_what_noise_makes_of_a_round_rotor_reads_healthy() {
+        let k = FaultVector::new([0.07, 0.0, 0.0, 0.0, 0.0, 0.07, 0.5, 0.5, 0.0]).unwrap();
+        let corr = [[0.0; FAULT_COUNT]; FAULT_COUNT];
+        // White-noise std 0.03 (0.24 inflated): a 0.07 amplitude is below the Rayleigh
+        // floor 3.03 × 0.03 = 0.091, a 0.07 friction is not an amplitude.
+        let noisy = Uncertainty {
+            std: [0.03 * INFLATION; FAULT_COUNT],
+            lower: [0.0; FAULT_COUNT],
+            upper: [1.0; FAULT_COUNT],
+            worst_correlation: 0.0,
+            worst_pair: (0, 1),
+            residual_std: 0.0,
+        };
+        let v = noisy.assess(&k, &corr);
+        assert_eq!(v[5], Assessment::Healthy);
+        assert_eq!(v[0], Assessment::Suspect);
+        // A quiet test (std 0.01): the same amplitude is beyond the floor.
+        let quiet = Uncertainty {
+            std: [0.01 * INFLATION; FAULT_COUNT],
+            ..noisy
+        };
+        assert_eq!(quiet.assess(&k, &corr)[5], Assessment::Suspect);
+        // Undetermined (NaN std): the threshold alone.
+        let unknown = Uncertainty {
+            std: [f32::NAN; FAULT_COUNT],
+            ..noisy
+        };
+        assert_eq!(unknown.assess(&k, &corr)[5], Assessment::Suspect);
+    }
+}
