@@ -6,8 +6,8 @@
 //! Work bound: one survey of the store (a read per slot, `shared::health::ONBOARD_RECORDS`
 //! slots), one slot read and write (`health::write_slot`), then per fault one replay of the store (a read and a
 //! trend update per slot, O(slots · shapes)) and one estimate (O(shapes · 136)); measured:
-//! 157.4 M instructions with 32 records (BENCHMARKS.md §1). Stack: one trend (976 B), one
-//! estimate's shared state and one slot's bytes, no copy of the log (15.2 kB peak with the
+//! 209.1 M instructions with 32 records (BENCHMARKS.md §1). Stack: one trend (976 B), one
+//! estimate's shared state and one slot's bytes, no copy of the log (12.9 kB peak with the
 //! caller's frames).
 
 use shared::health::{self, HealthLogError, HealthRecord, HealthStore, LoadSummary, RecordedDay};

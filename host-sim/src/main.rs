@@ -254,8 +254,8 @@ enum Command {
         flight_windows: u32,
         /// With --flight-windows: a flight flies more windows, one at a time up to this
         /// many, while only its friction deviation keeps its reading out and more windows
-        /// can bring it within the limit (`shared::fusion::FlightLength`, docs/in-flight.md
-        /// §4) — a long phase's rule: the cruise rule is --phase cruise --flight-windows 8
+        /// can bring it within the limit (`shared::fusion::FlightLength`, docs/in-flight.md)
+        /// — a long phase's rule: the cruise rule is --phase cruise --flight-windows 8
         /// --flight-windows-max 24 (`shared::fusion::CRUISE_LENGTH`). Default:
         /// --flight-windows exactly, in every phase.
         #[arg(

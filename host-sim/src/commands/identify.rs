@@ -745,7 +745,7 @@ fn floor_hint(
         ),
         None => concat!(
             "the window's load model does not explain this current. One known cause is a \
-             gear play several times nominal (docs/in-flight.md, §6); the light \
+             gear play several times nominal (docs/in-flight.md); the light \
              actuator's windows in moderate turbulence are named so too. ",
             noise_cause!(),
             " Given the same flight's preflight (--preflight), a window at this floor is read \
