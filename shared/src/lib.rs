@@ -8,7 +8,7 @@
 //!
 //! 1. [`base`] — bit-identical maths, the seeded generator, bounded steps, capacities.
 //! 2. [`physics`] — the actuator's parameters, bridge and grease; the fault vector.
-//! 3. [`test`] — the preflight test: chirp, test design, conditioning, the trace format.
+//! 3. [`test`](mod@test) — the preflight test: chirp, test design, conditioning, the trace format.
 //! 4. [`model`] — the monitor model, its calibration, the day's conditions, its domain.
 //! 5. [`solver`] — eq. (3)'s fitness, the steady-state GA, the polish, the uncertainty.
 //! 6. [`preflight`] — the actuator record, the onboard wiring, eq. (4)'s metrics.

@@ -85,7 +85,7 @@ fn moment_scale(stiffness: f32, amplitude: f32) -> f32 {
 pub const SCAN_PLAYS: usize = 21;
 
 /// The gain drifts the first scan tries, every 0.01 from 0 to 1, at each of
-/// [`SCAN_GAIN_PLAYS`] and the guessed start: the needle is ±0.01 wide and its place hardly
+/// `SCAN_GAIN_PLAYS` and the guessed start: the needle is ±0.01 wide and its place hardly
 /// moves with the start (three gains, 0.1, 0.5 and 0.9, missed it on most low-mix windows).
 pub const SCAN_GAIN_STEPS: usize = 101;
 
@@ -94,7 +94,7 @@ pub const SCAN_GAIN_STEPS: usize = 101;
 /// windows were left `fitness_floor` that way; docs/in-flight.md).
 const SCAN_GAIN_PLAYS: [f32; 2] = [0.5, 0.0];
 
-/// Moments per play in the start's scan: the guess ± 10 steps of [`SCAN_STEP`].
+/// Moments per play in the start's scan: the guess ± 10 steps of `SCAN_STEP`.
 pub const SCAN_MOMENTS: usize = 21;
 
 /// The scan's step [N·m].

@@ -120,7 +120,7 @@ pub const HELD_ERROR_SCALE: [f32; FAULT_COUNT] = [0.3, 1.0, 0.4, 0.6, 0.5, 0.2, 
 /// its amplitude); the flight control computer's corrections (≤ 2 Hz) by ≈ 10⁻⁸ rad.
 pub const COMMAND_STRIDE: usize = 4;
 
-/// The commanded user-shaft angle [rad] of each sample of a window, as the controller
+/// The commanded user-shaft angle \[rad\] of each sample of a window, as the controller
 /// followed it (a trace's `theta_cmd`), kept every `stride` samples and linear in between
 /// (every sample when `stride` is 1). Past the last kept sample the last value holds. O(1).
 #[derive(Clone, Copy, Debug)]
@@ -214,10 +214,10 @@ impl WindowLoad {
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum WindowReason {
-    /// The measured current reached the drive's limit [A]: the model's loop and the
+    /// The measured current reached the drive's limit \[A\]: the model's loop and the
     /// controller's part.
     CurrentSaturated { peak: f32 },
-    /// The command moved over more than the limits' range [rad]: a manoeuvre, not a
+    /// The command moved over more than the limits' range \[rad\]: a manoeuvre, not a
     /// correction.
     ManoeuvreTooLarge { range: f32 },
     /// The fit left this share of the measured current unexplained (0 … 1).
@@ -243,7 +243,7 @@ pub enum WindowReason {
 pub struct WindowLimits {
     /// Share of the drive's current limit the measured current may reach.
     pub saturation_share: f32,
-    /// The command's largest range over a window [rad].
+    /// The command's largest range over a window \[rad\].
     pub max_command_range: f32,
     /// The largest [`WindowProblem::misfit`] of an identified window.
     pub max_misfit: f32,
@@ -530,7 +530,7 @@ pub struct WindowProblem<'a, const N: usize> {
 pub struct WindowFit {
     /// Eq. (3) after the drift [A²·s].
     pub error: f32,
-    /// The drift's Legendre coefficients [A].
+    /// The drift's Legendre coefficients \[A\].
     pub drift: [f32; DRIFT_TERMS],
 }
 
@@ -599,10 +599,10 @@ pub struct WindowReading {
 /// a spring of the actuator's stiffness): the load fitted at the nominal vector, a GA of
 /// `settings` under it, the load fitted again at the GA's best and a second GA (seed
 /// `seed + 0x5eed`) under that, the better of the two polished by at most
-/// [`POLISH_STEPS`] damped Gauss–Newton steps on the window's curvature (the load's
+/// `POLISH_STEPS` damped Gauss–Newton steps on the window's curvature (the load's
 /// stiffness and moment stepped with the faults by their profiled response), the uncertainty
 /// there and the verdict under `limits`. Bounded: 2 × [`LOAD_SEARCH_EVALUATIONS`], two GA
-/// runs of `settings`, ≤ 2 + 7 × [`CURVATURE_RUNS`] + [`POLISH_STEPS`] model runs and the
+/// runs of `settings`, ≤ 2 + 7 × [`CURVATURE_RUNS`] + `POLISH_STEPS` model runs and the
 /// verdict's two; no allocation (one [`SteadyStateGa`](crate::SteadyStateGa) of `P` on the
 /// stack at a time). [`identify_stepwise`] run to its end: the same bits.
 pub fn identify<const N: usize, const P: usize>(
@@ -753,7 +753,7 @@ async fn search_stepwise<const N: usize, const P: usize>(
 /// Records what the controller would measure over a window of flight if the actuator
 /// behaved exactly like the monitor model `model` (its day and test) with faults `k` under a
 /// spring of `load.stiffness` carrying `load.moment` at the start (no trend, no turbulence),
-/// following `command` over `samples` samples from the motor angle `start_motor` [rad]: three phase currents from
+/// following `command` over `samples` samples from the motor angle `start_motor` \[rad\]: three phase currents from
 /// the equivalent current and the commutation table, quantised into frames and conditioned
 /// into `measured` (cleared first, its test kept). The window identification's inverse
 /// check and its instruction-count bench (`firmware/window-bench`). O(N), one model run.
@@ -792,8 +792,8 @@ pub fn record_monitor_window<const N: usize>(
     measured.finish()
 }
 
-/// A window's command [rad] at sample `index` of period `period` [s]: the flight control
-/// computer's corrections as three tones (0.3, 0.9 and 1.7 Hz, `correction` [rad] RMS
+/// A window's command \[rad\] at sample `index` of period `period` \[s\]: the flight control
+/// computer's corrections as three tones (0.3, 0.9 and 1.7 Hz, `correction` \[rad\] RMS
 /// together) with `chirp` superimposed. For [`record_monitor_window`]'s checks and bench;
 /// a real window's command is what the controller followed (a trace's `theta_cmd`). O(1).
 pub fn synthetic_command(

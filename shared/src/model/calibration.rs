@@ -45,7 +45,7 @@ pub struct Calibration {
     pub friction_points: [[f32; 2]; 4],
     /// Magnet flux coefficient [1/K] (−0.0011 NdFeB, −0.00035 SmCo; 0: not known).
     pub magnet_coefficient: f32,
-    /// The installed controller's timing [s]: how long after a sample the voltages computed
+    /// The installed controller's timing \[s\]: how long after a sample the voltages computed
     /// from it take effect (0 … one control period; a controller that loads each duty at
     /// the next PWM update has one carrier period). `host-sim calibrate` measures it on the
     /// healthy trace's injection; the injection's fit and the monitor model's pair circuits

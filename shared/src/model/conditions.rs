@@ -32,7 +32,7 @@ pub const COPPER_COEFFICIENT: f32 = 0.00393;
 pub const MAX_TURNS_SQUARED: f32 = 1.10;
 
 /// Largest disagreement between the injection's winding temperature and the thermistor's
-/// [K] of an installation the calibration still describes. Measured over the robustness
+/// \[K\] of an installation the calibration still describes. Measured over the robustness
 /// grid (docs/robustness.md): at most 13.4 K on either example actuator, shorts included,
 /// 3 seeds; a controller 25 µs later than its record reads −150 K (the fit's bound).
 pub const MAX_WINDING_DISAGREEMENT: f32 = 20.0;
@@ -44,21 +44,21 @@ pub const MAX_WINDING_DISAGREEMENT: f32 = 20.0;
 /// not the calibrated one (aged, contaminated, another grade), and the healthy friction is
 /// not known.
 pub const DRAG_MARGIN: f32 = 1.25;
-/// Least RMS pair current [A] under which a pair's fit is not trusted (a segment that
+/// Least RMS pair current \[A\] under which a pair's fit is not trusted (a segment that
 /// carried nothing).
 pub const MIN_PAIR_CURRENT: f32 = 0.05;
 /// Samples skipped at the start of each pair's window: the conditioning filter's memory and
 /// the switch from the previous pair.
 const SKIP: usize = 10;
 
-/// One pair's answer to the tone: resistance [Ω] and inductance [H] of the pair circuit, as
+/// One pair's answer to the tone: resistance \[Ω\] and inductance \[H\] of the pair circuit, as
 /// seen through the commanded volts.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct PairImpedance {
     pub resistance: f32,
     pub inductance: f32,
-    /// RMS of the pair's measured current over its window [A].
+    /// RMS of the pair's measured current over its window \[A\].
     pub rms_current: f32,
 }
 
@@ -83,11 +83,11 @@ pub enum WindingEstimate {
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct TestConditions {
-    /// Winding temperature minus the calibration's [K] (estimated: the injection's copper,
+    /// Winding temperature minus the calibration's \[K\] (estimated: the injection's copper,
     /// averaged with the thermistor where the test carries one).
     pub winding_rise: f32,
     /// The injection's own estimate minus the thermistor's reading, both from the
-    /// calibration's [K] (0 without either): beyond [`MAX_WINDING_DISAGREEMENT`] the pair
+    /// calibration's \[K\] (0 without either): beyond [`MAX_WINDING_DISAGREEMENT`] the pair
     /// circuits no longer answer as the calibration's did — another bridge, harness or
     /// controller timing — and the test is outside the domain.
     pub winding_disagreement: f32,
@@ -113,7 +113,7 @@ pub struct TestConditions {
     /// applies, or there is none. The test is then outside the domain
     /// (`crate::model::domain::OutsideReason::GreaseOutOfRange`).
     pub drag_outside_law: Option<f32>,
-    /// What the controller measured: mean temperature [°C] and bus [V].
+    /// What the controller measured: mean temperature [°C] and bus \[V\].
     pub measured_temperature: Option<f32>,
     pub bus_voltage: Option<f32>,
     pub winding: WindingEstimate,
@@ -333,7 +333,7 @@ fn log_law(own: f32, points: &[[f32; 2]; 4], x: f32) -> f32 {
 /// Each pair's R and L from the injection segment of `measured` (control period `dt`): the
 /// regression `y_{k+1} = a·y_k + b·u_k` of the filtered measured pair current `y` on the
 /// volts `u` the pair saw over each period through the same filter, over the pair's window
-/// past [`SKIP`] samples. A controller whose volts take effect `delay` of a period after
+/// past `SKIP` samples. A controller whose volts take effect `delay` of a period after
 /// their sample applies the previous period's for that share of each period: `u` is the
 /// commanded volts blended with the previous period's by `delay` (an R–L circuit whose time
 /// constant is many periods sees the period's mean). O(segment samples), no allocation.

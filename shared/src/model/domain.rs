@@ -34,7 +34,7 @@ pub enum OutsideReason {
     /// design must produce ([`crate::model::conditions::MIN_PAIR_CURRENT`]), or no physical R and L:
     /// the drive did not apply the test (a bridge that could not, an open leg).
     SegmentCarriedNothing { pair: u8 },
-    /// The DC bus the controller measured over the test [V] lies outside
+    /// The DC bus the controller measured over the test \[V\] lies outside
     /// [`DomainLimits::bus_voltage`]: a drive the calibration and the campaigns never saw.
     BusOutOfRange { volts: f32 },
     /// The temperature the controller measured over the test [°C] lies outside
@@ -90,7 +90,7 @@ pub enum OutsideReason {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct LoadSigns {
     /// The unexplained current's mean over the chirp against the measured RMS
-    /// ([`crate::solver::uncertainty::Curvature::load_offset`]); NaN without a chirp.
+    /// ([`CurvatureRun::load_offset`](crate::solver::fitness::CurvatureRun::load_offset)); NaN without a chirp.
     pub offset: f32,
     /// The motor's travel over the standstill segment against the chirp's amplitude at the
     /// motor (gear ratio × amplitude); 0 without a segment.
@@ -183,20 +183,20 @@ impl Domain {
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct DomainLimits {
-    /// Least user-shaft travel of a test that moved [rad].
+    /// Least user-shaft travel of a test that moved \[rad\].
     pub min_travel: f32,
     /// Least ratio of a phase's mean commutated current to the largest phase's.
     pub min_phase_ratio: f32,
     /// Commutated samples each phase needs before the phase check is made.
     pub min_phase_samples: u32,
     /// The phase check needs the largest phase's mean commutated current at least this
-    /// high [A] (with no current at all there is nothing to compare).
+    /// high \[A\] (with no current at all there is nothing to compare).
     pub min_phase_current: f32,
     /// Largest tracking ratio of a test that ran the preflight chirp.
     pub max_tracking: f32,
     /// Largest best fitness of an actuator the monitor model explains [A²·s].
     pub max_fitness: f32,
-    /// The measured DC bus [V] the actuator was calibrated and verified over, `[low, high]`.
+    /// The measured DC bus \[V\] the actuator was calibrated and verified over, `[low, high]`.
     pub bus_voltage: [f32; 2],
     /// The measured temperature [°C] the actuator was calibrated and verified over,
     /// `[low, high]`.
@@ -282,9 +282,9 @@ struct SensorStats {
 /// RMS). A transducer disagreement over 1.5 × the largest play the fault vector expresses
 /// (100 × the nominal backlash) plus 0.5 mrad ([`TRANSDUCER_MARGIN`]).
 pub const ENCODER_HOLD_LIMIT: u32 = 10;
-/// Mean and RMS limits of the phase currents' sum [A] (see [`ENCODER_HOLD_LIMIT`]).
+/// Mean and RMS limits of the phase currents' sum \[A\] (see [`ENCODER_HOLD_LIMIT`]).
 pub const CURRENT_SUM_LIMITS: [f32; 2] = [0.08, 0.06];
-/// Margin of the transducer check [rad] (see [`ENCODER_HOLD_LIMIT`]).
+/// Margin of the transducer check \[rad\] (see [`ENCODER_HOLD_LIMIT`]).
 pub const TRANSDUCER_MARGIN: f32 = 5.0e-4;
 
 impl DomainMonitor {
@@ -375,7 +375,7 @@ impl DomainMonitor {
         self.samples = self.samples.saturating_add(1);
     }
 
-    /// User-shaft travel so far [rad].
+    /// User-shaft travel so far \[rad\].
     pub fn travel(&self) -> f32 {
         if self.samples == 0 {
             0.0
@@ -393,7 +393,7 @@ impl DomainMonitor {
         }
     }
 
-    /// Mean |current| of each phase over the samples it was commutated in [A] (`None` for a
+    /// Mean |current| of each phase over the samples it was commutated in \[A\] (`None` for a
     /// phase with fewer than `min_samples`).
     pub fn phase_means(&self, min_samples: u32) -> [Option<f32>; 3] {
         let mut out = [None; 3];
@@ -409,7 +409,7 @@ impl DomainMonitor {
         out
     }
 
-    /// Largest phase's mean commutated current [A] (0 before any phase has `min_samples`).
+    /// Largest phase's mean commutated current \[A\] (0 before any phase has `min_samples`).
     pub fn largest_phase_mean(&self, min_samples: u32) -> f32 {
         self.phase_means(min_samples)
             .iter()
@@ -456,8 +456,8 @@ impl DomainMonitor {
     }
 
     /// The sensors' statistics so far: the longest run of equal encoder readings (frames),
-    /// the largest encoder step [rad], the phase currents' mean sum and its RMS about the
-    /// mean [A], the transducer's disagreement with the encoder through the gear [rad].
+    /// the largest encoder step \[rad\], the phase currents' mean sum and its RMS about the
+    /// mean \[A\], the transducer's disagreement with the encoder through the gear \[rad\].
     pub fn sensor_statistics(&self) -> (u32, f32, f32, f32, f32) {
         let z = &self.sensors;
         let (mean, variance) = self.current_sum_moments();

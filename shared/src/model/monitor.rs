@@ -45,17 +45,17 @@ use crate::test::test_design::{PreflightTest, StandstillSegment, PAIR_SIGNS};
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct MonitorSample {
-    /// Time of the sample [s].
+    /// Time of the sample \[s\].
     pub time: f32,
-    /// Commanded user-shaft angle [rad].
+    /// Commanded user-shaft angle \[rad\].
     pub command: f32,
-    /// Equivalent (two conducting phases) motor current [A].
+    /// Equivalent (two conducting phases) motor current \[A\].
     pub current: f32,
-    /// Reference current from the controller for the coming period [A].
+    /// Reference current from the controller for the coming period \[A\].
     pub current_ref: f32,
-    /// Motor-shaft angle at the sample [rad].
+    /// Motor-shaft angle at the sample \[rad\].
     pub motor_angle: f32,
-    /// User-shaft angle at the sample [rad].
+    /// User-shaft angle at the sample \[rad\].
     pub user_angle: f32,
 }
 
@@ -83,17 +83,17 @@ pub struct MonitorState {
     /// Motor angle one period earlier (what the shape functions see).
     pub previous_motor_angle: f32,
     pub motor_speed: f32,
-    /// True user-shaft angle [rad] (the aerodynamic load's zero is 0).
+    /// True user-shaft angle \[rad\] (the aerodynamic load's zero is 0).
     pub user_angle: f32,
     pub user_speed: f32,
-    /// Position-transducer offset [rad], constant over a run: the controller and the
+    /// Position-transducer offset \[rad\], constant over a run: the controller and the
     /// recorded samples see `user_angle + user_offset`.
     pub user_offset: f32,
     pub current: f32,
     pub position_integral: f32,
     pub previous_error: f32,
     pub speed_integral: f32,
-    /// Phase currents measured at the standstill segment's first fitted frame [A] (its first
+    /// Phase currents measured at the standstill segment's first fitted frame \[A\] (its first
     /// step starts there; the model holds them through the settle).
     pub start_currents: [f32; 3],
 }
@@ -426,7 +426,7 @@ impl MonitorModel {
     }
 
     /// A run that starts in equilibrium under a moment `moment` [N·m] on the surface, with
-    /// the shafts at `start` and the first command `command` [rad]: the surface where the
+    /// the shafts at `start` and the first command `command` \[rad\]: the surface where the
     /// spring gives the moment, the gear pressed against the flank that carries it and
     /// deflected by it, the motor current that holds it in the speed loop's integrator, the
     /// position loop's integrator where it asks no speed. The model this run must be stepped
@@ -576,7 +576,7 @@ impl MonitorModel {
         ControlFlow::Continue(lead)
     }
 
-    /// Simulates `out.len()` samples and writes the equivalent current [A] into `out`.
+    /// Simulates `out.len()` samples and writes the equivalent current \[A\] into `out`.
     pub fn simulate(&self, k: &FaultVector, out: &mut [f32]) {
         let mut slots = out.iter_mut();
         self.run(k, slots.len(), |s| {
@@ -682,7 +682,7 @@ impl MonitorModel {
 }
 
 /// What a loaded start ([`MonitorModel::start_loaded_run`]) changes in the model its run is
-/// stepped with: the surface's spring [N·m/rad] and the rigging offset [rad].
+/// stepped with: the surface's spring [N·m/rad] and the rigging offset \[rad\].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RunRigging {
     pub load_stiffness: f32,
@@ -748,7 +748,7 @@ impl MonitorRun {
         self.state.user_speed += m.dt_over_user_inertia * moment;
     }
 
-    /// Puts the surface where its sensor read it for the coming step: `measured` [rad] as
+    /// Puts the surface where its sensor read it for the coming step: `measured` \[rad\] as
     /// the sensor reads it (the run's transducer offset taken off), moving at `speed`
     /// [rad/s]. The gear then carries what the motor's side and the measured surface make
     /// of it, whatever moment moved the surface. O(1).
@@ -768,7 +768,7 @@ impl MonitorRun {
     }
 
     /// The next sample of the test of model `m` (the one that started this run): the
-    /// standstill segment's, then the chirp's with the commanded user angle `command` [rad]
+    /// standstill segment's, then the chirp's with the commanded user angle `command` \[rad\]
     /// (ignored during the segment). O(1).
     pub fn next_sample(&mut self, m: &MonitorModel, command: f32) -> MonitorSample {
         let lead = m.lead_samples();

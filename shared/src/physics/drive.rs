@@ -1,7 +1,7 @@
 //! The power bridge the controller drives, as the actuator record carries it: the PWM
-//! carrier [Hz] (centre-aligned), the dead time [s] at every switching edge, and whether
+//! carrier \[Hz\] (centre-aligned), the dead time \[s\] at every switching edge, and whether
 //! the controller adds the dead time back by the measured current's sign, beyond a current
-//! threshold [A]. Plain data; the checks are O(1) (the threshold's, finite and at least 0,
+//! threshold \[A\]. Plain data; the checks are O(1) (the threshold's, finite and at least 0,
 //! is the record's non-negative check).
 //!
 //! The board (firmware feature `hardware`) sets its bridge timer from these values; the
@@ -12,13 +12,13 @@
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct DriveSettings {
-    /// PWM carrier [Hz], centre-aligned (the counter runs up and down once per period).
+    /// PWM carrier \[Hz\], centre-aligned (the counter runs up and down once per period).
     pub carrier_hz: f32,
-    /// Both switches of a leg off at every edge [s].
+    /// Both switches of a leg off at every edge \[s\].
     pub dead_time: f32,
     /// Whether the controller adds the dead time back by the measured current's sign.
     pub compensation: bool,
-    /// Measured current below which the sign is unknown and nothing is added [A].
+    /// Measured current below which the sign is unknown and nothing is added \[A\].
     pub compensation_threshold: f32,
 }
 

@@ -242,7 +242,7 @@ pub struct FaultEffects {
     pub healthy_turns: [f32; 3],
     /// Normalised eccentricity amplitude Z (0 … [`ECCENTRICITY_Z_MAX`]).
     pub eccentricity_z: f32,
-    /// Eccentricity phase φ [rad] (−π … π): angle from phase A to the minimum air gap.
+    /// Eccentricity phase φ \[rad\] (−π … π): angle from phase A to the minimum air gap.
     pub eccentricity_phase: f32,
     /// Multiplier of the position-loop proportional gain (0.5 … 1.5).
     pub kp_scale: f32,

@@ -5,7 +5,7 @@
 //! thermistor is not (docs/identifiability.md §0c).
 //!
 //! Over blocks of [`BLOCK`] samples in which the motor turns one way (no stop, no reversal),
-//! in equivalent current [A], motor angle θ_m and user angle θ_u [rad], one sample per
+//! in equivalent current \[A\], motor angle θ_m and user angle θ_u \[rad\], one sample per
 //! control period:
 //!
 //! `ī = a·Δω_m + c·sgn ω_m + b·Δθ_m + s·θ̄_u + u·Δω_u + o`
@@ -98,7 +98,7 @@ impl ChirpTorqueFit {
         blocks: 0,
     };
 
-    /// One chirp frame: equivalent current [A], motor and user angles [rad]. O(1); a block's
+    /// One chirp frame: equivalent current \[A\], motor and user angles \[rad\]. O(1); a block's
     /// 27 multiply-adds every [`BLOCK`] frames.
     pub fn push(&mut self, current: f32, motor_angle: f32, user_angle: f32) {
         if self.frames >= 2 {

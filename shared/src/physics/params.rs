@@ -21,21 +21,21 @@ pub const PARAM_WORDS: usize = 27;
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ActuatorParams {
     // ---- power drive and motor ----
-    /// DC bus voltage available to the inverter [V].
+    /// DC bus voltage available to the inverter \[V\].
     pub dc_bus_voltage: f32,
     /// Number of rotor pole pairs P (electrical angle θ_e = P · θ_motor).
     pub pole_pairs: f32,
-    /// Resistance of one stator phase [Ω].
+    /// Resistance of one stator phase \[Ω\].
     pub phase_resistance: f32,
-    /// Self inductance of one stator phase (minus mutual) [H].
+    /// Self inductance of one stator phase (minus mutual) \[H\].
     pub phase_inductance: f32,
     /// Back-EMF constant of one phase, flat top of the trapezoid [V·s/rad, motor side].
     /// Two phases conduct in series, so the equivalent torque constant is `2 · k_e` [N·m/A].
     pub back_emf_constant: f32,
-    /// Saturation of the reference current I_ref [A].
+    /// Saturation of the reference current I_ref \[A\].
     pub max_current: f32,
     /// Winding layout: mechanical angle of the centre of each phase's coil group (A, B, C)
-    /// [rad]. Each phase's coils sit side by side in its own third of the stator (a modular,
+    /// \[rad\]. Each phase's coils sit side by side in its own third of the stator (a modular,
     /// fault-tolerant winding); what an eccentric air gap does to a phase depends on where
     /// its coils are.
     pub winding_group_angle: [f32; 3],
@@ -51,7 +51,7 @@ pub struct ActuatorParams {
     pub gear_stiffness: f32,
     /// Viscous damping of the gear train in contact, user side [N·m·s/rad].
     pub gear_damping: f32,
-    /// Nominal total backlash (free play) of the gear train, user side [rad].
+    /// Nominal total backlash (free play) of the gear train, user side \[rad\].
     pub nominal_backlash: f32,
     /// Nominal static (break-away) dry-friction torque, lumped at the motor [N·m].
     pub static_friction: f32,
@@ -81,7 +81,7 @@ pub struct ActuatorParams {
     pub speed_kp: f32,
     /// Speed-loop integral gain [A / rad].
     pub speed_ki: f32,
-    /// Control (and ADC) period [s].
+    /// Control (and ADC) period \[s\].
     pub control_period: f32,
 }
 

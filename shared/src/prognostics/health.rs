@@ -133,8 +133,8 @@ pub struct HealthRecord {
 /// [`HealthRecord::window`] of a flight's reading from its windows.
 pub const FLIGHT_READING: u8 = u8::MAX;
 
-/// The test's day as a record stores it: the measured bus [V] and temperature [°C] and the
-/// winding's estimated rise from the calibration's temperature [K], each rounded to 0.01
+/// The test's day as a record stores it: the measured bus \[V\] and temperature [°C] and the
+/// winding's estimated rise from the calibration's temperature \[K\], each rounded to 0.01
 /// (bus 0 … 655.34 V, the others ±327.67) or absent (not measured, or a record before
 /// version 3).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -178,7 +178,7 @@ impl RecordedDay {
         )
     }
 
-    /// The measured bus [V].
+    /// The measured bus \[V\].
     pub fn bus_voltage(&self) -> Option<f32> {
         (self.bus != u16::MAX).then(|| f32::from(self.bus) * 0.01)
     }
@@ -188,7 +188,7 @@ impl RecordedDay {
         (self.temperature != i16::MIN).then(|| f32::from(self.temperature) * 0.01)
     }
 
-    /// The winding's estimated rise from the calibration's temperature [K].
+    /// The winding's estimated rise from the calibration's temperature \[K\].
     pub fn winding_rise(&self) -> Option<f32> {
         (self.winding_rise != i16::MIN).then(|| f32::from(self.winding_rise) * 0.01)
     }

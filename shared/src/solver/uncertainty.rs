@@ -174,7 +174,7 @@ pub struct Uncertainty {
     /// Largest |correlation| between two fault components (not the phase), and the pair.
     pub worst_correlation: f32,
     pub worst_pair: (u8, u8),
-    /// Residual standard deviation per fitted sample [A] (before inflation).
+    /// Residual standard deviation per fitted sample \[A\] (before inflation).
     pub residual_std: f32,
 }
 
@@ -360,7 +360,7 @@ impl Uncertainty {
 pub struct Curvature {
     /// `JᵀWJ` of the model's current w.r.t. each component [A² per unit²].
     pub normal: [[f64; FAULT_COUNT]; FAULT_COUNT],
-    /// Weighted residual sum of squares at the identified vector [A²].
+    /// Weighted residual sum of squares at the identified vector \[A²\].
     pub rss: f64,
     /// `JᵀW r`, `r` = measured − modelled at the identified vector [A² per unit]: with
     /// `normal`, a Gauss–Newton step ([`Curvature::gauss_newton_step`]).

@@ -15,11 +15,11 @@ use crate::base::math::{frac, sin, sin_turns, TAU};
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ChirpCommand {
-    /// Amplitude at the user shaft [rad].
+    /// Amplitude at the user shaft \[rad\].
     pub amplitude: f32,
-    /// Frequency reached at `duration` [Hz].
+    /// Frequency reached at `duration` \[Hz\].
     pub end_frequency: f32,
-    /// Length of the test [s].
+    /// Length of the test \[s\].
     pub duration: f32,
 }
 
@@ -31,7 +31,7 @@ impl ChirpCommand {
         duration: 0.5,
     };
 
-    /// Commanded user-shaft angle [rad] at time `t` [s]. Zero before the start; after
+    /// Commanded user-shaft angle \[rad\] at time `t` \[s\]. Zero before the start; after
     /// `duration` the chirp simply continues (callers stop at `duration`).
     pub fn position(&self, t: f32) -> f32 {
         if t <= 0.0 || self.duration <= 0.0 {
@@ -56,7 +56,7 @@ impl ChirpCommand {
         }
     }
 
-    /// Instantaneous frequency [Hz] at time `t`.
+    /// Instantaneous frequency \[Hz\] at time `t`.
     pub fn frequency(&self, t: f32) -> f32 {
         if self.duration <= 0.0 {
             return 0.0;
@@ -71,7 +71,7 @@ impl Default for ChirpCommand {
     }
 }
 
-/// Where the monitor model reads the commanded user-shaft angle [rad] of chirp sample
+/// Where the monitor model reads the commanded user-shaft angle \[rad\] of chirp sample
 /// `index` (time `index · dt`). O(1) per call.
 pub trait CommandSource {
     fn position_at(&self, index: usize) -> f32;
@@ -80,7 +80,7 @@ pub trait CommandSource {
 /// The chirp at sample indices of a fixed period, as the monitor model plays it: sample `i`
 /// is `A · sin(2π · k · i²)` with `k = f_end · period² / (2T)` turns, the phase of
 /// [`ChirpCommand::position`] at `t = i · period` computed from the index, and the same
-/// parabolic sine evaluated on turns ([`sin_turns`](crate::base::math::sin_turns)), so no time,
+/// parabolic sine evaluated on turns ([`crate::base::math::sin_turns`]), so no time,
 /// division or reduction by 2π is needed per sample. It models the controller's command
 /// (`position(i · period)`, unchanged) within 10⁻⁷ rad, 2·10⁻⁵ of the amplitude
 /// (`sampler_follows_the_chirp`).
@@ -92,7 +92,7 @@ pub struct ChirpSampler {
 }
 
 impl ChirpSampler {
-    /// Commanded user-shaft angle [rad] at sample `index` (0 at index 0). O(1).
+    /// Commanded user-shaft angle \[rad\] at sample `index` (0 at index 0). O(1).
     #[inline(always)]
     pub fn at(&self, index: usize) -> f32 {
         let n = index as f32;
@@ -140,7 +140,7 @@ impl<const N: usize> CommandTable<N> {
         &self.command
     }
 
-    /// The sampling period [s].
+    /// The sampling period \[s\].
     pub fn period(&self) -> f32 {
         self.period
     }

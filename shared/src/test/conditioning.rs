@@ -34,7 +34,7 @@ pub const COMMUTATION_SIGNS: [[i8; 3]; 6] = [
     [-1, 1, 0],
 ];
 
-/// Commutation sector `0..6` of an electrical angle [rad] (any value; NaN maps to sector 0).
+/// Commutation sector `0..6` of an electrical angle \[rad\] (any value; NaN maps to sector 0).
 #[inline]
 pub fn commutation_sector(theta_e: f32) -> usize {
     // Sector boundaries sit at odd multiples of 30°: shift by half a sector, then divide.
@@ -52,17 +52,17 @@ pub fn commutation_signs(theta_e: f32) -> [i8; 3] {
     }
 }
 
-/// One acquisition, in fixed point as the controller holds it: the three phase currents [A]
-/// and the motor-shaft angle [rad], each `I16F16` (±32 768, resolution 15 µA / 15 µrad), and
-/// the user-shaft angle [rad] from the position transducer, `I4F28` (±8, resolution 3.7 nrad).
-/// An `I16F16` reading (a phase current [A], the motor-shaft angle [rad]) as `f32`: the bits
+/// One acquisition, in fixed point as the controller holds it: the three phase currents \[A\]
+/// and the motor-shaft angle \[rad\], each `I16F16` (±32 768, resolution 15 µA / 15 µrad), and
+/// the user-shaft angle \[rad\] from the position transducer, `I4F28` (±8, resolution 3.7 nrad).
+/// An `I16F16` reading (a phase current \[A\], the motor-shaft angle \[rad\]) as `f32`: the bits
 /// rounded to nearest by the integer conversion, then the exact power-of-two scale — the value
 /// `fixed`'s `to_num::<f32>()` gives, without its generic helper in the firmware's flash.
 pub fn i16f16_to_f32(x: I16F16) -> f32 {
     x.to_bits() as f32 * (1.0 / 65_536.0)
 }
 
-/// An `I4F28` reading (the user-shaft angle [rad]) as `f32`, as [`i16f16_to_f32`].
+/// An `I4F28` reading (the user-shaft angle \[rad\]) as `f32`, as [`i16f16_to_f32`].
 pub fn i4f28_to_f32(x: I4F28) -> f32 {
     x.to_bits() as f32 * (1.0 / 268_435_456.0)
 }
@@ -81,7 +81,7 @@ pub struct AdcFrame {
 /// The bus voltage and temperature the controller measured at one sample.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub struct ConditionReading {
-    /// DC bus voltage [V].
+    /// DC bus voltage \[V\].
     pub bus_voltage: I16F16,
     /// Temperature [°C].
     pub temperature: I16F16,
@@ -113,7 +113,7 @@ impl AdcFrame {
     }
 }
 
-/// The angles of the two shafts [rad] as the controller measures them: the motor shaft
+/// The angles of the two shafts \[rad\] as the controller measures them: the motor shaft
 /// (encoder) and the user shaft (position transducer, offset included). The monitor model
 /// starts each test from the first sample's: where the rotor sits sets commutation and the
 /// shape functions, and where the gear sits inside its play sets the first backlash crossing.
@@ -123,7 +123,7 @@ pub struct ShaftAngles {
     pub motor: f32,
     pub user: f32,
     /// Phase currents where a standstill segment's first fitted step starts, past its settle
-    /// [A]: the first pair's filtered current as A = +i, B = −i (what the hold before the
+    /// \[A\]: the first pair's filtered current as A = +i, B = −i (what the hold before the
     /// test and the rotor's motion during the settle left in the windings).
     pub currents: [f32; 3],
 }
@@ -137,7 +137,7 @@ impl ShaftAngles {
     };
 }
 
-/// Sign-preserving equivalent current [A] of one sample (module docs).
+/// Sign-preserving equivalent current \[A\] of one sample (module docs).
 #[inline]
 pub fn equivalent_current(phase_currents: [f32; 3], theta_e: f32) -> f32 {
     let s = commutation_signs(theta_e);
@@ -195,7 +195,7 @@ impl LowPass {
         a2: 0.0,
     };
 
-    /// Default cutoff of the equivalent-current filter [Hz]: well above the chirp and the
+    /// Default cutoff of the equivalent-current filter \[Hz\]: well above the chirp and the
     /// electrical-angle signatures of the faults (≤ ~300 Hz during the test), well below the
     /// switching ripple.
     pub const DEFAULT_CUTOFF_HZ: f32 = 1000.0;
@@ -254,7 +254,7 @@ impl ConditionSums {
         count: 0,
     };
 
-    /// Adds one reading (`I16F16` bits of the bus [V] and temperature [°C]). O(1).
+    /// Adds one reading (`I16F16` bits of the bus \[V\] and temperature [°C]). O(1).
     pub fn push(&mut self, bus_bits: i32, temperature_bits: i32) {
         self.bus_bits = self.bus_bits.saturating_add(i64::from(bus_bits));
         self.temperature_bits = self
@@ -268,7 +268,7 @@ impl ConditionSums {
         (self.count > 0).then(|| bits as f32 / (65_536.0 * self.count as f32))
     }
 
-    /// Mean bus voltage over the test [V], if the test carried it.
+    /// Mean bus voltage over the test \[V\], if the test carried it.
     pub fn bus_voltage(&self) -> Option<f32> {
         self.mean(self.bus_bits)
     }
@@ -280,7 +280,7 @@ impl ConditionSums {
 }
 
 /// The conditioned measured current of one test, ready for the fitness: at most `N` filtered
-/// equivalent-current samples [A] plus the derivative normalisation of eq. (3).
+/// equivalent-current samples \[A\] plus the derivative normalisation of eq. (3).
 ///
 /// Filled sample by sample (`push_*` hands the sample back when full), then sealed with
 /// [`finish`](Self::finish). Memory: `4·N` bytes plus a few words; no allocation.
@@ -347,7 +347,7 @@ impl<const N: usize> MeasuredCurrent<N> {
         }
     }
 
-    /// How far the motor turned over the standstill segment [rad] (0 without one): with the
+    /// How far the motor turned over the standstill segment \[rad\] (0 without one): with the
     /// position loop suspended only a moment on the surface (or the rotor settling in the
     /// gear's play) moves it.
     pub fn standstill_travel(&self) -> f32 {
@@ -438,7 +438,7 @@ impl<const N: usize> MeasuredCurrent<N> {
         }
     }
 
-    /// Filters and stores one equivalent-current sample [A]; hands it back when full.
+    /// Filters and stores one equivalent-current sample \[A\]; hands it back when full.
     pub fn push_equivalent(&mut self, current: f32) -> Result<(), f32> {
         if self.samples.is_full() {
             return Err(current);
@@ -482,7 +482,7 @@ impl<const N: usize> MeasuredCurrent<N> {
         Ok(())
     }
 
-    /// The filtered samples [A].
+    /// The filtered samples \[A\].
     pub fn samples(&self) -> &[f32] {
         &self.samples
     }

@@ -40,17 +40,17 @@ pub const PAIR_SIGNS: [[i8; 3]; 3] = [[1, -1, 0], [0, 1, -1], [-1, 0, 1]];
 pub struct PairDrive {
     /// Index into [`PAIR_SIGNS`].
     pub pair: usize,
-    /// Line voltage across the pair, `+` phase minus `−` phase [V]: the step's, or the
+    /// Line voltage across the pair, `+` phase minus `−` phase \[V\]: the step's, or the
     /// tone's amplitude; 0 while the pair freewheels.
     pub volts: f32,
-    /// Tone frequency [Hz]; 0 for a step.
+    /// Tone frequency \[Hz\]; 0 for a step.
     pub frequency: f32,
     /// Control periods since the voltage came on (the tone's phase).
     pub on_index: u16,
 }
 
 impl PairDrive {
-    /// The line voltage commanded over this control period [V], at control period `dt` [s]:
+    /// The line voltage commanded over this control period \[V\], at control period `dt` \[s\]:
     /// the step's volts, or `volts · cos(2π·f·(on_index + ½)·dt)` (the tone sampled at the
     /// period's centre, so that the held value is the period's mean to second order). O(1).
     #[inline(never)]
@@ -77,9 +77,9 @@ impl PairDrive {
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct StandstillSegment {
-    /// Line voltage of the step, or amplitude of the tone [V].
+    /// Line voltage of the step, or amplitude of the tone \[V\].
     pub volts: f32,
-    /// Frequency of the tone [Hz]; 0 for steps.
+    /// Frequency of the tone \[Hz\]; 0 for steps.
     pub frequency: f32,
     /// Control periods at zero volts on the first pair before the steps: the rotor, which
     /// the position hold may leave hunting inside the gear's play, comes to rest (the
@@ -162,7 +162,7 @@ impl StandstillSegment {
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct MotionSegment {
-    /// Plateau angle at the user shaft [rad].
+    /// Plateau angle at the user shaft \[rad\].
     pub amplitude: f32,
     /// Control periods of one ramp from 0 to ±A (the ±A → ∓A ramp takes twice as long).
     pub ramp_samples: u16,
@@ -183,7 +183,7 @@ impl MotionSegment {
         4 * self.ramp_samples as usize + 3 * self.hold_samples as usize
     }
 
-    /// Commanded user angle at sample `index` [rad] (0 past the end).
+    /// Commanded user angle at sample `index` \[rad\] (0 past the end).
     pub fn position(&self, index: usize) -> f32 {
         let r = self.ramp_samples as usize;
         let h = self.hold_samples as usize;
@@ -224,7 +224,7 @@ pub const TEST_NAMES: [&str; 8] = [
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Drive {
-    /// Position loop closed on this user-shaft angle [rad].
+    /// Position loop closed on this user-shaft angle \[rad\].
     Position(f32),
     /// Position loop suspended, this voltage across this pair.
     Pair(PairDrive),
@@ -285,7 +285,7 @@ impl PreflightTest {
             .saturating_add(self.motion.map_or(0, |m| m.samples()))
     }
 
-    /// Control periods of the chirp at control period `dt` [s].
+    /// Control periods of the chirp at control period `dt` \[s\].
     /// A chirp too long to count (`duration / dt` beyond `usize`, or infinite) reads as
     /// `usize::MAX`, never as 0; NaN or a negative duration is 0.
     pub fn chirp_samples(&self, dt: f32) -> usize {
@@ -305,7 +305,7 @@ impl PreflightTest {
     }
 
     /// What the controller commands during sample `index` of the test, at control period
-    /// `dt` [s]. O(1).
+    /// `dt` \[s\]. O(1).
     pub fn drive(&self, index: usize, dt: f32) -> Drive {
         let mut i = index;
         if let Some(s) = self.standstill {

@@ -10,7 +10,7 @@
 //! | 4 | 2 | format version, `u16`: 1, 2 or 3 |
 //! | 6 | 1 | columns per row, `u8`: 6 (versions 1, 2), 8 (version 3) |
 //! | 7 | 1 | versions 2, 3: the test design's kind ([`PreflightTest::kind`]); version 1: 0 |
-//! | 8 | 4 | sample rate [Hz], `u32` (10 000) |
+//! | 8 | 4 | sample rate \[Hz\], `u32` (10 000) |
 //! | 12 | 4 | number of rows, `u32` |
 //! | 16 | 24 or 32 · rows | rows, 6 or 8 × `i32` each (below) |
 //! | end | 4 | CRC-32 (IEEE 802.3) of every byte before it |
@@ -21,11 +21,11 @@
 //! are still written as version 1.
 //!
 //! A row is the sample at `t = index / sample_rate`, six fixed-point numbers stored as the
-//! `i32` of their bits: commanded user angle θ_cmd [rad] as `I4F28`, phase currents i_a, i_b,
-//! i_c [A] as `I16F16`, motor-shaft angle θ_m [rad] as `I16F16`, user-shaft angle θ_u [rad] as
+//! `i32` of their bits: commanded user angle θ_cmd \[rad\] as `I4F28`, phase currents i_a, i_b,
+//! i_c \[A\] as `I16F16`, motor-shaft angle θ_m \[rad\] as `I16F16`, user-shaft angle θ_u \[rad\] as
 //! `I4F28`. The currents and the two angles are exactly the controller's [`AdcFrame`].
 //! Version 3 adds what the controller measured of its day, both `I16F16`: the DC bus voltage
-//! [V] and a temperature [°C] (a winding thermistor, or the board).
+//! \[V\] and a temperature [°C] (a winding thermistor, or the board).
 
 use fixed::types::{I16F16, I4F28};
 
@@ -71,11 +71,11 @@ pub enum TraceError {
     SaturatedCurrent { phase: u8, first_row: u32 },
 }
 
-/// The controller's phase-current ADC range [A]: ±20 A, 12 bits (SPEC §4 sensors).
+/// The controller's phase-current ADC range \[A\]: ±20 A, 12 bits (SPEC §4 sensors).
 pub const CURRENT_FULL_SCALE: f32 = 20.0;
-/// One count of the phase-current ADC [A].
+/// One count of the phase-current ADC \[A\].
 pub const CURRENT_LSB: f32 = 2.0 * CURRENT_FULL_SCALE / 4096.0;
-/// A reading at least this large in magnitude is a clipped one [A] (full scale less 2 counts).
+/// A reading at least this large in magnitude is a clipped one \[A\] (full scale less 2 counts).
 pub const SATURATION_LEVEL: f32 = CURRENT_FULL_SCALE - 2.0 * CURRENT_LSB;
 /// Clipped readings of one phase in a row that make a trace unusable: 1 ms at 10 kHz. A
 /// single clipped sample (a spike) passes; a stretch means the real current is unknown.
@@ -123,7 +123,7 @@ impl SaturationCheck {
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct TraceHeader {
-    /// Sample rate [Hz].
+    /// Sample rate \[Hz\].
     pub sample_rate_hz: u32,
     /// Number of rows that follow.
     pub rows: u32,
@@ -199,7 +199,7 @@ impl TraceHeader {
         }
     }
 
-    /// Total file length this header announces [bytes].
+    /// Total file length this header announces \[bytes\].
     pub fn file_bytes(&self) -> u64 {
         (HEADER_BYTES + TRAILER_BYTES) as u64 + self.row_bytes() as u64 * u64::from(self.rows)
     }
@@ -221,13 +221,13 @@ impl TraceHeader {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 // No defmt derive: `fixed` numbers do not implement `defmt::Format`.
 pub struct TraceRow {
-    /// Commanded user-shaft angle [rad].
+    /// Commanded user-shaft angle \[rad\].
     pub command: I4F28,
-    /// Phase currents i_a, i_b, i_c [A].
+    /// Phase currents i_a, i_b, i_c \[A\].
     pub phase_currents: [I16F16; 3],
-    /// Motor-shaft angle [rad].
+    /// Motor-shaft angle \[rad\].
     pub motor_angle: I16F16,
-    /// User-shaft angle [rad].
+    /// User-shaft angle \[rad\].
     pub user_angle: I4F28,
     /// What the controller measured of its day, where the trace carries it (version 3).
     pub conditions: Option<ConditionReading>,

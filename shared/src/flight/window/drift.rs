@@ -54,7 +54,7 @@ pub(super) fn axis_step(n: usize) -> f32 {
     2.0 / n.saturating_sub(SETTLE_SAMPLES + 1).max(1) as f32
 }
 
-/// Fitted samples per block of the drift's expansion ([`TaylorBlock`]).
+/// Fitted samples per block of the drift's expansion (`TaylorBlock`).
 pub const DRIFT_BLOCK: usize = 16;
 
 /// `Σ a·b` over the drift's terms.
@@ -182,8 +182,8 @@ pub(super) struct PinnedSurface<'m, 'a, 'c> {
     pub(super) trajectory: &'m mut [f32],
 }
 
-/// What the sensors read of a window's shafts, per sample: the surface's angle [rad] and
-/// speed [rad/s], the motor's unwrapped angle [rad].
+/// What the sensors read of a window's shafts, per sample: the surface's angle \[rad\] and
+/// speed [rad/s], the motor's unwrapped angle \[rad\].
 #[derive(Clone, Copy, Debug)]
 pub struct SurfaceSamples<'m> {
     pub angles: &'m [f32],

@@ -8,7 +8,7 @@ use super::*;
 impl<'a, const N: usize> WindowProblem<'a, N> {
     /// Fits the load at fault vector `k`: a golden-section search of the stiffness (from a
     /// third to three times `stiffness_guess`) and of the moment (±50 % of the held moment),
-    /// [`TREND_ROUNDS`] fixed-point rounds that move the drift the fit profiled out into the
+    /// `TREND_ROUNDS` fixed-point rounds that move the drift the fit profiled out into the
     /// load (its value at the start into the moment, its change into the trend: the model
     /// then plays the slow hinge moment, backlash crossings where they happen), the stiffness
     /// again near the first, and the trend's rounds again. [`LOAD_SEARCH_EVALUATIONS`]

@@ -164,7 +164,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
     /// moment at all: the surface is put, each sample, where its sensor read it, so the gear
     /// carries whatever moved it; `load` sets where the run starts in the play. Also returns
     /// the mean and the mean square of the run's motor angle against the measured [rad,
-    /// rad²] over the samples stepped past the test's lead; the run's motor angle [rad]
+    /// rad²] over the samples stepped past the test's lead; the run's motor angle \[rad\]
     /// goes to `trajectory`, as far as it reaches. For studies (host-sim's example
     /// `window_pinned`, docs/in-flight.md); not flown. O(samples).
     pub fn evaluate_with_surface_samples(
@@ -313,7 +313,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
     }
 
     /// The window as fitted at `k` under the problem's load: for every sample, the time
-    /// [s], the measured current, the model's and the model's with the profiled drift [A]
+    /// \[s\], the measured current, the model's and the model's with the profiled drift \[A\]
     /// (all filtered alike), handed to `sink`. Two model runs (the drift, then the trace).
     pub fn fitted(&self, k: &FaultVector, mut sink: impl FnMut(f32, f32, f32, f32)) {
         let k = &self.held.apply(k);
