@@ -137,7 +137,9 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
-    /// Identify the faults behind a trace with the onboard FDI (firmware code and settings).
+    /// Identify the nine faults behind a trace with the onboard FDI (firmware code and
+    /// settings): a preflight, or a window of flight (`# test: flight`) read with its
+    /// flight's preflight (--preflight) and fused with its other windows (--same-flight).
     Identify {
         /// Trace (CSV or binary).
         trace: PathBuf,
@@ -390,9 +392,11 @@ enum Command {
         #[arg(long, value_name = "FILE.toml")]
         write: Option<PathBuf>,
     },
-    /// Optimiser comparison on the same fitness and traces (paper Table I cases): our
-    /// steady-state GA, a generational GA configured as the paper's MATLAB `ga`, and
-    /// DE/rand/1/bin. Prints evaluations to reach the target e_tot and e_tot at fixed budgets.
+    /// Optimiser comparison on the same fitness and traces (paper Table I cases): the flown
+    /// solver (the steady-state GA and its polish), the GA alone, a generational GA configured
+    /// as the paper's MATLAB `ga`, DE/rand/1/bin, CMA-ES with IPOP restarts (`cmaes`), and
+    /// `metaheuristics-nature`'s DE and PSO. Prints evaluations to reach the target e_tot and
+    /// e_tot at fixed budgets.
     Optimisers {
         /// Seeds per case (reference-model seed r, solver seed 1 + r).
         #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=100))]
