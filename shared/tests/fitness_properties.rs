@@ -1,4 +1,4 @@
-//! Property tests: any fault vector in [0, 1]^8 against any finite trace the controller can
+//! Property tests: any fault vector in [0, 1]^9 against any finite trace the controller can
 //! hold gives a finite fitness, with and without a bound, and the conditioning and the
 //! monitor model never panic on the way. "Any trace" covers the whole fixed-point range of
 //! every ADC word (raw bits), ordinary currents and angles, and flat or spiky stretches.
