@@ -403,6 +403,13 @@ pub(crate) enum SourceArg {
     Monitor,
 }
 
+/// Where `campaign --physics` takes the reference model's nuisance physics from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum PhysicsFamily {
+    /// Seeded draws from the family `host_sim::studies::physics::PhysicsDraw::draw` states.
+    Random,
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub(crate) enum CampaignTable {
     #[value(name = "1")]

@@ -196,6 +196,16 @@ pub(crate) fn calibrate_command(
             1e6 * file.duty_delay
         );
     }
+    if let Some(held) = file.held_at_data_sheet {
+        println!(
+            "R and L held       at the data sheet's: the free fit ran them to ×{:.3} and ×{:.3} \
+             (a bound) for a mismatch of {:.2} %, held {:.2} % — the chirp does not tell them",
+            held.free_resistance,
+            held.free_inductance,
+            100.0 * held.free_mismatch,
+            100.0 * held.held_mismatch
+        );
+    }
     println!(
         "mismatch (relative RMS of the filtered equivalent current): {:.2} % before, {:.2} % after",
         100.0 * file.mismatch_before,

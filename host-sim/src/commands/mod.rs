@@ -9,6 +9,7 @@ pub(crate) mod domain;
 pub(crate) mod fleet;
 pub(crate) mod identify;
 pub(crate) mod import;
+pub(crate) mod physics;
 pub(crate) mod plot;
 pub(crate) mod prognostics;
 pub(crate) mod simulate;

@@ -64,6 +64,10 @@ pub struct CalibrationFile {
     /// [rad, motor side]: `identify --calibration` uses it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub encoder_offset: Option<f32>,
+    /// When the chirp did not determine the resistance and inductance scales: the free fit's
+    /// values at their bound, held at the data sheet's instead ([`HeldScales`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub held_at_data_sheet: Option<HeldScales>,
     /// Relative RMS mismatch of the filtered equivalent current, nominal vector, before and
     /// after calibration [-].
     pub mismatch_before: f64,
@@ -71,6 +75,24 @@ pub struct CalibrationFile {
     /// Monitor-model runs the fit took.
     pub evaluations: u32,
 }
+
+/// A fit whose resistance or inductance scale ran into its bound, held at the data sheet's
+/// (×1) because that explains the trace as well: the chirp's current loop hides R and L, so
+/// its valley is flat along them, and a bound reached there says nothing of the actuator.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct HeldScales {
+    /// The free fit's resistance and inductance scales.
+    pub free_resistance: f32,
+    pub free_inductance: f32,
+    /// The free fit's relative mismatch, and the held one's [-].
+    pub free_mismatch: f64,
+    pub held_mismatch: f64,
+}
+
+/// How much more mismatch, relative, a fit with the resistance and inductance scales held
+/// at the data sheet's may leave than the free fit that ran into a bound and still be taken
+/// (5 %: the healthy reference actuator's mismatch is 3.0 %, so 0.15 points).
+pub const HELD_TOLERANCE: f64 = 0.05;
 
 fn one() -> f32 {
     1.0
@@ -378,7 +400,36 @@ pub fn calibrate(
             Err(_) => f64::INFINITY,
         }
     };
-    let best = nelder_mead(&mut cost, [0.0, 0.0, 0.0, 0.0, 0.1], 0.1, MAX_EVALUATIONS);
+    let mut best = nelder_mead(&mut cost, [0.0, 0.0, 0.0, 0.0, 0.1], 0.1, MAX_EVALUATIONS);
+    let at_bound = |x: &[f64; 5]| x[..4].iter().any(|v| v.abs() >= 0.99 * LOG_BOUND);
+    // The chirp's current loop hides R and L: a fit that ran into their bound may sit on a
+    // flat valley. Held at the data sheet's, with the other three free, it is taken when it
+    // explains the trace as well (`HELD_TOLERANCE`).
+    let mut held_at_data_sheet = None;
+    let mut held_text = String::new();
+    if at_bound(&best) && best[2..4].iter().all(|v| v.abs() < 0.99 * LOG_BOUND) {
+        let free_mismatch = relative_mismatch(measured, params, &calibration_at(&best), &nominal);
+        let mut held_cost = |y: &[f64; 3]| cost(&[0.0, 0.0, y[0], y[1], y[2]]);
+        let y = nelder_mead(&mut held_cost, [0.0, 0.0, 0.1], 0.1, MAX_EVALUATIONS);
+        let held = [0.0, 0.0, y[0], y[1], y[2]];
+        let held_mismatch = relative_mismatch(measured, params, &calibration_at(&held), &nominal);
+        if !at_bound(&held) && held_mismatch <= free_mismatch * (1.0 + HELD_TOLERANCE) {
+            held_at_data_sheet = Some(HeldScales {
+                free_resistance: best[0].exp() as f32,
+                free_inductance: best[1].exp() as f32,
+                free_mismatch,
+                held_mismatch,
+            });
+            best = held;
+        } else {
+            held_text = format!(
+                "; held at the data sheet's the fit leaves a mismatch of {:.2} % against \
+                 {:.2} % free",
+                100.0 * held_mismatch,
+                100.0 * free_mismatch
+            );
+        }
+    }
     // A scale at its search bound explains nothing: the monitor model could not match the
     // trace's chirp within a factor 4 of the data sheet.
     for (name, x) in ["resistance", "inductance", "back-EMF", "friction"]
@@ -386,13 +437,19 @@ pub fn calibrate(
         .zip(&best)
     {
         if x.abs() >= 0.99 * LOG_BOUND {
+            let start = measured.initial_angles();
             bail!(
                 "the fit of the {name} scale ran into its bound (×{:.3}; the search spans \
-                 ×0.25 … ×4 of the data sheet): the monitor model cannot explain this trace \
-                 with the description's parameters. Check the trace's current scale and sign \
-                 (`import --scales`), the description's motor and controller against the \
-                 actuator, and the controller's timing (`[drive] duty_delay`)",
-                x.exp()
+                 ×0.25 … ×4 of the data sheet){held_text}: the monitor model cannot explain \
+                 this trace with the description's parameters. The trace starts with the \
+                 motor {:+.4} rad from where the record's rigging offset and the surface \
+                 sensor put it (a few hundredths: `--estimate-offset`). Check the trace's \
+                 current scale and sign (`import --scales`), the description's motor and \
+                 controller against the actuator, and the controller's timing (`[drive] \
+                 duty_delay`)",
+                x.exp(),
+                f64::from(start.motor - params.encoder_offset)
+                    - f64::from(params.gear_ratio) * f64::from(start.user)
             );
         }
     }
@@ -421,6 +478,7 @@ pub fn calibrate(
         viscous: calibration.viscous,
         drag_points: calibration.drag_points,
         encoder_offset: None,
+        held_at_data_sheet,
         mismatch_before: relative_mismatch(measured, params, &Calibration::IDENTITY, &nominal),
         mismatch_after: relative_mismatch(measured, params, &calibration, &nominal),
         evaluations,

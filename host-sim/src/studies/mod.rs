@@ -11,6 +11,8 @@
 //! * [`prognostics`] — simulated degradations, trend and RUL reports and their evaluation.
 //! * [`wind`] — the preflight on a parked surface in wind (issue 36).
 //! * [`flight`] — today's FDI on windows of flight (issue 36).
+//! * [`physics`] — a family of nuisance physics for the reference model, drawn per seed
+//!   (issue 68).
 
 pub mod campaign;
 pub mod demagnetization;
@@ -19,6 +21,7 @@ pub mod flight;
 pub mod grease;
 pub mod identifiability;
 pub mod optimisers;
+pub mod physics;
 pub mod prognostics;
 pub mod separability;
 pub mod stopping;
