@@ -105,7 +105,7 @@ pub(crate) const COMMANDS_BY_TASK: &[(&str, &[(&str, &str)])] = &[
             ),
             (
                 "campaign",
-                "accuracy over the paper's cases, the day grid, wind or windows of flight",
+                "accuracy over the paper's cases, the day grid, a family of physics, wind or flight",
             ),
         ],
     ),

@@ -77,8 +77,9 @@ enum Command {
         /// alone as JSON (for `identify --calibration`).
         #[arg(long)]
         out: PathBuf,
-        /// Also estimate the installation's encoder offset from the trace's first frame
-        /// (motor angle − gear ratio × surface angle) and write it into the record.
+        /// Also estimate the installation's encoder offset and write it into the record: the
+        /// offset whose calibration leaves the least mismatch within ±0.03 rad of the first
+        /// frame's reading (motor angle − gear ratio × surface angle), 25 calibrations.
         #[arg(long)]
         estimate_offset: bool,
         /// A healthy trace of the same actuator at another temperature (version 3: it
@@ -294,8 +295,8 @@ enum Command {
         /// table, e.g. of evaluations per identification. With --flight: every window (phase,
         /// turbulence, case, seed, verdict, e_tot, false FAULTs, turbulence level, misfit,
         /// the preflight FDI's verdict, the found vector and its deviations; with
-        /// --flight-windows, each flight's fused reading too). Not with --wind.
-        #[arg(long, value_name = "FILE.csv", conflicts_with = "wind")]
+        /// --flight-windows, each flight's fused reading too). Not with --wind or --physics.
+        #[arg(long, value_name = "FILE.csv", conflicts_with_all = ["wind", "physics"])]
         runs_csv: Option<PathBuf>,
         /// Also draw e_tot per case (ours vs paper) into this SVG.
         #[arg(long)]

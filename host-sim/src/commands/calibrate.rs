@@ -2,6 +2,7 @@
 //! (JSON) or into the actuator's record (`.rec`).
 
 use crate::cli::*;
+use host_sim::fdi::calibration::{scan_offset, OFFSET_SCAN_HALF_WIDTH};
 
 pub(crate) fn calibrate_command(
     actuator: &Actuator,
@@ -27,11 +28,33 @@ pub(crate) fn calibrate_command(
             .samples()
             .first()
             .context("the trace has no samples")?;
-        let offset = first.motor_angle - f64::from(record.params.gear_ratio) * first.user_angle;
-        record.params.encoder_offset = offset as f32;
+        let frame =
+            (first.motor_angle - f64::from(record.params.gear_ratio) * first.user_angle) as f32;
+        // The first frame reads the motor through the gear's play and compliance and the
+        // transducer's offset: the offset whose calibration explains the trace best, around it.
+        let prior = &actuator.record.calibration;
+        let (offset, mismatch) = scan_offset(frame, |offset| {
+            let mut params = record.params;
+            params.encoder_offset = offset;
+            let measured = trace.measured(&params).ok()?;
+            calibrate(&measured, params, prior)
+                .ok()
+                .map(|f| f.mismatch_after)
+        })
+        .with_context(|| {
+            format!(
+                "--estimate-offset: no offset within ±{OFFSET_SCAN_HALF_WIDTH} rad of the first \
+                 frame's {frame:.5} rad calibrates the trace"
+            )
+        })?;
+        record.params.encoder_offset = offset;
         println!(
-            "encoder offset      {:.5} rad (first frame: motor {:.5} rad, surface {:.3e} rad)",
-            record.params.encoder_offset, first.motor_angle, first.user_angle
+            "encoder offset      {offset:.5} rad (the least mismatch, {:.2} %, within \
+             ±{OFFSET_SCAN_HALF_WIDTH} rad of the first frame's {frame:.5} rad: motor {:.5} rad, \
+             surface {:.3e} rad)",
+            100.0 * mismatch,
+            first.motor_angle,
+            first.user_angle
         );
     }
     let measured = trace.measured(&record.params)?;

@@ -646,6 +646,28 @@ pub fn friction_law(mut points: Vec<([f32; 2], f32)>) -> ([[f32; 2]; 4], [f32; 4
     (friction, drag)
 }
 
+/// Half-width of the scan of the installation's start offset around the first frame's
+/// reading [rad, motor side], and its step: the first frame reads the motor against the
+/// surface through the gear's play and compliance and the transducer's own offset
+/// (−0.0085 rad on the reference actuator), a few hundredths at most.
+pub const OFFSET_SCAN_HALF_WIDTH: f32 = 0.03;
+pub const OFFSET_SCAN_STEP: f32 = 0.0025;
+
+/// The installation's start offset estimated from the healthy trace itself: the offset
+/// [rad] among the first frame's reading `frame` ± [`OFFSET_SCAN_HALF_WIDTH`] (every
+/// [`OFFSET_SCAN_STEP`]) whose calibration leaves the least mismatch; `fit` calibrates at one
+/// offset and gives its relative mismatch (a refused fit counts as none). 25 calibrations.
+/// Returns the offset and its mismatch, or `None` when no offset calibrates.
+pub fn scan_offset(frame: f32, mut fit: impl FnMut(f32) -> Option<f64>) -> Option<(f32, f64)> {
+    let steps = (OFFSET_SCAN_HALF_WIDTH / OFFSET_SCAN_STEP).round() as i32;
+    (-steps..=steps)
+        .filter_map(|k| {
+            let offset = frame + k as f32 * OFFSET_SCAN_STEP;
+            fit(offset).map(|m| (offset, m))
+        })
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+}
+
 /// Temperatures of the reference actuator's climatic calibration [°C]: the healthy traces
 /// whose friction makes the built-in friction law (`calibrate --at`).
 pub const CLIMATIC_TEMPERATURES: [f64; 4] = [-45.0, -25.0, 0.0, 75.0];
