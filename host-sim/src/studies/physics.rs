@@ -5,8 +5,9 @@
 //! running apart from the winding the thermistor reads, the eccentricity's physics, the
 //! controller's timing (declared in the record), the motor's rigging offset from the
 //! surface's zero (the reference model's truth, unknown to the record) and the harness. Each
-//! draw is calibrated as a user would calibrate it (a healthy trace at the calibration day
-//! and a climatic chamber, `fdi::calibration::reference_calibration`), then identified over
+//! draw is calibrated as a user would calibrate it (the start offset estimated, a healthy
+//! trace at the calibration day and a climatic chamber,
+//! `fdi::calibration::reference_calibration`), then identified over
 //! the paper's cases on several days: accuracy is measured over draws, never on one physics.
 //!
 //! Draws are seeded (xoshiro256++ from the draw's seed): the same seed gives the same
@@ -18,8 +19,11 @@ use anyhow::Result;
 use rand_core::{RngCore, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 
+use shared::{ActuatorParams, FaultVector};
+
+use crate::fdi::calibration::{calibrate, scan_offset};
 use crate::files::actuator::Actuator;
-use crate::plant::reference::{EccentricityPhysics, ReferenceModel, ReferenceSettings};
+use crate::plant::reference::{EccentricityPhysics, ReferenceModel, ReferenceSettings, Scenario};
 use crate::studies::campaign::{run_campaign, Case, CaseSummary};
 
 /// The grease of one draw.
@@ -189,8 +193,9 @@ pub struct PhysicsRow {
     pub outcome: Result<Vec<CaseSummary>, String>,
 }
 
-/// Every draw of `seeds` calibrated as a user would (the draw's healthy trace at the
-/// calibration day, the climatic chamber's at `CLIMATIC_TEMPERATURES`, the declared delay),
+/// Every draw of `seeds` calibrated as a user would (the start offset estimated as
+/// `calibrate --estimate-offset` does, then the draw's healthy trace at the calibration day,
+/// the climatic chamber's at `CLIMATIC_TEMPERATURES`, the declared delay),
 /// then `cases` identified `runs` times on each of [`DAYS`]; `on_row` sees each row as it
 /// is done. A calibration the fit refuses is a row of its own, never an error.
 pub fn physics_campaign(
@@ -208,7 +213,34 @@ pub fn physics_campaign(
         let draw = PhysicsDraw::draw(seed);
         let mut played = actuator.clone();
         played.record.calibration.duty_delay = draw.duty_delay as f32;
-        let chamber = ReferenceModel::new(draw.settings(&base, 0.0, true)).with_test(test);
+        let mut chamber_settings = draw.settings(&base, 0.0, true);
+        // The start offset as `calibrate --estimate-offset` finds it on the healthy trace.
+        let healthy = ReferenceModel::new(chamber_settings)
+            .with_test(test)
+            .simulate(&Scenario::new(FaultVector::NOMINAL))
+            .trace;
+        let params = played.record.params;
+        let prior = played.record.calibration;
+        if let Some(start) = healthy.samples().first() {
+            let frame =
+                (start.motor_angle - f64::from(params.gear_ratio) * start.user_angle) as f32;
+            let scanned = scan_offset(frame, |offset| {
+                let p = ActuatorParams {
+                    encoder_offset: offset,
+                    ..params
+                };
+                let measured = healthy.measured(&p).ok()?;
+                calibrate(&measured, p, &prior)
+                    .ok()
+                    .map(|f| f.mismatch_after)
+            });
+            if let Some((offset, _)) = scanned {
+                played.record.params.encoder_offset = offset;
+            }
+        }
+        // What the FDI believes of the rigging, in the calibration and on every day.
+        chamber_settings.params.encoder_offset = played.record.params.encoder_offset;
+        let chamber = ReferenceModel::new(chamber_settings).with_test(test);
         let calibration =
             crate::fdi::calibration::reference_calibration(&chamber, &played.record.calibration);
         match calibration {
@@ -225,7 +257,9 @@ pub fn physics_campaign(
             }
         }
         for (day, delta) in DAYS {
-            played.reference = Some(draw.settings(&base, delta, false));
+            let mut settings = draw.settings(&base, delta, false);
+            settings.params.encoder_offset = played.record.params.encoder_offset;
+            played.reference = Some(settings);
             let summaries = run_campaign(cases, runs, &played, progress)?;
             let row = PhysicsRow {
                 draw,
