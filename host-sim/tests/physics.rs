@@ -12,6 +12,20 @@ use shared::FaultVector;
 mod common;
 use common::*;
 
+/// `host-sim simulate` of the healthy actuator `description` into `trace`.
+fn simulate_healthy(description: &std::path::Path, trace: &std::path::Path) {
+    let o = host_sim(&[
+        "simulate",
+        "--actuator",
+        description.to_str().unwrap(),
+        "--faults",
+        "0,0,0,0,0,0,0.5,0.5",
+        "--out",
+        trace.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
 /// Draw 2 of the family (a two-part grease, the motor 0.019 rad off its rigging): the free
 /// fit runs the resistance scale into its ×0.25 bound at the same mismatch as ×1.
 #[test]
@@ -50,16 +64,7 @@ fn a_trace_of_another_actuator_is_refused_with_its_figures() {
     let trace = dir.path().join("light.csv");
     let light =
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../actuators/light-28v.toml");
-    let o = host_sim(&[
-        "simulate",
-        "--actuator",
-        light.to_str().unwrap(),
-        "--faults",
-        "0,0,0,0,0,0,0.5,0.5",
-        "--out",
-        trace.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    simulate_healthy(&light, &trace);
     let out = dir.path().join("c.json");
     let o = host_sim(&[
         "calibrate",
@@ -94,16 +99,7 @@ fn the_start_offset_is_estimated_from_the_calibrations_own_fit() {
     let file = dir.path().join("rigged.toml");
     std::fs::write(&file, rigged).unwrap();
     let trace = dir.path().join("healthy.csv");
-    let o = host_sim(&[
-        "simulate",
-        "--actuator",
-        file.to_str().unwrap(),
-        "--faults",
-        "0,0,0,0,0,0,0.5,0.5",
-        "--out",
-        trace.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    simulate_healthy(&file, &trace);
     let out = dir.path().join("c.json");
     let o = host_sim(&[
         "calibrate",
