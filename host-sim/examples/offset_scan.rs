@@ -1,12 +1,12 @@
 //! How well `calibrate --estimate-offset` finds an installation's start offset: over draws
 //! of the physics family (`host_sim::studies::physics`), each with its own rigging offset the
 //! record does not know, the first frame's reading against the scan of the calibration's
-//! mismatch (`host_sim::fdi::calibration::scan_offset`). Prints one line per draw and the
+//! mismatch (`host_sim::fdi::calibration::estimate_offset`). Prints one line per draw and the
 //! RMS error of each. About 2 s per draw.
 //!
 //! `cargo run --release -p host-sim --example offset_scan -- [FIRST] [DRAWS]`
 
-use host_sim::fdi::calibration::{calibrate, scan_offset};
+use host_sim::fdi::calibration::{estimate_offset, first_frame_offset};
 use host_sim::files::actuator::Actuator;
 use host_sim::plant::reference::{ReferenceModel, Scenario};
 use host_sim::studies::physics::PhysicsDraw;
@@ -27,17 +27,9 @@ fn main() -> anyhow::Result<()> {
             ReferenceModel::new(draw.settings(&base, 0.0, true)).with_test(actuator.record.test);
         let sim = model.simulate(&Scenario::new(FaultVector::NOMINAL));
         let params = actuator.record.params;
-        let start = sim.trace.samples()[0];
-        let frame = (start.motor_angle - f64::from(params.gear_ratio) * start.user_angle) as f32;
+        let frame = first_frame_offset(&sim.trace, &params).unwrap_or(f32::NAN);
         let truth = (base.encoder_offset + draw.rigging_offset) as f32;
-        let scanned = scan_offset(frame, |offset| {
-            let mut p = params;
-            p.encoder_offset = offset;
-            let measured = sim.trace.measured(&p).ok()?;
-            calibrate(&measured, p, &prior)
-                .ok()
-                .map(|f| f.mismatch_after)
-        });
+        let scanned = estimate_offset(&sim.trace, params, &prior);
         let Some((offset, mismatch)) = scanned else {
             println!("draw {seed}: rigging {truth:+.4}: no offset calibrates");
             continue;

@@ -2,7 +2,7 @@
 //! (JSON) or into the actuator's record (`.rec`).
 
 use crate::cli::*;
-use host_sim::fdi::calibration::{scan_offset, OFFSET_SCAN_HALF_WIDTH};
+use host_sim::fdi::calibration::{first_frame_offset, OFFSET_SCAN_HALF_WIDTH};
 
 pub(crate) fn calibrate_command(
     actuator: &Actuator,
@@ -28,19 +28,14 @@ pub(crate) fn calibrate_command(
             .samples()
             .first()
             .context("the trace has no samples")?;
-        let frame =
-            (first.motor_angle - f64::from(record.params.gear_ratio) * first.user_angle) as f32;
+        let frame = first_frame_offset(&trace, &record.params).unwrap_or(f32::NAN);
         // The first frame reads the motor through the gear's play and compliance and the
         // transducer's offset: the offset whose calibration explains the trace best, around it.
-        let prior = &actuator.record.calibration;
-        let (offset, mismatch) = scan_offset(frame, |offset| {
-            let mut params = record.params;
-            params.encoder_offset = offset;
-            let measured = trace.measured(&params).ok()?;
-            calibrate(&measured, params, prior)
-                .ok()
-                .map(|f| f.mismatch_after)
-        })
+        let (offset, mismatch) = host_sim::fdi::calibration::estimate_offset(
+            &trace,
+            record.params,
+            &actuator.record.calibration,
+        )
         .with_context(|| {
             format!(
                 "--estimate-offset: no offset within ±{OFFSET_SCAN_HALF_WIDTH} rad of the first \

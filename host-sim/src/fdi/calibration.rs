@@ -16,6 +16,8 @@ use shared::conditions::{pair_impedances, TestConditions, WindingEstimate};
 use shared::fdi::OnboardMeasured;
 use shared::{ActuatorParams, Calibration, FaultVector, FitnessProblem, MonitorModel};
 
+use crate::files::trace::Trace;
+
 /// Budget of the calibration fit [monitor-model evaluations].
 pub const MAX_EVALUATIONS: u32 = 1500;
 /// Bound on each scale: [1/4, 4].
@@ -653,17 +655,34 @@ pub fn friction_law(mut points: Vec<([f32; 2], f32)>) -> ([[f32; 2]; 4], [f32; 4
 pub const OFFSET_SCAN_HALF_WIDTH: f32 = 0.03;
 pub const OFFSET_SCAN_STEP: f32 = 0.0025;
 
-/// The installation's start offset estimated from the healthy trace itself: the offset
-/// [rad] among the first frame's reading `frame` ± [`OFFSET_SCAN_HALF_WIDTH`] (every
-/// [`OFFSET_SCAN_STEP`]) whose calibration leaves the least mismatch; `fit` calibrates at one
-/// offset and gives its relative mismatch (a refused fit counts as none). 25 calibrations.
-/// Returns the offset and its mismatch, or `None` when no offset calibrates.
-pub fn scan_offset(frame: f32, mut fit: impl FnMut(f32) -> Option<f64>) -> Option<(f32, f64)> {
+/// The installation's start offset as the healthy trace's first frame reads it [rad, motor
+/// side]: `θ_m − N·θ_u` (through the gear's play and compliance and the transducer's offset).
+pub fn first_frame_offset(trace: &Trace, params: &ActuatorParams) -> Option<f32> {
+    let first = trace.samples().first()?;
+    Some((first.motor_angle - f64::from(params.gear_ratio) * first.user_angle) as f32)
+}
+
+/// The installation's start offset estimated from the healthy `trace` itself: the offset
+/// [rad] within ± [`OFFSET_SCAN_HALF_WIDTH`] of the first frame's reading (every
+/// [`OFFSET_SCAN_STEP`]) whose calibration (`params` with that offset, `prior`) leaves the
+/// least mismatch; a refused fit counts as none. 25 calibrations. Returns the offset and its
+/// mismatch, or `None` when the trace is empty or no offset calibrates.
+pub fn estimate_offset(
+    trace: &Trace,
+    params: ActuatorParams,
+    prior: &Calibration,
+) -> Option<(f32, f64)> {
+    let frame = first_frame_offset(trace, &params)?;
     let steps = (OFFSET_SCAN_HALF_WIDTH / OFFSET_SCAN_STEP).round() as i32;
     (-steps..=steps)
         .filter_map(|k| {
-            let offset = frame + k as f32 * OFFSET_SCAN_STEP;
-            fit(offset).map(|m| (offset, m))
+            let p = ActuatorParams {
+                encoder_offset: frame + k as f32 * OFFSET_SCAN_STEP,
+                ..params
+            };
+            let measured = trace.measured(&p).ok()?;
+            let fit = calibrate(&measured, p, prior).ok()?;
+            Some((p.encoder_offset, fit.mismatch_after))
         })
         .min_by(|a, b| a.1.total_cmp(&b.1))
 }

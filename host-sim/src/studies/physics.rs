@@ -19,9 +19,9 @@ use anyhow::Result;
 use rand_core::{RngCore, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 
-use shared::{ActuatorParams, FaultVector};
+use shared::FaultVector;
 
-use crate::fdi::calibration::{calibrate, scan_offset};
+use crate::fdi::calibration::estimate_offset;
 use crate::files::actuator::Actuator;
 use crate::plant::reference::{EccentricityPhysics, ReferenceModel, ReferenceSettings, Scenario};
 use crate::studies::campaign::{run_campaign, Case, CaseSummary};
@@ -219,24 +219,9 @@ pub fn physics_campaign(
             .with_test(test)
             .simulate(&Scenario::new(FaultVector::NOMINAL))
             .trace;
-        let params = played.record.params;
-        let prior = played.record.calibration;
-        if let Some(start) = healthy.samples().first() {
-            let frame =
-                (start.motor_angle - f64::from(params.gear_ratio) * start.user_angle) as f32;
-            let scanned = scan_offset(frame, |offset| {
-                let p = ActuatorParams {
-                    encoder_offset: offset,
-                    ..params
-                };
-                let measured = healthy.measured(&p).ok()?;
-                calibrate(&measured, p, &prior)
-                    .ok()
-                    .map(|f| f.mismatch_after)
-            });
-            if let Some((offset, _)) = scanned {
-                played.record.params.encoder_offset = offset;
-            }
+        let estimated = estimate_offset(&healthy, played.record.params, &played.record.calibration);
+        if let Some((offset, _)) = estimated {
+            played.record.params.encoder_offset = offset;
         }
         // What the FDI believes of the rigging, in the calibration and on every day.
         chamber_settings.params.encoder_offset = played.record.params.encoder_offset;
