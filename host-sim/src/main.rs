@@ -77,10 +77,15 @@ enum Command {
         /// alone as JSON (for `identify --calibration`).
         #[arg(long)]
         out: PathBuf,
-        /// Also estimate the installation's encoder offset and write it into the record: the
-        /// offset whose calibration leaves the least mismatch within ±0.03 rad of the first
-        /// frame's reading (motor angle − gear ratio × surface angle), 25 calibrations.
+        /// Keep the description's `[installation] encoder_offset` instead of estimating it.
+        /// By default the installation's start offset is estimated and written with the
+        /// calibration: the offset whose calibration leaves the least mismatch within
+        /// ±0.03 rad of the first frame's reading (motor angle − gear ratio × surface angle),
+        /// 25 calibrations (≈ 1 s).
         #[arg(long)]
+        keep_offset: bool,
+        /// The default (the start offset is estimated); kept so that older scripts run.
+        #[arg(long, hide = true, conflicts_with = "keep_offset")]
         estimate_offset: bool,
         /// A healthy trace of the same actuator at another temperature (version 3: it
         /// carries the measured temperature): its friction, against the calibration's,
@@ -666,9 +671,10 @@ fn main() -> ExitCode {
         Command::Calibrate {
             nominal_trace,
             out,
-            estimate_offset,
+            keep_offset,
+            estimate_offset: _,
             at,
-        } => calibrate_command(&actuator, &nominal_trace, &out, estimate_offset, &at),
+        } => calibrate_command(&actuator, &nominal_trace, &out, !keep_offset, &at),
         Command::Actuator { file, out } => actuator_command(&file, out.as_deref()),
         Command::Import {
             recording,

@@ -82,17 +82,18 @@ fn a_trace_of_another_actuator_is_refused_with_its_figures() {
     assert!(text.contains("The trace starts with the motor"), "{text}");
 }
 
-/// An installation rigged 0.012 rad from the record's zero (the reference model's truth):
-/// `calibrate --estimate-offset` finds it within 0.004 rad, where the first frame alone reads
-/// it 0.0085 rad short (the gear's play and compliance, the transducer's offset).
+/// An installation rigged 0.02 rad from the record's zero (the reference model's truth, on
+/// its PWM bridge): `calibrate`, as the README gives it, finds the offset within 0.004 rad,
+/// where the first frame alone reads it 0.0085 rad short (the gear's play and compliance, the
+/// transducer's offset); `--keep-offset` keeps the description's zero.
 #[test]
-fn the_start_offset_is_estimated_from_the_calibrations_own_fit() {
+fn a_trace_with_a_start_offset_calibrates_with_the_offset_estimated() {
     let dir = tempfile::tempdir().unwrap();
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let description = std::fs::read_to_string(root.join("actuators/reference.toml")).unwrap();
     let rigged = description.replacen(
         "[reference_model]",
-        "[reference_model]\nencoder_offset = 0.012",
+        "[reference_model]\nencoder_offset = 0.02",
         1,
     );
     assert_ne!(rigged, description);
@@ -100,18 +101,25 @@ fn the_start_offset_is_estimated_from_the_calibrations_own_fit() {
     std::fs::write(&file, rigged).unwrap();
     let trace = dir.path().join("healthy.csv");
     simulate_healthy(&file, &trace);
-    let out = dir.path().join("c.json");
-    let o = host_sim(&[
-        "calibrate",
-        trace.to_str().unwrap(),
-        "--estimate-offset",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let calibrated = |extra: &[&str]| {
+        let out = dir.path().join("c.json");
+        let mut args = vec![
+            "calibrate",
+            trace.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let o = host_sim(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+        (json, String::from_utf8_lossy(&o.stdout).into_owned())
+    };
+    let (json, stdout) = calibrated(&[]);
     let offset = json["encoder_offset"].as_f64().unwrap();
-    assert!((offset - 0.012).abs() <= 0.004, "estimated {offset}");
-    assert!(String::from_utf8_lossy(&o.stdout).contains("the least mismatch"));
+    assert!((offset - 0.02).abs() <= 0.004, "estimated {offset}");
+    assert!(stdout.contains("estimated: the least mismatch"), "{stdout}");
+    let (kept, _) = calibrated(&["--keep-offset"]);
+    assert!(kept["encoder_offset"].is_null(), "{kept}");
 }

@@ -31,26 +31,44 @@ pub(crate) fn calibrate_command(
         let frame = first_frame_offset(&trace, &record.params).unwrap_or(f32::NAN);
         // The first frame reads the motor through the gear's play and compliance and the
         // transducer's offset: the offset whose calibration explains the trace best, around it.
-        let (offset, mismatch) = host_sim::fdi::calibration::estimate_offset(
+        match host_sim::fdi::calibration::estimate_offset(
             &trace,
             record.params,
             &actuator.record.calibration,
-        )
-        .with_context(|| {
-            format!(
-                "--estimate-offset: no offset within ±{OFFSET_SCAN_HALF_WIDTH} rad of the first \
-                 frame's {frame:.5} rad calibrates the trace"
-            )
-        })?;
-        record.params.encoder_offset = offset;
-        println!(
-            "encoder offset      {offset:.5} rad (the least mismatch, {:.2} %, within \
-             ±{OFFSET_SCAN_HALF_WIDTH} rad of the first frame's {frame:.5} rad: motor {:.5} rad, \
-             surface {:.3e} rad)",
-            100.0 * mismatch,
-            first.motor_angle,
-            first.user_angle
-        );
+        ) {
+            Some((offset, mismatch)) => {
+                record.params.encoder_offset = offset;
+                println!(
+                    "encoder offset      {offset:.5} rad (estimated: the least mismatch, {:.2} %, \
+                     within ±{OFFSET_SCAN_HALF_WIDTH} rad of the first frame's {frame:.5} rad: \
+                     motor {:.5} rad, surface {:.3e} rad; --keep-offset keeps the \
+                     description's {:.5} rad)",
+                    100.0 * mismatch,
+                    first.motor_angle,
+                    first.user_angle,
+                    actuator.record.params.encoder_offset,
+                );
+            }
+            None => {
+                // No offset calibrates: the description's, refused, says with its figures why.
+                let measured = trace.measured(&record.params)?;
+                calibrate(&measured, record.params, &actuator.record.calibration).with_context(
+                    || {
+                        format!(
+                            "no start offset within ±{OFFSET_SCAN_HALF_WIDTH} rad of the first \
+                             frame's {frame:.5} rad calibrates the trace, nor the description's \
+                             {:.5} rad",
+                            record.params.encoder_offset
+                        )
+                    },
+                )?;
+                println!(
+                    "encoder offset      {:.5} rad (the description's: no other within \
+                     ±{OFFSET_SCAN_HALF_WIDTH} rad of the first frame's {frame:.5} rad calibrates)",
+                    record.params.encoder_offset
+                );
+            }
+        }
     }
     let measured = trace.measured(&record.params)?;
     let mut file = calibrate(&measured, record.params, &actuator.record.calibration)?;

@@ -43,7 +43,7 @@ pub(crate) fn load_record(
                 test: *test,
                 ..actuator.record
             };
-            // What `calibrate --estimate-offset` measured travels with the calibration.
+            // The start offset `calibrate` estimated travels with the calibration.
             if let Some(offset) = file.encoder_offset {
                 record.params.encoder_offset = offset;
             }

@@ -62,7 +62,7 @@ pub struct CalibrationFile {
     pub viscous: f32,
     #[serde(default)]
     pub drag_points: [f32; 4],
-    /// The installation's encoder offset, when `calibrate --estimate-offset` measured it
+    /// The installation's encoder offset, when `calibrate` estimated it (not with `--keep-offset`)
     /// [rad, motor side]: `identify --calibration` uses it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub encoder_offset: Option<f32>,
@@ -445,7 +445,7 @@ pub fn calibrate(
                  ×0.25 … ×4 of the data sheet){held_text}: the monitor model cannot explain \
                  this trace with the description's parameters. The trace starts with the \
                  motor {:+.4} rad from where the record's rigging offset and the surface \
-                 sensor put it (a few hundredths: `--estimate-offset`). Check the trace's \
+                 sensor put it (a few hundredths: `calibrate` without `--keep-offset` estimates it). Check the trace's \
                  current scale and sign (`import --scales`), the description's motor and \
                  controller against the actuator, and the controller's timing (`[drive] \
                  duty_delay`)",

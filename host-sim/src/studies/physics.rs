@@ -194,7 +194,7 @@ pub struct PhysicsRow {
 }
 
 /// Every draw of `seeds` calibrated as a user would (the start offset estimated as
-/// `calibrate --estimate-offset` does, then the draw's healthy trace at the calibration day,
+/// `calibrate` does, then the draw's healthy trace at the calibration day,
 /// the climatic chamber's at `CLIMATIC_TEMPERATURES`, the declared delay),
 /// then `cases` identified `runs` times on each of [`DAYS`]; `on_row` sees each row as it
 /// is done. A calibration the fit refuses is a row of its own, never an error.
@@ -214,7 +214,7 @@ pub fn physics_campaign(
         let mut played = actuator.clone();
         played.record.calibration.duty_delay = draw.duty_delay as f32;
         let mut chamber_settings = draw.settings(&base, 0.0, true);
-        // The start offset as `calibrate --estimate-offset` finds it on the healthy trace.
+        // The start offset as `calibrate` finds it on the healthy trace.
         let healthy = ReferenceModel::new(chamber_settings)
             .with_test(test)
             .simulate(&Scenario::new(FaultVector::NOMINAL))
