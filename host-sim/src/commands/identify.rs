@@ -193,6 +193,15 @@ pub(crate) fn report(
         );
     }
     println!("{}", conditions_text(&id.conditions));
+    if id.friction_nuisance > 0.0 {
+        println!(
+            "nuisance      the friction's deviation carries {:.4} of the day's healthy friction \
+             (its law moves {:.2} %/K here; the gearbox's declared spread from the thermistor, \
+             [uncertainty] gear_temperature_spread)",
+            id.friction_nuisance,
+            100.0 * id.conditions.friction_slope
+        );
+    }
     println!(
         "fitness       {:.4e} A²·s (nominal residual subtracted)",
         id.result.fitness

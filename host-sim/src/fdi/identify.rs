@@ -33,6 +33,10 @@ pub struct Identified {
     pub uncertainty: Option<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT])>,
     /// The day the FDI estimated for the test (`shared::conditions`).
     pub conditions: shared::conditions::TestConditions,
+    /// The share of the friction's deviation that is the day's healthy friction's
+    /// (`shared::uncertainty::SystematicError::friction_for`, in quadrature; 0 without a
+    /// declared gearbox spread).
+    pub friction_nuisance: f32,
     /// What the test showed of a moment on the surface beyond its spring
     /// (`shared::domain::Domain::with_load`).
     pub load: shared::domain::LoadSigns,
@@ -265,9 +269,8 @@ pub fn identify_checkpointed(
     let seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
     let curvature = id.problem().curvature_in(&mut run, &result.faults);
-    let uncertainty = curvature
-        .preflight_uncertainty(&result.faults, &systematic)
-        .ok();
+    let day = systematic.on_day(id.problem().conditions().friction_slope);
+    let uncertainty = curvature.preflight_uncertainty(&result.faults, &day).ok();
     Ok((
         Outcome::Finished(Box::new(Identified {
             result,
@@ -275,6 +278,7 @@ pub fn identify_checkpointed(
             history,
             uncertainty,
             conditions: *id.problem().conditions(),
+            friction_nuisance: day.friction_for(&result.faults),
             load: id.problem().load_signs(run.load_offset()),
         })),
         resumption,

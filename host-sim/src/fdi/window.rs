@@ -238,11 +238,18 @@ pub fn window_series(
 
 /// What a flight's windows hold of its preflight `pre` (its reading and calibrated
 /// uncertainty): the shorts, the eccentricity and the demagnetization with their
-/// covariance when the preflight was `within`, else nothing.
+/// covariance when the preflight was `within`, else nothing. The friction's deviation
+/// without the day's healthy friction's share: a window of the same day plays the same
+/// healthy friction, so what it holds is the product the preflight measured.
 pub fn held_from(pre: &crate::fdi::identify::Identified, within: bool) -> HeldComponents {
     let held = HeldComponents::from_preflight(&pre.result.faults, within);
     match &pre.uncertainty {
-        Some((u, correlation)) if within => held.with_preflight_uncertainty(&u.std, correlation),
+        Some((u, correlation)) if within => {
+            let mut std = u.std;
+            let nuisance = pre.friction_nuisance;
+            std[0] = (std[0] * std[0] - nuisance * nuisance).max(0.0).sqrt();
+            held.with_preflight_uncertainty(&std, correlation)
+        }
         _ => held,
     }
 }

@@ -835,6 +835,9 @@ struct Detection {
 struct UncertaintySection {
     gain_drift_systematic: Option<f32>,
     play_gain_drift_systematic: Option<f32>,
+    /// How far the gearbox may run from the thermistor [K, one standard deviation]; absent:
+    /// 0, the gearbox at the thermistor's temperature.
+    gear_temperature_spread: Option<f32>,
 }
 
 #[derive(Deserialize)]
@@ -1239,6 +1242,8 @@ impl Description {
                     SystematicError {
                         gain_drift: u.gain_drift_systematic.unwrap_or(r.gain_drift),
                         play_gain_drift: u.play_gain_drift_systematic.unwrap_or(r.play_gain_drift),
+                        gear_temperature_spread: u.gear_temperature_spread.unwrap_or(0.0),
+                        healthy_friction: 0.0,
                     }
                 },
             },
@@ -1307,7 +1312,9 @@ mod tests {
             a.record.systematic,
             SystematicError {
                 gain_drift: 0.009,
-                play_gain_drift: 0.018
+                play_gain_drift: 0.018,
+                gear_temperature_spread: 0.0,
+                healthy_friction: 0.0,
             }
         );
     }
@@ -1333,7 +1340,9 @@ mod tests {
             a.record.systematic,
             SystematicError {
                 gain_drift: 0.02,
-                play_gain_drift: shared::uncertainty::PLAY_GAIN_DRIFT_SYSTEMATIC
+                play_gain_drift: shared::uncertainty::PLAY_GAIN_DRIFT_SYSTEMATIC,
+                gear_temperature_spread: 0.0,
+                healthy_friction: 0.0,
             }
         );
         assert!(!a.systematic_stated, "one value of two is the reference's");

@@ -685,7 +685,14 @@ pub fn run_once(
     let mut own_std = [f64::NAN; FAULT_COUNT];
     if let Some(u) = &uncertainty {
         for (i, z) in z_raw.iter_mut().enumerate() {
-            own_std[i] = without_systematic(u, &found, &record.systematic, i);
+            own_std[i] = without_systematic(
+                u,
+                &found,
+                &record
+                    .systematic
+                    .on_day(id.conditions.friction_slope),
+                i,
+            );
             let raw = own_std[i] / f64::from(shared::uncertainty::INFLATION);
             let skip = i == 6 && truth.eccentricity() == 0.0;
             if raw.is_finite() && raw > 0.0 && !skip {

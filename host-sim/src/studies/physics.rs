@@ -66,6 +66,14 @@ pub struct PhysicsDraw {
 /// draw's offset, the gear) 60 K colder and 60 K warmer.
 pub const DAYS: [(&str, f64); 3] = [("nominal", 0.0), ("−60 K", -60.0), ("+60 K", 60.0)];
 
+/// Half-width of the family's gearbox offset from the winding [K] ([`PhysicsDraw::draw`]).
+pub const GEAR_OFFSET_HALF_WIDTH: f64 = 20.0;
+
+/// The gearbox's spread from the thermistor that a user of the family declares
+/// (`[uncertainty] gear_temperature_spread`) [K]: the deviation of the family's uniform
+/// offset, `GEAR_OFFSET_HALF_WIDTH / √3` (11.5 K). What the family is, not a tuned limit.
+pub const DECLARED_GEAR_SPREAD: f32 = (GEAR_OFFSET_HALF_WIDTH / 1.732_050_807_568_877_2) as f32;
+
 impl PhysicsDraw {
     /// The draw of `seed`. The family: a one-factor grease (its viscous share 0.2–0.6,
     /// activation 1 500–2 800 K) or, as often, a two-part one (drag ×0.5–2 of the reference
@@ -91,7 +99,7 @@ impl PhysicsDraw {
                 activation: uniform(2200.0, 3000.0),
             }
         };
-        let gear_offset = uniform(-20.0, 20.0);
+        let gear_offset = uniform(-GEAR_OFFSET_HALF_WIDTH, GEAR_OFFSET_HALF_WIDTH);
         let eccentricity = if uniform(0.0, 1.0) < 0.5 {
             EccentricityPhysics::Permeance
         } else {
@@ -195,7 +203,8 @@ pub struct PhysicsRow {
 
 /// Every draw of `seeds` calibrated as a user would (the start offset estimated as
 /// `calibrate` does, then the draw's healthy trace at the calibration day,
-/// the climatic chamber's at `CLIMATIC_TEMPERATURES`, the declared delay),
+/// the climatic chamber's at `CLIMATIC_TEMPERATURES`, the declared delay and the family's
+/// gearbox spread, [`DECLARED_GEAR_SPREAD`]),
 /// then `cases` identified `runs` times on each of [`DAYS`]; `on_row` sees each row as it
 /// is done. A calibration the fit refuses is a row of its own, never an error.
 pub fn physics_campaign(
@@ -213,6 +222,7 @@ pub fn physics_campaign(
         let draw = PhysicsDraw::draw(seed);
         let mut played = actuator.clone();
         played.record.calibration.duty_delay = draw.duty_delay as f32;
+        played.record.systematic.gear_temperature_spread = DECLARED_GEAR_SPREAD;
         let mut chamber_settings = draw.settings(&base, 0.0, true);
         // The start offset as `calibrate` finds it on the healthy trace.
         let healthy = ReferenceModel::new(chamber_settings)

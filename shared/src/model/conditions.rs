@@ -44,6 +44,9 @@ pub const MAX_WINDING_DISAGREEMENT: f32 = 20.0;
 /// not the calibrated one (aged, contaminated, another grade), and the healthy friction is
 /// not known.
 pub const DRAG_MARGIN: f32 = 1.25;
+/// Half-width of the difference over which the friction law's slope is read \[K\]
+/// ([`friction_slope`]): the gearbox's spread from the thermistor is of this order.
+pub const SLOPE_HALF_WIDTH: f32 = 10.0;
 /// Least RMS pair current \[A\] under which a pair's fit is not trusted (a segment that
 /// carried nothing).
 pub const MIN_PAIR_CURRENT: f32 = 0.05;
@@ -102,6 +105,13 @@ pub struct TestConditions {
     /// calibration has a friction law by drag (a grease with a drag of its own), else from
     /// the measured temperature.
     pub friction_scale: f32,
+    /// How fast ln(healthy friction) moves with the gearbox's temperature at the measured
+    /// one \[1/K\] ([`friction_slope`]); 0 without a measured temperature or a friction law.
+    /// Times the record's declared spread of the gearbox from the thermistor, it is the
+    /// day's healthy friction's deviation, which the preflight's friction deviation carries
+    /// ([`crate::solver::uncertainty::SystematicError::on_day`]): a friction reading that the
+    /// day's healthy friction can explain is not proven a fault.
+    pub friction_slope: f32,
     /// The chirp's viscous drag above the calibration's, in its own units (equivalent
     /// current per radian of a block's motor travel; `crate::physics::grease`), where the calibration
     /// has a friction law by drag; 0 otherwise. The monitor model plays it as a drag on the
@@ -130,6 +140,7 @@ impl TestConditions {
         pair_resistance_ratio: 1.0,
         flux_scale: 1.0,
         friction_scale: 1.0,
+        friction_slope: 0.0,
         drag_rise: 0.0,
         drag_outside_law: None,
         measured_temperature: None,
@@ -173,8 +184,10 @@ impl TestConditions {
                 _ => drag_outside_law = Some(ratio),
             }
         }
+        let friction_slope = measured_temperature.map_or(0.0, |t| friction_slope(calibration, t));
         let mut out = Self {
             friction_scale,
+            friction_slope,
             drag_rise,
             drag_outside_law,
             measured_temperature,
@@ -257,6 +270,16 @@ pub fn friction_factor(calibration: &Calibration, celsius: f32) -> f32 {
         &calibration.friction_points,
         celsius,
     )
+}
+
+/// How fast ln(healthy friction) moves with temperature at `celsius` \[1/K\]
+/// ([`TestConditions::friction_slope`]): the law's change of ln(friction) between `celsius` ±
+/// [`SLOPE_HALF_WIDTH`], over the width; 0 without a law. O(points).
+pub fn friction_slope(calibration: &Calibration, celsius: f32) -> f32 {
+    crate::base::math::abs(
+        ln(friction_factor(calibration, celsius + SLOPE_HALF_WIDTH))
+            - ln(friction_factor(calibration, celsius - SLOPE_HALF_WIDTH)),
+    ) / (2.0 * SLOPE_HALF_WIDTH)
 }
 
 /// The healthy dry friction at the chirp's viscous drag `ratio` (against the calibration's)
@@ -494,5 +517,23 @@ mod tests {
         // Halfway between 20 °C (1) and −40 °C (3) in temperature: √3 in factor.
         assert!((friction_factor(&c, -10.0) - 3.0f32.sqrt()).abs() < 1e-4);
         assert!((friction_factor(&c, 100.0) - 0.75).abs() < 1e-5);
+    }
+
+    #[test]
+    fn the_healthy_frictions_slope_is_the_laws() {
+        let mut c = Calibration::IDENTITY;
+        // No law: friction does not move with temperature, the day adds nothing.
+        assert_eq!(friction_slope(&c, -40.0), 0.0);
+        c.friction_points = [[-40.0, 3.0], [80.0, 0.75], [0.0, 0.0], [0.0, 0.0]];
+        // Between −40 and 20 °C ln(friction) falls ln 3 over 60 K.
+        let cold = friction_slope(&c, -10.0);
+        let want = 3.0f32.ln() / 60.0;
+        assert!((cold - want).abs() < 1e-5, "{cold} {want}");
+        // Between 20 and 80 °C it falls ln(4/3) over 60 K: a smaller slope in the heat.
+        let hot = friction_slope(&c, 50.0);
+        assert!((hot - (4.0f32 / 3.0).ln() / 60.0).abs() < 1e-5);
+        assert!(hot < cold);
+        // Beyond the outermost point the law holds: only the side inside it moves.
+        assert!(friction_slope(&c, -45.0) < want);
     }
 }

@@ -35,8 +35,10 @@ pub const RECORD_MAGIC: [u8; 4] = *b"EMAA";
 /// as none: friction follows the measured temperature; none before 8 has the GA's initial
 /// guess of the ninth component, demagnetization, which reads as 0: no flux lost; none
 /// before 9 has the preflight's systematic error, which reads as
-/// [`SystematicError::REFERENCE_ACTUATOR`], the values those records were used with).
-pub const RECORD_VERSION: u16 = 9;
+/// [`SystematicError::REFERENCE_ACTUATOR`], the values those records were used with; none
+/// before 10 has the gearbox's spread from the thermistor, which reads as 0: the gearbox at
+/// the thermistor's temperature).
+pub const RECORD_VERSION: u16 = 10;
 /// 32-bit words in the body of version 1.
 const BODY_WORDS_V1: usize = 72;
 /// Words version 2 adds at the end of [`run_words`]: the injection's frequency, the pair
@@ -76,8 +78,13 @@ const BODY_WORDS_V8: usize = BODY_WORDS_V7 + NINTH_WORDS;
 /// Words version 9 adds at the end: the preflight's systematic error in the gain drift,
 /// without and with a gear play ([`SystematicError`]).
 const SYSTEMATIC_WORDS: usize = 2;
+/// 32-bit words in the body of version 9.
+const BODY_WORDS_V9: usize = BODY_WORDS_V8 + SYSTEMATIC_WORDS;
+/// Words version 10 adds at the end: the gearbox's spread from the thermistor
+/// ([`SystematicError::gear_temperature_spread`]).
+const SPREAD_WORDS: usize = 1;
 /// 32-bit words in the body.
-const BODY_WORDS: usize = BODY_WORDS_V8 + SYSTEMATIC_WORDS;
+const BODY_WORDS: usize = BODY_WORDS_V9 + SPREAD_WORDS;
 /// The body's 32-bit words by version, from 1 (bytes, not a `match`: 36 B less flash).
 #[allow(clippy::indexing_slicing)] // evaluated when compiling: an index out of range fails the build
 const BODY_WORDS_OF_VERSION: [u8; RECORD_VERSION as usize] = {
@@ -90,6 +97,7 @@ const BODY_WORDS_OF_VERSION: [u8; RECORD_VERSION as usize] = {
         BODY_WORDS_V6,
         BODY_WORDS_V7,
         BODY_WORDS_V8,
+        BODY_WORDS_V9,
         BODY_WORDS,
     ];
     let mut out = [0u8; RECORD_VERSION as usize];
@@ -119,6 +127,8 @@ pub const RECORD_BYTES_V6: usize = 8 + 4 * BODY_WORDS_V6 + 4;
 pub const RECORD_BYTES_V7: usize = 8 + 4 * BODY_WORDS_V7 + 4;
 /// Bytes of a version 8 record.
 pub const RECORD_BYTES_V8: usize = 8 + 4 * BODY_WORDS_V8 + 4;
+/// Bytes of a version 9 record.
+pub const RECORD_BYTES_V9: usize = 8 + 4 * BODY_WORDS_V9 + 4;
 
 /// Why a record was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -229,6 +239,7 @@ record_fields! {
     CalibrationDragPoints => "calibration.drag_points",
     UncertaintyGainDriftSystematic => "uncertainty.gain_drift_systematic",
     UncertaintyPlayGainDriftSystematic => "uncertainty.play_gain_drift_systematic",
+    UncertaintyGearTemperatureSpread => "uncertainty.gear_temperature_spread",
 }
 
 /// One actuator, as the FDI needs it. Plain data.
@@ -325,6 +336,7 @@ impl ActuatorRecord {
         }
         w.f32(self.systematic.gain_drift);
         w.f32(self.systematic.play_gain_drift);
+        w.f32(self.systematic.gear_temperature_spread);
         let mut crc = Crc32::new();
         crc.update(w.out.get(..RECORD_BYTES - 4).unwrap_or(&[]));
         w.bytes(&crc.finish().to_le_bytes());
@@ -507,6 +519,9 @@ impl ActuatorRecord {
             systematic.gain_drift = r.f32();
             systematic.play_gain_drift = r.f32();
         }
+        if version >= 10 {
+            systematic.gear_temperature_spread = r.f32();
+        }
         let ga = GaSettings {
             max_evaluations,
             max_generations,
@@ -592,7 +607,7 @@ impl ActuatorRecord {
         if let Some(field) = first_outside(&positive, false) {
             return fail(field);
         }
-        let non_negative: [(f32, RecordField); 15] = [
+        let non_negative: [(f32, RecordField); 16] = [
             (p.gear_damping, RecordField::MechanicsGearDamping),
             (p.aero_stiffness, RecordField::MechanicsAeroStiffness),
             (p.position_ki, RecordField::ControllerPositionKi),
@@ -616,6 +631,10 @@ impl ActuatorRecord {
             (
                 self.systematic.play_gain_drift,
                 RecordField::UncertaintyPlayGainDriftSystematic,
+            ),
+            (
+                self.systematic.gear_temperature_spread,
+                RecordField::UncertaintyGearTemperatureSpread,
             ),
         ];
         if let Some(field) = first_outside(&non_negative, true) {

@@ -101,6 +101,17 @@ pub struct SystematicError {
     pub gain_drift: f32,
     /// The gain drift's, where it reads one ([`reads_play`]).
     pub play_gain_drift: f32,
+    /// How far the gearbox may run from the thermistor the friction law reads \[K, one
+    /// standard deviation\]: the installation's (sun, airflow, the motor's own heat; a
+    /// thermistor in the gearbox makes it small). Declared in the record; 0: the gearbox is
+    /// at the thermistor's temperature.
+    pub gear_temperature_spread: f32,
+    /// Standard deviation of ln(healthy friction) on the day of the test [-]: the nuisance
+    /// the friction fault shares its torque with (the monitor model plays
+    /// `healthy · (1 + 2·k1)`), so a relative error `ε` of the healthy friction reads as
+    /// `(1 + 2·k1)·ε/2` of k1. Not stored: the executor sets it per test ([`Self::on_day`]);
+    /// 0 for none.
+    pub healthy_friction: f32,
 }
 
 impl SystematicError {
@@ -109,13 +120,37 @@ impl SystematicError {
     pub const REFERENCE_ACTUATOR: Self = Self {
         gain_drift: SYSTEMATIC[GAIN_DRIFT_INDEX],
         play_gain_drift: PLAY_GAIN_DRIFT_SYSTEMATIC,
+        gear_temperature_spread: 0.0,
+        healthy_friction: 0.0,
     };
 
     /// None: a reading whose deviations are its curvature's alone (a window of flight's).
     pub const NONE: Self = Self {
         gain_drift: 0.0,
         play_gain_drift: 0.0,
+        gear_temperature_spread: 0.0,
+        healthy_friction: 0.0,
     };
+
+    /// This record's systematic error on a day whose friction law moves ln(friction) by
+    /// `friction_slope` per kelvin at the measured temperature
+    /// ([`crate::model::conditions::TestConditions::friction_slope`]): the healthy friction's
+    /// deviation is the slope times [`Self::gear_temperature_spread`]. O(1).
+    #[must_use]
+    pub fn on_day(self, friction_slope: f32) -> Self {
+        Self {
+            healthy_friction: friction_slope * self.gear_temperature_spread,
+            ..self
+        }
+    }
+
+    /// The friction's entry for a preflight that read `k`: the day's healthy friction's
+    /// deviation carried into k1 (`(1 + 2·k1)/2` per unit of ln). O(1).
+    #[inline(always)]
+    #[must_use]
+    pub fn friction_for(&self, k: &FaultVector) -> f32 {
+        0.5 * (1.0 + 2.0 * k.friction()) * self.healthy_friction
+    }
 
     /// The gain drift's entry for a preflight that read `k`: the one place the play chooses.
     #[inline(always)]
@@ -134,6 +169,8 @@ const BACKLASH_INDEX: usize = 1;
 
 /// Index of the gain drift in the fault vector.
 const GAIN_DRIFT_INDEX: usize = 7;
+/// Index of k1, the friction.
+const FRICTION_INDEX: usize = 0;
 
 // The deviations add the gain drift's systematic error alone (flash: the loop reads no
 // table); another component's would need the loop changed. (Checked when compiling.)
@@ -213,6 +250,7 @@ pub fn reads_play(k: &FaultVector) -> bool {
 pub fn preflight_systematic(k: &FaultVector, systematic: &SystematicError) -> [f32; FAULT_COUNT] {
     let mut e = SYSTEMATIC;
     e[GAIN_DRIFT_INDEX] = systematic.gain_drift_for(k);
+    e[FRICTION_INDEX] = systematic.friction_for(k);
     e
 }
 
@@ -509,9 +547,11 @@ impl Curvature {
             }
             let s = sqrt64(variance(i)) as f32;
             // `preflight_systematic(k)[i]`: only the gain drift has one (asserted below the
-            // constants).
+            // constants); the friction takes the day's healthy friction's.
             let e = if i == GAIN_DRIFT_INDEX {
                 systematic.gain_drift_for(k)
+            } else if i == FRICTION_INDEX {
+                systematic.friction_for(k)
             } else {
                 0.0
             };
@@ -696,6 +736,41 @@ mod tests {
     }
 
     #[test]
+    fn a_friction_the_days_healthy_friction_can_explain_is_not_proven() {
+        let c = Curvature {
+            gradient: [0.0; FAULT_COUNT],
+            normal: diagonal([4.0e4; FAULT_COUNT]),
+            rss: 1.0,
+            fitted: 101,
+        };
+        let mut k = [0.0; FAULT_COUNT];
+        k[0] = 0.3;
+        k[6] = 0.5;
+        let k = FaultVector::new(k).unwrap();
+        let record = SystematicError::REFERENCE_ACTUATOR;
+        let (own, corr) = c.preflight_uncertainty(&k, &record).unwrap();
+        assert_eq!(own.assess(&k, &corr)[0], Assessment::Faulty);
+        // A cold day's law, ±12 K of gearbox: ln(friction) ±0.34.
+        let day = SystematicError {
+            gear_temperature_spread: 12.0,
+            ..record
+        }
+        .on_day(0.34 / 12.0);
+        let (pre, corr) = c.preflight_uncertainty(&k, &day).unwrap();
+        let nuisance = 0.5 * 1.6 * 0.34;
+        let want = (own.std[0] * own.std[0] + nuisance * nuisance).sqrt();
+        assert!((pre.std[0] - want).abs() < 1e-5, "{} {want}", pre.std[0]);
+        assert_eq!(pre.assess(&k, &corr)[0], Assessment::Suspect);
+        assert!((preflight_systematic(&k, &day)[0] - nuisance).abs() < 1e-6);
+        // Without a declared spread the day adds nothing.
+        assert_eq!(record.on_day(0.34 / 12.0).friction_for(&k), 0.0);
+        // The other components keep their bits.
+        for i in 1..FAULT_COUNT {
+            assert_eq!(pre.std[i].to_bits(), own.std[i].to_bits(), "{i}");
+        }
+    }
+
+    #[test]
     fn a_preflight_takes_the_systematic_error_its_actuator_record_carries() {
         let c = Curvature {
             gradient: [0.0; FAULT_COUNT],
@@ -707,6 +782,8 @@ mod tests {
         let light = SystematicError {
             gain_drift: 0.009,
             play_gain_drift: 0.018,
+            gear_temperature_spread: 0.0,
+            healthy_friction: 0.0,
         };
         let play = FaultVector::new([0.0, 0.4, 0.0, 0.0, 0.0, 0.0, 0.5, 0.625, 0.0]).unwrap();
         let mut none = *play.as_array();

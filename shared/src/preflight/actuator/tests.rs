@@ -177,17 +177,50 @@ fn a_version_7_record_reads_with_no_demagnetization_in_its_guess() {
 }
 
 #[test]
+fn a_version_9_record_reads_with_the_gearbox_at_the_thermistors_temperature() {
+    let custom = ActuatorRecord {
+        systematic: SystematicError {
+            gear_temperature_spread: 12.0,
+            ..SystematicError::REFERENCE_ACTUATOR
+        },
+        ..ActuatorRecord::REFERENCE
+    };
+    let v10 = custom.encode();
+    assert_eq!(ActuatorRecord::decode(&v10), Ok(custom));
+    let v9 = older_record(9, &v10[8..8 + 4 * BODY_WORDS_V9]);
+    assert_eq!(v9.len(), RECORD_BYTES_V9);
+    let r = ActuatorRecord::decode(&v9).unwrap();
+    assert_eq!(r.systematic.gear_temperature_spread, 0.0);
+    assert_eq!(r, ActuatorRecord::REFERENCE);
+    let bad = ActuatorRecord {
+        systematic: SystematicError {
+            gear_temperature_spread: -1.0,
+            ..custom.systematic
+        },
+        ..custom
+    };
+    assert_eq!(
+        ActuatorRecord::decode(&bad.encode()),
+        Err(ActuatorRecordError::OutOfRange {
+            field: RecordField::UncertaintyGearTemperatureSpread
+        })
+    );
+}
+
+#[test]
 fn a_version_8_record_reads_with_the_reference_actuators_systematic_error() {
     let custom = ActuatorRecord {
         systematic: SystematicError {
             gain_drift: 0.009,
             play_gain_drift: 0.018,
+            gear_temperature_spread: 0.0,
+            healthy_friction: 0.0,
         },
         ..ActuatorRecord::REFERENCE
     };
-    let v9 = custom.encode();
-    assert_eq!(ActuatorRecord::decode(&v9), Ok(custom));
-    let v8 = older_record(8, &v9[8..8 + 4 * BODY_WORDS_V8]);
+    let v10 = custom.encode();
+    assert_eq!(ActuatorRecord::decode(&v10), Ok(custom));
+    let v8 = older_record(8, &v10[8..8 + 4 * BODY_WORDS_V8]);
     assert_eq!(v8.len(), RECORD_BYTES_V8);
     let r = ActuatorRecord::decode(&v8).unwrap();
     assert_eq!(r.systematic, SystematicError::REFERENCE_ACTUATOR);
@@ -210,6 +243,8 @@ fn a_version_8_record_reads_with_the_reference_actuators_systematic_error() {
             systematic: SystematicError {
                 gain_drift,
                 play_gain_drift,
+                gear_temperature_spread: 0.0,
+                healthy_friction: 0.0,
             },
             ..custom
         };
