@@ -521,7 +521,8 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                         let uncertainty = curvature
                             .preflight_uncertainty(
                                 &result.faults,
-                                &self.settings
+                                &self
+                                    .settings
                                     .actuator
                                     .systematic
                                     .on_day(self.day.friction_slope),

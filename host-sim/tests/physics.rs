@@ -1,7 +1,8 @@
 //! Calibration on physics this project did not tune to (issue 68): a draw of the reference
 //! model's nuisance family whose chirp leaves the resistance scale on a flat valley is
-//! calibrated with R and L held at the data sheet's, and a trace the monitor model cannot
-//! explain is refused with the figures that say why.
+//! calibrated with R and L held at the data sheet's, a trace the monitor model cannot
+//! explain is refused with the figures that say why, the start offset is estimated, and a
+//! friction the day's healthy friction can explain is not proven.
 
 use host_sim::fdi::calibration::{calibrate, HELD_TOLERANCE};
 use host_sim::files::actuator::Actuator;
@@ -122,4 +123,60 @@ fn a_trace_with_a_start_offset_calibrates_with_the_offset_estimated() {
     assert!(stdout.contains("estimated: the least mismatch"), "{stdout}");
     let (kept, _) = calibrated(&["--keep-offset"]);
     assert!(kept["encoder_offset"].is_null(), "{kept}");
+}
+
+/// A friction of 0.4 on a −40 °C day, where the reference actuator's law moves the healthy
+/// friction 2 %/K: with the gearbox declared 11.5 K from the thermistor the day's healthy
+/// friction could explain most of it, and it reads `suspect`; declared at the thermistor's
+/// temperature (the default), `FAULT`. The same reading either way.
+#[test]
+fn a_friction_the_gearboxs_declared_spread_can_explain_is_not_proven() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let description = std::fs::read_to_string(root.join("actuators/reference.toml")).unwrap();
+    let declared = description.replacen(
+        "# gear_temperature_spread = 11.5",
+        "gear_temperature_spread = 11.5",
+        1,
+    );
+    assert_ne!(declared, description);
+    let file = dir.path().join("declared.toml");
+    std::fs::write(&file, declared).unwrap();
+    let trace = dir.path().join("cold.csv");
+    let o = host_sim(&[
+        "simulate",
+        "--faults",
+        "0.4,0,0,0,0,0,0.5,0.5,0",
+        "--temperature",
+        "-40",
+        "--seed",
+        "1",
+        "--out",
+        trace.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let friction = |actuator: Option<&std::path::Path>| {
+        let mut args = vec!["identify", trace.to_str().unwrap(), "--json"];
+        if let Some(a) = actuator {
+            args.extend_from_slice(&["--actuator", a.to_str().unwrap()]);
+        }
+        let o = host_sim(&args);
+        let json: serde_json::Value = serde_json::from_slice(&o.stdout)
+            .unwrap_or_else(|_| panic!("{}", String::from_utf8_lossy(&o.stderr)));
+        json
+    };
+    let plain = friction(None);
+    let spread = friction(Some(&file));
+    println!("{plain}\n{spread}");
+    assert_eq!(plain["faults"][0], spread["faults"][0]);
+    assert!((plain["faults"][0].as_f64().unwrap() - 0.4).abs() < 0.05);
+    let std = |j: &serde_json::Value| j["std"][0].as_f64().unwrap();
+    assert!(
+        std(&spread) > 4.0 * std(&plain),
+        "{} {}",
+        std(&spread),
+        std(&plain)
+    );
+    assert_eq!(plain["verdicts"][0], "FAULT");
+    assert_eq!(spread["verdicts"][0], "suspect");
 }

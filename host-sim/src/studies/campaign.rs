@@ -688,9 +688,7 @@ pub fn run_once(
             own_std[i] = without_systematic(
                 u,
                 &found,
-                &record
-                    .systematic
-                    .on_day(id.conditions.friction_slope),
+                &record.systematic.on_day(id.conditions.friction_slope),
                 i,
             );
             let raw = own_std[i] / f64::from(shared::uncertainty::INFLATION);

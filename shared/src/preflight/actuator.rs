@@ -6,7 +6,7 @@
 //!
 //! Layout (little endian): `"EMAA"`, version `u16`, body length `u16`, the body as 32-bit
 //! words in the order of [`ActuatorRecord::encode`], CRC-32 of everything before it.
-//! [`RECORD_BYTES`] in all. Encoding and decoding are O(1) (a fixed 484 bytes), allocate
+//! [`RECORD_BYTES`] in all. Encoding and decoding are O(1) (a fixed 488 bytes), allocate
 //! nothing and never panic; a decoded record is range-checked ([`ActuatorRecord::validate`])
 //! before it is handed out.
 

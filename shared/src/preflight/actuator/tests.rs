@@ -121,7 +121,8 @@ fn a_version_4_record_reads_with_the_typical_drive() {
     assert_eq!(r.polish, custom.polish);
     // A compensation word other than 0 or 1, re-sealed: refused, not read as "on".
     let mut flag = v6;
-    let at = RECORD_BYTES - 4 - 12 - 4 * (GREASE_WORDS + NINTH_WORDS + SYSTEMATIC_WORDS);
+    let at =
+        RECORD_BYTES - 4 - 12 - 4 * (GREASE_WORDS + NINTH_WORDS + SYSTEMATIC_WORDS + SPREAD_WORDS);
     flag[at..at + 4].copy_from_slice(&7u32.to_le_bytes());
     let mut crc = Crc32::new();
     crc.update(&flag[..RECORD_BYTES - 4]);
@@ -382,10 +383,10 @@ fn header_errors_are_named() {
         Err(ActuatorRecordError::TooShort { found: 100 })
     );
     let mut other = bytes;
-    other[4] = 10;
+    other[4] = 11;
     assert_eq!(
         ActuatorRecord::decode(&other),
-        Err(ActuatorRecordError::UnsupportedVersion { found: 10 })
+        Err(ActuatorRecordError::UnsupportedVersion { found: 11 })
     );
     let mut other = bytes;
     other[0] = b'X';
