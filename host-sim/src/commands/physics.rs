@@ -90,8 +90,9 @@ pub(crate) fn physics_campaign_command(
          Each draw plays its own nuisance physics (`host_sim::studies::physics::PhysicsDraw`: \
          grease, gearbox against winding, eccentricity physics, declared duty delay, rigging \
          offset the record does not know, harness), is calibrated on its healthy trace at the \
-         calibration day and in the climatic chamber, then identified on that day and 60 K \
-         either side. e_tot in % (eq. 4); `wrong within`: runs read `within` above 6 % e_tot; \
+         calibration day and in the climatic chamber, with the family's gearbox spread \
+         declared (`[uncertainty] gear_temperature_spread` 11.5 K), then identified on that \
+         day and 60 K either side. e_tot in % (eq. 4); `wrong within`: runs read `within` above 6 % e_tot; \
          `false FAULT`: runs that read a healthy component `FAULT` (Table I and II and the \
          healthy actuator); `outside`: runs the domain check named.\n\n\
          | draw | day | Table I median | Table I worst case (mean) | low | medium | high | medium + noise | healthy: largest | wrong within | false FAULT | outside |\n\
