@@ -247,6 +247,11 @@ enum Command {
         /// the figures are reported on).
         #[arg(long, requires = "physics", default_value_t = 0)]
         first_draw: u64,
+        /// With --physics: calibrate each draw without its climatic chamber (no friction
+        /// law: friction does not move with temperature), to compare the same cases and
+        /// draws with and without the law.
+        #[arg(long, requires = "physics")]
+        without_friction_law: bool,
         /// With --flight: only these phases (comma-separated; all three by default).
         #[arg(long, requires = "flight", value_enum, value_delimiter = ',')]
         phase: Vec<FlightPhase>,
@@ -741,6 +746,7 @@ fn main() -> ExitCode {
             physics,
             draws,
             first_draw,
+            without_friction_law,
             test_amplitudes,
             first_seed,
             flight_windows,
@@ -759,6 +765,7 @@ fn main() -> ExitCode {
                 &actuator,
                 first_draw..first_draw.saturating_add(draws),
                 runs,
+                !without_friction_law,
                 out.as_deref(),
             ),
             _ if flight => {

@@ -78,6 +78,7 @@ pub(crate) fn physics_campaign_command(
     actuator: &Actuator,
     seeds: std::ops::Range<u64>,
     runs: u64,
+    friction_law: bool,
     out: Option<&Path>,
 ) -> Result<()> {
     let mut cases = TABLE_1.to_vec();
@@ -90,9 +91,9 @@ pub(crate) fn physics_campaign_command(
          Each draw plays its own nuisance physics (`host_sim::studies::physics::PhysicsDraw`: \
          grease, gearbox against winding, eccentricity physics, declared duty delay, rigging \
          offset the record does not know, harness), is calibrated on its healthy trace at the \
-         calibration day and in the climatic chamber, with the family's gearbox spread \
-         declared (`[uncertainty] gear_temperature_spread` 11.5 K), then identified on that \
-         day and 60 K either side. e_tot in % (eq. 4); `wrong within`: runs read `within` above 6 % e_tot; \
+         calibration day{}, with the family's gearbox spread declared (`[uncertainty] \
+         gear_temperature_spread` 11.5 K), then identified on that day and 60 K either side. \
+         e_tot in % (eq. 4); `wrong within`: runs read `within` above 6 % e_tot; \
          `false FAULT`: runs that read a healthy component `FAULT` (Table I and II and the \
          healthy actuator); `outside`: runs the domain check named.\n\n\
          | draw | day | Table I median | Table I worst case (mean) | low | medium | high | medium + noise | healthy: largest | wrong within | false FAULT | outside |\n\
@@ -101,6 +102,11 @@ pub(crate) fn physics_campaign_command(
         actuator.record.test.kind_name(),
         seeds.start,
         seeds.end.saturating_sub(1),
+        if friction_law {
+            " and in the climatic chamber"
+        } else {
+            " alone (**no friction law**: `--without-friction-law`)"
+        },
     );
     let mut labels = String::from("\nThe draws:\n\n");
     let mut totals: Vec<DayTotals> = DAYS
@@ -172,6 +178,7 @@ pub(crate) fn physics_campaign_command(
         &cases,
         seeds,
         runs,
+        friction_law,
         std::io::stderr().is_terminal(),
         on_row,
     )?;

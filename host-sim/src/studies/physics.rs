@@ -206,12 +206,15 @@ pub struct PhysicsRow {
 /// the climatic chamber's at `CLIMATIC_TEMPERATURES`, the declared delay and the family's
 /// gearbox spread, [`DECLARED_GEAR_SPREAD`]),
 /// then `cases` identified `runs` times on each of [`DAYS`]; `on_row` sees each row as it
-/// is done. A calibration the fit refuses is a row of its own, never an error.
+/// is done. A calibration the fit refuses is a row of its own, never an error. Without
+/// `friction_law` the chamber's traces are not used: friction does not move with
+/// temperature.
 pub fn physics_campaign(
     actuator: &Actuator,
     cases: &[Case],
     seeds: std::ops::Range<u64>,
     runs: u64,
+    friction_law: bool,
     progress: bool,
     mut on_row: impl FnMut(&PhysicsRow),
 ) -> Result<Vec<PhysicsRow>> {
@@ -239,7 +242,15 @@ pub fn physics_campaign(
         let calibration =
             crate::fdi::calibration::reference_calibration(&chamber, &played.record.calibration);
         match calibration {
-            Ok(c) => played.record.calibration = c,
+            Ok(c) if friction_law => played.record.calibration = c,
+            Ok(c) => {
+                played.record.calibration = shared::calibration::Calibration {
+                    friction_points: [[0.0; 2]; shared::calibration::FRICTION_POINTS],
+                    viscous: 0.0,
+                    drag_points: [0.0; shared::calibration::FRICTION_POINTS],
+                    ..c
+                }
+            }
             Err(e) => {
                 let row = PhysicsRow {
                     draw,
@@ -359,8 +370,10 @@ mod tests {
         let actuator = Actuator::reference();
         let case = crate::studies::campaign::HEALTHY_QUIET;
         let mut seen = Vec::new();
-        let rows =
-            physics_campaign(&actuator, &[case], 4..5, 1, false, |row| seen.push(row.day)).unwrap();
+        let rows = physics_campaign(&actuator, &[case], 4..5, 1, true, false, |row| {
+            seen.push(row.day)
+        })
+        .unwrap();
         assert_eq!(seen, DAYS.map(|(day, _)| day));
         for row in &rows {
             assert_eq!(row.draw, PhysicsDraw::draw(4));
