@@ -420,10 +420,11 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                 measured.finish().map_err(PreflightError::Conditioning)?;
                 let measured: &'m OnboardMeasured = measured;
                 let s = &self.settings;
-                let id = Identification::new(
+                let id = Identification::with_nuisances(
                     measured,
                     s.actuator.params,
                     &s.actuator.calibration,
+                    &s.actuator.systematic,
                     s.actuator.ga,
                     s.seed,
                 )
@@ -518,16 +519,14 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                 Ok(match done {
                     None => State::Uncertainty { result },
                     Some(curvature) => {
-                        let uncertainty = curvature
-                            .preflight_uncertainty(
+                        let uncertainty = id
+                            .reading_uncertainty(
                                 &result.faults,
-                                &self
-                                    .settings
-                                    .actuator
-                                    .systematic
-                                    .on_day(self.day.friction_slope),
+                                &curvature,
+                                &self.settings.actuator.systematic,
                             )
                             .ok();
+                        let result = id.reading(result);
                         State::Report {
                             result,
                             assessments: self.assess(&result, uncertainty.as_ref()),

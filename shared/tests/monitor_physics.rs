@@ -225,3 +225,42 @@ fn a_run_starts_where_the_measured_test_began_with_the_gear_relaxed() {
     });
     assert_eq!(a, b);
 }
+
+/// The day's healthy friction as a nuisance (`MonitorModel::with_friction_floor`): a floor of
+/// 1 plays the fault vector bit for bit; below it, the solver's vector that reads as a
+/// fault plays the same torque as that fault at the day's friction, and a solver's friction
+/// below the healthy point reads as no fault with the healthy friction below the estimate.
+#[test]
+fn the_healthy_friction_below_the_days_estimate_is_a_nuisance_not_a_fault() {
+    let k = FaultVector::new(with(0, 0.3)).unwrap();
+    let mut plain = Vec::new();
+    model().run(&k, 2000, |s| plain.push(s.current.to_bits()));
+    let mut floor_one = Vec::new();
+    model()
+        .with_friction_floor(1.0)
+        .run(&k, 2000, |s| floor_one.push(s.current.to_bits()));
+    assert_eq!(plain, floor_one);
+
+    let m = model().with_friction_floor(0.6);
+    assert_eq!(m.friction_floor(), 0.6);
+    let solver = m.solver_vector(&k);
+    assert!((m.reading(&solver).friction() - 0.3).abs() < 1e-6);
+    let mut floored = Vec::new();
+    m.run(&solver, 2000, |s| floored.push(s.current));
+    let worst = plain
+        .iter()
+        .zip(&floored)
+        .map(|(a, b)| (f32::from_bits(*a) - b).abs())
+        .fold(0.0f32, f32::max);
+    assert!(worst < 1e-3, "{worst}");
+    // The healthy point reads healthy at the estimate; below it, healthy at less.
+    let healthy = m.solver_vector(&FaultVector::NOMINAL);
+    assert_eq!(m.reading(&healthy).friction(), 0.0);
+    assert!((m.healthy_friction_read(&healthy) - 1.0).abs() < 1e-6);
+    let mut low = *healthy.as_array();
+    low[0] = 0.0;
+    let low = FaultVector::new(low).unwrap();
+    assert_eq!(m.reading(&low).friction(), 0.0);
+    assert!((m.healthy_friction_read(&low) - 0.6).abs() < 1e-6);
+    assert!((m.reading_scale() - 1.2).abs() < 1e-6);
+}

@@ -195,9 +195,11 @@ pub(crate) fn report(
     println!("{}", conditions_text(&id.conditions));
     if id.friction_nuisance > 0.0 {
         println!(
-            "nuisance      the friction's deviation carries {:.4} of the day's healthy friction \
-             (its law moves {:.2} %/K here; the gearbox's declared spread from the thermistor, \
+            "nuisance      healthy friction read ×{:.3} of the day's estimate (estimated with \
+             the faults, down to e^-2σ); the friction's deviation carries {:.4} of it (its law \
+             moves {:.2} %/K here × the gearbox's declared spread from the thermistor, \
              [uncertainty] gear_temperature_spread)",
+            id.healthy_friction,
             id.friction_nuisance,
             100.0 * id.conditions.friction_slope
         );

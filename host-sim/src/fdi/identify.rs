@@ -37,6 +37,10 @@ pub struct Identified {
     /// (`shared::uncertainty::SystematicError::friction_for`, in quadrature; 0 without a
     /// declared gearbox spread).
     pub friction_nuisance: f32,
+    /// The healthy friction the identification read against the day's estimate: below 1
+    /// where it estimated the day's healthy friction lower (`Identification::with_nuisances`;
+    /// 1 without a declared gearbox spread or where it read a friction fault).
+    pub healthy_friction: f32,
     /// What the test showed of a moment on the surface beyond its spring
     /// (`shared::domain::Domain::with_load`).
     pub load: shared::domain::LoadSigns,
@@ -133,9 +137,16 @@ pub fn onboard_identification<'a>(
     seed: u64,
     table: &'a CommandTable<TEST_SAMPLES>,
 ) -> Result<Identification<'a, TEST_SAMPLES, POPULATION>> {
-    Identification::new(measured, record.params, &record.calibration, settings, seed)
-        .and_then(|id| id.with_command_table(table))
-        .map_err(|e| anyhow::anyhow!("setting up the identification: {e:?}"))
+    Identification::with_nuisances(
+        measured,
+        record.params,
+        &record.calibration,
+        &record.systematic,
+        settings,
+        seed,
+    )
+    .and_then(|id| id.with_command_table(table))
+    .map_err(|e| anyhow::anyhow!("setting up the identification: {e:?}"))
 }
 
 /// Identifies the faults behind `measured` of the reference actuator with `calibration`.
@@ -269,8 +280,12 @@ pub fn identify_checkpointed(
     let seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
     let curvature = id.problem().curvature_in(&mut run, &result.faults);
+    let uncertainty = id
+        .reading_uncertainty(&result.faults, &curvature, &systematic)
+        .ok();
+    let healthy_friction = id.problem().model().healthy_friction_read(&result.faults);
+    let result = id.reading(result);
     let day = systematic.on_day(id.problem().conditions().friction_slope);
-    let uncertainty = curvature.preflight_uncertainty(&result.faults, &day).ok();
     Ok((
         Outcome::Finished(Box::new(Identified {
             result,
@@ -279,6 +294,7 @@ pub fn identify_checkpointed(
             uncertainty,
             conditions: *id.problem().conditions(),
             friction_nuisance: day.friction_for(&result.faults),
+            healthy_friction,
             load: id.problem().load_signs(run.load_offset()),
         })),
         resumption,

@@ -177,6 +177,9 @@ pub struct MonitorModel {
     standstill: Option<StandstillSegment>,
     /// The controller's duty delay as a share of the period ([`Calibration::delay_share`]).
     delay_share: f32,
+    /// The lowest healthy friction the solver may read, against the day's estimate
+    /// ([`Self::with_friction_floor`]; 1: none below it).
+    friction_floor: f32,
 }
 
 impl MonitorModel {
@@ -204,6 +207,7 @@ impl MonitorModel {
             pair_phase_inductance: params.phase_inductance * calibration.pair_inductance_scale,
             standstill: None,
             delay_share: calibration.delay_share(params.control_period),
+            friction_floor: 1.0,
         }
     }
 
@@ -227,6 +231,64 @@ impl MonitorModel {
             self.motor_drag_keep = clamp(1.0 - self.dt_over_motor_inertia * drag, 0.0, 2.0);
         }
         self
+    }
+
+    /// The same model with the day's healthy friction a nuisance the solver estimates with
+    /// the faults, down to `floor` (0.05 … 1) times the day's estimate: the solver's first
+    /// component then spans the friction torque `floor … 3` times the day's healthy one
+    /// (`floor + (3 − floor)·k1'`), the healthy point at `k1' = (1 − floor)/(3 − floor)`;
+    /// [`Self::reading`] says what a solver's vector reads as. A floor of 1 is the fault
+    /// vector itself, bit for bit. O(1).
+    #[must_use]
+    pub fn with_friction_floor(mut self, floor: f32) -> Self {
+        self.friction_floor = if floor.is_finite() {
+            clamp(floor, 0.05, 1.0)
+        } else {
+            1.0
+        };
+        self
+    }
+
+    /// [`Self::with_friction_floor`]'s floor.
+    pub fn friction_floor(&self) -> f32 {
+        self.friction_floor
+    }
+
+    /// The fault vector the solver's vector `k` reads as: its friction torque's excess over
+    /// the day's healthy friction as k1 (`max(0, (floor + (3 − floor)·k1' − 1)/2)`), the rest
+    /// as it is. The identity without a floor. O(1).
+    pub fn reading(&self, k: &FaultVector) -> FaultVector {
+        if self.friction_floor == 1.0 {
+            return *k;
+        }
+        let mut a = *k.as_array();
+        let l = self.friction_floor;
+        a[0] = (0.5 * (l + (3.0 - l) * k.friction() - 1.0)).max(0.0);
+        FaultVector::saturating(a)
+    }
+
+    /// The solver's vector that reads as `k` ([`Self::reading`]'s inverse where k1 > 0; a
+    /// healthy friction at the day's estimate). O(1).
+    pub fn solver_vector(&self, k: &FaultVector) -> FaultVector {
+        if self.friction_floor == 1.0 {
+            return *k;
+        }
+        let mut a = *k.as_array();
+        let l = self.friction_floor;
+        a[0] = (1.0 + 2.0 * k.friction() - l) / (3.0 - l);
+        FaultVector::saturating(a)
+    }
+
+    /// The healthy friction the solver's vector `k` reads, against the day's estimate: 1
+    /// where it reads a friction fault or none below the estimate. O(1).
+    pub fn healthy_friction_read(&self, k: &FaultVector) -> f32 {
+        let l = self.friction_floor;
+        (l + (3.0 - l) * k.friction()).min(1.0)
+    }
+
+    /// How much a solver's k1' moves the reading's k1 (`(3 − floor)/2`; 1 without a floor).
+    pub fn reading_scale(&self) -> f32 {
+        0.5 * (3.0 - self.friction_floor)
     }
 
     /// The same model driven by another command.
@@ -282,7 +344,10 @@ impl MonitorModel {
     }
 
     fn faulted(&self, k: &FaultVector) -> FaultedConstants {
-        let fx = k.effects();
+        let mut fx = k.effects();
+        if self.friction_floor != 1.0 {
+            fx.friction_scale = self.friction_floor + (3.0 - self.friction_floor) * k.friction();
+        }
         let p = &self.params;
         let [na, nb, nc] = fx.healthy_turns;
         let turns = fx.healthy_turns;

@@ -12,6 +12,7 @@ use crate::physics::params::ActuatorParams;
 use crate::solver::fitness::{CurvatureRun, FitnessError, FitnessProblem};
 use crate::solver::ga::{GaError, GaSettings, RecordError, Status, SteadyStateGa, StopReason};
 use crate::solver::polish::{Polish, PolishAsk, PolishSettings};
+use crate::solver::uncertainty::{Curvature, SystematicError, Uncertainty, UncertaintyError};
 #[cfg(feature = "command-table")]
 use crate::test::command::CommandTable;
 use crate::test::conditioning::{commutation_signs, AdcFrame, MeasuredCurrent};
@@ -83,6 +84,96 @@ impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
             ga: SteadyStateGa::new(settings, seed)?,
             fingerprint: fingerprint(measured, &params, calibration, &settings, seed),
         })
+    }
+
+    /// [`Self::new`] for an actuator whose record carries `systematic`: where it declares
+    /// how far the gearbox may run from the thermistor, the day's healthy friction is a
+    /// nuisance estimated with the faults — the solver may read it down to `exp(−2σ)` of the
+    /// law's estimate, σ the day's deviation ([`SystematicError::on_day`]: the law's slope ×
+    /// the spread), a box prior; above the estimate the friction fault takes the excess —,
+    /// the GA starting from the healthy friction at the estimate. Without a spread, exactly
+    /// [`Self::new`]. Results are in the solver's coordinates until [`Self::reading`].
+    pub fn with_nuisances(
+        measured: &'a MeasuredCurrent<N>,
+        params: ActuatorParams,
+        calibration: &Calibration,
+        systematic: &SystematicError,
+        mut settings: GaSettings,
+        seed: u64,
+    ) -> Result<Self, FdiError> {
+        let mut problem = FitnessProblem::new(measured, params, calibration)?;
+        let sigma = systematic
+            .on_day(problem.conditions().friction_slope)
+            .healthy_friction;
+        let mut fingerprint = fingerprint(measured, &params, calibration, &settings, seed);
+        if sigma > 0.0 {
+            problem = problem.with_friction_floor(crate::base::math::exp(-2.0 * sigma));
+            let model = problem.model();
+            if let Some(guess) = settings.initial_guess.as_mut() {
+                *guess = *model
+                    .solver_vector(&FaultVector::saturating(*guess))
+                    .as_array();
+            }
+            let mut crc = Crc32::new();
+            crc.update(&fingerprint.to_le_bytes());
+            crc.update(&model.friction_floor().to_bits().to_le_bytes());
+            fingerprint = crc.finish();
+        }
+        Ok(Self {
+            problem,
+            ga: SteadyStateGa::new(settings, seed)?,
+            fingerprint,
+        })
+    }
+
+    /// What the solver's `result` reads as: its friction's excess over the day's healthy
+    /// friction as the fault ([`MonitorModel::reading`]); itself without a floor. O(1).
+    pub fn reading(&self, result: IdentificationResult) -> IdentificationResult {
+        IdentificationResult {
+            faults: self.problem.model().reading(&result.faults),
+            ..result
+        }
+    }
+
+    /// The preflight's uncertainty of the reading of the solver's vector `k` from its
+    /// `curvature`, on an actuator whose record carries `systematic`: the curvature's
+    /// deviations with the record's systematic error, the friction's moved to the reading's
+    /// scale, then the day's healthy friction's deviation added to it in quadrature
+    /// ([`SystematicError::friction_for`]). Without a floor, exactly
+    /// [`Curvature::preflight_uncertainty`] with the day's systematic error. O(9³).
+    pub fn reading_uncertainty(
+        &self,
+        k: &FaultVector,
+        curvature: &Curvature,
+        systematic: &SystematicError,
+    ) -> Result<
+        (
+            Uncertainty,
+            [[f32; crate::physics::fault::FAULT_COUNT]; crate::physics::fault::FAULT_COUNT],
+        ),
+        UncertaintyError,
+    > {
+        let model = self.problem.model();
+        let day = systematic.on_day(self.problem.conditions().friction_slope);
+        if model.friction_floor() == 1.0 {
+            return curvature.preflight_uncertainty(k, &day);
+        }
+        let (u, correlation) = curvature.preflight_uncertainty(
+            k,
+            &SystematicError {
+                healthy_friction: 0.0,
+                ..day
+            },
+        )?;
+        let read = model.reading(k);
+        let mut factors = [1.0; crate::physics::fault::FAULT_COUNT];
+        factors[0] = model.reading_scale();
+        let mut shared = [0.0; crate::physics::fault::FAULT_COUNT];
+        shared[0] = day.friction_for(&read);
+        Ok((
+            u.widened(&read, &factors).with_shared(&read, &shared),
+            correlation,
+        ))
     }
 
     /// What ties a checkpoint to this run: a CRC-32 over the measured samples and initial

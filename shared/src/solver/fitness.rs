@@ -128,6 +128,13 @@ impl<'a, const N: usize> FitnessProblem<'a, N> {
         }
     }
 
+    /// The same problem with the day's healthy friction a nuisance down to `floor` times its
+    /// estimate ([`MonitorModel::with_friction_floor`]).
+    pub fn with_friction_floor(mut self, floor: f32) -> Self {
+        self.model = self.model.with_friction_floor(floor);
+        self
+    }
+
     /// The same problem with another standstill weight (for studies of the weight).
     pub fn with_standstill_weight(mut self, weight: f32) -> Self {
         self.standstill_weight = weight;
