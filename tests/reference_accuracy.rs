@@ -8,7 +8,7 @@
 
 use host_sim::files::actuator::{Actuator, Day};
 use host_sim::plant::reference::ReferenceModel;
-use host_sim::studies::campaign::{run_once, HEALTHY_QUIET, TABLE_1, TABLE_2};
+use host_sim::studies::campaign::{run_once, Case, HEALTHY_QUIET, TABLE_1, TABLE_2};
 use shared::actuator::ActuatorRecord;
 use shared::uncertainty::Assessment;
 
@@ -20,22 +20,32 @@ fn check(name: &str) {
 const RUNS: u64 = 3;
 
 /// `name` on `actuator` (its reference model, record and calibration), [`RUNS`] seeds; the
-/// mean e_tot must be ≤ 2 %. Returns the mean identified vector's eccentricity.
+/// mean e_tot must be ≤ 2 %. Returns the largest eccentricity any run read.
 fn check_on(actuator: &Actuator, name: &str) -> f32 {
     check_runs(actuator, name, RUNS)
 }
 
-/// As [`check_on`], over `runs` seeds.
-fn check_runs(actuator: &Actuator, name: &str, runs: u64) -> f32 {
-    let case = TABLE_1
+/// The Table I or II case `name`.
+fn case(name: &str) -> Case {
+    *TABLE_1
         .iter()
         .chain(TABLE_2.iter())
         .find(|c| c.name == name)
-        .expect("a Table I or II case");
+        .expect("a Table I or II case")
+}
+
+/// As [`check_on`], over `runs` seeds.
+fn check_runs(actuator: &Actuator, name: &str, runs: u64) -> f32 {
+    check_case(actuator, &case(name), runs)
+}
+
+/// As [`check_runs`], for any case.
+fn check_case(actuator: &Actuator, case: &Case, runs: u64) -> f32 {
+    let name = case.name;
     let settings = actuator.reference_settings().expect("a description");
     let rm = ReferenceModel::new(settings).with_test(actuator.record.test);
     let record: ActuatorRecord = actuator.record;
-    let (mut e_tot, mut eccentricity) = (0.0, 0.0);
+    let (mut e_tot, mut eccentricity) = (0.0, 0.0f32);
     for run in 0..runs {
         let r = run_once(&rm, &record, case, run).expect("identification runs");
         println!(
@@ -45,7 +55,7 @@ fn check_runs(actuator: &Actuator, name: &str, runs: u64) -> f32 {
             r.found.as_array()
         );
         e_tot += r.e_tot / runs as f64;
-        eccentricity += r.found.eccentricity() / runs as f32;
+        eccentricity = eccentricity.max(r.found.eccentricity());
     }
     println!("{} / {name}: mean e_tot {e_tot:.3} %", actuator.name);
     assert!(e_tot <= 2.0, "{name}: mean e_tot {e_tot:.3} % > 2 %");
@@ -65,8 +75,8 @@ fn light_actuator_short_and_eccentricity() {
 }
 
 /// An installation rigged at 3 rad (motor side), carried in the record: the short is found
-/// as at rigging 0, with no false eccentricity beside it (mean over the runs below the
-/// detection threshold).
+/// as at rigging 0, with no false eccentricity beside it (no run above the detection
+/// threshold).
 #[test]
 fn a_rigged_installation_is_identified_as_an_unrigged_one() {
     let rigged = Actuator::reference().with_encoder_offset(Some(3.0));
@@ -78,7 +88,7 @@ fn a_rigged_installation_is_identified_as_an_unrigged_one() {
     let eccentricity = check_on(&rigged, "short A k3 = 0.2");
     assert!(
         eccentricity < 0.05,
-        "false eccentricity {eccentricity} (mean over the runs)"
+        "false eccentricity {eccentricity} (the largest of the runs)"
     );
 }
 
@@ -102,17 +112,36 @@ fn gain_drift_low() {
     check("gain drift k8 = 0.4");
 }
 
-/// Large play (1 mrad): the case the monitor model's start from the measured shaft angles
-/// fixed (it was 1.3 % mean with one 4.9 % run when the model started at zero). Over the
-/// campaign's ten seeds, not three: its runs are bimodal — the truth within 0.01 %, or an
-/// eccentricity of 0.05–0.08 beside the play at 2–3 % — and in every run, either mode, the
-/// monitor model's fitness at what was found is below its fitness at the truth (`campaign
-/// --runs-csv`), so which mode a seed lands in is the optimiser's path, not a fault: three
-/// seeds sample it too coarsely for a 2 % mean (seeds 0–2 all land in the second mode with
-/// the ninth gene, mean 2.6 %; ten give 1.8 %).
+/// A large play alone reads no eccentricity: backlash 0.6, 0.8 and 1.0 (1 mrad), three seeds
+/// each, the truth within 2 % and no run reading an eccentricity above the detection
+/// threshold (0.05). The monitor model's contact damps over the share of a step it is closed
+/// for: damped over the whole step from its first touch, its currents jumped with the play
+/// (the fitness ×2–3 apart between plays 0.002 apart), every run's fitness at what it found
+/// lay below the truth's, and an eccentricity of 0.05–0.11 stood beside the play.
 #[test]
-fn backlash_high() {
-    check_runs(&Actuator::reference(), "backlash k2 = 1.0", 10);
+fn a_large_backlash_reads_no_eccentricity() {
+    let high = case("backlash k2 = 1.0");
+    for (backlash, name) in [
+        (0.6, "backlash k2 = 0.6"),
+        (0.8, "backlash k2 = 0.8"),
+        (1.0, high.name),
+    ] {
+        let mut faults = high.faults;
+        faults[1] = backlash;
+        let eccentricity = check_case(
+            &Actuator::reference(),
+            &Case {
+                name,
+                faults,
+                ..high
+            },
+            RUNS,
+        );
+        assert!(
+            eccentricity <= 0.05,
+            "backlash {backlash}: eccentricity {eccentricity} read beside it"
+        );
+    }
 }
 
 /// Eccentricity: the paper's test and eq. (2) gave 10 % here; the standstill segment pins

@@ -208,3 +208,35 @@ fn the_days_healthy_friction_is_estimated_with_the_faults_where_the_gearbox_spre
     );
     assert!(e_tot(&spread) < 2.0, "{}", e_tot(&spread));
 }
+
+/// A two-part grease (its drag ×10 and its dry friction ×2.95 at −40 °C, each by its own
+/// law), calibrated in its climatic chamber as README says: a controller whose gain has
+/// drifted (Table I's gain drift 0.0, every other component healthy), at the calibration's
+/// own temperature, reads no friction beside it — the grease's drag is the day's, not a
+/// fault's — over three seeds, and its gain drift within 0.02.
+#[test]
+fn a_gain_drift_at_the_calibrations_temperature_reads_no_friction_on_a_two_part_grease() {
+    use host_sim::files::actuator::Day;
+    use host_sim::studies::campaign::{run_once, TABLE_1};
+    let played = Actuator::reference()
+        .with_day(Day {
+            two_part_grease: true,
+            ..Day::default()
+        })
+        .unwrap();
+    let mut record = played.record;
+    let rm = ReferenceModel::new(played.reference_settings().unwrap()).with_test(record.test);
+    record.calibration =
+        host_sim::fdi::calibration::reference_calibration(&rm, &record.calibration).unwrap();
+    assert!(record.calibration.viscous > 0.0, "the chamber finds the drag");
+    let case = TABLE_1
+        .iter()
+        .find(|c| c.name == "gain drift k8 = 0.0")
+        .unwrap();
+    for run in 0..3 {
+        let r = run_once(&rm, &record, case, run).unwrap();
+        println!("seed {run}: e_tot {:.3} %, found {:?}", r.e_tot, r.found.as_array());
+        assert!(r.found.friction() <= 0.05, "friction {}", r.found.friction());
+        assert!(r.found.gain_drift() <= 0.02, "gain drift {}", r.found.gain_drift());
+    }
+}

@@ -97,20 +97,20 @@ impl Calibration {
     /// magnets' coefficient. The firmware carries it as data; `host-sim` checks it is still
     /// what the fit gives.
     pub const REFERENCE_ACTUATOR: Self = Self {
-        resistance_scale: 0.6658934,
-        inductance_scale: 0.729931,
-        back_emf_scale: 1.0002164,
-        friction_scale: 0.98318666,
-        damping: 8.465637,
-        nominal_residual: 0.013888541,
+        resistance_scale: 0.6197983,
+        inductance_scale: 0.79253405,
+        back_emf_scale: 1.0001426,
+        friction_scale: 0.98432016,
+        damping: 8.496969,
+        nominal_residual: 0.013886672,
         pair_resistance_scale: 1.1904732,
         pair_inductance_scale: 1.0562423,
         temperature: 21.998205,
         friction_points: [
-            [-43.001793, 3.5509732],
-            [-23.001795, 2.0157323],
-            [1.9982052, 1.2847363],
-            [76.9982, 0.74194986],
+            [-43.001793, 3.550076],
+            [-23.001795, 2.0123153],
+            [1.9982052, 1.2823199],
+            [76.9982, 0.7399107],
         ],
         magnet_coefficient: -0.0011,
         duty_delay: 0.0,
@@ -121,23 +121,23 @@ impl Calibration {
     /// The same for the earlier default test (voltage steps at standstill), fitted on an
     /// ideal drive (that test cannot run on a real bridge: docs/identifiability.md).
     pub const REFERENCE_ACTUATOR_STEPS: Self = Self {
-        resistance_scale: 0.47267297,
-        inductance_scale: 0.860487,
-        back_emf_scale: 1.001137,
-        friction_scale: 0.99771225,
-        damping: 9.88454,
-        nominal_residual: 0.0007770943,
+        resistance_scale: 1.2684298,
+        inductance_scale: 0.43415764,
+        back_emf_scale: 1.0011888,
+        friction_scale: 0.9988724,
+        damping: 9.943476,
+        nominal_residual: 0.0007755383,
         ..Self::IDENTITY
     };
 
     /// The same for the paper's test (the chirp alone), fitted on an ideal drive.
     pub const REFERENCE_ACTUATOR_PAPER: Self = Self {
-        resistance_scale: 0.75073683,
-        inductance_scale: 0.8183919,
-        back_emf_scale: 0.99955827,
-        friction_scale: 0.9820077,
-        damping: 8.570111,
-        nominal_residual: 0.0011607918,
+        resistance_scale: 0.8208843,
+        inductance_scale: 0.6972787,
+        back_emf_scale: 0.9999265,
+        friction_scale: 0.9713661,
+        damping: 10.043313,
+        nominal_residual: 0.0011582866,
         ..Self::IDENTITY
     };
 }

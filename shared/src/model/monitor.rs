@@ -19,8 +19,9 @@
 //!    bin (the magnets' flux), apart from the day's reversible flux.
 //! 3. **Mechanics** — motor inertia (with lumped stick-slip dry friction: a velocity-level
 //!    friction impulse that can stop, but never reverse, the motor within one step) coupled to
-//!    the user inertia by a compliant gear train whose play is a dead zone; the user shaft
-//!    carries the aerodynamic spring load. Semi-implicit Euler.
+//!    the user inertia by a compliant gear train whose play is a dead zone (a contact that
+//!    closes within a step damps over its share of the step only); the user shaft carries
+//!    the aerodynamic spring load. Semi-implicit Euler.
 //!
 //! The recorded signal is the equivalent current at the start of each step, i.e. what the ADC
 //! samples at `t = i·dt` before the control update.
@@ -707,9 +708,20 @@ impl MonitorModel {
         // The gear sees the motor angle from the surface's zero (the rigging offset).
         let deflection = (s.motor_angle - p.encoder_offset) * self.inv_gear_ratio - s.user_angle;
         let engaged = deflection - clamp(deflection, -f.half_backlash, f.half_backlash);
-        // A contact pushes, never pulls: damping cannot reverse the spring's torque.
-        let contact = p.gear_stiffness * engaged
-            + p.gear_damping * (s.motor_speed * self.inv_gear_ratio - s.user_speed);
+        // A contact pushes, never pulls: damping cannot reverse the spring's torque. A contact
+        // that closed during this step damps only over its share of the step (its
+        // penetration over the rate it closes at): the impulse grows from 0 with the
+        // penetration instead of a whole step's `c·v` at the first touch, so the test's
+        // currents move smoothly with the play, as the continuous gear's do.
+        let relative_speed = s.motor_speed * self.inv_gear_ratio - s.user_speed;
+        let closing = abs(relative_speed);
+        let penetration_rate = abs(engaged) * self.inv_dt;
+        let share = if penetration_rate >= closing {
+            1.0
+        } else {
+            penetration_rate / closing
+        };
+        let contact = p.gear_stiffness * engaged + p.gear_damping * relative_speed * share;
         let gear_torque = if engaged > 0.0 && contact > 0.0 || engaged < 0.0 && contact < 0.0 {
             contact
         } else {
