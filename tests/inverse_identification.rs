@@ -78,14 +78,14 @@ fn low_multi_fault_is_identified() {
     assert!(e_tot <= 0.5, "e_tot {e_tot} %");
 }
 
-/// A multimodal vector: backlash 0.6 (a dead zone 60× the nominal play) with friction,
-/// shorts and an eccentricity makes the fitness rugged (on a straight line from a run's
-/// stuck point to the truth it rises and falls six times), and the flown GA reaches the
-/// truth's basin in about half of its seeds with the paper's eight genes (11 of seeds 1–20)
-/// and a quarter with nine (5 of 20; docs/accuracy.md). What the check proves here: no seed
-/// finds a fitness below the truth's (the truth is the fitness's global minimum, so a miss
-/// is the optimiser's, not the model's), and the flown solver reaches it within 0.5 % in at
-/// least one of seeds 1–6.
+/// A vector with a large play: backlash 0.6 (a dead zone 60× the nominal play) with
+/// friction, shorts and an eccentricity. The flown solver reaches the truth within 0.5 % from
+/// every one of GA seeds 1–20 (`cargo run --release -p shared --example inverse_seeds`;
+/// docs/accuracy.md). The check: no seed of 1–6 finds a fitness below the truth's (the truth
+/// is the fitness's global minimum, so a miss is the optimiser's, not the model's), and every
+/// one reaches it within 0.5 %. (A gear contact that damped over the whole step from its
+/// first touch made this fitness rugged along the play, and the truth was reached from 5 of
+/// the 20 seeds.)
 #[test]
 fn mixed_multi_fault_has_its_minimum_at_the_truth_and_is_reached() {
     let truth = [0.25, 0.6, 0.0, 0.15, 0.3, 0.35, 0.1, 0.7, 0.0];
@@ -97,9 +97,8 @@ fn mixed_multi_fault_has_its_minimum_at_the_truth_and_is_reached() {
             "seed {}: fitness {fitness:e} below the truth's {at_truth:e} (e_tot {e_tot} %)",
             seed + 1
         );
+        assert!(*e_tot <= 0.5, "seed {}: e_tot {e_tot} %", seed + 1);
     }
-    let best = runs.iter().map(|r| r.0).fold(f32::INFINITY, f32::min);
-    assert!(best <= 0.5, "best e_tot of six seeds {best} %");
 }
 
 #[test]

@@ -228,15 +228,72 @@ fn a_gain_drift_at_the_calibrations_temperature_reads_no_friction_on_a_two_part_
     let rm = ReferenceModel::new(played.reference_settings().unwrap()).with_test(record.test);
     record.calibration =
         host_sim::fdi::calibration::reference_calibration(&rm, &record.calibration).unwrap();
-    assert!(record.calibration.viscous > 0.0, "the chamber finds the drag");
+    assert!(
+        record.calibration.viscous > 0.0,
+        "the chamber finds the drag"
+    );
     let case = TABLE_1
         .iter()
         .find(|c| c.name == "gain drift k8 = 0.0")
         .unwrap();
     for run in 0..3 {
         let r = run_once(&rm, &record, case, run).unwrap();
-        println!("seed {run}: e_tot {:.3} %, found {:?}", r.e_tot, r.found.as_array());
-        assert!(r.found.friction() <= 0.05, "friction {}", r.found.friction());
-        assert!(r.found.gain_drift() <= 0.02, "gain drift {}", r.found.gain_drift());
+        println!(
+            "seed {run}: e_tot {:.3} %, found {:?}",
+            r.e_tot,
+            r.found.as_array()
+        );
+        assert!(
+            r.found.friction() <= 0.05,
+            "friction {}",
+            r.found.friction()
+        );
+        assert!(
+            r.found.gain_drift() <= 0.02,
+            "gain drift {}",
+            r.found.gain_drift()
+        );
+    }
+}
+
+/// A two-part grease whose base oil follows Walther's law (its drag on the motor shaft ×10
+/// at −40 °C), calibrated in its climatic chamber: the calibration sees the drag move with
+/// temperature and writes a friction law by drag, and a healthy unit whose gearbox runs 40 K
+/// colder than the winding's thermistor (the drag is the gearbox's thermometer) reads no
+/// friction, over three seeds.
+#[test]
+fn a_walther_grease_on_the_motor_shaft_is_seen_as_a_grease() {
+    use host_sim::files::actuator::Day;
+    use host_sim::plant::bridge::ViscosityLaw;
+    use host_sim::studies::campaign::{run_once, HEALTHY_QUIET};
+    let played = Actuator::reference()
+        .with_day(Day {
+            two_part_grease: true,
+            ..Day::default()
+        })
+        .unwrap();
+    let mut settings = played.reference_settings().unwrap();
+    settings.thermal.viscosity_law = ViscosityLaw::Walther;
+    let mut record = played.record;
+    let chamber = ReferenceModel::new(settings).with_test(record.test);
+    record.calibration =
+        host_sim::fdi::calibration::reference_calibration(&chamber, &record.calibration).unwrap();
+    println!("{:?}", record.calibration);
+    assert!(
+        record.calibration.viscous > 0.0,
+        "no drag that moves with temperature"
+    );
+    assert!(record.calibration.drag_points.iter().all(|d| *d > 0.0));
+    let mut cold_gear = settings;
+    cold_gear.conditions.gear_temperature = settings.conditions.winding_temperature - 40.0;
+    let rm = ReferenceModel::new(cold_gear).with_test(record.test);
+    for run in 0..3 {
+        let r = run_once(&rm, &record, &HEALTHY_QUIET, run).unwrap();
+        println!("seed {run}: found {:?}", r.found.as_array());
+        assert!(
+            r.found.friction() <= 0.05,
+            "friction {}",
+            r.found.friction()
+        );
     }
 }

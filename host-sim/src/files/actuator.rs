@@ -29,7 +29,9 @@ use shared::uncertainty::SystematicError;
 use shared::{ActuatorParams, Calibration, GaSettings};
 
 use crate::plant::aero::SurfaceAerodynamics;
-use crate::plant::bridge::{BridgeSettings, ConditionSensors, OperatingConditions, ThermalLaws};
+use crate::plant::bridge::{
+    BridgeSettings, ConditionSensors, OperatingConditions, ThermalLaws, ViscosityLaw,
+};
 use crate::plant::reference::{EccentricityPhysics, ReferenceSettings};
 
 /// One actuator as the ground tools use it: the record the firmware would load, what the
@@ -989,6 +991,8 @@ struct ReferenceModelExtra {
     /// oil's viscosity the dry friction follows.
     grease_drag: Option<f64>,
     coulomb_exponent: Option<f64>,
+    /// `arrhenius` (default) or `walther`: the form of the base oil's viscosity law.
+    viscosity_law: Option<ViscosityLaw>,
     /// `permeance` (default) or `phase-gain`: how eccentricity changes the back-EMF.
     eccentricity: Option<EccentricityPhysics>,
 }
@@ -1179,6 +1183,7 @@ impl Description {
                     .unwrap_or(r.thermal.friction_activation),
                 grease_drag: x.grease_drag.unwrap_or(r.thermal.grease_drag),
                 coulomb_exponent: x.coulomb_exponent.unwrap_or(r.thermal.coulomb_exponent),
+                viscosity_law: x.viscosity_law.unwrap_or(r.thermal.viscosity_law),
             },
             conditions: {
                 let winding = self

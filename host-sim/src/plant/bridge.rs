@@ -241,6 +241,38 @@ pub struct ThermalLaws {
     pub grease_drag: f64,
     /// Power of the viscosity ratio the dry friction follows in the two-part form [-].
     pub coulomb_exponent: f64,
+    /// The form of the base oil's viscosity against temperature (both grease forms).
+    pub viscosity_law: ViscosityLaw,
+}
+
+/// How a grease's base oil thickens in the cold. Both forms reach the same ratio at
+/// [`ViscosityLaw::MATCHED_AT`] (−40 °C) for one `friction_activation`; they differ in shape
+/// between.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum ViscosityLaw {
+    /// `ν_r = exp(activation · (1/T − 1/T_ref))`, T in kelvin.
+    #[default]
+    Arrhenius,
+    /// Walther's (ASTM D341) `log log(ν + 0.7) = A − B·log T` [cSt, K], the oil at
+    /// [`ViscosityLaw::WALTHER_REFERENCE_CST`] at the reference temperature and `B` set so
+    /// that the ratio at −40 °C is Arrhenius's: steeper than Arrhenius in the deep cold,
+    /// flatter near the reference.
+    Walther,
+    /// Vogel–Fulcher–Tammann's `ν_r = exp(B · (1/(T − T₀) − 1/(T_ref − T₀)))`, T₀ =
+    /// [`ViscosityLaw::VOGEL_FULCHER_T0`], `B` set so that the ratio at −40 °C is
+    /// Arrhenius's: a glass-forming oil, steeper still in the deep cold.
+    VogelFulcher,
+}
+
+impl ViscosityLaw {
+    /// The temperature both forms agree at [°C].
+    pub const MATCHED_AT: f64 = -40.0;
+    /// The base oil's viscosity at the reference temperature under Walther's law [cSt] (a
+    /// typical grease base oil).
+    pub const WALTHER_REFERENCE_CST: f64 = 100.0;
+    /// Vogel–Fulcher's divergence temperature [K] (−123 °C, a mineral base oil's).
+    pub const VOGEL_FULCHER_T0: f64 = 150.0;
 }
 
 impl ThermalLaws {
@@ -256,6 +288,7 @@ impl ThermalLaws {
         friction_activation: 2040.0,
         grease_drag: 0.0,
         coulomb_exponent: 0.0,
+        viscosity_law: ViscosityLaw::Arrhenius,
     };
 
     /// The same actuator with a two-part grease: the base oil ×10 viscosity at −40 °C
@@ -287,8 +320,31 @@ impl ThermalLaws {
     /// temperature's.
     pub fn viscosity_ratio(&self, celsius: f64) -> f64 {
         const KELVIN: f64 = 273.15;
-        let inverse = 1.0 / (celsius + KELVIN) - 1.0 / (self.reference_temperature + KELVIN);
-        (self.friction_activation * inverse).exp()
+        let arrhenius = |celsius: f64| {
+            let inverse = 1.0 / (celsius + KELVIN) - 1.0 / (self.reference_temperature + KELVIN);
+            (self.friction_activation * inverse).exp()
+        };
+        match self.viscosity_law {
+            ViscosityLaw::Arrhenius => arrhenius(celsius),
+            ViscosityLaw::Walther => {
+                let nu_ref = ViscosityLaw::WALTHER_REFERENCE_CST;
+                let loglog = |nu: f64| (nu + 0.7).log10().log10();
+                let log_t = |c: f64| (c + KELVIN).log10();
+                let matched = nu_ref * arrhenius(ViscosityLaw::MATCHED_AT);
+                let b = (loglog(matched) - loglog(nu_ref))
+                    / (log_t(self.reference_temperature) - log_t(ViscosityLaw::MATCHED_AT));
+                let at = loglog(nu_ref) - b * (log_t(celsius) - log_t(self.reference_temperature));
+                (10f64.powf(10f64.powf(at)) - 0.7) / nu_ref
+            }
+            ViscosityLaw::VogelFulcher => {
+                let t0 = ViscosityLaw::VOGEL_FULCHER_T0;
+                let inverse = |c: f64| 1.0 / (c + KELVIN - t0);
+                let reference = inverse(self.reference_temperature);
+                let b = arrhenius(ViscosityLaw::MATCHED_AT).ln()
+                    / (inverse(ViscosityLaw::MATCHED_AT) - reference);
+                (b * (inverse(celsius) - reference)).exp()
+            }
+        }
     }
 
     /// Dry friction at gear temperature `celsius` relative to the data sheet's.
@@ -433,6 +489,33 @@ mod tests {
         assert!((t.copper_scale(-40.0) - (1.0 - 0.2358)).abs() < 1e-12);
         assert!((t.flux_scale(80.0) - 0.934).abs() < 1e-12);
         assert_eq!(t.drag(-40.0), 0.0);
+    }
+
+    #[test]
+    fn the_viscosity_laws_agree_at_the_reference_and_at_minus_40_and_differ_between() {
+        let arrhenius =
+            ThermalLaws::NDFEB_GREASED.with_two_part_grease(&shared::ActuatorParams::REFERENCE);
+        let ratio = |law: ViscosityLaw, c: f64| {
+            ThermalLaws {
+                viscosity_law: law,
+                ..arrhenius
+            }
+            .viscosity_ratio(c)
+        };
+        for law in [ViscosityLaw::Walther, ViscosityLaw::VogelFulcher] {
+            assert!((ratio(law, 20.0) - 1.0).abs() < 1e-9, "{law:?}");
+            let cold = ratio(ViscosityLaw::Arrhenius, -40.0);
+            assert!((ratio(law, -40.0) / cold - 1.0).abs() < 1e-9, "{law:?}");
+            // Between, the forms part: each falls with temperature, none is Arrhenius.
+            let mid = ratio(law, -10.0) / ratio(ViscosityLaw::Arrhenius, -10.0);
+            assert!((mid - 1.0).abs() > 0.02, "{law:?}: {mid}");
+            let mut last = f64::INFINITY;
+            for c in [-60.0, -40.0, -20.0, 0.0, 20.0, 50.0, 80.0] {
+                let r = ratio(law, c);
+                assert!(r < last && r > 0.0, "{law:?} at {c}: {r}");
+                last = r;
+            }
+        }
     }
 
     #[test]

@@ -23,6 +23,7 @@ use shared::FaultVector;
 
 use crate::fdi::calibration::estimate_offset;
 use crate::files::actuator::Actuator;
+use crate::plant::bridge::ViscosityLaw;
 use crate::plant::reference::{EccentricityPhysics, ReferenceModel, ReferenceSettings, Scenario};
 use crate::studies::campaign::{run_campaign, Case, CaseSummary};
 
@@ -60,6 +61,8 @@ pub struct PhysicsDraw {
     pub rigging_offset: f64,
     /// The harness's resistance per phase [Ω].
     pub harness: f64,
+    /// The form of the grease's viscosity law (either grease).
+    pub viscosity: ViscosityLaw,
 }
 
 /// The days a draw is identified on: its calibration day, and the winding (and, by the
@@ -80,7 +83,10 @@ impl PhysicsDraw {
     /// model's two-part drag, dry friction following ν^0.3–0.7, activation 2 200–3 000 K);
     /// the gearbox −20 … +20 K from the winding; the eccentricity as the air gap's permeance
     /// or as a per-phase gain, as often; a duty delay of 0, 25 or 50 µs, declared; a rigging
-    /// offset −0.02 … +0.02 rad; a harness of 0.02–0.10 Ω per phase. Uniform draws.
+    /// offset −0.02 … +0.02 rad; a harness of 0.02–0.10 Ω per phase; the base oil's
+    /// viscosity by Arrhenius's, Walther's or Vogel–Fulcher's law, as often (each at the
+    /// draw's ratio at −40 °C). Uniform draws, the viscosity law's last (the other fields of a
+    /// seed are what they were before the family had it).
     pub fn draw(seed: u64) -> Self {
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x5eed_0ff1_5ca1_u64);
         let mut uniform = |lo: f64, hi: f64| {
@@ -114,6 +120,11 @@ impl PhysicsDraw {
             duty_delay,
             rigging_offset: uniform(-0.02, 0.02),
             harness: uniform(0.02, 0.10),
+            viscosity: [
+                ViscosityLaw::Arrhenius,
+                ViscosityLaw::Walther,
+                ViscosityLaw::VogelFulcher,
+            ][(uniform(0.0, 3.0) as usize).min(2)],
         }
     }
 
@@ -156,6 +167,7 @@ impl PhysicsDraw {
                 }
             }
         };
+        r.thermal.viscosity_law = self.viscosity;
         r.eccentricity = self.eccentricity;
         r.bridge.duty_delay = self.duty_delay;
         r.bridge.harness_resistance = self.harness;
@@ -183,9 +195,14 @@ impl PhysicsDraw {
             EccentricityPhysics::Permeance => "air-gap eccentricity",
             EccentricityPhysics::PhaseGain => "per-phase-gain eccentricity",
         };
+        let viscosity = match self.viscosity {
+            ViscosityLaw::Arrhenius => "Arrhenius",
+            ViscosityLaw::Walther => "Walther",
+            ViscosityLaw::VogelFulcher => "Vogel–Fulcher",
+        };
         format!(
-            "{grease}, gear {:+.1} K, {eccentricity}, delay {:.0} µs, rigging {:+.4} rad, \
-             harness {:.3} Ω",
+            "{grease} by {viscosity}, gear {:+.1} K, {eccentricity}, delay {:.0} µs, rigging \
+             {:+.4} rad, harness {:.3} Ω",
             self.gear_offset,
             self.duty_delay * 1e6,
             self.rigging_offset,
@@ -289,6 +306,7 @@ mod tests {
         let draws: Vec<PhysicsDraw> = (0..200).map(PhysicsDraw::draw).collect();
         let mut two_part = 0;
         let mut phase_gain = 0;
+        let mut laws = [0; 3];
         for d in &draws {
             match d.grease {
                 Grease::OneFactor {
@@ -310,6 +328,7 @@ mod tests {
                 }
             }
             phase_gain += usize::from(d.eccentricity == EccentricityPhysics::PhaseGain);
+            laws[d.viscosity as usize] += 1;
             assert!(
                 d.gear_offset.abs() <= 20.0 && d.rigging_offset.abs() <= 0.02,
                 "{d:?}"
@@ -325,6 +344,10 @@ mod tests {
         assert!(
             (60..=140).contains(&phase_gain),
             "{phase_gain} per-phase gains of 200"
+        );
+        assert!(
+            laws.iter().all(|n| (40..=95).contains(n)),
+            "{laws:?} of 200"
         );
         assert_ne!(draws[0], draws[1]);
     }
@@ -344,8 +367,10 @@ mod tests {
             duty_delay: 2.5e-5,
             rigging_offset: 0.01,
             harness: 0.08,
+            viscosity: ViscosityLaw::Walther,
         };
         let day = draw.settings(&base, -60.0, false);
+        assert_eq!(day.thermal.viscosity_law, ViscosityLaw::Walther);
         let winding = base.conditions.winding_temperature - 60.0;
         assert_eq!(day.conditions.winding_temperature, winding);
         assert_eq!(day.conditions.gear_temperature, winding - 15.0);
