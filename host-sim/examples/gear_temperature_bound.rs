@@ -6,7 +6,8 @@
 //! `r = 1`, so any reading errs by at least `|k1 − k1'| / 2` on one of the two; a reader
 //! that takes the law's healthy friction (the FDI where the fault exceeds it) errs by
 //! `|k1 − k1'|`. Printed per held-out draw of the physics family
-//! (`host_sim::studies::physics`) and day, for Table I's friction 0.4 and 1.0, as e_tot of
+//! (`host_sim::studies::physics`) and day, for no friction fault (every other Table I case)
+//! and Table I's friction 0.4 and 1.0, as e_tot of
 //! the paper's eight components (a single fault's error over √8), with `k1'` clipped to
 //! [0, 1]. Two-part greases are listed without a bound: their drag is a thermometer of the
 //! gearbox the test can read.
@@ -23,14 +24,14 @@ fn main() -> anyhow::Result<()> {
     let draws = args.next().transpose()?.unwrap_or(10);
     let base = Actuator::reference().reference_settings()?;
     println!(
-        "| draw | gear − winding [K] | day | r | friction 0.4: reads, e_tot floor / law's [%] | friction 1.0: reads, e_tot floor / law's [%] |"
+        "| draw | gear − winding [K] | day | r | no friction fault: reads, e_tot floor / law's [%] | friction 0.4: the same | friction 1.0: the same |"
     );
-    println!("| --- | ---: | --- | ---: | --- | --- |");
+    println!("| --- | ---: | --- | ---: | --- | --- | --- |");
     for seed in first..first + draws {
         let draw = PhysicsDraw::draw(seed);
         if matches!(draw.grease, Grease::TwoPart { .. }) {
             println!(
-                "| {seed} | {:+.1} | – | – | two-part grease: its drag is a thermometer | |",
+                "| {seed} | {:+.1} | – | – | two-part grease: its drag is a thermometer | | |",
                 draw.gear_offset
             );
             continue;
@@ -46,8 +47,9 @@ fn main() -> anyhow::Result<()> {
                 format!("{read:.2}, {:.1} / {e:.1}", e / 2.0)
             };
             println!(
-                "| {seed} | {:+.1} | {day} | {r:.3} | {} | {} |",
+                "| {seed} | {:+.1} | {day} | {r:.3} | {} | {} | {} |",
                 gear - winding,
+                cell(0.0),
                 cell(0.4),
                 cell(1.0)
             );
