@@ -210,29 +210,46 @@ fn the_days_healthy_friction_is_estimated_with_the_faults_where_the_gearbox_spre
     assert!(e_tot(&spread) < 2.0, "{}", e_tot(&spread));
 }
 
-/// A two-part grease (its drag ×10 and its dry friction ×2.95 at −40 °C, each by its own
-/// law), calibrated in its climatic chamber as README says: a controller whose gain has
-/// drifted (Table I's gain drift 0.0, every other component healthy), at the calibration's
-/// own temperature, reads no friction beside it — the grease's drag is the day's, not a
-/// fault's — over three seeds, and its gain drift within 0.02.
-#[test]
-fn a_gain_drift_at_the_calibrations_temperature_reads_no_friction_on_a_two_part_grease() {
-    use host_sim::files::actuator::Day;
-    use host_sim::studies::campaign::{run_once, TABLE_1};
+/// The reference actuator with a two-part grease whose base oil follows `law`, calibrated in
+/// its climatic chamber as README says: its reference model's settings and its record, the
+/// chamber's drag found (`viscous` > 0).
+fn two_part_grease_calibrated(
+    law: host_sim::plant::bridge::ViscosityLaw,
+) -> (
+    host_sim::plant::reference::ReferenceSettings,
+    shared::actuator::ActuatorRecord,
+) {
     let played = Actuator::reference()
-        .with_day(Day {
+        .with_day(host_sim::files::actuator::Day {
             two_part_grease: true,
-            ..Day::default()
+            ..Default::default()
         })
         .unwrap();
+    let mut settings = played.reference_settings().unwrap();
+    settings.thermal.viscosity_law = law;
     let mut record = played.record;
-    let rm = ReferenceModel::new(played.reference_settings().unwrap()).with_test(record.test);
+    let chamber = ReferenceModel::new(settings).with_test(record.test);
     record.calibration =
-        host_sim::fdi::calibration::reference_calibration(&rm, &record.calibration).unwrap();
+        host_sim::fdi::calibration::reference_calibration(&chamber, &record.calibration).unwrap();
     assert!(
         record.calibration.viscous > 0.0,
-        "the chamber finds the drag"
+        "no drag that moves with temperature: {:?}",
+        record.calibration
     );
+    (settings, record)
+}
+
+/// A two-part grease (its drag ×10 and its dry friction ×2.95 at −40 °C, each by its own
+/// law), calibrated in its climatic chamber: a controller whose gain has drifted (Table I's
+/// gain drift 0.0, every other component healthy), at the calibration's own temperature,
+/// reads no friction beside it — the grease's drag is the day's, not a fault's — over three
+/// seeds, and its gain drift within 0.02.
+#[test]
+fn a_gain_drift_at_the_calibrations_temperature_reads_no_friction_on_a_two_part_grease() {
+    use host_sim::studies::campaign::{run_once, TABLE_1};
+    let (settings, record) =
+        two_part_grease_calibrated(host_sim::plant::bridge::ViscosityLaw::Arrhenius);
+    let rm = ReferenceModel::new(settings).with_test(record.test);
     let case = TABLE_1
         .iter()
         .find(|c| c.name == "gain drift k8 = 0.0")
@@ -264,26 +281,9 @@ fn a_gain_drift_at_the_calibrations_temperature_reads_no_friction_on_a_two_part_
 /// friction, over three seeds.
 #[test]
 fn a_walther_grease_on_the_motor_shaft_is_seen_as_a_grease() {
-    use host_sim::files::actuator::Day;
-    use host_sim::plant::bridge::ViscosityLaw;
     use host_sim::studies::campaign::{run_once, HEALTHY_QUIET};
-    let played = Actuator::reference()
-        .with_day(Day {
-            two_part_grease: true,
-            ..Day::default()
-        })
-        .unwrap();
-    let mut settings = played.reference_settings().unwrap();
-    settings.thermal.viscosity_law = ViscosityLaw::Walther;
-    let mut record = played.record;
-    let chamber = ReferenceModel::new(settings).with_test(record.test);
-    record.calibration =
-        host_sim::fdi::calibration::reference_calibration(&chamber, &record.calibration).unwrap();
-    println!("{:?}", record.calibration);
-    assert!(
-        record.calibration.viscous > 0.0,
-        "no drag that moves with temperature"
-    );
+    let (settings, record) =
+        two_part_grease_calibrated(host_sim::plant::bridge::ViscosityLaw::Walther);
     assert!(record.calibration.drag_points.iter().all(|d| *d > 0.0));
     let mut cold_gear = settings;
     cold_gear.conditions.gear_temperature = settings.conditions.winding_temperature - 40.0;
