@@ -23,7 +23,7 @@ use serde::Deserialize;
 use shared::actuator::{ActuatorRecord, ActuatorRecordError, RECORD_MAGIC};
 use shared::command::ChirpCommand;
 use shared::domain::DomainLimits;
-use shared::polish::{PolishSettings, Probe, MAX_PROBES};
+use shared::polish::{PolishSettings, Probe, ProbeStart, MAX_PROBES};
 use shared::test_design::{PreflightTest, StandstillSegment};
 use shared::uncertainty::SystematicError;
 use shared::{ActuatorParams, Calibration, GaSettings};
@@ -866,7 +866,9 @@ struct PolishSection {
     probe_iterations: Option<u8>,
     damping: Option<f32>,
     /// Probe starts, e.g. `{ component = "backlash", level = 0.5, from = "nominal" }`
-    /// (`from`: "best", the GA's best with the component moved, or "nominal").
+    /// (`from`: "best", the GA's best with the component moved; "nominal"; or "scan", the
+    /// GA's best with the component at the next lowest minimum of a scan in steps of
+    /// `level`).
     probes: Option<Vec<ProbeEntry>>,
 }
 
@@ -891,26 +893,27 @@ impl PolishSection {
         };
         if let Some(probes) = &self.probes {
             p.probe_count = u8::try_from(probes.len()).unwrap_or(u8::MAX);
-            p.probes = [Probe::backlash(0.0, true); MAX_PROBES];
+            p.probes = [Probe::backlash(0.0, ProbeStart::Nominal); MAX_PROBES];
             for (slot, e) in p.probes.iter_mut().zip(probes) {
                 let component = shared::fault::FAULT_NAMES
                     .iter()
                     .position(|n| *n == e.component);
-                let from_nominal = match e.from.as_str() {
-                    "nominal" => Some(true),
-                    "best" => Some(false),
+                let start = match e.from.as_str() {
+                    "nominal" => Some(ProbeStart::Nominal),
+                    "best" => Some(ProbeStart::Best),
+                    "scan" => Some(ProbeStart::ScanMinimum),
                     _ => None,
                 };
-                *slot = match (component, from_nominal) {
-                    (Some(c), Some(n)) => Probe {
+                *slot = match (component, start) {
+                    (Some(c), Some(start)) => Probe {
                         component: c as u8,
                         level: e.level,
-                        from_nominal: n,
+                        start,
                     },
                     _ => Probe {
                         component: u8::MAX,
                         level: e.level,
-                        from_nominal: false,
+                        start: ProbeStart::Best,
                     },
                 };
             }
@@ -1434,17 +1437,17 @@ mod tests {
             Probe {
                 component: 5,
                 level: 0.3,
-                from_nominal: true
+                start: ProbeStart::Nominal
             }
         );
         for (from, to) in [
             (
-                "component = \"backlash\", level = 0.25, from = \"best\"",
-                "component = \"ecc_phase\", level = 0.25, from = \"best\"",
+                "component = \"backlash\", level = 0.05, from = \"scan\"",
+                "component = \"ecc_phase\", level = 0.05, from = \"scan\"",
             ),
             (
-                "component = \"backlash\", level = 0.25, from = \"best\"",
-                "component = \"backlash\", level = 0.25, from = \"worst\"",
+                "component = \"backlash\", level = 0.05, from = \"scan\"",
+                "component = \"backlash\", level = 0.05, from = \"worst\"",
             ),
             ("iterations = 8", "iterations = 200"),
         ] {

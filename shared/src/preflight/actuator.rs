@@ -17,7 +17,7 @@ use crate::physics::drive::DriveSettings;
 use crate::physics::fault::{FaultVector, DETECTION_THRESHOLD, FAULT_COUNT, PAPER_FAULT_COUNT};
 use crate::physics::params::{ActuatorParams, PARAM_WORDS};
 use crate::solver::ga::{GaSettings, GENES};
-use crate::solver::polish::{PolishSettings, MAX_PROBES};
+use crate::solver::polish::{PolishSettings, ProbeStart, MAX_PROBES};
 use crate::solver::uncertainty::SystematicError;
 use crate::test::command::ChirpCommand;
 use crate::test::test_design::{MotionSegment, PreflightTest, StandstillSegment};
@@ -52,7 +52,7 @@ const RANGE_WORDS: usize = 4;
 /// 32-bit words in the body of version 3.
 const BODY_WORDS_V3: usize = BODY_WORDS_V2 + RANGE_WORDS;
 /// Words version 4 adds at the end: the polish's steps, probe count and damping, then per
-/// probe its component (bit 8: from nominal) and level.
+/// probe its component (bit 8: from nominal; bit 9: from the scan's minima) and level.
 const POLISH_WORDS: usize = 4 + 2 * MAX_PROBES;
 /// 32-bit words in the body of version 4.
 const BODY_WORDS_V4: usize = BODY_WORDS_V3 + POLISH_WORDS;
@@ -317,7 +317,12 @@ impl ActuatorRecord {
         }
         w.f32(p.damping);
         for probe in &p.probes {
-            w.u32(u32::from(probe.component) | u32::from(probe.from_nominal) << 8);
+            let start = match probe.start {
+                ProbeStart::Best => 0,
+                ProbeStart::Nominal => 0x100,
+                ProbeStart::ScanMinimum => 0x200,
+            };
+            w.u32(u32::from(probe.component) | start);
             w.f32(probe.level);
         }
         let v = &self.drive;
@@ -478,7 +483,12 @@ impl ActuatorRecord {
             for probe in &mut p.probes {
                 let word = r.u32();
                 probe.component = (word & 0xFF) as u8;
-                probe.from_nominal = word & 0x100 != 0;
+                probe.start = match word & 0x300 {
+                    0 => ProbeStart::Best,
+                    0x100 => ProbeStart::Nominal,
+                    0x200 => ProbeStart::ScanMinimum,
+                    _ => return Err(out_of_range(RecordField::Polish)),
+                };
                 probe.level = r.f32();
             }
             p
