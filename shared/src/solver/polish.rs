@@ -113,10 +113,12 @@ impl PolishSettings {
                 && (0.0..=1.0).contains(&p.level)
         });
         let scan_ok = match self.scan() {
-            Some((component, step)) => used()
-                .filter(|p| p.start == ProbeStart::ScanMinimum)
-                .all(|p| p.component == component && p.level == step)
-                && step >= 1.0 / MAX_SCAN_LEVELS as f32,
+            Some((component, step)) => {
+                used()
+                    .filter(|p| p.start == ProbeStart::ScanMinimum)
+                    .all(|p| p.component == component && p.level == step)
+                    && step >= 1.0 / MAX_SCAN_LEVELS as f32
+            }
             None => true,
         };
         scan_ok
@@ -441,7 +443,12 @@ impl Polish {
     fn next_scan_minimum(&mut self) -> Option<f32> {
         let (component, step) = self.settings.scan()?;
         let n = self.settings.scan_levels();
-        let own = self.main.0.as_array().get(usize::from(component)).copied()?;
+        let own = self
+            .main
+            .0
+            .as_array()
+            .get(usize::from(component))
+            .copied()?;
         let f = self.scan.get(..n)?;
         // Out of range reads as +∞: no level there, and no panic path on the flight core.
         let at = |j: usize| f.get(j).copied().unwrap_or(f32::INFINITY);
@@ -487,6 +494,15 @@ mod tests {
     use super::*;
     use crate::physics::fault::FAULT_COUNT;
 
+    /// |k − c|² over the components.
+    fn squared_distance(k: &FaultVector, c: &[f32; FAULT_COUNT]) -> f32 {
+        k.as_array()
+            .iter()
+            .zip(c)
+            .map(|(x, y)| (x - y) * (x - y))
+            .sum()
+    }
+
     /// Two quadratic basins: `a` with a floor of `floor_a`, `b` at 0. Returns the fitness and
     /// the Gauss–Newton sums of the nearer basin at `k` (J = I, r = basin − k).
     fn basins(
@@ -495,13 +511,7 @@ mod tests {
         b: [f32; FAULT_COUNT],
     ) -> impl Fn(&FaultVector) -> (f32, Curvature) {
         move |k: &FaultVector| {
-            let d = |c: &[f32; FAULT_COUNT]| -> f32 {
-                k.as_array()
-                    .iter()
-                    .zip(c)
-                    .map(|(x, y)| (x - y) * (x - y))
-                    .sum()
-            };
+            let d = |c: &[f32; FAULT_COUNT]| squared_distance(k, c);
             let (fa, fb) = (d(&a) + floor_a, d(&b));
             let (f, centre) = if fa <= fb { (fa, a) } else { (fb, b) };
             let mut c = Curvature::EMPTY;
@@ -592,13 +602,7 @@ mod tests {
         narrowness: f32,
     ) -> impl Fn(&FaultVector) -> (f32, Curvature) {
         move |k: &FaultVector| {
-            let d = |c: &[f32; FAULT_COUNT]| -> f32 {
-                k.as_array()
-                    .iter()
-                    .zip(c)
-                    .map(|(x, y)| (x - y) * (x - y))
-                    .sum()
-            };
+            let d = |c: &[f32; FAULT_COUNT]| squared_distance(k, c);
             let (fw, fn_) = (d(&wide) + floor, narrowness * d(&narrow));
             let (f, centre, weight) = if fw <= fn_ {
                 (fw, wide, 1.0)
