@@ -519,14 +519,8 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                 Ok(match done {
                     None => State::Uncertainty { result },
                     Some(curvature) => {
-                        let uncertainty = id
-                            .reading_uncertainty(
-                                &result.faults,
-                                &curvature,
-                                &self.settings.actuator.systematic,
-                            )
-                            .ok();
-                        let result = id.reading(result);
+                        let (result, uncertainty) =
+                            id.read(result, &curvature, &self.settings.actuator.systematic);
                         State::Report {
                             result,
                             assessments: self.assess(&result, uncertainty.as_ref()),

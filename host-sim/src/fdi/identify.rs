@@ -280,11 +280,8 @@ pub fn identify_checkpointed(
     let seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
     let curvature = id.problem().curvature_in(&mut run, &result.faults);
-    let uncertainty = id
-        .reading_uncertainty(&result.faults, &curvature, &systematic)
-        .ok();
     let healthy_friction = id.problem().model().healthy_friction_read(&result.faults);
-    let result = id.reading(result);
+    let (result, uncertainty) = id.read(result, &curvature, &systematic);
     let day = systematic.on_day(id.problem().conditions().friction_slope);
     Ok((
         Outcome::Finished(Box::new(Identified {

@@ -176,6 +176,37 @@ impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
         ))
     }
 
+    /// What a finished identification reports: the solver's `result` as read
+    /// ([`Self::reading`]) and its uncertainty from `curvature` at `result`
+    /// ([`Self::reading_uncertainty`]), the eccentricity's free-phase bias taken off the
+    /// reading ([`Uncertainty::with_free_phase_corrected`]: a round rotor reads noise's
+    /// amplitude otherwise). Without an uncertainty, the reading as the solver found it.
+    /// `result.fitness` stays the solver's. O(9³).
+    pub fn read(
+        &self,
+        result: IdentificationResult,
+        curvature: &Curvature,
+        systematic: &SystematicError,
+    ) -> (
+        IdentificationResult,
+        Option<(
+            Uncertainty,
+            [[f32; crate::physics::fault::FAULT_COUNT]; crate::physics::fault::FAULT_COUNT],
+        )>,
+    ) {
+        let read = self.reading(result);
+        match self.reading_uncertainty(&result.faults, curvature, systematic) {
+            Ok((u, correlation)) => {
+                let (faults, u) = u.with_free_phase_corrected(&read.faults);
+                (
+                    IdentificationResult { faults, ..read },
+                    Some((u, correlation)),
+                )
+            }
+            Err(_) => (read, None),
+        }
+    }
+
     /// What ties a checkpoint to this run: a CRC-32 over the measured samples and initial
     /// angles, the actuator (parameters, test, calibration, GA settings: what an actuator
     /// record holds) and the seed. O(N), computed once.
