@@ -147,8 +147,8 @@ fn a_large_backlash_reads_no_eccentricity() {
 /// A healthy actuator under the paper's 50 % I_ref noise: an amplitude whose phase is free
 /// reads noise's (Rayleigh, ≈ 0.03 per quadrature here: a mean of ≈ 0.04 on a round
 /// rotor) unless the reading takes that bias off. Corrected from each reading's own
-/// deviation, the three seeds' eccentricity averages at most the healthy limit 0.03 and no
-/// run reads it as anything but healthy.
+/// deviation and noise share (0.038 uncorrected), the three seeds' eccentricity averages at
+/// most the healthy limit 0.03 and no run reads it as anything but healthy.
 #[test]
 fn a_healthy_actuator_in_noise_reads_no_eccentricity() {
     let actuator = Actuator::reference();

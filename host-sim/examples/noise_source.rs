@@ -14,8 +14,8 @@
 //! * `white` — the quiet test plus independent white Gaussian noise on its equivalent current,
 //!   of the same RMS as that difference (the loop's shaping of the noise taken away);
 //!
-//! and a fifth row, `iref, eccentricity de-biased`: the noisy test's reading with Rice's bias
-//! taken off its eccentricity (`Z² − 2σ²`, σ its own deviation from the curvature).
+//! Every reading has its eccentricity's free-phase bias taken off, as the FDI reports it
+//! (`√(Z² − 2σ²)`, σ its own white-noise deviation: `shared::uncertainty::free_phase_corrected`).
 //!
 //! For each way: per component the mean error (found − true) and its scatter over the seeds,
 //! e_tot, and how many runs end at a fitness below the truth's (the data prefer the vector
@@ -32,9 +32,7 @@ use host_sim::files::trace::Trace;
 use host_sim::plant::noise::Gaussian;
 use host_sim::plant::reference::{ReferenceModel, Scenario};
 use shared::conditioning::commutation_signs;
-use shared::fault::ECCENTRICITY_INDEX;
 use shared::metrics::total_error;
-use shared::uncertainty::{preflight_systematic, INFLATION};
 use shared::{ActuatorParams, FaultVector};
 
 /// The cases: (name, fault vector).
@@ -55,13 +53,7 @@ const CASES: [(&str, [f32; 9]); 4] = [
     ),
 ];
 
-const WAYS: [&str; 5] = [
-    "iref",
-    "quiet",
-    "transplant",
-    "white",
-    "iref, eccentricity de-biased",
-];
+const WAYS: [&str; 4] = ["iref", "quiet", "transplant", "white"];
 
 /// The equivalent current of one sample as the conditioning forms it (½·Σ s_x·i_x).
 fn equivalent(s: &host_sim::files::trace::TraceSample, pole_pairs: f32) -> f64 {
@@ -183,35 +175,6 @@ fn main() -> Result<()> {
                     .collect();
                 errors[w].push(d);
                 e_tot[w].push(f64::from(total_error(&found, &truth)));
-                if w == 0 {
-                    // The noisy test's reading with its eccentricity's noise bias taken off:
-                    // an amplitude whose phase is free reads `E[Z²] = Z² + 2σ²` in noise of
-                    // σ per quadrature (Rice); σ the reading's own deviation from the
-                    // curvature, before the inflation and the systematic error.
-                    let Some((u, _)) = &id.uncertainty else {
-                        anyhow::bail!("seed {seed}: the noisy test has no uncertainty");
-                    };
-                    let i = ECCENTRICITY_INDEX;
-                    let systematic = preflight_systematic(&found, &record.systematic)[i];
-                    let sigma = (u.std[i] * u.std[i] - systematic * systematic)
-                        .max(0.0)
-                        .sqrt()
-                        / INFLATION;
-                    let z = found.as_array()[i];
-                    let mut k = *found.as_array();
-                    k[i] = (z * z - 2.0 * sigma * sigma).max(0.0).sqrt();
-                    let debiased = FaultVector::saturating(k);
-                    if problem.error(&debiased) < problem.error(&truth) {
-                        below[4] += 1;
-                    }
-                    let d: Vec<f64> = k
-                        .iter()
-                        .zip(truth.as_array())
-                        .map(|(f, t)| f64::from(f - t))
-                        .collect();
-                    errors[4].push(d);
-                    e_tot[4].push(f64::from(total_error(&debiased, &truth)));
-                }
             }
         }
         println!();

@@ -107,6 +107,11 @@ impl<'a, const N: usize> FitnessProblem<'a, N> {
         })
     }
 
+    /// The calibration's healthy mismatch this fitness subtracts [A²·s].
+    pub fn nominal_residual(&self) -> f32 {
+        self.nominal_residual
+    }
+
     pub fn model(&self) -> &MonitorModel {
         &self.model
     }

@@ -327,14 +327,24 @@ impl Uncertainty {
 
     /// A preflight's reading `k` (these deviations its own, from
     /// [`Curvature::preflight_uncertainty`]) with its eccentricity's free-phase bias taken
-    /// off ([`free_phase_corrected`], σ its white-noise deviation: the reading's std over
-    /// [`INFLATION`], the eccentricity carrying no systematic error), and these intervals
-    /// redrawn around it. An undetermined eccentricity is left as read. O(9).
+    /// off ([`free_phase_corrected`]), and these intervals redrawn around it. σ is the
+    /// white-noise deviation of the residual's `noise_share` (0 … 1): the reading's std over
+    /// [`INFLATION`] (the eccentricity carries no systematic error) times `√noise_share`.
+    /// Only noise turns the fitted eccentricity's error with a random phase; a model's
+    /// mismatch errs the same way test after test, and the white-noise formula overstates
+    /// what it does to one direction (the paper's chirp-only test: σ 0.03–0.15 from its
+    /// mismatch, where its eccentricity 0.1 reads within 0.002). An undetermined
+    /// eccentricity, or a share of 0, leaves the reading as it is. O(9).
     #[must_use]
-    pub fn with_free_phase_corrected(&self, k: &FaultVector) -> (FaultVector, Self) {
+    pub fn with_free_phase_corrected(
+        &self,
+        k: &FaultVector,
+        noise_share: f32,
+    ) -> (FaultVector, Self) {
         let mut a = *k.as_array();
         if let (Some(z), Some(&s)) = (a.get_mut(ECCENTRICITY), self.std.get(ECCENTRICITY)) {
-            *z = free_phase_corrected(*z, s / INFLATION);
+            let share = noise_share.clamp(0.0, 1.0);
+            *z = free_phase_corrected(*z, s / INFLATION * crate::base::math::sqrt(share));
         }
         let corrected = FaultVector::saturating(a);
         (corrected, self.redrawn(&corrected, |_, s| s))
@@ -941,7 +951,8 @@ mod tests {
     }
 
     /// A preflight's reading: only the eccentricity moves, by its own white-noise
-    /// deviation (its std over the inflation), and its interval is redrawn around it.
+    /// deviation (its std over the inflation) scaled to the residual's noise share, and its
+    /// interval is redrawn around it.
     #[test]
     fn a_reading_is_corrected_by_its_own_deviation() {
         let k = FaultVector::new([0.2, 0.1, 0.0, 0.0, 0.0, 0.05, 0.5, 0.5, 0.0]).unwrap();
@@ -955,7 +966,7 @@ mod tests {
             worst_pair: (0, 1),
             residual_std: 0.0,
         };
-        let (read, v) = u.with_free_phase_corrected(&k);
+        let (read, v) = u.with_free_phase_corrected(&k, 1.0);
         let z = (0.05f32 * 0.05 - 2.0 * 0.02 * 0.02).sqrt();
         for i in 0..FAULT_COUNT {
             let expected = if i == ECCENTRICITY {
@@ -972,12 +983,18 @@ mod tests {
         assert!((v.lower[ECCENTRICITY] - lo).abs() < 1e-6);
         assert!((v.upper[ECCENTRICITY] - (z + Z90 * 0.02 * INFLATION)).abs() < 1e-6);
         assert_eq!(v.std, u.std);
+        // A quarter of the residual noise: σ halved.
+        let (quarter, _) = u.with_free_phase_corrected(&k, 0.25);
+        let z = (0.05f32 * 0.05 - 2.0 * 0.01 * 0.01).sqrt();
+        assert!((quarter.as_array()[ECCENTRICITY] - z).abs() < 1e-6);
+        // No noise: a mismatch's residual takes nothing off.
+        assert_eq!(u.with_free_phase_corrected(&k, 0.0).0, k);
         // Undetermined: left as read.
         let unknown = Uncertainty {
             std: [f32::NAN; FAULT_COUNT],
             ..u
         };
-        assert_eq!(unknown.with_free_phase_corrected(&k).0, k);
+        assert_eq!(unknown.with_free_phase_corrected(&k, 1.0).0, k);
     }
 
     #[test]
