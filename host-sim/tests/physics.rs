@@ -298,39 +298,3 @@ fn a_walther_grease_on_the_motor_shaft_is_seen_as_a_grease() {
         );
     }
 }
-
-/// A two-part grease calibrated in its climatic chamber: the monitor model plays the
-/// grease's drag on its motor shaft (less than the chirp reads: the model plays the gear's
-/// and the surface's viscous torques anyway) and the friction fault scales the dry friction
-/// alone, as wear does. A friction of 1.0 on the calibration day is then read within 2 %
-/// e_tot over three seeds; folded into the dry friction, the drag took ×3 with the fault and
-/// the same case read 5–9 % on the family's two-part draws.
-#[test]
-fn a_friction_fault_on_a_two_part_grease_is_read_as_dry_friction() {
-    use host_sim::studies::campaign::{run_once, TABLE_1};
-    let (settings, record) =
-        two_part_grease_calibrated(host_sim::plant::bridge::ViscosityLaw::Arrhenius);
-    let rm = ReferenceModel::new(settings).with_test(record.test);
-    let case = TABLE_1
-        .iter()
-        .find(|c| c.name == "friction k1 = 1.0")
-        .unwrap();
-    let mut mean = 0.0;
-    for run in 0..3 {
-        let r = run_once(&rm, &record, case, run).unwrap();
-        println!(
-            "seed {run}: e_tot {:.3} %, found {:?}",
-            r.e_tot,
-            r.found.as_array()
-        );
-        mean += r.e_tot / 3.0;
-    }
-    assert!(mean <= 2.0, "mean e_tot {mean:.3} %");
-    let c = record.calibration;
-    assert!(
-        c.grease_drag > 0.0 && c.grease_drag < c.viscous,
-        "drag played {} against the chirp's {}",
-        c.grease_drag,
-        c.viscous
-    );
-}

@@ -2,7 +2,7 @@
 //! (JSON) or into the actuator's record (`.rec`).
 
 use crate::cli::*;
-use host_sim::fdi::calibration::{calibrate_with_drag, first_frame_offset, OFFSET_SCAN_HALF_WIDTH};
+use host_sim::fdi::calibration::{first_frame_offset, OFFSET_SCAN_HALF_WIDTH};
 
 pub(crate) fn calibrate_command(
     actuator: &Actuator,
@@ -71,75 +71,59 @@ pub(crate) fn calibrate_command(
         }
     }
     let measured = trace.measured(&record.params)?;
-    let [low, high] = record.domain.temperature;
-    let celsius = measured
-        .conditions()
-        .temperature()
-        .unwrap_or(shared::params::REFERENCE_TEMPERATURE);
-    let mut seen: Vec<(PathBuf, f32)> = vec![(trace_path.to_path_buf(), celsius)];
-    // First every --at trace, checked; then the grease's drag law, which the monitor model
-    // plays while its scales are fitted; then each point's friction.
-    let mut traces = Vec::new();
-    for path in at {
-        let other = actuator.read_trace(path)?;
-        refuse_flight(&other, path)?;
-        let measured = other.measured(&record.params)?;
-        let celsius = measured.conditions().temperature().with_context(|| {
-            format!(
-                "--at {}: the trace carries no measured temperature (a version 3 trace \
-                 has `temp`): it cannot place a point of the friction law",
-                path.display()
-            )
-        })?;
-        if !(low..=high).contains(&celsius) {
-            anyhow::bail!(
-                "--at {}: measured {celsius:.1} °C, outside the description's [domain] \
-                 temperature [{low}, {high}] °C: the law would be measured where the FDI \
-                 refuses to identify. Widen [domain] temperature if the actuator is to \
-                 be verified there",
-                path.display()
-            );
-        }
-        for (earlier, t) in &seen {
-            if same_file(earlier, path) || (celsius - t).abs() < MIN_POINT_SPACING {
-                anyhow::bail!(
-                    "--at {}: {} ({:.1} °C against {:.1} °C): each --at trace must be \
-                     another healthy trace at its own temperature, at least {} K from \
-                     the others and from the calibration's",
-                    path.display(),
-                    if same_file(earlier, path) {
-                        format!("the same trace as {}", earlier.display())
-                    } else {
-                        format!("the same temperature as {}", earlier.display())
-                    },
-                    celsius,
-                    t,
-                    MIN_POINT_SPACING
-                );
-            }
-        }
-        seen.push((path.clone(), celsius));
-        traces.push((path, measured));
-    }
-    let refs: Vec<&shared::fdi::OnboardMeasured> = traces.iter().map(|t| &*t.1).collect();
-    let law = if at.is_empty() {
-        None
-    } else {
-        host_sim::fdi::calibration::grease_law(&measured, &refs)
-    };
-    let prior = if at.is_empty() {
-        actuator.record.calibration
-    } else {
-        shared::Calibration {
-            viscous: law.as_ref().map_or(0.0, |l| l.0),
-            ..actuator.record.calibration
-        }
-    };
-    let mut file = calibrate_with_drag(&measured, record.params, &prior)?;
+    let mut file = calibrate(&measured, record.params, &actuator.record.calibration)?;
     if estimate_offset {
         file.encoder_offset = Some(record.params.encoder_offset);
     }
+    let [low, high] = record.domain.temperature;
+    let mut seen: Vec<(PathBuf, f32)> = vec![(trace_path.to_path_buf(), file.temperature)];
     if !at.is_empty() {
+        // First every trace, checked; then the grease's drag law; then each point's friction.
+        let mut traces = Vec::new();
+        for path in at {
+            let other = actuator.read_trace(path)?;
+            refuse_flight(&other, path)?;
+            let measured = other.measured(&record.params)?;
+            let celsius = measured.conditions().temperature().with_context(|| {
+                format!(
+                    "--at {}: the trace carries no measured temperature (a version 3 trace \
+                     has `temp`): it cannot place a point of the friction law",
+                    path.display()
+                )
+            })?;
+            if !(low..=high).contains(&celsius) {
+                anyhow::bail!(
+                    "--at {}: measured {celsius:.1} °C, outside the description's [domain] \
+                     temperature [{low}, {high}] °C: the law would be measured where the FDI \
+                     refuses to identify. Widen [domain] temperature if the actuator is to \
+                     be verified there",
+                    path.display()
+                );
+            }
+            for (earlier, t) in &seen {
+                if same_file(earlier, path) || (celsius - t).abs() < MIN_POINT_SPACING {
+                    anyhow::bail!(
+                        "--at {}: {} ({:.1} °C against {:.1} °C): each --at trace must be \
+                         another healthy trace at its own temperature, at least {} K from \
+                         the others and from the calibration's",
+                        path.display(),
+                        if same_file(earlier, path) {
+                            format!("the same trace as {}", earlier.display())
+                        } else {
+                            format!("the same temperature as {}", earlier.display())
+                        },
+                        celsius,
+                        t,
+                        MIN_POINT_SPACING
+                    );
+                }
+            }
+            seen.push((path.clone(), celsius));
+            traces.push((path, measured));
+        }
+        let refs: Vec<&shared::fdi::OnboardMeasured> = traces.iter().map(|t| &*t.1).collect();
+        let law = host_sim::fdi::calibration::grease_law(&measured, &refs);
+        file.viscous = law.as_ref().map_or(0.0, |l| l.0);
         let mut points = Vec::new();
         for (j, (path, measured)) in traces.iter().enumerate() {
             let point = host_sim::fdi::calibration::friction_point(
@@ -169,7 +153,6 @@ pub(crate) fn calibrate_command(
         file.friction_points = [[0.0; 2]; 4];
         file.viscous = 0.0;
         file.drag_points = [0.0; 4];
-        file.grease_drag = 0.0;
     }
     record.calibration = file.calibration();
     let extension = out

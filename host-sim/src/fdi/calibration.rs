@@ -62,9 +62,6 @@ pub struct CalibrationFile {
     pub viscous: f32,
     #[serde(default)]
     pub drag_points: [f32; 4],
-    /// The grease's drag the monitor model plays on the calibration day (`shared::Calibration`).
-    #[serde(default)]
-    pub grease_drag: f32,
     /// The installation's encoder offset, when `calibrate` estimated it (not with `--keep-offset`)
     /// [rad, motor side]: `identify --calibration` uses it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -127,7 +124,6 @@ impl CalibrationFile {
             duty_delay: self.duty_delay,
             viscous: self.viscous,
             drag_points: self.drag_points,
-            grease_drag: self.grease_drag,
         }
     }
 
@@ -380,7 +376,6 @@ pub fn calibrate(
         duty_delay: prior.duty_delay,
         viscous: prior.viscous,
         drag_points: prior.drag_points,
-        grease_drag: prior.grease_drag,
         ..Calibration::IDENTITY
     };
     const DAMPING_UNIT: f64 = 10.0;
@@ -484,7 +479,6 @@ pub fn calibrate(
         duty_delay: calibration.duty_delay,
         viscous: calibration.viscous,
         drag_points: calibration.drag_points,
-        grease_drag: calibration.grease_drag,
         encoder_offset: None,
         held_at_data_sheet,
         mismatch_before: relative_mismatch(measured, params, &Calibration::IDENTITY, &nominal),
@@ -693,68 +687,6 @@ pub fn estimate_offset(
         .min_by(|a, b| a.1.total_cmp(&b.1))
 }
 
-/// Rounds of [`calibrate_with_drag`]'s fixed point.
-const DRAG_ROUNDS: usize = 4;
-
-/// [`calibrate`] for a grease with a drag of its own (`prior.viscous` > 0): the drag the
-/// monitor model plays on its motor shaft ([`Calibration::grease_drag`]) is what makes the
-/// model's own chirp read the trace's drag — the model plays the gear's damping and the
-/// surface's anyway, so the trace's whole drag would count them twice (on the reference
-/// actuator without a grease drag the chirp reads 0.16–0.19 on the reference model and
-/// 0.24–0.25 on the calibrated model; a two-part grease's 0.43–0.78). A fixed point over
-/// [`DRAG_ROUNDS`] rounds: the scales fitted with the drag, the model's own healthy trace
-/// recorded and read (`shared::fdi::record_monitor_trace`), the drag moved by what the
-/// trace reads above it. Without a drag of its own, exactly [`calibrate`].
-pub fn calibrate_with_drag(
-    measured: &OnboardMeasured,
-    params: ActuatorParams,
-    prior: &Calibration,
-) -> Result<CalibrationFile> {
-    let mut file = calibrate(
-        measured,
-        params,
-        &Calibration {
-            grease_drag: 0.0,
-            ..*prior
-        },
-    )?;
-    if prior.viscous <= 0.0 {
-        return Ok(file);
-    }
-    let filter = shared::conditioning::LowPass::for_control_period(params.control_period)
-        .map_err(|e| anyhow::anyhow!("conditioning filter: {e:?}"))?;
-    let mut own = Box::new(OnboardMeasured::for_test(filter, *measured.test()));
-    // The trace's own drag: `prior.viscous` is a law's reference, perhaps another day's.
-    let target = measured.grease().map_or(prior.viscous, |g| g.viscous);
-    // Secant steps on the drag: the scales refitted each round take part of a drag back.
-    let (mut drag, mut last) = (0.0f32, None::<(f32, f32)>);
-    for _ in 0..DRAG_ROUNDS {
-        let model = MonitorModel::new(params, &file.calibration());
-        shared::fdi::record_monitor_trace(&model, &FaultVector::NOMINAL, &mut own)
-            .map_err(|e| anyhow::anyhow!("the model's own trace: {e:?}"))?;
-        let Ok(read) = own.grease() else {
-            break;
-        };
-        let slope = match last {
-            Some((d, r)) if drag != d && (read.viscous - r) / (drag - d) > 0.1 => {
-                (read.viscous - r) / (drag - d)
-            }
-            _ => 1.0,
-        };
-        last = Some((drag, read.viscous));
-        drag = (drag + (target - read.viscous) / slope).max(0.0);
-        file = calibrate(
-            measured,
-            params,
-            &Calibration {
-                grease_drag: drag,
-                ..*prior
-            },
-        )?;
-    }
-    Ok(file)
-}
-
 /// Temperatures of the reference actuator's climatic calibration [°C]: the healthy traces
 /// whose friction makes the built-in friction law (`calibrate --at`).
 pub const CLIMATIC_TEMPERATURES: [f64; 4] = [-45.0, -25.0, 0.0, 75.0];
@@ -775,31 +707,26 @@ pub fn reference_calibration(
             .measured(&params)
     };
     let day = healthy(model)?;
-    if !model.test().standstill.is_some_and(|s| s.is_injection()) {
-        return Ok(calibrate(&day, params, prior)?.calibration());
+    let mut calibration = calibrate(&day, params, prior)?.calibration();
+    if model.test().standstill.is_some_and(|s| s.is_injection()) {
+        let traces = CLIMATIC_TEMPERATURES
+            .iter()
+            .map(|&celsius| {
+                let mut settings = *model.settings();
+                settings.conditions = settings.conditions.at_temperature(celsius);
+                healthy(&ReferenceModel::new(settings).with_test(*model.test()))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let refs: Vec<&OnboardMeasured> = traces.iter().map(|b| &**b).collect();
+        let law = grease_law(&day, &refs);
+        calibration.viscous = law.as_ref().map_or(0.0, |l| l.0);
+        let mut points = Vec::new();
+        for (j, measured) in refs.iter().enumerate() {
+            let drag = law.as_ref().map_or(0.0, |l| l.1[j]);
+            points.push((friction_point(measured, params, &calibration)?, drag));
+        }
+        (calibration.friction_points, calibration.drag_points) = friction_law(points);
     }
-    let traces = CLIMATIC_TEMPERATURES
-        .iter()
-        .map(|&celsius| {
-            let mut settings = *model.settings();
-            settings.conditions = settings.conditions.at_temperature(celsius);
-            healthy(&ReferenceModel::new(settings).with_test(*model.test()))
-        })
-        .collect::<Result<Vec<_>>>()?;
-    let refs: Vec<&OnboardMeasured> = traces.iter().map(|b| &**b).collect();
-    // The grease's drag first: the monitor model plays it while the scales are fitted.
-    let law = grease_law(&day, &refs);
-    let prior = Calibration {
-        viscous: law.as_ref().map_or(0.0, |l| l.0),
-        ..*prior
-    };
-    let mut calibration = calibrate_with_drag(&day, params, &prior)?.calibration();
-    let mut points = Vec::new();
-    for (j, measured) in refs.iter().enumerate() {
-        let drag = law.as_ref().map_or(0.0, |l| l.1[j]);
-        points.push((friction_point(measured, params, &calibration)?, drag));
-    }
-    (calibration.friction_points, calibration.drag_points) = friction_law(points);
     Ok(calibration)
 }
 

@@ -286,8 +286,7 @@ impl Actuator {
         if c.viscous > 0.0 {
             out += &format!(
                 "# The grease's drag (`calibrate --at`): the chirp's viscous drag on the healthy \
-                 trace, and at each friction point against it; the drag the monitor model \
-                 plays on the calibration day.\nviscous = {:?}\ndrag_points = [{}]\ngrease_drag = {:?}\n",
+                 trace, and at each friction point against it.\nviscous = {:?}\ndrag_points = [{}]\n",
                 c.viscous,
                 c.friction_points
                     .iter()
@@ -295,8 +294,7 @@ impl Actuator {
                     .filter(|(p, _)| p[1] > 0.0)
                     .map(|(_, d)| format!("{d:?}"))
                     .collect::<Vec<_>>()
-                    .join(", "),
-                c.grease_drag
+                    .join(", ")
             );
         }
         out
@@ -943,8 +941,6 @@ struct Cal {
     /// (a grease with a drag of its own; absent: friction follows the thermistor).
     viscous: Option<f32>,
     drag_points: Option<Vec<f32>>,
-    /// The grease's drag the monitor model plays on the calibration day (absent: 0).
-    grease_drag: Option<f32>,
 }
 
 /// What the simulator's sensors do (the FDI reads only their output).
@@ -1144,7 +1140,6 @@ impl Description {
                         .and_then(|p| p.get(j).copied())
                         .unwrap_or(0.0)
                 }),
-                grease_drag: c.grease_drag.unwrap_or(i.grease_drag),
             }
         });
         let r = ReferenceSettings::REFERENCE;

@@ -60,13 +60,6 @@ pub struct Calibration {
     /// (0 where unused): with the friction points they make the friction law by drag
     /// (`shared::conditions::friction_factor_by_drag`), the grease's own thermometer.
     pub drag_points: [f32; 4],
-    /// The grease's drag the monitor model plays on its motor shaft on the calibration day,
-    /// in the chirp reading's units (`crate::physics::grease`): what makes the model's own
-    /// chirp read the healthy trace's drag ([`viscous`](Self::viscous)), beyond the viscous
-    /// torques the model plays anyway (the gear's damping, the surface's). On another day
-    /// the model plays it plus the chirp's drag above [`viscous`](Self::viscous). 0: the
-    /// grease has no drag of its own (and records before version 11).
-    pub grease_drag: f32,
 }
 
 /// Ratio of the friction points' largest to smallest drag (the calibration's own 1 among
@@ -93,7 +86,6 @@ impl Calibration {
         duty_delay: 0.0,
         viscous: 0.0,
         drag_points: [0.0; 4],
-        grease_drag: 0.0,
     };
 }
 
@@ -124,7 +116,6 @@ impl Calibration {
         duty_delay: 0.0,
         viscous: 0.0,
         drag_points: [0.0; 4],
-        grease_drag: 0.0,
     };
 
     /// The same for the earlier default test (voltage steps at standstill), fitted on an

@@ -167,12 +167,9 @@ pub struct MonitorModel {
     dt_over_user_inertia: f32,
     friction_scale: f32,
     user_damping: f32,
-    /// The motor speed kept over one step against the grease's drag (`1 − dt·D/J_m`;
-    /// exactly 1 without one, so the model plays the same bits).
+    /// The motor speed kept over one step against the grease's drag above the calibration
+    /// day's (`1 − dt·D/J_m`; exactly 1 without one, so the model plays the same bits).
     motor_drag_keep: f32,
-    /// The grease's drag played on the calibration day ([`Calibration::grease_drag`], the
-    /// chirp reading's units; 0: the grease has no drag of its own).
-    calibration_drag: f32,
     /// One healthy phase's R [Ω] and L [H] in the standstill segment's pair circuits: the
     /// calibrated installed circuit, R at the test's winding temperature.
     pair_phase_resistance: f32,
@@ -207,25 +204,12 @@ impl MonitorModel {
             friction_scale: calibration.friction_scale,
             user_damping: calibration.damping,
             motor_drag_keep: 1.0,
-            calibration_drag: calibration.grease_drag.max(0.0),
             pair_phase_resistance: params.phase_resistance * calibration.pair_resistance_scale,
             pair_phase_inductance: params.phase_inductance * calibration.pair_inductance_scale,
             standstill: None,
             delay_share: calibration.delay_share(params.control_period),
             friction_floor: 1.0,
         }
-        .with_drag(calibration.grease_drag.max(0.0))
-    }
-
-    /// The grease's drag on the motor shaft from the chirp's reading `drag` (equivalent
-    /// current per radian of a block's motor travel, `crate::physics::grease`), as a torque
-    /// per motor speed [N·m·s/rad]; none where `drag` is 0. O(1).
-    fn with_drag(mut self, drag: f32) -> Self {
-        if drag != 0.0 {
-            let d = self.torque_constant * drag * crate::physics::grease::BLOCK as f32 * self.dt;
-            self.motor_drag_keep = clamp(1.0 - self.dt_over_motor_inertia * d, 0.0, 2.0);
-        }
-        self
     }
 
     /// The same model on the day `conditions` describes: copper resistance (chirp and pair
@@ -238,10 +222,16 @@ impl MonitorModel {
         self.pair_phase_resistance *= conditions.pair_resistance_ratio;
         self.torque_constant *= conditions.flux_scale;
         self.friction_scale *= conditions.friction_scale;
-        // The grease's whole drag, the calibration day's and the rise above it: the
-        // friction fault scales the dry friction alone.
-        let drag = self.calibration_drag + conditions.drag_rise;
-        self.with_drag(drag)
+        if conditions.drag_rise != 0.0 {
+            // The chirp's drag in equivalent current per radian of a block's travel, as a
+            // torque per motor speed [N·m·s/rad].
+            let drag = self.torque_constant
+                * conditions.drag_rise
+                * crate::physics::grease::BLOCK as f32
+                * self.dt;
+            self.motor_drag_keep = clamp(1.0 - self.dt_over_motor_inertia * drag, 0.0, 2.0);
+        }
+        self
     }
 
     /// The same model with the day's healthy friction a nuisance the solver estimates with

@@ -6,7 +6,7 @@
 //!
 //! Layout (little endian): `"EMAA"`, version `u16`, body length `u16`, the body as 32-bit
 //! words in the order of [`ActuatorRecord::encode`], CRC-32 of everything before it.
-//! [`RECORD_BYTES`] in all. Encoding and decoding are O(1) (a fixed 492 bytes), allocate
+//! [`RECORD_BYTES`] in all. Encoding and decoding are O(1) (a fixed 488 bytes), allocate
 //! nothing and never panic; a decoded record is range-checked ([`ActuatorRecord::validate`])
 //! before it is handed out.
 
@@ -37,9 +37,8 @@ pub const RECORD_MAGIC: [u8; 4] = *b"EMAA";
 /// before 9 has the preflight's systematic error, which reads as
 /// [`SystematicError::REFERENCE_ACTUATOR`], the values those records were used with; none
 /// before 10 has the gearbox's spread from the thermistor, which reads as 0: the gearbox at
-/// the thermistor's temperature; none before 11 has the grease's drag the monitor model
-/// plays, which reads as 0: a drag above the calibration day's alone).
-pub const RECORD_VERSION: u16 = 11;
+/// the thermistor's temperature).
+pub const RECORD_VERSION: u16 = 10;
 /// 32-bit words in the body of version 1.
 const BODY_WORDS_V1: usize = 72;
 /// Words version 2 adds at the end of [`run_words`]: the injection's frequency, the pair
@@ -84,13 +83,8 @@ const BODY_WORDS_V9: usize = BODY_WORDS_V8 + SYSTEMATIC_WORDS;
 /// Words version 10 adds at the end: the gearbox's spread from the thermistor
 /// ([`SystematicError::gear_temperature_spread`]).
 const SPREAD_WORDS: usize = 1;
-/// 32-bit words in the body of version 10.
-const BODY_WORDS_V10: usize = BODY_WORDS_V9 + SPREAD_WORDS;
-/// Words version 11 adds at the end: the grease's drag the monitor model plays
-/// ([`Calibration::grease_drag`]).
-const DRAG_WORDS: usize = 1;
 /// 32-bit words in the body.
-const BODY_WORDS: usize = BODY_WORDS_V10 + DRAG_WORDS;
+const BODY_WORDS: usize = BODY_WORDS_V9 + SPREAD_WORDS;
 /// The body's 32-bit words by version, from 1 (bytes, not a `match`: 36 B less flash).
 #[allow(clippy::indexing_slicing)] // evaluated when compiling: an index out of range fails the build
 const BODY_WORDS_OF_VERSION: [u8; RECORD_VERSION as usize] = {
@@ -104,7 +98,6 @@ const BODY_WORDS_OF_VERSION: [u8; RECORD_VERSION as usize] = {
         BODY_WORDS_V7,
         BODY_WORDS_V8,
         BODY_WORDS_V9,
-        BODY_WORDS_V10,
         BODY_WORDS,
     ];
     let mut out = [0u8; RECORD_VERSION as usize];
@@ -136,8 +129,6 @@ pub const RECORD_BYTES_V7: usize = 8 + 4 * BODY_WORDS_V7 + 4;
 pub const RECORD_BYTES_V8: usize = 8 + 4 * BODY_WORDS_V8 + 4;
 /// Bytes of a version 9 record.
 pub const RECORD_BYTES_V9: usize = 8 + 4 * BODY_WORDS_V9 + 4;
-/// Bytes of a version 10 record.
-pub const RECORD_BYTES_V10: usize = 8 + 4 * BODY_WORDS_V10 + 4;
 
 /// Why a record was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -249,7 +240,6 @@ record_fields! {
     UncertaintyGainDriftSystematic => "uncertainty.gain_drift_systematic",
     UncertaintyPlayGainDriftSystematic => "uncertainty.play_gain_drift_systematic",
     UncertaintyGearTemperatureSpread => "uncertainty.gear_temperature_spread",
-    CalibrationGreaseDrag => "calibration.grease_drag",
 }
 
 /// One actuator, as the FDI needs it. Plain data.
@@ -352,7 +342,6 @@ impl ActuatorRecord {
         w.f32(self.systematic.gain_drift);
         w.f32(self.systematic.play_gain_drift);
         w.f32(self.systematic.gear_temperature_spread);
-        w.f32(self.calibration.grease_drag);
         let mut crc = Crc32::new();
         crc.update(w.out.get(..RECORD_BYTES - 4).unwrap_or(&[]));
         w.bytes(&crc.finish().to_le_bytes());
@@ -543,9 +532,6 @@ impl ActuatorRecord {
         if version >= 10 {
             systematic.gear_temperature_spread = r.f32();
         }
-        if version >= 11 {
-            calibration.grease_drag = r.f32();
-        }
         let ga = GaSettings {
             max_evaluations,
             max_generations,
@@ -631,7 +617,7 @@ impl ActuatorRecord {
         if let Some(field) = first_outside(&positive, false) {
             return fail(field);
         }
-        let non_negative: [(f32, RecordField); 17] = [
+        let non_negative: [(f32, RecordField); 16] = [
             (p.gear_damping, RecordField::MechanicsGearDamping),
             (p.aero_stiffness, RecordField::MechanicsAeroStiffness),
             (p.position_ki, RecordField::ControllerPositionKi),
@@ -660,7 +646,6 @@ impl ActuatorRecord {
                 self.systematic.gear_temperature_spread,
                 RecordField::UncertaintyGearTemperatureSpread,
             ),
-            (c.grease_drag, RecordField::CalibrationGreaseDrag),
         ];
         if let Some(field) = first_outside(&non_negative, true) {
             return fail(field);

@@ -121,10 +121,8 @@ fn a_version_4_record_reads_with_the_typical_drive() {
     assert_eq!(r.polish, custom.polish);
     // A compensation word other than 0 or 1, re-sealed: refused, not read as "on".
     let mut flag = v6;
-    let at = RECORD_BYTES
-        - 4
-        - 12
-        - 4 * (GREASE_WORDS + NINTH_WORDS + SYSTEMATIC_WORDS + SPREAD_WORDS + DRAG_WORDS);
+    let at =
+        RECORD_BYTES - 4 - 12 - 4 * (GREASE_WORDS + NINTH_WORDS + SYSTEMATIC_WORDS + SPREAD_WORDS);
     flag[at..at + 4].copy_from_slice(&7u32.to_le_bytes());
     let mut crc = Crc32::new();
     crc.update(&flag[..RECORD_BYTES - 4]);
@@ -177,45 +175,6 @@ fn a_version_7_record_reads_with_no_demagnetization_in_its_guess() {
     // Without a guess the ninth word is not read into one.
     custom.ga.initial_guess = None;
     assert_eq!(ActuatorRecord::decode(&custom.encode()), Ok(custom));
-}
-
-#[test]
-fn a_version_10_record_reads_without_a_grease_drag_played() {
-    let custom = ActuatorRecord {
-        calibration: Calibration {
-            viscous: 0.5,
-            drag_points: [2.0, 1.5, 0.8, 0.3],
-            grease_drag: 0.25,
-            ..ActuatorRecord::REFERENCE.calibration
-        },
-        ..ActuatorRecord::REFERENCE
-    };
-    let v11 = custom.encode();
-    assert_eq!(ActuatorRecord::decode(&v11), Ok(custom));
-    let v10 = older_record(10, &v11[8..8 + 4 * BODY_WORDS_V10]);
-    assert_eq!(v10.len(), RECORD_BYTES_V10);
-    let r = ActuatorRecord::decode(&v10).unwrap();
-    assert_eq!(r.calibration.grease_drag, 0.0);
-    assert_eq!(
-        r.calibration,
-        Calibration {
-            grease_drag: 0.0,
-            ..custom.calibration
-        }
-    );
-    let bad = ActuatorRecord {
-        calibration: Calibration {
-            grease_drag: -0.1,
-            ..custom.calibration
-        },
-        ..custom
-    };
-    assert_eq!(
-        ActuatorRecord::decode(&bad.encode()),
-        Err(ActuatorRecordError::OutOfRange {
-            field: RecordField::CalibrationGreaseDrag
-        })
-    );
 }
 
 #[test]
@@ -424,10 +383,10 @@ fn header_errors_are_named() {
         Err(ActuatorRecordError::TooShort { found: 100 })
     );
     let mut other = bytes;
-    other[4] = 12;
+    other[4] = 11;
     assert_eq!(
         ActuatorRecord::decode(&other),
-        Err(ActuatorRecordError::UnsupportedVersion { found: 12 })
+        Err(ActuatorRecordError::UnsupportedVersion { found: 11 })
     );
     let mut other = bytes;
     other[0] = b'X';
