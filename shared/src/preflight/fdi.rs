@@ -43,6 +43,13 @@ pub struct IdentificationResult {
     pub curvatures: u32,
 }
 
+/// A reading's uncertainty and the correlations between its components
+/// ([`Identification::read`]).
+pub type ReadingUncertainty = (
+    Uncertainty,
+    [[f32; crate::physics::fault::FAULT_COUNT]; crate::physics::fault::FAULT_COUNT],
+);
+
 /// Why an identification could not start.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -146,13 +153,7 @@ impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
         k: &FaultVector,
         curvature: &Curvature,
         systematic: &SystematicError,
-    ) -> Result<
-        (
-            Uncertainty,
-            [[f32; crate::physics::fault::FAULT_COUNT]; crate::physics::fault::FAULT_COUNT],
-        ),
-        UncertaintyError,
-    > {
+    ) -> Result<ReadingUncertainty, UncertaintyError> {
         let model = self.problem.model();
         let day = systematic.on_day(self.problem.conditions().friction_slope);
         if model.friction_floor() == 1.0 {
@@ -190,13 +191,7 @@ impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
         result: IdentificationResult,
         curvature: &Curvature,
         systematic: &SystematicError,
-    ) -> (
-        IdentificationResult,
-        Option<(
-            Uncertainty,
-            [[f32; crate::physics::fault::FAULT_COUNT]; crate::physics::fault::FAULT_COUNT],
-        )>,
-    ) {
+    ) -> (IdentificationResult, Option<ReadingUncertainty>) {
         let read = self.reading(result);
         match self.reading_uncertainty(&result.faults, curvature, systematic) {
             Ok((u, correlation)) => {
