@@ -17,7 +17,6 @@ use host_sim::files::trace::Trace;
 use host_sim::plant::reference::{ReferenceModel, ReferenceSettings, Scenario};
 use shared::fdi::TEST_SAMPLES;
 use shared::test_design::PreflightTest;
-use shared::uncertainty::SystematicError;
 use shared::{ActuatorParams, Calibration, FaultVector, FAULT_COUNT};
 
 fn workspace_root() -> PathBuf {
@@ -122,14 +121,24 @@ fn host_identification(
     Box<shared::fdi::OnboardMeasured>,
     shared::fdi::IdentificationResult,
 ) {
+    let (measured, identified) = host_identified(bytes);
+    (measured, identified.result)
+}
+
+/// The host's whole identification of `bytes`: its reading and the uncertainty it reports.
+fn host_identified(
+    bytes: &[u8],
+) -> (
+    Box<shared::fdi::OnboardMeasured>,
+    host_sim::fdi::identify::Identified,
+) {
     let measured = Trace::from_bin(bytes)
         .expect("readable")
         .measured(&ActuatorParams::REFERENCE)
         .expect("conditioned");
-    let host = identify(&measured, &Calibration::REFERENCE_ACTUATOR, 1, false)
-        .expect("host identification runs")
-        .result;
-    (measured, host)
+    let identified = identify(&measured, &Calibration::REFERENCE_ACTUATOR, 1, false)
+        .expect("host identification runs");
+    (measured, identified)
 }
 
 fn faulty_trace() -> Trace {
@@ -159,7 +168,8 @@ fn firmware_under_qemu_gives_the_hosts_bits() {
     assert_eq!(run.status, 0, "firmware failed:\n{}", run.output);
     println!("{}", run.output);
 
-    let (_, host) = host_identification(&bytes);
+    let (_, identified) = host_identified(&bytes);
+    let host = identified.result;
 
     let bits = list(field(&run.output, "bits ", "faults"));
     assert_eq!(bits.len(), FAULT_COUNT);
@@ -175,20 +185,10 @@ fn firmware_under_qemu_gives_the_hosts_bits() {
     }
     let fitness = u32::from_str_radix(field(&run.output, "bits ", "fitness"), 16).expect("hex");
     assert_eq!(fitness, host.fitness.to_bits(), "fitness differs");
-    // The uncertainty: the same standard deviations and 90 % intervals, bit for bit.
-    let measured = Trace::from_bin(&bytes)
-        .expect("readable")
-        .measured(&ActuatorParams::REFERENCE)
-        .expect("conditioned");
-    let problem = shared::FitnessProblem::new(
-        &measured,
-        ActuatorParams::REFERENCE,
-        &Calibration::REFERENCE_ACTUATOR,
-    )
-    .expect("a fitness");
-    let (u, _) = problem
-        .uncertainty(&host.faults, &SystematicError::REFERENCE_ACTUATOR)
-        .expect("determined");
+    // The uncertainty the host reports (at the solver's vector, the reading's eccentricity
+    // corrected for its free phase): the same standard deviations and 90 % intervals, bit
+    // for bit.
+    let (u, _) = identified.uncertainty.expect("determined");
     // The readable line's decimals are the shortest that read back to the same `f32` (as the
     // `result` line's below), so they carry the bits; a NaN (an undetermined component) is
     // printed without its payload.
@@ -213,7 +213,7 @@ fn firmware_under_qemu_gives_the_hosts_bits() {
         earlier,
         &host,
         &u,
-        problem.conditions(),
+        &identified.conditions,
     );
     // The readable line says the same numbers.
     let shown: Vec<f32> = list(field(&run.output, "result ", "faults"))
