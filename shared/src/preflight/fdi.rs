@@ -197,7 +197,6 @@ impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
             Ok((u, correlation)) => {
                 let excess = result.fitness.max(0.0);
                 let share = excess / (excess + self.problem.nominal_residual().max(0.0));
-                let share = if share.is_finite() { share } else { 0.0 };
                 let (faults, u) = u.with_free_phase_corrected(&read.faults, share);
                 (
                     IdentificationResult { faults, ..read },

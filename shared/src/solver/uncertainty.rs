@@ -14,8 +14,8 @@
 //! (docs/identifiability.md). A preflight's deviations then take the systematic error one
 //! scale cannot carry for every component (the actuator record's [`SystematicError`], in
 //! quadrature; [`Curvature::preflight_uncertainty`]); a window of flight's take their own
-//! factors. Units:
-//! the fault vector's [0, 1] range.
+//! factors. A preflight's eccentricity is reported with its free phase's noise bias taken
+//! off ([`free_phase_corrected`]). Units: the fault vector's [0, 1] range.
 //!
 //! [`FitnessProblem::uncertainty`]: crate::solver::fitness::FitnessProblem::uncertainty
 
@@ -343,7 +343,12 @@ impl Uncertainty {
     ) -> (FaultVector, Self) {
         let mut a = *k.as_array();
         if let (Some(z), Some(&s)) = (a.get_mut(ECCENTRICITY), self.std.get(ECCENTRICITY)) {
-            let share = noise_share.clamp(0.0, 1.0);
+            // NaN (no fitness above a zero residual) takes nothing off.
+            let share = if noise_share > 0.0 {
+                noise_share.min(1.0)
+            } else {
+                0.0
+            };
             *z = free_phase_corrected(*z, s / INFLATION * crate::base::math::sqrt(share));
         }
         let corrected = FaultVector::saturating(a);
@@ -901,8 +906,9 @@ mod tests {
 
     /// The correction takes noise's bias off the square: over 20 000 draws the corrected
     /// amplitude's mean square is the truth's, the raw one's `2σ²` above it (within four
-    /// standard errors, each well below `2σ²`) where the truth stands clear of the noise, and a round rotor reads beyond `ROUND_ROTOR_99 · σ` in 1 % of
-    /// draws (0.8–1.2 %), at 0 in `1 − e⁻¹` of them.
+    /// standard errors, each well below `2σ²`) where the truth stands clear of the noise,
+    /// and a round rotor reads beyond `ROUND_ROTOR_99 · σ` in 1 % of draws (0.8–1.2 %), at
+    /// 0 in `1 − e⁻¹` of them.
     #[test]
     fn the_free_phase_correction_takes_noises_bias_off() {
         let sigma = 0.03;
