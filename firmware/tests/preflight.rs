@@ -60,6 +60,7 @@ fn trace_bytes(rows: &[TraceRow], sample_rate_hz: u32) -> Vec<u8> {
         rows: rows.len() as u32,
         test: PreflightTest::PAPER,
         conditions: false,
+        flight: false,
     };
     let mut out = header
         .encode()

@@ -43,6 +43,7 @@ fn sealed(rows: &[u8], min_rows: usize, test: PreflightTest) -> Vec<u8> {
         rows: n as u32,
         test,
         conditions: false,
+        flight: false,
     };
     let Ok(head) = header.encode() else {
         return Vec::new();

@@ -787,8 +787,18 @@ fn another_actuators_window_is_identified_and_plotted_from_the_command_line() {
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("give --start"), "{}", stderr(&o));
     let start = format!("{}", lead as f64 * dt);
-    let o = import(&["--start", &start], &path(&dir, "imported.bin"));
-    assert!(stderr(&o).contains("written as CSV"), "{}", stderr(&o));
+    // The binary form carries the flight mark: it reads as a window, as the CSV does.
+    let imported_bin = path(&dir, "imported.bin");
+    let o = import(&["--start", &start], &imported_bin);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let wb = json(&host_sim(&[
+        "identify",
+        &imported_bin,
+        "--actuator",
+        light,
+        "--json",
+    ]));
+    assert_eq!(wb["model"], "load", "not read as a window: {wb}");
     let o = import(&["--start", &start], &imported);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(std::fs::read_to_string(&imported)

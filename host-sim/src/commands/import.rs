@@ -41,12 +41,6 @@ pub(crate) fn import_command(
                  from it)"
             );
         }
-        if out_format != TraceFormat::Csv {
-            anyhow::bail!(
-                "--flight: a window of flight is written as CSV (`# test: flight`); the binary \
-                 trace has no flight mark: name the output .csv"
-            );
-        }
     }
     let bytes =
         std::fs::read(recording).with_context(|| format!("reading {}", recording.display()))?;

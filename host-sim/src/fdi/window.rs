@@ -242,16 +242,12 @@ pub fn window_series(
 /// without the day's healthy friction's share: a window of the same day plays the same
 /// healthy friction, so what it holds is the product the preflight measured.
 pub fn held_from(pre: &crate::fdi::identify::Identified, within: bool) -> HeldComponents {
-    let held = HeldComponents::from_preflight(&pre.result.faults, within);
-    match &pre.uncertainty {
-        Some((u, correlation)) if within => {
-            let mut std = u.std;
-            let nuisance = pre.friction_nuisance;
-            std[0] = (std[0] * std[0] - nuisance * nuisance).max(0.0).sqrt();
-            held.with_preflight_uncertainty(&std, correlation)
-        }
-        _ => held,
-    }
+    HeldComponents::from_preflight_reading(
+        &pre.result.faults,
+        within,
+        pre.uncertainty.as_ref().map(|(u, c)| (&u.std, c)),
+        pre.friction_nuisance,
+    )
 }
 
 /// Identifies the faults behind a window of flight recorded in `trace`, conditioned into

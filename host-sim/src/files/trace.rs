@@ -245,12 +245,6 @@ impl Trace {
     }
 
     pub fn to_bin(&self) -> Result<Vec<u8>> {
-        if self.flight {
-            bail!(
-                "a window of flight is written as CSV (`# test: {FLIGHT_TEST}`): the binary \
-                 header has no flight mark"
-            );
-        }
         let rows = u32::try_from(self.samples.len()).context("too many rows for format v1")?;
         let conditions = self.has_conditions();
         let header = TraceHeader {
@@ -258,6 +252,7 @@ impl Trace {
             rows,
             test: self.test,
             conditions,
+            flight: self.flight,
         };
         let mut out = Vec::with_capacity(header.file_bytes() as usize);
         out.extend_from_slice(
@@ -371,7 +366,7 @@ impl Trace {
         let trace = Self {
             samples,
             test: header.test,
-            flight: false,
+            flight: header.flight,
         };
         trace.check(Form::Binary)?;
         Ok(trace)

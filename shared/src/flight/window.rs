@@ -431,6 +431,34 @@ impl HeldComponents {
         }
     }
 
+    /// What a flight's windows hold of its preflight's reading `preflight` and calibrated
+    /// `uncertainty` (deviations and correlations; `None`: not determined) when that
+    /// preflight was `within` (`trusted`), else nothing ([`Self::from_preflight`]). The
+    /// friction's deviation leaves out the day's healthy friction's share
+    /// `friction_nuisance` (in quadrature): a window of the same day plays the same healthy
+    /// friction, so what it holds is the product the preflight measured. The host's and the
+    /// controller's reading of a flight both start here. O(9²).
+    pub fn from_preflight_reading(
+        preflight: &FaultVector,
+        trusted: bool,
+        uncertainty: Option<(&[f32; FAULT_COUNT], &[[f32; FAULT_COUNT]; FAULT_COUNT])>,
+        friction_nuisance: f32,
+    ) -> Self {
+        let held = Self::from_preflight(preflight, trusted);
+        match uncertainty {
+            Some((std, correlation)) if trusted => {
+                let mut std = *std;
+                if friction_nuisance > 0.0 {
+                    std[0] = crate::base::math::sqrt(
+                        std[0] * std[0] - friction_nuisance * friction_nuisance,
+                    );
+                }
+                held.with_preflight_uncertainty(&std, correlation)
+            }
+            _ => held,
+        }
+    }
+
     /// These held components with component `i` held too, at the preflight's value these
     /// hold (`crate::flight::pinned`: the friction of a window read with its surface pinned).
     #[must_use]

@@ -9,14 +9,17 @@
 //! | 0 | 4 | magic `b"EMAT"` |
 //! | 4 | 2 | format version, `u16`: 1, 2 or 3 |
 //! | 6 | 1 | columns per row, `u8`: 6 (versions 1, 2), 8 (version 3) |
-//! | 7 | 1 | versions 2, 3: the test design's kind ([`PreflightTest::kind`]); version 1: 0 |
+//! | 7 | 1 | versions 2, 3: the test design's kind ([`PreflightTest::kind`]), plus [`FLIGHT_MARK`] for a window of flight; version 1: 0 |
 //! | 8 | 4 | sample rate \[Hz\], `u32` (10 000) |
 //! | 12 | 4 | number of rows, `u32` |
 //! | 16 | 24 or 32 · rows | rows, 6 or 8 × `i32` each (below) |
 //! | end | 4 | CRC-32 (IEEE 802.3) of every byte before it |
 //!
 //! Version 1 (a `u16` column count at offset 6, the same bytes as version 2 with code 0) is
-//! the paper's test, the chirp alone. A version 2 trace with a standstill segment holds its
+//! the paper's test, the chirp alone. A window of flight (the chirp on the flight's
+//! commands, `theta_cmd` what the position loop followed) is written as version 2 or 3 with
+//! [`FLIGHT_MARK`] set in its code; a reader that predates the mark refuses it as an unknown
+//! test. A version 2 trace with a standstill segment holds its
 //! samples first, then the chirp's; `theta_cmd` is 0 during the segment. Paper-test traces
 //! are still written as version 1.
 //!
@@ -35,6 +38,8 @@ use crate::test::test_design::PreflightTest;
 
 /// First four bytes of every binary trace.
 pub const MAGIC: [u8; 4] = *b"EMAT";
+/// The bit of the test code (offset 7) that marks a window of flight.
+pub const FLIGHT_MARK: u8 = 0x80;
 /// The newest format version this code reads and writes (it reads 1 and 2 too).
 pub const VERSION: u16 = 3;
 /// Columns per row of versions 1 and 2.
@@ -131,13 +136,15 @@ pub struct TraceHeader {
     pub test: PreflightTest,
     /// Whether each row carries the bus voltage and temperature (version 3).
     pub conditions: bool,
+    /// A window of flight ([`FLIGHT_MARK`]) rather than a preflight test.
+    pub flight: bool,
 }
 
 impl TraceHeader {
     /// The header's bytes: the test is stored as its [`PreflightTest::kind`] (the segments'
     /// settings of another actuator come from its record).
     pub fn encode(&self) -> Result<[u8; HEADER_BYTES], TraceError> {
-        let code = self.test.kind();
+        let code = self.test.kind() | if self.flight { FLIGHT_MARK } else { 0 };
         let (version, columns): (u16, u16) = match (self.conditions, code) {
             (true, _) => (VERSION, CONDITION_COLUMNS),
             (false, 0) => (1, COLUMNS),
@@ -181,12 +188,15 @@ impl TraceHeader {
         if columns != expected {
             return Err(TraceError::BadColumns { found: columns });
         }
-        let test = PreflightTest::from_code(code).ok_or(TraceError::UnknownTest { code })?;
+        let flight = code & FLIGHT_MARK != 0;
+        let test = PreflightTest::from_code(code & !FLIGHT_MARK)
+            .ok_or(TraceError::UnknownTest { code })?;
         Ok(Self {
             sample_rate_hz: u32::from_le_bytes([r0, r1, r2, r3]),
             rows: u32::from_le_bytes([n0, n1, n2, n3]),
             test,
             conditions,
+            flight,
         })
     }
 
@@ -390,6 +400,7 @@ mod tests {
             rows: 5000,
             test: PreflightTest::PAPER,
             conditions: false,
+            flight: false,
         };
         let bytes = h.encode().unwrap();
         // The paper's test is written as version 1.
@@ -436,6 +447,7 @@ mod tests {
             rows: 5420,
             test: PreflightTest::STANDSTILL,
             conditions: false,
+            flight: false,
         };
         let bytes = h.encode().unwrap();
         assert_eq!(&bytes[4..8], &[2, 0, 6, 1]);
@@ -460,6 +472,37 @@ mod tests {
         assert_eq!(
             TraceHeader::decode(&odd_bytes).unwrap().test,
             PreflightTest::PAPER
+        );
+    }
+
+    #[test]
+    fn a_window_of_flight_is_marked_in_the_test_code() {
+        let h = TraceHeader {
+            sample_rate_hz: 10_000,
+            rows: 5000,
+            test: PreflightTest::PAPER,
+            conditions: true,
+            flight: true,
+        };
+        let bytes = h.encode().unwrap();
+        assert_eq!(&bytes[4..8], &[3, 0, 8, FLIGHT_MARK]);
+        assert_eq!(TraceHeader::decode(&bytes), Ok(h));
+        // Without the bus and temperature: version 2, never version 1 (no code there).
+        let bare = TraceHeader {
+            conditions: false,
+            ..h
+        };
+        let bytes = bare.encode().unwrap();
+        assert_eq!(&bytes[4..8], &[2, 0, 6, FLIGHT_MARK]);
+        assert_eq!(TraceHeader::decode(&bytes), Ok(bare));
+        // The mark on an unknown design is still refused, with the whole code.
+        let mut bad = bytes;
+        bad[7] = FLIGHT_MARK | 9;
+        assert_eq!(
+            TraceHeader::decode(&bad),
+            Err(TraceError::UnknownTest {
+                code: FLIGHT_MARK | 9
+            })
         );
     }
 
@@ -495,6 +538,7 @@ mod tests {
             rows: 10,
             test: PreflightTest::STANDSTILL,
             conditions: true,
+            flight: false,
         };
         let bytes = h.encode().unwrap();
         assert_eq!(&bytes[4..8], &[3, 0, 8, 1]);
