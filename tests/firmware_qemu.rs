@@ -665,3 +665,141 @@ fn firmware_with_a_friction_law_by_drag_gives_the_hosts_bits() {
     assert_eq!(run.status, 0, "{}", run.output);
     assert_eq!(result_bits(&run.output), host_bits(&host), "{}", run.output);
 }
+
+/// The `f32` bits of `values`, as the firmware prints them (`{:08x}` each).
+fn hex_bits(values: &[f32]) -> Vec<String> {
+    values
+        .iter()
+        .map(|v| format!("{:08x}", v.to_bits()))
+        .collect()
+}
+
+/// Issue 69: a flight's windows on the controller. The reference actuator with friction 0.2
+/// and a gain drift of 0.6 flies two cruise windows in light turbulence after its preflight;
+/// the emulation image reads the preflight, then each window (`--window`, binary traces with
+/// the flight mark) holding the preflight's shorts, eccentricity and demagnetization, and
+/// fuses them into the flight's reading: each window's vector, fitness and deviations and
+/// the flight's vector and deviations are the bits of `host-sim identify W1 --preflight P
+/// --same-flight W2`'s code. A preflight given as a window is refused.
+#[test]
+fn a_flights_windows_under_qemu_give_the_hosts_window_and_flight_bits() {
+    use host_sim::files::actuator::Actuator;
+    use host_sim::plant::aero::{FlightPhase, FlightWindow, Turbulence};
+    use shared::fusion::{WindowFusion, FLIGHT_MAX_FRICTION_STD};
+    let actuator = Actuator::reference();
+    let faults = FaultVector::new([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.6, 0.0]).expect("valid");
+    let settings = actuator.reference_settings().expect("the built-in model");
+    let ground = ReferenceModel::new(settings).with_test(actuator.record.test);
+    let mut scenario = Scenario::new(faults);
+    scenario.seed = 3;
+    let preflight = ground
+        .simulate(&scenario)
+        .trace
+        .to_bin()
+        .expect("encodable");
+    let window_test = PreflightTest {
+        standstill: None,
+        motion: None,
+        ..actuator.record.test
+    };
+    let cruise = ReferenceModel::new(settings)
+        .with_test(window_test)
+        .with_flight(Some(FlightWindow {
+            phase: FlightPhase::Cruise,
+            turbulence: Turbulence::Light,
+        }));
+    let windows: Vec<Vec<u8>> = [3, 4]
+        .iter()
+        .map(|&seed| {
+            scenario.seed = seed;
+            cruise
+                .simulate(&scenario)
+                .trace
+                .to_bin()
+                .expect("encodable")
+        })
+        .collect();
+    let preflight_path = temp_trace("flight-preflight.bin", &preflight);
+    let window_paths: Vec<PathBuf> = windows
+        .iter()
+        .enumerate()
+        .map(|(j, w)| temp_trace(&format!("flight-window-{j}.bin"), w))
+        .collect();
+
+    // The host: the preflight identified, what its windows hold of it, each window read and
+    // entered into the flight's reading.
+    let p = Trace::from_bin(&preflight).expect("readable");
+    let record = actuator.record_for(p.test()).expect("the built-in record");
+    let measured = p.measured(&record.params).expect("conditioned");
+    let pre = host_sim::fdi::identify::identify_for(&measured, &record, 1, false)
+        .expect("host identification");
+    let within = pre.domain(&p.domain_monitor(&record.params), &record.domain)
+        == shared::domain::Domain::Within;
+    assert!(within, "a worn actuator's preflight in still air is read");
+    let held = host_sim::fdi::window::held_from(&pre, within);
+    let mut fusion = WindowFusion::EMPTY;
+    let mut host_windows = Vec::new();
+    for bytes in &windows {
+        let w = Trace::from_bin(bytes).expect("readable");
+        assert!(w.is_flight(), "the binary window carries its flight mark");
+        let record = actuator.record_for(w.test()).expect("the built-in record");
+        let measured = w.measured(&record.params).expect("conditioned");
+        let id = host_sim::fdi::window::identify_window(&w, &measured, &record, held, 1)
+            .expect("the host reads the window");
+        assert!(id.enter(&mut fusion), "{:?}", id.verdict);
+        host_windows.push(id);
+    }
+    let flight = fusion
+        .final_reading(FLIGHT_MAX_FRICTION_STD)
+        .expect("two windows make a reading");
+
+    let mut args = vec![preflight_path.to_str().expect("UTF-8")];
+    for w in &window_paths {
+        args.extend(["--window", w.to_str().expect("UTF-8")]);
+    }
+    let run = run_firmware(&args);
+    assert_eq!(run.status, 0, "{}", run.output);
+    for (n, id) in (1..).zip(&host_windows) {
+        let prefix = format!("window_bits n={n} ");
+        let std = id.uncertainty.as_ref().expect("a deviation").0.std;
+        assert_eq!(
+            list(field(&run.output, &prefix, "faults")),
+            hex_bits(id.faults.as_array()),
+            "window {n}:\n{}",
+            run.output
+        );
+        assert_eq!(
+            field(&run.output, &prefix, "fitness"),
+            format!("{:08x}", id.fitness.to_bits())
+        );
+        assert_eq!(list(field(&run.output, &prefix, "std")), hex_bits(&std));
+        let line = format!("window n={n} ");
+        assert!(
+            field(&run.output, &line, "outcome").starts_with("Read"),
+            "{}",
+            run.output
+        );
+        assert!(number(&run.output, &line, "longest_poll_instructions") > 0);
+        assert!(number(&run.output, &line, "identify_instructions") > 1_000_000_000);
+    }
+    assert_eq!(
+        list(field(&run.output, "flight_bits ", "faults")),
+        hex_bits(flight.faults.as_array()),
+        "{}",
+        run.output
+    );
+    assert_eq!(
+        list(field(&run.output, "flight_bits ", "std")),
+        hex_bits(&flight.uncertainty.0.std)
+    );
+    assert_eq!(number(&run.output, "flight ", "entered"), 2);
+
+    // A preflight trace is no window: refused after the preflight, before any window work.
+    let run = run_firmware(&[
+        preflight_path.to_str().expect("UTF-8"),
+        "--window",
+        preflight_path.to_str().expect("UTF-8"),
+    ]);
+    assert_eq!(run.status, 3, "{}", run.output);
+    assert!(run.output.contains("NotAWindow"), "{}", run.output);
+}

@@ -1,13 +1,15 @@
 //! Emulation glue (QEMU with semihosting): the command line and the trace file on the host.
 //!
 //! `cargo fw -- TRACE.bin [--actuator RECORD] [--seed N] [--checkpoint FILE [--stop-after N]]
-//! [--health FILE [--flight N]]`: the runner (`firmware/qemu-run`) passes the ELF path and these arguments
+//! [--health FILE [--flight N]] [--window W.bin ...]`: the runner (`firmware/qemu-run`) passes the ELF path and these arguments
 //! through QEMU's semihosting command line; the trace is read with SYS_OPEN / SYS_FLEN /
 //! SYS_READ, one row (24 B) per read. The checkpoint file stands in for the flash page that
 //! keeps the GA record across a power loss; the health file for the flash that keeps the
 //! health log (the RAM store's image, `ONBOARD_RECORDS` × 76 bytes, or × 68 / × 52 for
 //! versions 2 and 1); the actuator file for the flash sector that holds the actuator record
-//! (`host-sim actuator`, 472 bytes). The command line is split at blanks (QEMU joins its
+//! (`host-sim actuator`, 472 bytes); each `--window` file (up to [`MAX_WINDOWS`], a window of
+//! flight from `host-sim simulate --flight … --format bin`) for a window the flight's
+//! control loop recorded after this preflight. The command line is split at blanks (QEMU joins its
 //! `arg=`s with spaces): paths cannot hold one.
 
 use core::ffi::CStr;
@@ -21,11 +23,14 @@ use firmware::TraceBytes;
 /// Longest path accepted [bytes, NUL excluded].
 pub const MAX_PATH: usize = 200;
 /// Bytes for all the paths of one command line, each NUL-terminated (trace, checkpoint,
-/// health log, actuator record): one buffer, not one per path, to keep RAM small.
-const PATHS_BYTES: usize = 320;
+/// health log, actuator record, windows): one buffer, not one per path, to keep RAM small.
+const PATHS_BYTES: usize = 640;
 
 /// Bytes of the semihosting command line buffer.
-const CMDLINE_BYTES: usize = 512;
+const CMDLINE_BYTES: usize = 1024;
+
+/// Windows of flight one run reads at most (`--window`, repeatable): a flight of eight.
+pub const MAX_WINDOWS: usize = 8;
 
 /// What the command line asked for.
 pub struct Command {
@@ -34,6 +39,8 @@ pub struct Command {
     checkpoint: Option<u16>,
     health: Option<u16>,
     actuator: Option<u16>,
+    windows: [u16; MAX_WINDOWS],
+    window_count: usize,
     pub seed: Option<u64>,
     /// `--flight N`: the flight index of this preflight's health record (default: one after
     /// the newest in the log).
@@ -61,6 +68,8 @@ pub enum UsageError {
     PathTooLong,
     /// `--seed` without a number, or an unknown option.
     BadOption,
+    /// More than [`MAX_WINDOWS`] `--window`s.
+    TooManyWindows,
 }
 
 impl Command {
@@ -85,6 +94,8 @@ impl Command {
         let mut health = None;
         let mut actuator = None;
         let mut flight = None;
+        let mut windows = [0u16; MAX_WINDOWS];
+        let mut window_count = 0;
         while let Some(word) = words.next() {
             let mut value = || option_value(&mut words);
             let number32 = |w: &[u8]| u32::try_from(number(w)?).map_err(|_| UsageError::BadOption);
@@ -95,6 +106,13 @@ impl Command {
                 b"--actuator" => actuator = Some(paths.push(value()?)?),
                 b"--health" => health = Some(paths.push(value()?)?),
                 b"--checkpoint" => checkpoint = Some(paths.push(value()?)?),
+                b"--window" => {
+                    let at = paths.push(value()?)?;
+                    *windows
+                        .get_mut(window_count)
+                        .ok_or(UsageError::TooManyWindows)? = at;
+                    window_count += 1;
+                }
                 b"--crash" => {
                     crash = match value()? {
                         b"panic" => Some(Crash::Panic),
@@ -124,6 +142,8 @@ impl Command {
             checkpoint,
             health,
             actuator,
+            windows,
+            window_count,
             seed,
             flight,
             stop_after,
@@ -145,6 +165,14 @@ impl Command {
     /// given; without one the firmware runs the built-in reference actuator.
     pub fn actuator_path(&self) -> Option<&CStr> {
         self.actuator.map(|at| self.paths.get(at))
+    }
+
+    /// The `--window` files, in the order given.
+    pub fn window_paths(&self) -> impl Iterator<Item = &CStr> {
+        self.windows
+            .iter()
+            .take(self.window_count)
+            .map(|&at| self.paths.get(at))
     }
 
     /// The trace path, NUL-terminated.

@@ -19,6 +19,7 @@
 pub mod acquisition;
 pub mod bridge;
 pub mod cooperate;
+pub mod flight;
 pub mod health;
 pub mod position_loop;
 pub mod preflight;

@@ -25,6 +25,7 @@ use shared::ga::RecordError;
 use shared::polish::{Polish, PolishAsk, PolishSettings};
 use shared::test_design::PreflightTest;
 use shared::uncertainty::{Assessment, Uncertainty};
+use shared::window::HeldComponents;
 use shared::{Calibration, FaultVector, Status, Verdict, FAULT_COUNT};
 
 use crate::source::{Acquired, CurrentSource};
@@ -126,6 +127,11 @@ pub struct Report {
     pub identify_polls: u32,
     /// Largest number of evaluations one poll did (≤ `evaluations_per_poll`).
     pub max_evaluations_per_poll: u32,
+    /// What a window of the same flight holds of this reading, were it trusted
+    /// (`HeldComponents::from_preflight_reading`: the shorts, the eccentricity and the
+    /// demagnetization with their covariance); a flight's windows take it when `domain` is
+    /// `Within`, and hold nothing otherwise.
+    pub held: HeldComponents,
 }
 
 /// How many times a preflight spoiled by its load is run (issue 36): a gust or a hand on the
@@ -224,6 +230,7 @@ enum State<'m> {
         /// The unexplained current's mean over the chirp against its RMS
         /// (`CurvatureRun::load_offset`; NaN without the curvature's runs).
         load_offset: f32,
+        held: HeldComponents,
     },
     Done(Report),
     Failed,
@@ -463,6 +470,7 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                                 uncertainty: None,
                                 assessments: self.assess(&result, None),
                                 load_offset: f32::NAN,
+                                held: HeldComponents::of_preflight(&result.faults),
                             },
                         }
                     }
@@ -478,6 +486,7 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                         uncertainty: None,
                         assessments: self.assess(&result, None),
                         load_offset: f32::NAN,
+                        held: HeldComponents::of_preflight(&result.faults),
                     });
                 };
                 let polish = &mut self.polish;
@@ -519,10 +528,19 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                 Ok(match done {
                     None => State::Uncertainty { result },
                     Some(curvature) => {
-                        let (result, uncertainty) =
-                            id.read(result, &curvature, &self.settings.actuator.systematic);
+                        let systematic = &self.settings.actuator.systematic;
+                        let (result, uncertainty) = id.read(result, &curvature, systematic);
+                        let nuisance = systematic
+                            .on_day(self.day.friction_slope)
+                            .friction_for(&result.faults);
                         State::Report {
                             result,
+                            held: HeldComponents::from_preflight_reading(
+                                &result.faults,
+                                true,
+                                uncertainty.as_ref().map(|(u, c)| (&u.std, c)),
+                                nuisance,
+                            ),
                             assessments: self.assess(&result, uncertainty.as_ref()),
                             uncertainty: uncertainty.map(|(u, _)| u),
                             load_offset: self
@@ -538,7 +556,9 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                 uncertainty,
                 assessments,
                 load_offset,
+                held,
             } => Ok(State::Done(Report {
+                held,
                 result,
                 uncertainty,
                 assessments,

@@ -64,6 +64,8 @@ pub struct TraceSource<B> {
     crc: Crc32,
     saturation: SaturationCheck,
     finished: bool,
+    /// The last frame's commanded user-shaft angle [rad].
+    command: f32,
 }
 
 impl<B: TraceBytes> TraceSource<B> {
@@ -94,11 +96,20 @@ impl<B: TraceBytes> TraceSource<B> {
             crc,
             saturation: SaturationCheck::new(),
             finished: false,
+            command: 0.0,
         })
     }
 
     pub fn header(&self) -> &TraceHeader {
         &self.header
+    }
+
+    /// The commanded user-shaft angle of the last frame [`CurrentSource::next_frame`] handed
+    /// out [rad] (0 before the first): a window of flight's command, which the window
+    /// identification replays. Rounded to `f32` from the row's exact value, as the host reads
+    /// it.
+    pub fn command(&self) -> f32 {
+        self.command
     }
 }
 
@@ -130,7 +141,9 @@ impl<B: TraceBytes> CurrentSource for TraceSource<B> {
         self.bytes.read_exact(row).map_err(TraceSourceError::Io)?;
         self.crc.update(row);
         self.rows_read = self.rows_read.saturating_add(1);
-        let frame = TraceRow::decode(row).adc_frame();
+        let row = TraceRow::decode(row);
+        self.command = row.command.to_num::<f64>() as f32;
+        let frame = row.adc_frame();
         self.saturation
             .push(&frame)
             .map_err(TraceSourceError::Trace)?;

@@ -15,14 +15,24 @@ use static_cell::{ConstStaticCell, StaticCell};
 
 use core::ffi::CStr;
 
+use core::future::Future;
+
 use firmware::cooperate::yield_now;
+use firmware::flight::{KeptCommand, WindowAcquisition, WindowOutcome};
 use firmware::health::record_preflight;
 use firmware::{Preflight, PreflightSettings, Progress, Report, Stage, TraceSource};
 use shared::domain::Domain;
+use shared::fault::FAULT_COUNT;
 use shared::fault::FAULT_NAMES;
 use shared::fdi::OnboardMeasured;
+use shared::fdi::POPULATION;
+use shared::fusion::{WindowFusion, FLIGHT_MAX_FRICTION_STD};
 use shared::health::{RamStore, RecordedDay, ONBOARD_RECORDS};
 use shared::prognosis::TrendSettings;
+use shared::window::{
+    fusable, identify_stepwise, window_ga, HeldComponents, WindowLimits, WindowLoad, WindowProblem,
+    WINDOW_INFLATION,
+};
 use shared::LowPass;
 
 use crate::clock::{cycles, instructions_under_icount, start_cycle_clock};
@@ -54,6 +64,9 @@ static MEASURED: ConstStaticCell<OnboardMeasured> = ConstStaticCell::new(Onboard
 
 /// The uncertainty's nine lockstep monitor-model runs (≈ 3 kB), in `.bss`.
 static CURVATURE: ConstStaticCell<CurvatureRun> = ConstStaticCell::new(CurvatureRun::IDLE);
+
+/// A window of flight's command, kept every `COMMAND_STRIDE`-th frame (5.5 kB), in `.bss`.
+static KEPT_COMMAND: ConstStaticCell<KeptCommand> = ConstStaticCell::new(KeptCommand::EMPTY);
 
 /// The health store: a flash sector on the controller; RAM here, loaded from and saved to the
 /// `--health` file around each run.
@@ -110,7 +123,24 @@ async fn preflight_task(spawner: Spawner) {
         exit(status::START_UP)
     };
     start_cycle_clock(core.SYST);
-    let code = preflight(spawner).await;
+    // `None`: the preflight handed its buffer to the windows' task, which exits.
+    if let Some(code) = preflight(spawner).await {
+        exit(code)
+    }
+}
+
+/// A flight's windows after its preflight (`--window`): their own task, so that their
+/// state (≈ 17 kB: the window identification's future, its problem and the flight's
+/// fusion) is not part of the preflight task's, nor copied onto the stack when that task
+/// starts.
+#[embassy_executor::task]
+async fn windows_task(
+    command: Command,
+    settings: PreflightSettings,
+    report: Report,
+    measured: &'static mut OnboardMeasured,
+) {
+    let code = fly_windows(&command, &settings, &report, measured).await;
     exit(code)
 }
 
@@ -126,15 +156,15 @@ struct Observed {
     polls_without_beat: u32,
 }
 
-async fn preflight(spawner: Spawner) -> i32 {
+async fn preflight(spawner: Spawner) -> Option<i32> {
     let command = match Command::from_host() {
         Ok(c) => c,
         Err(e) => {
             defmt::error!(
-                "usage: cargo fw -- TRACE.bin [--actuator RECORD] [--seed N] [--checkpoint FILE [--stop-after N]] [--health FILE [--flight N]]  (binary trace from `host-sim simulate --format bin`, record from `host-sim actuator`): {}",
+                "usage: cargo fw -- TRACE.bin [--actuator RECORD] [--seed N] [--checkpoint FILE [--stop-after N]] [--health FILE [--flight N]] [--window W.bin ...]  (binary trace from `host-sim simulate --format bin`, record from `host-sim actuator`): {}",
                 e
             );
-            return status::USAGE;
+            return Some(status::USAGE);
         }
     };
     match command.crash {
@@ -154,44 +184,44 @@ async fn preflight(spawner: Spawner) -> i32 {
         Ok(f) => f,
         Err(e) => {
             defmt::error!("cannot read trace {=[u8]:a}: {}", path_text, e);
-            return status::BAD_TRACE;
+            return Some(status::BAD_TRACE);
         }
     };
     let source = match TraceSource::open(file) {
         Ok(s) => s,
         Err(e) => {
             defmt::error!("trace {=[u8]:a} refused: {}", path_text, e);
-            return status::BAD_TRACE;
+            return Some(status::BAD_TRACE);
         }
     };
     // The actuator record (a flash sector on the controller; the --actuator file here), or
     // the built-in reference actuator with the test the trace says it played.
     let mut settings = PreflightSettings::ONBOARD;
     if let Err(status) = preflight_settings(&command, &source.header().test, &mut settings) {
-        return status;
+        return Some(status);
     }
     let filter = match LowPass::for_control_period(settings.actuator.params.control_period) {
         Ok(f) => f,
         Err(e) => {
             defmt::error!("conditioning filter: {}", e);
-            return status::START_UP;
+            return Some(status::START_UP);
         }
     };
     // Both buffers are `.bss` statics taken in place: nothing this size passes the stack.
     let Some(measured) = MEASURED.try_take() else {
         defmt::error!("measured-current buffer already in use");
-        return status::START_UP;
+        return Some(status::START_UP);
     };
     measured.set_filter(filter);
     let Some(curvature) = CURVATURE.try_take() else {
         defmt::error!("uncertainty buffer already in use");
-        return status::START_UP;
+        return Some(status::START_UP);
     };
     match heartbeat() {
         Ok(token) => spawner.spawn(token),
         Err(_) => {
             defmt::error!("cannot spawn the heartbeat task");
-            return status::START_UP;
+            return Some(status::START_UP);
         }
     }
     defmt::info!(
@@ -209,8 +239,9 @@ async fn preflight(spawner: Spawner) -> i32 {
     let mut next_checkpoint = CHECKPOINT_EVERY;
 
     let started = cycles();
+    // The buffer is lent for the preflight alone: a flight's windows take it back after.
     let mut preflight =
-        Preflight::new(&settings, source, measured).with_curvature_buffer(curvature);
+        Preflight::new(&settings, source, &mut *measured).with_curvature_buffer(curvature);
     let mut stage = preflight.stage();
     let mut observed = Observed::default();
     let mut next_progress = PROGRESS_EVERY;
@@ -243,7 +274,7 @@ async fn preflight(spawner: Spawner) -> i32 {
             }
             Err(e) => {
                 defmt::error!("preflight failed in stage {}: {}", stage, e);
-                return status::PREFLIGHT_FAILED;
+                return Some(status::PREFLIGHT_FAILED);
             }
         }
         let evaluations = preflight.evaluations();
@@ -257,7 +288,7 @@ async fn preflight(spawner: Spawner) -> i32 {
                         "stopped evaluations={=u32} (simulated power loss)",
                         evaluations
                     );
-                    return status::INTERRUPTED;
+                    return Some(status::INTERRUPTED);
                 }
             }
         }
@@ -292,11 +323,193 @@ async fn preflight(spawner: Spawner) -> i32 {
         evaluations,
         curvatures
     );
+    let day = *day;
+    drop(preflight);
     print_report(&report, &observed, total_cycles);
-    match command.health_path() {
-        Some(path) => record_health(path, command.flight, &report, day),
+    let logged = match command.health_path() {
+        Some(path) => record_health(path, command.flight, &report, &day),
         None => status::SUCCESS,
+    };
+    if logged != status::SUCCESS || command.window_paths().next().is_none() {
+        return Some(logged);
     }
+    match windows_task(command, settings, report, measured) {
+        Ok(token) => {
+            spawner.spawn(token);
+            None
+        }
+        Err(_) => {
+            defmt::error!("cannot spawn the windows' task");
+            Some(status::START_UP)
+        }
+    }
+}
+
+/// The windows a flight's control loop recorded (`--window`), read as the controller reads
+/// them (`firmware::flight`): each window's verdict, its bits and its work (instructions,
+/// polls, the longest poll), then the flight's reading from the windows that may enter it,
+/// holding the preflight's reading `report` when it was `within`. `measured` is the
+/// preflight's buffer, taken back. The exit status: 0 when every window was read (whatever
+/// its verdict), else the first failure's.
+async fn fly_windows(
+    command: &Command,
+    settings: &PreflightSettings,
+    report: &Report,
+    measured: &mut OnboardMeasured,
+) -> i32 {
+    let Some(kept) = KEPT_COMMAND.try_take() else {
+        defmt::error!("command buffer already in use");
+        return status::START_UP;
+    };
+    let held = if report.domain == Domain::Within {
+        report.held
+    } else {
+        HeldComponents::NONE
+    };
+    let mut fusion = WindowFusion::EMPTY;
+    let (mut read, mut entered, mut worst_poll) = (0u32, 0u32, 0u64);
+    for (n, path) in (1u32..).zip(command.window_paths()) {
+        let name = path.to_bytes();
+        let source = HostFile::open(path)
+            .map_err(|e| defmt::error!("cannot read window {=[u8]:a}: {}", name, e))
+            .ok()
+            .and_then(|f| {
+                TraceSource::open(f)
+                    .map_err(|e| defmt::error!("window {=[u8]:a} refused: {}", name, e))
+                    .ok()
+            });
+        let Some(mut source) = source else {
+            return status::BAD_TRACE;
+        };
+        // The window's record: the built-in actuator's for the trace's test, or the
+        // record's own chirp alone (as `host-sim identify` reads a window).
+        let record = match command.actuator_path() {
+            None => {
+                PreflightSettings::ONBOARD
+                    .for_test(source.header().test)
+                    .actuator
+            }
+            Some(_) => ActuatorRecord {
+                test: settings.actuator.test.chirp_only(),
+                ..settings.actuator
+            },
+        };
+        let acquired = WindowAcquisition::start(
+            &source,
+            record.test,
+            record.params.pole_pairs,
+            measured,
+            kept,
+        )
+        .and_then(|mut a| loop {
+            match a.poll(&mut source, measured, kept, settings.frames_per_poll) {
+                Ok(false) => {}
+                Ok(true) => break Ok(a.frames()),
+                Err(e) => break Err(e),
+            }
+        });
+        let frames = match acquired {
+            Ok(f) => f,
+            Err(e) => {
+                defmt::error!("window {=[u8]:a} not acquired: {}", name, e);
+                return status::BAD_TRACE;
+            }
+        };
+        let guess = WindowLoad::spring(record.params.aero_stiffness, 0.0);
+        let mut problem = match WindowProblem::of_record(measured, kept.as_slice(), &record, guess)
+        {
+            Ok((p, _)) => p.with_held(held),
+            Err(e) => {
+                defmt::error!("window {=[u8]:a} cannot be read: {}", name, e);
+                return status::BAD_TRACE;
+            }
+        };
+        let started = cycles();
+        let (mut polls, mut longest) = (0u32, 0u64);
+        let reading = {
+            let mut future = core::pin::pin!(identify_stepwise::<_, POPULATION>(
+                &mut problem,
+                window_ga(&record.ga),
+                settings.seed,
+                &WindowLimits::REFERENCE,
+            ));
+            core::future::poll_fn(|cx| {
+                let start = cycles();
+                let poll = future.as_mut().poll(cx);
+                longest = longest.max(cycles().saturating_sub(start));
+                polls += 1;
+                poll
+            })
+            .await
+        };
+        let window_cycles = cycles().saturating_sub(started);
+        worst_poll = worst_poll.max(longest);
+        let Ok(reading) = reading else {
+            defmt::error!("window {=[u8]:a}: GA settings refused", name);
+            return status::PREFLIGHT_FAILED;
+        };
+        let fused = fusable(&reading.verdict)
+            && fusion
+                .add_holding(
+                    &reading.faults,
+                    &reading.curvature,
+                    &WINDOW_INFLATION,
+                    &held,
+                    &reading.coupling,
+                )
+                .is_ok();
+        let outcome = WindowOutcome::of(&reading.verdict, held.holds(2), fused);
+        read += 1;
+        entered += u32::from(fused);
+        defmt::println!(
+            "window n={=u32} frames={=u32} verdict={} outcome={} evaluations={=u32} polls={=u32} longest_poll_instructions={=u64} identify_instructions={=u64}",
+            n,
+            frames,
+            reading.verdict,
+            outcome,
+            reading.evaluations,
+            polls,
+            instructions_under_icount(longest),
+            instructions_under_icount(window_cycles)
+        );
+        defmt::println!(
+            "window_bits n={=u32} faults={:08x} fitness={=u32:08x} std={:08x}",
+            n,
+            reading.faults.as_array().map(f32::to_bits),
+            reading.fit.error.to_bits(),
+            reading
+                .uncertainty
+                .as_ref()
+                .map_or([u32::MAX; FAULT_COUNT], |(u, _)| u.std.map(f32::to_bits))
+        );
+    }
+    match fusion.final_reading(FLIGHT_MAX_FRICTION_STD) {
+        Ok(f) => {
+            defmt::println!(
+                "flight windows={=u32} entered={=u32} verdict={} faults={} worst_poll_instructions={=u64} stack_peak={=u32}",
+                read,
+                entered,
+                f.verdict,
+                f.faults.as_array(),
+                instructions_under_icount(worst_poll),
+                stack_peak()
+            );
+            defmt::println!(
+                "flight_bits faults={:08x} std={:08x}",
+                f.faults.as_array().map(f32::to_bits),
+                f.uncertainty.0.std.map(f32::to_bits)
+            );
+        }
+        Err(e) => defmt::println!(
+            "flight windows={=u32} entered={=u32} verdict=none reason={} worst_poll_instructions={=u64} stack_peak={=u32}",
+            read,
+            entered,
+            e,
+            instructions_under_icount(worst_poll),
+            stack_peak()
+        ),
+    }
+    status::SUCCESS
 }
 
 /// The preflight's settings, written into `settings`: the actuator record's (`--actuator`;

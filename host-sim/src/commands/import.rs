@@ -33,14 +33,12 @@ pub(crate) fn import_command(
         anti_alias_hz,
     };
     let out_format = format_from_extension(out);
-    if flight {
-        if start.is_none() {
-            anyhow::bail!(
-                "--flight: give --start SECONDS, where the superimposed chirp starts in the \
-                 recording (a flight's command never rests at 0, so the start cannot be found \
-                 from it)"
-            );
-        }
+    if flight && start.is_none() {
+        anyhow::bail!(
+            "--flight: give --start SECONDS, where the superimposed chirp starts in the \
+             recording (a flight's command never rests at 0, so the start cannot be found from \
+             it)"
+        );
     }
     let bytes =
         std::fs::read(recording).with_context(|| format!("reading {}", recording.display()))?;

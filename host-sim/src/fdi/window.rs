@@ -24,10 +24,10 @@ use shared::health::{HealthRecord, RecordedDay};
 use shared::pinned::{identify_pinned, PinnedLimits, PINNED_INFLATION};
 use shared::uncertainty::{Assessment, Uncertainty};
 use shared::window::{
-    HeldComponents, HeldCoupling, RecordedCommand, SurfaceSamples, WindowLimits, WindowLoad,
-    WindowProblem, WindowReason, COMMAND_STRIDE, WINDOW_INFLATION,
+    fusable, HeldComponents, HeldCoupling, SurfaceSamples, WindowLimits, WindowLoad, WindowProblem,
+    WindowReason, COMMAND_STRIDE, WINDOW_INFLATION,
 };
-use shared::{FaultVector, MonitorModel, FAULT_COUNT};
+use shared::{FaultVector, FAULT_COUNT};
 
 use crate::files::trace::Trace;
 
@@ -114,7 +114,8 @@ impl WindowIdentified {
     }
 
     /// Adds this window to its flight's `fusion` when its verdict lets it enter
-    /// ([`fusable`]) and its curvature determines a component; whether it entered.
+    /// (`shared::window::fusable`) and its curvature determines a component; whether it
+    /// entered.
     pub fn enter(&self, fusion: &mut WindowFusion) -> bool {
         let factors = match self.model {
             WindowModel::Load => &WINDOW_INFLATION,
@@ -140,17 +141,6 @@ impl WindowIdentified {
             None => crate::fdi::identify::plain_assessments(&self.faults, threshold),
         }
     }
-}
-
-/// Whether a window's reading enters its flight's: identified, or named only because its
-/// friction alone is too loose ([`WindowReason::TurbulenceTooHigh`]) — its evidence is
-/// sound, just not enough on its own. A window that does not fit, cannot see the play, or
-/// flew a manoeuvre or a saturated current adds nothing.
-pub fn fusable(verdict: &Result<(), WindowReason>) -> bool {
-    matches!(
-        verdict,
-        Ok(()) | Err(WindowReason::TurbulenceTooHigh { .. })
-    )
 }
 
 /// The health record of flight `flight`'s reading from its windows (an in-flight entry,
@@ -196,14 +186,8 @@ fn window_problem<'a>(
     WindowProblem<'a, { shared::fdi::TEST_SAMPLES }>,
     TestConditions,
 )> {
-    let conditions = TestConditions::estimate(measured, &record.params, &record.calibration);
-    let model = MonitorModel::new(record.params, &record.calibration)
-        .with_test(measured.test())
-        .with_conditions(&conditions);
-    let command = RecordedCommand::kept_every(COMMAND_STRIDE, command);
-    let problem = WindowProblem::new(measured, command, model, load)
-        .map_err(|e| anyhow::anyhow!("the window: {e:?}"))?;
-    Ok((problem, conditions))
+    WindowProblem::of_record(measured, command, record, load)
+        .map_err(|e| anyhow::anyhow!("the window: {e:?}"))
 }
 
 /// One sample of a window as identified: time [s], command and surface angle [rad], the

@@ -623,6 +623,17 @@ pub struct WindowReading {
     pub evaluations: u32,
 }
 
+/// Whether a window's reading enters its flight's: identified, or named only because its
+/// friction alone is too loose ([`WindowReason::TurbulenceTooHigh`]) — its evidence is
+/// sound, just not enough on its own. A window that does not fit, cannot see the play, or
+/// flew a manoeuvre or a saturated current adds nothing. O(1).
+pub fn fusable(verdict: &Result<(), WindowReason>) -> bool {
+    matches!(
+        verdict,
+        Ok(()) | Err(WindowReason::TurbulenceTooHigh { .. })
+    )
+}
+
 /// Identifies the faults behind the window of `problem` (its load is the starting guess:
 /// a spring of the actuator's stiffness): the load fitted at the nominal vector, a GA of
 /// `settings` under it, the load fitted again at the GA's best and a second GA (seed

@@ -95,6 +95,29 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
     }
 
     /// The same problem with `held` components held ([`HeldComponents`]).
+    /// The window problem of an actuator `record`'s window: `measured` (its finished frames,
+    /// the window's test) driven by `kept` (the command kept every [`COMMAND_STRIDE`]
+    /// frames), the model on the day the FDI estimates from the window
+    /// ([`TestConditions::estimate`](crate::model::conditions::TestConditions::estimate)), the load at `load`, and that day. The host's and the
+    /// controller's windows both start here. O(N) (the day's estimate).
+    pub fn of_record(
+        measured: &'a MeasuredCurrent<N>,
+        kept: &'a [f32],
+        record: &crate::preflight::actuator::ActuatorRecord,
+        load: WindowLoad,
+    ) -> Result<(Self, crate::model::conditions::TestConditions), WindowError> {
+        let conditions = crate::model::conditions::TestConditions::estimate(
+            measured,
+            &record.params,
+            &record.calibration,
+        );
+        let model = MonitorModel::new(record.params, &record.calibration)
+            .with_test(measured.test())
+            .with_conditions(&conditions);
+        let command = RecordedCommand::kept_every(COMMAND_STRIDE, kept);
+        Ok((Self::new(measured, command, model, load)?, conditions))
+    }
+
     pub fn with_held(mut self, held: HeldComponents) -> Self {
         self.held = held;
         self
