@@ -16,6 +16,7 @@
 
 use shared::conditioning::ConditioningError;
 use shared::fdi::{OnboardMeasured, TEST_SAMPLES};
+use shared::fitness::CurvatureRun;
 use shared::window::{WindowReason, COMMAND_STRIDE};
 
 use crate::source::{Acquired, CurrentSource, TraceBytes, TraceSource};
@@ -56,6 +57,42 @@ impl KeptCommand {
     /// The kept commands.
     pub fn as_slice(&self) -> &[f32] {
         self.values.get(..self.len).unwrap_or(&[])
+    }
+}
+
+/// The preflight's uncertainty runs and a window's kept command in one buffer: a flight's
+/// windows are read after its preflight, never during it, so the two share the RAM
+/// (4.5 kB + 5.5 kB in one 5.5 kB buffer).
+#[allow(clippy::large_enum_variant)] // both are large: the point is that they share
+pub enum Scratch {
+    Curvature(CurvatureRun),
+    Command(KeptCommand),
+}
+
+impl Scratch {
+    pub const IDLE: Self = Self::Curvature(CurvatureRun::IDLE);
+
+    /// The buffer as the preflight's uncertainty runs (idle runs if it held a command).
+    /// Never `None`.
+    pub fn curvature(&mut self) -> Option<&mut CurvatureRun> {
+        if let Self::Command(_) = self {
+            *self = Self::IDLE;
+        }
+        match self {
+            Self::Curvature(c) => Some(c),
+            Self::Command(_) => None,
+        }
+    }
+
+    /// The buffer as a window's kept command (empty if it held the runs). Never `None`.
+    pub fn command(&mut self) -> Option<&mut KeptCommand> {
+        if let Self::Curvature(_) = self {
+            *self = Self::Command(KeptCommand::EMPTY);
+        }
+        match self {
+            Self::Command(k) => Some(k),
+            Self::Curvature(_) => None,
+        }
     }
 }
 
@@ -211,5 +248,17 @@ mod tests {
             kept.push_frame(KEPT_COMMANDS * COMMAND_STRIDE + 1, 2.5),
             Ok(())
         );
+    }
+
+    #[test]
+    fn the_scratch_buffer_turns_from_runs_to_a_command_and_back() {
+        let mut scratch = Scratch::IDLE;
+        assert!(scratch.curvature().is_some());
+        let kept = scratch.command().unwrap();
+        assert!(kept.as_slice().is_empty());
+        kept.push_frame(0, 1.5).unwrap();
+        assert_eq!(scratch.command().unwrap().as_slice(), &[1.5]);
+        assert!(scratch.curvature().is_some());
+        assert!(scratch.command().unwrap().as_slice().is_empty());
     }
 }

@@ -10,7 +10,6 @@ use cortex_m_rt::{exception, ExceptionFrame};
 use embassy_executor::{Executor, Spawner};
 use semihosting::process::exit;
 use shared::conditions::TestConditions;
-use shared::fitness::CurvatureRun;
 use static_cell::{ConstStaticCell, StaticCell};
 
 use core::ffi::CStr;
@@ -18,7 +17,7 @@ use core::ffi::CStr;
 use core::future::Future;
 
 use firmware::cooperate::yield_now;
-use firmware::flight::{KeptCommand, WindowAcquisition, WindowOutcome};
+use firmware::flight::{Scratch, WindowAcquisition, WindowOutcome};
 use firmware::health::record_preflight;
 use firmware::{Preflight, PreflightSettings, Progress, Report, Stage, TraceSource};
 use shared::domain::Domain;
@@ -62,11 +61,9 @@ mod status {
 /// The measured-current buffer (22 kB), in `.bss`.
 static MEASURED: ConstStaticCell<OnboardMeasured> = ConstStaticCell::new(OnboardMeasured::ZEROED);
 
-/// The uncertainty's nine lockstep monitor-model runs (≈ 3 kB), in `.bss`.
-static CURVATURE: ConstStaticCell<CurvatureRun> = ConstStaticCell::new(CurvatureRun::IDLE);
-
-/// A window of flight's command, kept every `COMMAND_STRIDE`-th frame (5.5 kB), in `.bss`.
-static KEPT_COMMAND: ConstStaticCell<KeptCommand> = ConstStaticCell::new(KeptCommand::EMPTY);
+/// The preflight's uncertainty runs (≈ 4.5 kB) and, after it, a window's kept command
+/// (5.5 kB): one buffer in `.bss`, never both at once.
+static SCRATCH: ConstStaticCell<Scratch> = ConstStaticCell::new(Scratch::IDLE);
 
 /// The health store: a flash sector on the controller; RAM here, loaded from and saved to the
 /// `--health` file around each run.
@@ -123,24 +120,7 @@ async fn preflight_task(spawner: Spawner) {
         exit(status::START_UP)
     };
     start_cycle_clock(core.SYST);
-    // `None`: the preflight handed its buffer to the windows' task, which exits.
-    if let Some(code) = preflight(spawner).await {
-        exit(code)
-    }
-}
-
-/// A flight's windows after its preflight (`--window`): their own task, so that their
-/// state (≈ 17 kB: the window identification's future, its problem and the flight's
-/// fusion) is not part of the preflight task's, nor copied onto the stack when that task
-/// starts.
-#[embassy_executor::task]
-async fn windows_task(
-    command: Command,
-    settings: PreflightSettings,
-    report: Report,
-    measured: &'static mut OnboardMeasured,
-) {
-    let code = fly_windows(&command, &settings, &report, measured).await;
+    let code = preflight(spawner).await;
     exit(code)
 }
 
@@ -156,7 +136,7 @@ struct Observed {
     polls_without_beat: u32,
 }
 
-async fn preflight(spawner: Spawner) -> Option<i32> {
+async fn preflight(spawner: Spawner) -> i32 {
     let command = match Command::from_host() {
         Ok(c) => c,
         Err(e) => {
@@ -164,7 +144,7 @@ async fn preflight(spawner: Spawner) -> Option<i32> {
                 "usage: cargo fw -- TRACE.bin [--actuator RECORD] [--seed N] [--checkpoint FILE [--stop-after N]] [--health FILE [--flight N]] [--window W.bin ...]  (binary trace from `host-sim simulate --format bin`, record from `host-sim actuator`): {}",
                 e
             );
-            return Some(status::USAGE);
+            return status::USAGE;
         }
     };
     match command.crash {
@@ -184,44 +164,47 @@ async fn preflight(spawner: Spawner) -> Option<i32> {
         Ok(f) => f,
         Err(e) => {
             defmt::error!("cannot read trace {=[u8]:a}: {}", path_text, e);
-            return Some(status::BAD_TRACE);
+            return status::BAD_TRACE;
         }
     };
     let source = match TraceSource::open(file) {
         Ok(s) => s,
         Err(e) => {
             defmt::error!("trace {=[u8]:a} refused: {}", path_text, e);
-            return Some(status::BAD_TRACE);
+            return status::BAD_TRACE;
         }
     };
     // The actuator record (a flash sector on the controller; the --actuator file here), or
     // the built-in reference actuator with the test the trace says it played.
     let mut settings = PreflightSettings::ONBOARD;
     if let Err(status) = preflight_settings(&command, &source.header().test, &mut settings) {
-        return Some(status);
+        return status;
     }
     let filter = match LowPass::for_control_period(settings.actuator.params.control_period) {
         Ok(f) => f,
         Err(e) => {
             defmt::error!("conditioning filter: {}", e);
-            return Some(status::START_UP);
+            return status::START_UP;
         }
     };
     // Both buffers are `.bss` statics taken in place: nothing this size passes the stack.
     let Some(measured) = MEASURED.try_take() else {
         defmt::error!("measured-current buffer already in use");
-        return Some(status::START_UP);
+        return status::START_UP;
     };
     measured.set_filter(filter);
-    let Some(curvature) = CURVATURE.try_take() else {
+    let Some(scratch) = SCRATCH.try_take() else {
         defmt::error!("uncertainty buffer already in use");
-        return Some(status::START_UP);
+        return status::START_UP;
+    };
+    let Some(curvature) = scratch.curvature() else {
+        return status::START_UP;
     };
     match heartbeat() {
         Ok(token) => spawner.spawn(token),
         Err(_) => {
             defmt::error!("cannot spawn the heartbeat task");
-            return Some(status::START_UP);
+            return status::START_UP;
         }
     }
     defmt::info!(
@@ -274,7 +257,7 @@ async fn preflight(spawner: Spawner) -> Option<i32> {
             }
             Err(e) => {
                 defmt::error!("preflight failed in stage {}: {}", stage, e);
-                return Some(status::PREFLIGHT_FAILED);
+                return status::PREFLIGHT_FAILED;
             }
         }
         let evaluations = preflight.evaluations();
@@ -288,7 +271,7 @@ async fn preflight(spawner: Spawner) -> Option<i32> {
                         "stopped evaluations={=u32} (simulated power loss)",
                         evaluations
                     );
-                    return Some(status::INTERRUPTED);
+                    return status::INTERRUPTED;
                 }
             }
         }
@@ -331,34 +314,19 @@ async fn preflight(spawner: Spawner) -> Option<i32> {
         None => status::SUCCESS,
     };
     if logged != status::SUCCESS || command.window_paths().next().is_none() {
-        return Some(logged);
+        return logged;
     }
-    match windows_task(command, settings, report, measured) {
-        Ok(token) => {
-            spawner.spawn(token);
-            None
-        }
-        Err(_) => {
-            defmt::error!("cannot spawn the windows' task");
-            Some(status::START_UP)
-        }
-    }
+    fly_windows(&command, &settings, &report, measured, scratch).await
 }
 
-/// The windows a flight's control loop recorded (`--window`), read as the controller reads
-/// them (`firmware::flight`): each window's verdict, its bits and its work (instructions,
-/// polls, the longest poll), then the flight's reading from the windows that may enter it,
-/// holding the preflight's reading `report` when it was `within`. `measured` is the
-/// preflight's buffer, taken back. The exit status: 0 when every window was read (whatever
-/// its verdict), else the first failure's.
 async fn fly_windows(
     command: &Command,
     settings: &PreflightSettings,
     report: &Report,
     measured: &mut OnboardMeasured,
+    scratch: &mut Scratch,
 ) -> i32 {
-    let Some(kept) = KEPT_COMMAND.try_take() else {
-        defmt::error!("command buffer already in use");
+    let Some(kept) = scratch.command() else {
         return status::START_UP;
     };
     let held = if report.domain == Domain::Within {

@@ -10,11 +10,11 @@
 //! instructions and its model-run count; then the window added to a flight's reading
 //! (`shared::fusion`) and the reading formed.
 //!
-//! A bench, not the product: the product images have no flash left for the window
-//! identification (docs/in-flight.md), so this binary carries it alone (built only with
-//! feature `window-bench`). Its window is the monitor model's own, so the GA's stopping
-//! point is not a real window's: scale the per-run figure by a real window's count
-//! (`identify w.csv` prints it) for a real window's cost.
+//! A bench, not the product: the emulation image reads real windows (`cargo fw -- P.bin
+//! --window W.bin`, docs/controller.md); this binary times the parts of one on a window it
+//! makes itself (built only with feature `window-bench`). Its window is the monitor model's
+//! own, so the GA's stopping point is not a real window's: scale the per-run figure by a
+//! real window's count (`identify w.csv` prints it) for a real window's cost.
 #![no_std]
 #![no_main]
 
