@@ -675,17 +675,22 @@ fn hex_bits(values: &[f32]) -> Vec<String> {
 }
 
 /// Issue 69: a flight's windows on the controller. The reference actuator with friction 0.2
-/// and a gain drift of 0.6 flies two cruise windows in light turbulence after its preflight;
-/// the emulation image reads the preflight, then each window (`--window`, binary traces with
-/// the flight mark) holding the preflight's shorts, eccentricity and demagnetization, and
-/// fuses them into the flight's reading: each window's vector, fitness and deviations and
-/// the flight's vector and deviations are the bits of `host-sim identify W1 --preflight P
-/// --same-flight W2`'s code. A preflight given as a window is refused.
+/// and a gain drift of 0.6, twelve flights into a log whose friction grows to it, flies four
+/// approach windows after its preflight; the emulation image reads the preflight, then each
+/// window (`--window`, binary traces with the flight mark) holding the preflight's shorts,
+/// eccentricity and demagnetization, and fuses them into the flight's reading: each window's
+/// vector, fitness and deviations and the flight's vector and deviations are the bits of
+/// `host-sim identify W1 --preflight P --same-flight W2 …`'s code. The flight's reading goes
+/// into the health log after the preflight as an in-flight entry (the host's
+/// `flight_entry`), and the trend printed after it is the host's over that log, the reading
+/// counted. A preflight given as a window is refused.
 #[test]
 fn a_flights_windows_under_qemu_give_the_hosts_window_and_flight_bits() {
     use host_sim::files::actuator::Actuator;
     use host_sim::plant::aero::{FlightPhase, FlightWindow, Turbulence};
     use shared::fusion::{WindowFusion, FLIGHT_MAX_FRICTION_STD};
+    use shared::health::{HealthLog, HealthRecord, RamStore, FLIGHT_READING, ONBOARD_RECORDS};
+    use shared::prognosis::{HealthTrend, TrendSettings};
     let actuator = Actuator::reference();
     let faults = FaultVector::new([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.6, 0.0]).expect("valid");
     let settings = actuator.reference_settings().expect("the built-in model");
@@ -702,17 +707,16 @@ fn a_flights_windows_under_qemu_give_the_hosts_window_and_flight_bits() {
         motion: None,
         ..actuator.record.test
     };
-    let cruise = ReferenceModel::new(settings)
+    let approach = ReferenceModel::new(settings)
         .with_test(window_test)
         .with_flight(Some(FlightWindow {
-            phase: FlightPhase::Cruise,
+            phase: FlightPhase::Approach,
             turbulence: Turbulence::Light,
         }));
-    let windows: Vec<Vec<u8>> = [3, 4]
-        .iter()
-        .map(|&seed| {
+    let windows: Vec<Vec<u8>> = (3..7)
+        .map(|seed| {
             scenario.seed = seed;
-            cruise
+            approach
                 .simulate(&scenario)
                 .trace
                 .to_bin()
@@ -725,9 +729,23 @@ fn a_flights_windows_under_qemu_give_the_hosts_window_and_flight_bits() {
         .enumerate()
         .map(|(j, w)| temp_trace(&format!("flight-window-{j}.bin"), w))
         .collect();
+    // Twelve earlier flights, friction growing from 0 to 0.2 and the gain drift to 0.6.
+    let mut store = RamStore::<ONBOARD_RECORDS>::erased();
+    let mut log = HealthLog::<ONBOARD_RECORDS>::new();
+    for f in 0..12u32 {
+        let s = f as f32 / 12.0;
+        let k = FaultVector::new([0.2 * s, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5 + 0.1 * s, 0.0])
+            .expect("valid");
+        log.append(
+            &mut store,
+            HealthRecord::new(f, k, 0.001, shared::domain::Domain::Within),
+        )
+        .expect("appended");
+    }
+    let log_path = temp_trace("flight-health.bin", store.as_bytes());
 
     // The host: the preflight identified, what its windows hold of it, each window read and
-    // entered into the flight's reading.
+    // entered into the flight's reading, and the flight's health entry.
     let p = Trace::from_bin(&preflight).expect("readable");
     let record = actuator.record_for(p.test()).expect("the built-in record");
     let measured = p.measured(&record.params).expect("conditioned");
@@ -751,9 +769,20 @@ fn a_flights_windows_under_qemu_give_the_hosts_window_and_flight_bits() {
     }
     let flight = fusion
         .final_reading(FLIGHT_MAX_FRICTION_STD)
-        .expect("two windows make a reading");
+        .expect("four windows make a reading");
+    assert_eq!(
+        flight.verdict,
+        Ok(()),
+        "four approach windows read the friction"
+    );
+    let entered: Vec<_> = host_windows.iter().collect();
+    let entry = host_sim::fdi::window::flight_entry(12, &flight, &entered);
 
-    let mut args = vec![preflight_path.to_str().expect("UTF-8")];
+    let mut args = vec![
+        preflight_path.to_str().expect("UTF-8"),
+        "--health",
+        log_path.to_str().expect("UTF-8"),
+    ];
     for w in &window_paths {
         args.extend(["--window", w.to_str().expect("UTF-8")]);
     }
@@ -792,7 +821,42 @@ fn a_flights_windows_under_qemu_give_the_hosts_window_and_flight_bits() {
         list(field(&run.output, "flight_bits ", "std")),
         hex_bits(&flight.uncertainty.0.std)
     );
-    assert_eq!(number(&run.output, "flight ", "entered"), 2);
+    assert_eq!(number(&run.output, "flight ", "entered"), 4);
+
+    // The log: the preflight as flight 12, then the flight's reading, the host's entry.
+    let (kept, summary) =
+        host_sim::files::health::load_log::<ONBOARD_RECORDS>(&log_path).expect("the log reads");
+    assert_eq!(summary.damaged, 0);
+    let records: Vec<_> = kept.iter().collect();
+    assert_eq!(records.len(), 14);
+    assert_eq!((records[12].flight, records[12].window), (12, 0));
+    assert_eq!(*records[13], entry, "the flight's entry is the host's");
+    assert_eq!((entry.window, entry.fused), (FLIGHT_READING, 4));
+    assert!(entry.is_trusted());
+    // The trend after the reading: the host's over the same log, bit for bit, the reading
+    // one more observation than after the preflight.
+    let after = &run.output[run
+        .output
+        .find("health flight=12 entry=reading")
+        .expect("the reading logged")..];
+    let trend = TrendSettings::DEFAULT;
+    let estimates = HealthTrend::from_records(kept.iter(), &trend).estimates(&trend);
+    let friction = estimates[0].expect("the friction is trended");
+    let bits = |v: Option<f32>| format!("{:08x}", v.map_or(u32::MAX, f32::to_bits));
+    let rul = friction.rul.expect("a threshold");
+    assert_eq!(field(after, "trend friction ", "rul_bits"), bits(rul.rul));
+    assert_eq!(
+        field(after, "trend friction ", "lower_bits"),
+        bits(rul.lower)
+    );
+    assert_eq!(
+        field(after, "trend friction ", "upper_bits"),
+        bits(rul.upper)
+    );
+    assert_eq!(
+        number(after, "trend friction ", "n"),
+        number(&run.output, "trend friction ", "n") + 1
+    );
 
     // A preflight trace is no window: refused after the preflight, before any window work.
     let run = run_firmware(&[

@@ -24,7 +24,7 @@ use firmware::TraceBytes;
 pub const MAX_PATH: usize = 200;
 /// Bytes for all the paths of one command line, each NUL-terminated (trace, checkpoint,
 /// health log, actuator record, windows): one buffer, not one per path, to keep RAM small.
-const PATHS_BYTES: usize = 640;
+const PATHS_BYTES: usize = 512;
 
 /// Bytes of the semihosting command line buffer.
 const CMDLINE_BYTES: usize = 1024;

@@ -1,16 +1,19 @@
-//! After each preflight: the controller appends the test's record to its health log and
-//! re-assesses every fault's trend and remaining useful life (`shared::health`,
+//! After each preflight, and after each flight's windows: the controller appends the test's
+//! record (or the flight's reading) to its health log and re-assesses every fault's trend and
+//! remaining useful life (`shared::health`,
 //! `shared::prognosis`). Host-tested; the binary keeps the store in RAM under emulation
 //! (loaded from and saved to a semihosting file) and would keep it in flash on hardware.
 //!
-//! Work bound: one survey of the store (a read per slot, `shared::health::ONBOARD_RECORDS`
+//! Work bound: two surveys of the store (a read per slot, `shared::health::ONBOARD_RECORDS`
 //! slots), one slot read and write (`health::write_slot`), then per fault one replay of the store (a read and a
 //! trend update per slot, O(slots · shapes)) and one estimate (O(shapes · 136)); measured:
 //! 209.1 M instructions with 32 records (BENCHMARKS.md §1). Stack: one trend (976 B), one
 //! estimate's shared state and one slot's bytes, no copy of the log (12.9 kB peak with the
 //! caller's frames).
 
-use shared::health::{self, HealthLogError, HealthRecord, HealthStore, LoadSummary, RecordedDay};
+use shared::health::{
+    self, HealthLogError, HealthRecord, HealthStore, LoadSummary, Newest, RecordedDay,
+};
 use shared::prognosis::{is_trended, FaultTrend, TrendEstimate, TrendSettings};
 use shared::FAULT_COUNT;
 
@@ -35,10 +38,9 @@ pub struct HealthUpdate {
     pub estimates: [Option<TrendEstimate>; FAULT_COUNT],
 }
 
-/// Appends `report`, and the test's `day`, as the record of `flight` (default: one after the newest in the store, 0
-/// for an empty store) and assesses the trend over the store. No copy of the log is made:
-/// the store is surveyed once, the record written, and each fault's trend replays the store
-/// in flight order (one trend of 976 bytes, reused).
+/// Appends `report`, and the test's `day`, as the record of `flight` (default: one after the
+/// newest in the store, 0 for an empty store) and assesses the trend over the store
+/// ([`record_entry`]).
 pub fn record_preflight<S: HealthStore>(
     store: &mut S,
     flight: Option<u32>,
@@ -46,12 +48,23 @@ pub fn record_preflight<S: HealthStore>(
     day: RecordedDay,
     settings: &TrendSettings,
 ) -> Result<HealthUpdate, HealthLogError<S::Error>> {
-    let (loaded, newest) = health::survey(store).map_err(HealthLogError::Store)?;
+    record_entry(
+        store,
+        |newest| preflight_entry(flight, newest, report, day),
+        settings,
+    )
+}
+
+/// The record of a preflight's `report` on `day` as flight `flight` (default: one after the
+/// store's `newest`, 0 for an empty store). O(1).
+pub fn preflight_entry(
+    flight: Option<u32>,
+    newest: Option<Newest>,
+    report: &Report,
+    day: RecordedDay,
+) -> HealthRecord {
     let flight = flight.unwrap_or_else(|| newest.map_or(0, |n| n.flight.saturating_add(1)));
-    if let Some(n) = newest.filter(|n| flight <= n.flight) {
-        return Err(HealthLogError::NotNewer { last: n.flight });
-    }
-    let record = HealthRecord::new(
+    HealthRecord::new(
         flight,
         report.result.faults,
         report.result.fitness,
@@ -62,7 +75,21 @@ pub fn record_preflight<S: HealthStore>(
             .uncertainty
             .map_or([f32::NAN; FAULT_COUNT], |u| u.std),
     )
-    .with_day(day);
+    .with_day(day)
+}
+
+/// Appends the record `entry` makes of the store's newest record (a preflight, or a flight's
+/// reading from its windows: `HealthRecord::of_flight_reading`) and assesses the trend over
+/// the store, preflights and flights' readings alike. No copy of the log is made: the store
+/// is surveyed, the record written after the newest, and each fault's trend replays the
+/// store in order (one trend of 976 bytes, reused).
+pub fn record_entry<S: HealthStore>(
+    store: &mut S,
+    entry: impl FnOnce(Option<Newest>) -> HealthRecord,
+    settings: &TrendSettings,
+) -> Result<HealthUpdate, HealthLogError<S::Error>> {
+    let (loaded, newest) = health::survey(store).map_err(HealthLogError::Store)?;
+    let record = entry(newest);
     let written = health::write_slot(store, &record)?;
     // One fault at a time, in one trend; the same bits as a `HealthTrend` over the log. Each
     // replay also counts the records and those outside the domain.

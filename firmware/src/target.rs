@@ -9,7 +9,6 @@ use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m_rt::{exception, ExceptionFrame};
 use embassy_executor::{Executor, Spawner};
 use semihosting::process::exit;
-use shared::conditions::TestConditions;
 use static_cell::{ConstStaticCell, StaticCell};
 
 use core::ffi::CStr;
@@ -18,7 +17,7 @@ use core::future::Future;
 
 use firmware::cooperate::yield_now;
 use firmware::flight::{Scratch, WindowAcquisition, WindowOutcome};
-use firmware::health::record_preflight;
+use firmware::health::{preflight_entry, record_entry};
 use firmware::{Preflight, PreflightSettings, Progress, Report, Stage, TraceSource};
 use shared::domain::Domain;
 use shared::fault::FAULT_COUNT;
@@ -26,7 +25,9 @@ use shared::fault::FAULT_NAMES;
 use shared::fdi::OnboardMeasured;
 use shared::fdi::POPULATION;
 use shared::fusion::{WindowFusion, FLIGHT_MAX_FRICTION_STD};
-use shared::health::{RamStore, RecordedDay, ONBOARD_RECORDS};
+use shared::health::{
+    HealthRecord, Newest, RamStore, RecordedDay, FLIGHT_READING, ONBOARD_RECORDS,
+};
 use shared::prognosis::TrendSettings;
 use shared::window::{
     fusable, identify_stepwise, window_ga, HeldComponents, WindowLimits, WindowLoad, WindowProblem,
@@ -67,8 +68,7 @@ static SCRATCH: ConstStaticCell<Scratch> = ConstStaticCell::new(Scratch::IDLE);
 
 /// The health store: a flash sector on the controller; RAM here, loaded from and saved to the
 /// `--health` file around each run.
-static HEALTH_STORE: ConstStaticCell<RamStore<ONBOARD_RECORDS>> =
-    ConstStaticCell::new(RamStore::ZEROED);
+static HEALTH_STORE: ConstStaticCell<HealthStoreImage> = ConstStaticCell::new(RamStore::ZEROED);
 
 /// Heartbeat task runs.
 static BEATS: AtomicU32 = AtomicU32::new(0);
@@ -309,14 +309,25 @@ async fn preflight(spawner: Spawner) -> i32 {
     let day = *day;
     drop(preflight);
     print_report(&report, &observed, total_cycles);
-    let logged = match command.health_path() {
-        Some(path) => record_health(path, command.flight, &report, &day),
-        None => status::SUCCESS,
-    };
-    if logged != status::SUCCESS || command.window_paths().next().is_none() {
-        return logged;
+    // The health log (a flash sector on the controller; the --health file here): this
+    // preflight's record, then, after the flight's windows, their reading.
+    let mut log = None;
+    if let Some(path) = command.health_path() {
+        let Some(store) = HEALTH_STORE.try_take() else {
+            defmt::error!("health store already in use");
+            return status::START_UP;
+        };
+        let day = RecordedDay::of(&day);
+        let entry = |newest| preflight_entry(command.flight, newest, &report, day);
+        match record_health(path, store, entry) {
+            Ok(flight) => log = Some((path, store, flight)),
+            Err(status) => return status,
+        }
     }
-    fly_windows(&command, &settings, &report, measured, scratch).await
+    if command.window_paths().next().is_none() {
+        return status::SUCCESS;
+    }
+    fly_windows(&command, &settings, &report, measured, scratch, log).await
 }
 
 async fn fly_windows(
@@ -325,6 +336,7 @@ async fn fly_windows(
     report: &Report,
     measured: &mut OnboardMeasured,
     scratch: &mut Scratch,
+    log: Option<(&CStr, &mut HealthStoreImage, u32)>,
 ) -> i32 {
     let Some(kept) = scratch.command() else {
         return status::START_UP;
@@ -336,6 +348,9 @@ async fn fly_windows(
     };
     let mut fusion = WindowFusion::EMPTY;
     let (mut read, mut entered, mut worst_poll) = (0u32, 0u32, 0u64);
+    // What the flight's health entry takes of the windows that entered: their fitnesses'
+    // sum, in order, and the first one's day.
+    let (mut fitness_sum, mut first_day) = (0.0f32, None);
     for (n, path) in (1u32..).zip(command.window_paths()) {
         let name = path.to_bytes();
         let source = HostFile::open(path)
@@ -384,14 +399,14 @@ async fn fly_windows(
             }
         };
         let guess = WindowLoad::spring(record.params.aero_stiffness, 0.0);
-        let mut problem = match WindowProblem::of_record(measured, kept.as_slice(), &record, guess)
-        {
-            Ok((p, _)) => p.with_held(held),
-            Err(e) => {
-                defmt::error!("window {=[u8]:a} cannot be read: {}", name, e);
-                return status::BAD_TRACE;
-            }
-        };
+        let (mut problem, conditions) =
+            match WindowProblem::of_record(measured, kept.as_slice(), &record, guess) {
+                Ok((p, c)) => (p.with_held(held), c),
+                Err(e) => {
+                    defmt::error!("window {=[u8]:a} cannot be read: {}", name, e);
+                    return status::BAD_TRACE;
+                }
+            };
         let started = cycles();
         let (mut polls, mut longest) = (0u32, 0u64);
         let reading = {
@@ -428,7 +443,11 @@ async fn fly_windows(
                 .is_ok();
         let outcome = WindowOutcome::of(&reading.verdict, held.holds(2), fused);
         read += 1;
-        entered += u32::from(fused);
+        if fused {
+            entered += 1;
+            fitness_sum += reading.fit.error;
+            first_day.get_or_insert(RecordedDay::of(&conditions));
+        }
         defmt::println!(
             "window n={=u32} frames={=u32} verdict={} outcome={} evaluations={=u32} polls={=u32} longest_poll_instructions={=u64} identify_instructions={=u64}",
             n,
@@ -467,6 +486,14 @@ async fn fly_windows(
                 f.faults.as_array().map(f32::to_bits),
                 f.uncertainty.0.std.map(f32::to_bits)
             );
+            if let Some((path, store, flight)) = log {
+                let day = first_day.unwrap_or(RecordedDay::UNKNOWN);
+                let entry =
+                    |_| HealthRecord::of_flight_reading(flight, &f, fitness_sum, entered, day);
+                if let Err(status) = record_health(path, store, entry) {
+                    return status;
+                }
+            }
         }
         Err(e) => defmt::println!(
             "flight windows={=u32} entered={=u32} verdict=none reason={} worst_poll_instructions={=u64} stack_peak={=u32}",
@@ -575,17 +602,22 @@ fn load_actuator(path: &CStr, trace_test: &PreflightTest) -> Result<PreflightSet
     Ok(PreflightSettings::ONBOARD.for_actuator(&record))
 }
 
-/// Appends this preflight's record to the health log kept in `path` and reports each fault's
-/// trend and RUL (flights; `none` = beyond the horizon). `*_bits` give the f32 bits
-/// (`ffffffff` for none) for the comparison with the host.
+/// The health store: `ONBOARD_RECORDS` slots in RAM, loaded from and saved to a file here.
+type HealthStoreImage = RamStore<ONBOARD_RECORDS>;
+
+/// Appends the record `entry` makes of the log's newest (a preflight's, or a flight's reading)
+/// to the health log kept in `path`, in `store`, and reports each fault's trend and RUL
+/// (flights; `none` = beyond the horizon). `*_bits` give the f32 bits (`ffffffff` for none)
+/// for the comparison with the host. The record's flight, or the exit status that says why
+/// not.
 #[inline(never)]
-fn record_health(path: &CStr, flight: Option<u32>, report: &Report, day: &TestConditions) -> i32 {
+fn record_health(
+    path: &CStr,
+    store: &mut HealthStoreImage,
+    entry: impl FnOnce(Option<Newest>) -> HealthRecord,
+) -> Result<u32, i32> {
     let started = cycles();
     let path_text = path.to_bytes();
-    let Some(store) = HEALTH_STORE.try_take() else {
-        defmt::error!("health store already in use");
-        return status::START_UP;
-    };
     store.erase();
     let full = store.as_bytes_mut().len();
     match read_record_file(path, store.as_bytes_mut()) {
@@ -606,29 +638,35 @@ fn record_health(path: &CStr, flight: Option<u32>, report: &Report, day: &TestCo
                     path_text,
                     len
                 );
-                return status::HEALTH_LOG;
+                return Err(status::HEALTH_LOG);
             }
         },
         Err(e) => {
             defmt::error!("health log {=[u8]:a} refused: {}", path_text, e);
-            return status::HEALTH_LOG;
+            return Err(status::HEALTH_LOG);
         }
     }
     let settings = TrendSettings::DEFAULT;
-    let update = match record_preflight(store, flight, report, RecordedDay::of(day), &settings) {
+    let update = match record_entry(store, entry, &settings) {
         Ok(u) => u,
         Err(e) => {
             defmt::error!("health record not appended: {}", e);
-            return status::HEALTH_LOG;
+            return Err(status::HEALTH_LOG);
         }
     };
     if let Err(e) = write_record_file(path, store.as_bytes()) {
         defmt::error!("health log {=[u8]:a} not written: {}", path_text, e);
-        return status::HEALTH_LOG;
+        return Err(status::HEALTH_LOG);
     }
+    let kind = if update.record.window == FLIGHT_READING {
+        "reading"
+    } else {
+        "preflight"
+    };
     defmt::println!(
-        "health flight={=u32} records={=u32} loaded={} evicted={} skipped={=u32}",
+        "health flight={=u32} entry={=str} records={=u32} loaded={} evicted={} skipped={=u32}",
         update.record.flight,
+        kind,
         update.records,
         update.loaded,
         update.evicted.map(|r| r.flight),
@@ -665,7 +703,7 @@ fn record_health(path: &CStr, flight: Option<u32>, report: &Report, day: &TestCo
         cycles().saturating_sub(started),
         stack_peak()
     );
-    status::SUCCESS
+    Ok(update.record.flight)
 }
 
 fn print_report(report: &Report, observed: &Observed, total_cycles: u64) {

@@ -546,13 +546,13 @@ fn each_preflight_appends_its_record_and_reassesses_the_trend() {
     let again =
         HealthTrend::from_records(reloaded.iter(), &trend_settings).estimates(&trend_settings);
     assert_eq!(again, update.estimates);
-    // Flight 140 overwrites slot 140 mod 32 = 12 (flight 108); skipping flights 132..139
-    // leaves 100..=108 older than the last 32 flights: 109..=131 and 140 remain.
+    // Flight 140 goes to the slot after the newest's, the oldest record's (flight 100):
+    // skipping flights 132..139 loses no other record, 101..=131 and 140 remain.
     let next = record_preflight(&mut store, Some(140), &report, day, &trend_settings).unwrap();
-    assert_eq!(next.evicted.map(|r| r.flight), Some(108));
-    assert_eq!(next.records, 24);
+    assert_eq!(next.evicted.map(|r| r.flight), Some(100));
+    assert_eq!(next.records, 32);
     let (reloaded, _) = HealthLog::<ONBOARD_RECORDS>::load(&mut store).unwrap();
-    assert_eq!(reloaded.len(), 24);
+    assert_eq!(reloaded.len(), 32);
     assert_eq!(
         HealthTrend::from_records(reloaded.iter(), &trend_settings).estimates(&trend_settings),
         next.estimates

@@ -50,9 +50,9 @@ pub(crate) fn degrade_command(
     if let Some(log_path) = log {
         let mut store = health_file::FileStore::open(log_path, ONBOARD_RECORDS)?;
         let (mut log, _) = HealthLog::<ONBOARD_RECORDS>::load(&mut store)?;
-        // The controller's log keeps one preflight per flight: the in-flight entries stay in
-        // the CSV.
-        for r in rows.iter().filter(|r| r.record.window == 0) {
+        // The controller's log keeps preflights and flights' readings: each window's own
+        // entry stays in the CSV.
+        for r in rows.iter().filter(|r| !r.record.is_window()) {
             log.append(&mut store, r.record)
                 .map_err(|e| anyhow::anyhow!("appending flight {}: {e:?}", r.record.flight))?;
         }
@@ -77,7 +77,8 @@ pub(crate) fn degrade_command(
             read.len(),
             read.iter().filter(|r| r.record.is_trusted()).count(),
             if log.is_some() {
-                " (in the CSV only: the controller's log keeps preflights)"
+                " (the windows' own entries in the CSV only: the controller's log keeps \
+                 preflights and flights' readings)"
             } else {
                 ""
             }

@@ -151,16 +151,11 @@ pub fn flight_entry(
     reading: &FlightReading,
     entered: &[&WindowIdentified],
 ) -> HealthRecord {
-    let fitness = entered.iter().map(|w| w.fitness).sum::<f32>() / entered.len().max(1) as f32;
+    let fitness_sum = entered.iter().fold(0.0f32, |s, w| s + w.fitness);
     let day = entered
         .first()
         .map_or(RecordedDay::UNKNOWN, |w| RecordedDay::of(&w.conditions));
-    let mut record = HealthRecord::new(flight, reading.faults, fitness, Domain::Within)
-        .with_std(reading.uncertainty.0.std)
-        .with_day(day)
-        .flight_reading(u8::try_from(reading.windows).unwrap_or(u8::MAX));
-    record.domain = reading.verdict.into();
-    record
+    HealthRecord::of_flight_reading(flight, reading, fitness_sum, entered.len() as u32, day)
 }
 
 /// The commanded angle of `trace` [rad] as the controller keeps it over a window: every

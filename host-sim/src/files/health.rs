@@ -1,5 +1,6 @@
 //! The health log on the ground: a file-backed [`HealthStore`] (the same slots the controller
-//! keeps in flash, one 84-byte record each, slot `flight mod slots`; logs of older records —
+//! keeps in flash, one 84-byte record each, each record in the slot after the newest's; logs
+//! of older records —
 //! 76-byte version 3, 68-byte version 2, 52-byte version 1, all of eight components — are
 //! read too, and upgraded in place before anything is appended to them), and the history CSV
 //! that `host-sim degrade` writes and `host-sim prognose` reads.

@@ -1,14 +1,22 @@
 //! The actuator's health log: one fixed-size, versioned, checksummed [`HealthRecord`] per
-//! preflight test, kept in a bounded ring ([`HealthLog`]) and persisted slot by slot in a
-//! [`HealthStore`] (RAM under emulation: [`RamStore`]; a file on the host). On the board the
+//! preflight test and per flight's reading from its windows, kept in a bounded ring
+//! ([`HealthLog`]) and persisted slot by slot in a [`HealthStore`] (RAM under emulation: [`RamStore`]; a file on the host). On the board the
 //! [`RamStore`]'s whole image is kept in flash as the newest item of an A/B pair of sectors
 //! (`firmware::storage::AbStore`): loaded before the health step, written back after it.
 //!
 //! Units: flight index (count), fault vector (normalised, [`FaultVector`]), fitness [A²·s].
 //! Work bounds: [`HealthRecord::encode`]/[`HealthRecord::decode`] O([`RECORD_BYTES`]);
-//! [`HealthLog::push`] O(1); [`HealthLog::append`] one slot write; [`HealthLog::load`] reads
-//! every slot twice (find the newest, then walk the ring from it), O(slots); so do [`survey`]
-//! and [`replay`], which walk the store in flight order without a copy of the log.
+//! [`HealthLog::push`] O(1); [`HealthLog::append`] one survey of the store and one slot
+//! write; [`HealthLog::load`] reads every slot twice (find the newest, then walk the ring
+//! from it), O(slots); so do [`survey`] and [`replay`], which walk the store in order without
+//! a copy of the log.
+//!
+//! **Order and slots.** Records are ordered by flight, then by test ([`HealthRecord::order`]:
+//! a flight's preflight before its windows and its reading). A record is written to the slot
+//! after the newest record's (slot 0 in an empty store), so the store is a ring in that order
+//! and a full store gives up its oldest record. A log kept one preflight per flight at slot
+//! `flight mod slots` (before flights' readings were logged) is the same ring and reads
+//! unchanged.
 //!
 //! ## Record (version 4: 84 bytes, little-endian)
 //!
@@ -46,9 +54,10 @@
 //!
 //! ## Slots
 //!
-//! The record of flight `f` goes to slot `f mod slots`: a store of `S` slots keeps the last
-//! `S` flight indices, a torn or erased slot costs that one record (its checksum fails, it is
-//! skipped at load), and no head pointer has to be persisted.
+//! A record goes to the slot after the newest record's: a store of `S` slots keeps the last
+//! `S` records (preflights and flights' readings), a torn or erased slot costs that one
+//! record (its checksum fails, it is skipped at load), and no head pointer has to be
+//! persisted (the newest record is found by its order, [`HealthRecord::order`]).
 //!
 
 use heapless::Deque;
@@ -103,8 +112,7 @@ pub type EncodedRecord = [u8; RECORD_BYTES];
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct HealthRecord {
-    /// Index of the flight whose preflight (or window) this was (strictly increasing in a
-    /// log of preflights).
+    /// Index of the flight whose preflight (or window, or reading) this was.
     pub flight: u32,
     /// The identified fault vector.
     pub faults: FaultVector,
@@ -119,8 +127,8 @@ pub struct HealthRecord {
     /// What the controller measured and estimated of the test's day, as stored.
     pub day: RecordedDay,
     /// 0: the preflight of flight `flight`; n ≥ 1: the n-th window of that flight identified
-    /// in flight (an in-flight entry). The onboard log and store keep preflights only
-    /// ([`HealthLog::append`]). [`FLIGHT_READING`]: the flight's reading from its windows
+    /// in flight (an in-flight entry). The onboard log and store keep preflights and flights'
+    /// readings ([`HealthLog::append`]). [`FLIGHT_READING`]: the flight's reading from its windows
     /// ([`crate::flight::fusion`]). Trends take preflights and flights' readings, each at its flight
     /// ([`crate::prognostics::prognosis::FaultTrend::add`]); a window's own entry is kept for the record,
     /// its information is in its flight's reading.
@@ -421,6 +429,12 @@ impl HealthRecord {
         }
     }
 
+    /// Where the record sits in a log: by flight, then by test (the preflight, its windows in
+    /// turn, then the flight's reading). Strictly increasing in a log and a store. O(1).
+    pub fn order(&self) -> u64 {
+        (u64::from(self.flight) << 8) | u64::from(self.window)
+    }
+
     /// The record as the `window`-th window of its flight identified in flight (0: the
     /// preflight).
     pub fn in_flight(mut self, window: u8) -> Self {
@@ -433,6 +447,27 @@ impl HealthRecord {
         self.window = FLIGHT_READING;
         self.fused = fused;
         self
+    }
+
+    /// The record of flight `flight`'s reading from its windows (`reading`,
+    /// [`crate::flight::fusion::WindowFusion::final_reading`]): its vector, deviations and
+    /// verdict, as a [`FLIGHT_READING`] entry of `reading.windows` windows; its fitness the
+    /// mean of the `entered` windows' (`fitness_sum` their sum, in the order they entered),
+    /// its day the first entered window's. The host's and the controller's entry alike. O(1).
+    pub fn of_flight_reading(
+        flight: u32,
+        reading: &crate::flight::fusion::FlightReading,
+        fitness_sum: f32,
+        entered: u32,
+        day: RecordedDay,
+    ) -> Self {
+        let fitness = fitness_sum / entered.max(1) as f32;
+        let mut record = Self::new(flight, reading.faults, fitness, Domain::Within)
+            .with_std(reading.uncertainty.0.std)
+            .with_day(day)
+            .flight_reading(u8::try_from(reading.windows).unwrap_or(u8::MAX));
+        record.domain = reading.verdict.into();
+        record
     }
 
     /// The record with the test's day (see [`RecordedDay::new`]).
@@ -754,10 +789,10 @@ impl<const S: usize> HealthStore for RamStore<S> {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum HealthLogError<E> {
-    /// Its flight index is not after the newest record's (`last`).
+    /// It does not come after the newest record ([`HealthRecord::order`]), of flight `last`.
     NotNewer { last: u32 },
-    /// An in-flight entry ([`HealthRecord::window`] ≠ 0): the onboard log and store keep one
-    /// preflight per flight (slot `flight mod slots`).
+    /// One window's own entry ([`HealthRecord::is_window`]): the onboard log and store keep
+    /// preflights and flights' readings (a window's evidence is in its flight's reading).
     InFlightEntry,
     /// The store has no slot.
     NoSlots,
@@ -779,7 +814,7 @@ pub struct LoadSummary {
     pub dropped: u16,
 }
 
-/// The newest `N` records, oldest first, strictly increasing in flight index.
+/// The newest `N` records, oldest first, strictly increasing in [`HealthRecord::order`].
 #[derive(Clone, Debug)]
 pub struct HealthLog<const N: usize> {
     records: Deque<HealthRecord, N>,
@@ -817,13 +852,12 @@ impl<const N: usize> HealthLog<N> {
 
     /// Adds `record` as the newest. When the ring is full the oldest record leaves it and is
     /// handed back (`Ok(Some(oldest))`); a record not newer than the newest (or any record
-    /// when `N = 0`) is handed back as the error, nothing changed. O(1). A log of preflights
-    /// ([`Self::append`] refuses in-flight entries).
+    /// when `N = 0`) is handed back as the error, nothing changed. O(1).
     pub fn push(&mut self, record: HealthRecord) -> Result<Option<HealthRecord>, HealthRecord> {
         if self
             .records
             .back()
-            .is_some_and(|last| record.flight <= last.flight)
+            .is_some_and(|last| record.order() <= last.order())
         {
             return Err(record);
         }
@@ -835,18 +869,16 @@ impl<const N: usize> HealthLog<N> {
         self.records.push_back(record).map(|()| evicted)
     }
 
-    /// Writes `record` to its slot of `store`, then adds it to the log (see [`Self::push`]).
-    /// Returns the record that left the ring, if any.
+    /// Writes `record` to the slot after the store's newest (see [`write_slot`]), then adds
+    /// it to the log (see [`Self::push`]). Returns the record that left the ring, if any. A
+    /// preflight or a flight's reading; one window's own entry is refused.
     pub fn append<S: HealthStore>(
         &mut self,
         store: &mut S,
         record: HealthRecord,
     ) -> Result<Option<HealthRecord>, HealthLogError<S::Error>> {
-        if record.window != 0 {
-            return Err(HealthLogError::InFlightEntry);
-        }
         if let Some(last) = self.records.back() {
-            if record.flight <= last.flight {
+            if record.order() <= last.order() {
                 return Err(HealthLogError::NotNewer { last: last.flight });
             }
         }
@@ -858,11 +890,11 @@ impl<const N: usize> HealthLog<N> {
         self.push(record).map_err(|_| HealthLogError::NoSlots)
     }
 
-    /// Reads every slot of `store` and keeps the newest `N` sound records in flight order.
-    /// Two passes over the slots, no sorting: the newest record's slot is found first, and
-    /// since flight `f` sits in slot `f mod slots`, walking the slots on from there meets the
-    /// store's flights oldest first (a record left from an earlier lap of the ring, older
-    /// than the last `slots` flights, is dropped).
+    /// Reads every slot of `store` and keeps the newest `N` sound records in order. Two
+    /// passes over the slots, no sorting: the newest record's slot is found first, and since
+    /// each record was written to the slot after the one before, walking the slots on from
+    /// there meets the store's records oldest first (a record out of that order, left from
+    /// an earlier lap of the ring, is dropped).
     pub fn load<S: HealthStore>(store: &mut S) -> Result<(Self, LoadSummary), S::Error> {
         let mut log = Self::new();
         let summary = log.reload(store)?;
@@ -884,11 +916,12 @@ impl<const N: usize> HealthLog<N> {
     }
 }
 
-/// The newest record of a store: its slot and flight.
+/// The newest record of a store: its slot, flight and [`HealthRecord::order`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Newest {
     pub slot: usize,
     pub flight: u32,
+    pub order: u64,
 }
 
 /// What a store's slots hold: sound, empty and damaged slots (`dropped` left 0), and the
@@ -902,10 +935,11 @@ pub fn survey<S: HealthStore>(store: &mut S) -> Result<(LoadSummary, Option<Newe
         match HealthRecord::decode(&bytes) {
             Ok(r) => {
                 summary.records = summary.records.saturating_add(1);
-                if newest.is_none_or(|n| r.flight > n.flight) {
+                if newest.is_none_or(|n| r.order() > n.order) {
                     newest = Some(Newest {
                         slot,
                         flight: r.flight,
+                        order: r.order(),
                     });
                 }
             }
@@ -919,9 +953,9 @@ pub fn survey<S: HealthStore>(store: &mut S) -> Result<(LoadSummary, Option<Newe
 }
 
 /// Calls `each` with the store's sound records oldest first, given the newest record's slot
-/// ([`survey`]): since flight `f` sits in slot `f mod slots`, walking the slots on from the
-/// newest meets the flights in order; a record from an earlier lap of the ring (older than
-/// the last `slots` flights) is skipped. Returns the records passed. One read of every slot,
+/// ([`survey`]): since each record was written to the slot after the one before, walking the
+/// slots on from the newest meets them in order; a record out of that order (from an earlier
+/// lap of the ring) is skipped. Returns the records passed. One read of every slot,
 /// no copy of the log: the controller's trend replays its store this way.
 pub fn replay<S: HealthStore>(
     store: &mut S,
@@ -930,13 +964,13 @@ pub fn replay<S: HealthStore>(
 ) -> Result<u32, S::Error> {
     let mut bytes = [0u8; RECORD_BYTES];
     let slots = store.slots();
-    let mut last: Option<u32> = None;
+    let mut last: Option<u64> = None;
     let mut passed = 0;
     for k in 1..=slots {
         store.read((newest_slot + k) % slots, &mut bytes)?;
         if let Ok(r) = HealthRecord::decode(&bytes) {
-            if last.is_none_or(|l| r.flight > l) {
-                last = Some(r.flight);
+            if last.is_none_or(|l| r.order() > l) {
+                last = Some(r.order());
                 passed += 1;
                 each(&r);
             }
@@ -952,9 +986,10 @@ pub struct Written {
     pub replaced: Option<HealthRecord>,
 }
 
-/// Writes `record` to its slot of `store` (slot `flight mod slots`): one read (what the slot
-/// held) and one write. The caller has checked that the record is newer than the store's
-/// newest.
+/// Writes `record` to `store`, in the slot after the newest record's (slot 0 in an empty
+/// store): one survey of the store ([`survey`]), one read (what the slot held) and one write.
+/// A record that does not come after the newest ([`HealthRecord::order`]) is refused, and so
+/// is one window's own entry ([`HealthRecord::is_window`]).
 pub fn write_slot<S: HealthStore>(
     store: &mut S,
     record: &HealthRecord,
@@ -963,7 +998,14 @@ pub fn write_slot<S: HealthStore>(
     if slots == 0 {
         return Err(HealthLogError::NoSlots);
     }
-    let slot = record.flight as usize % slots;
+    if record.is_window() {
+        return Err(HealthLogError::InFlightEntry);
+    }
+    let (_, newest) = survey(store).map_err(HealthLogError::Store)?;
+    if let Some(n) = newest.filter(|n| record.order() <= n.order) {
+        return Err(HealthLogError::NotNewer { last: n.flight });
+    }
+    let slot = newest.map_or(0, |n| (n.slot + 1) % slots);
     let mut bytes = [0u8; RECORD_BYTES];
     store
         .read(slot, &mut bytes)

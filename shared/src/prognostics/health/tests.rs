@@ -126,17 +126,38 @@ fn an_in_flight_entry_is_kept_in_byte_70_and_an_older_record_reads_as_a_prefligh
     assert_eq!((bytes[70], bytes[71]), (FLIGHT_READING, 6));
     assert_eq!(HealthRecord::decode(&bytes), Ok(flight));
     assert_eq!((flight.window, flight.fused), (255, 6));
-    // The onboard log and store keep preflights: an in-flight entry is not appended.
+    // The onboard log and store keep preflights and flights' readings, not a window's own
+    // entry: flight 9's preflight, its reading, flight 10's preflight, in that order.
     let mut store = RamStore::<4>::erased();
     let mut log = HealthLog::<4>::new();
-    for entry in [r, flight] {
-        assert_eq!(
-            log.append(&mut store, entry),
-            Err(HealthLogError::InFlightEntry)
-        );
+    assert_eq!(
+        log.append(&mut store, r),
+        Err(HealthLogError::InFlightEntry)
+    );
+    let preflight = record(9, 0.2);
+    let next = record(10, 0.2);
+    for entry in [preflight, flight, next] {
+        assert_eq!(log.append(&mut store, entry), Ok(None));
     }
-    assert!(log.is_empty());
-    assert_eq!(HealthLog::<4>::load(&mut store).unwrap().1.records, 0);
+    assert!(preflight.order() < r.order() && r.order() < flight.order());
+    // Not after the newest: refused, by the log and by the store alike.
+    assert_eq!(
+        log.append(&mut store, flight),
+        Err(HealthLogError::NotNewer { last: 10 })
+    );
+    assert_eq!(
+        write_slot(&mut store, &flight),
+        Err(HealthLogError::NotNewer { last: 10 })
+    );
+    let (loaded, summary) = HealthLog::<4>::load(&mut store).unwrap();
+    assert_eq!(summary.records, 3);
+    assert_eq!(
+        loaded
+            .iter()
+            .map(|r| (r.flight, r.window))
+            .collect::<Vec<_>>(),
+        [(9, 0), (9, FLIGHT_READING), (10, 0)]
+    );
 }
 
 #[test]
@@ -341,7 +362,8 @@ fn store_keeps_the_newest_slots_and_skips_damage() {
     for f in 10..17 {
         log.append(&mut store, record(f, f as f32 / 100.0)).unwrap();
     }
-    // Slots hold flights 16, 13, 14, 15 (f mod 4); damage the one of flight 14.
+    // Each record in the slot after the one before: slots hold flights 14, 15, 16, 13;
+    // damage the one of flight 14.
     let (loaded, summary) = HealthLog::<4>::load(&mut store.clone()).unwrap();
     assert_eq!(
         loaded.iter().map(|r| r.flight).collect::<Vec<_>>(),
@@ -349,7 +371,7 @@ fn store_keeps_the_newest_slots_and_skips_damage() {
     );
     assert_eq!(summary.records, 4);
     let mut image = store.as_bytes().to_vec();
-    image[2 * RECORD_BYTES + 20] ^= 1;
+    image[20] ^= 1;
     let (loaded, summary) = HealthLog::<3>::load(&mut RamStore::<4>::from_image(&image)).unwrap();
     assert_eq!(
         loaded.iter().map(|r| r.flight).collect::<Vec<_>>(),
@@ -363,4 +385,34 @@ fn store_keeps_the_newest_slots_and_skips_damage() {
     let (empty, summary) = HealthLog::<4>::load(&mut RamStore::<5>::erased()).unwrap();
     assert!(empty.is_empty());
     assert_eq!(summary.empty, 5);
+}
+
+/// A store kept one preflight per flight at slot `flight mod slots` (every log written before
+/// flights' readings were logged) is the same ring: it reads unchanged, and the next record
+/// goes to the slot after its newest, the oldest's, whatever the flight index.
+#[test]
+fn a_store_of_one_preflight_per_flight_goes_on_as_a_ring() {
+    let mut store = RamStore::<4>::erased();
+    for f in 10..16u32 {
+        store
+            .write(f as usize % 4, &record(f, 0.1).encode())
+            .unwrap();
+    }
+    let (log, _) = HealthLog::<4>::load(&mut store).unwrap();
+    assert_eq!(
+        log.iter().map(|r| r.flight).collect::<Vec<_>>(),
+        [12, 13, 14, 15]
+    );
+    // Flight 15 sits in slot 3; a reading of flight 15 takes slot 0 (flight 12's), then
+    // flight 21's preflight slot 1 (flight 13's), not slot 21 mod 4.
+    let written = write_slot(&mut store, &record(15, 0.2).flight_reading(3)).unwrap();
+    assert_eq!(written.slot, 0);
+    assert_eq!(written.replaced.map(|r| r.flight), Some(12));
+    let written = write_slot(&mut store, &record(21, 0.2)).unwrap();
+    assert_eq!(written.slot, 1);
+    let (log, _) = HealthLog::<4>::load(&mut store).unwrap();
+    assert_eq!(
+        log.iter().map(|r| (r.flight, r.window)).collect::<Vec<_>>(),
+        [(14, 0), (15, 0), (15, FLIGHT_READING), (21, 0)]
+    );
 }
