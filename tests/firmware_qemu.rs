@@ -675,8 +675,9 @@ fn hex_bits(values: &[f32]) -> Vec<String> {
 }
 
 /// Issue 69: a flight's windows on the controller. The reference actuator with friction 0.2
-/// and a gain drift of 0.6, twelve flights into a log whose friction grows to it, flies four
-/// approach windows after its preflight; the emulation image reads the preflight, then each
+/// and a gain drift of 0.6, twelve flights into a log whose friction grows to it, flies a
+/// flight of eight approach windows after its preflight (one of them cannot see the play and
+/// stays out of the flight's reading); the emulation image reads the preflight, then each
 /// window (`--window`, binary traces with the flight mark) holding the preflight's shorts,
 /// eccentricity and demagnetization, and fuses them into the flight's reading: each window's
 /// vector, fitness and deviations and the flight's vector and deviations are the bits of
@@ -713,7 +714,7 @@ fn a_flights_windows_under_qemu_give_the_hosts_window_and_flight_bits() {
             phase: FlightPhase::Approach,
             turbulence: Turbulence::Light,
         }));
-    let windows: Vec<Vec<u8>> = (3..7)
+    let windows: Vec<Vec<u8>> = (3..11)
         .map(|seed| {
             scenario.seed = seed;
             approach
@@ -764,18 +765,23 @@ fn a_flights_windows_under_qemu_give_the_hosts_window_and_flight_bits() {
         let measured = w.measured(&record.params).expect("conditioned");
         let id = host_sim::fdi::window::identify_window(&w, &measured, &record, held, 1)
             .expect("the host reads the window");
-        assert!(id.enter(&mut fusion), "{:?}", id.verdict);
-        host_windows.push(id);
+        let entered = id.enter(&mut fusion);
+        host_windows.push((id, entered));
     }
     let flight = fusion
         .final_reading(FLIGHT_MAX_FRICTION_STD)
-        .expect("four windows make a reading");
+        .expect("the windows make a reading");
     assert_eq!(
         flight.verdict,
         Ok(()),
-        "four approach windows read the friction"
+        "a flight of approach windows reads the friction"
     );
-    let entered: Vec<_> = host_windows.iter().collect();
+    let entered: Vec<_> = host_windows
+        .iter()
+        .filter(|(_, entered)| *entered)
+        .map(|(id, _)| id)
+        .collect();
+    assert_eq!(entered.len(), 7, "one window cannot see the play");
     let entry = host_sim::fdi::window::flight_entry(12, &flight, &entered);
 
     let mut args = vec![
@@ -788,7 +794,7 @@ fn a_flights_windows_under_qemu_give_the_hosts_window_and_flight_bits() {
     }
     let run = run_firmware(&args);
     assert_eq!(run.status, 0, "{}", run.output);
-    for (n, id) in (1..).zip(&host_windows) {
+    for (n, (id, entered)) in (1..).zip(&host_windows) {
         let prefix = format!("window_bits n={n} ");
         let std = id.uncertainty.as_ref().expect("a deviation").0.std;
         assert_eq!(
@@ -803,11 +809,13 @@ fn a_flights_windows_under_qemu_give_the_hosts_window_and_flight_bits() {
         );
         assert_eq!(list(field(&run.output, &prefix, "std")), hex_bits(&std));
         let line = format!("window n={n} ");
-        assert!(
-            field(&run.output, &line, "outcome").starts_with("Read"),
-            "{}",
-            run.output
-        );
+        let outcome = format!("outcome=Read {{ entered: {entered} }}");
+        let shown = run
+            .output
+            .lines()
+            .find(|l| l.starts_with(&line))
+            .expect("the window's line");
+        assert!(shown.contains(&outcome), "{shown}");
         assert!(number(&run.output, &line, "longest_poll_instructions") > 0);
         assert!(number(&run.output, &line, "identify_instructions") > 1_000_000_000);
     }
@@ -821,7 +829,8 @@ fn a_flights_windows_under_qemu_give_the_hosts_window_and_flight_bits() {
         list(field(&run.output, "flight_bits ", "std")),
         hex_bits(&flight.uncertainty.0.std)
     );
-    assert_eq!(number(&run.output, "flight ", "entered"), 4);
+    assert_eq!(number(&run.output, "flight ", "windows"), 8);
+    assert_eq!(number(&run.output, "flight ", "entered"), 7);
 
     // The log: the preflight as flight 12, then the flight's reading, the host's entry.
     let (kept, summary) =
@@ -831,7 +840,7 @@ fn a_flights_windows_under_qemu_give_the_hosts_window_and_flight_bits() {
     assert_eq!(records.len(), 14);
     assert_eq!((records[12].flight, records[12].window), (12, 0));
     assert_eq!(*records[13], entry, "the flight's entry is the host's");
-    assert_eq!((entry.window, entry.fused), (FLIGHT_READING, 4));
+    assert_eq!((entry.window, entry.fused), (FLIGHT_READING, 7));
     assert!(entry.is_trusted());
     // The trend after the reading: the host's over the same log, bit for bit, the reading
     // one more observation than after the preflight.
