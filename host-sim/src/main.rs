@@ -562,6 +562,12 @@ enum Command {
         /// preflights alone.
         #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=8))]
         windows: u8,
+        /// Tests played per preflight (1–8), the I_ref noise drawn anew each time, and the
+        /// preflight's record their readings' mean (deviations over √N): what a repeated
+        /// test buys the trend where the noise calls for it. Each test costs its drive time
+        /// and its identification on the controller.
+        #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=8))]
+        repeat: u8,
         /// Replace the FDI's readings by an ideal identification of this standard deviation
         /// (the same runs: each preflight without an intrusion reads its true fault vector
         /// plus seeded Gaussian noise of SIGMA, stating SIGMA): the trend's ceiling with
@@ -904,6 +910,7 @@ fn main() -> ExitCode {
             noise_floor,
             flight_scale,
             windows,
+            repeat,
             ideal_readings,
             lean_removed,
             histories,
@@ -929,6 +936,7 @@ fn main() -> ExitCode {
                     noises: noise,
                     intrusions: out_of_domain,
                     windows,
+                    repeat,
                     readings: match (&ideal_readings[..], lean_removed) {
                         ([], false) => vec![prognostics::Readings::Fdi],
                         ([], true) => vec![prognostics::Readings::LeanRemoved],

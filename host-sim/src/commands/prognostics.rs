@@ -43,7 +43,7 @@ pub(crate) fn degrade_command(
         "{elapsed_precise} [{bar:40}] {pos}/{len} flights (ETA {eta})",
         std::io::stderr().is_terminal(),
     );
-    let rows = prognostics::degrade(path, noise, seed, intrusions, windows, &|| bar.inc(1))?;
+    let rows = prognostics::degrade(path, noise, seed, intrusions, windows, 1, &|| bar.inc(1))?;
     bar.finish_and_clear();
     std::fs::write(out, health_file::history_csv(&rows))
         .with_context(|| format!("writing {}", out.display()))?;
@@ -159,6 +159,8 @@ pub(crate) struct EvalRun {
     pub noises: Vec<f64>,
     pub intrusions: f64,
     pub windows: u8,
+    /// Tests played per preflight, their readings averaged.
+    pub repeat: u8,
     /// Whose readings the trend takes; more than one: a sweep (each from the same kept
     /// histories, one table row each).
     pub readings: Vec<prognostics::Readings>,
@@ -175,6 +177,7 @@ impl EvalRun {
             flights: self.flights,
             intrusions: self.intrusions,
             windows: self.windows,
+            repeat: self.repeat,
             readings,
         }
     }
@@ -295,7 +298,7 @@ fn evaluation_command(
     text += &format!(
         "\n{} runs × {} flights (seeds {}–{}; {} simulated, {} read from the history folder); thresholds \
          {} friction and backlash, {} shorts, {} eccentricity, {} gain drift; systematic error \
-         {}; noise floor {}; a flight's reading's σ counted {} times; {} windows of flight per flight; {:.0} s.\n",
+         {}; noise floor {}; a flight's reading's σ counted {} times; {} windows of flight per flight; {} test(s) per preflight; {:.0} s.\n",
         scenarios.len() as u64 * run.seeds,
         run.flights,
         run.first_seed,
@@ -310,6 +313,7 @@ fn evaluation_command(
         run.settings.noise_floor,
         run.settings.flight_scale,
         run.windows,
+        run.repeat,
         start.elapsed().as_secs_f64()
     );
     print!("{text}");

@@ -250,6 +250,45 @@ pub fn lean_removed(rows: &[HistoryRow]) -> Vec<HistoryRow> {
         .collect()
 }
 
+/// The seed step between a flight's repeated tests (`degrade`'s `repeat`).
+const REPEAT_STREAM: u64 = 0x9e37_79b9_7f4a_7c15;
+
+/// One record of a preflight whose test was played `readings.len()` times: the mean of the
+/// `within` readings' vectors (the eccentricity's phase the first's) and fitnesses, their
+/// deviations' root mean square over the root of their number (independent noise), the
+/// first reading's flight and day; `within` if any reading was, else the first's verdict.
+pub fn repeated_reading(readings: &[HealthRecord]) -> HealthRecord {
+    let Some(first) = readings.first() else {
+        return HealthRecord::new(0, FaultVector::NOMINAL, 0.0, shared::domain::Domain::Within);
+    };
+    let kept: Vec<&HealthRecord> = readings.iter().filter(|r| r.is_trusted()).collect();
+    if kept.is_empty() {
+        return *first;
+    }
+    let n = kept.len() as f32;
+    let mut k = [0.0f32; FAULT_COUNT];
+    let mut std = [0.0f32; FAULT_COUNT];
+    for r in &kept {
+        for i in 0..FAULT_COUNT {
+            k[i] += r.faults.as_array()[i] / n;
+            let s = r.std.get(i).unwrap_or(f32::NAN);
+            std[i] += s * s / n;
+        }
+    }
+    k[shared::fault::ECCENTRICITY_PHASE_INDEX] =
+        kept[0].faults.as_array()[shared::fault::ECCENTRICITY_PHASE_INDEX];
+    let std = std.map(|v| (v / n).sqrt());
+    let fitness = kept.iter().map(|r| r.fitness).sum::<f32>() / n;
+    HealthRecord::new(
+        first.flight,
+        FaultVector::saturating(k),
+        fitness,
+        shared::domain::Domain::Within,
+    )
+    .with_std(std)
+    .with_day(first.day)
+}
+
 /// Simulates the preflight of every flight of `path` (RM trace with I_ref noise `noise`,
 /// onboard identification with its uncertainty, domain verdict), in parallel; a share
 /// `intrusions` of the flights meets an [`Intrusion`]. With `windows` > 0, each flight then
@@ -258,14 +297,17 @@ pub fn lean_removed(rows: &[HistoryRow]) -> Vec<HistoryRow> {
 /// ([`identify_window`]) and kept as an in-flight entry ([`HealthRecord::window`] 1, 2, …;
 /// `Outside` windows with their reason); from two windows on, the flight's reading from
 /// those that enter (`shared::fusion`) follows them ([`flight_entry`], window
-/// `FLIGHT_READING`; none when no window entered). Rows in (flight, window) order. `tick`
-/// is called after each flight.
+/// `FLIGHT_READING`; none when no window entered). With `repeat` > 1 each preflight plays
+/// its test that many times (the I_ref noise drawn anew each time; an intrusion spoils the
+/// first only) and its record is their readings' mean ([`repeated_reading`]). Rows in
+/// (flight, window) order. `tick` is called after each flight.
 pub fn degrade(
     path: &DegradationPath,
     noise: f64,
     seed: u64,
     intrusions: f64,
     windows: u8,
+    repeat: u8,
     tick: &(dyn Fn() + Sync),
 ) -> Result<Vec<HistoryRow>> {
     let rm = ReferenceModel::new(ReferenceSettings::REFERENCE);
@@ -293,13 +335,41 @@ pub fn degrade(
                 &trace.domain_monitor(&params),
                 &DomainLimits::REFERENCE_ACTUATOR,
             );
+            let mut record = HealthRecord::new(flight, id.result.faults, id.result.fitness, domain)
+                .with_std(
+                    id.uncertainty
+                        .map_or([f32::NAN; FAULT_COUNT], |(u, _)| u.std),
+                )
+                .with_day(RecordedDay::of(&id.conditions));
+            if repeat > 1 && intruded.is_none() {
+                let mut readings = vec![record];
+                for j in 1..u64::from(repeat) {
+                    let again = rm
+                        .simulate(&Scenario {
+                            faults: truth,
+                            current_ref_noise: noise,
+                            seed: rm_seed.wrapping_add(REPEAT_STREAM.wrapping_mul(j)),
+                        })
+                        .trace
+                        .with_test(*rm.test());
+                    let measured = again.measured(&params)?;
+                    let id = identify(&measured, &Calibration::REFERENCE_ACTUATOR, ga_seed, false)?;
+                    let domain = id.domain(
+                        &again.domain_monitor(&params),
+                        &DomainLimits::REFERENCE_ACTUATOR,
+                    );
+                    readings.push(
+                        HealthRecord::new(flight, id.result.faults, id.result.fitness, domain)
+                            .with_std(
+                                id.uncertainty
+                                    .map_or([f32::NAN; FAULT_COUNT], |(u, _)| u.std),
+                            ),
+                    );
+                }
+                record = repeated_reading(&readings);
+            }
             let mut rows = vec![HistoryRow {
-                record: HealthRecord::new(flight, id.result.faults, id.result.fitness, domain)
-                    .with_std(
-                        id.uncertainty
-                            .map_or([f32::NAN; FAULT_COUNT], |(u, _)| u.std),
-                    )
-                    .with_day(RecordedDay::of(&id.conditions)),
+                record,
                 truth: Some(truth),
                 intrusion: intruded,
             }];
@@ -725,7 +795,14 @@ impl EvalScenario {
     }
 
     /// File name of its run `seed`'s history in a cache folder.
-    fn file_name(&self, seed: u64, flights: u32, intrusions: f64, windows: u8) -> String {
+    fn file_name(
+        &self,
+        seed: u64,
+        flights: u32,
+        intrusions: f64,
+        windows: u8,
+        repeat: u8,
+    ) -> String {
         let slug: String = self
             .name()
             .chars()
@@ -736,7 +813,11 @@ impl EvalScenario {
             // Flights' readings from their windows (none before them: another name).
             w => format!("-{w}win-fused"),
         };
-        format!("{slug}-{flights}fl{windows}-ood{intrusions}-seed{seed}.csv")
+        let repeat = match repeat {
+            0 | 1 => String::new(),
+            r => format!("-x{r}"),
+        };
+        format!("{slug}-{flights}fl{windows}{repeat}-ood{intrusions}-seed{seed}.csv")
     }
 }
 
@@ -1109,6 +1190,8 @@ pub struct EvalRuns {
     pub flights: u32,
     pub intrusions: f64,
     pub windows: u8,
+    /// Tests played per preflight, their readings averaged (`degrade`'s `repeat`).
+    pub repeat: u8,
     /// Whose readings the trend takes.
     pub readings: Readings,
 }
@@ -1142,6 +1225,7 @@ pub fn evaluate(
         flights,
         intrusions,
         windows,
+        repeat,
         readings,
     } = runs.clone();
     let mut eval = Evaluation::default();
@@ -1153,7 +1237,8 @@ pub fn evaluate(
             shape: sc.shape,
         };
         for seed in seeds.clone() {
-            let file = cache.map(|c| c.join(sc.file_name(seed, flights, intrusions, windows)));
+            let file =
+                cache.map(|c| c.join(sc.file_name(seed, flights, intrusions, windows, repeat)));
             let rows = match &file {
                 Some(f) if f.exists() => {
                     eval.cached += 1;
@@ -1162,7 +1247,10 @@ pub fn evaluate(
                 }
                 _ => {
                     eval.simulated += 1;
-                    let rows = degrade(&path, sc.noise, seed, intrusions, windows, &|| tick(1))?;
+                    let rows =
+                        degrade(&path, sc.noise, seed, intrusions, windows, repeat, &|| {
+                            tick(1)
+                        })?;
                     if let Some(f) = &file {
                         std::fs::write(f, crate::files::health::history_csv(&rows))
                             .with_context(|| format!("writing {}", f.display()))?;
@@ -1771,6 +1859,36 @@ pub fn eval_svg(out: &Path, tracks: &[Track], alpha: f64) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A repeated test's record: the mean of the `within` readings, their deviations' RMS
+    /// over √N, the first's phase and day; an outside reading left out, all outside the
+    /// first as it was.
+    #[test]
+    fn a_repeated_test_reads_its_readings_mean() {
+        use shared::domain::{Domain, OutsideReason};
+        let reading = |friction: f32, phase: f32, sd: f32, domain: Domain| {
+            let mut k = *FaultVector::NOMINAL.as_array();
+            (k[0], k[6]) = (friction, phase);
+            HealthRecord::new(7, FaultVector::new(k).unwrap(), 0.01, domain)
+                .with_std([sd; FAULT_COUNT])
+        };
+        let day = RecordedDay::new(Some(270.0), Some(20.0), None);
+        let first = reading(0.20, 0.3, 0.02, Domain::Within).with_day(day);
+        let outside = reading(
+            0.90,
+            0.9,
+            0.02,
+            Domain::Outside(OutsideReason::FitnessFloor { fitness: 0.5 }),
+        );
+        let r = repeated_reading(&[first, reading(0.24, 0.7, 0.02, Domain::Within), outside]);
+        assert!((r.faults.friction() - 0.22).abs() < 1e-6, "{r:?}");
+        assert_eq!(r.faults.as_array()[6], 0.3);
+        let sd = r.std.get(0).unwrap();
+        assert!((sd - 0.02 / 2f32.sqrt()).abs() < 1e-4, "{sd}");
+        assert_eq!((r.flight, r.day), (7, day));
+        assert!(r.is_trusted());
+        assert_eq!(repeated_reading(&[outside, outside]), outside);
+    }
     use shared::prognosis::RulEstimate;
 
     fn path(shape: PathShape) -> DegradationPath {
