@@ -321,50 +321,37 @@ pub fn degrade(
             let (rm_seed, ga_seed) = flight_seeds(seed, flight);
             let intruded = intrusion(seed, flight, intrusions);
             let model = intruded.map_or(rm, |i| intrusion_model(i, rm));
-            let trace = model
-                .simulate(&Scenario {
-                    faults: truth,
-                    current_ref_noise: noise,
-                    seed: rm_seed,
-                })
-                .trace
-                .with_test(*rm.test());
-            let measured = trace.measured(&params)?;
-            let id = identify(&measured, &Calibration::REFERENCE_ACTUATOR, ga_seed, false)?;
-            let domain = id.domain(
-                &trace.domain_monitor(&params),
-                &DomainLimits::REFERENCE_ACTUATOR,
-            );
-            let mut record = HealthRecord::new(flight, id.result.faults, id.result.fitness, domain)
-                .with_std(
-                    id.uncertainty
-                        .map_or([f32::NAN; FAULT_COUNT], |(u, _)| u.std),
-                )
-                .with_day(RecordedDay::of(&id.conditions));
+            // One test of the preflight, played by `model` with the I_ref noise of `rm_seed`,
+            // identified and judged, and its record.
+            let test = |model: &ReferenceModel, rm_seed: u64| -> Result<_> {
+                let trace = model
+                    .simulate(&Scenario {
+                        faults: truth,
+                        current_ref_noise: noise,
+                        seed: rm_seed,
+                    })
+                    .trace
+                    .with_test(*rm.test());
+                let measured = trace.measured(&params)?;
+                let id = identify(&measured, &Calibration::REFERENCE_ACTUATOR, ga_seed, false)?;
+                let domain = id.domain(
+                    &trace.domain_monitor(&params),
+                    &DomainLimits::REFERENCE_ACTUATOR,
+                );
+                let record = HealthRecord::new(flight, id.result.faults, id.result.fitness, domain)
+                    .with_std(
+                        id.uncertainty
+                            .map_or([f32::NAN; FAULT_COUNT], |(u, _)| u.std),
+                    )
+                    .with_day(RecordedDay::of(&id.conditions));
+                Ok((id, domain, record))
+            };
+            let (id, domain, mut record) = test(&model, rm_seed)?;
             if repeat > 1 && intruded.is_none() {
                 let mut readings = vec![record];
                 for j in 1..u64::from(repeat) {
-                    let again = rm
-                        .simulate(&Scenario {
-                            faults: truth,
-                            current_ref_noise: noise,
-                            seed: rm_seed.wrapping_add(REPEAT_STREAM.wrapping_mul(j)),
-                        })
-                        .trace
-                        .with_test(*rm.test());
-                    let measured = again.measured(&params)?;
-                    let id = identify(&measured, &Calibration::REFERENCE_ACTUATOR, ga_seed, false)?;
-                    let domain = id.domain(
-                        &again.domain_monitor(&params),
-                        &DomainLimits::REFERENCE_ACTUATOR,
-                    );
-                    readings.push(
-                        HealthRecord::new(flight, id.result.faults, id.result.fitness, domain)
-                            .with_std(
-                                id.uncertainty
-                                    .map_or([f32::NAN; FAULT_COUNT], |(u, _)| u.std),
-                            ),
-                    );
+                    let again = rm_seed.wrapping_add(REPEAT_STREAM.wrapping_mul(j));
+                    readings.push(test(&rm, again)?.2);
                 }
                 record = repeated_reading(&readings);
             }
