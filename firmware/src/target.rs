@@ -377,20 +377,23 @@ async fn fly_windows(
                 ..settings.actuator
             },
         };
-        let acquired = WindowAcquisition::start(
+        // The frames, at most `frames_per_poll` per executor turn.
+        let acquired = match WindowAcquisition::start(
             &source,
             record.test,
             record.params.pole_pairs,
             measured,
             kept,
-        )
-        .and_then(|mut a| loop {
-            match a.poll(&mut source, measured, kept, settings.frames_per_poll) {
-                Ok(false) => {}
-                Ok(true) => break Ok(a.frames()),
-                Err(e) => break Err(e),
-            }
-        });
+        ) {
+            Ok(mut acquisition) => loop {
+                match acquisition.poll(&mut source, measured, kept, settings.frames_per_poll) {
+                    Ok(false) => yield_now().await,
+                    Ok(true) => break Ok(acquisition.frames()),
+                    Err(e) => break Err(e),
+                }
+            },
+            Err(e) => Err(e),
+        };
         let frames = match acquired {
             Ok(f) => f,
             Err(e) => {
