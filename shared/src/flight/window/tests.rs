@@ -251,3 +251,39 @@ fn inverse_of_a_gram_matrix() {
     }
     assert!(invert(&[[0.0; DRIFT_TERMS]; DRIFT_TERMS]).is_none());
 }
+
+/// What a flight's windows hold of a preflight: nothing when it was not trusted; its shorts,
+/// eccentricity and demagnetization with the covariance of its deviations (each
+/// `HELD_ERROR_SCALE` times) and correlations when it was; the friction's deviation without
+/// the day's healthy friction's share, in quadrature.
+#[test]
+fn a_preflight_reading_is_held_with_its_covariance_less_the_days_friction() {
+    let mut k = *FaultVector::NOMINAL.as_array();
+    (k[0], k[2]) = (0.3, 0.2);
+    let k = FaultVector::new(k).unwrap();
+    let std = [0.05, 0.01, 0.02, 0.02, 0.02, 0.03, f32::NAN, 0.04, 0.01];
+    let mut correlation = [[0.0f32; FAULT_COUNT]; FAULT_COUNT];
+    for (i, row) in correlation.iter_mut().enumerate() {
+        row[i] = 1.0;
+    }
+    (correlation[0][2], correlation[2][0]) = (0.5, 0.5);
+    let untrusted =
+        HeldComponents::from_preflight_reading(&k, false, Some((&std, &correlation)), 0.0);
+    assert_eq!(untrusted, HeldComponents::NONE);
+    let plain = HeldComponents::from_preflight_reading(&k, true, Some((&std, &correlation)), 0.0);
+    assert!(plain.holds(2) && !plain.holds(0));
+    let c = plain.covariance();
+    let s = |i: usize, sd: f32| sd * HELD_ERROR_SCALE[i];
+    assert!((c[2][2] - s(2, 0.02).powi(2)).abs() < 1e-9, "{}", c[2][2]);
+    assert!((c[0][2] - 0.5 * s(0, 0.05) * s(2, 0.02)).abs() < 1e-9);
+    assert_eq!(c[6][6], 0.0, "an undetermined deviation counts as none");
+    // The day's healthy friction's share (0.03 of the friction's 0.05) leaves 0.04.
+    let less = HeldComponents::from_preflight_reading(&k, true, Some((&std, &correlation)), 0.03);
+    let c = less.covariance();
+    assert!((c[0][0] - s(0, 0.04).powi(2)).abs() < 1e-8, "{}", c[0][0]);
+    assert!((c[0][2] - 0.5 * s(0, 0.04) * s(2, 0.02)).abs() < 1e-8);
+    assert_eq!(c[2][2], plain.covariance()[2][2]);
+    // Without its uncertainty, the values alone.
+    let bare = HeldComponents::from_preflight_reading(&k, true, None, 0.03);
+    assert_eq!(bare, HeldComponents::of_preflight(&k));
+}

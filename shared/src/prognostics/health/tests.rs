@@ -416,3 +416,51 @@ fn a_store_of_one_preflight_per_flight_goes_on_as_a_ring() {
         [(14, 0), (15, 0), (15, FLIGHT_READING), (21, 0)]
     );
 }
+
+/// A flight's reading as the log keeps it: its vector and deviations, the mean fitness of
+/// the windows that entered it, the first's day, the windows fused, and its verdict as the
+/// domain (a reading the turbulence kept loose is not trusted).
+#[test]
+fn a_flights_reading_is_logged_as_an_in_flight_entry() {
+    use crate::flight::fusion::FlightReading;
+    use crate::flight::window::WindowReason;
+    use crate::solver::uncertainty::Uncertainty;
+    let mut k = *FaultVector::NOMINAL.as_array();
+    k[0] = 0.25;
+    let reading = FlightReading {
+        faults: FaultVector::new(k).unwrap(),
+        uncertainty: (
+            Uncertainty {
+                std: [0.02; FAULT_COUNT],
+                lower: [0.0; FAULT_COUNT],
+                upper: [1.0; FAULT_COUNT],
+                worst_correlation: 0.0,
+                worst_pair: (0, 0),
+                residual_std: 0.0,
+            },
+            [[0.0; FAULT_COUNT]; FAULT_COUNT],
+        ),
+        windows: 7,
+        shared_std: [0.0; FAULT_COUNT],
+        verdict: Ok(()),
+        friction_held: false,
+    };
+    let day = RecordedDay::new(Some(271.0), Some(5.0), None);
+    let r = HealthRecord::of_flight_reading(12, &reading, 0.006, 3, day);
+    assert_eq!((r.flight, r.window, r.fused), (12, FLIGHT_READING, 7));
+    assert_eq!(r.faults, reading.faults);
+    assert_eq!(r.fitness, 0.002);
+    assert_eq!(r.day, day);
+    assert!(r.is_trusted() && !r.is_window());
+    assert!((r.std.get(0).unwrap() - 0.02).abs() < 1e-4);
+    let loose = FlightReading {
+        verdict: Err(WindowReason::TurbulenceTooHigh { friction_std: 0.05 }),
+        ..reading
+    };
+    assert!(!HealthRecord::of_flight_reading(12, &loose, 0.006, 3, day).is_trusted());
+    // No window entered: the fitness is the sum's, not a division by zero.
+    assert_eq!(
+        HealthRecord::of_flight_reading(12, &reading, 0.0, 0, day).fitness,
+        0.0
+    );
+}
