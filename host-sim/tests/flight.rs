@@ -233,8 +233,8 @@ fn approach_windows_are_identified_or_named() {
     );
 }
 
-/// A window of flight keeps its mark through a CSV file (`# test: flight`) and is refused
-/// in the binary form, whose header has no such mark.
+/// A window of flight keeps its mark through a CSV file (`# test: flight`) and through the
+/// binary form (`FLIGHT_MARK` in its header's test code), whose rows read back as written.
 #[test]
 fn a_flight_trace_keeps_its_mark() {
     use host_sim::files::trace::{Trace, TraceFormat};
@@ -255,8 +255,13 @@ fn a_flight_trace_keeps_its_mark() {
     let back = Trace::from_bytes(&csv).expect("read back");
     assert!(back.is_flight());
     assert_eq!(back.samples().len(), trace.samples().len());
-    let dir = std::env::temp_dir().join(format!("ema-fdi-flight-{}.bin", std::process::id()));
-    assert!(trace.write(&dir, TraceFormat::Bin).is_err());
+    let path = std::env::temp_dir().join(format!("ema-fdi-flight-{}.bin", std::process::id()));
+    trace.write(&path, TraceFormat::Bin).expect("a window in the binary form");
+    let bin = std::fs::read(&path).expect("written");
+    assert_eq!(bin[7], shared::trace::FLIGHT_MARK | record.test.kind());
+    let back = Trace::from_bytes(&bin).expect("read back");
+    assert!(back.is_flight());
+    assert_eq!(back.to_bin().expect("encodable"), bin);
     assert!(
         !Trace::from_bytes(b"t,theta_cmd,i_a,i_b,i_c,theta_m,theta_u\n0,0,0,0,0,0,0\n")
             .map(|t| t.is_flight())
