@@ -256,7 +256,9 @@ fn a_flight_trace_keeps_its_mark() {
     assert!(back.is_flight());
     assert_eq!(back.samples().len(), trace.samples().len());
     let path = std::env::temp_dir().join(format!("ema-fdi-flight-{}.bin", std::process::id()));
-    trace.write(&path, TraceFormat::Bin).expect("a window in the binary form");
+    trace
+        .write(&path, TraceFormat::Bin)
+        .expect("a window in the binary form");
     let bin = std::fs::read(&path).expect("written");
     assert_eq!(bin[7], shared::trace::FLIGHT_MARK | record.test.kind());
     let back = Trace::from_bytes(&bin).expect("read back");
