@@ -17,7 +17,7 @@
 use shared::conditioning::ConditioningError;
 use shared::fdi::{OnboardMeasured, TEST_SAMPLES};
 use shared::fitness::CurvatureRun;
-use shared::window::{WindowReason, COMMAND_STRIDE};
+use shared::window::{HeldComponents, WindowReason, COMMAND_STRIDE};
 
 use crate::source::{Acquired, CurrentSource, TraceBytes, TraceSource};
 
@@ -210,10 +210,10 @@ pub enum WindowOutcome {
 }
 
 impl WindowOutcome {
-    /// The outcome of a window read with its load fitted, its `verdict`, holding
-    /// `holds_shorts` (the preflight was trusted) and `entered` (added to the flight).
-    pub fn of(verdict: &Result<(), WindowReason>, holds_shorts: bool, entered: bool) -> Self {
-        if matches!(verdict, Err(WindowReason::FitnessFloor { .. })) && holds_shorts {
+    /// The outcome of a window read with its load fitted, its `verdict`, holding `held`
+    /// and `entered` (added to the flight).
+    pub fn of(verdict: &Result<(), WindowReason>, held: &HeldComponents, entered: bool) -> Self {
+        if shared::pinned::wants_pinned(verdict, held) {
             Self::NeedsPinned
         } else {
             Self::Read { entered }

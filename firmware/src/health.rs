@@ -4,8 +4,8 @@
 //! `shared::prognosis`). Host-tested; the binary keeps the store in RAM under emulation
 //! (loaded from and saved to a semihosting file) and would keep it in flash on hardware.
 //!
-//! Work bound: two surveys of the store (a read per slot, `shared::health::ONBOARD_RECORDS`
-//! slots), one slot read and write (`health::write_slot`), then per fault one replay of the store (a read and a
+//! Work bound: one survey of the store (a read per slot, `shared::health::ONBOARD_RECORDS`
+//! slots), one slot read and write (`health::write_after`), then per fault one replay of the store (a read and a
 //! trend update per slot, O(slots · shapes)) and one estimate (O(shapes · 136)); measured:
 //! 209.1 M instructions with 32 records (BENCHMARKS.md §1). Stack: one trend (976 B), one
 //! estimate's shared state and one slot's bytes, no copy of the log (12.9 kB peak with the
@@ -90,7 +90,7 @@ pub fn record_entry<S: HealthStore>(
 ) -> Result<HealthUpdate, HealthLogError<S::Error>> {
     let (loaded, newest) = health::survey(store).map_err(HealthLogError::Store)?;
     let record = entry(newest);
-    let written = health::write_slot(store, &record)?;
+    let written = health::write_after(store, &record, newest)?;
     // One fault at a time, in one trend; the same bits as a `HealthTrend` over the log. Each
     // replay also counts the records and those outside the domain.
     let mut estimates = [None; FAULT_COUNT];

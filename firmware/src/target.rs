@@ -444,7 +444,7 @@ async fn fly_windows(
                     &reading.coupling,
                 )
                 .is_ok();
-        let outcome = WindowOutcome::of(&reading.verdict, held.holds(2), fused);
+        let outcome = WindowOutcome::of(&reading.verdict, &held, fused);
         read += 1;
         if fused {
             entered += 1;

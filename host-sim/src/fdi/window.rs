@@ -273,7 +273,7 @@ pub fn identify_window(
         pinned_sensor_floor: None,
         pinned_reason: None,
     };
-    if !matches!(reading.verdict, Err(WindowReason::FitnessFloor { .. })) || !held.holds(2) {
+    if !shared::pinned::wants_pinned(&reading.verdict, &held) {
         return Ok(loaded);
     }
     // The load model cannot follow the window: read it again with the surface pinned.

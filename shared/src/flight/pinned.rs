@@ -53,6 +53,14 @@ use crate::FaultVector;
 /// The components a pinned window reads: the backlash (k2) and the gain drift (k8).
 pub const FREE: [usize; 2] = [1, 7];
 
+/// Whether a window read with its load fitted, of verdict `verdict` and holding `held`,
+/// is read again with its surface pinned: the load model at its fitness floor, and the
+/// flight's preflight trusted (its shorts held), since a pinned window holds its friction at
+/// the preflight's. The host's and the controller's rule. O(1).
+pub fn wants_pinned(verdict: &Result<(), WindowReason>, held: &HeldComponents) -> bool {
+    matches!(verdict, Err(WindowReason::FitnessFloor { .. })) && held.holds(2)
+}
+
 /// The friction's index: held at the preflight's in a pinned window.
 const FRICTION: usize = 0;
 

@@ -987,12 +987,23 @@ pub struct Written {
 }
 
 /// Writes `record` to `store`, in the slot after the newest record's (slot 0 in an empty
-/// store): one survey of the store ([`survey`]), one read (what the slot held) and one write.
-/// A record that does not come after the newest ([`HealthRecord::order`]) is refused, and so
-/// is one window's own entry ([`HealthRecord::is_window`]).
+/// store): one survey of the store ([`survey`]), then [`write_after`].
 pub fn write_slot<S: HealthStore>(
     store: &mut S,
     record: &HealthRecord,
+) -> Result<Written, HealthLogError<S::Error>> {
+    let (_, newest) = survey(store).map_err(HealthLogError::Store)?;
+    write_after(store, record, newest)
+}
+
+/// Writes `record` to the slot after `newest` (the store's newest record, as [`survey`]
+/// found it; `None`: an empty store, slot 0): one read (what the slot held) and one write. A
+/// record that does not come after the newest ([`HealthRecord::order`]) is refused, and so
+/// is one window's own entry ([`HealthRecord::is_window`]).
+pub fn write_after<S: HealthStore>(
+    store: &mut S,
+    record: &HealthRecord,
+    newest: Option<Newest>,
 ) -> Result<Written, HealthLogError<S::Error>> {
     let slots = store.slots();
     if slots == 0 {
@@ -1001,7 +1012,6 @@ pub fn write_slot<S: HealthStore>(
     if record.is_window() {
         return Err(HealthLogError::InFlightEntry);
     }
-    let (_, newest) = survey(store).map_err(HealthLogError::Store)?;
     if let Some(n) = newest.filter(|n| record.order() <= n.order) {
         return Err(HealthLogError::NotNewer { last: n.flight });
     }
