@@ -13,7 +13,7 @@ use shared::test_design::PreflightTest;
 use shared::window::{
     identify, identify_stepwise, record_monitor_window, synthetic_command, window_ga,
     HeldComponents, RecordedCommand, SurfaceSamples, WindowLimits, WindowLoad, WindowProblem,
-    WindowReason, COMMAND_STRIDE, CURVATURE_CHUNK, CURVATURE_RUNS, LOAD_SEARCH_EVALUATIONS,
+    WindowReason, COMMAND_STRIDE, CURVATURE_RUNS, EVALUATION_SLICE, LOAD_SEARCH_EVALUATIONS,
     WINDOW_GA_EVALUATIONS,
 };
 use shared::{Calibration, FaultVector, LowPass, MonitorModel};
@@ -358,9 +358,8 @@ fn the_drift_by_blocks_is_the_drift_sample_by_sample() {
 
 /// The window identification in bounded steps (`identify_stepwise`, what a controller's
 /// idle-time task polls) gives the same reading as in one call, and pauses at least once
-/// per model run outside the curvatures and once per `CURVATURE_CHUNK` samples of each
-/// curvature. Fails if a stage runs through without handing the caller back (a GA or a
-/// load search in one poll) or if the steps change the bits.
+/// per `EVALUATION_SLICE` samples of every model run. Fails if a model run, a GA or a load
+/// search runs through without handing the caller back, or if the steps change the bits.
 #[test]
 fn the_window_identification_in_steps_is_the_same_and_pauses() {
     use std::future::Future;
@@ -396,11 +395,12 @@ fn the_window_identification_in_steps_is_the_same_and_pauses() {
     // to the same float), so that an undetermined deviation (NaN, the eccentricity's phase
     // where no eccentricity is read) compares equal to itself.
     assert_eq!(format!("{stepped:?}"), format!("{whole:?}"));
-    // Every model run outside the curvatures is a poll of its own, the verdict's two
-    // included (not counted in `evaluations`); a curvature, counted as CURVATURE_RUNS
-    // runs, takes one poll per CURVATURE_CHUNK samples: more polls than it counts.
-    assert!(TEST_SAMPLES / CURVATURE_CHUNK >= CURVATURE_RUNS as usize);
-    let lower = whole.evaluations + 2;
+    // Every model run, the verdict's two included (not counted in `evaluations`), is a
+    // poll per EVALUATION_SLICE samples at least; a curvature, counted as CURVATURE_RUNS
+    // runs, takes more than one poll per sample.
+    let per_run = (problem.samples() / EVALUATION_SLICE) as u32;
+    assert!(CURVATURE_RUNS < per_run);
+    let lower = (whole.evaluations + 2) * per_run;
     assert!(
         polls >= lower,
         "{polls} polls for {} model runs",

@@ -65,6 +65,9 @@ impl CommandSource for Synthetic {
     }
 }
 
+/// A poll's budget in flight: 30 % of a 100 µs control period at 168 MHz [instructions].
+const SLICE_BUDGET: u64 = 5_040;
+
 /// Window evaluations timed together for the per-run figure.
 const EVALUATIONS: u32 = 20;
 
@@ -129,6 +132,26 @@ fn main() -> ! {
     let evaluation =
         instructions_under_icount(cycles().saturating_sub(start)) / u64::from(EVALUATIONS);
     let start = cycles();
+    let mut stepwise_polls = 0u32;
+    for _ in 0..EVALUATIONS {
+        let mut future = core::pin::pin!(problem.evaluate_stepwise(&FaultVector::NOMINAL, guess));
+        let mut cx = Context::from_waker(Waker::noop());
+        loop {
+            stepwise_polls += 1;
+            if let Poll::Ready(fit) = future.as_mut().poll(&mut cx) {
+                sink += fit.error;
+                break;
+            }
+        }
+    }
+    let evaluation_stepwise =
+        instructions_under_icount(cycles().saturating_sub(start)) / u64::from(EVALUATIONS);
+    defmt::println!(
+        "window_bench evaluation_stepwise_instructions={=u64} polls_per_evaluation={=u32}",
+        evaluation_stepwise,
+        stepwise_polls / EVALUATIONS
+    );
+    let start = cycles();
     let curvature = problem.curvature(&truth);
     let curvature_instructions = instructions_under_icount(cycles().saturating_sub(start));
     let start = cycles();
@@ -146,12 +169,29 @@ fn main() -> ! {
     ));
     let state_bytes = core::mem::size_of_val(&*future);
     let mut cx = Context::from_waker(Waker::noop());
-    let (mut polls, mut longest) = (0u32, 0u64);
+    let (mut polls, mut longest, mut longest_at, mut over) = (0u32, 0u64, 0u32, 0u32);
+    // The budget in SysTick cycles (compared per poll without a division).
+    let budget_cycles = SLICE_BUDGET * clock::CORE_HZ / 1_000_000_000;
+    let mut over_bins = [0u32; 4];
     let begin = cycles();
     let result = loop {
         let start = cycles();
         let poll = future.as_mut().poll(&mut cx);
-        longest = longest.max(cycles().saturating_sub(start));
+        let took = cycles().saturating_sub(start);
+        if took > longest {
+            (longest, longest_at) = (took, polls);
+        }
+        over += u32::from(took > budget_cycles);
+        // Over the budget: up to 2×, 10×, 100×, beyond.
+        if took > budget_cycles {
+            let bin = [2, 10, 100]
+                .iter()
+                .take_while(|&&m| took > m * budget_cycles)
+                .count();
+            if let Some(b) = over_bins.get_mut(bin) {
+                *b += 1;
+            }
+        }
         polls += 1;
         if let Poll::Ready(result) = poll {
             break result;
@@ -176,10 +216,12 @@ fn main() -> ! {
         load_search,
     );
     defmt::println!(
-        "window_bench identify_instructions={=u64} polls={=u32} longest_poll_instructions={=u64} state_bytes={=usize} ga_evaluations_cap={=u32} model_runs={=u32} within={=bool} friction={=f32} gain_drift={=f32} stiffness={=f32} fitted_stiffness_at_nominal={=f32} check={=f32} fitted={=u32}",
+        "window_bench identify_instructions={=u64} polls={=u32} longest_poll_instructions={=u64} longest_poll={=u32} polls_over_budget={=u32} state_bytes={=usize} ga_evaluations_cap={=u32} model_runs={=u32} within={=bool} friction={=f32} gain_drift={=f32} stiffness={=f32} fitted_stiffness_at_nominal={=f32} check={=f32} fitted={=u32}",
         whole,
         polls,
         instructions_under_icount(longest),
+        longest_at,
+        over,
         state_bytes,
         settings.max_evaluations,
         reading.evaluations,
@@ -190,6 +232,13 @@ fn main() -> ! {
         fitted.stiffness,
         sink,
         curvature.fitted,
+    );
+    defmt::println!(
+        "window_bench polls_over_budget_by_multiple to_2x={=u32} to_10x={=u32} to_100x={=u32} beyond={=u32}",
+        over_bins[0],
+        over_bins[1],
+        over_bins[2],
+        over_bins[3]
     );
     defmt::println!(
         "window_bench fusion_instructions={=u64} fusion_state_bytes={=usize} added={=bool} flight_friction={=f32}",

@@ -32,6 +32,7 @@
 use core::ops::ControlFlow;
 
 use crate::base::math::{abs, clamp, cos, exp64, floor, TAU};
+use crate::base::steps::{pause, run_to_end};
 use crate::model::calibration::Calibration;
 use crate::model::conditions::TestConditions;
 use crate::physics::fault::FaultEffects;
@@ -141,7 +142,7 @@ struct FaultedConstants {
     /// Calibrated torque/back-EMF constant [N·m/A] over one electrical turn in
     /// [`GAIN_BINS`] bins (eight per sector, bin 0 starting at θ_e = −30°): the nominal value
     /// times the mean over the two conducting phases of healthy fraction × air-gap coupling
-    /// factor ([`torque_gain_table`]).
+    /// factor ([`torque_gain_table_stepwise`]).
     bin_torque_constant: [f32; GAIN_BINS],
     /// Standstill pair circuits A→B, B→C, C→A: `i ← decay·i + gain·V` per period (the
     /// exact step response of R_pair, L_pair).
@@ -345,6 +346,13 @@ impl MonitorModel {
     }
 
     fn faulted(&self, k: &FaultVector) -> FaultedConstants {
+        run_to_end(self.faulted_stepwise(k))
+    }
+
+    /// [`faulted`](Self::faulted) in steps: the future pauses after each standstill pair's
+    /// constants (a soft-f64 exponential each on the Cortex-M4F) and after every
+    /// [`GAIN_BINS_PER_POLL`] bins of the torque table. The same bits.
+    async fn faulted_stepwise(&self, k: &FaultVector) -> FaultedConstants {
         let mut fx = k.effects();
         if self.friction_floor != 1.0 {
             fx.friction_scale = self.friction_floor + (3.0 - self.friction_floor) * k.friction();
@@ -367,7 +375,16 @@ impl MonitorModel {
             let decay = exp64(-f64::from(self.dt) * r / l);
             (decay as f32, ((1.0 - decay) / r) as f32)
         };
-        let pairs = [pair(0), pair(1), pair(2)];
+        // A test without a standstill segment (a window's) never drives a pair: its
+        // constants stay zero (three soft-f64 exponentials saved per run start).
+        let mut pairs = [(0.0, 0.0); 3];
+        if self.standstill.is_some() {
+            for (j, slot) in pairs.iter_mut().enumerate() {
+                *slot = pair(j);
+                pause().await;
+            }
+        }
+        let gains = torque_gain_table_stepwise(p, &fx).await;
         FaultedConstants {
             kp: p.position_kp * fx.kp_scale,
             static_friction_impulse: self.dt_over_motor_inertia
@@ -385,8 +402,7 @@ impl MonitorModel {
             // The magnets' irreversible flux loss scales the torque constant (and the back-EMF)
             // in every bin; the standstill pairs above do not see it: a short scales L by N²,
             // a weak magnet does not.
-            bin_torque_constant: torque_gain_table(p, &fx)
-                .map(|g| self.torque_constant * fx.flux_scale * g),
+            bin_torque_constant: gains.map(|g| self.torque_constant * fx.flux_scale * g),
             pair_decay: pairs.map(|(d, _)| d),
             pair_gain: pairs.map(|(_, g)| g),
         }
@@ -509,7 +525,19 @@ impl MonitorModel {
         moment: f32,
         command: f32,
     ) -> (MonitorModel, MonitorRun) {
-        let f = self.faulted(k);
+        run_to_end(self.start_loaded_run_stepwise(k, start, moment, command))
+    }
+
+    /// [`start_loaded_run`](Self::start_loaded_run) in steps: the fault's constants
+    /// stepwise, then the start in one poll (O(1)). The same bits.
+    pub async fn start_loaded_run_stepwise(
+        &self,
+        k: &FaultVector,
+        start: ShaftAngles,
+        moment: f32,
+        command: f32,
+    ) -> (MonitorModel, MonitorRun) {
+        let f = self.faulted_stepwise(k).await;
         let p = &self.params;
         let surface = if p.aero_stiffness > 0.0 {
             moment / p.aero_stiffness
@@ -941,7 +969,10 @@ fn gain_bin(theta_e: f32) -> usize {
 /// apart), evaluated at each bin's centre. The edges under a coil repeat every pole pitch,
 /// so one electrical turn holds the whole shape. Without eccentricity each bin is the
 /// conducting pair's mean healthy fraction, eq. (1). O(GAIN_BINS) work per fault vector.
-fn torque_gain_table(p: &ActuatorParams, fx: &FaultEffects) -> [f32; GAIN_BINS] {
+/// Bins of [`torque_gain_table_stepwise`] between two pauses (four cosines each).
+pub const GAIN_BINS_PER_POLL: usize = 4;
+
+async fn torque_gain_table_stepwise(p: &ActuatorParams, fx: &FaultEffects) -> [f32; GAIN_BINS] {
     let z = fx.eccentricity_z;
     let psi_min = p.winding_group_angle[0] + fx.eccentricity_phase;
     let pole_pairs = if p.pole_pairs >= 1.0 {
@@ -978,6 +1009,9 @@ fn torque_gain_table(p: &ActuatorParams, fx: &FaultEffects) -> [f32; GAIN_BINS] 
         let floating = (b / BINS_PER_SECTOR) % 3;
         let (y, z_phase) = ((floating + 1) % 3, (floating + 2) % 3);
         *slot = 0.5 * (coupling(y, theta_m) + coupling(z_phase, theta_m));
+        if (b + 1) % GAIN_BINS_PER_POLL == 0 {
+            pause().await;
+        }
     }
     table
 }

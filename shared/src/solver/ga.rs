@@ -21,6 +21,7 @@
 //!   `stall_generations` generations.
 
 use crate::base::random::Xoshiro128PlusPlus;
+use crate::base::steps::{pause, run_to_end};
 
 pub mod checkpoint;
 
@@ -265,6 +266,14 @@ impl<const P: usize> SteadyStateGa<P> {
     /// The next candidate to evaluate. Asking again before `tell` returns the same candidate,
     /// so an interrupted evaluation is simply asked for again.
     pub fn ask(&mut self) -> Result<Genes, GaError> {
+        run_to_end(self.ask_stepwise())
+    }
+
+    /// [`ask`](Self::ask) in steps, for a controller's idle time: breeding an offspring
+    /// pauses after every [`SPREAD_MEMBERS_PER_POLL`] members of the population's spread,
+    /// and the breeding itself is a poll of its own.
+    /// The same candidate.
+    pub async fn ask_stepwise(&mut self) -> Result<Genes, GaError> {
         if let Status::Done(reason) = self.status {
             return Err(GaError::Finished(reason));
         }
@@ -277,7 +286,9 @@ impl<const P: usize> SteadyStateGa<P> {
                 _ => core::array::from_fn(|_| self.uniform()),
             }
         } else {
-            self.offspring()
+            let spread = self.spread_stepwise().await;
+            pause().await;
+            self.offspring(&spread)
         };
         self.pending = Some(genes);
         Ok(genes)
@@ -421,10 +432,10 @@ impl<const P: usize> SteadyStateGa<P> {
         winner
     }
 
-    fn offspring(&mut self) -> Genes {
+    /// An offspring bred with the population's `spread` ([`spread_stepwise`](Self::spread_stepwise)).
+    fn offspring(&mut self, spread: &Genes) -> Genes {
         let a = self.tournament();
         let b = self.tournament();
-        let spread = self.spread();
         let s = self.settings;
         let differential = self.uniform() < s.differential_probability;
         let (r1, r2) = (self.index(P), self.index(P));
@@ -482,10 +493,14 @@ impl<const P: usize> SteadyStateGa<P> {
     }
 
     /// Mean absolute distance of the population from the best individual, per gene
-    /// (shortest arc for circular genes).
-    fn spread(&self) -> Genes {
+    /// (shortest arc for circular genes), pausing after every [`SPREAD_MEMBERS_PER_POLL`]
+    /// members.
+    async fn spread_stepwise(&self) -> Genes {
         let mut spread = [0.0f32; GENES];
-        for ind in &self.population {
+        for (n, ind) in self.population.iter().enumerate() {
+            if n > 0 && n % SPREAD_MEMBERS_PER_POLL == 0 {
+                pause().await;
+            }
             for (g, out) in spread.iter_mut().enumerate() {
                 let (Some(&x), Some(&b), Some(&circular)) = (
                     ind.genes.get(g),
@@ -505,6 +520,10 @@ impl<const P: usize> SteadyStateGa<P> {
         spread.map(|s| s * (1.0 / P as f32))
     }
 }
+
+/// Members of the population whose distance from the best one poll of
+/// [`SteadyStateGa::ask_stepwise`] sums (about 1 500 instructions on the Cortex-M4F).
+pub const SPREAD_MEMBERS_PER_POLL: usize = 8;
 
 /// The stall stop's memory, updated once per generation: the best fitness when it last
 /// improved by more than the tolerance, and the generations since. O(1) state, so

@@ -1,6 +1,7 @@
 //! A window's curvature: the Gauss–Newton sums at a fault vector with the drift and the
-//! load profiled out ([`WindowProblem::curvature`]), twelve lockstep model runs in polls of
-//! [`CURVATURE_CHUNK`] samples, f32 products summed in blocks of 64 joined in f64.
+//! load profiled out ([`WindowProblem::curvature`]), thirteen lockstep model runs in polls of
+//! [`CURVATURE_RUNS_PER_POLL`] runs' samples, f32 products summed in blocks of 64 joined in
+//! f64.
 
 use super::*;
 
@@ -29,7 +30,8 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
     }
 
     /// [`curvature`](Self::curvature) in steps: the future pauses after every
-    /// [`CURVATURE_CHUNK`] samples of the twelve lockstep runs.
+    /// [`CURVATURE_RUNS_PER_POLL`] runs' sample, after each sample's sums and after each row
+    /// of a block's flush.
     pub async fn curvature_stepwise(&self, k: &FaultVector) -> Curvature {
         self.curvature_and_load_stepwise(k, self.load).await.0
     }
@@ -52,30 +54,37 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         // One model for the twelve runs, each run's rigging set before its step.
         let mut model = self.model;
         let mut runs: [(RunRigging, crate::model::monitor::MonitorRun, LowPassState); RUNS] =
-            core::array::from_fn(|j| {
-                let mut genes = *k.as_array();
-                let (mut stiffness, mut moment) = (load.stiffness, load.moment);
-                // Held components are varied too: their columns give how the free
-                // components lean on them ([`HeldCoupling`]), then leave the sums.
-                if (1..=FAULT_COUNT).contains(&j) {
-                    let c = j - 1;
-                    let x = genes[c];
-                    let shifted = if x + STEP <= 1.0 { x + STEP } else { x - STEP };
-                    steps[c] = shifted - x;
-                    genes[c] = shifted;
-                } else if j == FAULT_COUNT + 1 {
-                    stiffness *= 1.0 + LOAD_STEP;
-                } else if j == FAULT_COUNT + 2 {
-                    moment += moment_step;
-                }
-                let (m, r) = self.model.with_load_stiffness(stiffness).start_loaded_run(
-                    &FaultVector::saturating(genes),
-                    start,
-                    moment,
-                    first,
-                );
-                (m.rigging(), r, LowPassState::default())
+            core::array::from_fn(|_| {
+                (
+                    model.rigging(),
+                    crate::model::monitor::MonitorRun::IDLE,
+                    LowPassState::default(),
+                )
             });
+        for (j, slot) in runs.iter_mut().enumerate() {
+            let mut genes = *k.as_array();
+            let (mut stiffness, mut moment) = (load.stiffness, load.moment);
+            // Held components are varied too: their columns give how the free
+            // components lean on them ([`HeldCoupling`]), then leave the sums.
+            if (1..=FAULT_COUNT).contains(&j) {
+                let c = j - 1;
+                let x = genes[c];
+                let shifted = if x + STEP <= 1.0 { x + STEP } else { x - STEP };
+                steps[c] = shifted - x;
+                genes[c] = shifted;
+            } else if j == FAULT_COUNT + 1 {
+                stiffness *= 1.0 + LOAD_STEP;
+            } else if j == FAULT_COUNT + 2 {
+                moment += moment_step;
+            }
+            let (m, r) = self
+                .model
+                .with_load_stiffness(stiffness)
+                .start_loaded_run_stepwise(&FaultVector::saturating(genes), start, moment, first)
+                .await;
+            *slot = (m.rigging(), r, LowPassState::default());
+            pause().await;
+        }
         let filter = self.measured.filter();
         let mut totals = WindowTotals::ZERO;
         let mut fitted = 0u32;
@@ -94,18 +103,20 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             let push = -load.trend_at(&phi);
             let command = self.command.position_at(i);
             let mut current = [0.0f32; RUNS];
-            for ((rigging, run, state), out) in runs.iter_mut().zip(current.iter_mut()) {
+            for (n, ((rigging, run, state), out)) in
+                runs.iter_mut().zip(current.iter_mut()).enumerate()
+            {
                 model.rig(*rigging);
                 if push != 0.0 {
                     run.push_surface(&model, push);
                 }
                 *out = filter.apply(state, run.next_sample(&model, command).current);
+                if (n + 1) % CURVATURE_RUNS_PER_POLL == 0 {
+                    pause().await;
+                }
             }
             let d = r - previous;
             previous = r;
-            if (i + 1) % CURVATURE_CHUNK == 0 {
-                pause().await;
-            }
             if i < SETTLE_SAMPLES {
                 continue;
             }
@@ -156,12 +167,13 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             }
             fitted += 1;
             in_block += 1;
+            pause().await;
             if in_block == CURVATURE_BLOCK {
-                block.flush(&mut totals);
+                block.flush_stepwise(&mut totals).await;
                 in_block = 0;
             }
         }
-        block.flush(&mut totals);
+        block.flush_stepwise(&mut totals).await;
         let WindowTotals {
             mut normal,
             mut gradient,
@@ -231,9 +243,11 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
     }
 }
 
-/// Samples of a window curvature's twelve lockstep runs between two pauses of
-/// [`WindowProblem::curvature_stepwise`] (about one window evaluation's work).
-pub const CURVATURE_CHUNK: usize = 400;
+/// Runs of a window curvature's lockstep sample between two pauses of
+/// [`WindowProblem::curvature_stepwise`]; the sample's sums are one more poll, a block's
+/// flush into the f64 totals one per row (each under 30 % of a 100 µs control period on the
+/// Cortex-M4F).
+pub const CURVATURE_RUNS_PER_POLL: usize = 5;
 
 /// Fitted samples a window curvature sums in f32 before they join its f64 totals.
 pub(super) const CURVATURE_BLOCK: u32 = 64;
@@ -261,19 +275,24 @@ impl WindowBlockSums {
         q_load: [[0.0; NUISANCES]; NUISANCES - DRIFT_TERMS],
     };
 
-    /// Adds the block to `totals` and empties it.
-    pub(super) fn flush(&mut self, totals: &mut WindowTotals) {
+    /// Adds the block to `totals` and empties it, pausing after each row (soft f64 on the
+    /// Cortex-M4F: a row's adds are one poll).
+    pub(super) async fn flush_stepwise(&mut self, totals: &mut WindowTotals) {
         for (total, block) in totals.normal.iter_mut().zip(&self.normal) {
             add(total, block);
+            pause().await;
         }
         add(&mut totals.gradient, &self.gradient);
         totals.rss += f64::from(self.rss);
         add(&mut totals.q_residual, &self.q_residual);
+        pause().await;
         for (total, block) in totals.cross.iter_mut().zip(&self.cross) {
             add(total, block);
+            pause().await;
         }
         for (total, block) in totals.q_load.iter_mut().zip(&self.q_load) {
             add(total, block);
+            pause().await;
         }
         *self = Self::ZERO;
     }

@@ -109,6 +109,141 @@ impl TaylorBlock {
     }
 }
 
+/// Eq. (3)'s sums over a window's samples, taken in order and resumable
+/// ([`advance`](Self::advance) any number of samples at a time, the same bits): the modelled
+/// current against the measured after [`SETTLE_SAMPLES`], weighted by the measured current's
+/// steps, and its projections on the drift's polynomials.
+///
+/// The drift's polynomials are not evaluated per sample: over each block of [`DRIFT_BLOCK`]
+/// fitted samples they are expanded to second order about the block's centre
+/// ([`TaylorBlock`]), so a sample adds three weighted powers of its distance from the centre
+/// and the trend's moment is three multiply-adds. The expansion's error is the third
+/// derivative's term: below 10⁻⁴ of the polynomials' range for degree 9.
+#[derive(Clone)]
+pub(super) struct ResidualSums {
+    /// The next sample's index.
+    next: usize,
+    /// The trend's value at the window's start (its moments are relative to it).
+    at_start: f32,
+    block: TaylorBlock,
+    /// The trend's expansion over the block: value, slope, half the bend.
+    moment: (f32, f32, f32),
+    /// Σ w·e, Σ w·e·u, Σ w·e·u² over the block, u the distance from its centre.
+    sums: (f32, f32, f32),
+    projections: [f32; DRIFT_TERMS],
+    previous: f32,
+    squares: f32,
+    in_block: usize,
+}
+
+impl ResidualSums {
+    pub(super) fn new(trend: &[f32; DRIFT_TERMS]) -> Self {
+        Self {
+            next: 0,
+            at_start: dot(trend, &legendre(-1.0)),
+            block: TaylorBlock::ZERO,
+            moment: (0.0, 0.0, 0.0),
+            sums: (0.0, 0.0, 0.0),
+            projections: [0.0; DRIFT_TERMS],
+            previous: 0.0,
+            squares: 0.0,
+            in_block: 0,
+        }
+    }
+
+    /// Steps `modelled` over at most `count` more of `problem`'s samples (`trend` the load's,
+    /// as at [`new`](Self::new)) and sums them. Returns whether the window is done. The
+    /// settle and the fitted samples are two loops, each with the model stepped inline
+    /// ([`SampleCurrent`]); the running sums are locals within a call. O(`count`).
+    #[inline(always)]
+    pub(super) fn advance<const N: usize>(
+        &mut self,
+        problem: &WindowProblem<'_, N>,
+        trend: &[f32; DRIFT_TERMS],
+        modelled: &mut impl SampleCurrent,
+        count: usize,
+    ) -> bool {
+        let total = problem.samples;
+        let reference = problem.measured.samples();
+        let reference = reference.get(..total).unwrap_or(reference);
+        let total = reference.len();
+        let start = self.next.min(total);
+        let end = start.saturating_add(count).min(total);
+        let settle_end = end.min(SETTLE_SAMPLES);
+        let mut previous = self.previous;
+        for (i, &r) in (start..).zip(reference.get(start..settle_end).unwrap_or(&[])) {
+            modelled.next(i, 0.0);
+            previous = r;
+        }
+        let step = axis_step(total);
+        let half = 0.5 * (DRIFT_BLOCK - 1) as f32;
+        let mut moment = self.moment;
+        let mut sums = self.sums;
+        let mut squares = self.squares;
+        let mut in_block = self.in_block;
+        let fitted_start = start.max(SETTLE_SAMPLES);
+        for (i, &r) in (fitted_start..).zip(reference.get(fitted_start..end).unwrap_or(&[])) {
+            if in_block == 0 {
+                self.block.add_to(&mut self.projections, sums);
+                sums = (0.0, 0.0, 0.0);
+                self.block = TaylorBlock::at(axis(i, total) + half * step);
+                moment = (
+                    dot(trend, &self.block.value) - self.at_start,
+                    dot(trend, &self.block.slope),
+                    0.5 * dot(trend, &self.block.bend),
+                );
+            }
+            let u = (in_block as f32 - half) * step;
+            in_block = if in_block + 1 == DRIFT_BLOCK {
+                0
+            } else {
+                in_block + 1
+            };
+            let h = moment.0 + u * (moment.1 + u * moment.2);
+            let m = modelled.next(i, h);
+            let d = r - previous;
+            previous = r;
+            let w = weight(d, problem.inv_kappa);
+            let e = r - m;
+            let we = w * e;
+            squares += we * e;
+            let weu = we * u;
+            sums.0 += we;
+            sums.1 += weu;
+            sums.2 += weu * u;
+        }
+        self.previous = previous;
+        self.moment = moment;
+        self.sums = sums;
+        self.squares = squares;
+        self.in_block = in_block;
+        self.next = end;
+        end == total
+    }
+
+    /// Eq. (3) with the drift profiled out, and the drift, of the samples summed so far.
+    /// O(`DRIFT_TERMS²`).
+    pub(super) fn fit<const N: usize>(mut self, problem: &WindowProblem<'_, N>) -> WindowFit {
+        self.block.add_to(&mut self.projections, self.sums);
+        let projections = &self.projections;
+        let mut drift = [0.0f32; DRIFT_TERMS];
+        for (c, row) in drift.iter_mut().zip(&problem.drift_inverse) {
+            *c = row.iter().zip(projections).map(|(a, b)| a * b).sum();
+        }
+        let explained: f32 = drift.iter().zip(projections).map(|(c, b)| c * b).sum();
+        let dt = problem.model.params().control_period;
+        let error = (self.squares - explained).max(0.0) * dt;
+        WindowFit {
+            error: if error.is_finite() {
+                error
+            } else {
+                f32::INFINITY
+            },
+            drift,
+        }
+    }
+}
+
 /// The modelled current of a window's samples, in order: `next(i, h)` steps the model to
 /// sample `i` with `h` [N·m] pushed on the surface and gives its filtered current [A]. O(1),
 /// inlined into [`WindowProblem::residual_fit`]'s loops.

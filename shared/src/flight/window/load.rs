@@ -18,7 +18,8 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         (load, error)
     }
 
-    /// [`fit_load`](Self::fit_load) in steps: the future pauses after every evaluation.
+    /// [`fit_load`](Self::fit_load) in steps: each evaluation stepwise
+    /// ([`evaluate_stepwise`](Self::evaluate_stepwise)).
     /// Also returns the evaluations it spent (≤ [`LOAD_SEARCH_EVALUATIONS`]: the trend's
     /// rounds stop when one does not lower the error).
     pub async fn fit_load_stepwise(
@@ -50,8 +51,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         let mut best = (held, f32::INFINITY);
         for j in 0..MOMENT_SCAN {
             let m = held - span + cell * j as f32;
-            let e = self.evaluate_under(k, at_moment(load, m)).error;
-            pause().await;
+            let e = self.evaluate_stepwise(k, at_moment(load, m)).await.error;
             if e < best.1 {
                 best = (m, e);
             }
@@ -61,15 +61,13 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         let range_k = (ln(stiffness_guess / 3.0), ln(stiffness_guess * 3.0));
         let mut search = GoldenSearch::new(range_k);
         while let Some(x) = search.ask() {
-            search.tell(self.evaluate_under(k, stiffness_at(load, x)).error);
-            pause().await;
+            search.tell(self.evaluate_stepwise(k, stiffness_at(load, x)).await.error);
         }
         let (log_k, _) = search.best();
         load = stiffness_at(load, log_k);
         let mut search = GoldenSearch::new((best.0 - cell, best.0 + cell));
         while let Some(m) = search.ask() {
-            search.tell(self.evaluate_under(k, at_moment(load, m)).error);
-            pause().await;
+            search.tell(self.evaluate_stepwise(k, at_moment(load, m)).await.error);
         }
         let (moment, _) = search.best();
         load.moment = moment;
@@ -77,13 +75,11 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         load = trended;
         let mut search = GoldenSearch::new((log_k - 0.3, log_k + 0.3));
         while let Some(x) = search.ask() {
-            search.tell(self.evaluate_under(k, stiffness_at(load, x)).error);
-            pause().await;
+            search.tell(self.evaluate_stepwise(k, stiffness_at(load, x)).await.error);
         }
         let (log_k, _) = search.best();
         let (load, second_rounds) = self.follow_trend(k, stiffness_at(load, log_k)).await;
-        let error = self.evaluate_under(k, load).error;
-        pause().await;
+        let error = self.evaluate_stepwise(k, load).await.error;
         let runs = MOMENT_SCAN + 3 * GOLDEN_STEPS + 1 + first_rounds + second_rounds;
         (load, error, runs as u32)
     }
@@ -99,8 +95,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         let mut runs = 0;
         let per_ampere = self.model.torque_constant() * self.model.params().gear_ratio;
         for _ in 0..TREND_ROUNDS {
-            let fit = self.evaluate_under(k, load);
-            pause().await;
+            let fit = self.evaluate_stepwise(k, load).await;
             let start: f32 = fit
                 .drift
                 .iter()
@@ -115,8 +110,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
                 }),
                 stiffness: load.stiffness,
             };
-            let error = self.evaluate_under(k, next).error;
-            pause().await;
+            let error = self.evaluate_stepwise(k, next).await.error;
             runs += 2;
             if error <= fit.error {
                 load = next;

@@ -63,6 +63,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
                 .fold(0.0f32, |m, &x| m.max(abs(x))),
             command_range: hi - lo,
             held: HeldComponents::NONE,
+            evaluation_slice: EVALUATION_SLICE,
         };
         problem.energy = problem
             .residual_fit(&[0.0; DRIFT_TERMS], &mut NoCurrent)
@@ -118,6 +119,13 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         Ok((Self::new(measured, command, model, load)?, conditions))
     }
 
+    /// The same problem with its stepwise evaluations in polls of `samples` samples (at
+    /// least one; `usize::MAX`: a model run in one poll). The same bits for every slice.
+    pub fn with_evaluation_slice(mut self, samples: usize) -> Self {
+        self.evaluation_slice = samples.max(1);
+        self
+    }
+
     pub fn with_held(mut self, held: HeldComponents) -> Self {
         self.held = held;
         self
@@ -165,6 +173,30 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         let trending = load.trend != [0.0; DRIFT_TERMS];
         let mut current = self.loaded_current(&model, &mut run, trending);
         self.residual_fit(&load.trend, &mut current)
+    }
+
+    /// [`evaluate_under`](Self::evaluate_under) in steps, for a controller's idle time: the
+    /// run's start stepwise ([`MonitorModel::start_loaded_run_stepwise`]), then a pause
+    /// after every slice of samples ([`with_evaluation_slice`](Self::with_evaluation_slice))
+    /// and once at the end. The same bits.
+    pub async fn evaluate_stepwise(&self, k: &FaultVector, load: WindowLoad) -> WindowFit {
+        let (model, mut run) = self.loaded_start_stepwise(k, load).await;
+        pause().await;
+        let trending = load.trend != [0.0; DRIFT_TERMS];
+        let mut state = LowPassState::default();
+        let mut sums = ResidualSums::new(&load.trend);
+        loop {
+            let mut current = self.loaded_current(&model, &mut run, trending);
+            current.state = state;
+            let done = sums.advance(self, &load.trend, &mut current, self.evaluation_slice);
+            state = current.state;
+            if done {
+                break;
+            }
+            pause().await;
+        }
+        pause().await;
+        sums.fit(self)
     }
 
     /// As [`evaluate_under`](Self::evaluate_under) with the load's trend replaced by a
@@ -220,11 +252,23 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         k: &FaultVector,
         load: WindowLoad,
     ) -> (MonitorModel, MonitorRun) {
+        run_to_end(self.loaded_start_stepwise(k, load))
+    }
+
+    /// [`loaded_start`](Self::loaded_start) in steps
+    /// ([`MonitorModel::start_loaded_run_stepwise`]).
+    pub(super) async fn loaded_start_stepwise(
+        &self,
+        k: &FaultVector,
+        load: WindowLoad,
+    ) -> (MonitorModel, MonitorRun) {
         let k = &self.held.apply(k);
         let model = self.model.with_load_stiffness(load.stiffness);
         let start = self.measured.initial_angles();
         let first = self.command.position_at(0);
-        model.start_loaded_run(k, start, load.moment, first)
+        model
+            .start_loaded_run_stepwise(k, start, load.moment, first)
+            .await
     }
 
     /// The run's current through the measurement's filter, pushing a moment each step
@@ -250,89 +294,17 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
 
     /// Eq. (3) of the modelled current `modelled.next(i, h)` (filtered; called once per
     /// sample, in order, with `h` the moment [N·m] of `trend` there, relative to the window's
-    /// start) against the measured, after the settle, with the drift profiled out. The
-    /// settle and the fitted samples are two loops, each with the model stepped inline
-    /// ([`SampleCurrent`]).
-    ///
-    /// The drift's polynomials are not evaluated per sample: over each block of
-    /// [`DRIFT_BLOCK`] fitted samples they are expanded to second order about the block's
-    /// centre ([`TaylorBlock`]), so a sample adds three weighted powers of its distance from
-    /// the centre and the trend's moment is three multiply-adds. The expansion's error is
-    /// the third derivative's term: below 10⁻⁴ of the polynomials' range for degree 9.
+    /// start) against the measured, after the settle, with the drift profiled out
+    /// ([`ResidualSums`] over the whole window in one call).
     #[inline(always)]
     pub(super) fn residual_fit(
         &self,
         trend: &[f32; DRIFT_TERMS],
         modelled: &mut impl SampleCurrent,
     ) -> WindowFit {
-        let step = axis_step(self.samples);
-        let at_start: f32 = dot(trend, &legendre(-1.0));
-        let mut block = TaylorBlock::ZERO;
-        // The trend's expansion over the block: value, slope, half the bend.
-        let mut moment = (0.0f32, 0.0f32, 0.0f32);
-        // Σ w·e, Σ w·e·u, Σ w·e·u² over the block, u the distance from its centre.
-        let mut sums = (0.0f32, 0.0f32, 0.0f32);
-        let mut projections = [0.0f32; DRIFT_TERMS];
-        let mut previous = 0.0f32;
-        let mut squares = 0.0f32;
-        let mut in_block = 0usize;
-        let half = 0.5 * (DRIFT_BLOCK - 1) as f32;
-        let reference = self.measured.samples();
-        let reference = reference.get(..self.samples).unwrap_or(reference);
-        let (settle, fitted) = reference
-            .split_at_checked(SETTLE_SAMPLES)
-            .unwrap_or((reference, &[]));
-        for (i, &r) in settle.iter().enumerate() {
-            modelled.next(i, 0.0);
-            previous = r;
-        }
-        for (j, &r) in fitted.iter().enumerate() {
-            let i = SETTLE_SAMPLES + j;
-            if in_block == 0 {
-                block.add_to(&mut projections, sums);
-                sums = (0.0, 0.0, 0.0);
-                block = TaylorBlock::at(axis(i, self.samples) + half * step);
-                moment = (
-                    dot(trend, &block.value) - at_start,
-                    dot(trend, &block.slope),
-                    0.5 * dot(trend, &block.bend),
-                );
-            }
-            let u = (in_block as f32 - half) * step;
-            in_block = if in_block + 1 == DRIFT_BLOCK {
-                0
-            } else {
-                in_block + 1
-            };
-            let h = moment.0 + u * (moment.1 + u * moment.2);
-            let m = modelled.next(i, h);
-            let d = r - previous;
-            previous = r;
-            let w = weight(d, self.inv_kappa);
-            let e = r - m;
-            let we = w * e;
-            squares += we * e;
-            let weu = we * u;
-            sums.0 += we;
-            sums.1 += weu;
-            sums.2 += weu * u;
-        }
-        block.add_to(&mut projections, sums);
-        let mut drift = [0.0f32; DRIFT_TERMS];
-        for (c, row) in drift.iter_mut().zip(&self.drift_inverse) {
-            *c = row.iter().zip(&projections).map(|(a, b)| a * b).sum();
-        }
-        let explained: f32 = drift.iter().zip(&projections).map(|(c, b)| c * b).sum();
-        let dt = self.model.params().control_period;
-        let error = (squares - explained).max(0.0) * dt;
-        WindowFit {
-            error: if error.is_finite() {
-                error
-            } else {
-                f32::INFINITY
-            },
-            drift,
-        }
+        let mut sums = ResidualSums::new(trend);
+        sums.advance(self, trend, modelled, usize::MAX);
+        sums.fit(self)
     }
 
     /// The window as fitted at `k` under the problem's load: for every sample, the time

@@ -60,7 +60,8 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         run_to_end(self.judge_stepwise(limits, k, error, friction_std))
     }
 
-    /// [`judge`](Self::judge) in steps: the future pauses after each of its two runs.
+    /// [`judge`](Self::judge) in steps: its two runs stepwise
+    /// ([`evaluate_stepwise`](Self::evaluate_stepwise)).
     pub async fn judge_stepwise(
         &self,
         limits: &WindowLimits,
@@ -93,12 +94,16 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             if let Some(b) = genes.get_mut(1) {
                 *b = level;
             }
-            self.evaluate(&FaultVector::saturating(genes)).error
+            FaultVector::saturating(genes)
         };
-        let wide = with_play(PLAY_PROBE);
-        pause().await;
-        let none = with_play(0.0);
-        pause().await;
+        let wide = self
+            .evaluate_stepwise(&with_play(PLAY_PROBE), self.load)
+            .await
+            .error;
+        let none = self
+            .evaluate_stepwise(&with_play(0.0), self.load)
+            .await
+            .error;
         let contrast = abs(wide - none) / error.max(f32::MIN_POSITIVE);
         if contrast.is_nan() || contrast < limits.min_play_contrast {
             return Err(WindowReason::PlayUnseen { contrast });
