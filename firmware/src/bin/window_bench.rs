@@ -19,6 +19,7 @@
 #![no_main]
 
 use core::future::Future;
+use core::panic::Location;
 use core::task::{Context, Poll, Waker};
 
 use cortex_m_rt::{entry, exception, ExceptionFrame};
@@ -29,6 +30,7 @@ use shared::actuator::ActuatorRecord;
 use shared::command::{ChirpSampler, CommandSource};
 use shared::fdi::{OnboardMeasured, POPULATION, TEST_SAMPLES};
 use shared::fusion::{WindowFusion, FLIGHT_MAX_FRICTION_STD};
+use shared::steps::last_pause;
 use shared::window::{
     identify_stepwise, record_monitor_window, synthetic_command, window_ga, RecordedCommand,
     WindowLimits, WindowLoad, WindowProblem, COMMAND_STRIDE, WINDOW_INFLATION,
@@ -67,6 +69,24 @@ impl CommandSource for Synthetic {
 
 /// A poll's budget in flight: 30 % of a 100 µs control period at 168 MHz [instructions].
 const SLICE_BUDGET: u64 = 5_040;
+
+/// Distinct places of polls over the budget the bench names.
+const OVER_SITES: usize = 16;
+
+/// Polls over the budget that started after the pause at `from` and ended at the one at
+/// `to`: how many, and the longest [cycles].
+#[derive(Clone, Copy)]
+struct OverSite {
+    from: Option<&'static Location<'static>>,
+    to: Option<&'static Location<'static>>,
+    count: u32,
+    longest: u64,
+}
+
+/// A pause's file and line ("start"/"end" for none).
+fn line_of(at: Option<&'static Location<'static>>) -> (&'static str, u32) {
+    at.map_or(("-", 0), |l| (l.file(), l.line()))
+}
 
 /// Window evaluations timed together for the per-run figure.
 const EVALUATIONS: u32 = 20;
@@ -173,23 +193,44 @@ fn main() -> ! {
     // The budget in SysTick cycles (compared per poll without a division).
     let budget_cycles = SLICE_BUDGET * clock::CORE_HZ / 1_000_000_000;
     let mut over_bins = [0u32; 4];
+    // The polls over the budget by their two ends (the pauses they start and end at): count
+    // and longest [cycles], the first OVER_SITES pairs seen.
+    let mut sites: [Option<OverSite>; OVER_SITES] = [None; OVER_SITES];
+    let (mut longest_from, mut longest_to) = (None, None);
     let begin = cycles();
     let result = loop {
+        let from = last_pause();
         let start = cycles();
         let poll = future.as_mut().poll(&mut cx);
         let took = cycles().saturating_sub(start);
+        let to = last_pause();
         if took > longest {
             (longest, longest_at) = (took, polls);
+            (longest_from, longest_to) = (from, to);
         }
-        over += u32::from(took > budget_cycles);
-        // Over the budget: up to 2×, 10×, 100×, beyond.
         if took > budget_cycles {
+            over += 1;
+            // Over the budget: up to 2×, 10×, 100×, beyond.
             let bin = [2, 10, 100]
                 .iter()
                 .take_while(|&&m| took > m * budget_cycles)
                 .count();
             if let Some(b) = over_bins.get_mut(bin) {
                 *b += 1;
+            }
+            let key = (line_of(from), line_of(to));
+            let slot = sites
+                .iter_mut()
+                .find(|s| s.is_none_or(|s| (line_of(s.from), line_of(s.to)) == key));
+            if let Some(slot) = slot {
+                let site = slot.get_or_insert(OverSite {
+                    from,
+                    to,
+                    count: 0,
+                    longest: 0,
+                });
+                site.count += 1;
+                site.longest = site.longest.max(took);
             }
         }
         polls += 1;
@@ -240,6 +281,26 @@ fn main() -> ! {
         over_bins[2],
         over_bins[3]
     );
+    let (from, to) = (line_of(longest_from), line_of(longest_to));
+    defmt::println!(
+        "window_bench longest_poll_from={=str}:{=u32} longest_poll_to={=str}:{=u32}",
+        from.0,
+        from.1,
+        to.0,
+        to.1
+    );
+    for site in sites.iter().flatten() {
+        let (from, to) = (line_of(site.from), line_of(site.to));
+        defmt::println!(
+            "window_bench over_budget from={=str}:{=u32} to={=str}:{=u32} polls={=u32} longest_instructions={=u64}",
+            from.0,
+            from.1,
+            to.0,
+            to.1,
+            site.count,
+            instructions_under_icount(site.longest)
+        );
+    }
     defmt::println!(
         "window_bench fusion_instructions={=u64} fusion_state_bytes={=usize} added={=bool} flight_friction={=f32}",
         fusion_instructions,

@@ -98,6 +98,12 @@ pub fn clamp(x: f32, lo: f32, hi: f32) -> f32 {
 /// polynomial, exponent bits), so it gives the same bits on every target; relative error
 /// below 1e-15. `x` is clamped to `[−700, 700]` (no overflow to infinity); NaN gives NaN.
 pub fn exp64(x: f64) -> f64 {
+    crate::base::steps::run_to_end(exp64_stepwise(x))
+}
+
+/// [`exp64`] in steps, for a controller's idle time: the future pauses once, halfway
+/// through the series (a soft-f64 division per term on the Cortex-M4F). The same bits.
+pub async fn exp64_stepwise(x: f64) -> f64 {
     // ln 2 split (fdlibm): the high part has trailing zero bits, so k·LN2_HI is exact.
     const LN2_HI: f64 = f64::from_bits(0x3FE6_2E42_FEE0_0000);
     const LN2_LO: f64 = f64::from_bits(0x3DEA_39EF_3579_3C76);
@@ -121,6 +127,9 @@ pub fn exp64(x: f64) -> f64 {
     while n > 0.5 {
         p = 1.0 + p * r / n;
         n -= 1.0;
+        if n == 6.0 {
+            crate::base::steps::pause().await;
+        }
     }
     // |k| ≤ 1010: a normal power of two.
     p * f64::from_bits(((k + 1023) as u64) << 52)
@@ -182,10 +191,21 @@ pub const INVERT_N: usize = 9;
 /// Inverse of a regular N×N matrix (Gauss–Jordan, partial pivoting); `None` if singular.
 /// O(N³), no allocation. One copy of the 9×9 ([`INVERT_N`]) for the uncertainty, the polish
 /// and the grease's fit; the window's nuisances use their own size (host only).
-#[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // fixed N×N bounds
 #[inline(never)]
 pub fn invert<const N: usize>(m: &[[f64; N]; N]) -> Option<[[f64; N]; N]> {
+    crate::base::steps::run_to_end(invert_stepwise(m))
+}
+
+/// [`invert`] in steps, for a controller's idle time: the future pauses first, after
+/// copying the matrix, after each pivot's search and swap, after each quarter of the pivot
+/// row's division and after each row's elimination (O(N) soft-f64 operations on the
+/// Cortex-M4F). The same bits.
+#[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // fixed N×N bounds
+pub async fn invert_stepwise<const N: usize>(m: &[[f64; N]; N]) -> Option<[[f64; N]; N]> {
+    // What the caller did (building the matrix) ends its poll here.
+    crate::base::steps::pause().await;
     let mut a = *m;
+    crate::base::steps::pause().await;
     let mut inv = [[0.0f64; N]; N];
     for (i, row) in inv.iter_mut().enumerate() {
         row[i] = 1.0;
@@ -209,11 +229,22 @@ pub fn invert<const N: usize>(m: &[[f64; N]; N]) -> Option<[[f64; N]; N]> {
             inv[col][c] = inv[pivot][c];
             inv[pivot][c] = t;
         }
+        crate::base::steps::pause().await;
         let d = a[col][col];
         for c in 0..N {
             a[col][c] /= d;
-            inv[col][c] /= d;
+            if c + 1 == N / 2 {
+                crate::base::steps::pause().await;
+            }
         }
+        crate::base::steps::pause().await;
+        for c in 0..N {
+            inv[col][c] /= d;
+            if c + 1 == N / 2 {
+                crate::base::steps::pause().await;
+            }
+        }
+        crate::base::steps::pause().await;
         for r in 0..N {
             if r != col {
                 let f = a[r][col];
@@ -222,6 +253,7 @@ pub fn invert<const N: usize>(m: &[[f64; N]; N]) -> Option<[[f64; N]; N]> {
                         a[r][c] -= f * a[col][c];
                         inv[r][c] -= f * inv[col][c];
                     }
+                    crate::base::steps::pause().await;
                 }
             }
         }

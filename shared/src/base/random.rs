@@ -11,6 +11,11 @@ pub struct Xoshiro128PlusPlus {
 }
 
 impl Xoshiro128PlusPlus {
+    /// A fixed state (SplitMix64's fallback), for a generator to be seeded in place.
+    pub const IDLE: Self = Self {
+        s: [0x9E37_79B9, 1, 2, 3],
+    };
+
     /// Seeds the state with two SplitMix64 outputs (little-endian words).
     pub fn seed_from_u64(seed: u64) -> Self {
         let mut state = seed;
@@ -24,9 +29,7 @@ impl Xoshiro128PlusPlus {
         let (a, b) = (splitmix(), splitmix());
         let s = [a as u32, (a >> 32) as u32, b as u32, (b >> 32) as u32];
         // SplitMix64 never gives two zero words in a row from one seed, but keep the rule.
-        Self::from_state(s).unwrap_or(Self {
-            s: [0x9E37_79B9, 1, 2, 3],
-        })
+        Self::from_state(s).unwrap_or(Self::IDLE)
     }
 
     /// A generator in the given state; `None` for the all-zero state, which never leaves zero.

@@ -2,23 +2,34 @@
 //! ([`pause`], the end of one step), and [`run_to_end`] that polls a stepwise future to its
 //! end without an executor. The window identification pauses after each model run
 //! ([`crate::flight::window::identify_stepwise`]); the firmware's tasks yield with the same future.
-//! O(1) per poll; no timer, no allocation.
+//! O(1) per poll; no timer, no allocation. Each pause records where it was made
+//! ([`last_pause`]), so a bench can name the two ends of its longest poll.
 
 use core::future::Future;
+use core::panic::Location;
 use core::pin::Pin;
+use core::sync::atomic::{AtomicPtr, Ordering};
 use core::task::{Context, Poll, Waker};
 
-/// A future that is pending once (waking itself), then ready.
+/// A future that is pending once (waking itself), then ready; it knows where in the source
+/// it was made.
 #[derive(Debug)]
-pub struct Pause(bool);
+pub struct Pause {
+    done: bool,
+    at: &'static Location<'static>,
+}
+
+/// Where the last pause that handed the caller back was made (null before the first).
+static LAST_PAUSE: AtomicPtr<Location<'static>> = AtomicPtr::new(core::ptr::null_mut());
 
 impl Future for Pause {
     type Output = ();
     fn poll(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<()> {
-        if self.0 {
+        if self.done {
             Poll::Ready(())
         } else {
-            self.0 = true;
+            self.done = true;
+            LAST_PAUSE.store(core::ptr::from_ref(self.at).cast_mut(), Ordering::Relaxed);
             cx.waker().wake_by_ref();
             Poll::Pending
         }
@@ -26,9 +37,38 @@ impl Future for Pause {
 }
 
 /// Gives the caller (the executor) back once: the end of one bounded step.
+#[track_caller]
 pub fn pause() -> Pause {
-    Pause(false)
+    Pause {
+        done: false,
+        at: Location::caller(),
+    }
 }
+
+/// Where the last pause that handed its caller back stands in the source (`None` before
+/// the first): with the one before it, the two ends of a poll, for a bench that looks for
+/// its longest (`firmware/window-bench`). O(1).
+pub fn last_pause() -> Option<&'static Location<'static>> {
+    // SAFETY: the pointer is null or was made from a `&'static Location`.
+    unsafe { LAST_PAUSE.load(Ordering::Relaxed).as_ref() }
+}
+
+/// `Σ term(i)` for `i` in `0..n`, summed in order from −0 (as `Iterator::sum` of `f64`:
+/// the same bits), pausing after every [`TERMS_PER_POLL`] terms: a sum of soft-f64 products
+/// on the Cortex-M4F in polls of a few thousand instructions.
+pub async fn sum_stepwise(n: usize, term: impl Fn(usize) -> f64) -> f64 {
+    let mut sum = -0.0f64;
+    for i in 0..n {
+        sum += term(i);
+        if (i + 1) % TERMS_PER_POLL == 0 && i + 1 < n {
+            pause().await;
+        }
+    }
+    sum
+}
+
+/// Terms of a [`sum_stepwise`] between two pauses.
+pub const TERMS_PER_POLL: usize = 6;
 
 /// Polls `future` until it is ready, without an executor (a no-op waker): the stepwise work
 /// in one call, the same bits.
@@ -47,6 +87,7 @@ mod tests {
     use super::*;
 
     /// A pause is pending exactly once; `run_to_end` sees through any number of them.
+    /// (Where it was made: `tests/pause_location.rs`, a process of its own.)
     #[test]
     fn a_pause_is_pending_once() {
         let mut p = core::pin::pin!(pause());

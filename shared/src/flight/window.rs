@@ -36,7 +36,7 @@
 //! identification is 2.9 × 10⁹ instructions in ≈ 1 500 polls (`cargo window-bench`,
 //! docs/in-flight.md).
 
-use crate::base::math::{abs, invert};
+use crate::base::math::{abs, invert, invert_stepwise};
 use crate::base::steps::{pause, run_to_end};
 use crate::model::monitor::{MonitorModel, MonitorRun, RunRigging};
 use crate::physics::fault::{FaultVector, DEMAGNETIZATION_INDEX, FAULT_COUNT};
@@ -398,12 +398,21 @@ impl HeldComponents {
     /// error, `A = N_ff⁻¹ · N_fh` from a window's `curvature` (held rows and columns zero)
     /// and its `coupling`: row a free component, column a held one. `None` when the
     /// curvature determines no component. O(9³).
-    #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // i, j < FAULT_COUNT on fixed 9×9 arrays
     pub fn sensitivity(
         curvature: &Curvature,
         coupling: &HeldCoupling,
     ) -> Option<[[f64; FAULT_COUNT]; FAULT_COUNT]> {
-        let (inverse, determined) = curvature.inverse(0.0)?;
+        run_to_end(Self::sensitivity_stepwise(curvature, coupling))
+    }
+
+    /// [`sensitivity`](Self::sensitivity) in steps: the inverse stepwise, then a pause
+    /// after each entry. The same bits.
+    #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // i, j < FAULT_COUNT on fixed 9×9 arrays
+    pub async fn sensitivity_stepwise(
+        curvature: &Curvature,
+        coupling: &HeldCoupling,
+    ) -> Option<[[f64; FAULT_COUNT]; FAULT_COUNT]> {
+        let (inverse, determined) = curvature.inverse_stepwise(0.0).await?;
         let mut a = [[0.0f64; FAULT_COUNT]; FAULT_COUNT];
         for i in (0..FAULT_COUNT).filter(|&i| determined[i]) {
             for h in 0..FAULT_COUNT {
@@ -411,6 +420,7 @@ impl HeldComponents {
                     .filter(|&j| determined[j])
                     .map(|j| inverse[i][j] * coupling.normal[j][h])
                     .sum();
+                pause().await;
             }
         }
         Some(a)
@@ -425,6 +435,14 @@ impl HeldComponents {
         sensitivity: &[[f64; FAULT_COUNT]; FAULT_COUNT],
     ) -> [f32; FAULT_COUNT] {
         propagated_std(sensitivity, &self.covariance)
+    }
+
+    /// [`shared_std`](Self::shared_std) in steps ([`propagated_std_stepwise`]).
+    pub async fn shared_std_stepwise(
+        &self,
+        sensitivity: &[[f64; FAULT_COUNT]; FAULT_COUNT],
+    ) -> [f32; FAULT_COUNT] {
+        propagated_std_stepwise(sensitivity, &self.covariance).await
     }
 
     /// What a window holds given its flight's preflight reading `preflight`: the shorts and
@@ -511,20 +529,32 @@ impl HeldComponents {
 /// `√diag(A·Σ·Aᵀ)`: the standard deviation per component that an error of covariance
 /// `covariance` in the held components moves through `sensitivity` (`A`, row a free
 /// component, column a held one) [fault-vector units]. O(9³).
-#[allow(clippy::indexing_slicing)] // i, h, g < FAULT_COUNT on fixed 9×9 arrays
 pub fn propagated_std(
     sensitivity: &[[f64; FAULT_COUNT]; FAULT_COUNT],
     covariance: &[[f32; FAULT_COUNT]; FAULT_COUNT],
 ) -> [f32; FAULT_COUNT] {
-    core::array::from_fn(|i| {
+    run_to_end(propagated_std_stepwise(sensitivity, covariance))
+}
+
+/// [`propagated_std`] in steps: a pause after each row of `Σ` a component's sum takes
+/// (nine soft-f64 multiply-adds). The same bits.
+#[allow(clippy::indexing_slicing)] // i, h, g < FAULT_COUNT on fixed 9×9 arrays
+pub async fn propagated_std_stepwise(
+    sensitivity: &[[f64; FAULT_COUNT]; FAULT_COUNT],
+    covariance: &[[f32; FAULT_COUNT]; FAULT_COUNT],
+) -> [f32; FAULT_COUNT] {
+    let mut out = [0.0f32; FAULT_COUNT];
+    for (i, slot) in out.iter_mut().enumerate() {
         let mut v = 0.0f64;
         for h in 0..FAULT_COUNT {
             for g in 0..FAULT_COUNT {
                 v += sensitivity[i][h] * f64::from(covariance[h][g]) * sensitivity[i][g];
             }
+            pause().await;
         }
-        crate::base::math::sqrt64(v.max(0.0)) as f32
-    })
+        *slot = crate::base::math::sqrt64(v.max(0.0)) as f32;
+    }
+    out
 }
 
 /// Indices of the stator shorts A, B, C in a fault vector.
@@ -714,10 +744,10 @@ pub async fn identify_stepwise<const N: usize, const P: usize>(
     pause().await;
     evaluations += CURVATURE_RUNS;
     for _ in 0..POLISH_STEPS {
-        let Some(next) = curvature.gauss_newton_step(&faults, damping) else {
+        let Some(next) = curvature.gauss_newton_step_stepwise(&faults, damping).await else {
             break;
         };
-        let next_load = response.step(load, &faults, &next);
+        let next_load = response.step_stepwise(load, &faults, &next).await;
         let next_fit = problem.evaluate_stepwise(&next, next_load).await;
         evaluations += 1;
         if next_fit.error < fit.error {
@@ -744,27 +774,38 @@ pub async fn identify_stepwise<const N: usize, const P: usize>(
     }
     // The window's own deviations widened by its factors, then what the held values' error
     // moves beside them (the same in every window of the flight: not widened).
-    let shared_std = HeldComponents::sensitivity(&curvature, &coupling)
-        .map_or([0.0; FAULT_COUNT], |a| problem.held.shared_std(&a));
-    let uncertainty = curvature.uncertainty(&faults).ok().map(|(u, c)| {
-        (
-            u.widened(&faults, &WINDOW_INFLATION)
-                .with_shared(&faults, &shared_std),
-            c,
-        )
-    });
+    let shared_std = match HeldComponents::sensitivity_stepwise(&curvature, &coupling).await {
+        Some(a) => problem.held.shared_std_stepwise(&a).await,
+        None => [0.0; FAULT_COUNT],
+    };
+    pause().await;
+    let uncertainty = curvature
+        .uncertainty_stepwise(&faults, &crate::solver::uncertainty::SystematicError::NONE)
+        .await
+        .ok()
+        .map(|(u, c)| {
+            (
+                u.widened(&faults, &WINDOW_INFLATION)
+                    .with_shared(&faults, &shared_std),
+                c,
+            )
+        });
+    pause().await;
     let friction_std = uncertainty
         .as_ref()
         .and_then(|(u, _)| u.std.first().copied())
         .unwrap_or(f32::NAN);
+    let verdict = problem
+        .judge_stepwise(limits, &faults, fit.error, friction_std)
+        .await;
+    // The reading is built (≈ 3 kB moved) in a poll of its own.
+    pause().await;
     Ok(WindowReading {
         faults,
         fit,
         load,
         uncertainty,
-        verdict: problem
-            .judge_stepwise(limits, &faults, fit.error, friction_std)
-            .await,
+        verdict,
         curvature,
         coupling,
         shared_std,
@@ -780,7 +821,11 @@ async fn search_stepwise<const N: usize, const P: usize>(
     settings: crate::solver::ga::GaSettings,
     seed: u64,
 ) -> Result<(FaultVector, u32), crate::solver::ga::GaError> {
-    let mut ga = crate::SteadyStateGa::<P>::new(settings, seed)?;
+    pause().await;
+    let mut ga = crate::SteadyStateGa::<P>::IDLE;
+    pause().await;
+    ga.restart(settings, seed)?;
+    pause().await;
     // `SteadyStateGa::step` one candidate at a time, its evaluation stepwise.
     while let Ok(genes) = ga.ask_stepwise().await {
         pause().await;

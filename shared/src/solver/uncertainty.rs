@@ -19,7 +19,8 @@
 //!
 //! [`FitnessProblem::uncertainty`]: crate::solver::fitness::FitnessProblem::uncertainty
 
-use crate::base::math::{invert, sqrt64, INVERT_N};
+use crate::base::math::{invert_stepwise, sqrt64, INVERT_N};
+use crate::base::steps::{pause, run_to_end};
 use crate::physics::fault::{FaultVector, CIRCULAR, DETECTION_THRESHOLD, FAULT_COUNT};
 
 const _: () = assert!(FAULT_COUNT == INVERT_N);
@@ -474,12 +475,22 @@ impl Curvature {
     /// largest), the others given an identity row and column so that they do not couple;
     /// with which components are determined. `None` when none is, or the matrix is
     /// singular. One copy for the uncertainty (λ = 0) and the polish. O(9³).
-    #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 9×9 arrays
     #[inline(never)]
     pub(crate) fn inverse(
         &self,
         damping: f64,
     ) -> Option<([[f64; FAULT_COUNT]; FAULT_COUNT], [bool; FAULT_COUNT])> {
+        run_to_end(self.inverse_stepwise(damping))
+    }
+
+    /// [`inverse`](Self::inverse) in steps: a pause first, then [`invert_stepwise`]. The same
+    /// bits.
+    #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 9×9 arrays
+    pub(crate) async fn inverse_stepwise(
+        &self,
+        damping: f64,
+    ) -> Option<([[f64; FAULT_COUNT]; FAULT_COUNT], [bool; FAULT_COUNT])> {
+        pause().await;
         let largest = (0..FAULT_COUNT)
             .map(|i| self.normal[i][i])
             .fold(0.0f64, f64::max);
@@ -488,6 +499,19 @@ impl Curvature {
         if !determined.contains(&true) {
             return None;
         }
+        pause().await;
+        let m = self.damped(damping, &determined);
+        Some((invert_stepwise(&m).await?, determined))
+    }
+
+    /// The normal matrix with its diagonal taken `1 + damping` times over the `determined`
+    /// components, the others an identity row and column. O(9²).
+    #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 9×9 arrays
+    fn damped(
+        &self,
+        damping: f64,
+        determined: &[bool; FAULT_COUNT],
+    ) -> [[f64; FAULT_COUNT]; FAULT_COUNT] {
         let mut m = self.normal;
         for i in 0..FAULT_COUNT {
             for j in 0..FAULT_COUNT {
@@ -498,16 +522,26 @@ impl Curvature {
                 }
             }
         }
-        Some((invert(&m)?, determined))
+        m
     }
 
     /// The damped Gauss–Newton (Levenberg–Marquardt) step from `k`: `δ` solving
     /// `(JᵀWJ + λ·diag(JᵀWJ)) δ = JᵀW r` over the determined components (the others stay),
     /// then bounded components clamped to [0, 1] and the phase wrapped. `None` when no
     /// component is determined. O(9³).
-    #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 9×9 arrays
     pub fn gauss_newton_step(&self, k: &FaultVector, damping: f64) -> Option<FaultVector> {
-        let (inverse, determined) = self.inverse(damping)?;
+        run_to_end(self.gauss_newton_step_stepwise(k, damping))
+    }
+
+    /// [`gauss_newton_step`](Self::gauss_newton_step) in steps: the inverse stepwise, then
+    /// a pause after each component's step. The same bits.
+    #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 9×9 arrays
+    pub async fn gauss_newton_step_stepwise(
+        &self,
+        k: &FaultVector,
+        damping: f64,
+    ) -> Option<FaultVector> {
+        let (inverse, determined) = self.inverse_stepwise(damping).await?;
         let mut out = *k.as_array();
         for i in 0..FAULT_COUNT {
             if !determined[i] {
@@ -525,6 +559,7 @@ impl Curvature {
             } else {
                 x.clamp(0.0, 1.0)
             };
+            pause().await;
         }
         Some(FaultVector::saturating(out))
     }
@@ -534,7 +569,7 @@ impl Curvature {
         &self,
         k: &FaultVector,
     ) -> Result<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT]), UncertaintyError> {
-        self.uncertainty_with(k, &SystematicError::NONE)
+        run_to_end(self.uncertainty_stepwise(k, &SystematicError::NONE))
     }
 
     /// [`Self::uncertainty`] of a preflight identification on an actuator whose record
@@ -546,7 +581,7 @@ impl Curvature {
         k: &FaultVector,
         systematic: &SystematicError,
     ) -> Result<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT]), UncertaintyError> {
-        self.uncertainty_with(k, systematic)
+        run_to_end(self.uncertainty_stepwise(k, systematic))
     }
 
     /// [`Self::uncertainty`], with a preflight's `systematic` error ([`preflight_systematic`];
@@ -555,14 +590,21 @@ impl Curvature {
     /// than two tables). The correlations stay the curvature's: what the test can
     /// tell apart (the verdicts' `Ambiguous`); the systematic error is taken as correlated
     /// with nothing.
+    ///
+    /// In steps, for a controller's idle time: the inverse stepwise, then a pause after the
+    /// residual's deviation, after each deviation and after each correlation (a soft-f64
+    /// square root each). The same bits in one call.
     #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 9×9 arrays
-    #[inline(never)]
-    fn uncertainty_with(
+    pub async fn uncertainty_stepwise(
         &self,
         k: &FaultVector,
         systematic: &SystematicError,
     ) -> Result<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT]), UncertaintyError> {
-        let (inverse, determined) = self.inverse(0.0).ok_or(UncertaintyError::Undetermined)?;
+        let (inverse, determined) = self
+            .inverse_stepwise(0.0)
+            .await
+            .ok_or(UncertaintyError::Undetermined)?;
+        pause().await;
         let p = determined.iter().filter(|&&x| x).count();
         if (self.fitted as usize) <= p {
             return Err(UncertaintyError::Undetermined);
@@ -587,6 +629,7 @@ impl Curvature {
             residual_std: sqrt64(s2) as f32,
         };
         let mut correlation = [[0.0f32; FAULT_COUNT]; FAULT_COUNT];
+        pause().await;
         for i in 0..FAULT_COUNT {
             if !determined[i] {
                 continue;
@@ -608,6 +651,7 @@ impl Curvature {
             };
             out.std[i] = s;
             (out.lower[i], out.upper[i]) = interval(CIRCULAR[i], k.as_array()[i], s);
+            pause().await;
             for j in 0..FAULT_COUNT {
                 if !determined[j] {
                     continue;
@@ -619,6 +663,7 @@ impl Curvature {
                     out.worst_correlation = cij.abs() as f32;
                     out.worst_pair = (i as u8, j as u8);
                 }
+                pause().await;
             }
         }
         Ok((out, correlation))

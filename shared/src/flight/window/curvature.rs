@@ -4,6 +4,7 @@
 //! f64.
 
 use super::*;
+use crate::base::steps::sum_stepwise;
 
 impl<'a, const N: usize> WindowProblem<'a, N> {
     /// The Gauss–Newton sums at `k` under the problem's load ([`Curvature`]): one base run,
@@ -39,12 +40,33 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
     /// [`curvature_stepwise`](Self::curvature_stepwise) under `load`, with how the load's
     /// best stiffness and moment move with the faults ([`LoadResponse`]): the polish steps
     /// the load with the faults, as the profiled curvature assumes.
-    #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // indices < FAULT_COUNT, NUISANCES on fixed arrays
+    ///
+    /// Two stages, each its own future, so that the runs' state is gone when the profile's
+    /// algebra runs: [`lockstep_sums_stepwise`](Self::lockstep_sums_stepwise), then
+    /// [`profiled_stepwise`](Self::profiled_stepwise).
     pub(super) async fn curvature_and_load_stepwise(
         &self,
         k: &FaultVector,
         load: WindowLoad,
     ) -> (Curvature, LoadResponse, HeldCoupling) {
+        // The totals stay here, lent to both stages (not moved: 1.9 kB).
+        let mut totals = WindowTotals::ZERO;
+        let fitted = self.lockstep_sums_stepwise(k, load, &mut totals).await;
+        self.profiled_stepwise(&mut totals, fitted).await
+    }
+
+    /// The curvature's sums at `k` under `load` over the window, added to `totals`:
+    /// thirteen lockstep runs, f32 products summed in blocks joined in f64. Returns the
+    /// fitted samples' count.
+    #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // indices < FAULT_COUNT, NUISANCES on fixed arrays
+    async fn lockstep_sums_stepwise(
+        &self,
+        k: &FaultVector,
+        load: WindowLoad,
+        totals: &mut WindowTotals,
+    ) -> u32 {
+        // What the caller did since its last pause ends its poll here.
+        pause().await;
         let k = &self.held.apply(k);
         let start = self.measured.initial_angles();
         let first = self.command.position_at(0);
@@ -53,14 +75,10 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         let mut steps = [0.0f32; FAULT_COUNT];
         // One model for the twelve runs, each run's rigging set before its step.
         let mut model = self.model;
-        let mut runs: [(RunRigging, crate::model::monitor::MonitorRun, LowPassState); RUNS] =
-            core::array::from_fn(|_| {
-                (
-                    model.rigging(),
-                    crate::model::monitor::MonitorRun::IDLE,
-                    LowPassState::default(),
-                )
-            });
+        pause().await;
+        // Idle runs first (a constant copied, ≈ 4 kB), each started in the loop below.
+        let mut runs = [IDLE_LOCKSTEP_RUN; RUNS];
+        pause().await;
         for (j, slot) in runs.iter_mut().enumerate() {
             let mut genes = *k.as_array();
             let (mut stiffness, mut moment) = (load.stiffness, load.moment);
@@ -86,7 +104,6 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             pause().await;
         }
         let filter = self.measured.filter();
-        let mut totals = WindowTotals::ZERO;
         let mut fitted = 0u32;
         let mut previous = 0.0f32;
         let mut block = WindowBlockSums::ZERO;
@@ -169,15 +186,28 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             in_block += 1;
             pause().await;
             if in_block == CURVATURE_BLOCK {
-                block.flush_stepwise(&mut totals).await;
+                block.flush_stepwise(totals).await;
                 in_block = 0;
             }
         }
-        block.flush_stepwise(&mut totals).await;
+        block.flush_stepwise(totals).await;
+        fitted
+    }
+
+    /// The nuisances profiled out of `totals` (the Schur complement) and the held
+    /// components' entries taken out: the curvature, the load's response and the coupling.
+    /// In steps: the nuisances' inverse, each solve's rows and each profiled entry a poll.
+    #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // indices < FAULT_COUNT, NUISANCES on fixed arrays
+    async fn profiled_stepwise(
+        &self,
+        totals: &mut WindowTotals,
+        fitted: u32,
+    ) -> (Curvature, LoadResponse, HeldCoupling) {
+        pause().await;
         let WindowTotals {
-            mut normal,
-            mut gradient,
-            mut rss,
+            normal,
+            gradient,
+            rss,
             q_load,
             cross,
             q_residual,
@@ -187,37 +217,31 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
                 normal[a][c] = normal[c][a];
             }
         }
-        let mut q = [[0.0f64; NUISANCES]; NUISANCES];
-        for (row, g) in q.iter_mut().zip(&self.gram) {
-            row[..DRIFT_TERMS].copy_from_slice(g);
-        }
-        for (t, row) in q_load.iter().enumerate() {
-            let t = DRIFT_TERMS + t;
-            q[t] = *row;
-            for u in 0..DRIFT_TERMS {
-                q[u][t] = row[u];
-            }
-        }
+        pause().await;
         // Profile the nuisances out (a regular Q; a singular one leaves the sums as they are,
-        // and the load where it is).
+        // and the load where it is). Q is built straight into the inverse's own state.
         let mut response = LoadResponse::NONE;
-        if let Some(qi) = invert(&q) {
-            let solve = |v: &dyn Fn(usize) -> f64| -> [f64; NUISANCES] {
-                core::array::from_fn(|t| (0..NUISANCES).map(|u| qi[t][u] * v(u)).sum())
-            };
-            let qr = solve(&|u| q_residual[u]);
-            rss -= (0..NUISANCES).map(|t| qr[t] * q_residual[t]).sum::<f64>();
+        let q = self.nuisance_normal(q_load);
+        if let Some(qi) = invert_stepwise(&q).await {
+            pause().await;
+            let qr = solve_stepwise(&qi, q_residual).await;
+            *rss -= sum_stepwise(NUISANCES, |t| qr[t] * q_residual[t]).await;
             response.at_zero = [qr[DRIFT_TERMS], qr[DRIFT_TERMS + 1]];
             for a in 0..FAULT_COUNT {
-                let qa = solve(&|u| cross[u][a]);
+                let column: [f64; NUISANCES] = core::array::from_fn(|u| cross[u][a]);
+                let qa = solve_stepwise(&qi, &column).await;
                 response.per_fault[0][a] = -qa[DRIFT_TERMS];
                 response.per_fault[1][a] = -qa[DRIFT_TERMS + 1];
-                gradient[a] -= (0..NUISANCES).map(|t| qa[t] * q_residual[t]).sum::<f64>();
+                pause().await;
+                gradient[a] -= sum_stepwise(NUISANCES, |t| qa[t] * q_residual[t]).await;
+                pause().await;
                 for c in 0..FAULT_COUNT {
-                    normal[a][c] -= (0..NUISANCES).map(|t| qa[t] * cross[t][c]).sum::<f64>();
+                    normal[a][c] -= sum_stepwise(NUISANCES, |t| qa[t] * cross[t][c]).await;
+                    pause().await;
                 }
             }
         }
+        pause().await;
         // The held components' entries leave the sums (the polish does not move them, the
         // uncertainty does not read them); what the free ones share with them is kept.
         let mut coupling = HeldCoupling::NONE;
@@ -234,13 +258,60 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             response.per_fault[1][h] = 0.0;
         }
         let curvature = Curvature {
-            normal,
+            normal: *normal,
             rss: rss.max(0.0),
-            gradient,
+            gradient: *gradient,
             fitted,
         };
         (curvature, response, coupling)
     }
+}
+
+impl<const N: usize> WindowProblem<'_, N> {
+    /// The nuisances' normal matrix `Q`: the drift's Gram matrix and the load columns'
+    /// rows `q_load` (mirrored). O(`NUISANCES²`).
+    #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // indices < NUISANCES on fixed arrays
+    fn nuisance_normal(
+        &self,
+        q_load: &[[f64; NUISANCES]; NUISANCES - DRIFT_TERMS],
+    ) -> [[f64; NUISANCES]; NUISANCES] {
+        let mut q = [[0.0f64; NUISANCES]; NUISANCES];
+        for (row, g) in q.iter_mut().zip(&self.gram) {
+            row[..DRIFT_TERMS].copy_from_slice(g);
+        }
+        for (t, row) in q_load.iter().enumerate() {
+            let t = DRIFT_TERMS + t;
+            q[t] = *row;
+            for u in 0..DRIFT_TERMS {
+                q[u][t] = row[u];
+            }
+        }
+        q
+    }
+}
+
+/// A curvature's lockstep run before its start: its rigging, its run and its filter.
+const IDLE_LOCKSTEP_RUN: (RunRigging, crate::model::monitor::MonitorRun, LowPassState) = (
+    RunRigging {
+        load_stiffness: 0.0,
+        encoder_offset: 0.0,
+    },
+    crate::model::monitor::MonitorRun::IDLE,
+    LowPassState::ZERO,
+);
+
+/// `Q⁻¹·v` from the inverse `qi`, each row's sum stepwise ([`sum_stepwise`]).
+#[allow(clippy::indexing_slicing)] // t, u < NUISANCES on fixed arrays
+async fn solve_stepwise(
+    qi: &[[f64; NUISANCES]; NUISANCES],
+    v: &[f64; NUISANCES],
+) -> [f64; NUISANCES] {
+    let mut out = [0.0f64; NUISANCES];
+    for (t, slot) in out.iter_mut().enumerate() {
+        *slot = sum_stepwise(NUISANCES, |u| qi[t][u] * v[u]).await;
+        pause().await;
+    }
+    out
 }
 
 /// Runs of a window curvature's lockstep sample between two pauses of

@@ -29,11 +29,6 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
     ) -> (WindowLoad, f32, u32) {
         let held = self.held_moment();
         let mut load = WindowLoad::spring(stiffness_guess, held);
-        let stiffness_at = |load: WindowLoad, log_k: f32| WindowLoad {
-            stiffness: crate::base::math::exp64(f64::from(log_k)) as f32,
-            moment: load.moment,
-            trend: load.trend,
-        };
         let at_moment = |load: WindowLoad, m: f32| WindowLoad {
             moment: m,
             stiffness: load.stiffness,
@@ -61,10 +56,14 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         let range_k = (ln(stiffness_guess / 3.0), ln(stiffness_guess * 3.0));
         let mut search = GoldenSearch::new(range_k);
         while let Some(x) = search.ask() {
-            search.tell(self.evaluate_stepwise(k, stiffness_at(load, x)).await.error);
+            search.tell(
+                self.evaluate_stepwise(k, stiffness_at(load, x).await)
+                    .await
+                    .error,
+            );
         }
         let (log_k, _) = search.best();
-        load = stiffness_at(load, log_k);
+        load = stiffness_at(load, log_k).await;
         let mut search = GoldenSearch::new((best.0 - cell, best.0 + cell));
         while let Some(m) = search.ask() {
             search.tell(self.evaluate_stepwise(k, at_moment(load, m)).await.error);
@@ -75,10 +74,14 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         load = trended;
         let mut search = GoldenSearch::new((log_k - 0.3, log_k + 0.3));
         while let Some(x) = search.ask() {
-            search.tell(self.evaluate_stepwise(k, stiffness_at(load, x)).await.error);
+            search.tell(
+                self.evaluate_stepwise(k, stiffness_at(load, x).await)
+                    .await
+                    .error,
+            );
         }
         let (log_k, _) = search.best();
-        let (load, second_rounds) = self.follow_trend(k, stiffness_at(load, log_k)).await;
+        let (load, second_rounds) = self.follow_trend(k, stiffness_at(load, log_k).await).await;
         let error = self.evaluate_stepwise(k, load).await.error;
         let runs = MOMENT_SCAN + 3 * GOLDEN_STEPS + 1 + first_rounds + second_rounds;
         (load, error, runs as u32)
@@ -142,13 +145,16 @@ impl LoadResponse {
     };
 
     /// `load` moved with the faults' step from `from` to `to` (the phase's step taken the
-    /// short way round). O(9).
-    pub(super) fn step(
+    /// short way round), in steps for a controller's idle time: a pause first, then the
+    /// exponential stepwise. O(9).
+    pub(super) async fn step_stepwise(
         &self,
         load: WindowLoad,
         from: &FaultVector,
         to: &FaultVector,
     ) -> WindowLoad {
+        // What the caller did since its last pause ends its poll here.
+        pause().await;
         let [mut ln_k, mut moment] = self.at_zero;
         for (i, (a, b)) in from.as_array().iter().zip(to.as_array()).enumerate() {
             let mut d = b - a;
@@ -163,8 +169,9 @@ impl LoadResponse {
             ln_k += self.per_fault[0].get(i).copied().unwrap_or(0.0) * d;
             moment += self.per_fault[1].get(i).copied().unwrap_or(0.0) * d;
         }
+        pause().await;
         WindowLoad {
-            stiffness: load.stiffness * crate::base::math::exp64(ln_k) as f32,
+            stiffness: load.stiffness * crate::base::math::exp64_stepwise(ln_k).await as f32,
             moment: load.moment + moment as f32,
             trend: load.trend,
         }
@@ -242,5 +249,18 @@ impl GoldenSearch {
         } else {
             (self.d, self.fd)
         }
+    }
+}
+
+/// `load` at the stiffness `e^log_k` [N·m/rad], its exponential stepwise
+/// ([`exp64_stepwise`](crate::base::math::exp64_stepwise)), with a pause before and after.
+async fn stiffness_at(load: WindowLoad, log_k: f32) -> WindowLoad {
+    pause().await;
+    let stiffness = crate::base::math::exp64_stepwise(f64::from(log_k)).await as f32;
+    pause().await;
+    WindowLoad {
+        stiffness,
+        moment: load.moment,
+        trend: load.trend,
     }
 }

@@ -175,11 +175,14 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         self.residual_fit(&load.trend, &mut current)
     }
 
-    /// [`evaluate_under`](Self::evaluate_under) in steps, for a controller's idle time: the
-    /// run's start stepwise ([`MonitorModel::start_loaded_run_stepwise`]), then a pause
+    /// [`evaluate_under`](Self::evaluate_under) in steps, for a controller's idle time: a
+    /// pause first, the run's start stepwise ([`MonitorModel::start_loaded_run_stepwise`]), then a pause
     /// after every slice of samples ([`with_evaluation_slice`](Self::with_evaluation_slice))
     /// and once at the end. The same bits.
     pub async fn evaluate_stepwise(&self, k: &FaultVector, load: WindowLoad) -> WindowFit {
+        // What the caller did since the last pause (a previous run's fit, a search's step)
+        // ends its poll here.
+        pause().await;
         let (model, mut run) = self.loaded_start_stepwise(k, load).await;
         pause().await;
         let trending = load.trend != [0.0; DRIFT_TERMS];
@@ -188,7 +191,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         loop {
             let mut current = self.loaded_current(&model, &mut run, trending);
             current.state = state;
-            let done = sums.advance(self, &load.trend, &mut current, self.evaluation_slice);
+            let done = sums.advance_slice(self, &load.trend, &mut current, self.evaluation_slice);
             state = current.state;
             if done {
                 break;

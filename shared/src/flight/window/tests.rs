@@ -54,7 +54,7 @@ fn the_polish_moves_the_load_with_the_faults() {
     .unwrap();
 
     let (_, response, _) = run_to_end(problem.curvature_and_load_stepwise(&truth, off));
-    let moved = response.step(off, &truth, &truth);
+    let moved = run_to_end(response.step_stepwise(off, &truth, &truth));
     assert!(
         (moved.moment - 120.0).abs() < 0.6 * 4.0,
         "moment moved to {}",
@@ -78,7 +78,7 @@ fn the_polish_moves_the_load_with_the_faults() {
     let mut at_high = problem.clone();
     at_high.set_load(fitted);
     let (_, response, _) = run_to_end(at_high.curvature_and_load_stepwise(&high, fitted));
-    let stepped = response.step(fitted, &high, &truth);
+    let stepped = run_to_end(response.step_stepwise(fitted, &high, &truth));
     let with_load = at_high.evaluate_under(&truth, stepped).error;
     let without = at_high.evaluate_under(&truth, fitted).error;
     assert!(with_load < without, "{with_load} against {without}");
