@@ -1,8 +1,11 @@
 //! The SysTick cycle clock of the emulation images (the preflight's and the window bench's):
 //! the 24-bit counter at the core clock, its wraps counted in the SysTick exception (O(1)).
 //! Under `qemu-run` (QEMU `-icount shift=0`: one instruction = 1 ns of virtual time) a cycle
-//! count converts to instructions as `cycles · 10⁹ / 168·10⁶`.
+//! count converts to instructions as `cycles · 10⁹ / 168·10⁶`. [`PollTimer`] times a task's
+//! polls with it.
 
+use core::future::Future;
+use core::pin::Pin;
 use core::sync::atomic::{AtomicU32, Ordering};
 
 use cortex_m::peripheral::syst::SystClkSource;
@@ -45,4 +48,38 @@ fn SysTick() {
 pub fn instructions_under_icount(cycles: u64) -> u64 {
     // u128: no overflow for any u64 cycle count.
     u64::try_from(u128::from(cycles) * 1_000_000_000 / u128::from(CORE_HZ)).unwrap_or(u64::MAX)
+}
+
+/// The polls of a piece of the controller's work, timed one by one: how many, and the
+/// longest [core cycles]. O(1) per poll.
+#[derive(Clone, Copy, Default)]
+pub struct PollTimer {
+    pub polls: u32,
+    pub longest: u64,
+}
+
+impl PollTimer {
+    /// Runs `future` (pinned where the caller keeps it: not moved into this one's state) to
+    /// its end, timing each of its polls.
+    pub async fn run<F: Future>(&mut self, mut future: Pin<&mut F>) -> F::Output {
+        core::future::poll_fn(|cx| {
+            let start = cycles();
+            let poll = future.as_mut().poll(cx);
+            self.longest = self.longest.max(cycles().saturating_sub(start));
+            self.polls = self.polls.saturating_add(1);
+            poll
+        })
+        .await
+    }
+
+    /// Takes `other`'s polls in: their count, and its longest if it is longer.
+    pub fn absorb(&mut self, other: &PollTimer) {
+        self.polls = self.polls.saturating_add(other.polls);
+        self.longest = self.longest.max(other.longest);
+    }
+
+    /// The longest poll's instructions under QEMU's `-icount shift=0`.
+    pub fn longest_instructions(&self) -> u64 {
+        instructions_under_icount(self.longest)
+    }
 }

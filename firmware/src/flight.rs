@@ -21,6 +21,11 @@ use shared::window::{HeldComponents, WindowReason, COMMAND_STRIDE};
 
 use crate::source::{Acquired, CurrentSource, TraceBytes, TraceSource};
 
+/// Frames a window's acquisition takes per poll in flight: on the controller one frame
+/// arrives per control period; the emulation image reads them from its trace file a few
+/// at a time, each poll within 30 % of a control period.
+pub const WINDOW_FRAMES_PER_POLL: u32 = 4;
+
 /// Commands kept of a window of at most [`TEST_SAMPLES`] frames: every
 /// [`COMMAND_STRIDE`]-th.
 pub const KEPT_COMMANDS: usize = (TEST_SAMPLES - 1) / COMMAND_STRIDE + 1;
@@ -157,8 +162,8 @@ impl WindowAcquisition {
         })
     }
 
-    /// Takes at most `frames` frames: `Ok(true)` when the window is complete and its
-    /// current conditioned. O(`frames`), and the conditioning's O(N) once at the end.
+    /// Takes at most `frames` frames: `Ok(true)` when the window's frames are all in (its
+    /// current is then sealed by `MeasuredCurrent::finish_stepwise`). O(`frames`).
     pub fn poll<S: CommandedSource>(
         &mut self,
         source: &mut S,
@@ -180,12 +185,7 @@ impl WindowAcquisition {
                     self.frames = self.frames.saturating_add(1);
                 }
                 Acquired::NotYet => return Ok(false),
-                Acquired::EndOfTest => {
-                    measured
-                        .finish()
-                        .map_err(WindowAcquireError::Conditioning)?;
-                    return Ok(true);
-                }
+                Acquired::EndOfTest => return Ok(true),
             }
         }
         Ok(false)

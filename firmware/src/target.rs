@@ -12,18 +12,21 @@ use semihosting::process::exit;
 use static_cell::{ConstStaticCell, StaticCell};
 
 use core::ffi::CStr;
-
-use core::future::Future;
+use core::pin::pin;
 
 use firmware::cooperate::yield_now;
-use firmware::flight::{Scratch, WindowAcquisition, WindowOutcome};
+use firmware::flight::{
+    Scratch, WindowAcquireError, WindowAcquisition, WindowOutcome, WINDOW_FRAMES_PER_POLL,
+};
 use firmware::health::{preflight_entry, record_entry};
 use firmware::{Preflight, PreflightSettings, Progress, Report, Stage, TraceSource};
+use shared::conditions::TestConditions;
 use shared::domain::Domain;
 use shared::fault::FAULT_COUNT;
 use shared::fault::FAULT_NAMES;
 use shared::fdi::OnboardMeasured;
 use shared::fdi::POPULATION;
+use shared::fitness::CurvatureRun;
 use shared::fusion::{WindowFusion, FLIGHT_MAX_FRICTION_STD};
 use shared::health::{
     HealthRecord, Newest, RamStore, RecordedDay, FLIGHT_READING, ONBOARD_RECORDS,
@@ -35,7 +38,7 @@ use shared::window::{
 };
 use shared::LowPass;
 
-use crate::clock::{cycles, instructions_under_icount, start_cycle_clock};
+use crate::clock::{cycles, instructions_under_icount, start_cycle_clock, PollTimer};
 use crate::emulation::{read_record_file, write_record_file, Command, Crash, HostFile};
 use shared::actuator::{ActuatorRecord, RECORD_BYTES};
 use shared::fdi::OnboardRecord;
@@ -216,6 +219,44 @@ async fn preflight(spawner: Spawner) -> i32 {
         settings.actuator.calibration.temperature
     );
 
+    let (report, observed, total_cycles, day) =
+        match run_preflight(&command, &settings, source, &mut *measured, curvature).await {
+            Ok(done) => done,
+            Err(status) => return status,
+        };
+    print_report(&report, &observed, total_cycles);
+    // The health log (a flash sector on the controller; the --health file here): this
+    // preflight's record, then, after the flight's windows, their reading.
+    let mut log = None;
+    if let Some(path) = command.health_path() {
+        let Some(store) = HEALTH_STORE.try_take() else {
+            defmt::error!("health store already in use");
+            return status::START_UP;
+        };
+        let day = RecordedDay::of(&day);
+        let entry = |newest| preflight_entry(command.flight, newest, &report, day);
+        match record_health(path, store, entry) {
+            Ok(flight) => log = Some((path, store, flight)),
+            Err(status) => return status,
+        }
+    }
+    if command.window_paths().next().is_none() {
+        return status::SUCCESS;
+    }
+    fly_windows(&command, &settings, &report, measured, scratch, log).await
+}
+
+/// The preflight: its test's frames acquired, conditioned and identified in bounded polls
+/// (a checkpoint written as it goes when `--checkpoint` asks), its day and bound printed.
+/// Its own future, so that its state (≈ 3.8 kB) is gone when a flight's windows run in
+/// the same task. `Err` is the exit status.
+async fn run_preflight(
+    command: &Command,
+    settings: &PreflightSettings,
+    source: TraceSource<HostFile>,
+    measured: &mut OnboardMeasured,
+    curvature: &mut CurvatureRun,
+) -> Result<(Report, Observed, u64, TestConditions), i32> {
     // The GA record (the flash page on the controller; the --checkpoint file here), read when
     // the identification starts and written every `CHECKPOINT_EVERY` evaluations.
     let checkpoint = command.checkpoint_path();
@@ -224,7 +265,7 @@ async fn preflight(spawner: Spawner) -> i32 {
     let started = cycles();
     // The buffer is lent for the preflight alone: a flight's windows take it back after.
     let mut preflight =
-        Preflight::new(&settings, source, &mut *measured).with_curvature_buffer(curvature);
+        Preflight::new(settings, source, &mut *measured).with_curvature_buffer(curvature);
     let mut stage = preflight.stage();
     let mut observed = Observed::default();
     let mut next_progress = PROGRESS_EVERY;
@@ -257,7 +298,7 @@ async fn preflight(spawner: Spawner) -> i32 {
             }
             Err(e) => {
                 defmt::error!("preflight failed in stage {}: {}", stage, e);
-                return status::PREFLIGHT_FAILED;
+                return Err(status::PREFLIGHT_FAILED);
             }
         }
         let evaluations = preflight.evaluations();
@@ -271,7 +312,7 @@ async fn preflight(spawner: Spawner) -> i32 {
                         "stopped evaluations={=u32} (simulated power loss)",
                         evaluations
                     );
-                    return status::INTERRUPTED;
+                    return Err(status::INTERRUPTED);
                 }
             }
         }
@@ -307,27 +348,7 @@ async fn preflight(spawner: Spawner) -> i32 {
         curvatures
     );
     let day = *day;
-    drop(preflight);
-    print_report(&report, &observed, total_cycles);
-    // The health log (a flash sector on the controller; the --health file here): this
-    // preflight's record, then, after the flight's windows, their reading.
-    let mut log = None;
-    if let Some(path) = command.health_path() {
-        let Some(store) = HEALTH_STORE.try_take() else {
-            defmt::error!("health store already in use");
-            return status::START_UP;
-        };
-        let day = RecordedDay::of(&day);
-        let entry = |newest| preflight_entry(command.flight, newest, &report, day);
-        match record_health(path, store, entry) {
-            Ok(flight) => log = Some((path, store, flight)),
-            Err(status) => return status,
-        }
-    }
-    if command.window_paths().next().is_none() {
-        return status::SUCCESS;
-    }
-    fly_windows(&command, &settings, &report, measured, scratch, log).await
+    Ok((report, observed, total_cycles, day))
 }
 
 async fn fly_windows(
@@ -347,7 +368,10 @@ async fn fly_windows(
         HeldComponents::NONE
     };
     let mut fusion = WindowFusion::EMPTY;
-    let (mut read, mut entered, mut worst_poll) = (0u32, 0u32, 0u64);
+    let (mut read, mut entered) = (0u32, 0u32);
+    // Every poll of the flight's FDI work (acquisition, set-up, identification, fusion),
+    // timed; the reports between them are the emulation's output, not timed.
+    let mut flight_polls = PollTimer::default();
     // What the flight's health entry takes of the windows that entered: their fitnesses'
     // sum, in order, and the first one's day.
     let (mut fitness_sum, mut first_day) = (0.0f32, None);
@@ -377,7 +401,8 @@ async fn fly_windows(
                 ..settings.actuator
             },
         };
-        // The frames, at most `frames_per_poll` per executor turn.
+        let mut window_polls = PollTimer::default();
+        // The frames, at most `WINDOW_FRAMES_PER_POLL` per executor turn.
         let acquired = match WindowAcquisition::start(
             &source,
             record.test,
@@ -385,13 +410,28 @@ async fn fly_windows(
             measured,
             kept,
         ) {
-            Ok(mut acquisition) => loop {
-                match acquisition.poll(&mut source, measured, kept, settings.frames_per_poll) {
-                    Ok(false) => yield_now().await,
-                    Ok(true) => break Ok(acquisition.frames()),
-                    Err(e) => break Err(e),
-                }
-            },
+            Ok(mut acquisition) => {
+                window_polls
+                    .run(pin!(async {
+                        loop {
+                            match acquisition.poll(
+                                &mut source,
+                                measured,
+                                kept,
+                                WINDOW_FRAMES_PER_POLL,
+                            ) {
+                                Ok(false) => yield_now().await,
+                                Ok(true) => break,
+                                Err(e) => return Err(e),
+                            }
+                        }
+                        match measured.finish_stepwise().await {
+                            Ok(()) => Ok(acquisition.frames()),
+                            Err(e) => Err(WindowAcquireError::Conditioning(e)),
+                        }
+                    }))
+                    .await
+            }
             Err(e) => Err(e),
         };
         let frames = match acquired {
@@ -402,48 +442,49 @@ async fn fly_windows(
             }
         };
         let guess = WindowLoad::spring(record.params.aero_stiffness, 0.0);
-        let (mut problem, conditions) =
-            match WindowProblem::of_record(measured, kept.as_slice(), &record, guess) {
-                Ok((p, c)) => (p.with_held(held), c),
-                Err(e) => {
-                    defmt::error!("window {=[u8]:a} cannot be read: {}", name, e);
-                    return status::BAD_TRACE;
-                }
-            };
+        let set_up = window_polls
+            .run(pin!(WindowProblem::of_record_stepwise(
+                measured,
+                kept.as_slice(),
+                &record,
+                guess,
+            )))
+            .await;
+        let (mut problem, conditions) = match set_up {
+            Ok((p, c)) => (p.with_held(held), c),
+            Err(e) => {
+                defmt::error!("window {=[u8]:a} cannot be read: {}", name, e);
+                return status::BAD_TRACE;
+            }
+        };
         let started = cycles();
-        let (mut polls, mut longest) = (0u32, 0u64);
-        let reading = {
-            let mut future = core::pin::pin!(identify_stepwise::<_, POPULATION>(
+        let mut identify_polls = PollTimer::default();
+        let reading = identify_polls
+            .run(pin!(identify_stepwise::<_, POPULATION>(
                 &mut problem,
                 window_ga(&record.ga),
                 settings.seed,
                 &WindowLimits::REFERENCE,
-            ));
-            core::future::poll_fn(|cx| {
-                let start = cycles();
-                let poll = future.as_mut().poll(cx);
-                longest = longest.max(cycles().saturating_sub(start));
-                polls += 1;
-                poll
-            })
-            .await
-        };
+            )))
+            .await;
         let window_cycles = cycles().saturating_sub(started);
-        worst_poll = worst_poll.max(longest);
+        window_polls.absorb(&identify_polls);
         let Ok(reading) = reading else {
             defmt::error!("window {=[u8]:a}: GA settings refused", name);
             return status::PREFLIGHT_FAILED;
         };
         let fused = fusable(&reading.verdict)
-            && fusion
-                .add_holding(
+            && window_polls
+                .run(pin!(fusion.add_holding_stepwise(
                     &reading.faults,
                     &reading.curvature,
                     &WINDOW_INFLATION,
                     &held,
                     &reading.coupling,
-                )
+                )))
+                .await
                 .is_ok();
+        flight_polls.absorb(&window_polls);
         let outcome = WindowOutcome::of(&reading.verdict, &held, fused);
         read += 1;
         if fused {
@@ -458,8 +499,8 @@ async fn fly_windows(
             reading.verdict,
             outcome,
             reading.evaluations,
-            polls,
-            instructions_under_icount(longest),
+            identify_polls.polls,
+            window_polls.longest_instructions(),
             instructions_under_icount(window_cycles)
         );
         defmt::println!(
@@ -473,15 +514,19 @@ async fn fly_windows(
                 .map_or([u32::MAX; FAULT_COUNT], |(u, _)| u.std.map(f32::to_bits))
         );
     }
-    match fusion.final_reading(FLIGHT_MAX_FRICTION_STD) {
+    let flight = flight_polls
+        .run(pin!(fusion.final_reading_stepwise(FLIGHT_MAX_FRICTION_STD)))
+        .await;
+    match flight {
         Ok(f) => {
             defmt::println!(
-                "flight windows={=u32} entered={=u32} verdict={} faults={} worst_poll_instructions={=u64} stack_peak={=u32}",
+                "flight windows={=u32} entered={=u32} verdict={} faults={} worst_poll_instructions={=u64} fdi_polls={=u32} stack_peak={=u32}",
                 read,
                 entered,
                 f.verdict,
                 f.faults.as_array(),
-                instructions_under_icount(worst_poll),
+                flight_polls.longest_instructions(),
+                flight_polls.polls,
                 stack_peak()
             );
             defmt::println!(
@@ -499,11 +544,12 @@ async fn fly_windows(
             }
         }
         Err(e) => defmt::println!(
-            "flight windows={=u32} entered={=u32} verdict=none reason={} worst_poll_instructions={=u64} stack_peak={=u32}",
+            "flight windows={=u32} entered={=u32} verdict=none reason={} worst_poll_instructions={=u64} fdi_polls={=u32} stack_peak={=u32}",
             read,
             entered,
             e,
-            instructions_under_icount(worst_poll),
+            flight_polls.longest_instructions(),
+            flight_polls.polls,
             stack_peak()
         ),
     }

@@ -98,41 +98,86 @@ pub fn clamp(x: f32, lo: f32, hi: f32) -> f32 {
 /// polynomial, exponent bits), so it gives the same bits on every target; relative error
 /// below 1e-15. `x` is clamped to `[−700, 700]` (no overflow to infinity); NaN gives NaN.
 pub fn exp64(x: f64) -> f64 {
-    crate::base::steps::run_to_end(exp64_stepwise(x))
+    exp64_series(Exp64::reduced(x), 13).value()
 }
 
-/// [`exp64`] in steps, for a controller's idle time: the future pauses once, halfway
-/// through the series (a soft-f64 division per term on the Cortex-M4F). The same bits.
+/// [`exp64`] in steps, for a controller's idle time: the future pauses after the series'
+/// fifth and ninth terms (a soft-f64 division each on the Cortex-M4F). The same bits and
+/// the same code as [`exp64`], in three calls.
 pub async fn exp64_stepwise(x: f64) -> f64 {
-    // ln 2 split (fdlibm): the high part has trailing zero bits, so k·LN2_HI is exact.
-    const LN2_HI: f64 = f64::from_bits(0x3FE6_2E42_FEE0_0000);
-    const LN2_LO: f64 = f64::from_bits(0x3DEA_39EF_3579_3C76);
-    if x.is_nan() {
-        return x;
-    }
-    let x = x.clamp(-700.0, 700.0);
-    // k = x·log₂e rounded half away from zero, |k| ≤ 1010: its size truncated as an
-    // unsigned (the conversions the trend already links; an i64 pair costs 284 B of flash).
-    let negative = x < 0.0;
-    let size = (x * core::f64::consts::LOG2_E).abs() + 0.5;
-    let m = size as u32;
-    let (k, kf) = if negative {
-        (-(m as i32), -f64::from(m))
-    } else {
-        (m as i32, f64::from(m))
-    };
-    let r = (x - kf * LN2_HI) - kf * LN2_LO;
-    let mut p = 1.0;
-    let mut n = 13.0;
-    while n > 0.5 {
-        p = 1.0 + p * r / n;
-        n -= 1.0;
-        if n == 6.0 {
-            crate::base::steps::pause().await;
+    let mut at = exp64_series(Exp64::reduced(x), 5);
+    crate::base::steps::pause().await;
+    at = exp64_series(at, 9);
+    crate::base::steps::pause().await;
+    exp64_series(at, 13).value()
+}
+
+/// [`exp64`] under way: `x` reduced to `r` (with `x = k·ln 2 + r`) and the Taylor
+/// polynomial's Horner sum `p` over its terms above `n`.
+#[derive(Clone, Copy)]
+struct Exp64 {
+    /// NaN in, NaN out.
+    nan: bool,
+    k: i32,
+    r: f64,
+    p: f64,
+    n: f64,
+}
+
+impl Exp64 {
+    /// The range reduction of `x` (clamped to `[−700, 700]`), no term summed yet.
+    fn reduced(x: f64) -> Self {
+        // ln 2 split (fdlibm): the high part has trailing zero bits, so k·LN2_HI is exact.
+        const LN2_HI: f64 = f64::from_bits(0x3FE6_2E42_FEE0_0000);
+        const LN2_LO: f64 = f64::from_bits(0x3DEA_39EF_3579_3C76);
+        if x.is_nan() {
+            return Self {
+                nan: true,
+                k: 0,
+                r: x,
+                p: x,
+                n: 0.0,
+            };
+        }
+        let x = x.clamp(-700.0, 700.0);
+        // k = x·log₂e rounded half away from zero, |k| ≤ 1010: its size truncated as an
+        // unsigned (the conversions the trend already links; an i64 pair costs 284 B of flash).
+        let negative = x < 0.0;
+        let size = (x * core::f64::consts::LOG2_E).abs() + 0.5;
+        let m = size as u32;
+        let (k, kf) = if negative {
+            (-(m as i32), -f64::from(m))
+        } else {
+            (m as i32, f64::from(m))
+        };
+        Self {
+            nan: false,
+            k,
+            r: (x - kf * LN2_HI) - kf * LN2_LO,
+            p: 1.0,
+            n: 13.0,
         }
     }
-    // |k| ≤ 1010: a normal power of two.
-    p * f64::from_bits(((k + 1023) as u64) << 52)
+
+    /// `e^x`: the sum times `2^k` (|k| ≤ 1010: a normal power of two).
+    fn value(self) -> f64 {
+        if self.nan {
+            return self.p;
+        }
+        self.p * f64::from_bits(((self.k + 1023) as u64) << 52)
+    }
+}
+
+/// `at` with the degree-13 series' terms summed down to the one after the `done`-th
+/// (Horner's `p = 1 + p·r/n`, from n = 13). O(terms).
+#[inline(never)]
+fn exp64_series(mut at: Exp64, done: u32) -> Exp64 {
+    let stop = 13.0 - done as f64;
+    while at.n > 0.5 && at.n > stop {
+        at.p = 1.0 + at.p * at.r / at.n;
+        at.n -= 1.0;
+    }
+    at
 }
 
 /// Natural logarithm of `x` > 0: `2·atanh(z)`, `z = (x − 1)/(x + 1)`, after taking out the
@@ -193,24 +238,66 @@ pub const INVERT_N: usize = 9;
 /// and the grease's fit; the window's nuisances use their own size (host only).
 #[inline(never)]
 pub fn invert<const N: usize>(m: &[[f64; N]; N]) -> Option<[[f64; N]; N]> {
-    crate::base::steps::run_to_end(invert_stepwise(m))
+    let mut g = GaussJordan::start(m);
+    for col in 0..N {
+        let d = g.pivot(col)?;
+        g.divide(col, d, 0..N);
+        for r in 0..N {
+            g.eliminate(col, r);
+        }
+    }
+    Some(g.inv)
 }
 
-/// [`invert`] in steps, for a controller's idle time: the future pauses first, after
-/// copying the matrix, after each pivot's search and swap, after each quarter of the pivot
-/// row's division and after each row's elimination (O(N) soft-f64 operations on the
-/// Cortex-M4F). The same bits.
-#[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // fixed N×N bounds
+/// [`invert`] in steps, for a controller's idle time, the same pieces: the future pauses
+/// first, after copying the matrix, after each pivot's search and swap, after each quarter
+/// of the pivot row's division and after each row's elimination (O(N) soft-f64 operations on
+/// the Cortex-M4F). The same bits.
 pub async fn invert_stepwise<const N: usize>(m: &[[f64; N]; N]) -> Option<[[f64; N]; N]> {
+    use crate::base::steps::pause;
     // What the caller did (building the matrix) ends its poll here.
-    crate::base::steps::pause().await;
-    let mut a = *m;
-    crate::base::steps::pause().await;
-    let mut inv = [[0.0f64; N]; N];
-    for (i, row) in inv.iter_mut().enumerate() {
-        row[i] = 1.0;
-    }
+    pause().await;
+    let mut g = GaussJordan::start(m);
+    pause().await;
     for col in 0..N {
+        let d = g.pivot(col)?;
+        pause().await;
+        for quarter in 0..4 {
+            g.divide(col, d, quarter * N / 4..(quarter + 1) * N / 4);
+            pause().await;
+        }
+        for r in 0..N {
+            if g.eliminate(col, r) {
+                pause().await;
+            }
+        }
+    }
+    Some(g.inv)
+}
+
+/// Gauss–Jordan elimination under way: the matrix being reduced and the inverse being
+/// built, in pieces that [`invert`] and [`invert_stepwise`] share.
+struct GaussJordan<const N: usize> {
+    a: [[f64; N]; N],
+    inv: [[f64; N]; N],
+}
+
+#[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // fixed N×N bounds
+impl<const N: usize> GaussJordan<N> {
+    fn start(m: &[[f64; N]; N]) -> Self {
+        let mut inv = [[0.0f64; N]; N];
+        for (i, row) in inv.iter_mut().enumerate() {
+            row[i] = 1.0;
+        }
+        Self { a: *m, inv }
+    }
+
+    /// Column `col`'s pivot (partial pivoting) swapped into row `col`, and its value; `None`
+    /// if singular.
+    #[inline(never)]
+    fn pivot(&mut self, col: usize) -> Option<f64> {
+        let a = &mut self.a;
+        let inv = &mut self.inv;
         let mut pivot = col;
         for r in col + 1..N {
             if a[r][col].abs() > a[pivot][col].abs() {
@@ -229,36 +316,32 @@ pub async fn invert_stepwise<const N: usize>(m: &[[f64; N]; N]) -> Option<[[f64;
             inv[col][c] = inv[pivot][c];
             inv[pivot][c] = t;
         }
-        crate::base::steps::pause().await;
-        let d = a[col][col];
-        for c in 0..N {
-            a[col][c] /= d;
-            if c + 1 == N / 2 {
-                crate::base::steps::pause().await;
-            }
-        }
-        crate::base::steps::pause().await;
-        for c in 0..N {
-            inv[col][c] /= d;
-            if c + 1 == N / 2 {
-                crate::base::steps::pause().await;
-            }
-        }
-        crate::base::steps::pause().await;
-        for r in 0..N {
-            if r != col {
-                let f = a[r][col];
-                if f != 0.0 {
-                    for c in 0..N {
-                        a[r][c] -= f * a[col][c];
-                        inv[r][c] -= f * inv[col][c];
-                    }
-                    crate::base::steps::pause().await;
-                }
-            }
+        Some(a[col][col])
+    }
+
+    /// The pivot row's entries `columns` of both matrices divided by `d` (the pivot, read
+    /// before the first division: the row's own pivot entry becomes 1 on the way).
+    #[inline(never)]
+    fn divide(&mut self, col: usize, d: f64, columns: core::ops::Range<usize>) {
+        for c in columns {
+            self.a[col][c] /= d;
+            self.inv[col][c] /= d;
         }
     }
-    Some(inv)
+
+    /// Row `r` (not the pivot's) cleared in column `col`. Whether it did any work.
+    #[inline(never)]
+    fn eliminate(&mut self, col: usize, r: usize) -> bool {
+        let f = self.a[r][col];
+        if r == col || f == 0.0 {
+            return false;
+        }
+        for c in 0..N {
+            self.a[r][c] -= f * self.a[col][c];
+            self.inv[r][c] -= f * self.inv[col][c];
+        }
+        true
+    }
 }
 
 #[cfg(test)]

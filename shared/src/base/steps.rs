@@ -2,24 +2,28 @@
 //! ([`pause`], the end of one step), and [`run_to_end`] that polls a stepwise future to its
 //! end without an executor. The window identification pauses after each model run
 //! ([`crate::flight::window::identify_stepwise`]); the firmware's tasks yield with the same future.
-//! O(1) per poll; no timer, no allocation. Each pause records where it was made
-//! ([`last_pause`]), so a bench can name the two ends of its longest poll.
+//! O(1) per poll; no timer, no allocation. With feature `pause-sites` each pause records
+//! where it was made ([`last_pause`]), so a bench can name the two ends of its longest poll
+//! (≈ 1.6 kB of flash: the product images build without it).
 
 use core::future::Future;
 use core::panic::Location;
 use core::pin::Pin;
+#[cfg(feature = "pause-sites")]
 use core::sync::atomic::{AtomicPtr, Ordering};
 use core::task::{Context, Poll, Waker};
 
-/// A future that is pending once (waking itself), then ready; it knows where in the source
-/// it was made.
+/// A future that is pending once (waking itself), then ready; with feature `pause-sites`, it
+/// knows where in the source it was made.
 #[derive(Debug)]
 pub struct Pause {
     done: bool,
+    #[cfg(feature = "pause-sites")]
     at: &'static Location<'static>,
 }
 
 /// Where the last pause that handed the caller back was made (null before the first).
+#[cfg(feature = "pause-sites")]
 static LAST_PAUSE: AtomicPtr<Location<'static>> = AtomicPtr::new(core::ptr::null_mut());
 
 impl Future for Pause {
@@ -29,6 +33,7 @@ impl Future for Pause {
             Poll::Ready(())
         } else {
             self.done = true;
+            #[cfg(feature = "pause-sites")]
             LAST_PAUSE.store(core::ptr::from_ref(self.at).cast_mut(), Ordering::Relaxed);
             cx.waker().wake_by_ref();
             Poll::Pending
@@ -37,20 +42,26 @@ impl Future for Pause {
 }
 
 /// Gives the caller (the executor) back once: the end of one bounded step.
-#[track_caller]
+#[cfg_attr(feature = "pause-sites", track_caller)]
 pub fn pause() -> Pause {
     Pause {
         done: false,
+        #[cfg(feature = "pause-sites")]
         at: Location::caller(),
     }
 }
 
 /// Where the last pause that handed its caller back stands in the source (`None` before
-/// the first): with the one before it, the two ends of a poll, for a bench that looks for
-/// its longest (`firmware/window-bench`). O(1).
+/// the first, and always without feature `pause-sites`): with the one before it, the two
+/// ends of a poll, for a bench that looks for its longest (`firmware/window-bench`). O(1).
 pub fn last_pause() -> Option<&'static Location<'static>> {
-    // SAFETY: the pointer is null or was made from a `&'static Location`.
-    unsafe { LAST_PAUSE.load(Ordering::Relaxed).as_ref() }
+    #[cfg(feature = "pause-sites")]
+    {
+        // SAFETY: the pointer is null or was made from a `&'static Location`.
+        unsafe { LAST_PAUSE.load(Ordering::Relaxed).as_ref() }
+    }
+    #[cfg(not(feature = "pause-sites"))]
+    None
 }
 
 /// `Σ term(i)` for `i` in `0..n`, summed in order from −0 (as `Iterator::sum` of `f64`:

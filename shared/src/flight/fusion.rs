@@ -24,8 +24,9 @@
 //! O(1); state 2 512 B, no allocation, no panic. Windows must be independent: a minute
 //! apart in flight (the turbulence's correlation is seconds), not overlapping.
 
-use crate::base::math::invert;
-use crate::flight::window::{propagated_std, HeldComponents, HeldCoupling, WindowReason};
+use crate::base::math::invert_stepwise;
+use crate::base::steps::{pause, run_to_end};
+use crate::flight::window::{propagated_std_stepwise, HeldComponents, HeldCoupling, WindowReason};
 use crate::physics::fault::{FaultVector, CIRCULAR, FAULT_COUNT};
 use crate::solver::uncertainty::{Curvature, Uncertainty, UncertaintyError, INFLATION};
 
@@ -417,7 +418,6 @@ impl WindowFusion {
     /// covariance) and leaned on them by `coupling` (`crate::flight::window::WindowReading`): the
     /// flight's reading then states the held values' error beside its windows' noise,
     /// not averaged by their number. O(9³).
-    #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // i, j < FAULT_COUNT on fixed 9×9 arrays
     pub fn add_holding(
         &mut self,
         k: &FaultVector,
@@ -426,9 +426,25 @@ impl WindowFusion {
         held: &HeldComponents,
         coupling: &HeldCoupling,
     ) -> Result<(), UncertaintyError> {
+        run_to_end(self.add_holding_stepwise(k, curvature, factors, held, coupling))
+    }
+
+    /// [`add_holding`](Self::add_holding) in steps, for a controller's idle time: its
+    /// inverses stepwise, a pause after each row of its 9 × 9 products. The same bits.
+    #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // i, j < FAULT_COUNT on fixed 9×9 arrays
+    pub async fn add_holding_stepwise(
+        &mut self,
+        k: &FaultVector,
+        curvature: &Curvature,
+        factors: &[f32; FAULT_COUNT],
+        held: &HeldComponents,
+        coupling: &HeldCoupling,
+    ) -> Result<(), UncertaintyError> {
         let (inverse, determined) = curvature
-            .inverse(0.0)
+            .inverse_stepwise(0.0)
+            .await
             .ok_or(UncertaintyError::Undetermined)?;
+        pause().await;
         let p = determined.iter().filter(|&&x| x).count();
         if (curvature.fitted as usize) <= p {
             return Err(UncertaintyError::Undetermined);
@@ -442,10 +458,13 @@ impl WindowFusion {
         // The window's covariance over its determined non-circular components, the others
         // an identity row and column (so the inverse of this block is the block's own).
         let added = |i: usize| determined[i] && !CIRCULAR[i];
-        let covariance = padded(&core::array::from_fn(added), |i, j| {
+        let covariance = padded_stepwise(&core::array::from_fn(added), |i, j| {
             scale * f(i) * f(j) * inverse[i][j]
-        });
-        let information = invert(&covariance).ok_or(UncertaintyError::Undetermined)?;
+        })
+        .await;
+        let information = invert_stepwise(&covariance)
+            .await
+            .ok_or(UncertaintyError::Undetermined)?;
         let mut point = [0.0f64; FAULT_COUNT];
         for i in 0..FAULT_COUNT {
             let step: f64 = (0..FAULT_COUNT)
@@ -453,8 +472,10 @@ impl WindowFusion {
                 .map(|j| inverse[i][j] * curvature.gradient[j])
                 .sum();
             point[i] = f64::from(k.as_array()[i]) + step;
+            pause().await;
         }
-        let sensitivity = HeldComponents::sensitivity(curvature, coupling)
+        let sensitivity = HeldComponents::sensitivity_stepwise(curvature, coupling)
+            .await
             .unwrap_or([[0.0; FAULT_COUNT]; FAULT_COUNT]);
         let mut sum = self.information;
         let mut linear = self.linear;
@@ -468,6 +489,7 @@ impl WindowFusion {
                 for h in 0..FAULT_COUNT {
                     leaning[i][h] += information[i][j] * sensitivity[j][h];
                 }
+                pause().await;
             }
         }
         if !(linear.iter().all(|x| x.is_finite())
@@ -489,6 +511,7 @@ impl WindowFusion {
                     closest.information[i][j] = information[i][j];
                     closest.linear[i] += information[i][j] * point[j];
                 }
+                pause().await;
             }
             self.closest = closest;
         }
@@ -524,7 +547,7 @@ impl WindowFusion {
     /// `max_friction_std` on it ([`FLIGHT_MAX_FRICTION_STD`]). `Err` before any window.
     /// O(`FUSION_SWEEPS` · 9²) + O(9³).
     pub fn reading(&self, max_friction_std: f32) -> Result<FlightReading, UncertaintyError> {
-        self.reading_at(max_friction_std, None)
+        run_to_end(self.reading_at(max_friction_std, None))
     }
 
     /// The reading a flight ends with, after its last window: [`Self::reading`], except
@@ -541,7 +564,17 @@ impl WindowFusion {
     /// [`Self::reading`]): a flight flies on while more windows can bring its own friction
     /// within the limit. O(`FUSION_SWEEPS` · 9²) + O(9³).
     pub fn final_reading(&self, max_friction_std: f32) -> Result<FlightReading, UncertaintyError> {
-        let reading = self.reading(max_friction_std)?;
+        run_to_end(self.final_reading_stepwise(max_friction_std))
+    }
+
+    /// [`final_reading`](Self::final_reading) in steps, for a controller's idle time: each
+    /// sweep's component, each row of its 9 × 9 products and its inverses a poll. The same
+    /// bits.
+    pub async fn final_reading_stepwise(
+        &self,
+        max_friction_std: f32,
+    ) -> Result<FlightReading, UncertaintyError> {
+        let reading = self.reading_at(max_friction_std, None).await?;
         match reading.verdict {
             Err(WindowReason::TurbulenceTooHigh { .. })
                 if self.friction_held
@@ -549,6 +582,7 @@ impl WindowFusion {
                     && self.held_friction.is_finite() =>
             {
                 self.reading_at(max_friction_std, Some(f64::from(self.held_friction)))
+                    .await
             }
             _ => Ok(reading),
         }
@@ -557,7 +591,7 @@ impl WindowFusion {
     /// [`Self::reading`], with the friction fixed at `friction` when given (its row and
     /// column out of the summed information: not determined, the others conditional on it).
     #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // i, j < FAULT_COUNT on fixed 9×9 arrays
-    fn reading_at(
+    async fn reading_at(
         &self,
         max_friction_std: f32,
         friction: Option<f64>,
@@ -583,6 +617,7 @@ impl WindowFusion {
                     .map(|j| self.information[i][j] * k[j])
                     .sum();
                 k[i] = ((self.linear[i] - coupled) / self.information[i][i]).clamp(0.0, 1.0);
+                pause().await;
             }
         }
         let mut genes = k.map(|x| x as f32);
@@ -611,11 +646,13 @@ impl WindowFusion {
             gradient: [0.0; FAULT_COUNT],
             fitted: p as u32 + 1,
         };
-        let (uncertainty, correlation) = summed.uncertainty(&faults)?;
+        let (uncertainty, correlation) = summed
+            .uncertainty_stepwise(&faults, &crate::solver::uncertainty::SystematicError::NONE)
+            .await?;
         // How the reading moves with the held values: (Σ I)⁻¹ · Σ I·A; with the friction
         // fixed, also −(Σ I)⁻¹ · (Σ I)·e₀ per unit of its error.
         let mut moved = [[0.0f64; FAULT_COUNT]; FAULT_COUNT];
-        if let Some((inverse, determined)) = summed.inverse(0.0) {
+        if let Some((inverse, determined)) = summed.inverse_stepwise(0.0).await {
             for i in (0..FAULT_COUNT).filter(|&i| determined[i] && !CIRCULAR[i]) {
                 for h in 0..FAULT_COUNT {
                     moved[i][h] = (0..FAULT_COUNT)
@@ -629,10 +666,11 @@ impl WindowFusion {
                             inverse[i][j] * (self.leaning[j][h] - fixed)
                         })
                         .sum();
+                    pause().await;
                 }
             }
         }
-        let shared_std = propagated_std(&moved, &self.held_covariance);
+        let shared_std = propagated_std_stepwise(&moved, &self.held_covariance).await;
         let mut factors = flight_inflation(self.windows);
         if self.friction_held {
             // A pinned window entered ([`PINNED_FLIGHT_INFLATION`]).
@@ -647,7 +685,9 @@ impl WindowFusion {
         let friction_std = uncertainty.std[0];
         let friction_held = self.friction_held && !free[0];
         // The larger of the two tests (NaN, no degree of freedom, stays NaN).
-        let disagreement = match (self.disagreement(&k, &counted, &free), self.outweighed()) {
+        pause().await;
+        let all = self.disagreement(&k, &counted, &free).await;
+        let disagreement = match (all, self.outweighed().await) {
             (all, Some(closest)) if closest > all => closest,
             (all, _) => all,
         };
@@ -681,7 +721,7 @@ impl WindowFusion {
     /// `p` the `free` components fitted (Wilson–Hilferty's quantile). NaN without a degree
     /// of freedom. O(9²).
     #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 9×9 arrays
-    fn disagreement(
+    async fn disagreement(
         &self,
         k: &[f64; FAULT_COUNT],
         counted: &[bool; FAULT_COUNT],
@@ -693,6 +733,7 @@ impl WindowFusion {
             for j in (0..FAULT_COUNT).filter(|&j| counted[j]) {
                 chi2 += k[i] * self.information[i][j] * k[j];
             }
+            pause().await;
         }
         let p = free.iter().filter(|&&x| x).count() as u32;
         let df = f64::from(self.terms.saturating_sub(p));
@@ -714,7 +755,7 @@ impl WindowFusion {
     /// dilutes one such window among the rest, this does not. `None` with fewer than two
     /// windows or when the others do not determine friction. O(9³).
     #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // i, j < FAULT_COUNT on fixed 9×9 arrays
-    fn outweighed(&self) -> Option<f32> {
+    async fn outweighed(&self) -> Option<f32> {
         let (point, variance) = self.closest.friction;
         if self.windows < 2 || !variance.is_finite() {
             return None;
@@ -728,9 +769,10 @@ impl WindowFusion {
         if !kept[0] {
             return None;
         }
-        let rest = padded(&kept, |i, j| {
+        let rest = padded_stepwise(&kept, |i, j| {
             self.information[i][j] - self.closest.information[i][j]
-        });
+        })
+        .await;
         let linear: [f64; FAULT_COUNT] = core::array::from_fn(|i| {
             if kept[i] {
                 self.linear[i] - self.closest.linear[i]
@@ -738,7 +780,7 @@ impl WindowFusion {
                 0.0
             }
         });
-        let covariance = invert(&rest)?;
+        let covariance = invert_stepwise(&rest).await?;
         let others: f64 = (0..FAULT_COUNT)
             .filter(|&j| kept[j])
             .map(|j| covariance[0][j] * linear[j])
@@ -753,18 +795,22 @@ impl WindowFusion {
 }
 
 /// A 9 × 9 matrix of `value(i, j)` over the `kept` components, an identity row and column
-/// for the others (so that inverting it inverts the kept block alone). O(9²).
-fn padded(
+/// for the others (so that inverting it inverts the kept block alone); a pause after each
+/// row. O(9²).
+async fn padded_stepwise(
     kept: &[bool; FAULT_COUNT],
     value: impl Fn(usize, usize) -> f64,
 ) -> [[f64; FAULT_COUNT]; FAULT_COUNT] {
-    core::array::from_fn(|i| {
-        core::array::from_fn(|j| match (kept.get(i), kept.get(j)) {
+    let mut out = [[0.0f64; FAULT_COUNT]; FAULT_COUNT];
+    for (i, row) in out.iter_mut().enumerate() {
+        *row = core::array::from_fn(|j| match (kept.get(i), kept.get(j)) {
             (Some(true), Some(true)) => value(i, j),
             _ if i == j => 1.0,
             _ => 0.0,
-        })
-    })
+        });
+        pause().await;
+    }
+    out
 }
 
 /// Below this share of the flight's information on a component, the windows other than

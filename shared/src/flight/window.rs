@@ -36,7 +36,7 @@
 //! identification is 2.9 × 10⁹ instructions in ≈ 1 500 polls (`cargo window-bench`,
 //! docs/in-flight.md).
 
-use crate::base::math::{abs, invert, invert_stepwise};
+use crate::base::math::{abs, invert_stepwise};
 use crate::base::steps::{pause, run_to_end};
 use crate::model::monitor::{MonitorModel, MonitorRun, RunRigging};
 use crate::physics::fault::{FaultVector, DEMAGNETIZATION_INDEX, FAULT_COUNT};
@@ -54,6 +54,10 @@ pub const SETTLE_SAMPLES: usize = 200;
 /// (340 a sample and 1 000 to resume), under 30 % of a 100 µs control period at 168 MHz
 /// (5 040).
 pub const EVALUATION_SLICE: usize = 10;
+
+/// Samples of a window's scans between two pauses of [`WindowProblem::new_stepwise`] (its
+/// peak current, its command's range, its energy: a few instructions each).
+pub const SCAN_PER_POLL: usize = 128;
 
 /// Terms of the profiled drift (Legendre polynomials of degree 0 … 9).
 pub const DRIFT_TERMS: usize = 10;

@@ -142,7 +142,7 @@ struct FaultedConstants {
     /// Calibrated torque/back-EMF constant [N·m/A] over one electrical turn in
     /// [`GAIN_BINS`] bins (eight per sector, bin 0 starting at θ_e = −30°): the nominal value
     /// times the mean over the two conducting phases of healthy fraction × air-gap coupling
-    /// factor ([`torque_gain_table_stepwise`]).
+    /// factor ([`torque_gain_bins`]).
     bin_torque_constant: [f32; GAIN_BINS],
     /// Standstill pair circuits A→B, B→C, C→A: `i ← decay·i + gain·V` per period (the
     /// exact step response of R_pair, L_pair).
@@ -346,45 +346,81 @@ impl MonitorModel {
     }
 
     fn faulted(&self, k: &FaultVector) -> FaultedConstants {
-        run_to_end(self.faulted_stepwise(k))
+        let fx = self.fault_effects(k);
+        let mut pairs = [(0.0, 0.0); 3];
+        if self.standstill.is_some() {
+            for (j, slot) in pairs.iter_mut().enumerate() {
+                *slot = self.pair_constants(&fx, j);
+            }
+        }
+        let mut gains = [1.0f32; GAIN_BINS];
+        torque_gain_bins(&self.params, &fx, &mut gains, 0..GAIN_BINS);
+        self.faulted_from(&fx, &pairs, &gains)
     }
 
-    /// [`faulted`](Self::faulted) in steps: the future pauses after each standstill pair's
-    /// constants (a soft-f64 exponential each on the Cortex-M4F) and after every
-    /// [`GAIN_BINS_PER_POLL`] bins of the torque table. The same bits.
+    /// [`faulted`](Self::faulted) in steps, the same pieces: the future pauses after each
+    /// standstill pair's constants (a soft-f64 exponential each on the Cortex-M4F) and after
+    /// every [`GAIN_BINS_PER_POLL`] bins of the torque table. The same bits.
     async fn faulted_stepwise(&self, k: &FaultVector) -> FaultedConstants {
-        let mut fx = k.effects();
-        if self.friction_floor != 1.0 {
-            fx.friction_scale = self.friction_floor + (3.0 - self.friction_floor) * k.friction();
-        }
-        let p = &self.params;
-        let [na, nb, nc] = fx.healthy_turns;
-        let turns = fx.healthy_turns;
-        // Standstill pair y → z: R = R_ph·(N_y + N_z), L = L_ph·(N_y² + N_z²).
-        let pair = |j: usize| -> (f32, f32) {
-            let signs = PAIR_SIGNS.get(j).copied().unwrap_or([0; 3]);
-            let (mut n1, mut n2) = (0.0f32, 0.0f32);
-            for (&sign, &n) in signs.iter().zip(&turns) {
-                if sign != 0 {
-                    n1 += n;
-                    n2 += n * n;
-                }
-            }
-            let r = f64::from(self.pair_phase_resistance * n1);
-            let l = f64::from(self.pair_phase_inductance * n2);
-            let decay = exp64(-f64::from(self.dt) * r / l);
-            (decay as f32, ((1.0 - decay) / r) as f32)
-        };
+        let fx = self.fault_effects(k);
         // A test without a standstill segment (a window's) never drives a pair: its
         // constants stay zero (three soft-f64 exponentials saved per run start).
         let mut pairs = [(0.0, 0.0); 3];
         if self.standstill.is_some() {
             for (j, slot) in pairs.iter_mut().enumerate() {
-                *slot = pair(j);
+                *slot = self.pair_constants(&fx, j);
                 pause().await;
             }
         }
-        let gains = torque_gain_table_stepwise(p, &fx).await;
+        let mut gains = [1.0f32; GAIN_BINS];
+        let mut first = 0;
+        while first < GAIN_BINS {
+            let end = (first + GAIN_BINS_PER_POLL).min(GAIN_BINS);
+            torque_gain_bins(&self.params, &fx, &mut gains, first..end);
+            pause().await;
+            first = end;
+        }
+        self.faulted_from(&fx, &pairs, &gains)
+    }
+
+    /// What fault vector `k` does to the model: its effects, with the friction floor.
+    fn fault_effects(&self, k: &FaultVector) -> FaultEffects {
+        let mut fx = k.effects();
+        if self.friction_floor != 1.0 {
+            fx.friction_scale = self.friction_floor + (3.0 - self.friction_floor) * k.friction();
+        }
+        fx
+    }
+
+    /// Standstill pair `j`'s decay and gain per step under the healthy turns of `fx`.
+    #[inline(never)]
+    fn pair_constants(&self, fx: &FaultEffects, j: usize) -> (f32, f32) {
+        // Standstill pair y → z: R = R_ph·(N_y + N_z), L = L_ph·(N_y² + N_z²).
+        let signs = PAIR_SIGNS.get(j).copied().unwrap_or([0; 3]);
+        let (mut n1, mut n2) = (0.0f32, 0.0f32);
+        for (&sign, &n) in signs.iter().zip(&fx.healthy_turns) {
+            if sign != 0 {
+                n1 += n;
+                n2 += n * n;
+            }
+        }
+        let r = f64::from(self.pair_phase_resistance * n1);
+        let l = f64::from(self.pair_phase_inductance * n2);
+        let decay = exp64(-f64::from(self.dt) * r / l);
+        (decay as f32, ((1.0 - decay) / r) as f32)
+    }
+
+    /// The run's constants from the effects `fx`, the standstill pairs' `pairs` and the
+    /// torque table's relative `gains`.
+    #[inline(never)]
+    fn faulted_from(
+        &self,
+        fx: &FaultEffects,
+        pairs: &[(f32, f32); 3],
+        gains: &[f32; GAIN_BINS],
+    ) -> FaultedConstants {
+        let p = &self.params;
+        let [na, nb, nc] = fx.healthy_turns;
         FaultedConstants {
             kp: p.position_kp * fx.kp_scale,
             static_friction_impulse: self.dt_over_motor_inertia
@@ -941,6 +977,10 @@ fn pair_current_after_switch(mut phases: [f32; 3], to: usize) -> f32 {
         .sum::<f32>()
 }
 
+/// Bins of the torque-gain table a poll of [`MonitorModel::start_loaded_run_stepwise`]
+/// fills (four cosines each).
+pub const GAIN_BINS_PER_POLL: usize = 4;
+
 /// Bins of the torque-gain table over one electrical turn (7.5° each).
 pub const GAIN_BINS: usize = 48;
 const BINS_PER_SECTOR: usize = GAIN_BINS / 6;
@@ -968,11 +1008,15 @@ fn gain_bin(theta_e: f32) -> usize {
 /// edges under its coils (two full-pitch coils side by side per phase, edges one pole pitch
 /// apart), evaluated at each bin's centre. The edges under a coil repeat every pole pitch,
 /// so one electrical turn holds the whole shape. Without eccentricity each bin is the
-/// conducting pair's mean healthy fraction, eq. (1). O(GAIN_BINS) work per fault vector.
-/// Bins of [`torque_gain_table_stepwise`] between two pauses (four cosines each).
-pub const GAIN_BINS_PER_POLL: usize = 4;
-
-async fn torque_gain_table_stepwise(p: &ActuatorParams, fx: &FaultEffects) -> [f32; GAIN_BINS] {
+/// conducting pair's mean healthy fraction, eq. (1). O(GAIN_BINS) work per fault vector;
+/// this call fills the table's `bins` (its other entries untouched).
+#[inline(never)]
+fn torque_gain_bins(
+    p: &ActuatorParams,
+    fx: &FaultEffects,
+    table: &mut [f32; GAIN_BINS],
+    bins: core::ops::Range<usize>,
+) {
     let z = fx.eccentricity_z;
     let psi_min = p.winding_group_angle[0] + fx.eccentricity_phase;
     let pole_pairs = if p.pole_pairs >= 1.0 {
@@ -1002,16 +1046,11 @@ async fn torque_gain_table_stepwise(p: &ActuatorParams, fx: &FaultEffects) -> [f
         let e1 = start + u;
         turns * 0.5 * (permeance(e1) + permeance(e1 + pitch))
     };
-    let mut table = [1.0f32; GAIN_BINS];
-    for (b, slot) in table.iter_mut().enumerate() {
+    for (b, slot) in table.iter_mut().enumerate().take(bins.end).skip(bins.start) {
         let theta_e = -TAU / 12.0 + (b as f32 + 0.5) * (TAU / GAIN_BINS as f32);
         let theta_m = theta_e / pole_pairs;
         let floating = (b / BINS_PER_SECTOR) % 3;
         let (y, z_phase) = ((floating + 1) % 3, (floating + 2) % 3);
         *slot = 0.5 * (coupling(y, theta_m) + coupling(z_phase, theta_m));
-        if (b + 1) % GAIN_BINS_PER_POLL == 0 {
-            pause().await;
-        }
     }
-    table
 }

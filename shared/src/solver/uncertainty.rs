@@ -474,34 +474,28 @@ impl Curvature {
     /// `(JᵀWJ + λ·diag)⁻¹` over the determined components (diagonal above [`FLAT`] of the
     /// largest), the others given an identity row and column so that they do not couple;
     /// with which components are determined. `None` when none is, or the matrix is
-    /// singular. One copy for the uncertainty (λ = 0) and the polish. O(9³).
-    #[inline(never)]
-    pub(crate) fn inverse(
-        &self,
-        damping: f64,
-    ) -> Option<([[f64; FAULT_COUNT]; FAULT_COUNT], [bool; FAULT_COUNT])> {
-        run_to_end(self.inverse_stepwise(damping))
-    }
-
-    /// [`inverse`](Self::inverse) in steps: a pause first, then [`invert_stepwise`]. The same
-    /// bits.
+    /// singular. One copy for the uncertainty (λ = 0) and the polish. O(9³), in steps: a
+    /// pause first, then [`invert_stepwise`].
     #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 9×9 arrays
     pub(crate) async fn inverse_stepwise(
         &self,
         damping: f64,
     ) -> Option<([[f64; FAULT_COUNT]; FAULT_COUNT], [bool; FAULT_COUNT])> {
         pause().await;
-        let largest = (0..FAULT_COUNT)
-            .map(|i| self.normal[i][i])
-            .fold(0.0f64, f64::max);
-        let determined: [bool; FAULT_COUNT] =
-            core::array::from_fn(|i| self.normal[i][i] > FLAT * largest && self.normal[i][i] > 0.0);
-        if !determined.contains(&true) {
-            return None;
-        }
+        let determined = self.determined()?;
         pause().await;
         let m = self.damped(damping, &determined);
         Some((invert_stepwise(&m).await?, determined))
+    }
+
+    /// The components the sums determine: a diagonal above [`FLAT`] of the largest. `None`
+    /// when none is.
+    fn determined(&self) -> Option<[bool; FAULT_COUNT]> {
+        let diagonal = |i: usize| self.normal.get(i).and_then(|r| r.get(i)).copied();
+        let largest = (0..FAULT_COUNT).filter_map(diagonal).fold(0.0f64, f64::max);
+        let determined: [bool; FAULT_COUNT] =
+            core::array::from_fn(|i| diagonal(i).is_some_and(|d| d > FLAT * largest && d > 0.0));
+        determined.contains(&true).then_some(determined)
     }
 
     /// The normal matrix with its diagonal taken `1 + damping` times over the `determined`
@@ -569,7 +563,7 @@ impl Curvature {
         &self,
         k: &FaultVector,
     ) -> Result<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT]), UncertaintyError> {
-        run_to_end(self.uncertainty_stepwise(k, &SystematicError::NONE))
+        self.uncertainty_with(k, &SystematicError::NONE)
     }
 
     /// [`Self::uncertainty`] of a preflight identification on an actuator whose record
@@ -581,7 +575,7 @@ impl Curvature {
         k: &FaultVector,
         systematic: &SystematicError,
     ) -> Result<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT]), UncertaintyError> {
-        run_to_end(self.uncertainty_stepwise(k, systematic))
+        self.uncertainty_with(k, systematic)
     }
 
     /// [`Self::uncertainty`], with a preflight's `systematic` error ([`preflight_systematic`];
@@ -590,11 +584,28 @@ impl Curvature {
     /// than two tables). The correlations stay the curvature's: what the test can
     /// tell apart (the verdicts' `Ambiguous`); the systematic error is taken as correlated
     /// with nothing.
-    ///
-    /// In steps, for a controller's idle time: the inverse stepwise, then a pause after the
-    /// residual's deviation, after each deviation and after each correlation (a soft-f64
-    /// square root each). The same bits in one call.
-    #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 9×9 arrays
+    fn uncertainty_with(
+        &self,
+        k: &FaultVector,
+        systematic: &SystematicError,
+    ) -> Result<(Uncertainty, [[f32; FAULT_COUNT]; FAULT_COUNT]), UncertaintyError> {
+        let determined = self.determined().ok_or(UncertaintyError::Undetermined)?;
+        let inverse = crate::base::math::invert(&self.damped(0.0, &determined))
+            .ok_or(UncertaintyError::Undetermined)?;
+        let mut draft = UncertaintyDraft::start(self, k, inverse, determined)?;
+        for i in 0..FAULT_COUNT {
+            draft.deviation(i, k, systematic);
+            for j in 0..FAULT_COUNT {
+                draft.correlate(i, j);
+            }
+        }
+        Ok((draft.out, draft.correlation))
+    }
+
+    /// [`Self::preflight_uncertainty`] in steps, for a controller's idle time, the same
+    /// pieces: the inverse stepwise, then a pause after the residual's deviation, after
+    /// each deviation and after each correlation (a soft-f64 square root each). The same
+    /// bits.
     pub async fn uncertainty_stepwise(
         &self,
         k: &FaultVector,
@@ -605,68 +616,105 @@ impl Curvature {
             .await
             .ok_or(UncertaintyError::Undetermined)?;
         pause().await;
-        let p = determined.iter().filter(|&&x| x).count();
-        if (self.fitted as usize) <= p {
-            return Err(UncertaintyError::Undetermined);
-        }
-        let s2 = self.rss / (self.fitted as usize - p) as f64;
-        let c = f64::from(INFLATION);
-        let variance = |i: usize| {
-            c * c
-                * s2
-                * inverse
-                    .get(i)
-                    .and_then(|r| r.get(i))
-                    .copied()
-                    .unwrap_or(0.0)
-        };
-        let mut out = Uncertainty {
-            std: [f32::NAN; FAULT_COUNT],
-            lower: *k.as_array(),
-            upper: *k.as_array(),
-            worst_correlation: 0.0,
-            worst_pair: (0, 0),
-            residual_std: sqrt64(s2) as f32,
-        };
-        let mut correlation = [[0.0f32; FAULT_COUNT]; FAULT_COUNT];
+        let mut draft = UncertaintyDraft::start(self, k, inverse, determined)?;
         pause().await;
         for i in 0..FAULT_COUNT {
-            if !determined[i] {
-                continue;
-            }
-            let s = sqrt64(variance(i)) as f32;
-            // `preflight_systematic(k)[i]`: only the gain drift has one (asserted below the
-            // constants); the friction takes the day's healthy friction's.
-            let e = if i == GAIN_DRIFT_INDEX {
-                systematic.gain_drift_for(k)
-            } else if i == FRICTION_INDEX {
-                systematic.friction_for(k)
-            } else {
-                0.0
-            };
-            let s = if e > 0.0 {
-                crate::base::math::sqrt(s * s + e * e)
-            } else {
-                s
-            };
-            out.std[i] = s;
-            (out.lower[i], out.upper[i]) = interval(CIRCULAR[i], k.as_array()[i], s);
-            pause().await;
-            for j in 0..FAULT_COUNT {
-                if !determined[j] {
-                    continue;
-                }
-                let cij = inverse[i][j] / sqrt64(inverse[i][i] * inverse[j][j]);
-                correlation[i][j] = cij as f32;
-                if i < j && !CIRCULAR[i] && !CIRCULAR[j] && cij.abs() as f32 > out.worst_correlation
-                {
-                    out.worst_correlation = cij.abs() as f32;
-                    out.worst_pair = (i as u8, j as u8);
-                }
+            if draft.deviation(i, k, systematic) {
                 pause().await;
             }
+            for j in 0..FAULT_COUNT {
+                if draft.correlate(i, j) {
+                    pause().await;
+                }
+            }
         }
-        Ok((out, correlation))
+        Ok((draft.out, draft.correlation))
+    }
+}
+
+/// An uncertainty under way ([`Curvature::uncertainty`]): the inverse of the determined
+/// block, the residual's variance, the deviations and intervals so far, the correlations.
+struct UncertaintyDraft {
+    inverse: [[f64; FAULT_COUNT]; FAULT_COUNT],
+    determined: [bool; FAULT_COUNT],
+    s2: f64,
+    out: Uncertainty,
+    correlation: [[f32; FAULT_COUNT]; FAULT_COUNT],
+}
+
+#[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 9×9 arrays
+impl UncertaintyDraft {
+    /// The residual's variance over the degrees of freedom left; `Err` when none is.
+    #[inline(never)]
+    fn start(
+        curvature: &Curvature,
+        k: &FaultVector,
+        inverse: [[f64; FAULT_COUNT]; FAULT_COUNT],
+        determined: [bool; FAULT_COUNT],
+    ) -> Result<Self, UncertaintyError> {
+        let p = determined.iter().filter(|&&x| x).count();
+        if (curvature.fitted as usize) <= p {
+            return Err(UncertaintyError::Undetermined);
+        }
+        let s2 = curvature.rss / (curvature.fitted as usize - p) as f64;
+        Ok(Self {
+            inverse,
+            determined,
+            s2,
+            out: Uncertainty {
+                std: [f32::NAN; FAULT_COUNT],
+                lower: *k.as_array(),
+                upper: *k.as_array(),
+                worst_correlation: 0.0,
+                worst_pair: (0, 0),
+                residual_std: sqrt64(s2) as f32,
+            },
+            correlation: [[0.0f32; FAULT_COUNT]; FAULT_COUNT],
+        })
+    }
+
+    /// Component `i`'s deviation and interval, if it is determined (whether it was).
+    #[inline(never)]
+    fn deviation(&mut self, i: usize, k: &FaultVector, systematic: &SystematicError) -> bool {
+        if !self.determined[i] {
+            return false;
+        }
+        let c = f64::from(INFLATION);
+        let s = sqrt64(c * c * self.s2 * self.inverse[i][i]) as f32;
+        // `preflight_systematic(k)[i]`: only the gain drift has one (asserted below the
+        // constants); the friction takes the day's healthy friction's.
+        let e = if i == GAIN_DRIFT_INDEX {
+            systematic.gain_drift_for(k)
+        } else if i == FRICTION_INDEX {
+            systematic.friction_for(k)
+        } else {
+            0.0
+        };
+        let s = if e > 0.0 {
+            crate::base::math::sqrt(s * s + e * e)
+        } else {
+            s
+        };
+        self.out.std[i] = s;
+        (self.out.lower[i], self.out.upper[i]) = interval(CIRCULAR[i], k.as_array()[i], s);
+        true
+    }
+
+    /// The correlation of components `i` and `j`, if both are determined (whether they
+    /// were); the worst pair kept.
+    #[inline(never)]
+    fn correlate(&mut self, i: usize, j: usize) -> bool {
+        if !(self.determined[i] && self.determined[j]) {
+            return false;
+        }
+        let inverse = &self.inverse;
+        let cij = inverse[i][j] / sqrt64(inverse[i][i] * inverse[j][j]);
+        self.correlation[i][j] = cij as f32;
+        if i < j && !CIRCULAR[i] && !CIRCULAR[j] && cij.abs() as f32 > self.out.worst_correlation {
+            self.out.worst_correlation = cij.abs() as f32;
+            self.out.worst_pair = (i as u8, j as u8);
+        }
+        true
     }
 }
 

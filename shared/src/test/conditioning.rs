@@ -279,6 +279,10 @@ impl ConditionSums {
     }
 }
 
+/// Samples of each scan of [`MeasuredCurrent::finish_stepwise`] between two pauses (a few
+/// instructions each).
+pub const FINISH_SAMPLES_PER_POLL: usize = 256;
+
 /// The conditioned measured current of one test, ready for the fitness: at most `N` filtered
 /// equivalent-current samples \[A\] plus the derivative normalisation of eq. (3).
 ///
@@ -450,6 +454,13 @@ impl<const N: usize> MeasuredCurrent<N> {
 
     /// Seals the buffer: checks it and computes the eq. (3) normalisation. O(N).
     pub fn finish(&mut self) -> Result<(), ConditioningError> {
+        crate::base::steps::run_to_end(self.finish_stepwise())
+    }
+
+    /// [`finish`](Self::finish) in steps, for a controller's idle time: a pause after every
+    /// [`FINISH_SAMPLES_PER_POLL`] samples of each of its two scans. The same result.
+    pub async fn finish_stepwise(&mut self) -> Result<(), ConditioningError> {
+        use crate::base::steps::pause;
         let need = Self::MIN_SAMPLES.min(N);
         if self.samples.len() < need {
             return Err(ConditioningError::TooFewSamples {
@@ -457,20 +468,28 @@ impl<const N: usize> MeasuredCurrent<N> {
                 need: need as u32,
             });
         }
-        if let Some(index) = self.samples.iter().position(|x| !x.is_finite()) {
-            return Err(ConditioningError::NotFinite {
-                index: index as u32,
-            });
+        for (index, x) in self.samples.iter().enumerate() {
+            if !x.is_finite() {
+                return Err(ConditioningError::NotFinite {
+                    index: index as u32,
+                });
+            }
+            if (index + 1) % FINISH_SAMPLES_PER_POLL == 0 {
+                pause().await;
+            }
         }
         // κ over the chirp: the standstill segment has its own weight in the fitness.
         let lead = self.lead_samples().min(self.samples.len());
         let chirp = self.samples.get(lead..).unwrap_or(&[]);
         let mut sum_sq = 0.0f32;
         let mut previous = 0.0f32;
-        for &x in chirp {
+        for (i, &x) in chirp.iter().enumerate() {
             let d = x - previous;
             sum_sq += d * d;
             previous = x;
+            if (i + 1) % FINISH_SAMPLES_PER_POLL == 0 {
+                pause().await;
+            }
         }
         let kappa = sum_sq / chirp.len().max(1) as f32;
         // A flat trace has no derivative to normalise: every weight is then 1.

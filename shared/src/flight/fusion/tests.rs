@@ -238,7 +238,7 @@ fn one_close_window_does_not_outweigh_the_others_it_disagrees_with() {
     let reading = apart.reading(0.04).unwrap();
     let k = reading.faults.as_array().map(f64::from);
     let free: [bool; FAULT_COUNT] = core::array::from_fn(|i| i != PHASE);
-    assert!(apart.disagreement(&k, &free, &free) < 0.5);
+    assert!(run_to_end(apart.disagreement(&k, &free, &free)) < 0.5);
     match reading.verdict {
         Err(WindowReason::Unconfirmed {
             windows: 9,

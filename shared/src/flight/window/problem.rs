@@ -14,6 +14,19 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         model: MonitorModel,
         load: WindowLoad,
     ) -> Result<Self, WindowError> {
+        run_to_end(Self::new_stepwise(measured, command, model, load))
+    }
+
+    /// [`new`](Self::new) in steps, for a controller's idle time: a pause after each row
+    /// of a sample's Gram products (ten soft-f64 multiply-adds), in the Gram matrix's
+    /// inverse ([`invert_stepwise`]) and after every [`SCAN_PER_POLL`] samples of the
+    /// window's scans (its peak, its command's range, its energy). The same problem.
+    pub async fn new_stepwise(
+        measured: &'a MeasuredCurrent<N>,
+        command: RecordedCommand<'a>,
+        model: MonitorModel,
+        load: WindowLoad,
+    ) -> Result<Self, WindowError> {
         let reference = measured.samples();
         let samples = reference.len().min(command.len());
         if samples < SETTLE_SAMPLES + 10 * DRIFT_TERMS {
@@ -34,19 +47,34 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
                 for (x, &b) in row.iter_mut().zip(&phi) {
                     *x += w * f64::from(a) * f64::from(b);
                 }
+                pause().await;
             }
         }
-        let drift_inverse = invert(&gram)
+        let drift_inverse = invert_stepwise(&gram)
+            .await
             .ok_or(WindowError::Singular)?
             .map(|row| row.map(|x| x as f32));
+        pause().await;
         // The kept samples within the window (the line between two never leaves them).
-        let (lo, hi) = command
+        let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+        for (j, &x) in command
             .kept()
             .iter()
             .take((samples - 1) / command.stride + 1)
-            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &x| {
-                (lo.min(x), hi.max(x))
-            });
+            .enumerate()
+        {
+            (lo, hi) = (lo.min(x), hi.max(x));
+            if (j + 1) % SCAN_PER_POLL == 0 {
+                pause().await;
+            }
+        }
+        let mut peak_current = 0.0f32;
+        for (i, &x) in reference.iter().take(samples).enumerate() {
+            peak_current = peak_current.max(abs(x));
+            if (i + 1) % SCAN_PER_POLL == 0 {
+                pause().await;
+            }
+        }
         let mut problem = Self {
             measured,
             command,
@@ -57,17 +85,17 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             gram,
             samples,
             energy: 0.0,
-            peak_current: reference
-                .iter()
-                .take(samples)
-                .fold(0.0f32, |m, &x| m.max(abs(x))),
+            peak_current,
             command_range: hi - lo,
             held: HeldComponents::NONE,
             evaluation_slice: EVALUATION_SLICE,
         };
-        problem.energy = problem
-            .residual_fit(&[0.0; DRIFT_TERMS], &mut NoCurrent)
-            .error;
+        let mut energy = ResidualSums::new(&[0.0; DRIFT_TERMS]);
+        while !energy.advance(&problem, &[0.0; DRIFT_TERMS], &mut NoCurrent, SCAN_PER_POLL) {
+            pause().await;
+        }
+        problem.energy = energy.fit(&problem).error;
+        pause().await;
         Ok(problem)
     }
 
@@ -107,6 +135,17 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         record: &crate::preflight::actuator::ActuatorRecord,
         load: WindowLoad,
     ) -> Result<(Self, crate::model::conditions::TestConditions), WindowError> {
+        run_to_end(Self::of_record_stepwise(measured, kept, record, load))
+    }
+
+    /// [`of_record`](Self::of_record) in steps: the day's estimate and the model in one
+    /// poll, then [`new_stepwise`](Self::new_stepwise).
+    pub async fn of_record_stepwise(
+        measured: &'a MeasuredCurrent<N>,
+        kept: &'a [f32],
+        record: &crate::preflight::actuator::ActuatorRecord,
+        load: WindowLoad,
+    ) -> Result<(Self, crate::model::conditions::TestConditions), WindowError> {
         let conditions = crate::model::conditions::TestConditions::estimate(
             measured,
             &record.params,
@@ -116,7 +155,11 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             .with_test(measured.test())
             .with_conditions(&conditions);
         let command = RecordedCommand::kept_every(COMMAND_STRIDE, kept);
-        Ok((Self::new(measured, command, model, load)?, conditions))
+        pause().await;
+        Ok((
+            Self::new_stepwise(measured, command, model, load).await?,
+            conditions,
+        ))
     }
 
     /// The same problem with its stepwise evaluations in polls of `samples` samples (at

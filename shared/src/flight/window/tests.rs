@@ -1,6 +1,7 @@
 //! Unit tests of [`super`] (`window`).
 
 use super::*;
+use crate::base::math::invert;
 
 /// The load's response read from a window's curvature moves a load whose moment is off
 /// most of the way back, and lowers the fit: a window recorded from the monitor model
