@@ -22,9 +22,9 @@ use shared::window::{HeldComponents, WindowReason, COMMAND_STRIDE};
 use crate::source::{Acquired, CurrentSource, TraceBytes, TraceSource};
 
 /// Frames a window's acquisition takes per poll in flight: on the controller one frame
-/// arrives per control period; the emulation image reads them from its trace file a few
-/// at a time, each poll within 30 % of a control period.
-pub const WINDOW_FRAMES_PER_POLL: u32 = 4;
+/// arrives per control period; the emulation image reads them from its trace file one at a
+/// time too (a row's read, its checksum and its conditioning: ≈ 2.9 × 10³ instructions).
+pub const WINDOW_FRAMES_PER_POLL: u32 = 1;
 
 /// Commands kept of a window of at most [`TEST_SAMPLES`] frames: every
 /// [`COMMAND_STRIDE`]-th.

@@ -282,7 +282,7 @@ struct GaussJordan<const N: usize> {
     inv: [[f64; N]; N],
 }
 
-#[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // fixed N×N bounds
+#[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // fixed N×N bounds, checked
 impl<const N: usize> GaussJordan<N> {
     fn start(m: &[[f64; N]; N]) -> Self {
         let mut inv = [[0.0f64; N]; N];
@@ -293,9 +293,12 @@ impl<const N: usize> GaussJordan<N> {
     }
 
     /// Column `col`'s pivot (partial pivoting) swapped into row `col`, and its value; `None`
-    /// if singular.
+    /// if singular (or `col` is not a column).
     #[inline(never)]
     fn pivot(&mut self, col: usize) -> Option<f64> {
+        if col >= N {
+            return None;
+        }
         let a = &mut self.a;
         let inv = &mut self.inv;
         let mut pivot = col;
@@ -323,7 +326,10 @@ impl<const N: usize> GaussJordan<N> {
     /// before the first division: the row's own pivot entry becomes 1 on the way).
     #[inline(never)]
     fn divide(&mut self, col: usize, d: f64, columns: core::ops::Range<usize>) {
-        for c in columns {
+        if col >= N {
+            return;
+        }
+        for c in columns.start.min(N)..columns.end.min(N) {
             self.a[col][c] /= d;
             self.inv[col][c] /= d;
         }
@@ -332,8 +338,11 @@ impl<const N: usize> GaussJordan<N> {
     /// Row `r` (not the pivot's) cleared in column `col`. Whether it did any work.
     #[inline(never)]
     fn eliminate(&mut self, col: usize, r: usize) -> bool {
+        if col >= N || r >= N || r == col {
+            return false;
+        }
         let f = self.a[r][col];
-        if r == col || f == 0.0 {
+        if f == 0.0 {
             return false;
         }
         for c in 0..N {

@@ -465,6 +465,7 @@ impl WindowFusion {
         let information = invert_stepwise(&covariance)
             .await
             .ok_or(UncertaintyError::Undetermined)?;
+        pause().await;
         let mut point = [0.0f64; FAULT_COUNT];
         for i in 0..FAULT_COUNT {
             let step: f64 = (0..FAULT_COUNT)
@@ -477,21 +478,28 @@ impl WindowFusion {
         let sensitivity = HeldComponents::sensitivity_stepwise(curvature, coupling)
             .await
             .unwrap_or([[0.0; FAULT_COUNT]; FAULT_COUNT]);
+        pause().await;
         let mut sum = self.information;
         let mut linear = self.linear;
         let mut square = self.square;
         let mut leaning = self.leaning;
+        pause().await;
         for i in (0..FAULT_COUNT).filter(|&i| added(i)) {
             for j in (0..FAULT_COUNT).filter(|&j| added(j)) {
                 sum[i][j] += information[i][j];
                 linear[i] += information[i][j] * point[j];
                 square += point[i] * information[i][j] * point[j];
+                pause().await;
                 for h in 0..FAULT_COUNT {
                     leaning[i][h] += information[i][j] * sensitivity[j][h];
+                    if h + 1 == FAULT_COUNT / 2 {
+                        pause().await;
+                    }
                 }
                 pause().await;
             }
         }
+        pause().await;
         if !(linear.iter().all(|x| x.is_finite())
             && sum.iter().flatten().all(|x| x.is_finite())
             && leaning.iter().flatten().all(|x| x.is_finite())
@@ -499,6 +507,7 @@ impl WindowFusion {
         {
             return Err(UncertaintyError::Undetermined);
         }
+        pause().await;
         (self.information, self.linear, self.square) = (sum, linear, square);
         self.leaning = leaning;
         if added(0) && covariance[0][0] < self.closest.friction.1 {
@@ -781,6 +790,7 @@ impl WindowFusion {
             }
         });
         let covariance = invert_stepwise(&rest).await?;
+        pause().await;
         let others: f64 = (0..FAULT_COUNT)
             .filter(|&j| kept[j])
             .map(|j| covariance[0][j] * linear[j])

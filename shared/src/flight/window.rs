@@ -57,7 +57,7 @@ pub const EVALUATION_SLICE: usize = 10;
 
 /// Samples of a window's scans between two pauses of [`WindowProblem::new_stepwise`] (its
 /// peak current, its command's range, its energy: a few instructions each).
-pub const SCAN_PER_POLL: usize = 128;
+pub const SCAN_PER_POLL: usize = 32;
 
 /// Terms of the profiled drift (Legendre polynomials of degree 0 … 9).
 pub const DRIFT_TERMS: usize = 10;
@@ -417,6 +417,7 @@ impl HeldComponents {
         coupling: &HeldCoupling,
     ) -> Option<[[f64; FAULT_COUNT]; FAULT_COUNT]> {
         let (inverse, determined) = curvature.inverse_stepwise(0.0).await?;
+        pause().await;
         let mut a = [[0.0f64; FAULT_COUNT]; FAULT_COUNT];
         for i in (0..FAULT_COUNT).filter(|&i| determined[i]) {
             for h in 0..FAULT_COUNT {
@@ -716,6 +717,7 @@ pub async fn identify_stepwise<const N: usize, const P: usize>(
     seed: u64,
     limits: &WindowLimits,
 ) -> Result<WindowReading, crate::solver::ga::GaError> {
+    pause().await;
     let guess = problem.load().stiffness;
     let mut evaluations = 0u32;
     let (load, _, runs) = problem

@@ -155,45 +155,99 @@ impl TestConditions {
 
     /// The day of the test in `measured` (finished or not), for an actuator of `params`
     /// calibrated by `calibration`. O(segment samples).
-    #[inline(never)]
     pub fn estimate<const N: usize>(
         measured: &MeasuredCurrent<N>,
         params: &ActuatorParams,
         calibration: &Calibration,
     ) -> Self {
+        Self::of_gearbox(measured, calibration)
+            .with_grease(measured, calibration)
+            .with_slope(calibration)
+            .with_winding(measured, params, calibration)
+    }
+
+    /// [`estimate`](Self::estimate) in polls, for a controller's idle time: the gearbox's
+    /// day by the thermistor, the grease's word, the friction law's slope, the winding's
+    /// day (the standstill pairs). The same day.
+    pub async fn estimate_stepwise<const N: usize>(
+        measured: &MeasuredCurrent<N>,
+        params: &ActuatorParams,
+        calibration: &Calibration,
+    ) -> Self {
+        use crate::base::steps::pause;
+        let day = Self::of_gearbox(measured, calibration);
+        pause().await;
+        let day = day.with_grease(measured, calibration);
+        pause().await;
+        let day = day.with_slope(calibration);
+        pause().await;
+        day.with_winding(measured, params, calibration)
+    }
+
+    /// The gearbox's part of the day by the thermistor: the friction's scale (and its slope,
+    /// [`with_slope`](Self::with_slope)), the bus voltage; the winding at the calibration's.
+    #[inline(never)]
+    fn of_gearbox<const N: usize>(
+        measured: &MeasuredCurrent<N>,
+        calibration: &Calibration,
+    ) -> Self {
         let sums = measured.conditions();
         let measured_temperature = sums.temperature();
-        let mut friction_scale =
-            measured_temperature.map_or(1.0, |t| friction_factor(calibration, t));
-        // A grease with a drag of its own: its drag is the gearbox's thermometer.
-        // Solved only with a law to read it (the fit is accumulated either way).
-        let mut drag_rise = 0.0;
-        let mut drag_outside_law = None;
+        Self {
+            friction_scale: measured_temperature.map_or(1.0, |t| friction_factor(calibration, t)),
+            measured_temperature,
+            bus_voltage: sums.bus_voltage(),
+            ..Self::CALIBRATION
+        }
+    }
+
+    /// This day with the grease's word on the friction: a grease with a drag of its own has
+    /// its drag for the gearbox's thermometer (solved only with a law to read it; the fit is
+    /// accumulated either way).
+    #[inline(never)]
+    fn with_grease<const N: usize>(
+        mut self,
+        measured: &MeasuredCurrent<N>,
+        calibration: &Calibration,
+    ) -> Self {
         if calibration.viscous > 0.0 {
             let grease = measured.grease().ok();
             let ratio = grease.map_or(f32::NAN, |g| g.viscous / calibration.viscous);
             match (grease, friction_factor_by_drag(calibration, ratio)) {
                 (Some(grease), Some(factor)) => {
-                    friction_scale = factor;
-                    drag_rise = grease.viscous - calibration.viscous;
+                    self.friction_scale = factor;
+                    self.drag_rise = grease.viscous - calibration.viscous;
                     if !drag_within_law(calibration, ratio) {
-                        drag_outside_law = Some(ratio);
+                        self.drag_outside_law = Some(ratio);
                     }
                 }
                 // No drag to read (too few chirp blocks, a singular fit, no drag at all).
-                _ => drag_outside_law = Some(ratio),
+                _ => self.drag_outside_law = Some(ratio),
             }
         }
-        let friction_slope = measured_temperature.map_or(0.0, |t| friction_slope(calibration, t));
-        let mut out = Self {
-            friction_scale,
-            friction_slope,
-            drag_rise,
-            drag_outside_law,
-            measured_temperature,
-            bus_voltage: sums.bus_voltage(),
-            ..Self::CALIBRATION
-        };
+        self
+    }
+
+    /// This day with the friction law's slope at the thermistor's temperature.
+    #[inline(never)]
+    fn with_slope(mut self, calibration: &Calibration) -> Self {
+        self.friction_slope = self
+            .measured_temperature
+            .map_or(0.0, |t| friction_slope(calibration, t));
+        self
+    }
+
+    /// This day with the winding's part: the standstill pairs' impedances, the phases'
+    /// healthy turns and the copper's temperature they give (with the thermistor's).
+    #[inline(never)]
+    fn with_winding<const N: usize>(
+        self,
+        measured: &MeasuredCurrent<N>,
+        params: &ActuatorParams,
+        calibration: &Calibration,
+    ) -> Self {
+        let mut out = self;
+        let measured_temperature = out.measured_temperature;
         let (pairs, winding) = pair_impedances(
             measured,
             params.control_period,

@@ -485,7 +485,9 @@ impl Curvature {
         let determined = self.determined()?;
         pause().await;
         let m = self.damped(damping, &determined);
-        Some((invert_stepwise(&m).await?, determined))
+        let inverse = invert_stepwise(&m).await?;
+        pause().await;
+        Some((inverse, determined))
     }
 
     /// The components the sums determine: a diagonal above [`FLAT`] of the largest. `None`
@@ -593,6 +595,7 @@ impl Curvature {
         let inverse = crate::base::math::invert(&self.damped(0.0, &determined))
             .ok_or(UncertaintyError::Undetermined)?;
         let mut draft = UncertaintyDraft::start(self, k, inverse, determined)?;
+        draft.residual();
         for i in 0..FAULT_COUNT {
             draft.deviation(i, k, systematic);
             for j in 0..FAULT_COUNT {
@@ -618,6 +621,8 @@ impl Curvature {
         pause().await;
         let mut draft = UncertaintyDraft::start(self, k, inverse, determined)?;
         pause().await;
+        draft.residual();
+        pause().await;
         for i in 0..FAULT_COUNT {
             if draft.deviation(i, k, systematic) {
                 pause().await;
@@ -642,9 +647,10 @@ struct UncertaintyDraft {
     correlation: [[f32; FAULT_COUNT]; FAULT_COUNT],
 }
 
-#[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 9×9 arrays
+#[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 9×9 arrays, checked
 impl UncertaintyDraft {
-    /// The residual's variance over the degrees of freedom left; `Err` when none is.
+    /// The residual's variance over the degrees of freedom left (its deviation from
+    /// [`residual`](Self::residual)); `Err` when none is.
     #[inline(never)]
     fn start(
         curvature: &Curvature,
@@ -667,16 +673,22 @@ impl UncertaintyDraft {
                 upper: *k.as_array(),
                 worst_correlation: 0.0,
                 worst_pair: (0, 0),
-                residual_std: sqrt64(s2) as f32,
+                residual_std: f32::NAN,
             },
             correlation: [[0.0f32; FAULT_COUNT]; FAULT_COUNT],
         })
     }
 
+    /// The residual's deviation.
+    #[inline(never)]
+    fn residual(&mut self) {
+        self.out.residual_std = sqrt64(self.s2) as f32;
+    }
+
     /// Component `i`'s deviation and interval, if it is determined (whether it was).
     #[inline(never)]
     fn deviation(&mut self, i: usize, k: &FaultVector, systematic: &SystematicError) -> bool {
-        if !self.determined[i] {
+        if i >= FAULT_COUNT || !self.determined[i] {
             return false;
         }
         let c = f64::from(INFLATION);
@@ -704,7 +716,7 @@ impl UncertaintyDraft {
     /// were); the worst pair kept.
     #[inline(never)]
     fn correlate(&mut self, i: usize, j: usize) -> bool {
-        if !(self.determined[i] && self.determined[j]) {
+        if i >= FAULT_COUNT || j >= FAULT_COUNT || !(self.determined[i] && self.determined[j]) {
             return false;
         }
         let inverse = &self.inverse;

@@ -281,7 +281,7 @@ impl ConditionSums {
 
 /// Samples of each scan of [`MeasuredCurrent::finish_stepwise`] between two pauses (a few
 /// instructions each).
-pub const FINISH_SAMPLES_PER_POLL: usize = 256;
+pub const FINISH_SAMPLES_PER_POLL: usize = 64;
 
 /// The conditioned measured current of one test, ready for the fitness: at most `N` filtered
 /// equivalent-current samples \[A\] plus the derivative normalisation of eq. (3).

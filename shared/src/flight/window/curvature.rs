@@ -257,6 +257,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             response.per_fault[0][h] = 0.0;
             response.per_fault[1][h] = 0.0;
         }
+        pause().await;
         let curvature = Curvature {
             normal: *normal,
             rss: rss.max(0.0),

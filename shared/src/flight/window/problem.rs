@@ -17,8 +17,8 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         run_to_end(Self::new_stepwise(measured, command, model, load))
     }
 
-    /// [`new`](Self::new) in steps, for a controller's idle time: a pause after each row
-    /// of a sample's Gram products (ten soft-f64 multiply-adds), in the Gram matrix's
+    /// [`new`](Self::new) in steps, for a controller's idle time: a pause first, after each
+    /// half row of a sample's Gram products (five soft-f64 multiply-adds), in the Gram matrix's
     /// inverse ([`invert_stepwise`]) and after every [`SCAN_PER_POLL`] samples of the
     /// window's scans (its peak, its command's range, its energy). The same problem.
     pub async fn new_stepwise(
@@ -27,6 +27,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         model: MonitorModel,
         load: WindowLoad,
     ) -> Result<Self, WindowError> {
+        pause().await;
         let reference = measured.samples();
         let samples = reference.len().min(command.len());
         if samples < SETTLE_SAMPLES + 10 * DRIFT_TERMS {
@@ -39,22 +40,33 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             let d = r - previous;
             previous = r;
             if i < SETTLE_SAMPLES {
+                if (i + 1) % SCAN_PER_POLL == 0 {
+                    pause().await;
+                }
                 continue;
+            }
+            if i == SETTLE_SAMPLES {
+                pause().await;
             }
             let w = f64::from(weight(d, inv_kappa));
             let phi = legendre(axis(i, samples));
             for (row, &a) in gram.iter_mut().zip(&phi) {
-                for (x, &b) in row.iter_mut().zip(&phi) {
+                for (c, (x, &b)) in row.iter_mut().zip(&phi).enumerate() {
                     *x += w * f64::from(a) * f64::from(b);
+                    if c + 1 == DRIFT_TERMS / 2 {
+                        pause().await;
+                    }
                 }
                 pause().await;
             }
         }
-        let drift_inverse = invert_stepwise(&gram)
-            .await
-            .ok_or(WindowError::Singular)?
-            .map(|row| row.map(|x| x as f32));
+        let inverse = invert_stepwise(&gram).await.ok_or(WindowError::Singular)?;
         pause().await;
+        let mut drift_inverse = [[0.0f32; DRIFT_TERMS]; DRIFT_TERMS];
+        for (to, from) in drift_inverse.iter_mut().zip(&inverse) {
+            *to = from.map(|x| x as f32);
+            pause().await;
+        }
         // The kept samples within the window (the line between two never leaves them).
         let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
         for (j, &x) in command
@@ -138,19 +150,21 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         run_to_end(Self::of_record_stepwise(measured, kept, record, load))
     }
 
-    /// [`of_record`](Self::of_record) in steps: the day's estimate and the model in one
-    /// poll, then [`new_stepwise`](Self::new_stepwise).
+    /// [`of_record`](Self::of_record) in steps: the day's estimate, the model, then
+    /// [`new_stepwise`](Self::new_stepwise), each in polls of their own.
     pub async fn of_record_stepwise(
         measured: &'a MeasuredCurrent<N>,
         kept: &'a [f32],
         record: &crate::preflight::actuator::ActuatorRecord,
         load: WindowLoad,
     ) -> Result<(Self, crate::model::conditions::TestConditions), WindowError> {
-        let conditions = crate::model::conditions::TestConditions::estimate(
+        let conditions = crate::model::conditions::TestConditions::estimate_stepwise(
             measured,
             &record.params,
             &record.calibration,
-        );
+        )
+        .await;
+        pause().await;
         let model = MonitorModel::new(record.params, &record.calibration)
             .with_test(measured.test())
             .with_conditions(&conditions);
