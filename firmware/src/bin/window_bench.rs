@@ -5,10 +5,11 @@
 //! control computer's corrections, 1 mrad RMS, with the 5 mrad chirp on top; a hinge spring
 //! 1.4 times the actuator's carrying 120 N·m; friction 0.2 and a gain drift 0.6). Prints the
 //! instructions of one window evaluation (a model run with the drift profiled out), one
-//! curvature (twelve lockstep runs), one load search, and the whole identification polled
+//! curvature (thirteen lockstep runs), one load search, and the whole identification polled
 //! as a controller's idle-time task would poll it: its polls, the longest poll's
-//! instructions and its model-run count; then the window added to a flight's reading
-//! (`shared::fusion`) and the reading formed.
+//! instructions and where it starts and ends (feature `pause-sites`), the polls over 30 % of
+//! a 100 µs control period by where they run, and its model-run count; then the window added
+//! to a flight's reading (`shared::fusion`) and the reading formed.
 //!
 //! A bench, not the product: the emulation image reads real windows (`cargo fw -- P.bin
 //! --window W.bin`, docs/controller.md); this binary times the parts of one on a window it

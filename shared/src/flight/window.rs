@@ -24,17 +24,18 @@
 //! Work: one evaluation = one monitor-model run over the window (O(N), a few multiply-adds
 //! more per sample: the drift's polynomials are expanded per block of [`DRIFT_BLOCK`]
 //! samples) and O(`DRIFT_TERMS²`); [`WindowProblem::fit_load`] is at most
-//! [`LOAD_SEARCH_EVALUATIONS`] evaluations; a curvature twelve lockstep runs and
+//! [`LOAD_SEARCH_EVALUATIONS`] evaluations; a curvature thirteen lockstep runs and
 //! O(N·(9 + 12)²) f32 multiply-adds summed in f64 per block; the whole identification
 //! ([`identify`]: two load searches, two GA runs of at most [`WINDOW_GA_EVALUATIONS`], the
 //! polish — Gauss–Newton steps that move the load's stiffness and moment with the faults —,
 //! the uncertainty widened by [`WINDOW_INFLATION`], the verdict) at most
 //! 2 × [`LOAD_SEARCH_EVALUATIONS`] + 2 × [`WINDOW_GA_EVALUATIONS`] + 7 curvatures + 10
-//! evaluations, and [`identify_stepwise`] does it in polls of at most one evaluation or
-//! [`CURVATURE_CHUNK`] curvature samples. No allocation, no panic. Run by the host on every
-//! window; the controller's images have no flash left for it; on the Cortex-M4F one
-//! identification is 2.9 × 10⁹ instructions in ≈ 1 500 polls (`cargo window-bench`,
-//! docs/in-flight.md).
+//! evaluations, and [`identify_stepwise`] does it in polls a control loop can interleave: a
+//! model run's [`EVALUATION_SLICE`] samples, a curvature's [`CURVATURE_RUNS_PER_POLL`] runs
+//! of one sample, a row of its soft-f64 algebra (≤ 5 040 instructions on the Cortex-M4F, 30 %
+//! of a 100 µs period). No allocation, no panic. Run by the host on every window and by the
+//! emulation image; on the Cortex-M4F one identification is 3.9 × 10⁹ instructions in
+//! ≈ 960 000 polls (`cargo window-bench`, docs/in-flight.md).
 
 use crate::base::math::{abs, invert_stepwise};
 use crate::base::steps::{pause, run_to_end};
@@ -706,9 +707,9 @@ pub fn identify<const N: usize, const P: usize>(
 
 /// [`identify`] as a future that does bounded work per poll, for a controller's idle time
 /// (an executor's task polls it; the control loop runs in between): each poll does at most
-/// one window evaluation (one model run over the window, with the GA's O(`P`) bookkeeping),
-/// or [`CURVATURE_CHUNK`] samples of a curvature's twelve lockstep runs, or the polish's
-/// and the uncertainty's O(12³) algebra. The future holds the GA, the curvature's runs and
+/// a slice of a model run ([`WindowProblem::with_evaluation_slice`]), or a curvature's
+/// [`CURVATURE_RUNS_PER_POLL`] runs of one sample or one sample's sums, or a row of the
+/// polish's and the uncertainty's algebra, or a slice of the GA's breeding. The future holds the GA, the curvature's runs and
 /// the load search between polls (no allocation); `problem`'s load is its starting guess
 /// and is left at the load found.
 pub async fn identify_stepwise<const N: usize, const P: usize>(
