@@ -235,7 +235,7 @@ async fn preflight(spawner: Spawner) -> i32 {
         };
         let day = RecordedDay::of(&day);
         let entry = |newest| preflight_entry(command.flight, newest, &report, day);
-        match record_health(path, store, entry) {
+        match record_health(path, store, &entry) {
             Ok(flight) => log = Some((path, store, flight)),
             Err(status) => return status,
         }
@@ -442,26 +442,31 @@ async fn fly_windows(
             }
         };
         let guess = WindowLoad::spring(record.params.aero_stiffness, 0.0);
+        // The window's problem is built in place, here (≈ 1.9 kB not moved through futures).
+        let mut built = None;
         let set_up = window_polls
-            .run(pin!(WindowProblem::of_record_stepwise(
+            .run(pin!(WindowProblem::of_record_into_stepwise(
+                &mut built,
                 measured,
                 kept.as_slice(),
                 &record,
                 guess,
             )))
             .await;
-        let (mut problem, conditions) = match set_up {
-            Ok((p, c)) => (p.with_held(held), c),
-            Err(e) => {
+        let (problem, conditions) = match (set_up, built.as_mut()) {
+            (Ok(c), Some(p)) => (p, c),
+            (Err(e), _) => {
                 defmt::error!("window {=[u8]:a} cannot be read: {}", name, e);
                 return status::BAD_TRACE;
             }
+            (Ok(_), None) => return status::START_UP,
         };
+        problem.hold(held);
         let started = cycles();
         let mut identify_polls = PollTimer::default();
         let reading = identify_polls
             .run(pin!(identify_stepwise::<_, POPULATION>(
-                &mut problem,
+                problem,
                 window_ga(&record.ga),
                 settings.seed,
                 &WindowLimits::REFERENCE,
@@ -538,7 +543,7 @@ async fn fly_windows(
                 let day = first_day.unwrap_or(RecordedDay::UNKNOWN);
                 let entry =
                     |_| HealthRecord::of_flight_reading(flight, &f, fitness_sum, entered, day);
-                if let Err(status) = record_health(path, store, entry) {
+                if let Err(status) = record_health(path, store, &entry) {
                     return status;
                 }
             }
@@ -658,12 +663,12 @@ type HealthStoreImage = RamStore<ONBOARD_RECORDS>;
 /// to the health log kept in `path`, in `store`, and reports each fault's trend and RUL
 /// (flights; `none` = beyond the horizon). `*_bits` give the f32 bits (`ffffffff` for none)
 /// for the comparison with the host. The record's flight, or the exit status that says why
-/// not.
+/// not. `entry` is a trait object: one copy of this function for both kinds of entry.
 #[inline(never)]
 fn record_health(
     path: &CStr,
     store: &mut HealthStoreImage,
-    entry: impl FnOnce(Option<Newest>) -> HealthRecord,
+    entry: &dyn Fn(Option<Newest>) -> HealthRecord,
 ) -> Result<u32, i32> {
     let started = cycles();
     let path_text = path.to_bytes();

@@ -112,7 +112,8 @@ fn the_day_in_steps_is_the_day() {
     ));
     let whole = TestConditions::estimate(&measured, &record.params, &record.calibration);
     assert_eq!(format!("{stepped:?}"), format!("{whole:?}"));
-    assert_eq!(polls, 4);
+    // Five pauses between its pieces, and the grease fit's own.
+    assert!(polls > 5, "{polls} polls");
     assert!(
         whole.friction_scale > 1.0 && whole.friction_slope > 0.0,
         "{whole:?}"

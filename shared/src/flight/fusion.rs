@@ -765,6 +765,8 @@ impl WindowFusion {
     /// windows or when the others do not determine friction. O(9³).
     #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // i, j < FAULT_COUNT on fixed 9×9 arrays
     async fn outweighed(&self) -> Option<f32> {
+        // The disagreement's end (a soft-f64 root) ends its poll here.
+        pause().await;
         let (point, variance) = self.closest.friction;
         if self.windows < 2 || !variance.is_finite() {
             return None;

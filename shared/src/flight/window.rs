@@ -56,7 +56,7 @@ pub const SETTLE_SAMPLES: usize = 200;
 /// (5 040).
 pub const EVALUATION_SLICE: usize = 10;
 
-/// Samples of a window's scans between two pauses of [`WindowProblem::new_stepwise`] (its
+/// Samples of a window's scans between two pauses of [`WindowProblem::build_stepwise`] (its
 /// peak current, its command's range, its energy: a few instructions each).
 pub const SCAN_PER_POLL: usize = 32;
 

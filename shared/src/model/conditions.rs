@@ -19,6 +19,7 @@
 
 use crate::base::math::{exp, ln};
 use crate::model::calibration::Calibration;
+use crate::physics::grease::GreaseReading;
 use crate::physics::params::{ActuatorParams, REFERENCE_TEMPERATURE};
 use crate::test::conditioning::{LowPassState, MeasuredCurrent};
 use crate::test::test_design::PAIR_SIGNS;
@@ -160,58 +161,72 @@ impl TestConditions {
         params: &ActuatorParams,
         calibration: &Calibration,
     ) -> Self {
-        Self::of_gearbox(measured, calibration)
-            .with_grease(measured, calibration)
+        Self::of_gearbox(measured)
+            .with_thermistor_friction(calibration)
+            .with_grease(measured.grease().ok(), calibration)
             .with_slope(calibration)
             .with_winding(measured, params, calibration)
     }
 
     /// [`estimate`](Self::estimate) in polls, for a controller's idle time: the gearbox's
-    /// day by the thermistor, the grease's word, the friction law's slope, the winding's
-    /// day (the standstill pairs). The same day.
+    /// readings, the friction by the thermistor, the grease's fit and its word, the friction law's slope, the winding's day (the standstill pairs). The same
+    /// day.
     pub async fn estimate_stepwise<const N: usize>(
         measured: &MeasuredCurrent<N>,
         params: &ActuatorParams,
         calibration: &Calibration,
     ) -> Self {
         use crate::base::steps::pause;
-        let day = Self::of_gearbox(measured, calibration);
+        let mut day = Self::of_gearbox(measured);
         pause().await;
-        let day = day.with_grease(measured, calibration);
+        if let Some(t) = day.measured_temperature {
+            day.friction_scale = friction_factor_stepwise(calibration, t).await;
+        }
         pause().await;
-        let day = day.with_slope(calibration);
+        let grease = measured.grease_stepwise().await.ok();
+        pause().await;
+        let mut day = day.with_grease(grease, calibration);
+        pause().await;
+        if let Some(t) = day.measured_temperature {
+            let above = friction_factor_stepwise(calibration, t + SLOPE_HALF_WIDTH).await;
+            pause().await;
+            let below = friction_factor_stepwise(calibration, t - SLOPE_HALF_WIDTH).await;
+            pause().await;
+            day.friction_slope = slope_between(above, below);
+        }
         pause().await;
         day.with_winding(measured, params, calibration)
     }
 
-    /// The gearbox's part of the day by the thermistor: the friction's scale (and its slope,
-    /// [`with_slope`](Self::with_slope)), the bus voltage; the winding at the calibration's.
+    /// The gearbox's readings of the test: the thermistor's mean and the bus voltage; the
+    /// rest at the calibration's.
     #[inline(never)]
-    fn of_gearbox<const N: usize>(
-        measured: &MeasuredCurrent<N>,
-        calibration: &Calibration,
-    ) -> Self {
+    fn of_gearbox<const N: usize>(measured: &MeasuredCurrent<N>) -> Self {
         let sums = measured.conditions();
-        let measured_temperature = sums.temperature();
         Self {
-            friction_scale: measured_temperature.map_or(1.0, |t| friction_factor(calibration, t)),
-            measured_temperature,
+            measured_temperature: sums.temperature(),
             bus_voltage: sums.bus_voltage(),
             ..Self::CALIBRATION
         }
     }
 
-    /// This day with the grease's word on the friction: a grease with a drag of its own has
-    /// its drag for the gearbox's thermometer (solved only with a law to read it; the fit is
-    /// accumulated either way).
+    /// This day with the friction's scale by the thermistor (its slope:
+    /// [`with_slope`](Self::with_slope)).
     #[inline(never)]
-    fn with_grease<const N: usize>(
-        mut self,
-        measured: &MeasuredCurrent<N>,
-        calibration: &Calibration,
-    ) -> Self {
+    fn with_thermistor_friction(mut self, calibration: &Calibration) -> Self {
+        self.friction_scale = self
+            .measured_temperature
+            .map_or(1.0, |t| friction_factor(calibration, t));
+        self
+    }
+
+    /// This day with the grease's word on the friction, `grease` the test's fit
+    /// (`MeasuredCurrent::grease`): a grease with a drag of its own has its drag for the
+    /// gearbox's thermometer (solved only with a law to read it; the fit is accumulated
+    /// either way).
+    #[inline(never)]
+    fn with_grease(mut self, grease: Option<GreaseReading>, calibration: &Calibration) -> Self {
         if calibration.viscous > 0.0 {
-            let grease = measured.grease().ok();
             let ratio = grease.map_or(f32::NAN, |g| g.viscous / calibration.viscous);
             match (grease, friction_factor_by_drag(calibration, ratio)) {
                 (Some(grease), Some(factor)) => {
@@ -330,10 +345,28 @@ pub fn friction_factor(calibration: &Calibration, celsius: f32) -> f32 {
 /// ([`TestConditions::friction_slope`]): the law's change of ln(friction) between `celsius` ±
 /// [`SLOPE_HALF_WIDTH`], over the width; 0 without a law. O(points).
 pub fn friction_slope(calibration: &Calibration, celsius: f32) -> f32 {
-    crate::base::math::abs(
-        ln(friction_factor(calibration, celsius + SLOPE_HALF_WIDTH))
-            - ln(friction_factor(calibration, celsius - SLOPE_HALF_WIDTH)),
-    ) / (2.0 * SLOPE_HALF_WIDTH)
+    slope_between(
+        friction_factor(calibration, celsius + SLOPE_HALF_WIDTH),
+        friction_factor(calibration, celsius - SLOPE_HALF_WIDTH),
+    )
+}
+
+/// [`friction_factor`] in steps, for a controller's idle time: the law's point, then its
+/// exponential stepwise ([`crate::base::math::exp64_stepwise`]). The same bits.
+async fn friction_factor_stepwise(calibration: &Calibration, celsius: f32) -> f32 {
+    let at = log_law_value(
+        calibration.temperature,
+        &calibration.friction_points,
+        celsius,
+    );
+    crate::base::steps::pause().await;
+    at.value_stepwise().await
+}
+
+/// The slope between the friction factors `above` and `below` [`SLOPE_HALF_WIDTH`] either
+/// side ([`friction_slope`]).
+fn slope_between(above: f32, below: f32) -> f32 {
+    crate::base::math::abs(ln(above) - ln(below)) / (2.0 * SLOPE_HALF_WIDTH)
 }
 
 /// The healthy dry friction at the chirp's viscous drag `ratio` (against the calibration's)
@@ -379,6 +412,35 @@ fn law_points(calibration: &Calibration) -> impl DoubleEndedIterator<Item = (f32
 /// factor 0 — last) and the calibration's own `(own, 1)` in its place among them, held beyond
 /// the outermost. O(points), no allocation.
 fn log_law(own: f32, points: &[[f32; 2]; 4], x: f32) -> f32 {
+    log_law_value(own, points, x).value()
+}
+
+/// A law's value at a point: given by a point of the law, or the log to exponentiate.
+#[derive(Clone, Copy)]
+enum LawValue {
+    Exact(f32),
+    Log(f32),
+}
+
+impl LawValue {
+    fn value(self) -> f32 {
+        match self {
+            Self::Exact(v) => v,
+            Self::Log(l) => exp(l),
+        }
+    }
+
+    /// [`value`](Self::value) with its exponential stepwise: the same bits.
+    async fn value_stepwise(self) -> f32 {
+        match self {
+            Self::Exact(v) => v,
+            Self::Log(l) => crate::base::math::exp64_stepwise(f64::from(l)).await as f32,
+        }
+    }
+}
+
+/// [`log_law`] up to its exponential.
+fn log_law_value(own: f32, points: &[[f32; 2]; 4], x: f32) -> LawValue {
     let own = [own, 1.0];
     let mut previous: Option<(f32, f32)> = None;
     let mut own_placed = false;
@@ -397,14 +459,14 @@ fn log_law(own: f32, points: &[[f32; 2]; 4], x: f32) -> f32 {
         };
         let log = ln(factor);
         match previous {
-            None if x <= t => return factor,
+            None if x <= t => return LawValue::Exact(factor),
             Some((t0, l0)) if x <= t => {
-                return exp(l0 + (log - l0) * (x - t0) / (t - t0).max(1e-3));
+                return LawValue::Log(l0 + (log - l0) * (x - t0) / (t - t0).max(1e-3));
             }
             _ => previous = Some((t, log)),
         }
     }
-    previous.map_or(1.0, |(_, log)| exp(log))
+    previous.map_or(LawValue::Exact(1.0), |(_, log)| LawValue::Log(log))
 }
 
 /// Each pair's R and L from the injection segment of `measured` (control period `dt`): the

@@ -170,6 +170,25 @@ impl ChirpTorqueFit {
     /// The fit's viscous drag and dry friction. O(9³): the normal equations inverted in
     /// f64 (`crate::base::math::invert`, padded to its 9×9 with an identity block).
     pub fn reading(&self) -> Result<GreaseReading, GreaseError> {
+        let m = self.normal_matrix()?;
+        self.solved(&invert(&m).ok_or(GreaseError::Singular)?)
+    }
+
+    /// [`reading`](Self::reading) in steps, for a controller's idle time, the same pieces:
+    /// the normal matrix, its inverse ([`invert_stepwise`](crate::base::math::invert_stepwise))
+    /// and the solve each in polls of their own. The same reading.
+    pub async fn reading_stepwise(&self) -> Result<GreaseReading, GreaseError> {
+        let m = self.normal_matrix()?;
+        let inverse = crate::base::math::invert_stepwise(&m)
+            .await
+            .ok_or(GreaseError::Singular)?;
+        crate::base::steps::pause().await;
+        self.solved(&inverse)
+    }
+
+    /// The normal equations, padded to [`INVERT_N`] with an identity block; `Err` with too
+    /// few blocks.
+    fn normal_matrix(&self) -> Result<[[f64; INVERT_N]; INVERT_N], GreaseError> {
         if self.blocks < MIN_BLOCKS {
             return Err(GreaseError::TooFewBlocks {
                 have: self.blocks,
@@ -193,7 +212,11 @@ impl ChirpTorqueFit {
                 }
             }
         }
-        let inverse = invert(&m).ok_or(GreaseError::Singular)?;
+        Ok(m)
+    }
+
+    /// The viscous drag and dry friction from the normal matrix's `inverse`.
+    fn solved(&self, inverse: &[[f64; INVERT_N]; INVERT_N]) -> Result<GreaseReading, GreaseError> {
         let solve = |i: usize| -> f32 {
             let mut sum = 0.0f64;
             for (a, r) in inverse

@@ -369,6 +369,11 @@ impl<const N: usize> MeasuredCurrent<N> {
         self.torque_fit.reading()
     }
 
+    /// [`grease`](Self::grease) in steps ([`ChirpTorqueFit::reading_stepwise`]).
+    pub async fn grease_stepwise(&self) -> Result<GreaseReading, GreaseError> {
+        self.torque_fit.reading_stepwise().await
+    }
+
     /// The test the buffer conditions.
     pub fn test(&self) -> &PreflightTest {
         &self.test

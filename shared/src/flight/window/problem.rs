@@ -14,19 +14,27 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         model: MonitorModel,
         load: WindowLoad,
     ) -> Result<Self, WindowError> {
-        run_to_end(Self::new_stepwise(measured, command, model, load))
+        let mut slot = None;
+        run_to_end(Self::build_stepwise(
+            &mut slot, measured, command, model, load,
+        ))?;
+        // A build that returns `Ok` has filled the slot.
+        slot.ok_or(WindowError::Singular)
     }
 
-    /// [`new`](Self::new) in steps, for a controller's idle time: a pause first, after each
-    /// half row of a sample's Gram products (five soft-f64 multiply-adds), in the Gram matrix's
-    /// inverse ([`invert_stepwise`]) and after every [`SCAN_PER_POLL`] samples of the
-    /// window's scans (its peak, its command's range, its energy). The same problem.
-    pub async fn new_stepwise(
+    /// [`new`](Self::new) in steps, for a controller's idle time, built into `slot` (the
+    /// caller's: the problem, ≈ 1.9 kB, is not moved through futures): a pause first, after
+    /// each half row of a sample's Gram products (five soft-f64 multiply-adds), in the Gram
+    /// matrix's inverse ([`invert_stepwise`]) and after every [`SCAN_PER_POLL`] samples of
+    /// the window's scans (its peak, its command's range, its energy). `Ok`: the slot holds
+    /// the same problem as `new`'s.
+    pub async fn build_stepwise(
+        slot: &mut Option<Self>,
         measured: &'a MeasuredCurrent<N>,
         command: RecordedCommand<'a>,
         model: MonitorModel,
         load: WindowLoad,
-    ) -> Result<Self, WindowError> {
+    ) -> Result<(), WindowError> {
         pause().await;
         let reference = measured.samples();
         let samples = reference.len().min(command.len());
@@ -87,7 +95,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
                 pause().await;
             }
         }
-        let mut problem = Self {
+        let problem = slot.insert(Self {
             measured,
             command,
             model,
@@ -101,14 +109,14 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             command_range: hi - lo,
             held: HeldComponents::NONE,
             evaluation_slice: EVALUATION_SLICE,
-        };
+        });
+        pause().await;
         let mut energy = ResidualSums::new(&[0.0; DRIFT_TERMS]);
-        while !energy.advance(&problem, &[0.0; DRIFT_TERMS], &mut NoCurrent, SCAN_PER_POLL) {
+        while !energy.advance(problem, &[0.0; DRIFT_TERMS], &mut NoCurrent, SCAN_PER_POLL) {
             pause().await;
         }
-        problem.energy = energy.fit(&problem).error;
-        pause().await;
-        Ok(problem)
+        problem.energy = energy.fit(problem).error;
+        Ok(())
     }
 
     pub fn load(&self) -> WindowLoad {
@@ -135,7 +143,6 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         &self.model
     }
 
-    /// The same problem with `held` components held ([`HeldComponents`]).
     /// The window problem of an actuator `record`'s window: `measured` (its finished frames,
     /// the window's test) driven by `kept` (the command kept every [`COMMAND_STRIDE`]
     /// frames), the model on the day the FDI estimates from the window
@@ -147,17 +154,24 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         record: &crate::preflight::actuator::ActuatorRecord,
         load: WindowLoad,
     ) -> Result<(Self, crate::model::conditions::TestConditions), WindowError> {
-        run_to_end(Self::of_record_stepwise(measured, kept, record, load))
+        let mut slot = None;
+        let conditions = run_to_end(Self::of_record_into_stepwise(
+            &mut slot, measured, kept, record, load,
+        ))?;
+        // A build that returns `Ok` has filled the slot.
+        Ok((slot.ok_or(WindowError::Singular)?, conditions))
     }
 
-    /// [`of_record`](Self::of_record) in steps: the day's estimate, the model, then
-    /// [`new_stepwise`](Self::new_stepwise), each in polls of their own.
-    pub async fn of_record_stepwise(
+    /// [`of_record`](Self::of_record) in steps, built into `slot` (the caller's): the day's
+    /// estimate, the model, then [`build_stepwise`](Self::build_stepwise), each in polls of
+    /// their own. `Ok`: the day, the slot holding the problem.
+    pub async fn of_record_into_stepwise(
+        slot: &mut Option<Self>,
         measured: &'a MeasuredCurrent<N>,
         kept: &'a [f32],
         record: &crate::preflight::actuator::ActuatorRecord,
         load: WindowLoad,
-    ) -> Result<(Self, crate::model::conditions::TestConditions), WindowError> {
+    ) -> Result<crate::model::conditions::TestConditions, WindowError> {
         let conditions = crate::model::conditions::TestConditions::estimate_stepwise(
             measured,
             &record.params,
@@ -170,10 +184,8 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             .with_conditions(&conditions);
         let command = RecordedCommand::kept_every(COMMAND_STRIDE, kept);
         pause().await;
-        Ok((
-            Self::new_stepwise(measured, command, model, load).await?,
-            conditions,
-        ))
+        Self::build_stepwise(slot, measured, command, model, load).await?;
+        Ok(conditions)
     }
 
     /// The same problem with its stepwise evaluations in polls of `samples` samples (at
@@ -183,9 +195,15 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         self
     }
 
+    /// The same problem with `held` components held ([`HeldComponents`]).
     pub fn with_held(mut self, held: HeldComponents) -> Self {
         self.held = held;
         self
+    }
+
+    /// Holds `held` components ([`HeldComponents`]), in place.
+    pub fn hold(&mut self, held: HeldComponents) {
+        self.held = held;
     }
 
     /// The components held at values from outside the window.
