@@ -1,0 +1,271 @@
+//! The board image (`cargo board-build`) on the emulated STM32F405: it boots, configures
+//! its clocks, pins, bridge timer, converters and encoder as `board.rs` claims, takes every
+//! frame within its control period, plays its preflight to the end on an actuator whose
+//! motor leads are open (and names that), and its health record lands in the emulated flash
+//! and survives a reboot. Needs `defmt-print` (`.ci/run` installs it) for the RTT log.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::OnceLock;
+
+use board_emu::bus::Bus;
+use board_emu::clocks::{wait_states_needed, ClockTree};
+use board_emu::flash::FlashInterface;
+use board_emu::plant::OpenBridge;
+use board_emu::timers;
+use board_emu::{Board, RunEnd};
+use firmware::bridge::BridgeTiming;
+use host_sim::files::flash_pair::{newest_item, pair_image, Store};
+use host_sim::files::health::slot_bytes;
+use shared::actuator::ActuatorRecord;
+use shared::health::HealthRecord;
+
+/// Instructions in one 100 µs control period at 168 MHz.
+const PERIOD_INSTRUCTIONS: u64 = 16_800;
+
+fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("board-emu/ sits in the workspace root")
+        .to_path_buf()
+}
+
+/// Builds the board image once per test binary; returns its ELF.
+fn board_elf() -> &'static [u8] {
+    static ELF: OnceLock<Vec<u8>> = OnceLock::new();
+    ELF.get_or_init(|| {
+        let out = Command::new(env!("CARGO"))
+            .args(["board-build", "--message-format=json"])
+            .current_dir(workspace_root())
+            .output()
+            .expect("cargo runs");
+        assert!(
+            out.status.success(),
+            "cargo board-build failed:\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        std::fs::read(elf_path()).expect("the board image")
+    })
+}
+
+fn elf_path() -> PathBuf {
+    workspace_root().join("target/thumbv7em-none-eabihf/board/firmware")
+}
+
+/// The RTT bytes through `defmt-print`.
+fn decoded(log: &[u8]) -> String {
+    let mut child = Command::new("defmt-print")
+        .arg("-e")
+        .arg(elf_path())
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .spawn()
+        .expect("defmt-print is installed (cargo install defmt-print)");
+    child
+        .stdin
+        .take()
+        .expect("stdin")
+        .write_all(log)
+        .expect("defmt-print reads");
+    let out = child.wait_with_output().expect("defmt-print runs");
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// Flash with the reference actuator's record in its pair (sectors 5–6).
+fn flash_with_record() -> FlashInterface {
+    let mut flash = FlashInterface::new();
+    let image = pair_image(&ActuatorRecord::REFERENCE.encode()).expect("a pair image");
+    flash
+        .load(Store::Record.address(), &image)
+        .expect("in the data sectors");
+    flash
+}
+
+fn open_bridge() -> Box<OpenBridge> {
+    Box::new(OpenBridge::new(270.0, 20.0))
+}
+
+#[test]
+fn without_a_record_the_board_says_so_and_sleeps() {
+    let mut board = Board::new(board_elf(), FlashInterface::new(), open_bridge()).unwrap();
+    let end = board.run(50_000_000).unwrap();
+    assert!(matches!(end, RunEnd::Asleep { .. }), "{end:?}");
+    let log = decoded(&board.log);
+    assert!(log.contains("preflight not done: NoRecord"), "{log}");
+}
+
+/// Pin `pin` of `port` (0 = A) in mode `mode` (2 alternate, 3 analog) with function `af`.
+fn assert_pin(bus: &Bus, port: usize, pin: u32, mode: u32, af: u32) {
+    let (m, a) = bus.pin(port, pin);
+    assert_eq!(m, mode, "P{}{pin}'s mode", (b'A' + port as u8) as char);
+    if mode == 2 {
+        assert_eq!(
+            a,
+            af,
+            "P{}{pin}'s alternate function",
+            (b'A' + port as u8) as char
+        );
+    }
+}
+
+#[test]
+fn the_board_configures_what_board_rs_claims_and_takes_every_frame_in_its_period() {
+    let mut board = Board::new(board_elf(), flash_with_record(), open_bridge()).unwrap();
+    // ≈ 1 700 control periods of the test.
+    let end = board.run(30_000_000).unwrap();
+    assert_eq!(end, RunEnd::InstructionLimit);
+    let log = decoded(&board.log);
+    assert!(
+        log.contains("preflight: 5460 frames, carrier 4200 counts, dead time 84 ticks"),
+        "{log}"
+    );
+
+    // Clocks: 168 MHz from the crystal, the buses and timers as board.rs says, and the
+    // flash's wait states enough for HCLK.
+    assert_eq!(board.clocks, Some(ClockTree::BOARD));
+    assert!(board.latency_at_start >= wait_states_needed(ClockTree::BOARD.hclk));
+
+    let bus = board.bus.borrow();
+    // Pins: the bridge's six outputs on TIM1 (AF1), the encoder on TIM3 (AF2), six analog.
+    for pin in [8, 9, 10] {
+        assert_pin(&bus, 0, pin, 2, 1);
+    }
+    for pin in [13, 14, 15] {
+        assert_pin(&bus, 1, pin, 2, 1);
+    }
+    for pin in [6, 7] {
+        assert_pin(&bus, 0, pin, 2, 2);
+    }
+    for (port, pin) in [(0, 0), (0, 1), (0, 2), (0, 3), (2, 0), (2, 1)] {
+        assert_pin(&bus, port, pin, 3, 0);
+    }
+
+    // The bridge timer: the record's carrier and dead time, centre-aligned, TRGO on update.
+    let record = ActuatorRecord::REFERENCE;
+    let timing =
+        BridgeTiming::new(&record.drive, 168_000_000, record.params.control_period).unwrap();
+    assert_eq!(bus.tim1.active_arr(), u32::from(timing.counts));
+    assert_eq!(
+        bus.tim1.dead_time_ticks(),
+        u32::from(timing.dead_time_ticks)
+    );
+    assert_eq!(bus.tim1.raw(timers::RCR), u32::from(timing.repetition));
+    assert_eq!((bus.tim1.raw(timers::CR2) >> 4) & 7, 0b010, "MMS = update");
+    assert_ne!((bus.tim1.raw(timers::CR1) >> 5) & 3, 0, "centre-aligned");
+    // The encoder's timer in encoder mode, its channel 3 capturing on TRC = ITR0.
+    assert!(bus.tim3.encoder_mode());
+    assert_eq!(bus.tim3.trigger_source(), 0);
+    assert_eq!(bus.tim3.raw(timers::CCMR2) & 3, 3);
+    // The converters: ADC1 the three phases and the transducer, ADC2 bus and thermistor,
+    // 15 cycles each, on TIM1's TRGO.
+    assert_eq!(bus.adc1.injected_channels(), [0, 1, 2, 3]);
+    assert_eq!(bus.adc2.injected_channels(), [10, 11]);
+    for ch in [0, 1, 2, 3] {
+        assert_eq!(bus.adc1.sample_cycles(ch), 15);
+    }
+    assert!(bus.adc1.triggered_by_tim1_trgo() && bus.adc2.triggered_by_tim1_trgo());
+    // TIM2 counted every trigger.
+    assert_eq!(u64::from(bus.tim2.raw(timers::CNT)), board.frames.triggers);
+    drop(bus);
+
+    // Every trigger's frame taken, each within the control period.
+    let f = &board.frames;
+    assert!(f.triggers > 1_500, "{} triggers", f.triggers);
+    assert!(
+        f.latencies.len() as u64 + 1 >= f.triggers,
+        "{} of {} frames read",
+        f.latencies.len(),
+        f.triggers
+    );
+    let worst = f.latencies.iter().max().copied().unwrap_or(u64::MAX);
+    assert!(
+        worst < PERIOD_INSTRUCTIONS,
+        "worst frame {worst} instructions after its trigger"
+    );
+}
+
+/// The records a health-pair dump's newest image holds (its slots that decode).
+fn health_records(dump: &[u8]) -> Option<usize> {
+    let image = newest_item(dump).ok()??;
+    let slot = slot_bytes(&image).ok()?;
+    Some(
+        image
+            .chunks_exact(slot)
+            .filter(|s| HealthRecord::decode(s).is_ok())
+            .count(),
+    )
+}
+
+fn health_dump(bus: &Bus) -> Vec<u8> {
+    bus.flash
+        .bytes(Store::Health.address(), 256 * 1024)
+        .expect("the health pair in the data sectors")
+        .to_vec()
+}
+
+/// Cut points spread over the second preflight's health write.
+const CUT_POINTS: u64 = 1_000;
+
+#[test]
+fn an_open_motor_lead_is_named_and_the_health_log_survives_a_reboot_and_power_cuts() {
+    // Flight 0: the whole preflight, its record written.
+    let mut board = Board::new(board_elf(), flash_with_record(), open_bridge()).unwrap();
+    let end = board.run(4_000_000_000).unwrap();
+    assert!(matches!(end, RunEnd::Asleep { .. }), "{end:?}");
+    let log = decoded(&board.log);
+    // No current in the standstill segment: the test is outside its domain, named.
+    assert!(log.contains("SegmentCarriedNothing"), "{log}");
+    assert!(log.contains("health flight=0 records=1"), "{log}");
+    assert!(log.contains("preflight done"), "{log}");
+    let flash = board.bus.borrow().flash.clone();
+    assert!(flash.faults.is_empty(), "{:?}", flash.faults);
+    assert_eq!(health_records(&health_dump(&board.bus.borrow())), Some(1));
+
+    // Reboot: flight 1 reads the log back and appends to it. Run in steps of 10⁶
+    // instructions to the one in which the health pair's bytes first change: the write
+    // begins there.
+    let committed = health_dump(&board.bus.borrow());
+    let mut board = Board::new(board_elf(), flash, open_bridge()).unwrap();
+    let before = loop {
+        let snapshot = board.snapshot().unwrap();
+        let end = board.run(1_000_000).unwrap();
+        if health_dump(&board.bus.borrow()) != committed {
+            board.restore(&snapshot).unwrap();
+            break snapshot;
+        }
+        assert_eq!(
+            end,
+            RunEnd::InstructionLimit,
+            "the write never began: {}",
+            decoded(&board.log)
+        );
+    };
+    let start = board.instructions;
+    let end = board.run(100_000_000).unwrap();
+    assert!(matches!(end, RunEnd::Asleep { .. }), "{end:?}");
+    let log = decoded(&board.log);
+    assert!(log.contains("health flight=1 records=2"), "{log}");
+    assert_eq!(health_records(&health_dump(&board.bus.borrow())), Some(2));
+    let span = board.instructions - start;
+
+    // A power cut at instruction k of the write: the pair holds the old log or the new,
+    // whole, never less.
+    let mut old = 0;
+    for c in 0..CUT_POINTS {
+        let k = (c * span) / CUT_POINTS + c % 7;
+        board.restore(&before).unwrap();
+        board.run(k).unwrap();
+        match health_records(&health_dump(&board.bus.borrow())) {
+            Some(1) => old += 1,
+            Some(2) => {}
+            other => panic!("a cut {k} instructions into the write left {other:?} records"),
+        }
+    }
+    eprintln!("{CUT_POINTS} cuts over a write of {span} instructions: {old} kept the old log, the rest the new");
+    // Both outcomes occur: the cuts span the commit.
+    assert!(
+        old > 0 && old < CUT_POINTS,
+        "{old} of {CUT_POINTS} cuts kept the old log"
+    );
+}
