@@ -241,19 +241,37 @@ fn an_open_motor_lead_is_named_and_the_health_log_survives_a_reboot_and_power_cu
             decoded(&board.log)
         );
     };
+    // The write's span: the first and last steps of 256 instructions that change the pair.
     let start = board.instructions;
-    let end = board.run(100_000_000).unwrap();
+    let (mut first, mut last) = (None, 0);
+    let mut previous = committed.clone();
+    let end = loop {
+        let end = board.run(256).unwrap();
+        let now = health_dump(&board.bus.borrow());
+        if now != previous {
+            first.get_or_insert(board.instructions - start);
+            last = board.instructions - start;
+            previous = now;
+        }
+        if end != RunEnd::InstructionLimit {
+            break end;
+        }
+    };
     assert!(matches!(end, RunEnd::Asleep { .. }), "{end:?}");
     let log = decoded(&board.log);
     assert!(log.contains("health flight=1 records=2"), "{log}");
     assert_eq!(health_records(&health_dump(&board.bus.borrow())), Some(2));
-    let span = board.instructions - start;
+    // From before its first change to a little past its last (the commit).
+    let first = first
+        .expect("the write changed the pair")
+        .saturating_sub(256);
+    let span = last + 2_048 - first;
 
     // A power cut at instruction k of the write: the pair holds the old log or the new,
     // whole, never less.
     let mut old = 0;
     for c in 0..CUT_POINTS {
-        let k = (c * span) / CUT_POINTS + c % 7;
+        let k = first + (c * span) / CUT_POINTS + c % 7;
         board.restore(&before).unwrap();
         board.run(k).unwrap();
         match health_records(&health_dump(&board.bus.borrow())) {
@@ -262,7 +280,9 @@ fn an_open_motor_lead_is_named_and_the_health_log_survives_a_reboot_and_power_cu
             other => panic!("a cut {k} instructions into the write left {other:?} records"),
         }
     }
-    eprintln!("{CUT_POINTS} cuts over a write of {span} instructions: {old} kept the old log, the rest the new");
+    eprintln!(
+        "{CUT_POINTS} cuts over the write's {span} instructions: {old} kept the old log, the rest the new"
+    );
     // Both outcomes occur: the cuts span the commit.
     assert!(
         old > 0 && old < CUT_POINTS,
