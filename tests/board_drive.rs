@@ -1,16 +1,15 @@
 //! The board's drive in closed loop: the test sequencer plays the actuator's preflight test
 //! through `BridgeDrive` (position loop, six-step commutation, pair voltages, duties) into a
-//! plain brushless motor on a rigid gear, written here from the physics (not the monitor
-//! model, not the reference model): the pair circuit `V = 2R·i + 2L·di/dt + k_t·ω` fed by the
-//! legs' duties on the measured bus, torque `k_t·i`, the inertias through the gear.
+//! plain brushless motor on a rigid gear written from the physics
+//! (`host_sim::plant::pair_motor`, not the monitor model, not the reference model).
 //!
 //! What it checks is the wiring a board would get wrong: the duty's sign and scale, the
 //! conducting legs and their signs per sector, the floating leg off, the pair segment's legs.
 //! A sign error anywhere makes the loop run away or the pair's current flow backwards.
 
 use firmware::bridge::{BridgeDrive, BridgeTiming, Leg, Legs};
-use firmware::position_loop::Feedback;
 use firmware::sequencer::{Sequenced, TestSequencer};
+use host_sim::plant::pair_motor::PairMotor;
 use host_sim::plant::reference::{ReferenceModel, ReferenceSettings, Scenario};
 use shared::drive::DriveSettings;
 use shared::params::ActuatorParams;
@@ -29,88 +28,6 @@ impl Legs for &mut Latched {
     }
 }
 
-/// The motor and load, integrated in fine steps over one control period.
-struct Plant {
-    p: ActuatorParams,
-    counts: f32,
-    bus: f32,
-    /// The pair current along the conducting legs' signs [A], and those signs.
-    current: f32,
-    signs: [i8; 3],
-    motor_angle: f32,
-    motor_speed: f32,
-}
-
-impl Plant {
-    fn feedback(&self) -> Feedback {
-        Feedback {
-            phase_currents: self.signs.map(|s| f32::from(s) * self.current),
-            motor_angle: self.motor_angle,
-            user_angle: self.motor_angle / self.p.gear_ratio,
-            bus_voltage: self.bus,
-        }
-    }
-
-    fn period(&mut self, legs: [Option<u16>; 3]) {
-        // The driven legs' voltages from the bus midpoint; a floating leg carries nothing.
-        let volts = legs.map(|l| l.map(|d| (f32::from(d) / self.counts - 0.5) * self.bus));
-        let driven: Vec<usize> = (0..3).filter(|&x| volts[x].is_some()).collect();
-        if driven.len() != 2 {
-            self.current = 0.0;
-            self.signs = [0; 3];
-        } else {
-            // The pair: the higher-index-independent orientation is (first, second).
-            let (a, b) = (driven[0], driven[1]);
-            let mut signs = [0i8; 3];
-            signs[a] = 1;
-            signs[b] = -1;
-            if signs != self.signs {
-                // The current keeps its phase a's direction where the new pair shares it.
-                let carried: f32 = (0..3)
-                    .map(|x| f32::from(self.signs[x]) * f32::from(signs[x]))
-                    .sum::<f32>()
-                    * 0.5;
-                self.current *= carried;
-                self.signs = signs;
-            }
-            let pair_volts = volts[a].unwrap() - volts[b].unwrap();
-            let p = &self.p;
-            let kt = p.torque_constant();
-            let j = p.motor_inertia + p.user_inertia / (p.gear_ratio * p.gear_ratio);
-            let steps = 50;
-            let h = p.control_period / steps as f32;
-            for _ in 0..steps {
-                // The EMF and torque along this pair: the sector's signs decide their sign
-                // through the drive's choice, so the pair current is the equivalent current
-                // when the drive commutates as the rotor does.
-                let theta_e = p.pole_pairs * self.motor_angle;
-                let along = equivalent_sign(signs, theta_e);
-                let emf = along * kt * self.motor_speed;
-                let di = (pair_volts - 2.0 * p.phase_resistance * self.current - emf)
-                    / (2.0 * p.phase_inductance);
-                self.current += h * di;
-                let torque = along * kt * self.current;
-                self.motor_speed += h * torque / j;
-                self.motor_angle += h * self.motor_speed;
-            }
-        }
-    }
-}
-
-/// +1 when the pair `signs` is the sector's pair for `theta_e` with its signs, −1 reversed,
-/// 0 for another pair (a mis-commutated drive gets no torque from it).
-fn equivalent_sign(signs: [i8; 3], theta_e: f32) -> f32 {
-    let sector = shared::conditioning::commutation_signs(theta_e);
-    let dot: i32 = (0..3)
-        .map(|x| i32::from(signs[x]) * i32::from(sector[x]))
-        .sum();
-    match dot {
-        2 => 1.0,
-        -2 => -1.0,
-        _ => 0.0,
-    }
-}
-
 #[test]
 fn the_board_drive_plays_the_test_in_closed_loop() {
     let p = ActuatorParams::REFERENCE;
@@ -122,15 +39,8 @@ fn the_board_drive_plays_the_test_in_closed_loop() {
     let test = PreflightTest::INJECTION;
     let mut latched = Latched::default();
     let mut board = BridgeDrive::new(&mut latched, timing, drive, &p);
-    let mut plant = Plant {
-        p,
-        counts: f32::from(timing.counts),
-        bus: p.dc_bus_voltage,
-        current: 0.0,
-        signs: [0; 3],
-        motor_angle: 0.0,
-        motor_speed: 0.0,
-    };
+    let mut plant = PairMotor::new(p, p.dc_bus_voltage);
+    let counts = f32::from(timing.counts);
     let mut sequencer = TestSequencer::new(test, p.control_period);
     let mut tracking = Vec::new();
     let mut pair_currents = Vec::new();
@@ -141,7 +51,7 @@ fn the_board_drive_plays_the_test_in_closed_loop() {
             break;
         }
         let legs = board.legs_mut().0;
-        plant.period(legs);
+        plant.period(legs.map(|l| l.map(|d| f32::from(d) / counts)));
         match test.drive(index, p.control_period) {
             Command::Position(command) => {
                 tracking.push((command, plant.motor_angle / p.gear_ratio));

@@ -79,7 +79,7 @@ pub struct Board<'a> {
     /// defmt bytes from RTT channel 0.
     pub log: Vec<u8>,
     pub instructions: u64,
-    plant: Box<dyn Plant + 'a>,
+    plant: Box<dyn Plant>,
     /// Timer and converter ticks already counted, as fractions of the core's cycles.
     timer_ticks: u64,
     adc_ticks: u64,
@@ -96,7 +96,7 @@ fn uc_err(e: unicorn_engine::unicorn_const::uc_error) -> anyhow::Error {
 impl<'a> Board<'a> {
     /// The board with `elf` programmed, the data sectors as `flash` holds them, and `plant`
     /// on its pins, out of reset.
-    pub fn new(elf: &[u8], flash: FlashInterface, plant: Box<dyn Plant + 'a>) -> Result<Self> {
+    pub fn new(elf: &[u8], flash: FlashInterface, plant: Box<dyn Plant>) -> Result<Self> {
         let image = Image::parse(elf)?;
         let mut uc = Unicorn::new(Arch::ARM, Mode::THUMB | Mode::MCLASS).map_err(uc_err)?;
         uc.ctl_set_cpu_model(unicorn_engine::ArmCpuModel::CORTEX_M4 as i32)
@@ -204,6 +204,11 @@ impl<'a> Board<'a> {
             clocks: None,
             latency_at_start: 0,
         })
+    }
+
+    /// The plant on the pins, if it is a `P`.
+    pub fn plant<P: Plant + 'static>(&self) -> Option<&P> {
+        self.plant.as_any().downcast_ref::<P>()
     }
 
     /// The core's registers, RAM, the peripherals' state and the clocks' counts, to

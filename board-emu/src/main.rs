@@ -7,9 +7,10 @@ use std::process::{Command, Stdio};
 
 use anyhow::{Context, Result};
 use board_emu::flash::FlashInterface;
-use board_emu::plant::OpenBridge;
+use board_emu::plant::{MotorOnPins, OpenBridge, Plant};
 use board_emu::{Board, RunEnd};
 use clap::Parser;
+use host_sim::plant::pair_motor::PairMotor;
 
 #[derive(Parser)]
 #[command(
@@ -33,6 +34,17 @@ struct Args {
     bus_volts: f32,
     #[arg(long, default_value_t = 20.0)]
     celsius: f32,
+    /// What the pins drive: `open` (the motor's leads open: no current, no motion) or `motor`
+    /// (a plain brushless motor on a rigid gear, the reference actuator's constants: no
+    /// friction, no load, no dead time).
+    #[arg(long, value_enum, default_value_t = PlantKind::Open)]
+    plant: PlantKind,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum PlantKind {
+    Open,
+    Motor,
 }
 
 fn main() -> Result<()> {
@@ -51,8 +63,14 @@ fn main() -> Result<()> {
         let bytes = std::fs::read(file).with_context(|| format!("reading {file}"))?;
         flash.load(address, &bytes)?;
     }
-    let plant = OpenBridge::new(args.bus_volts, args.celsius);
-    let mut board = Board::new(&elf, flash, Box::new(plant))?;
+    let plant: Box<dyn Plant> = match args.plant {
+        PlantKind::Open => Box::new(OpenBridge::new(args.bus_volts, args.celsius)),
+        PlantKind::Motor => Box::new(MotorOnPins::new(
+            PairMotor::new(shared::params::ActuatorParams::REFERENCE, args.bus_volts),
+            args.celsius,
+        )),
+    };
+    let mut board = Board::new(&elf, flash, plant)?;
     let end = board.run(args.instructions)?;
     decode(&args.elf, &board.log)?;
     println!("end {end:?} after {} instructions", board.instructions);

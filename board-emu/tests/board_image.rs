@@ -12,14 +12,19 @@ use std::sync::OnceLock;
 use board_emu::bus::Bus;
 use board_emu::clocks::{wait_states_needed, ClockTree};
 use board_emu::flash::FlashInterface;
-use board_emu::plant::OpenBridge;
+use board_emu::plant::{MotorOnPins, OpenBridge};
 use board_emu::timers;
 use board_emu::{Board, RunEnd};
 use firmware::bridge::BridgeTiming;
+use firmware::sequencer::TestSequencer;
 use host_sim::files::flash_pair::{newest_item, pair_image, Store};
 use host_sim::files::health::slot_bytes;
+use host_sim::plant::pair_motor::PairMotor;
+use host_sim::plant::reference::{ReferenceModel, ReferenceSettings, Scenario};
 use shared::actuator::ActuatorRecord;
 use shared::health::HealthRecord;
+use shared::test_design::Drive;
+use shared::FaultVector;
 
 /// Instructions in one 100 µs control period at 168 MHz.
 const PERIOD_INSTRUCTIONS: u64 = 16_800;
@@ -287,5 +292,74 @@ fn an_open_motor_lead_is_named_and_the_health_log_survives_a_reboot_and_power_cu
     assert!(
         old > 0 && old < CUT_POINTS,
         "{old} of {CUT_POINTS} cuts kept the old log"
+    );
+}
+
+/// RMS of the user shaft's angle against the test's position commands: `angles[k + lag]`
+/// against frame k's command [rad].
+fn tracking_rms(commands: &[(usize, f32)], angles: &[f32], lag: usize) -> f32 {
+    let errors: Vec<f32> = commands
+        .iter()
+        .filter_map(|&(k, c)| angles.get(k + lag).map(|y| c - y))
+        .collect();
+    (errors.iter().map(|e| e * e).sum::<f32>() / errors.len().max(1) as f32).sqrt()
+}
+
+#[test]
+fn the_board_image_drives_a_motor_through_its_registers_in_closed_loop() {
+    let record = ActuatorRecord::REFERENCE;
+    let p = record.params;
+    let motor = PairMotor::new(p, 270.0);
+    let mut board = Board::new(
+        board_elf(),
+        flash_with_record(),
+        Box::new(MotorOnPins::new(motor, 20.0)),
+    )
+    .unwrap();
+    // The test's frames and a little more, not the identification.
+    let frames = TestSequencer::new(record.test, p.control_period).samples();
+    board
+        .run(300_000 + frames as u64 * PERIOD_INSTRUCTIONS)
+        .unwrap();
+    assert_eq!(
+        board.frames.latencies.len(),
+        frames,
+        "every frame of the test taken"
+    );
+    let plant = board.plant::<MotorOnPins>().expect("the motor on the pins");
+    // The position periods' commands by frame.
+    let commands: Vec<(usize, f32)> = (0..frames)
+        .filter_map(|k| match record.test.drive(k, p.control_period) {
+            Drive::Position(c) => Some((k, c)),
+            Drive::Pair(_) => None,
+        })
+        .collect();
+    assert!(commands.len() > 4_000);
+    // Frame k is read after update k; its duties are preloaded and drive the period from
+    // update k + 1, whose end is the plant's angle k + 1 (as tests/board_drive.rs measures
+    // the host's drive: the angle after the period its frame drove).
+    let rms = tracking_rms(&commands, &plant.user_angles, 1);
+    let largest = plant
+        .user_angles
+        .iter()
+        .map(|y| y.abs())
+        .fold(0.0, f32::max);
+    // The actuator's own controller on the reference model, the same test.
+    let rm = ReferenceModel::new(ReferenceSettings::REFERENCE)
+        .with_test(record.test)
+        .simulate(&Scenario::new(FaultVector::NOMINAL));
+    let rm_angles: Vec<f32> = rm.truth.iter().map(|t| t.user_angle as f32).collect();
+    let rm_rms = tracking_rms(&commands, &rm_angles, 0);
+    eprintln!(
+        "{} position periods: tracking RMS {rms:.3e} rad (the reference model's controller {rm_rms:.3e}), largest angle {largest:.3e} rad",
+        commands.len()
+    );
+    assert!(
+        rms < 2.0 * rm_rms,
+        "board {rms} against the reference model's {rm_rms}"
+    );
+    assert!(
+        largest > 0.5 * record.test.chirp.amplitude && largest < 2.0 * record.test.chirp.amplitude,
+        "{largest}"
     );
 }

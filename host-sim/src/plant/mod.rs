@@ -5,8 +5,10 @@
 //!   (temperatures, bus voltage).
 //! * [`aero`] — the control surface's hinge moment and the wind on a parked surface.
 //! * [`noise`] — the seeded random draws they share.
+//! * [`pair_motor`] — a plain brushless motor on a rigid gear, for checking a drive's wiring.
 
 pub mod aero;
 pub mod bridge;
 pub mod noise;
+pub mod pair_motor;
 pub mod reference;
