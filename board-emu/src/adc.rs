@@ -103,6 +103,11 @@ impl Adc {
         }
     }
 
+    /// The conversion in progress: its results, in rank order.
+    pub fn pending_results(&self) -> Option<[u16; 4]> {
+        self.pending.map(|(r, _)| r)
+    }
+
     /// Whether the last conversion has finished (its results in JDR).
     pub fn pending_done(&self) -> bool {
         self.pending.is_none()

@@ -58,6 +58,8 @@ pub struct FrameTiming {
     pub triggers: u64,
     /// Instructions from a trigger to the chunk in which the image read ADC1's JDR1.
     pub latencies: Vec<u64>,
+    /// Each trigger's conversions and encoder capture, as the image reads them.
+    pub fed: Vec<firmware::acquisition::Counts>,
 }
 
 /// A board's state to come back to ([`Board::snapshot`]).
@@ -343,6 +345,13 @@ impl<'a> Board<'a> {
             bus.tim3.follow_encoder(edges);
             bus.tim2.trigger(events.trgo);
             bus.tim3.trigger(events.trgo);
+            if let (Some(a), Some(b)) = (bus.adc1.pending_results(), bus.adc2.pending_results()) {
+                self.frames.fed.push(firmware::acquisition::Counts {
+                    currents_and_transducer: a,
+                    bus_and_temperature: [b[0], b[1]],
+                    encoder: bus.tim3.raw(crate::timers::CCR1 + 8) as u16,
+                });
+            }
             self.frames.triggers += u64::from(events.trgo);
             self.frames.pending_trigger = Some(self.instructions);
         }

@@ -39,6 +39,11 @@ struct Args {
     /// friction, no load, no dead time).
     #[arg(long, value_enum, default_value_t = PlantKind::Open)]
     plant: PlantKind,
+    /// Write what the image measured over its test (each frame's conversions and encoder
+    /// capture, converted as the board does) as a binary trace, for `host-sim identify` and
+    /// `cargo fw` (the reference actuator's test).
+    #[arg(long, value_name = "FILE")]
+    trace_out: Option<PathBuf>,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -85,6 +90,20 @@ fn main() -> Result<()> {
             "frames triggers={} read={} trigger_to_read_instructions median={median} worst={worst}",
             f.triggers,
             l.len()
+        );
+    }
+    if let Some(path) = &args.trace_out {
+        let record = shared::actuator::ActuatorRecord::REFERENCE;
+        let frames =
+            firmware::sequencer::TestSequencer::new(record.test, record.params.control_period)
+                .samples();
+        let trace = board_emu::feed::fed_trace(&board.frames.fed, &record, frames)
+            .context("the test did not run to its end")?;
+        std::fs::write(path, trace.to_bin()?)
+            .with_context(|| format!("writing {}", path.display()))?;
+        println!(
+            "wrote {} ({frames} frames the image measured)",
+            path.display()
         );
     }
     std::process::exit(match end {

@@ -363,3 +363,51 @@ fn the_board_image_drives_a_motor_through_its_registers_in_closed_loop() {
         "{largest}"
     );
 }
+
+/// The numbers in `line` after `key` up to the next `)` or space-delimited field, parsed.
+fn floats_after(line: &str, key: &str) -> Vec<f32> {
+    let rest = &line[line.find(key).expect("the key") + key.len()..];
+    let end = rest.find(')').unwrap_or(rest.len());
+    rest[..end]
+        .trim_start_matches('[')
+        .split(|c| c == ',' || c == ']' || c == ' ')
+        .filter(|t| !t.is_empty())
+        .map_while(|t| t.parse::<f32>().ok())
+        .collect()
+}
+
+#[test]
+fn what_the_board_measured_gives_the_hosts_bits() {
+    let record = ActuatorRecord::REFERENCE;
+    let p = record.params;
+    let motor = MotorOnPins::new(PairMotor::new(p, 270.0), 20.0);
+    let mut board = Board::new(board_elf(), flash_with_record(), Box::new(motor)).unwrap();
+    let end = board.run(4_000_000_000).unwrap();
+    assert!(matches!(end, RunEnd::Asleep { .. }), "{end:?}");
+    let log = decoded(&board.log);
+    let result = log
+        .lines()
+        .find(|l| l.starts_with("result faults="))
+        .unwrap_or_else(|| panic!("no result in {log}"));
+    let board_faults = floats_after(result, "FaultVector(");
+    let board_fitness = floats_after(result, "fitness=");
+    assert_eq!(board_faults.len(), shared::FAULT_COUNT, "{result}");
+
+    // The frames the emulator fed, as a trace, identified on the host.
+    let frames = TestSequencer::new(record.test, p.control_period).samples();
+    let trace = board_emu::feed::fed_trace(&board.frames.fed, &record, frames).unwrap();
+    let measured = trace.measured(&p).expect("conditioned");
+    let host = host_sim::fdi::identify::identify_for(&measured, &record, 1, false).unwrap();
+    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(
+        bits(&board_faults),
+        bits(host.result.faults.as_array()),
+        "board {result}; host {:?}",
+        host.result.faults
+    );
+    assert_eq!(
+        bits(&board_fitness[..1]),
+        bits(&[host.result.fitness]),
+        "{result}"
+    );
+}
