@@ -370,7 +370,7 @@ fn floats_after(line: &str, key: &str) -> Vec<f32> {
     let end = rest.find(')').unwrap_or(rest.len());
     rest[..end]
         .trim_start_matches('[')
-        .split(|c| c == ',' || c == ']' || c == ' ')
+        .split([',', ']', ' '])
         .filter(|t| !t.is_empty())
         .map_while(|t| t.parse::<f32>().ok())
         .collect()
