@@ -333,8 +333,11 @@ impl<'a> Board<'a> {
             self.clocks = Some(tree);
             self.latency_at_start = bus.flash.latency();
         }
-        bus.encoder_edges = self.plant.encoder_edges();
         let events = bus.tim1.advance(timer_ticks);
+        if events.updates > 0 {
+            self.plant.sample();
+        }
+        bus.encoder_edges = self.plant.encoder_edges();
         bus.adc1.advance(adc_ticks);
         bus.adc2.advance(adc_ticks);
         if events.trgo > 0 {

@@ -7,10 +7,11 @@ use std::process::{Command, Stdio};
 
 use anyhow::{Context, Result};
 use board_emu::flash::FlashInterface;
-use board_emu::plant::{MotorOnPins, OpenBridge, Plant};
+use board_emu::plant::{MotorOnPins, OpenBridge, Plant, ReferenceOnPins};
 use board_emu::{Board, RunEnd};
 use clap::Parser;
 use host_sim::plant::pair_motor::PairMotor;
+use host_sim::plant::reference::{ReferenceModel, ReferenceSettings, Scenario};
 
 #[derive(Parser)]
 #[command(
@@ -34,9 +35,10 @@ struct Args {
     bus_volts: f32,
     #[arg(long, default_value_t = 20.0)]
     celsius: f32,
-    /// What the pins drive: `open` (the motor's leads open: no current, no motion) or `motor`
+    /// What the pins drive: `open` (the motor's leads open: no current, no motion), `motor`
     /// (a plain brushless motor on a rigid gear, the reference actuator's constants: no
-    /// friction, no load, no dead time).
+    /// friction, no load, no dead time) or `reference` (the reference model with `--faults`,
+    /// its own bridge on TIM1's legs; `--bus-volts` and `--celsius` are then its own).
     #[arg(long, value_enum, default_value_t = PlantKind::Open)]
     plant: PlantKind,
     /// Write what the image measured over its test (each frame's conversions and encoder
@@ -44,12 +46,19 @@ struct Args {
     /// `cargo fw` (the reference actuator's test).
     #[arg(long, value_name = "FILE")]
     trace_out: Option<PathBuf>,
+    /// The reference model's fault vector (nine comma-separated values, the trace's order).
+    #[arg(long, default_value = "0,0,0,0,0,0,0.5,0.5,0", value_delimiter = ',')]
+    faults: Vec<f32>,
+    /// The reference model's seed (its sensors' noise).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
 enum PlantKind {
     Open,
     Motor,
+    Reference,
 }
 
 fn main() -> Result<()> {
@@ -74,6 +83,22 @@ fn main() -> Result<()> {
             PairMotor::new(shared::params::ActuatorParams::REFERENCE, args.bus_volts),
             args.celsius,
         )),
+        PlantKind::Reference => {
+            let faults: [f32; shared::FAULT_COUNT] = args
+                .faults
+                .as_slice()
+                .try_into()
+                .with_context(|| format!("--faults takes {} values", shared::FAULT_COUNT))?;
+            let faults =
+                shared::FaultVector::new(faults).map_err(|e| anyhow::anyhow!("--faults: {e:?}"))?;
+            let record = shared::actuator::ActuatorRecord::REFERENCE;
+            let model = ReferenceModel::new(ReferenceSettings::REFERENCE).with_test(record.test);
+            let scenario = Scenario {
+                seed: args.seed,
+                ..Scenario::new(faults)
+            };
+            Box::new(ReferenceOnPins::new(model, scenario))
+        }
     };
     let mut board = Board::new(&elf, flash, plant)?;
     let end = board.run(args.instructions)?;

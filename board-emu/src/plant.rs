@@ -3,10 +3,18 @@
 //! [`OpenBridge`] is an actuator whose motor leads are open (no current flows, the shafts
 //! stay still); [`MotorOnPins`] a plain brushless motor on a rigid gear
 //! (`host_sim::plant::pair_motor`: no friction, no load, no dead time), on a bus of known
-//! voltage at a known temperature. O(1) per call; a motor's period is 50 Euler steps.
+//! voltage at a known temperature; [`ReferenceOnPins`] the reference model, its own bridge
+//! driven by TIM1's legs. O(1) per call but a period's physics (50 Euler steps for the
+//! motor, the reference model's fine steps).
+
+use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
+use std::thread::JoinHandle;
 
 use firmware::acquisition::SensorScaling;
 use host_sim::plant::pair_motor::PairMotor;
+use host_sim::plant::reference::{
+    AnalogSensors, ExternalDrive, ReferenceModel, Scenario, Simulation,
+};
 
 /// The bridge as TIM1 drives it over the next control period.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -21,6 +29,8 @@ pub struct BridgeState {
 }
 
 pub trait Plant {
+    /// An update of TIM1: the instant the converters sample (before [`drive`](Self::drive)).
+    fn sample(&mut self) {}
     /// One control period begins with the bridge driven as `bridge`.
     fn drive(&mut self, bridge: &BridgeState);
     /// The voltage on ADC channel `channel` now [V] (0 … 3.3).
@@ -131,6 +141,127 @@ impl Plant for MotorOnPins {
 
     fn encoder_edges(&self) -> i64 {
         (self.motor.motor_angle / self.scaling.motor_rad_per_count).round() as i64
+    }
+
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+}
+
+/// The reference model on the pins: its actuator, bridge and sensors in a thread of their
+/// own (`ReferenceModel::simulate_driven`), one control period per update of TIM1 — at each
+/// update the converters sample what its sensors see, then its bridge runs the period on
+/// the legs TIM1 drives (the duties the image preloaded, the reference model's own dead time
+/// and diodes). After the reference model's run ends (its pre-roll and test), its last
+/// readings hold.
+pub struct ReferenceOnPins {
+    legs: Option<SyncSender<[Option<f64>; 3]>>,
+    sensors: Receiver<AnalogSensors>,
+    latest: AnalogSensors,
+    awaiting_legs: bool,
+    pub scaling: SensorScaling,
+    /// Control periods the reference model ran.
+    pub periods: u64,
+    run: Option<JoinHandle<Simulation>>,
+}
+
+/// The thread's side: the sensors out, the legs in.
+struct Channels {
+    sensors: SyncSender<AnalogSensors>,
+    legs: Receiver<[Option<f64>; 3]>,
+}
+
+impl ExternalDrive for Channels {
+    fn period(&mut self, sensed: &AnalogSensors) -> Option<[Option<f64>; 3]> {
+        self.sensors.send(*sensed).ok()?;
+        self.legs.recv().ok()
+    }
+}
+
+impl ReferenceOnPins {
+    /// `model` playing `scenario` on the pins.
+    pub fn new(model: ReferenceModel, scenario: Scenario) -> Self {
+        let (sensors_out, sensors) = sync_channel(1);
+        let (legs, legs_in) = sync_channel(1);
+        let run = std::thread::spawn(move || {
+            let mut channels = Channels {
+                sensors: sensors_out,
+                legs: legs_in,
+            };
+            model.simulate_driven(&scenario, &mut channels)
+        });
+        Self {
+            legs: Some(legs),
+            sensors,
+            latest: AnalogSensors::default(),
+            awaiting_legs: false,
+            scaling: SensorScaling::REFERENCE_BOARD,
+            periods: 0,
+            run: Some(run),
+        }
+    }
+}
+
+impl Drop for ReferenceOnPins {
+    fn drop(&mut self) {
+        // Closing the legs' channel ends the reference model's run.
+        self.legs = None;
+        if let Some(run) = self.run.take() {
+            let _ = run.join();
+        }
+    }
+}
+
+impl Plant for ReferenceOnPins {
+    fn sample(&mut self) {
+        if self.awaiting_legs || self.legs.is_none() {
+            return;
+        }
+        match self.sensors.recv() {
+            Ok(s) => {
+                self.latest = s;
+                self.awaiting_legs = true;
+            }
+            // The run is over: the last readings hold.
+            Err(_) => self.legs = None,
+        }
+    }
+
+    fn drive(&mut self, bridge: &BridgeState) {
+        if !self.awaiting_legs {
+            return;
+        }
+        let legs = if bridge.main_output {
+            bridge.legs.map(|l| l.map(f64::from))
+        } else {
+            [None; 3]
+        };
+        if let Some(tx) = &self.legs {
+            if tx.send(legs).is_err() {
+                self.legs = None;
+            }
+        }
+        self.awaiting_legs = false;
+        self.periods += 1;
+    }
+
+    fn volts(&self, channel: u8) -> f32 {
+        let s = &self.scaling;
+        let r = &self.latest;
+        let count = match channel {
+            0..=2 => {
+                r.phase_currents[usize::from(channel)] as f32 / s.amps_per_count + s.current_zero
+            }
+            3 => r.user_angle as f32 / s.transducer_rad_per_count + s.transducer_zero,
+            10 => r.bus_voltage as f32 / s.bus_volts_per_count,
+            11 => r.temperature as f32 / s.celsius_per_count + s.temperature_zero,
+            _ => 0.0,
+        };
+        volts_of_count(count)
+    }
+
+    fn encoder_edges(&self) -> i64 {
+        (self.latest.motor_angle / f64::from(self.scaling.motor_rad_per_count)).round() as i64
     }
 
     fn as_any(&self) -> &dyn std::any::Any {

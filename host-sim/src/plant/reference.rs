@@ -273,6 +273,28 @@ pub struct Simulation {
 /// control.
 type Output = (Option<PairDrive>, Option<[f64; 3]>, f64);
 
+/// What a controller's sensors see at a control instant, before its converters: the phase
+/// currents through the anti-alias filters with their noise [A], the motor shaft's angle
+/// [rad] (its encoder counts it), the surface's angle with its transducer's offset and noise
+/// [rad], the bus [V] and the winding's temperature [°C] with their sensors' gain, bias and
+/// noise.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct AnalogSensors {
+    pub phase_currents: [f64; 3],
+    pub motor_angle: f64,
+    pub user_angle: f64,
+    pub bus_voltage: f64,
+    pub temperature: f64,
+}
+
+/// A controller outside the reference model driving its bridge (a board image under
+/// emulation): each control period it sees the sensors and gives each leg's duty — the high
+/// switch's share of the carrier, centred in it, with the bridge's dead time — or `None` for
+/// both switches off. `None` in all: the run ends there.
+pub trait ExternalDrive {
+    fn period(&mut self, sensed: &AnalogSensors) -> Option<[Option<f64>; 3]>;
+}
+
 /// Per-phase electrical constants of one run.
 #[derive(Clone, Copy, Debug)]
 struct Phase {
@@ -674,6 +696,27 @@ impl ReferenceModel {
 
     /// Simulates the whole test command. O(test duration / step).
     pub fn simulate(&self, scenario: &Scenario) -> Simulation {
+        self.simulate_with(scenario, None)
+    }
+
+    /// [`simulate`](Self::simulate) with the bridge driven by `external` instead of the
+    /// actuator's own controller: each control period `external` sees the sensors
+    /// ([`AnalogSensors`]) and sets the legs' duties, from the period's first fine step; a
+    /// leg it leaves off conducts through its diodes. The run ends with the test or when
+    /// `external` returns `None`. The trace and truth are the reference model's own sensors'.
+    pub fn simulate_driven(
+        &self,
+        scenario: &Scenario,
+        external: &mut dyn ExternalDrive,
+    ) -> Simulation {
+        self.simulate_with(scenario, Some(external))
+    }
+
+    fn simulate_with(
+        &self,
+        scenario: &Scenario,
+        mut external: Option<&mut dyn ExternalDrive>,
+    ) -> Simulation {
         let s = &self.settings;
         let p = &s.params;
         let fx = scenario.faults.effects();
@@ -829,30 +872,27 @@ impl ReferenceModel {
                     &mut user_slip,
                 );
             }
-            let sensed_currents = analogue.map(|x| {
+            // The same draws, in the same order, as quantising each phase in turn.
+            let current_noise: [f64; 3] =
+                core::array::from_fn(|_| s.current_noise * sensor_rng.next());
+            let sensed_currents: [f64; 3] = core::array::from_fn(|x| {
                 quantise(
-                    x + s.current_noise * sensor_rng.next(),
+                    analogue[x] + current_noise[x],
                     current_lsb,
                     s.current_full_scale,
                 )
             });
             let now = (n * steps_per_tick) as f64 * dt;
-            let measured_bus = to_lsb(
-                bridge.bus(bus_mean, now) * (1.0 + cs.bus_gain_error)
-                    + cs.bus_noise * condition_rng.next(),
-                cs.bus_lsb,
-            );
-            let measured_temperature = to_lsb(
-                day.winding_temperature
-                    + cs.temperature_bias
-                    + cs.temperature_noise * condition_rng.next(),
-                cs.temperature_lsb,
-            );
-            let user_sensed = quantise(
-                theta_u + s.user_offset + s.user_noise * sensor_rng.next() + user_slip,
-                user_lsb,
-                s.user_full_scale,
-            );
+            let bus_sensed = bridge.bus(bus_mean, now) * (1.0 + cs.bus_gain_error)
+                + cs.bus_noise * condition_rng.next();
+            let measured_bus = to_lsb(bus_sensed, cs.bus_lsb);
+            let temperature_sensed = day.winding_temperature
+                + cs.temperature_bias
+                + cs.temperature_noise * condition_rng.next();
+            let measured_temperature = to_lsb(temperature_sensed, cs.temperature_lsb);
+            let user_analogue =
+                theta_u + s.user_offset + s.user_noise * sensor_rng.next() + user_slip;
+            let user_sensed = quantise(user_analogue, user_lsb, s.user_full_scale);
             // The command samples are the monitor model's, bit for bit (same f32 time).
             let drive = tick.map_or(Drive::Position(0.0), |k| {
                 self.test.drive(k, p.control_period)
@@ -930,7 +970,25 @@ impl ReferenceModel {
                     bridge.duty(leg, measured_bus, sensed_currents[x])
                 })
             });
-            let output: Output = (pair_drive, pwm_duty, current_ref);
+            let mut output: Output = (pair_drive, pwm_duty, current_ref);
+            // An external controller's legs replace the actuator's own drive, from the
+            // period's first step (its converters and timer pace it).
+            let mut driven = [true; 3];
+            if let Some(ext) = external.as_deref_mut() {
+                let sensed = AnalogSensors {
+                    phase_currents: core::array::from_fn(|x| analogue[x] + current_noise[x]),
+                    motor_angle: theta_m,
+                    user_angle: user_analogue,
+                    bus_voltage: bus_sensed,
+                    temperature: temperature_sensed,
+                };
+                let Some(legs) = ext.period(&sensed) else {
+                    break;
+                };
+                driven = legs.map(|l| l.is_some());
+                output = (None, Some(legs.map(|l| l.unwrap_or(0.0))), 0.0);
+                held_output = output;
+            }
             let previous_output = core::mem::replace(&mut held_output, output);
 
             // ---- power stage, motor and mechanics, `steps_per_tick` fine steps ----
@@ -986,6 +1044,10 @@ impl ReferenceModel {
                         let signs = d.signs();
                         (signs, signs.iter().position(|&x| x == 0).unwrap_or(2))
                     }
+                    None if external.is_some() => (
+                        COMMUTATION_SIGNS[sector],
+                        driven.iter().position(|&d| !d).unwrap_or(sector % 3),
+                    ),
                     None => (COMMUTATION_SIGNS[sector], sector % 3),
                 };
 
@@ -998,7 +1060,7 @@ impl ReferenceModel {
                 let vdc = bridge.bus(bus_mean, (n * steps_per_tick + fine) as f64 * dt);
                 let mut v = [0.0f64; 3];
                 for x in 0..3 {
-                    if x == floating {
+                    if x == floating || !driven[x] {
                         legs[x] = 0;
                         v[x] = bridge.diode_leg(vdc, i[x]);
                     } else if let Some(duty) = pwm_duty {
@@ -1020,7 +1082,13 @@ impl ReferenceModel {
 
                 // Current derivatives with a floating neutral.
                 let mut di = [0.0f64; 3];
-                if let Some(x) = open_phase {
+                let (y, z) = ((floating + 1) % 3, (floating + 2) % 3);
+                let blocked_off =
+                    driven == [false; 3] && i == [0.0; 3] && (emf[y] - emf[z]).abs() < vdc;
+                if blocked_off {
+                    // Every switch off, no current, the motor's line voltage below the bus:
+                    // the diodes block.
+                } else if let Some(x) = open_phase {
                     // Only the other two phases form a circuit, in series; none if one of
                     // them is the floating leg with its diodes blocking.
                     let (y, z) = ((x + 1) % 3, (x + 2) % 3);
