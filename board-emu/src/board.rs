@@ -67,7 +67,7 @@ pub struct Snapshot {
     context: unicorn_engine::Context,
     ram: Vec<Vec<u8>>,
     pub bus: Bus,
-    counts: (u64, u64, u64),
+    counts: (u64, u64, u64, u64),
     frames: FrameTiming,
     log: usize,
 }
@@ -84,6 +84,7 @@ pub struct Board<'a> {
     plant: Box<dyn Plant>,
     /// Timer and converter ticks already counted, as fractions of the core's cycles.
     timer_ticks: u64,
+    apb1_ticks: u64,
     adc_ticks: u64,
     pub frames: FrameTiming,
     /// The clock tree the image configured, read when TIM1 first starts.
@@ -201,6 +202,7 @@ impl<'a> Board<'a> {
             instructions: 0,
             plant,
             timer_ticks: 0,
+            apb1_ticks: 0,
             adc_ticks: 0,
             frames: FrameTiming::default(),
             clocks: None,
@@ -226,7 +228,12 @@ impl<'a> Board<'a> {
             context,
             ram,
             bus: self.bus.borrow().clone(),
-            counts: (self.instructions, self.timer_ticks, self.adc_ticks),
+            counts: (
+                self.instructions,
+                self.timer_ticks,
+                self.apb1_ticks,
+                self.adc_ticks,
+            ),
             frames: self.frames.clone(),
             log: self.log.len(),
         })
@@ -238,7 +245,12 @@ impl<'a> Board<'a> {
             self.uc.mem_write(base, bytes).map_err(uc_err)?;
         }
         *self.bus.borrow_mut() = s.bus.clone();
-        (self.instructions, self.timer_ticks, self.adc_ticks) = s.counts;
+        (
+            self.instructions,
+            self.timer_ticks,
+            self.apb1_ticks,
+            self.adc_ticks,
+        ) = s.counts;
         self.frames = s.frames.clone();
         self.log.truncate(s.log);
         Ok(())
@@ -323,6 +335,11 @@ impl<'a> Board<'a> {
             u128::from(self.instructions) * u128::from(tree.apb2_timers) / u128::from(sysclk);
         let timer_ticks = (timer_total as u64).saturating_sub(self.timer_ticks);
         self.timer_ticks = timer_total as u64;
+        // TIM2 and TIM3 on APB1's timer clock, when they count it (the board slaves them).
+        let apb1_total =
+            u128::from(self.instructions) * u128::from(tree.apb1_timers) / u128::from(sysclk);
+        let apb1_ticks = (apb1_total as u64).saturating_sub(self.apb1_ticks);
+        self.apb1_ticks = apb1_total as u64;
         let adcpre = (bus.adc_common.read(ADC_CCR).unwrap_or(0) >> 16) & 3;
         let adc_hz = u64::from(tree.apb2) / (2 * (u64::from(adcpre) + 1));
         let adc_total = u128::from(self.instructions) * u128::from(adc_hz) / u128::from(sysclk);
@@ -334,6 +351,8 @@ impl<'a> Board<'a> {
             self.latency_at_start = bus.flash.latency();
         }
         let events = bus.tim1.advance(timer_ticks);
+        // Their own updates drive nothing here.
+        let _ = (bus.tim2.advance(apb1_ticks), bus.tim3.advance(apb1_ticks));
         if events.updates > 0 {
             self.plant.sample();
         }

@@ -50,14 +50,19 @@ impl Registers {
     /// A byte or halfword write merged into its word.
     pub fn write_sized(&mut self, offset: u32, size: usize, value: u32) -> Option<()> {
         let word = self.read(offset & !3)?;
-        let shift = 8 * (offset & 3);
-        let mask = match size {
-            1 => 0xffu32,
-            2 => 0xffff,
-            _ => u32::MAX,
-        } << shift;
-        self.write(offset & !3, (word & !mask) | ((value << shift) & mask))
+        self.write(offset & !3, merged(word, offset, size, value))
     }
+}
+
+/// `word` with the byte or halfword `value` of a `size`-byte write at `address` in it.
+fn merged(word: u32, address: u32, size: usize, value: u32) -> u32 {
+    let shift = 8 * (address & 3);
+    let mask = match size {
+        1 => 0xffu32,
+        2 => 0xffff,
+        _ => u32::MAX,
+    } << shift;
+    (word & !mask) | ((value << shift) & mask)
 }
 
 /// An access no model answers.
@@ -184,15 +189,6 @@ impl Bus {
         let a = address & !3;
         // Byte and halfword writes merge into the word (NVIC's priority bytes, GPIO's BSRR
         // halves); the timers and converters are written a word at a time.
-        let merged = |current: Option<u32>| -> u32 {
-            let shift = 8 * (address & 3);
-            let mask = match size {
-                1 => 0xffu32,
-                2 => 0xffff,
-                _ => u32::MAX,
-            } << shift;
-            (current.unwrap_or(0) & !mask) | ((value << shift) & mask)
-        };
         let edges = self.encoder_edges;
         let done = match a {
             TIM2..=0x4000_03FF => self.tim2.write(a - TIM2, value, edges),
@@ -212,7 +208,7 @@ impl Bus {
                 match self.gpio.get_mut(port) {
                     // BSRR: set and reset ODR's bits.
                     Some(g) if offset == 0x18 => {
-                        let v = merged(Some(0));
+                        let v = merged(0, address, size, value);
                         let odr = g.read(0x14).unwrap_or(0);
                         g.write(0x14, (odr | (v & 0xffff)) & !(v >> 16))
                     }
@@ -221,8 +217,9 @@ impl Bus {
                 }
             }
             RCC..=0x4002_3BFF => {
-                let current = self.rcc.read(a - RCC);
-                self.rcc.write(a - RCC, merged(current))
+                let current = self.rcc.read(a - RCC).unwrap_or(0);
+                self.rcc
+                    .write(a - RCC, merged(current, address, size, value))
             }
             FLASH_INTERFACE..=0x4002_3FFF => self.flash.write_register(a - FLASH_INTERFACE, value),
             DWT..=0xE000_1FFF => self.dwt.write_sized(address - DWT, size, value),
