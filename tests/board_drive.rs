@@ -8,6 +8,7 @@
 //! A sign error anywhere makes the loop run away or the pair's current flow backwards.
 
 use firmware::bridge::{BridgeDrive, BridgeTiming, Leg, Legs};
+use firmware::position_loop::Sensing;
 use firmware::sequencer::{Sequenced, TestSequencer};
 use host_sim::plant::pair_motor::PairMotor;
 use host_sim::plant::reference::{ReferenceModel, ReferenceSettings, Scenario};
@@ -38,7 +39,7 @@ fn the_board_drive_plays_the_test_in_closed_loop() {
     let timing = BridgeTiming::new(&drive, 168_000_000, p.control_period).unwrap();
     let test = PreflightTest::INJECTION;
     let mut latched = Latched::default();
-    let mut board = BridgeDrive::new(&mut latched, timing, drive, &p);
+    let mut board = BridgeDrive::new(&mut latched, timing, drive, &p, Sensing::DIRECT);
     let mut plant = PairMotor::new(p, p.dc_bus_voltage);
     let counts = f32::from(timing.counts);
     let mut sequencer = TestSequencer::new(test, p.control_period);

@@ -3,7 +3,8 @@
 //! drives — RCC and the flash wait states ([`clocks`]), the flash interface and its data
 //! sectors ([`flash`]), TIM1/TIM2/TIM3 ([`timers`]), ADC1/ADC2's injected group ([`adc`]),
 //! GPIO and the core's private registers ([`bus`]) — with a [`plant`] on the pins and the
-//! RTT log read from RAM ([`rtt`]); what it fed the image, as a trace ([`feed`]). A test tool: never linked into `firmware` or
+//! RTT log read from RAM ([`rtt`]); what it fed the image, as a trace ([`feed`]); known faults read through the board beside the
+//! actuator's own controller ([`campaign`]). A test tool: never linked into `firmware` or
 //! `host-sim` (unicorn-engine is GPL-2.0).
 //!
 //! Time: one core cycle per instruction (QEMU `-icount`'s convention), the peripherals
@@ -12,6 +13,7 @@
 pub mod adc;
 pub mod board;
 pub mod bus;
+pub mod campaign;
 pub mod clocks;
 pub mod elf;
 pub mod feed;

@@ -10,6 +10,7 @@ use board_emu::flash::FlashInterface;
 use board_emu::plant::{MotorOnPins, OpenBridge, Plant, ReferenceOnPins};
 use board_emu::{Board, RunEnd};
 use clap::Parser;
+use host_sim::files::trace::TraceFormat;
 use host_sim::plant::pair_motor::PairMotor;
 use host_sim::plant::reference::{ReferenceModel, ReferenceSettings, Scenario};
 
@@ -43,7 +44,7 @@ struct Args {
     plant: PlantKind,
     /// Write what the image measured over its test (each frame's conversions and encoder
     /// capture, converted as the board does) as a binary trace, for `host-sim identify` and
-    /// `cargo fw` (the reference actuator's test).
+    /// `cargo fw` (the reference actuator's test); CSV where the name ends in `.csv`.
     #[arg(long, value_name = "FILE")]
     trace_out: Option<PathBuf>,
     /// The reference model's fault vector (nine comma-separated values, the trace's order).
@@ -52,6 +53,23 @@ struct Args {
     /// The reference model's seed (its sensors' noise).
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Known faults through the board instead of one run: Table I's single faults (`1`,
+    /// without its gain-drift cases: on the board's pins the board's own gain drives) or
+    /// Table II's multiple faults (`2`, without I_ref noise, which acts in the actuator's
+    /// own controller), each run read from the trace the board measured and, beside it,
+    /// under the actuator's own controller. Run r: reference-model seed r, GA seed 1 + r.
+    #[arg(long, value_name = "1|2")]
+    table: Option<u8>,
+    /// Runs per case of `--table`.
+    #[arg(long, default_value_t = 3)]
+    runs: u64,
+    /// The actuator of `--table` (a description, TOML): its record is flashed, the reference
+    /// model plays it. Default: the built-in reference actuator.
+    #[arg(long, value_name = "FILE")]
+    actuator: Option<PathBuf>,
+    /// Where `--table` writes its Markdown table (default: standard output only).
+    #[arg(long, value_name = "FILE")]
+    out: Option<PathBuf>,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -69,6 +87,9 @@ fn main() -> Result<()> {
             args.elf.display()
         )
     })?;
+    if let Some(table) = args.table {
+        return campaign(&args, &elf, table);
+    }
     let mut flash = FlashInterface::new();
     for item in &args.flash {
         let (address, file) = item.split_once('=').context("--flash takes ADDRESS=FILE")?;
@@ -124,8 +145,11 @@ fn main() -> Result<()> {
                 .samples();
         let trace = board_emu::feed::fed_trace(&board.frames.fed, &record, frames)
             .context("the test did not run to its end")?;
-        std::fs::write(path, trace.to_bin()?)
-            .with_context(|| format!("writing {}", path.display()))?;
+        let format = match path.extension().and_then(|e| e.to_str()) {
+            Some("csv") => TraceFormat::Csv,
+            _ => TraceFormat::Bin,
+        };
+        trace.write(path, format)?;
         println!(
             "wrote {} ({frames} frames the image measured)",
             path.display()
@@ -135,6 +159,112 @@ fn main() -> Result<()> {
         RunEnd::Asleep { .. } | RunEnd::InstructionLimit => 0,
         _ => 1,
     })
+}
+
+/// `--table`: every case's runs through the board and under the actuator's own controller,
+/// two runs at a time, as a Markdown table.
+fn campaign(args: &Args, elf: &[u8], table: u8) -> Result<()> {
+    use host_sim::studies::campaign::{TABLE_1, TABLE_2};
+    use shared::fault::GAIN_DRIFT_INDEX;
+    let cases: Vec<_> = match table {
+        1 => TABLE_1
+            .iter()
+            .filter(|c| c.faults[GAIN_DRIFT_INDEX] == 0.5)
+            .collect(),
+        2 => TABLE_2.iter().filter(|c| c.noise == 0.0).collect(),
+        other => anyhow::bail!("--table {other}: 1 (single faults) or 2 (multiple faults)"),
+    };
+    anyhow::ensure!(args.runs > 0, "--runs must be at least 1");
+    let actuator = host_sim::files::actuator::Actuator::from_option(args.actuator.as_deref())?;
+    let jobs: Vec<(usize, u64)> = (0..cases.len())
+        .flat_map(|c| (0..args.runs).map(move |r| (c, r)))
+        .collect();
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let results = std::sync::Mutex::new(vec![None; jobs.len()]);
+    let started = std::time::Instant::now();
+    std::thread::scope(|scope| -> Result<()> {
+        let workers: Vec<_> = (0..2)
+            .map(|_| {
+                scope.spawn(|| -> Result<()> {
+                    loop {
+                        let j = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        let Some(&(c, r)) = jobs.get(j) else {
+                            return Ok(());
+                        };
+                        let case = cases[c];
+                        let faults = shared::FaultVector::new(case.faults)
+                            .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+                        let run = board_emu::campaign::run_case(elf, &actuator, faults, r, 1 + r)
+                            .with_context(|| format!("{}, run {r}", case.name))?;
+                        eprintln!(
+                            "[{:>4.0} s] {} run {r}: board e_tot {:.2} % ({:?}), own {:.2} %",
+                            started.elapsed().as_secs_f64(),
+                            case.name,
+                            run.board.e_tot,
+                            run.board.domain,
+                            run.own.e_tot
+                        );
+                        if let Some(slot) = results.lock().expect("no worker panics").get_mut(j) {
+                            *slot = Some(run);
+                        }
+                    }
+                })
+            })
+            .collect();
+        for w in workers {
+            w.join()
+                .map_err(|_| anyhow::anyhow!("a worker panicked"))??;
+        }
+        Ok(())
+    })?;
+    let results = results.into_inner().expect("no worker panics");
+    let mut md = format!(
+        "### Through the board: Table {table} ({}, {} runs per case)\n\n\
+         The board image on the emulated STM32F405 plays the test on the reference model; the \
+         trace it measured is read by the onboard FDI's code (the board's own bits). \
+         \"Own controller\": the same actuator, faults and seeds under the actuator's own \
+         controller. e_tot in % (eq. 4); the board's truth has the nominal gain drift 0.5.\n\n\
+         | case | board: mean e_tot | worst | within | own controller: mean e_tot | worst | \
+         board's mean reading (k1 … k9) |\n| --- | --- | --- | --- | --- | --- | --- |\n",
+        actuator.name, args.runs
+    );
+    for (c, case) in cases.iter().enumerate() {
+        let runs: Vec<board_emu::campaign::CaseRun> = jobs
+            .iter()
+            .zip(&results)
+            .filter(|((jc, _), _)| *jc == c)
+            .filter_map(|(_, r)| *r)
+            .collect();
+        let n = runs.len().max(1) as f32;
+        let mean =
+            |f: &dyn Fn(&board_emu::campaign::CaseRun) -> f32| runs.iter().map(f).sum::<f32>() / n;
+        let worst = |f: &dyn Fn(&board_emu::campaign::CaseRun) -> f32| {
+            runs.iter().map(f).fold(0.0, f32::max)
+        };
+        let within = runs
+            .iter()
+            .filter(|r| r.board.domain == shared::domain::Domain::Within)
+            .count();
+        let reading: Vec<String> = (0..shared::FAULT_COUNT)
+            .map(|i| format!("{:.3}", mean(&|r| r.board.faults.as_array()[i])))
+            .collect();
+        md.push_str(&format!(
+            "| {} | {:.2} | {:.2} | {within}/{} | {:.2} | {:.2} | {} |\n",
+            case.name,
+            mean(&|r| r.board.e_tot),
+            worst(&|r| r.board.e_tot),
+            runs.len(),
+            mean(&|r| r.own.e_tot),
+            worst(&|r| r.own.e_tot),
+            reading.join(" ")
+        ));
+    }
+    print!("{md}");
+    if let Some(path) = &args.out {
+        std::fs::write(path, &md).with_context(|| format!("writing {}", path.display()))?;
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(())
 }
 
 /// The RTT bytes through `defmt-print -e ELF`, or their count if it is not installed.

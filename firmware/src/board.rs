@@ -50,6 +50,7 @@ use firmware::acquisition::{pace, Converter, Counts, Pace, SensorScaling};
 use firmware::bridge::{BridgeDrive, BridgeTiming, Leg, Legs};
 use firmware::cooperate::yield_now;
 use firmware::health::record_preflight;
+use firmware::position_loop::Sensing;
 use firmware::sequencer::{Sequenced, TestSequencer};
 use firmware::storage::{AbStore, StorageLayout};
 use firmware::{Acquired, CurrentSource, Preflight, PreflightSettings, Progress, Reruns};
@@ -437,6 +438,7 @@ async fn preflight(spawner: Spawner) -> Result<(), Stop> {
                 timing,
                 settings.actuator.drive,
                 &settings.actuator.params,
+                Sensing::BOARD,
             ),
             converter: Converter::new(SensorScaling::REFERENCE_BOARD),
             frames: 0,

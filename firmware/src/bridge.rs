@@ -14,7 +14,7 @@ use shared::math::{abs, clamp, floor};
 use shared::params::ActuatorParams;
 use shared::test_design::PAIR_SIGNS;
 
-use crate::position_loop::{Feedback, PositionLoop};
+use crate::position_loop::{Feedback, PositionLoop, Sensing};
 use crate::sequencer::Drive;
 
 /// Why the record's drive cannot run on this timer.
@@ -156,6 +156,11 @@ pub struct BridgeDrive<L> {
     drive: DriveSettings,
     position_loop: PositionLoop,
     feedback: Feedback,
+    /// The pair signs and volts acting until the next update (what was set last period).
+    acting: ([i8; 3], f32),
+    /// The pair circuit: 2R [Ω] and dt/2L [A/V] over one control period.
+    two_r: f32,
+    dt_over_two_l: f32,
 }
 
 impl<L: Legs> BridgeDrive<L> {
@@ -164,13 +169,17 @@ impl<L: Legs> BridgeDrive<L> {
         timing: BridgeTiming,
         drive: DriveSettings,
         params: &ActuatorParams,
+        sensing: Sensing,
     ) -> Self {
         Self {
             legs,
             timing,
             drive,
-            position_loop: PositionLoop::new(params),
+            position_loop: PositionLoop::new(params, sensing),
             feedback: Feedback::default(),
+            acting: ([0; 3], 0.0),
+            two_r: 2.0 * params.phase_resistance,
+            dt_over_two_l: params.control_period / (2.0 * params.phase_inductance),
         }
     }
 
@@ -199,10 +208,32 @@ impl<L: Legs> BridgeDrive<L> {
         clamp(floor(duty * n + 0.5), 0.0, n) as u16
     }
 
+    /// Whether what is set now acts from the next update on (the position loop's sensing).
+    fn late(&self) -> bool {
+        self.position_loop.sensing().late_voltage
+    }
+
+    /// The phase currents when legs set now take effect, at standstill: measured, or with
+    /// late voltages the acting pair's current carried one period on by its R–L circuit
+    /// (no back-EMF) from the volts acting until then.
+    fn currents_at_update(&self) -> [f32; 3] {
+        let measured = self.feedback.phase_currents;
+        if !self.late() {
+            return measured;
+        }
+        let (signs, volts) = self.acting;
+        let along: f32 = (0..3)
+            .map(|x| f32::from(signs[x]) * measured[x])
+            .sum::<f32>()
+            * 0.5;
+        let next = along + (volts - self.two_r * along) * self.dt_over_two_l;
+        signs.map(|s| f32::from(s) * next)
+    }
+
     /// `volts` across the legs `signs` marks (+1 high, −1 low), ±½ of it each from the bus
-    /// midpoint with its own leg current's compensation; the leg marked 0 off.
-    fn drive_pair(&mut self, signs: [i8; 3], volts: f32) {
-        let currents = self.feedback.phase_currents;
+    /// midpoint with the compensation for its own leg's `currents`; the leg marked 0 off.
+    fn drive_pair(&mut self, signs: [i8; 3], volts: f32, currents: [f32; 3]) {
+        self.acting = (signs, volts);
         let mut legs = [Leg::Off; 3];
         for ((leg, &sign), &current) in legs.iter_mut().zip(&signs).zip(&currents) {
             if sign != 0 {
@@ -216,20 +247,31 @@ impl<L: Legs> BridgeDrive<L> {
 impl<L: Legs> Drive for BridgeDrive<L> {
     fn position(&mut self, rad: f32) {
         let pair = self.position_loop.step(rad, &self.feedback);
-        self.drive_pair(pair.signs, pair.volts);
+        let currents = if self.late() {
+            pair.signs.map(|s| f32::from(s) * pair.current)
+        } else {
+            self.feedback.phase_currents
+        };
+        self.drive_pair(pair.signs, pair.volts, currents);
     }
 
     fn pair_voltage(&mut self, pair: u8, volts: f32) {
         self.position_loop.suspend();
+        let currents = self.currents_at_update();
         match PAIR_SIGNS.get(usize::from(pair)) {
-            Some(&signs) => self.drive_pair(signs, volts),
-            None => self.legs.set([Leg::Off; 3]),
+            Some(&signs) => self.drive_pair(signs, volts, currents),
+            None => self.off(pair),
         }
     }
 
     fn off(&mut self, _pair: u8) {
         self.position_loop.suspend();
+        self.acting = ([0; 3], 0.0);
         self.legs.set([Leg::Off; 3]);
+    }
+
+    fn lead(&self) -> usize {
+        usize::from(self.position_loop.sensing().late_voltage)
     }
 }
 
@@ -334,7 +376,13 @@ mod tests {
             ..DriveSettings::TYPICAL
         };
         let timing = BridgeTiming::new(&d, 168_000_000, 1.0e-4).unwrap();
-        let mut b = BridgeDrive::new(Recorder::default(), timing, d, &ActuatorParams::REFERENCE);
+        let mut b = BridgeDrive::new(
+            Recorder::default(),
+            timing,
+            d,
+            &ActuatorParams::REFERENCE,
+            Sensing::DIRECT,
+        );
         b.measured(Feedback {
             bus_voltage: 270.0,
             ..Feedback::default()

@@ -16,6 +16,12 @@ pub trait Drive {
     /// Every leg of pair `pair` off: its current freewheels (the tone's pauses and the
     /// settle before the first pair).
     fn off(&mut self, pair: u8);
+    /// Control periods between the frame a command is given on and the period it acts in
+    /// (1 for a timer that loads its compare registers at the next update): the sequencer
+    /// gives each period's command that much early. O(1).
+    fn lead(&self) -> usize {
+        0
+    }
 }
 
 /// Where the sequencer stands after a tick.
@@ -52,14 +58,16 @@ impl TestSequencer {
         self.samples
     }
 
-    /// Commands the next control period through `drive`. O(1).
+    /// Commands the next control period through `drive`: the test's command for the period
+    /// `drive.lead()` on (the last one held past the end). O(1).
     pub fn tick(&mut self, drive: &mut impl Drive) -> Sequenced {
         let index = self.next;
         if index >= self.samples {
             return Sequenced::Done;
         }
         self.next += 1;
-        match self.test.drive(index, self.period) {
+        let acting = index.saturating_add(drive.lead()).min(self.samples - 1);
+        match self.test.drive(acting, self.period) {
             Command::Position(rad) => drive.position(rad),
             Command::Pair(d) => {
                 // `pair` is 0..3 by construction; saturate rather than wrap.

@@ -34,6 +34,9 @@ pub const ECCENTRICITY_INDEX: usize = 5;
 /// Index of k7, the eccentricity's phase (the one circular component), in the vector.
 pub const ECCENTRICITY_PHASE_INDEX: usize = 6;
 
+/// Index of k8, the controller's gain drift (its position gain's), in the vector.
+pub const GAIN_DRIFT_INDEX: usize = 7;
+
 /// Share of the magnets' flux lost at full demagnetization (k9 = 1): half the flux, past
 /// which the actuator has lost its torque margin long before.
 pub const DEMAGNETIZATION_LOSS_MAX: f32 = 0.5;
