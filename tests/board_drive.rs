@@ -130,3 +130,81 @@ fn the_board_drive_plays_the_test_in_closed_loop() {
     );
     assert!(largest < 2.0 * amplitude, "{largest}");
 }
+
+/// What the board's drive did over the chirp on a motor: the user shaft's tracking RMS [rad]
+/// and the pair current's RMS [A].
+#[derive(Debug)]
+struct Chirp {
+    tracking: f32,
+    current: f32,
+}
+
+/// The test's chirp through `BridgeDrive` with `sensing` on the motor. `board`: the board's
+/// timer and sensors — each period's legs act from the next update on (TIM1's preload), the
+/// encoder counts 8 192 per revolution and the surface transducer reads through a 12-bit
+/// converter over ±0.5 rad (`SensorScaling::REFERENCE_BOARD`); otherwise the legs act at once
+/// and the sensors are exact.
+fn chirp_on_motor(sensing: Sensing, board_like: bool) -> Chirp {
+    let p = ActuatorParams::REFERENCE;
+    let drive = DriveSettings {
+        compensation: false, // the plant here has no dead time
+        ..DriveSettings::TYPICAL
+    };
+    let timing = BridgeTiming::new(&drive, 168_000_000, p.control_period).unwrap();
+    let test = PreflightTest::INJECTION;
+    let mut latched = Latched::default();
+    let mut board = BridgeDrive::new(&mut latched, timing, drive, &p, sensing);
+    let mut plant = PairMotor::new(p, p.dc_bus_voltage);
+    let counts = f32::from(timing.counts);
+    let scaling = firmware::acquisition::SensorScaling::REFERENCE_BOARD;
+    let quantise = |x: f32, lsb: f32| (x / lsb).round() * lsb;
+    let mut sequencer = TestSequencer::new(test, p.control_period);
+    let mut acting = [None; 3];
+    let (mut errors, mut currents) = (Vec::new(), Vec::new());
+    for index in 0.. {
+        let mut f = plant.feedback();
+        if board_like {
+            f.motor_angle = quantise(f.motor_angle, scaling.motor_rad_per_count);
+            f.user_angle = quantise(f.user_angle, scaling.transducer_rad_per_count);
+        }
+        board.measured(f);
+        if sequencer.tick(&mut board) == Sequenced::Done {
+            break;
+        }
+        let set = board.legs_mut().0.map(|l| l.map(|d| f32::from(d) / counts));
+        let legs = if board_like { acting } else { set };
+        acting = set;
+        plant.period(legs);
+        if let Command::Position(command) = test.drive(index, p.control_period) {
+            errors.push(command - plant.motor_angle / p.gear_ratio);
+            currents.push(plant.current);
+        }
+    }
+    let rms = |v: &[f32]| (v.iter().map(|x| x * x).sum::<f32>() / v.len() as f32).sqrt();
+    Chirp {
+        tracking: rms(&errors),
+        current: rms(&currents),
+    }
+}
+
+#[test]
+fn the_board_drive_allows_for_its_late_duties_and_coarse_sensors() {
+    // The loop as the monitor model describes it, on a drive that acts at once with exact
+    // sensors: what the board's drive must reproduce.
+    let ideal = chirp_on_motor(Sensing::DIRECT, false);
+    // The board's drive on the board's timing and sensors.
+    let board = chirp_on_motor(Sensing::BOARD, true);
+    // The same loop without allowing for them.
+    let naive = chirp_on_motor(Sensing::DIRECT, true);
+    println!("ideal {ideal:?}\nboard {board:?}\nnaive {naive:?}");
+    assert!(
+        board.current < 1.1 * ideal.current,
+        "{board:?} against {ideal:?}"
+    );
+    assert!(
+        board.tracking < 1.25 * ideal.tracking,
+        "{board:?} against {ideal:?}"
+    );
+    // What the allowance is for: without it the current is far from the ideal's.
+    assert!(naive.current > 1.5 * ideal.current, "{naive:?}");
+}
