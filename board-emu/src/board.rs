@@ -58,6 +58,11 @@ pub struct FrameTiming {
     pub triggers: u64,
     /// Instructions from a trigger to the chunk in which the image read ADC1's JDR1.
     pub latencies: Vec<u64>,
+    /// Instructions from a trigger to the chunk in which the image had written the three
+    /// legs' compare registers (the duties for the next update: its deadline), and TIM1's
+    /// compare writes at the trigger.
+    pub to_duties: Vec<u64>,
+    pub pending_duties: Option<(u64, u64)>,
     /// Each trigger's conversions and encoder capture, as the image reads them.
     pub fed: Vec<firmware::acquisition::Counts>,
 }
@@ -376,6 +381,7 @@ impl<'a> Board<'a> {
             }
             self.frames.triggers += u64::from(events.trgo);
             self.frames.pending_trigger = Some(self.instructions);
+            self.frames.pending_duties = Some((self.instructions, bus.tim1.compare_writes));
         }
         if events.updates > 0 {
             let arr = bus.tim1.active_arr().max(1) as f32;
@@ -392,6 +398,13 @@ impl<'a> Board<'a> {
             drop(bus);
             self.plant.drive(&state);
             bus = self.bus.borrow_mut();
+        }
+        // The frame's duties: all three legs' compare registers written since the trigger.
+        if let Some((at, writes)) = self.frames.pending_duties {
+            if bus.tim1.compare_writes >= writes + 3 {
+                self.frames.to_duties.push(self.instructions - at);
+                self.frames.pending_duties = None;
+            }
         }
         // The frame's read: the image clears ADC1's JEOC after reading JDR1…4.
         if let Some(at) = self.frames.pending_trigger {

@@ -44,6 +44,8 @@ pub struct Timer {
     prescaled: u32,
     /// Encoder mode: the count the image set, and the encoder's edges then.
     encoder_base: (u32, i64),
+    /// Writes to CCR1…CCR4 since reset.
+    pub compare_writes: u64,
 }
 
 impl Timer {
@@ -62,6 +64,7 @@ impl Timer {
             repetition: 0,
             prescaled: 0,
             encoder_base: (0, 0),
+            compare_writes: 0,
         };
         t.words[(ARR / 4) as usize] = width;
         t
@@ -133,6 +136,7 @@ impl Timer {
                 }
                 if (CCR1..CCR1 + 16).contains(&offset) {
                     let ch = ((offset - CCR1) / 4) as usize;
+                    self.compare_writes += 1;
                     if !self.compare_preload(ch) {
                         self.ccr[ch] = value & self.width;
                     }

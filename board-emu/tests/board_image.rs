@@ -189,6 +189,18 @@ fn the_board_configures_what_board_rs_claims_and_takes_every_frame_in_its_period
         worst < PERIOD_INSTRUCTIONS,
         "worst frame {worst} instructions after its trigger"
     );
+    // Each frame's duties written before the update they are preloaded for.
+    assert!(
+        f.to_duties.len() + 1 >= f.latencies.len(),
+        "{} of {} frames wrote their duties",
+        f.to_duties.len(),
+        f.latencies.len()
+    );
+    let worst = f.to_duties.iter().max().copied().unwrap_or(u64::MAX);
+    assert!(
+        worst < PERIOD_INSTRUCTIONS,
+        "worst frame's duties {worst} instructions after its trigger"
+    );
 }
 
 /// The records a health-pair dump's newest image holds (its slots that decode).
