@@ -50,9 +50,17 @@ struct Args {
     /// The reference model's fault vector (nine comma-separated values, the trace's order).
     #[arg(long, default_value = "0,0,0,0,0,0,0.5,0.5,0", value_delimiter = ',')]
     faults: Vec<f32>,
-    /// The reference model's seed (its sensors' noise).
+    /// The reference model's seed (its sensors' noise; its wind's).
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// A wind on the parked surface for `--plant reference`, MEAN,GUST [kt] (e.g. 20,35):
+    /// it may spoil a test, which the board then runs again.
+    #[arg(long, value_name = "MEAN,GUST", value_delimiter = ',')]
+    wind: Vec<f64>,
+    /// How many of the board's tests meet the wind (the next seed each); the tests after
+    /// them are in still air (at most three tests in all: the first and two re-runs).
+    #[arg(long, default_value_t = 3)]
+    windy_tests: u32,
     /// Known faults through the board instead of one run: Table I's single faults (`1`,
     /// without its gain-drift cases: on the board's pins the board's own gain drives) or
     /// Table II's multiple faults (`2`, without I_ref noise, which acts in the actuator's
@@ -113,12 +121,32 @@ fn main() -> Result<()> {
             let faults =
                 shared::FaultVector::new(faults).map_err(|e| anyhow::anyhow!("--faults: {e:?}"))?;
             let record = shared::actuator::ActuatorRecord::REFERENCE;
-            let model = ReferenceModel::new(ReferenceSettings::REFERENCE).with_test(record.test);
-            let scenario = Scenario {
-                seed: args.seed,
-                ..Scenario::new(faults)
+            let still = ReferenceModel::new(ReferenceSettings::REFERENCE).with_test(record.test);
+            let wind = match args.wind.as_slice() {
+                [] => None,
+                &[mean, gust] => Some(
+                    host_sim::plant::aero::GroundWind::new(mean, gust)
+                        .map_err(|e| anyhow::anyhow!("--wind: {e}"))?,
+                ),
+                _ => anyhow::bail!("--wind takes MEAN,GUST"),
             };
-            Box::new(ReferenceOnPins::new(model, scenario))
+            // The first test and its two re-runs, each on a day of its own.
+            let day = |test: u32| {
+                let windy = wind.is_some() && test < args.windy_tests;
+                let model = still.with_wind(if windy { wind } else { None });
+                let scenario = Scenario {
+                    seed: args.seed + u64::from(test),
+                    ..Scenario::new(faults)
+                };
+                (model, scenario)
+            };
+            let (model, scenario) = day(0);
+            let mut pins = ReferenceOnPins::new(model, scenario);
+            for test in 1..u32::from(firmware::Reruns::MAX_TESTS) {
+                let (model, scenario) = day(test);
+                pins = pins.then(model, scenario);
+            }
+            Box::new(pins)
         }
     };
     let mut board = Board::new(&elf, flash, plant)?;

@@ -7,6 +7,7 @@
 //! driven by TIM1's legs. O(1) per call but a period's physics (50 Euler steps for the
 //! motor, the reference model's fine steps).
 
+use std::collections::VecDeque;
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
 use std::thread::JoinHandle;
 
@@ -153,7 +154,9 @@ impl Plant for MotorOnPins {
 /// update the converters sample what its sensors see, then its bridge runs the period on
 /// the legs TIM1 drives (the duties the image preloaded, the reference model's own dead time
 /// and diodes). After the reference model's run ends (its pre-roll and test), its last
-/// readings hold.
+/// readings hold; with a next run queued ([`ReferenceOnPins::then`]: the board's re-run of
+/// a spoiled test) the actuator is at rest again where that run starts, and waits there
+/// until the board enables the bridge's outputs for its next test.
 pub struct ReferenceOnPins {
     legs: Option<SyncSender<[Option<f64>; 3]>>,
     sensors: Receiver<AnalogSensors>,
@@ -163,6 +166,15 @@ pub struct ReferenceOnPins {
     /// Control periods the reference model ran.
     pub periods: u64,
     run: Option<JoinHandle<Simulation>>,
+    /// The runs for the board's next tests (a re-run after a spoiled one): each begins when
+    /// the last ends, its actuator at rest where its run starts, and waits there (`parked`)
+    /// until the board enables the bridge's outputs again.
+    next: VecDeque<(ReferenceModel, Scenario)>,
+    parked: bool,
+    main_output: bool,
+    /// Runs begun so far, and those the board drove (the tests it played on them).
+    runs: u32,
+    pub driven: u32,
 }
 
 /// The thread's side: the sensors out, the legs in.
@@ -181,24 +193,51 @@ impl ExternalDrive for Channels {
 impl ReferenceOnPins {
     /// `model` playing `scenario` on the pins.
     pub fn new(model: ReferenceModel, scenario: Scenario) -> Self {
-        let (sensors_out, sensors) = sync_channel(1);
-        let (legs, legs_in) = sync_channel(1);
-        let run = std::thread::spawn(move || {
-            let mut channels = Channels {
-                sensors: sensors_out,
-                legs: legs_in,
-            };
-            model.simulate_driven(&scenario, &mut channels)
-        });
-        Self {
-            legs: Some(legs),
+        let (_, sensors) = sync_channel(1);
+        let mut pins = Self {
+            legs: None,
             sensors,
             latest: AnalogSensors::default(),
             awaiting_legs: false,
             scaling: SensorScaling::REFERENCE_BOARD,
             periods: 0,
-            run: Some(run),
+            run: None,
+            next: VecDeque::new(),
+            parked: false,
+            main_output: false,
+            runs: 0,
+            driven: 0,
+        };
+        pins.begin(model, scenario);
+        pins
+    }
+
+    /// Then, for the board's next test, `model` playing `scenario` (the same actuator on
+    /// another day: a gust gone, a wind risen).
+    pub fn then(mut self, model: ReferenceModel, scenario: Scenario) -> Self {
+        self.next.push_back((model, scenario));
+        self
+    }
+
+    fn begin(&mut self, model: ReferenceModel, scenario: Scenario) {
+        if let Some(run) = self.run.take() {
+            let _ = run.join();
         }
+        let (sensors_out, sensors) = sync_channel(1);
+        let (legs, legs_in) = sync_channel(1);
+        self.run = Some(std::thread::spawn(move || {
+            let mut channels = Channels {
+                sensors: sensors_out,
+                legs: legs_in,
+            };
+            model.simulate_driven(&scenario, &mut channels)
+        }));
+        self.legs = Some(legs);
+        self.sensors = sensors;
+        self.awaiting_legs = false;
+        self.parked = self.runs > 0;
+        self.runs += 1;
+        self.driven += u32::from(!self.parked);
     }
 }
 
@@ -222,13 +261,24 @@ impl Plant for ReferenceOnPins {
                 self.latest = s;
                 self.awaiting_legs = true;
             }
-            // The run is over: the last readings hold.
-            Err(_) => self.legs = None,
+            // The run is over: the last readings hold, or the next run's first.
+            Err(_) => {
+                self.legs = None;
+                if let Some((model, scenario)) = self.next.pop_front() {
+                    self.begin(model, scenario);
+                    self.sample();
+                }
+            }
         }
     }
 
     fn drive(&mut self, bridge: &BridgeState) {
-        if !self.awaiting_legs {
+        if bridge.main_output && !self.main_output && self.parked {
+            self.parked = false;
+            self.driven += 1;
+        }
+        self.main_output = bridge.main_output;
+        if !self.awaiting_legs || self.parked {
             return;
         }
         let legs = if bridge.main_output {

@@ -475,3 +475,50 @@ fn the_board_reads_a_known_fault_on_the_reference_model_with_the_hosts_bits() {
         "board {board_rms} A against {own_rms} A"
     );
 }
+
+#[test]
+fn a_test_a_gust_spoiled_is_run_again_and_read_in_still_air() {
+    // The same actuator (friction k1 = 0.4) on three days: a 20 kt wind gusting 35 kt on
+    // the parked surface for the first test (seed 3: a gust during the chirp), still air
+    // after it.
+    let record = ActuatorRecord::REFERENCE;
+    let truth = FaultVector::new([0.4, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]).unwrap();
+    let still = ReferenceModel::new(ReferenceSettings::REFERENCE).with_test(record.test);
+    let wind = host_sim::plant::aero::GroundWind::new(20.0, 35.0).unwrap();
+    let day = |seed: u64| Scenario {
+        seed,
+        ..Scenario::new(truth)
+    };
+    let plant = ReferenceOnPins::new(still.with_wind(Some(wind)), day(3))
+        .then(still, day(4))
+        .then(still, day(5));
+    let mut board = Board::new(board_elf(), flash_with_record(), Box::new(plant)).unwrap();
+    let end = board.run(7_000_000_000).unwrap();
+    assert!(matches!(end, RunEnd::Asleep { .. }), "{end:?}");
+    let log = decoded(&board.log);
+    eprintln!("{log}");
+    // The gust spoiled the first test, the board named it and ran the test once more.
+    assert!(
+        log.contains("test 1 spoiled: Outside(LoadMoved"),
+        "the gust was not named: {log}"
+    );
+    assert!(!log.contains("test 2 spoiled"), "{log}");
+    let plant = board
+        .plant::<ReferenceOnPins>()
+        .expect("the reference model");
+    assert_eq!(plant.driven, 2, "tests the reference model played");
+    // The re-run's reading, in still air: inside the domain, within the campaigns' bound.
+    let result = log
+        .lines()
+        .find(|l| l.starts_with("result faults="))
+        .unwrap_or_else(|| panic!("no result in {log}"));
+    assert!(result.contains("domain=Within"), "{result}");
+    let found = FaultVector::new(
+        floats_after(result, "FaultVector(")
+            .try_into()
+            .expect("nine components"),
+    )
+    .unwrap();
+    let e_tot = shared::metrics::total_error(&found, &truth);
+    assert!(e_tot <= 2.0, "e_tot {e_tot} % ({result})");
+}

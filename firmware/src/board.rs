@@ -112,14 +112,36 @@ fn bridge_off() {
 }
 
 /// Frames from the board's converters, commanding the test one control period per frame.
-struct BoardSource {
+/// Each test (a re-run too) is paced from the triggers counted since it began, with the
+/// bridge's outputs enabled again; the encoder's count continues across tests (its zero is
+/// the first test's: the electrical zero the board was aligned to).
+struct BoardSource<'a> {
     sequencer: TestSequencer,
     drive: BridgeDrive<TimerLegs>,
-    converter: Converter,
+    converter: &'a mut Converter,
     frames: u32,
+    /// TIM2's trigger count when the test began.
+    start: u32,
 }
 
-impl BoardSource {
+impl<'a> BoardSource<'a> {
+    /// A test from the next trigger on, the bridge's outputs enabled, every leg off.
+    fn begin(
+        sequencer: TestSequencer,
+        drive: BridgeDrive<TimerLegs>,
+        converter: &'a mut Converter,
+    ) -> Self {
+        TimerLegs.set([Leg::Off; 3]);
+        pac::TIM1.bdtr().modify(|w| w.set_moe(true));
+        Self {
+            sequencer,
+            drive,
+            converter,
+            frames: 0,
+            start: pac::TIM2.cnt().read(),
+        }
+    }
+
     fn counts() -> Counts {
         let adc1 = pac::ADC1;
         let adc2 = pac::ADC2;
@@ -138,7 +160,7 @@ impl BoardSource {
     }
 }
 
-impl CurrentSource for BoardSource {
+impl CurrentSource for BoardSource<'_> {
     type Error = BoardError;
 
     fn next_frame(&mut self) -> Result<Acquired, BoardError> {
@@ -146,7 +168,7 @@ impl CurrentSource for BoardSource {
             bridge_off();
             return Ok(Acquired::EndOfTest);
         }
-        match pace(pac::TIM2.cnt().read(), self.frames) {
+        match pace(pac::TIM2.cnt().read().wrapping_sub(self.start), self.frames) {
             Pace::Wait => return Ok(Acquired::NotYet),
             Pace::Overrun { missed } => {
                 bridge_off();
@@ -430,19 +452,19 @@ async fn preflight(spawner: Spawner) -> Result<(), Stop> {
     // A test whose load moved (a gust on the parked surface) is run again, a bounded number
     // of times (`Reruns`).
     let mut reruns = Reruns::new();
+    let mut converter = Converter::new(SensorScaling::REFERENCE_BOARD);
     let (report, day) = loop {
-        let source = BoardSource {
+        let source = BoardSource::begin(
             sequencer,
-            drive: BridgeDrive::new(
+            BridgeDrive::new(
                 TimerLegs,
                 timing,
                 settings.actuator.drive,
                 &settings.actuator.params,
                 Sensing::BOARD,
             ),
-            converter: Converter::new(SensorScaling::REFERENCE_BOARD),
-            frames: 0,
-        };
+            &mut converter,
+        );
         let mut preflight = Preflight::new(&settings, source, &mut *measured)
             .with_curvature_buffer(&mut *curvature);
         let mut stage = preflight.stage();

@@ -6,6 +6,14 @@
 //! one control period, with the monitor model's current law
 //! `V = 2R·i + k_t·ω + (2L/dt)·(i_ref − i)`.
 //!
+//! A board is not the monitor model's ideal controller, and [`Sensing`] says how it differs:
+//! its timer loads the voltage at the next update (the loop then steps from the current,
+//! speed and angles it predicts for that update, on the next period's command), and its
+//! sensors are coarse (an α-β observer carries the encoder's angle between counts with the
+//! measured current's torque; the surface transducer is low-passed against the motor angle
+//! through the gear). Without these the board's current swings at a sixth of the control rate
+//! and its count steps become amperes (`tests/board_drive.rs`, `board-emu`).
+//!
 //! Units: rad (user shaft for the command and the transducer, motor shaft for the encoder),
 //! rad/s, A, V; one call per control period `params.control_period`; O(1), no allocation.
 //! The encoder is taken as zeroed where the electrical angle is 0 (the board's alignment at
