@@ -63,8 +63,11 @@ pub struct FrameTiming {
     /// compare writes at the trigger.
     pub to_duties: Vec<u64>,
     pub pending_duties: Option<(u64, u64)>,
-    /// Each trigger's conversions and encoder capture, as the image reads them.
+    /// Each frame's conversions and encoder capture, as the image read them (the triggers
+    /// whose frame it took, in order; a re-run's frames after the first test's).
     pub fed: Vec<firmware::acquisition::Counts>,
+    /// The last trigger's conversions and capture, until the image reads them.
+    pub pending_counts: Option<firmware::acquisition::Counts>,
 }
 
 /// A board's state to come back to ([`Board::snapshot`]).
@@ -372,13 +375,15 @@ impl<'a> Board<'a> {
             bus.tim3.follow_encoder(edges);
             bus.tim2.trigger(events.trgo);
             bus.tim3.trigger(events.trgo);
-            if let (Some(a), Some(b)) = (bus.adc1.pending_results(), bus.adc2.pending_results()) {
-                self.frames.fed.push(firmware::acquisition::Counts {
-                    currents_and_transducer: a,
-                    bus_and_temperature: [b[0], b[1]],
-                    encoder: bus.tim3.raw(crate::timers::CCR1 + 8) as u16,
-                });
-            }
+            self.frames.pending_counts =
+                match (bus.adc1.pending_results(), bus.adc2.pending_results()) {
+                    (Some(a), Some(b)) => Some(firmware::acquisition::Counts {
+                        currents_and_transducer: a,
+                        bus_and_temperature: [b[0], b[1]],
+                        encoder: bus.tim3.raw(crate::timers::CCR1 + 8) as u16,
+                    }),
+                    _ => None,
+                };
             self.frames.triggers += u64::from(events.trgo);
             self.frames.pending_trigger = Some(self.instructions);
             self.frames.pending_duties = Some((self.instructions, bus.tim1.compare_writes));
@@ -412,6 +417,9 @@ impl<'a> Board<'a> {
             {
                 self.frames.latencies.push(self.instructions - at);
                 self.frames.pending_trigger = None;
+                if let Some(counts) = self.frames.pending_counts.take() {
+                    self.frames.fed.push(counts);
+                }
             }
         }
         Ok(None)

@@ -14,7 +14,7 @@ use shared::test_design::Drive;
 pub fn fed_trace(counts: &[Counts], record: &ActuatorRecord, frames: usize) -> Result<Trace> {
     anyhow::ensure!(
         counts.len() >= frames,
-        "{} triggers fed, {frames} frames asked",
+        "{} frames fed, {frames} asked",
         counts.len()
     );
     let mut converter = Converter::new(SensorScaling::REFERENCE_BOARD);
