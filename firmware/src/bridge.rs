@@ -222,8 +222,10 @@ impl<L: Legs> BridgeDrive<L> {
             return measured;
         }
         let (signs, volts) = self.acting;
-        let along: f32 = (0..3)
-            .map(|x| f32::from(signs[x]) * measured[x])
+        let along: f32 = signs
+            .iter()
+            .zip(&measured)
+            .map(|(&s, &i)| f32::from(s) * i)
             .sum::<f32>()
             * 0.5;
         let next = along + (volts - self.two_r * along) * self.dt_over_two_l;
