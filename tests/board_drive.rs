@@ -29,14 +29,21 @@ impl Legs for &mut Latched {
     }
 }
 
-#[test]
-fn the_board_drive_plays_the_test_in_closed_loop() {
+/// The reference actuator's drive on a 168 MHz timer, without dead-time compensation (the
+/// motor here has no dead time).
+fn reference_drive() -> (ActuatorParams, DriveSettings, BridgeTiming) {
     let p = ActuatorParams::REFERENCE;
     let drive = DriveSettings {
-        compensation: false, // the plant here has no dead time
+        compensation: false,
         ..DriveSettings::TYPICAL
     };
     let timing = BridgeTiming::new(&drive, 168_000_000, p.control_period).unwrap();
+    (p, drive, timing)
+}
+
+#[test]
+fn the_board_drive_plays_the_test_in_closed_loop() {
+    let (p, drive, timing) = reference_drive();
     let test = PreflightTest::INJECTION;
     let mut latched = Latched::default();
     let mut board = BridgeDrive::new(&mut latched, timing, drive, &p, Sensing::DIRECT);
@@ -139,18 +146,13 @@ struct Chirp {
     current: f32,
 }
 
-/// The test's chirp through `BridgeDrive` with `sensing` on the motor. `board`: the board's
-/// timer and sensors — each period's legs act from the next update on (TIM1's preload), the
-/// encoder counts 8 192 per revolution and the surface transducer reads through a 12-bit
-/// converter over ±0.5 rad (`SensorScaling::REFERENCE_BOARD`); otherwise the legs act at once
-/// and the sensors are exact.
+/// The test's chirp through `BridgeDrive` with `sensing` on the motor. `board_like`: the
+/// board's timer and sensors — each period's legs act from the next update on (TIM1's
+/// preload), the encoder counts 8 192 per revolution and the surface transducer reads through
+/// a 12-bit converter over ±0.5 rad (`SensorScaling::REFERENCE_BOARD`); otherwise the legs act
+/// at once and the sensors are exact.
 fn chirp_on_motor(sensing: Sensing, board_like: bool) -> Chirp {
-    let p = ActuatorParams::REFERENCE;
-    let drive = DriveSettings {
-        compensation: false, // the plant here has no dead time
-        ..DriveSettings::TYPICAL
-    };
-    let timing = BridgeTiming::new(&drive, 168_000_000, p.control_period).unwrap();
+    let (p, drive, timing) = reference_drive();
     let test = PreflightTest::INJECTION;
     let mut latched = Latched::default();
     let mut board = BridgeDrive::new(&mut latched, timing, drive, &p, sensing);
