@@ -12,13 +12,14 @@ use board_emu::{Board, RunEnd};
 use clap::Parser;
 use host_sim::files::trace::TraceFormat;
 use host_sim::plant::pair_motor::PairMotor;
-use host_sim::plant::reference::{ReferenceModel, ReferenceSettings, Scenario};
+use host_sim::plant::reference::{ReferenceModel, Scenario};
 
 #[derive(Parser)]
 #[command(
     about = "Runs the board image (cargo board-build) on an emulated STM32F405: its clocks, \
-flash, bridge timer, converters and encoder modelled at register level, the motor's leads open \
-(no current, no motion), and prints its RTT log"
+flash, bridge timer, converters and encoder modelled at register level, with the motor's leads \
+open, a plain motor or the reference model on its pins, and prints its RTT log, clocks and \
+frame timing (--table: known faults read through the board)"
 )]
 struct Args {
     /// The board image's ELF.
@@ -26,14 +27,16 @@ struct Args {
     elf: PathBuf,
     /// A flash pair image to program before the run, as ADDRESS=FILE (from `host-sim
     /// flash-pair --store record --write R.rec --out pair.bin`: 0x08020000=pair.bin).
+    /// Without any, the `--actuator`'s record is flashed in its pair.
     #[arg(long = "flash", value_name = "ADDRESS=FILE")]
     flash: Vec<String>,
     /// Instructions to run at most.
     #[arg(long, default_value_t = 50_000_000)]
     instructions: u64,
-    /// The bus voltage [V] and the winding's temperature [°C] the converters read.
-    #[arg(long, default_value_t = 270.0)]
-    bus_volts: f32,
+    /// The bus voltage [V] (default: the actuator's) and the winding's temperature [°C] the
+    /// converters read.
+    #[arg(long)]
+    bus_volts: Option<f32>,
     #[arg(long, default_value_t = 20.0)]
     celsius: f32,
     /// What the pins drive: `open` (the motor's leads open: no current, no motion), `motor`
@@ -71,8 +74,9 @@ struct Args {
     /// Runs per case of `--table`.
     #[arg(long, default_value_t = 3)]
     runs: u64,
-    /// The actuator of `--table` (a description, TOML): its record is flashed, the reference
-    /// model plays it. Default: the built-in reference actuator.
+    /// The actuator (a description, TOML): its record is flashed (unless `--flash`), the
+    /// motor has its constants, the reference model plays it, the trace is its test's.
+    /// Default: the built-in reference actuator.
     #[arg(long, value_name = "FILE")]
     actuator: Option<PathBuf>,
     /// Where `--table` writes its Markdown table (default: standard output only).
@@ -98,7 +102,16 @@ fn main() -> Result<()> {
     if let Some(table) = args.table {
         return campaign(&args, &elf, table);
     }
+    let actuator = host_sim::files::actuator::Actuator::from_option(args.actuator.as_deref())?;
+    let record = actuator.record_for(&actuator.record.test)?;
+    let bus_volts = args.bus_volts.unwrap_or(record.params.dc_bus_voltage);
     let mut flash = FlashInterface::new();
+    if args.flash.is_empty() {
+        let pair = host_sim::files::flash_pair::pair_image(&actuator.record_bytes())?;
+        let address = host_sim::files::flash_pair::Store::Record.address();
+        flash.load(address, &pair)?;
+        println!("flashed {}'s record at {address:#010x}", actuator.name);
+    }
     for item in &args.flash {
         let (address, file) = item.split_once('=').context("--flash takes ADDRESS=FILE")?;
         let address = u32::from_str_radix(address.trim_start_matches("0x"), 16)
@@ -107,9 +120,9 @@ fn main() -> Result<()> {
         flash.load(address, &bytes)?;
     }
     let plant: Box<dyn Plant> = match args.plant {
-        PlantKind::Open => Box::new(OpenBridge::new(args.bus_volts, args.celsius)),
+        PlantKind::Open => Box::new(OpenBridge::new(bus_volts, args.celsius)),
         PlantKind::Motor => Box::new(MotorOnPins::new(
-            PairMotor::new(shared::params::ActuatorParams::REFERENCE, args.bus_volts),
+            PairMotor::new(record.params, bus_volts),
             args.celsius,
         )),
         PlantKind::Reference => {
@@ -120,8 +133,7 @@ fn main() -> Result<()> {
                 .with_context(|| format!("--faults takes {} values", shared::FAULT_COUNT))?;
             let faults =
                 shared::FaultVector::new(faults).map_err(|e| anyhow::anyhow!("--faults: {e:?}"))?;
-            let record = shared::actuator::ActuatorRecord::REFERENCE;
-            let still = ReferenceModel::new(ReferenceSettings::REFERENCE).with_test(record.test);
+            let still = ReferenceModel::new(actuator.reference_settings()?).with_test(record.test);
             let wind = match args.wind.as_slice() {
                 [] => None,
                 &[mean, gust] => Some(
@@ -165,7 +177,6 @@ fn main() -> Result<()> {
         println!("{what}_instructions {}", distribution(latencies));
     }
     if let Some(path) = &args.trace_out {
-        let record = shared::actuator::ActuatorRecord::REFERENCE;
         let frames =
             firmware::sequencer::TestSequencer::new(record.test, record.params.control_period)
                 .samples();

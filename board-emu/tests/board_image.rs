@@ -18,6 +18,7 @@ use board_emu::timers;
 use board_emu::{Board, RunEnd};
 use firmware::bridge::BridgeTiming;
 use firmware::sequencer::TestSequencer;
+use host_sim::files::actuator::Actuator;
 use host_sim::files::flash_pair::{newest_item, pair_image, Store};
 use host_sim::files::health::slot_bytes;
 use host_sim::plant::pair_motor::PairMotor;
@@ -408,20 +409,29 @@ fn chirp_current_rms(trace: &host_sim::files::trace::Trace, record: &ActuatorRec
     (currents.iter().map(|i| i * i).sum::<f32>() / currents.len().max(1) as f32).sqrt()
 }
 
-#[test]
-fn the_board_reads_a_known_fault_on_the_reference_model_with_the_hosts_bits() {
-    // Friction k1 = 0.4 (Table I), reference-model seed 0, GA seed 1: the whole preflight
-    // on the board, identification and report included.
-    let record = ActuatorRecord::REFERENCE;
+/// Friction k1 = 0.4 (Table I) on `actuator`, reference-model seed 0, GA seed 1: the whole
+/// preflight on the board, identification and report included. The board reads it inside
+/// the model's domain, friction within 0.05 (and e_tot within `e_tot_bound` [%] where
+/// given), with the host's bits on the frames it was fed, drawing the actuator's own
+/// controller's current.
+fn the_board_reads_friction(actuator: &Actuator, e_tot_bound: Option<f32>) {
+    let record = actuator.record_for(&actuator.record.test).unwrap();
     let p = record.params;
     let truth = FaultVector::new([0.4, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]).unwrap();
     let scenario = Scenario {
         seed: 0,
         ..Scenario::new(truth)
     };
-    let model = ReferenceModel::new(ReferenceSettings::REFERENCE).with_test(record.test);
+    let model = ReferenceModel::new(actuator.reference_settings().unwrap()).with_test(record.test);
+    let mut flash = FlashInterface::new();
+    flash
+        .load(
+            Store::Record.address(),
+            &pair_image(&actuator.record_bytes()).unwrap(),
+        )
+        .unwrap();
     let plant = ReferenceOnPins::new(model, scenario);
-    let mut board = Board::new(board_elf(), flash_with_record(), Box::new(plant)).unwrap();
+    let mut board = Board::new(board_elf(), flash, Box::new(plant)).unwrap();
     let end = board.run(4_000_000_000).unwrap();
     assert!(matches!(end, RunEnd::Asleep { .. }), "{end:?}");
     let log = decoded(&board.log);
@@ -433,12 +443,15 @@ fn the_board_reads_a_known_fault_on_the_reference_model_with_the_hosts_bits() {
     let board_fitness = floats_after(result, "fitness=");
     assert_eq!(board_faults.len(), shared::FAULT_COUNT, "{result}");
 
-    // The board's reading: inside the model's domain, within the campaigns' bound.
+    // The board's reading: inside the model's domain, the fault found.
     assert!(result.contains("domain=Within"), "{result}");
     let found = FaultVector::new(board_faults.clone().try_into().unwrap()).unwrap();
     let e_tot = shared::metrics::total_error(&found, &truth);
-    eprintln!("board: {result}; e_tot {e_tot:.2} %");
-    assert!(e_tot <= 2.0, "e_tot {e_tot} % ({result})");
+    eprintln!("{}: {result}; e_tot {e_tot:.2} %", actuator.name);
+    assert!((found.as_array()[0] - 0.4).abs() <= 0.05, "{result}");
+    if let Some(bound) = e_tot_bound {
+        assert!(e_tot <= bound, "e_tot {e_tot} % ({result})");
+    }
 
     // The frames the emulator fed, as a trace, identified on the host: the same bits.
     let frames = TestSequencer::new(record.test, p.control_period).samples();
@@ -461,7 +474,7 @@ fn the_board_reads_a_known_fault_on_the_reference_model_with_the_hosts_bits() {
     // The board's drive draws the current the actuator's own controller draws on the same
     // actuator: its duties act a period late and its sensors are coarser, neither of which
     // may show as current the monitor model does not explain.
-    let own = ReferenceModel::new(ReferenceSettings::REFERENCE)
+    let own = ReferenceModel::new(actuator.reference_settings().unwrap())
         .with_test(record.test)
         .simulate(&scenario)
         .trace;
@@ -474,6 +487,20 @@ fn the_board_reads_a_known_fault_on_the_reference_model_with_the_hosts_bits() {
         board_rms < 1.25 * own_rms,
         "board {board_rms} A against {own_rms} A"
     );
+}
+
+#[test]
+fn the_board_reads_a_known_fault_on_the_reference_model_with_the_hosts_bits() {
+    // Within the accuracy campaigns' bound.
+    the_board_reads_friction(&Actuator::reference(), Some(2.0));
+}
+
+#[test]
+fn the_board_reads_a_known_fault_on_the_light_actuator_with_the_hosts_bits() {
+    // Its e_tot, 2.4 %, carries a gain drift read 0.43 for 0.5 (docs/controller.md: the
+    // board's transducer), so only the fault itself is bounded here.
+    let light = workspace_root().join("actuators/light-28v.toml");
+    the_board_reads_friction(&Actuator::load(&light).unwrap(), None);
 }
 
 #[test]
