@@ -18,9 +18,12 @@ enum Told {
 }
 
 #[derive(Default)]
-struct Recorder(Vec<Told>);
+struct Recorder(Vec<Told>, usize);
 
 impl Drive for Recorder {
+    fn lead(&self) -> usize {
+        self.1
+    }
     fn position(&mut self, rad: f32) {
         self.0.push(Told::Position(rad));
     }
@@ -111,4 +114,17 @@ fn the_sequencers_positions_are_the_traces_commands() {
         };
         assert_eq!(s.command.to_bits(), commanded.to_bits(), "row {k}");
     }
+}
+
+#[test]
+fn a_drive_whose_commands_act_a_period_late_is_told_each_a_period_early() {
+    let (test, dt) = (PreflightTest::INJECTION, 1.0e-4);
+    let on_time = play(test, dt);
+    let mut sequencer = TestSequencer::new(test, dt);
+    let mut late = Recorder(Vec::new(), 1);
+    while let Sequenced::Commanded { .. } = sequencer.tick(&mut late) {}
+    // Frame k is told period k + 1's command; the last frame holds the last command.
+    assert_eq!(late.0.len(), on_time.len());
+    assert_eq!(late.0[..on_time.len() - 1], on_time[1..]);
+    assert_eq!(late.0.last(), on_time.last());
 }
