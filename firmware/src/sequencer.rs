@@ -66,7 +66,9 @@ impl TestSequencer {
             return Sequenced::Done;
         }
         self.next += 1;
-        let acting = index.saturating_add(drive.lead()).min(self.samples - 1);
+        let acting = index
+            .saturating_add(drive.lead())
+            .min(self.samples.saturating_sub(1));
         match self.test.drive(acting, self.period) {
             Command::Position(rad) => drive.position(rad),
             Command::Pair(d) => {
