@@ -142,6 +142,33 @@ fn the_stepper_gives_the_stored_bits() {
     }
 }
 
+/// A run stepped with its state by value (`MonitorRun::steps`, a window's evaluation) gives
+/// the same bits as `run_from` on a test without a standstill segment: the stored table,
+/// stepped in slices of 37 samples as a controller's idle time steps it.
+#[test]
+fn the_by_value_steps_give_the_stored_bits() {
+    let m = model();
+    assert_eq!(m.lead_samples(), 0);
+    let crcs: Vec<u32> = VECTORS
+        .iter()
+        .map(|k| {
+            let mut run = m.start_run(&FaultVector::new(*k).unwrap(), START);
+            let mut crc = Crc32::new();
+            let n = m.test_samples();
+            for slice in (0..n).collect::<Vec<_>>().chunks(37) {
+                run.steps(|steps| {
+                    for &i in slice {
+                        let command = m.sampler().at(i);
+                        crc.update(&sample_bytes(&steps.next_motion_sample(&m, command)));
+                    }
+                });
+            }
+            crc.finish()
+        })
+        .collect();
+    assert_eq!(crcs, RUN_CRC);
+}
+
 #[test]
 fn fitness_matches_the_stored_bits() {
     let m = model();

@@ -34,12 +34,12 @@
 //! model run's [`EVALUATION_SLICE`] samples, a curvature's [`CURVATURE_RUNS_PER_POLL`] runs
 //! of one sample, a row of its soft-f64 algebra (≤ 5 040 instructions on the Cortex-M4F, 30 %
 //! of a 100 µs period). No allocation, no panic. Run by the host on every window and by the
-//! emulation image; on the Cortex-M4F one identification is 3.9 × 10⁹ instructions in
+//! emulation image; on the Cortex-M4F one identification is 3.45 × 10⁹ instructions in
 //! ≈ 960 000 polls (`cargo window-bench`, docs/in-flight.md).
 
 use crate::base::math::{abs, invert_stepwise};
 use crate::base::steps::{pause, run_to_end};
-use crate::model::monitor::{MonitorModel, MonitorRun, RunRigging};
+use crate::model::monitor::{MonitorModel, MonitorRun, RunRigging, RunSteps};
 use crate::physics::fault::{FaultVector, DEMAGNETIZATION_INDEX, FAULT_COUNT};
 use crate::solver::ga::Problem;
 use crate::solver::uncertainty::{Curvature, STEP};
@@ -51,8 +51,8 @@ use crate::test::conditioning::{LowPass, LowPassState, MeasuredCurrent};
 pub const SETTLE_SAMPLES: usize = 200;
 
 /// Samples of a window evaluation's model run between two pauses of
-/// [`WindowProblem::evaluate_stepwise`]: about 4 400 instructions on the Cortex-M4F
-/// (340 a sample and 1 000 to resume), under 30 % of a 100 µs control period at 168 MHz
+/// [`WindowProblem::evaluate_stepwise`]: at most ≈ 4 800 instructions on the Cortex-M4F
+/// (≈ 320 a sample and ≈ 270 to resume), under 30 % of a 100 µs control period at 168 MHz
 /// (5 040).
 pub const EVALUATION_SLICE: usize = 10;
 
@@ -291,6 +291,9 @@ pub enum WindowError {
     /// The drift's normal equations are singular (cannot happen for a window longer than
     /// the settle by `DRIFT_TERMS` samples).
     Singular,
+    /// The model's test has a standstill segment: a window's model is the chirp-only
+    /// test's (a window is flown, never parked).
+    Standstill,
 }
 
 /// Components a window does not identify but holds at values from outside it: the stator

@@ -889,23 +889,22 @@ impl MonitorRun {
         self.state.user_speed += m.dt_over_user_inertia * moment;
     }
 
-    /// Puts the surface where its sensor read it for the coming step: `measured` \[rad\] as
-    /// the sensor reads it (the run's transducer offset taken off), moving at `speed`
-    /// [rad/s]. The gear then carries what the motor's side and the measured surface make
-    /// of it, whatever moment moved the surface. O(1).
-    pub fn pin_surface(&mut self, measured: f32, speed: f32) {
-        self.state.user_angle = measured - self.state.user_offset;
-        self.state.user_speed = speed;
-    }
-
-    /// The next sample of a run without a standstill segment (a window's: `m.lead_samples()`
-    /// is 0), inlined into its caller's loop: the same bits as
-    /// [`next_sample`](Self::next_sample) there. O(1).
+    /// This run's steps without a standstill segment (a window's: `m.lead_samples()` is
+    /// 0), its state held by value in `body`'s [`RunSteps`] — a caller's loop keeps it in
+    /// registers, not behind this run's reference — and written back when `body` returns.
+    /// O(1) beyond `body`.
     #[inline(always)]
-    pub fn next_motion_sample(&mut self, m: &MonitorModel, command: f32) -> MonitorSample {
-        let time = self.index as f32 * m.dt;
-        self.index = self.index.saturating_add(1);
-        m.step(&self.f, &mut self.state, time, command)
+    pub fn steps<R>(&mut self, body: impl FnOnce(&mut RunSteps<'_>) -> R) -> R {
+        let mut steps = RunSteps {
+            f: &self.f,
+            state: self.state,
+            index: self.index,
+        };
+        let out = body(&mut steps);
+        let (state, index) = (steps.state, steps.index);
+        self.state = state;
+        self.index = index;
+        out
     }
 
     /// The next sample of the test of model `m` (the one that started this run): the
@@ -951,6 +950,40 @@ impl MonitorRun {
         let j = i.saturating_sub(lead);
         let time = j as f32 * m.dt;
         m.step(&self.f, &mut self.state, time, command)
+    }
+}
+
+/// A run's steps without a standstill segment, its state by value ([`MonitorRun::steps`]):
+/// what a window's evaluation steps in its loop.
+pub struct RunSteps<'r> {
+    f: &'r FaultedConstants,
+    state: MonitorState,
+    index: usize,
+}
+
+impl RunSteps<'_> {
+    /// The next sample, inlined into its caller's loop: the same bits as
+    /// [`MonitorRun::next_sample`] on a run without a standstill segment. O(1).
+    #[inline(always)]
+    pub fn next_motion_sample(&mut self, m: &MonitorModel, command: f32) -> MonitorSample {
+        let time = self.index as f32 * m.dt;
+        self.index = self.index.saturating_add(1);
+        m.step(self.f, &mut self.state, time, command)
+    }
+
+    /// As [`MonitorRun::push_surface`]. O(1).
+    #[inline(always)]
+    pub fn push_surface(&mut self, m: &MonitorModel, moment: f32) {
+        self.state.user_speed += m.dt_over_user_inertia * moment;
+    }
+
+    /// Puts the surface where its sensor read it for the coming step: `measured` \[rad\] as
+    /// the sensor reads it (the run's transducer offset taken off), moving at `speed`
+    /// [rad/s]. The gear then carries what the motor's side and the measured surface make
+    /// of it, whatever moment moved the surface. O(1).
+    pub fn pin_surface(&mut self, measured: f32, speed: f32) {
+        self.state.user_angle = measured - self.state.user_offset;
+        self.state.user_speed = speed;
     }
 }
 

@@ -36,6 +36,9 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         load: WindowLoad,
     ) -> Result<(), WindowError> {
         pause().await;
+        if model.lead_samples() != 0 {
+            return Err(WindowError::Standstill);
+        }
         let reference = measured.samples();
         let samples = reference.len().min(command.len());
         if samples < SETTLE_SAMPLES + 10 * DRIFT_TERMS {
@@ -247,7 +250,7 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         let (model, mut run) = self.loaded_start(k, load);
         let trending = load.trend != [0.0; DRIFT_TERMS];
         let mut current = self.loaded_current(&model, &mut run, trending);
-        self.residual_fit(&load.trend, &mut current)
+        current.stepping(|current| self.residual_fit(&load.trend, current))
     }
 
     /// [`evaluate_under`](Self::evaluate_under) in steps, for a controller's idle time: a
@@ -289,15 +292,17 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         moments: &[f32],
     ) -> WindowFit {
         let (model, mut run) = self.loaded_start(k, load);
-        let current = self.loaded_current(&model, &mut run, true);
-        self.residual_fit(&[0.0; DRIFT_TERMS], &mut MomentSamples { current, moments })
+        let mut current = self.loaded_current(&model, &mut run, true);
+        current.stepping(|current| {
+            self.residual_fit(&[0.0; DRIFT_TERMS], &mut MomentSamples { current, moments })
+        })
     }
 
     /// As [`evaluate_with_moment_samples`](Self::evaluate_with_moment_samples) with no
     /// moment at all: the surface is put, each sample, where its sensor read it, so the gear
     /// carries whatever moved it; `load` sets where the run starts in the play. Also returns
     /// the mean and the mean square of the run's motor angle against the measured [rad,
-    /// rad²] over the samples stepped past the test's lead; the run's motor angle \[rad\]
+    /// rad²] over the window's samples; the run's motor angle \[rad\]
     /// goes to `trajectory`, as far as it reaches. For studies (host-sim's example
     /// `window_pinned`, docs/in-flight.md); not flown. O(samples).
     pub fn evaluate_with_surface_samples(
@@ -308,18 +313,20 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         trajectory: &mut [f32],
     ) -> (WindowFit, f64, f64) {
         let (model, mut run) = self.loaded_start(k, load);
-        let current = self.loaded_current(&model, &mut run, false);
-        let mut pinned = PinnedSurface {
-            current,
-            surface,
-            motor_error: 0.0,
-            motor_sum: 0.0,
-            counted: 0,
-            trajectory,
-        };
-        let fit = self.residual_fit(&[0.0; DRIFT_TERMS], &mut pinned);
-        let n = f64::from(pinned.counted.max(1));
-        (fit, pinned.motor_sum / n, pinned.motor_error / n)
+        let mut current = self.loaded_current(&model, &mut run, false);
+        current.stepping(|current| {
+            let mut pinned = PinnedSurface {
+                current,
+                surface,
+                motor_error: 0.0,
+                motor_sum: 0.0,
+                counted: 0,
+                trajectory,
+            };
+            let fit = self.residual_fit(&[0.0; DRIFT_TERMS], &mut pinned);
+            let n = f64::from(pinned.counted.max(1));
+            (fit, pinned.motor_sum / n, pinned.motor_error / n)
+        })
     }
 
     /// The model under `load`'s stiffness and its run started in equilibrium under its
@@ -365,8 +372,6 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
             filter: self.measured.filter(),
             state: LowPassState::default(),
             trending,
-            // A window's test has no standstill segment: its model steps inline.
-            motion_only: model.lead_samples() == 0,
         }
     }
 

@@ -123,6 +123,45 @@ fn a_command_kept_every_fourth_sample() {
 /// with a steady current and the shafts do not move; the same start without the moment
 /// gives no current. Fails if the start's gear flank, surface angle, current or
 /// integrators disagree with each other.
+/// A window's model is the chirp-only test's: one with the preflight's standstill segment
+/// is refused (its evaluation steps the motion only), the same model without it is not.
+#[test]
+fn a_model_with_a_standstill_segment_is_refused() {
+    use crate::preflight::actuator::ActuatorRecord;
+    use crate::preflight::fdi::OnboardMeasured;
+    let record = ActuatorRecord::REFERENCE;
+    let calibration = crate::Calibration::reference_actuator(&record.test);
+    let with_segment = MonitorModel::new(record.params, &calibration).with_test(&record.test);
+    assert!(with_segment.lead_samples() > 0);
+    let chirp = record.test.chirp_only();
+    let chirp_model = MonitorModel::new(record.params, &calibration).with_test(&chirp);
+    let period = record.params.control_period;
+    let sampler = chirp_model.sampler();
+    let command: std::vec::Vec<f32> = (0..2000)
+        .map(|i| synthetic_command(&sampler, 1.0e-3, period, i))
+        .collect();
+    let mut measured = std::boxed::Box::new(OnboardMeasured::ZEROED);
+    measured.set_filter(LowPass::for_control_period(period).unwrap());
+    measured.clear_for(chirp);
+    let load = WindowLoad::spring(record.params.aero_stiffness, 0.0);
+    let full = RecordedCommand::new(&command);
+    record_monitor_window(
+        &chirp_model,
+        &FaultVector::NOMINAL,
+        &load,
+        &full,
+        command.len(),
+        0.3,
+        &mut measured,
+    )
+    .unwrap();
+    assert!(matches!(
+        WindowProblem::new(&measured, full, with_segment, load),
+        Err(WindowError::Standstill)
+    ));
+    assert!(WindowProblem::new(&measured, full, chirp_model, load).is_ok());
+}
+
 #[test]
 fn a_loaded_start_holds_still() {
     use crate::physics::params::ActuatorParams;
