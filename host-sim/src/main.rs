@@ -294,6 +294,17 @@ enum Command {
             value_parser = clap::value_parser!(u32).range(2..=32)
         )]
         flight_windows_max: Option<u32>,
+        /// With --flight: each window's two GAs at most EVALUATIONS evaluations each, of
+        /// population POPULATION (8, 16 or 32), instead of the controller's 600 of 32: what
+        /// a cheaper window search costs in accuracy (its model runs in the runs CSV).
+        #[arg(
+            long,
+            requires = "flight",
+            conflicts_with = "test_amplitudes",
+            value_name = "EVALUATIONS:POPULATION",
+            value_parser = parse_window_search
+        )]
+        window_search: Option<host_sim::fdi::window::WindowSearch>,
         /// Runs (seeds) per case.
         #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..=1000))]
         runs: u64,
@@ -757,6 +768,7 @@ fn main() -> ExitCode {
             first_seed,
             flight_windows,
             flight_windows_max,
+            window_search,
             phase,
             runs,
             out,
@@ -794,6 +806,8 @@ fn main() -> ExitCode {
                             least: flight_windows,
                             most,
                         },
+                        search: window_search
+                            .unwrap_or(host_sim::fdi::window::WindowSearch::ONBOARD),
                     },
                     test_amplitudes.as_deref(),
                     out.as_deref(),
@@ -1013,6 +1027,37 @@ fn main() -> ExitCode {
     }
 }
 
+/// `EVALUATIONS:POPULATION` for `campaign --flight --window-search`.
+fn parse_window_search(text: &str) -> Result<host_sim::fdi::window::WindowSearch, String> {
+    use host_sim::fdi::window::WindowSearch;
+    let (evaluations, population) = text
+        .split_once(':')
+        .ok_or_else(|| format!("{text:?}: EVALUATIONS:POPULATION, e.g. 300:16"))?;
+    let evaluations: u32 = evaluations
+        .trim()
+        .parse()
+        .map_err(|e| format!("evaluations {evaluations:?}: {e}"))?;
+    let population: usize = population
+        .trim()
+        .parse()
+        .map_err(|e| format!("population {population:?}: {e}"))?;
+    if !WindowSearch::POPULATIONS.contains(&population) {
+        return Err(format!(
+            "population {population}: one of {:?}",
+            WindowSearch::POPULATIONS
+        ));
+    }
+    if evaluations < population as u32 {
+        return Err(format!(
+            "{evaluations} evaluations: at least the population ({population})"
+        ));
+    }
+    Ok(WindowSearch {
+        evaluations,
+        population,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1046,5 +1091,24 @@ mod tests {
             help.contains("Options:") && help.contains("--actuator"),
             "{help}"
         );
+    }
+
+    #[test]
+    fn a_window_search_is_evaluations_and_a_population_the_ga_is_built_for() {
+        use host_sim::fdi::window::WindowSearch;
+        assert_eq!(
+            parse_window_search("300:16"),
+            Ok(WindowSearch {
+                evaluations: 300,
+                population: 16
+            })
+        );
+        assert_eq!(
+            parse_window_search(" 600 : 32 ").map(|s| s == WindowSearch::ONBOARD),
+            Ok(true)
+        );
+        for bad in ["300", "300:12", "8:16", "x:16", "300:"] {
+            assert!(parse_window_search(bad).is_err(), "{bad}");
+        }
     }
 }

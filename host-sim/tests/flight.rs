@@ -5,6 +5,7 @@
 //! calm windows it can, right, and names the others; a flight's reading from its windows
 //! fused is right where it is `within`; a window keeps its mark in a trace file.
 
+use host_sim::fdi::window::WindowSearch;
 use host_sim::plant::reference::{ReferenceModel, ReferenceSettings};
 use host_sim::studies::flight::{flight_campaign, ALL_WINDOWS, FLIGHT_CASES};
 use shared::actuator::ActuatorRecord;
@@ -20,6 +21,7 @@ fn no_flight_window_is_read_within() {
         &ActuatorRecord::REFERENCE,
         0..1,
         FlightLength::fixed(2),
+        WindowSearch::ONBOARD,
         &ALL_WINDOWS,
         &FLIGHT_CASES,
         |_| {},
@@ -70,6 +72,7 @@ fn moderate_cruise_friction_flights(
         &ActuatorRecord::REFERENCE,
         seeds,
         length,
+        WindowSearch::ONBOARD,
         &[FlightWindow {
             phase: FlightPhase::Cruise,
             turbulence: Turbulence::Moderate,
@@ -269,4 +272,42 @@ fn a_flight_trace_keeps_its_mark() {
             .map(|t| t.is_flight())
             .unwrap_or(false)
     );
+}
+
+/// A study's window search (`campaign --flight --window-search`) is the one the windows are
+/// read with: a cruise window in light turbulence, friction 0.2, read with two GAs of 300
+/// evaluations of 16 spends at most what that search allows (two GAs, two load searches,
+/// seven curvatures and the polish's and the verdict's runs) and fewer runs than the
+/// controller's 600 of 32 on the same window; the controller's spends more than 2 × 300 +
+/// the rest.
+#[test]
+fn a_window_search_sets_the_windows_model_runs() {
+    use host_sim::plant::aero::{FlightPhase, FlightWindow, Turbulence};
+    use shared::window::{CURVATURE_RUNS, LOAD_SEARCH_EVALUATIONS};
+    let runs = |search: WindowSearch| {
+        let rows = flight_campaign(
+            &ReferenceModel::new(ReferenceSettings::REFERENCE),
+            &ActuatorRecord::REFERENCE,
+            0..1,
+            FlightLength::fixed(1),
+            search,
+            &[FlightWindow {
+                phase: FlightPhase::Cruise,
+                turbulence: Turbulence::Light,
+            }],
+            &FLIGHT_CASES[1..2],
+            |_| {},
+        )
+        .expect("the campaign runs");
+        rows[0].runs[0].model_runs
+    };
+    let rest = 2 * LOAD_SEARCH_EVALUATIONS as u32 + 7 * CURVATURE_RUNS + 10;
+    let cheaper = runs(WindowSearch {
+        evaluations: 300,
+        population: 16,
+    });
+    let onboard = runs(WindowSearch::ONBOARD);
+    assert!(cheaper <= 2 * 300 + rest, "{cheaper} runs");
+    assert!(onboard > 2 * 300 + rest, "{onboard} runs");
+    assert!(cheaper < onboard, "{cheaper} against {onboard}");
 }

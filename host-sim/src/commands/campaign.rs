@@ -318,6 +318,8 @@ pub(crate) struct FlightCampaignRun<'a> {
     pub table: Option<CampaignTable>,
     pub phases: &'a [FlightPhase],
     pub length: shared::fusion::FlightLength,
+    /// The windows' GA (`--window-search`; the controller's by default).
+    pub search: host_sim::fdi::window::WindowSearch,
 }
 
 /// The flight campaign's cases for `table`: Table I, or Table II without its noise case (a
@@ -420,6 +422,7 @@ pub(crate) fn flight_campaign_command(
         &actuator.record,
         seeds,
         run.length,
+        run.search,
         &windows,
         &cases,
         |row| {

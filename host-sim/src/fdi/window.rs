@@ -45,6 +45,9 @@ pub struct WindowIdentified {
     pub conditions: TestConditions,
     /// Monitor-model runs spent.
     pub evaluations: u32,
+    /// Of them, the window identification's with its load fitted: what the controller
+    /// spends on the window (a window read pinned on the host adds the rest).
+    pub load_model_runs: u32,
     /// The share of the measured current the fit leaves unexplained.
     pub misfit: f32,
     /// The load's movement beyond its spring over the spring's moment at the test's
@@ -229,6 +232,27 @@ pub fn held_from(pre: &crate::fdi::identify::Identified, within: bool) -> HeldCo
     )
 }
 
+/// The GA a window's identification runs twice: its evaluations at most and its
+/// population. The controller's is [`WindowSearch::ONBOARD`]; others are for studies of
+/// what a cheaper search costs (`campaign --flight --window-search`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WindowSearch {
+    pub evaluations: u32,
+    pub population: usize,
+}
+
+impl WindowSearch {
+    /// The controller's: `shared::window::WINDOW_GA_EVALUATIONS` evaluations, the
+    /// onboard population.
+    pub const ONBOARD: Self = Self {
+        evaluations: shared::window::WINDOW_GA_EVALUATIONS,
+        population: POPULATION,
+    };
+
+    /// The populations a study may ask for (the GA's is a const generic).
+    pub const POPULATIONS: [usize; 3] = [8, 16, POPULATION];
+}
+
 /// Identifies the faults behind a window of flight recorded in `trace`, conditioned into
 /// `measured`, with the actuator `record` (its chirp-only test), the `held` components at
 /// values from outside the window (`held_from` the same flight's preflight reading, when
@@ -240,17 +264,38 @@ pub fn identify_window(
     held: HeldComponents,
     seed: u64,
 ) -> Result<WindowIdentified> {
+    identify_window_with(trace, measured, record, held, seed, WindowSearch::ONBOARD)
+}
+
+/// [`identify_window`] with the GA of `search` (the controller's is
+/// [`WindowSearch::ONBOARD`]).
+pub fn identify_window_with(
+    trace: &Trace,
+    measured: &OnboardMeasured,
+    record: &ActuatorRecord,
+    held: HeldComponents,
+    seed: u64,
+    search: WindowSearch,
+) -> Result<WindowIdentified> {
     let command = recorded_command(trace);
     let guess = record.params.aero_stiffness;
     let (problem, conditions) =
         window_problem(&command, measured, record, WindowLoad::spring(guess, 0.0))?;
     let problem = problem.with_held(held);
-    let reading = shared::window::identify::<_, POPULATION>(
-        &problem,
-        shared::window::window_ga(&record.ga),
-        seed,
-        &WindowLimits::REFERENCE,
-    )
+    let settings = shared::ga::GaSettings {
+        max_evaluations: record.ga.max_evaluations.min(search.evaluations),
+        ..record.ga
+    };
+    let limits = &WindowLimits::REFERENCE;
+    let reading = match search.population {
+        8 => shared::window::identify::<_, 8>(&problem, settings, seed, limits),
+        16 => shared::window::identify::<_, 16>(&problem, settings, seed, limits),
+        POPULATION => shared::window::identify::<_, POPULATION>(&problem, settings, seed, limits),
+        p => anyhow::bail!(
+            "a window's GA of population {p}: one of {:?}",
+            WindowSearch::POPULATIONS
+        ),
+    }
     .map_err(|e| anyhow::anyhow!("GA settings: {e:?}"))?;
     let problem = problem.with_load(reading.load);
     let loaded = WindowIdentified {
@@ -268,6 +313,7 @@ pub fn identify_window(
         drift: reading.fit.drift,
         conditions,
         evaluations: reading.evaluations,
+        load_model_runs: reading.evaluations,
         model: WindowModel::Load,
         pinned_misfit: None,
         pinned_sensor_floor: None,
@@ -328,6 +374,7 @@ pub fn identify_window(
         drift: pinned.fit.drift,
         conditions,
         evaluations,
+        load_model_runs: loaded.load_model_runs,
         model: WindowModel::Pinned,
         pinned_misfit: Some(pinned.misfit),
         pinned_sensor_floor: Some(pinned.sensor_floor),

@@ -17,7 +17,7 @@ use shared::metrics::total_error;
 use shared::{Calibration, FaultVector};
 
 use crate::fdi::identify::identify_for;
-use crate::fdi::window::{held_from, identify_window, WindowModel};
+use crate::fdi::window::{held_from, identify_window_with, WindowModel, WindowSearch};
 use crate::plant::aero::{FlightPhase, FlightWindow, Turbulence};
 use crate::plant::reference::{ReferenceModel, Scenario};
 use shared::fusion::{FlightLength, FlightProgress, WindowFusion, FLIGHT_MAX_FRICTION_STD};
@@ -66,6 +66,10 @@ pub struct FlightRun {
     pub agreement: (usize, usize),
     /// Windows flown: 1 for a window, the flight's count for a flight's reading.
     pub windows: u32,
+    /// Monitor-model runs the window identification with its load fitted spent (what the
+    /// controller spends; a curvature counts thirteen); a flight's reading: its windows'
+    /// sum.
+    pub model_runs: u32,
     /// Windows read with the surface pinned (`shared::pinned`): 0 or 1 for a window, the
     /// count entered for a flight's reading; and a window's pinned misfit when one was
     /// tried (NaN otherwise, and for a flight).
@@ -145,12 +149,15 @@ const fn window(phase: FlightPhase, turbulence: Turbulence) -> FlightWindow {
 
 /// Every case of `cases` ([`FLIGHT_CASES`] by default) in every phase and turbulence of
 /// `windows` ([`ALL_WINDOWS`] by default), one flight per seed of `seeds` flying `length`'s
-/// windows (fused into the flight's reading when more than one).
+/// windows (fused into the flight's reading when more than one), each window read with the
+/// GA of `search` (the controller's: [`WindowSearch::ONBOARD`]).
+#[allow(clippy::too_many_arguments)]
 pub fn flight_campaign(
     rm: &ReferenceModel,
     record: &ActuatorRecord,
     seeds: std::ops::Range<u64>,
     length: FlightLength,
+    search: WindowSearch,
     windows: &[FlightWindow],
     cases: &[(&'static str, [f32; shared::FAULT_COUNT])],
     progress: impl FnMut(&FlightRow),
@@ -160,7 +167,7 @@ pub fn flight_campaign(
         record,
         &flight_record(record),
         seeds,
-        length,
+        (length, search),
         windows,
         cases,
         progress,
@@ -196,7 +203,7 @@ pub fn test_amplitude_study(
                 record,
                 &window_record,
                 0..runs,
-                FlightLength::fixed(1),
+                (FlightLength::fixed(1), WindowSearch::ONBOARD),
                 &windows,
                 &cases,
                 |row| progress(a, row),
@@ -249,15 +256,15 @@ fn against_truth(
 
 /// `cases` in `windows`, one flight per seed of `seeds` flying windows as `length` says
 /// (`FlightLength::after`): every window played with `record`'s test and identified with
-/// it, the flight's windows fused into its reading (when more than one), and the same
-/// flight's preflight with `ground_record`.
+/// it by the GA of `search`, the flight's windows fused into its reading (when more than
+/// one), and the same flight's preflight with `ground_record`.
 #[allow(clippy::too_many_arguments)]
 fn fly_windows(
     rm: &ReferenceModel,
     ground_record: &ActuatorRecord,
     record: &ActuatorRecord,
     seeds: std::ops::Range<u64>,
-    length: FlightLength,
+    (length, search): (FlightLength, WindowSearch),
     windows: &[FlightWindow],
     cases: &[(&'static str, [f32; shared::FAULT_COUNT])],
     mut progress: impl FnMut(&FlightRow),
@@ -314,7 +321,14 @@ fn fly_windows(
                         let id = identify_for(&measured, &record, 1 + seed, false)?;
                         let domain =
                             id.domain(&sim.trace.domain_monitor(&record.params), &record.domain);
-                        let w = identify_window(&sim.trace, &measured, &record, held, 1 + seed)?;
+                        let w = identify_window_with(
+                            &sim.trace,
+                            &measured,
+                            &record,
+                            held,
+                            1 + seed,
+                            search,
+                        )?;
                         let entered = w.enter(&mut fusion);
                         pinned_entered += u32::from(entered && w.model == WindowModel::Pinned);
                         first_reason.get_or_insert(w.verdict);
@@ -335,6 +349,7 @@ fn fly_windows(
                             false_faults,
                             covered,
                             windows: 1,
+                            model_runs: w.load_model_runs,
                             pinned: u32::from(w.model == WindowModel::Pinned),
                             pinned_misfit: w.pinned_misfit.unwrap_or(f32::NAN),
                             pinned_floor: w.pinned_sensor_floor.unwrap_or(f32::NAN),
@@ -355,6 +370,7 @@ fn fly_windows(
                         runs.iter().map(f).sum::<f32>() / runs.len().max(1) as f32
                     };
                     let (turbulence, misfit) = (mean(|r| r.turbulence), mean(|r| r.misfit));
+                    let model_runs = runs.iter().map(|r| r.model_runs).sum();
                     // The flown preflight FDI's verdict on the flight's first window.
                     let preflight = runs
                         .first()
@@ -382,6 +398,7 @@ fn fly_windows(
                                 false_faults,
                                 covered,
                                 windows: runs.len() as u32,
+                                model_runs,
                                 pinned: pinned_entered,
                                 pinned_misfit: f32::NAN,
                                 pinned_floor: f32::NAN,
@@ -413,6 +430,7 @@ fn fly_windows(
                             false_faults: 0,
                             covered: (0, 0),
                             windows: runs.len() as u32,
+                            model_runs,
                             pinned: 0,
                             pinned_misfit: f32::NAN,
                             pinned_floor: f32::NAN,
@@ -498,6 +516,19 @@ pub fn flight_markdown(rows: &[FlightRow], actuator: &str) -> String {
          intervals that hold the truth.\n\n"
     );
     text.push_str(&readings_table(rows, |r| &r.runs, "windows"));
+    let mut model_runs: Vec<u32> = rows
+        .iter()
+        .flat_map(|r| r.runs.iter().map(|w| w.model_runs))
+        .collect();
+    model_runs.sort_unstable();
+    if let Some(&most) = model_runs.last() {
+        text.push_str(&format!(
+            "Monitor-model runs per window identification with its load fitted, what the \
+             controller spends (a curvature counts 13; a window read pinned on the host adds \
+             its own): median {}, most {most}.\n\n",
+            model_runs[model_runs.len() / 2]
+        ));
+    }
     let flights = rows.first().map_or(0, |r| r.flights.len());
     if flights > 0 {
         let counts: Vec<u32> = rows
@@ -702,7 +733,7 @@ pub fn flight_runs_csv(rows: &[FlightRow]) -> String {
     for j in 1..=shared::FAULT_COUNT {
         text.push_str(&format!(",shared_k{j}"));
     }
-    text.push_str(",windows,pinned,pinned_misfit,pinned_floor");
+    text.push_str(",windows,model_runs,pinned,pinned_misfit,pinned_floor");
     for j in 1..=shared::FAULT_COUNT {
         text.push_str(&format!(",pre_k{j}"));
     }
@@ -737,8 +768,8 @@ pub fn flight_runs_csv(rows: &[FlightRow]) -> String {
                     text.push_str(&format!(",{x:.5}"));
                 }
                 text.push_str(&format!(
-                    ",{},{},{:.5},{:.5}",
-                    r.windows, r.pinned, r.pinned_misfit, r.pinned_floor
+                    ",{},{},{},{:.5},{:.5}",
+                    r.windows, r.model_runs, r.pinned, r.pinned_misfit, r.pinned_floor
                 ));
                 for x in r.pre_found.as_array().iter().chain(&r.pre_std) {
                     text.push_str(&format!(",{x:.5}"));
@@ -815,6 +846,7 @@ mod tests {
             shared_std: [0.0; shared::FAULT_COUNT],
             agreement: (0, 0),
             windows: 1,
+            model_runs: 0,
             pinned: 0,
             pinned_misfit: f32::NAN,
             pinned_floor: f32::NAN,
