@@ -119,10 +119,6 @@ fn a_command_kept_every_fourth_sample() {
     assert!(worst < 1.0e-6, "{worst}");
 }
 
-/// A loaded start is an equilibrium: under a steady command the model holds the moment
-/// with a steady current and the shafts do not move; the same start without the moment
-/// gives no current. Fails if the start's gear flank, surface angle, current or
-/// integrators disagree with each other.
 /// A window's model is the chirp-only test's: one with the preflight's standstill segment
 /// is refused (its evaluation steps the motion only), the same model without it is not.
 #[test]
@@ -162,6 +158,10 @@ fn a_model_with_a_standstill_segment_is_refused() {
     assert!(WindowProblem::new(&measured, full, chirp_model, load).is_ok());
 }
 
+/// A loaded start is an equilibrium: under a steady command the model holds the moment
+/// with a steady current and the shafts do not move; the same start without the moment
+/// gives no current. Fails if the start's gear flank, surface angle, current or
+/// integrators disagree with each other.
 #[test]
 fn a_loaded_start_holds_still() {
     use crate::physics::params::ActuatorParams;
