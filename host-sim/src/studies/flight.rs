@@ -888,18 +888,19 @@ mod tests {
         assert_eq!(calibration[ECCENTRICITY_PHASE].1, 0);
         // The flights' readings are counted apart.
         assert_eq!(interval_calibration(&rows, |r| &r.flights)[0].1, 1);
-        // The runs' CSV: a header, one line per window, then one per flight, 12 + 3 × 9 + 4
-        // + 2 × 9 fields each (the windows flown, those read pinned, the pinned misfit and
-        // its sensor's share, then the preflight's reading and deviations).
+        // The runs' CSV: a header, one line per window, then one per flight, 12 + 3 × 9 + 5
+        // + 2 × 9 fields each (the windows flown, their model runs, those read pinned, the
+        // pinned misfit and its sensor's share, then the preflight's reading and
+        // deviations).
         let csv = flight_runs_csv(&rows);
         let lines: Vec<&str> = csv.lines().collect();
         assert_eq!(lines.len(), 23);
-        assert!(lines.iter().all(|l| l.split(',').count() == 61), "{csv}");
+        assert!(lines.iter().all(|l| l.split(',').count() == 62), "{csv}");
         assert!(lines[0].contains(",std_k9,shared_k1,"));
-        assert!(lines[0].contains(",windows,pinned,pinned_misfit,pinned_floor,pre_k1,"));
+        assert!(lines[0].contains(",windows,model_runs,pinned,pinned_misfit,pinned_floor,pre_k1,"));
         assert!(lines[0].ends_with(",pre_std_k9"));
         assert!(
-            lines[22].ends_with(",1,0,NaN,NaN,0.00000,0.00000,0.00000,0.00000,0.00000,0.00000,0.50000,0.50000,0.00000,0.02000,0.02000,0.02000,0.02000,0.02000,0.02000,0.02000,0.02000,0.02000"),
+            lines[22].ends_with(",1,0,0,NaN,NaN,0.00000,0.00000,0.00000,0.00000,0.00000,0.00000,0.50000,0.50000,0.00000,0.02000,0.02000,0.02000,0.02000,0.02000,0.02000,0.02000,0.02000,0.02000"),
             "{}",
             lines[22]
         );
