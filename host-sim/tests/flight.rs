@@ -275,15 +275,14 @@ fn a_flight_trace_keeps_its_mark() {
 }
 
 /// A study's window search (`campaign --flight --window-search`) is the one the windows are
-/// read with: a cruise window in light turbulence, friction 0.2, read with two GAs of 300
-/// evaluations of 16 spends at most what that search allows (two GAs, two load searches,
-/// seven curvatures and the polish's and the verdict's runs) and fewer runs than the
-/// controller's 600 of 32 on the same window; the controller's spends more than 2 × 300 +
-/// the rest.
+/// read with: a cruise window in light turbulence, friction 0.2, read with the controller's
+/// search (two GAs of 300 evaluations of 16) spends at most what it allows (two GAs, two
+/// load searches, seven curvatures and the polish's and the verdict's runs) and fewer runs
+/// than two GAs of 600 of 32 on the same window, which spend more than 2 × 300 + the rest.
 #[test]
 fn a_window_search_sets_the_windows_model_runs() {
     use host_sim::plant::aero::{FlightPhase, FlightWindow, Turbulence};
-    use shared::window::{CURVATURE_RUNS, LOAD_SEARCH_EVALUATIONS};
+    use shared::window::{CURVATURE_RUNS, LOAD_SEARCH_EVALUATIONS, WINDOW_GA_EVALUATIONS};
     let runs = |search: WindowSearch| {
         let rows = flight_campaign(
             &ReferenceModel::new(ReferenceSettings::REFERENCE),
@@ -302,12 +301,22 @@ fn a_window_search_sets_the_windows_model_runs() {
         rows[0].runs[0].model_runs
     };
     let rest = 2 * LOAD_SEARCH_EVALUATIONS as u32 + 7 * CURVATURE_RUNS + 10;
-    let cheaper = runs(WindowSearch {
-        evaluations: 300,
-        population: 16,
-    });
     let onboard = runs(WindowSearch::ONBOARD);
-    assert!(cheaper <= 2 * 300 + rest, "{cheaper} runs");
-    assert!(onboard > 2 * 300 + rest, "{onboard} runs");
-    assert!(cheaper < onboard, "{cheaper} against {onboard}");
+    let costlier = runs(WindowSearch {
+        evaluations: 600,
+        population: 32,
+    });
+    assert_eq!(
+        (
+            WindowSearch::ONBOARD.evaluations,
+            WindowSearch::ONBOARD.population
+        ),
+        (WINDOW_GA_EVALUATIONS, 16)
+    );
+    assert!(
+        onboard <= 2 * WINDOW_GA_EVALUATIONS + rest,
+        "{onboard} runs"
+    );
+    assert!(costlier > 2 * 300 + rest, "{costlier} runs");
+    assert!(onboard < costlier, "{onboard} against {costlier}");
 }

@@ -160,3 +160,58 @@ fn finished_run_refuses_ask_and_tell() {
     assert_eq!(ga.evaluations(), 20);
     assert_eq!(ga.ask(), Err(GaError::Finished(reason)));
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+
+    /// A run of `P` members in a GA of larger capacity (`restart_with`, what a window's
+    /// search does in the preflight's GA) asks the same candidates, keeps the same
+    /// population and stops at the same evaluation as a GA built for `P`, with a stall
+    /// stop reached inside the budget. Fails if any step still reads the capacity.
+    #[test]
+    fn a_smaller_population_in_a_larger_ga_runs_the_same_bits(
+        seed in any::<u64>(),
+        target in genes_strategy(),
+    ) {
+        let settings = GaSettings { stall_generations: 6, tolerance: 1e-3, ..settings(900) };
+        let mut exact = SteadyStateGa::<P>::new(settings, seed).unwrap();
+        let mut roomy = SteadyStateGa::<32>::IDLE;
+        roomy.restart_with(settings, seed, P).unwrap();
+        prop_assert_eq!(roomy.members(), P);
+        let mut f = problem(target);
+        loop {
+            let (a, b) = (exact.ask(), roomy.ask());
+            prop_assert_eq!(a, b);
+            let Ok(genes) = a else { break };
+            let fitness = f(&genes);
+            prop_assert_eq!(exact.acceptance_bound().to_bits(), roomy.acceptance_bound().to_bits());
+            prop_assert_eq!(exact.tell(fitness), roomy.tell(fitness));
+        }
+        prop_assert_eq!(exact.population(), roomy.population());
+        prop_assert_eq!(exact.generations(), roomy.generations());
+        prop_assert_eq!(exact.best(), roomy.best());
+    }
+}
+
+/// A population above the GA's capacity is refused, and a run of fewer members than the
+/// capacity is neither checkpointed nor resumed into (a record holds the whole population).
+#[test]
+fn a_population_is_bounded_by_the_capacity_and_a_partial_run_is_not_checkpointed() {
+    let mut ga = SteadyStateGa::<P>::IDLE;
+    assert!(matches!(
+        ga.restart_with(settings(100), 1, P + 1),
+        Err(GaError::InvalidSettings(_))
+    ));
+    assert!(matches!(
+        ga.restart_with(settings(100), 1, 1),
+        Err(GaError::InvalidSettings(_))
+    ));
+    ga.restart_with(settings(100), 1, P / 2).unwrap();
+    assert_eq!(ga.population().len(), P / 2);
+    let mut record = [0u8; SteadyStateGa::<P>::RECORD_BYTES];
+    assert!(ga.save(1, &mut record).is_err());
+    let whole = SteadyStateGa::<P>::new(settings(100), 1).unwrap();
+    whole.save(1, &mut record).unwrap();
+    assert!(ga.resume_from(1, &record).is_err());
+    assert_eq!(ga.members(), P / 2);
+}

@@ -259,14 +259,15 @@ fn main() -> ! {
         load_search,
     );
     defmt::println!(
-        "window_bench identify_instructions={=u64} polls={=u32} longest_poll_instructions={=u64} longest_poll={=u32} polls_over_budget={=u32} state_bytes={=usize} ga_evaluations_cap={=u32} model_runs={=u32} within={=bool} friction={=f32} gain_drift={=f32} stiffness={=f32} fitted_stiffness_at_nominal={=f32} check={=f32} fitted={=u32}",
+        "window_bench identify_instructions={=u64} polls={=u32} longest_poll_instructions={=u64} longest_poll={=u32} polls_over_budget={=u32} state_bytes={=usize} ga_evaluations_cap={=u32} ga_population={=usize} model_runs={=u32} within={=bool} friction={=f32} gain_drift={=f32} stiffness={=f32} fitted_stiffness_at_nominal={=f32} check={=f32} fitted={=u32}",
         whole,
         polls,
         instructions_under_icount(longest),
         longest_at,
         over,
         state_bytes,
-        settings.max_evaluations,
+        settings.settings.max_evaluations,
+        settings.population,
         reading.evaluations,
         reading.verdict.is_ok(),
         reading.faults.friction(),

@@ -5,8 +5,9 @@
 //! and moment moved with the faults), and the uncertainty
 //! there — `shared::window::identify`, the code a controller would run — and the window's
 //! report around it. Two GA runs of at most `shared::window::WINDOW_GA_EVALUATIONS` each
-//! (`window_ga`), 2 × `shared::window::LOAD_SEARCH_EVALUATIONS` and at most 90 more
-//! monitor-model runs (≈ 1 500 in all): ≈ 0.2–0.5 s on one core.
+//! of `shared::window::WINDOW_POPULATION` (`window_ga`), 2 ×
+//! `shared::window::LOAD_SEARCH_EVALUATIONS` and at most 90 more monitor-model runs (≈ 900
+//! in all).
 //!
 //! A window the load model leaves at its fitness floor is read again with the model's surface
 //! pinned to its sensor (`shared::pinned`: the backlash and the gain drift, the friction held
@@ -242,15 +243,16 @@ pub struct WindowSearch {
 }
 
 impl WindowSearch {
-    /// The controller's: `shared::window::WINDOW_GA_EVALUATIONS` evaluations, the
-    /// onboard population.
+    /// The controller's: `shared::window::WINDOW_GA_EVALUATIONS` evaluations of a
+    /// `shared::window::WINDOW_POPULATION`.
     pub const ONBOARD: Self = Self {
         evaluations: shared::window::WINDOW_GA_EVALUATIONS,
-        population: POPULATION,
+        population: shared::window::WINDOW_POPULATION,
     };
 
-    /// The populations a study may ask for (the GA's is a const generic).
-    pub const POPULATIONS: [usize; 3] = [8, 16, POPULATION];
+    /// The populations a study may ask for: 2 up to the GA's capacity (the preflight's
+    /// population, which the controller's window GA is compiled with).
+    pub const POPULATIONS: core::ops::RangeInclusive<usize> = 2..=POPULATION;
 }
 
 /// Identifies the faults behind a window of flight recorded in `trace`, conditioned into
@@ -282,21 +284,18 @@ pub fn identify_window_with(
     let (problem, conditions) =
         window_problem(&command, measured, record, WindowLoad::spring(guess, 0.0))?;
     let problem = problem.with_held(held);
-    let settings = shared::ga::GaSettings {
-        max_evaluations: record.ga.max_evaluations.min(search.evaluations),
-        ..record.ga
+    let search = shared::window::WindowGa {
+        settings: shared::ga::GaSettings {
+            max_evaluations: record.ga.max_evaluations.min(search.evaluations),
+            ..record.ga
+        },
+        population: search.population,
     };
     let limits = &WindowLimits::REFERENCE;
-    let reading = match search.population {
-        8 => shared::window::identify::<_, 8>(&problem, settings, seed, limits),
-        16 => shared::window::identify::<_, 16>(&problem, settings, seed, limits),
-        POPULATION => shared::window::identify::<_, POPULATION>(&problem, settings, seed, limits),
-        p => anyhow::bail!(
-            "a window's GA of population {p}: one of {:?}",
-            WindowSearch::POPULATIONS
-        ),
-    }
-    .map_err(|e| anyhow::anyhow!("GA settings: {e:?}"))?;
+    let reading = shared::window::identify::<_, POPULATION>(&problem, search, seed, limits)
+        .map_err(|e| {
+            anyhow::anyhow!("the window's GA (population {}): {e:?}", search.population)
+        })?;
     let problem = problem.with_load(reading.load);
     let loaded = WindowIdentified {
         faults: reading.faults,

@@ -34,8 +34,9 @@
 //! model run's [`EVALUATION_SLICE`] samples, a curvature's [`CURVATURE_RUNS_PER_POLL`] runs
 //! of one sample, a row of its soft-f64 algebra (≤ 5 040 instructions on the Cortex-M4F, 30 %
 //! of a 100 µs period). No allocation, no panic. Run by the host on every window and by the
-//! emulation image; on the Cortex-M4F one identification is 3.45 × 10⁹ instructions in
-//! ≈ 960 000 polls (`cargo window-bench`, docs/in-flight.md).
+//! emulation image; on the Cortex-M4F one identification is 2.10 × 10⁹ instructions in
+//! ≈ 593 000 polls on the bench's model-made window (`cargo window-bench`, both GAs at their
+//! cap), 1.92 × 10⁹ on a real cruise window (docs/in-flight.md).
 
 use crate::base::math::{abs, invert_stepwise};
 use crate::base::steps::{pause, run_to_end};
@@ -611,23 +612,39 @@ pub struct WindowFit {
 }
 
 /// The evaluations each of a window's two GA runs may spend (the actuator's settings
-/// otherwise, [`window_ga`]): the identification's cost on the controller is set by it
-/// (≈ 2 M instructions per evaluation on the Cortex-M4F). Chosen on the flight campaign's
-/// selection seeds 10–29 among 1 400 (the preflight's), 800, 600, 400 and 250: 400 kept the
-/// reference actuator's counts (identified 111–115, one window above 6 % e_tot, no false
-/// `FAULT`) and the light actuator's (55 identified, none above 6 %), but on the light
-/// actuator's seeds 0–9 it read a Table II medium window in climb `within` at 14.3 % e_tot
-/// (the gear's play read closed: both GAs settled in the closed-play basin; from 600 on
-/// the same window is `play_unseen`), so **600** — those seeds were looked at for this
-/// choice (docs/in-flight.md).
-pub const WINDOW_GA_EVALUATIONS: u32 = 600;
+/// otherwise, [`window_ga`]), with a population of [`WINDOW_POPULATION`]: the
+/// identification's cost on the controller is set by them (≈ 2.1 M instructions per model
+/// run on the Cortex-M4F, and ≤ 2 × 10⁹ a window needs ≤ 940 runs). Chosen on the flight
+/// campaign's selection seeds 10–29: 1 400, 800, 600, 400 and 250 of 32, then 300 of 16.
+/// 400 of 32 read a light actuator's Table II medium window in climb (its seeds 0–9)
+/// `within` at 14.3 % e_tot (the gear's play read closed: both GAs settled in the
+/// closed-play basin); 600 of 32 and **300 of 16** read it `play_unseen`, and 300 of 16
+/// kept 600 of 32's counts (reference 207 against 209 of 360 identified, light 227 against
+/// 226, none above 6 %, no false `FAULT`) at 896 model runs a window against 1 498 — those
+/// seeds were looked at for this choice (docs/in-flight.md).
+pub const WINDOW_GA_EVALUATIONS: u32 = 300;
 
-/// The GA settings of a window's identification: the actuator's, with at most
-/// [`WINDOW_GA_EVALUATIONS`] evaluations per run.
-pub fn window_ga(actuator: &crate::solver::ga::GaSettings) -> crate::solver::ga::GaSettings {
-    crate::solver::ga::GaSettings {
-        max_evaluations: actuator.max_evaluations.min(WINDOW_GA_EVALUATIONS),
-        ..*actuator
+/// The population of a window's GA runs (the preflight's is [`crate::fdi::POPULATION`]).
+pub const WINDOW_POPULATION: usize = 16;
+
+/// The GA a window's identification runs twice ([`identify`]): its settings and its
+/// population (at most the capacity `P` its [`SteadyStateGa`](crate::SteadyStateGa) is
+/// compiled with, [`SteadyStateGa::restart_with`](crate::SteadyStateGa::restart_with)).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WindowGa {
+    pub settings: crate::solver::ga::GaSettings,
+    pub population: usize,
+}
+
+/// The controller's window GA: the actuator's settings with at most
+/// [`WINDOW_GA_EVALUATIONS`] evaluations per run, a population of [`WINDOW_POPULATION`].
+pub fn window_ga(actuator: &crate::solver::ga::GaSettings) -> WindowGa {
+    WindowGa {
+        settings: crate::solver::ga::GaSettings {
+            max_evaluations: actuator.max_evaluations.min(WINDOW_GA_EVALUATIONS),
+            ..*actuator
+        },
+        population: WINDOW_POPULATION,
     }
 }
 
@@ -684,17 +701,18 @@ pub fn fusable(verdict: &Result<(), WindowReason>) -> bool {
 
 /// Identifies the faults behind the window of `problem` (its load is the starting guess:
 /// a spring of the actuator's stiffness): the load fitted at the nominal vector, a GA of
-/// `settings` under it, the load fitted again at the GA's best and a second GA (seed
+/// `search` under it, the load fitted again at the GA's best and a second GA (seed
 /// `seed + 0x5eed`) under that, the better of the two polished by at most
 /// `POLISH_STEPS` damped Gauss–Newton steps on the window's curvature (the load's
 /// stiffness and moment stepped with the faults by their profiled response), the uncertainty
 /// there and the verdict under `limits`. Bounded: 2 × [`LOAD_SEARCH_EVALUATIONS`], two GA
-/// runs of `settings`, ≤ 2 + 7 × [`CURVATURE_RUNS`] + `POLISH_STEPS` model runs and the
-/// verdict's two; no allocation (one [`SteadyStateGa`](crate::SteadyStateGa) of `P` on the
-/// stack at a time). [`identify_stepwise`] run to its end: the same bits.
+/// runs of `search`, ≤ 2 + 7 × [`CURVATURE_RUNS`] + `POLISH_STEPS` model runs and the
+/// verdict's two; no allocation (one [`SteadyStateGa`](crate::SteadyStateGa) of capacity
+/// `P` on the stack at a time; `search.population` above `P` is refused). [`identify_stepwise`]
+/// run to its end: the same bits.
 pub fn identify<const N: usize, const P: usize>(
     problem: &WindowProblem<'_, N>,
-    settings: crate::solver::ga::GaSettings,
+    search: WindowGa,
     seed: u64,
     limits: &WindowLimits,
 ) -> Result<WindowReading, crate::solver::ga::GaError> {
@@ -702,7 +720,7 @@ pub fn identify<const N: usize, const P: usize>(
     let mut problem = problem.clone().with_evaluation_slice(usize::MAX);
     run_to_end(identify_stepwise::<N, P>(
         &mut problem,
-        settings,
+        search,
         seed,
         limits,
     ))
@@ -717,7 +735,7 @@ pub fn identify<const N: usize, const P: usize>(
 /// and is left at the load found.
 pub async fn identify_stepwise<const N: usize, const P: usize>(
     problem: &mut WindowProblem<'_, N>,
-    settings: crate::solver::ga::GaSettings,
+    search: WindowGa,
     seed: u64,
     limits: &WindowLimits,
 ) -> Result<WindowReading, crate::solver::ga::GaError> {
@@ -729,13 +747,13 @@ pub async fn identify_stepwise<const N: usize, const P: usize>(
         .await;
     evaluations += runs;
     problem.set_load(load);
-    let (first, runs) = search_stepwise::<N, P>(problem, settings, seed).await?;
+    let (first, runs) = search_stepwise::<N, P>(problem, search, seed).await?;
     evaluations += runs;
     let (mut load, _, runs) = problem.fit_load_stepwise(&first, load.stiffness).await;
     evaluations += runs;
     problem.set_load(load);
     let (second, runs) =
-        search_stepwise::<N, P>(problem, settings, seed.wrapping_add(0x5eed)).await?;
+        search_stepwise::<N, P>(problem, search, seed.wrapping_add(0x5eed)).await?;
     evaluations += runs;
     let first_fit = problem.evaluate_stepwise(&first, problem.load).await;
     let second_fit = problem.evaluate_stepwise(&second, problem.load).await;
@@ -823,18 +841,18 @@ pub async fn identify_stepwise<const N: usize, const P: usize>(
     })
 }
 
-/// One GA run of `settings` (seed `seed`) over `problem` under its load, one evaluation per
+/// One GA run of `search` (seed `seed`) over `problem` under its load, one evaluation per
 /// poll: its best vector and the evaluations spent. The population lives in this future
 /// only while it runs (one at a time in [`identify_stepwise`]'s state).
 async fn search_stepwise<const N: usize, const P: usize>(
     problem: &mut WindowProblem<'_, N>,
-    settings: crate::solver::ga::GaSettings,
+    search: WindowGa,
     seed: u64,
 ) -> Result<(FaultVector, u32), crate::solver::ga::GaError> {
     pause().await;
     let mut ga = crate::SteadyStateGa::<P>::IDLE;
     pause().await;
-    ga.restart(settings, seed)?;
+    ga.restart_with(search.settings, seed, search.population)?;
     pause().await;
     // `SteadyStateGa::step` one candidate at a time, its evaluation stepwise.
     while let Ok(genes) = ga.ask_stepwise().await {

@@ -1,7 +1,8 @@
 //! Memory-bounded steady-state genetic algorithm (SPEC §6), solver half of the FDI.
 //!
-//! * Population of `P` individuals in a const-generic array; no heap. State size is
-//!   `size_of::<SteadyStateGa<P>>()` ≈ `36·P + 160` bytes.
+//! * Population of up to `P` individuals in a const-generic array (a run may use fewer,
+//!   [`restart_with`](SteadyStateGa::restart_with), with the same bits as a GA of that
+//!   size); no heap. State size is `size_of::<SteadyStateGa<P>>()` ≈ `36·P + 160` bytes.
 //! * Genes are the [`FAULT_COUNT`] fault components in `[0, 1]`; genes flagged circular (the
 //!   eccentricity phase) wrap, the others reflect at the bounds. Every operator keeps every
 //!   gene in bounds.
@@ -16,7 +17,7 @@
 //! * Interface: [`ask`](SteadyStateGa::ask) / [`tell`](SteadyStateGa::tell) at the core;
 //!   [`step`](SteadyStateGa::step) runs at most `budget` evaluations of a [`Problem`] and
 //!   returns. Stopping anywhere and resuming gives bit-identical results: the GA is plain data.
-//! * A "generation" is `P` offspring. Stops ([`StopReason`]): evaluation budget, generation
+//! * A "generation" is as many offspring as the population's members. Stops ([`StopReason`]): evaluation budget, generation
 //!   limit, or stall — best fitness improved by no more than `tolerance` over
 //!   `stall_generations` generations.
 
@@ -61,7 +62,7 @@ impl<F: FnMut(&Genes) -> f32> Problem for F {
 pub struct GaSettings {
     /// Stop after this many fitness evaluations (including the initial population).
     pub max_evaluations: u32,
-    /// Stop after this many generations of `P` offspring.
+    /// Stop after this many generations (of as many offspring as the population's members).
     pub max_generations: u32,
     /// Stop when the best fitness improved by no more than `tolerance` over this many
     /// generations ([`StallTest`]).
@@ -212,7 +213,10 @@ pub struct SteadyStateGa<const P: usize> {
     settings: GaSettings,
     rng: Xoshiro128PlusPlus,
     population: [Individual; P],
-    /// Members of the initial population evaluated so far (`P` once it is complete).
+    /// Members in play: the first `members` of `population` (`P` unless
+    /// [`restart_with`](SteadyStateGa::restart_with) set fewer).
+    members: u16,
+    /// Members of the initial population evaluated so far (`members` once it is complete).
     filled: u16,
     pending: Option<Genes>,
     evaluations: u32,
@@ -229,6 +233,11 @@ impl<const P: usize> SteadyStateGa<P> {
         settings: GaSettings::FDI,
         rng: Xoshiro128PlusPlus::IDLE,
         population: [Individual::UNEVALUATED; P],
+        members: if P > u16::MAX as usize {
+            u16::MAX
+        } else {
+            P as u16
+        },
         filled: 0,
         pending: None,
         evaluations: 0,
@@ -241,7 +250,26 @@ impl<const P: usize> SteadyStateGa<P> {
     /// Starts a fresh run in place, with the given settings and seed: the same run as
     /// [`new`](Self::new), without building a second GA to move (≈ 1.5 kB). O(P).
     pub fn restart(&mut self, settings: GaSettings, seed: u64) -> Result<(), GaError> {
-        settings.validate(P)?;
+        self.restart_with(settings, seed, P)
+    }
+
+    /// [`restart`](Self::restart) with a population of `members` (≤ `P`, the capacity): the
+    /// same bits as a `SteadyStateGa<members>`, so that runs of several sizes share one
+    /// compiled GA. Such a run is not checkpointed ([`save`](Self::save) holds all `P`).
+    /// O(P).
+    pub fn restart_with(
+        &mut self,
+        settings: GaSettings,
+        seed: u64,
+        members: usize,
+    ) -> Result<(), GaError> {
+        settings.validate(members)?;
+        if members > P {
+            return Err(GaError::InvalidSettings(
+                "population above the GA's capacity",
+            ));
+        }
+        self.members = members as u16;
         self.settings = settings;
         self.rng = Xoshiro128PlusPlus::seed_from_u64(seed);
         for member in &mut self.population {
@@ -274,7 +302,12 @@ impl<const P: usize> SteadyStateGa<P> {
     pub fn evaluations(&self) -> u32 {
         self.evaluations
     }
-    /// Completed generations (of `P` offspring after the initial population).
+    /// Members in play (`P` unless [`restart_with`](Self::restart_with) set fewer).
+    pub fn members(&self) -> usize {
+        usize::from(self.members)
+    }
+    /// Completed generations (of [`members`](Self::members) offspring after the initial
+    /// population).
     pub fn generations(&self) -> u32 {
         self.generations
     }
@@ -282,9 +315,9 @@ impl<const P: usize> SteadyStateGa<P> {
     pub fn best(&self) -> &Individual {
         &self.best
     }
-    /// The population (members not yet evaluated have `fitness = +∞`).
-    pub fn population(&self) -> &[Individual; P] {
-        &self.population
+    /// The population in play (members not yet evaluated have `fitness = +∞`).
+    pub fn population(&self) -> &[Individual] {
+        self.population.get(..self.members()).unwrap_or(&[])
     }
 
     /// The next candidate to evaluate. Asking again before `tell` returns the same candidate,
@@ -304,7 +337,7 @@ impl<const P: usize> SteadyStateGa<P> {
         if let Some(genes) = self.pending {
             return Ok(genes);
         }
-        let genes = if usize::from(self.filled) < P {
+        let genes = if self.filled < self.members {
             match (self.filled, self.settings.initial_guess) {
                 (0, Some(guess)) => guess,
                 _ => core::array::from_fn(|_| self.uniform()),
@@ -332,7 +365,7 @@ impl<const P: usize> SteadyStateGa<P> {
         let child = Individual { genes, fitness };
         self.evaluations = self.evaluations.saturating_add(1);
 
-        if usize::from(self.filled) < P {
+        if self.filled < self.members {
             if let Some(slot) = self.population.get_mut(usize::from(self.filled)) {
                 *slot = child;
             }
@@ -377,8 +410,9 @@ impl<const P: usize> SteadyStateGa<P> {
 
     fn update_status(&mut self) {
         let s = &self.settings;
-        let offspring = self.evaluations.saturating_sub(P as u32);
-        if usize::from(self.filled) == P && offspring % (P as u32) == 0 {
+        let members = u32::from(self.members);
+        let offspring = self.evaluations.saturating_sub(members);
+        if self.filled == self.members && offspring.checked_rem(members) == Some(0) {
             // A generation boundary (the completed initial population counts as one).
             if offspring > 0 {
                 self.generations += 1;
@@ -401,10 +435,10 @@ impl<const P: usize> SteadyStateGa<P> {
     /// neither enters the population nor becomes the best, so its exact value is never read
     /// ([`Problem::fitness_below`]). O(P).
     pub fn acceptance_bound(&self) -> f32 {
-        if usize::from(self.filled) < P {
+        if self.filled < self.members {
             return f32::INFINITY;
         }
-        self.population
+        self.population()
             .iter()
             .fold(f32::NEG_INFINITY, |worst, ind| {
                 if ind.fitness > worst {
@@ -417,7 +451,7 @@ impl<const P: usize> SteadyStateGa<P> {
 
     fn worst_mut(&mut self) -> Option<&mut Individual> {
         let mut worst: Option<&mut Individual> = None;
-        for ind in self.population.iter_mut() {
+        for ind in self.population.iter_mut().take(usize::from(self.members)) {
             match &worst {
                 // Fitness is never NaN (`tell` maps NaN to +∞).
                 Some(w) if ind.fitness <= w.fitness => {}
@@ -446,7 +480,7 @@ impl<const P: usize> SteadyStateGa<P> {
     fn tournament(&mut self) -> Individual {
         let mut winner = Individual::UNEVALUATED;
         for _ in 0..self.settings.tournament_size {
-            let i = self.index(P);
+            let i = self.index(self.members());
             if let Some(candidate) = self.population.get(i) {
                 if candidate.fitness < winner.fitness || winner.fitness == f32::INFINITY {
                     winner = *candidate;
@@ -462,7 +496,7 @@ impl<const P: usize> SteadyStateGa<P> {
         let b = self.tournament();
         let s = self.settings;
         let differential = self.uniform() < s.differential_probability;
-        let (r1, r2) = (self.index(P), self.index(P));
+        let (r1, r2) = (self.index(self.members()), self.index(self.members()));
         let (x1, x2) = match (self.population.get(r1), self.population.get(r2)) {
             (Some(x1), Some(x2)) if differential => (x1.genes, x2.genes),
             _ => ([0.0; GENES], [0.0; GENES]),
@@ -521,7 +555,7 @@ impl<const P: usize> SteadyStateGa<P> {
     /// members.
     async fn spread_stepwise(&self) -> Genes {
         let mut spread = [0.0f32; GENES];
-        for (n, ind) in self.population.iter().enumerate() {
+        for (n, ind) in self.population().iter().enumerate() {
             if n > 0 && n % SPREAD_MEMBERS_PER_POLL == 0 {
                 pause().await;
             }
@@ -541,7 +575,7 @@ impl<const P: usize> SteadyStateGa<P> {
                 *out += if d < 0.0 { -d } else { d };
             }
         }
-        spread.map(|s| s * (1.0 / P as f32))
+        spread.map(|s| s * (1.0 / f32::from(self.members)))
     }
 }
 

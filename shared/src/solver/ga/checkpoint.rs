@@ -228,8 +228,11 @@ impl<const P: usize> SteadyStateGa<P> {
 
     /// Writes the whole state into `out` ([`Self::RECORD_BYTES`] long), tagged with the
     /// caller's run `fingerprint`. O(P).
+    /// A run of fewer members than `P` ([`SteadyStateGa::restart_with`]) is refused
+    /// ([`RecordError::WrongShape`]).
     pub fn save(&self, fingerprint: u32, out: &mut [u8]) -> Result<(), RecordError> {
         check_length(out.len(), record_bytes(P))?;
+        self.whole()?;
         let mut w = Writer { out, at: 0 };
         w.bytes(&RECORD_MAGIC);
         w.u16(RECORD_VERSION);
@@ -276,12 +279,25 @@ impl<const P: usize> SteadyStateGa<P> {
     /// O(P), two passes over the record (checked, then loaded), no copy of the GA: on the
     /// controller it needs no more stack than a few fields.
     pub fn resume_from(&mut self, fingerprint: u32, record: &[u8]) -> Result<(), RecordError> {
+        self.whole()?;
         let state = open_record::<P>(fingerprint, record)?;
         if !state_sound::<P>(state.clone()) {
             return Err(RecordError::Inconsistent);
         }
         self.load(state);
         Ok(())
+    }
+
+    /// `Ok` if the run holds all `P` members (a record's shape).
+    fn whole(&self) -> Result<(), RecordError> {
+        if self.members() == P {
+            Ok(())
+        } else {
+            Err(RecordError::WrongShape {
+                population: self.members,
+                genes: GENES as u16,
+            })
+        }
     }
 
     /// Loads the state at `r` (checked by [`state_sound`]).
