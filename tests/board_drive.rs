@@ -210,3 +210,102 @@ fn the_board_drive_allows_for_its_late_duties_and_coarse_sensors() {
     // What the allowance is for: without it the current is far from the ideal's.
     assert!(naive.current > 1.5 * ideal.current, "{naive:?}");
 }
+
+/// The board's flight on the reference model in cruise: `FlightCommand` follows the flight
+/// control computer's demand (as the board's converter reads it) through `BridgeDrive` on
+/// the reference model's own bridge, legs acting from the next update, sensors through the
+/// board's converters; after half a second a window's chirp is superimposed. The surface
+/// must follow the command the window records as the actuator's own controller follows its
+/// own.
+#[test]
+fn the_board_flies_the_demand_with_a_windows_chirp_superimposed() {
+    use firmware::acquisition::SensorScaling;
+    use firmware::flight::FlightCommand;
+    use host_sim::plant::aero::{FlightPhase, FlightWindow, Turbulence};
+    use host_sim::plant::reference::{AnalogSensors, ExternalDrive};
+
+    struct Flight {
+        board: BridgeDrive<Latched>,
+        command: FlightCommand,
+        counts: f32,
+        scaling: SensorScaling,
+        motor_zero: Option<f64>,
+        frames: usize,
+        window_from: usize,
+        window: Vec<(f32, f32)>,
+    }
+    impl Legs for Latched {
+        fn set(&mut self, legs: [Leg; 3]) {
+            self.0 = legs.map(|l| match l {
+                Leg::Off => None,
+                Leg::Duty(d) => Some(d),
+            });
+        }
+    }
+    impl ExternalDrive for Flight {
+        fn period(&mut self, s: &AnalogSensors) -> Option<[Option<f64>; 3]> {
+            let q = |x: f64, lsb: f32| ((x as f32) / lsb).round() * lsb;
+            let zero = *self.motor_zero.get_or_insert(s.motor_angle);
+            let sc = &self.scaling;
+            let user = q(s.user_angle, sc.transducer_rad_per_count);
+            self.board.measured(firmware::position_loop::Feedback {
+                phase_currents: s.phase_currents.map(|i| q(i, sc.amps_per_count)),
+                motor_angle: q(s.motor_angle - zero, sc.motor_rad_per_count),
+                user_angle: user,
+                bus_voltage: s.bus_voltage as f32,
+            });
+            let demand = q(s.demand?, sc.demand_rad_per_count);
+            if self.frames == self.window_from {
+                let p = ActuatorParams::REFERENCE;
+                self.command
+                    .begin_window(PreflightTest::INJECTION, p.control_period);
+            }
+            let acting = self.command.tick(demand, &mut self.board);
+            if self.frames > self.window_from && self.command.in_window() {
+                self.window.push((acting, user));
+            }
+            self.frames += 1;
+            let legs = self.board.legs_mut().0;
+            Some(legs.map(|l| l.map(|d| f64::from(d) / f64::from(self.counts))))
+        }
+    }
+
+    let p = ActuatorParams::REFERENCE;
+    let drive = shared::drive::DriveSettings::TYPICAL;
+    let timing = BridgeTiming::new(&drive, 168_000_000, p.control_period).unwrap();
+    let cruise = FlightWindow {
+        phase: FlightPhase::Cruise,
+        turbulence: Turbulence::Light,
+    };
+    let model = ReferenceModel::new(ReferenceSettings::REFERENCE)
+        .with_test(PreflightTest::INJECTION.chirp_only())
+        .with_flight(Some(cruise))
+        .with_flight_periods(Some(12_000));
+    let mut flight = Flight {
+        board: BridgeDrive::new(Latched::default(), timing, drive, &p, Sensing::BOARD),
+        command: FlightCommand::follow(ActuatorParams::REFERENCE.control_period),
+        counts: f32::from(timing.counts),
+        scaling: SensorScaling::REFERENCE_BOARD,
+        motor_zero: None,
+        frames: 0,
+        window_from: 6_000,
+        window: Vec::new(),
+    };
+    model.simulate_driven(&Scenario::new(FaultVector::NOMINAL), &mut flight);
+    let n = flight.window.len();
+    assert!(n > 4_000, "{n} window frames");
+    let rms = (flight
+        .window
+        .iter()
+        .map(|(c, y)| (c - y).powi(2))
+        .sum::<f32>()
+        / n as f32)
+        .sqrt();
+    let swing = flight
+        .window
+        .iter()
+        .map(|(c, _)| c.abs())
+        .fold(0.0, f32::max);
+    println!("window: {n} frames, tracking RMS {rms:.3e} rad, command up to {swing:.3e} rad");
+    assert!(rms < 1.0e-3, "{rms}");
+}

@@ -380,6 +380,7 @@ impl<'a> Board<'a> {
                     (Some(a), Some(b)) => Some(firmware::acquisition::Counts {
                         currents_and_transducer: a,
                         bus_and_temperature: [b[0], b[1]],
+                        demand: b[2],
                         encoder: bus.tim3.raw(crate::timers::CCR1 + 8) as u16,
                     }),
                     _ => None,

@@ -82,6 +82,24 @@ struct Args {
     /// Where `--table` writes its Markdown table (default: standard output only).
     #[arg(long, value_name = "FILE")]
     out: Option<PathBuf>,
+    /// With `--plant reference`: after the preflight, a flight in this phase follows at
+    /// once — the flight control computer's demand on the board's demand input, the hinge
+    /// moment and gusts on the surface — which the board flies, playing and reading its
+    /// windows in the control loop's idle time. No re-run day is queued (a spoiled preflight
+    /// would meet the flight).
+    #[arg(long, value_enum)]
+    flight: Option<host_sim::plant::aero::FlightPhase>,
+    /// The flight's turbulence.
+    #[arg(long, value_enum, default_value_t = host_sim::plant::aero::Turbulence::Light)]
+    turbulence: host_sim::plant::aero::Turbulence,
+    /// The flight's length [s] (a window's reading takes ≈ 50 s of flight at one slice per
+    /// control period; what is left when the flight ends is read on the ground).
+    #[arg(long, default_value_t = 60.0)]
+    flight_seconds: f64,
+    /// Write each window of flight the image read as a binary trace, PREFIX-N.bin (N from
+    /// 1), with the command its flight followed, for `host-sim identify`.
+    #[arg(long, value_name = "PREFIX")]
+    window_out: Option<PathBuf>,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -154,16 +172,41 @@ fn main() -> Result<()> {
             };
             let (model, scenario) = day(0);
             let mut pins = ReferenceOnPins::new(model, scenario);
-            for test in 1..u32::from(firmware::Reruns::MAX_TESTS) {
-                let (model, scenario) = day(test);
-                pins = pins.then(model, scenario);
+            if let Some(phase) = args.flight {
+                anyhow::ensure!(
+                    args.flight_seconds > 0.0 && args.flight_seconds <= 600.0,
+                    "--flight-seconds: 0 … 600"
+                );
+                let periods = (args.flight_seconds / f64::from(record.params.control_period))
+                    .round() as usize;
+                let flight = still
+                    .with_test(record.test.chirp_only())
+                    .with_flight(Some(host_sim::plant::aero::FlightWindow {
+                        phase,
+                        turbulence: args.turbulence,
+                    }))
+                    .with_flight_periods(Some(periods));
+                let scenario = Scenario {
+                    seed: args.seed + 100,
+                    ..Scenario::new(faults)
+                };
+                pins = pins.then(flight, scenario);
+            } else {
+                for test in 1..u32::from(firmware::Reruns::MAX_TESTS) {
+                    let (model, scenario) = day(test);
+                    pins = pins.then(model, scenario);
+                }
             }
             Box::new(pins)
         }
     };
+    anyhow::ensure!(
+        args.flight.is_none() || matches!(args.plant, PlantKind::Reference),
+        "--flight takes --plant reference"
+    );
     let mut board = Board::new(&elf, flash, plant)?;
-    let end = board.run(args.instructions)?;
-    decode(&args.elf, &board.log)?;
+    let end = run_with_progress(&mut board, args.instructions)?;
+    let log = decode(&args.elf, &board.log)?;
     println!("end {end:?} after {} instructions", board.instructions);
     if let Some(c) = board.clocks {
         println!("clocks {c:?} flash_wait_states={}", board.latency_at_start);
@@ -191,6 +234,19 @@ fn main() -> Result<()> {
             "wrote {} ({frames} frames the image measured)",
             path.display()
         );
+    }
+    if let Some(prefix) = &args.window_out {
+        let windows = board_emu::feed::windows_in_log(&log);
+        anyhow::ensure!(!windows.is_empty(), "the image read no window");
+        for (n, first, frames) in windows {
+            let trace = board_emu::feed::window_trace(&board.frames.fed, &record, first, frames)?;
+            let path = PathBuf::from(format!("{}-{n}.bin", prefix.display()));
+            trace.write(&path, TraceFormat::Bin)?;
+            println!(
+                "wrote {} (window {n}: {frames} frames from frame {first})",
+                path.display()
+            );
+        }
     }
     std::process::exit(match end {
         RunEnd::Asleep { .. } | RunEnd::InstructionLimit => 0,
@@ -339,24 +395,51 @@ fn campaign(args: &Args, elf: &[u8], table: u8) -> Result<()> {
     Ok(())
 }
 
-/// The RTT bytes through `defmt-print -e ELF`, or their count if it is not installed.
-fn decode(elf: &PathBuf, log: &[u8]) -> Result<()> {
+/// The RTT bytes through `defmt-print -e ELF`, printed and returned, or their count if it
+/// is not installed (then nothing is returned).
+fn decode(elf: &PathBuf, log: &[u8]) -> Result<String> {
     let child = Command::new("defmt-print")
         .arg("-e")
         .arg(elf)
         .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
         .spawn();
     match child {
         Ok(mut child) => {
             if let Some(mut stdin) = child.stdin.take() {
                 stdin.write_all(log)?;
             }
-            child.wait()?;
+            let out = child.wait_with_output()?;
+            let text = String::from_utf8_lossy(&out.stdout).into_owned();
+            print!("{text}");
+            Ok(text)
         }
-        Err(_) => println!(
-            "rtt {} bytes (install defmt-print to decode them)",
-            log.len()
-        ),
+        Err(_) => {
+            println!(
+                "rtt {} bytes (install defmt-print to decode them)",
+                log.len()
+            );
+            Ok(String::new())
+        }
     }
-    Ok(())
+}
+
+/// Runs the board for `instructions` at most, saying on standard error every 10⁹ how far it
+/// is (a flight takes minutes).
+fn run_with_progress(board: &mut Board, instructions: u64) -> Result<RunEnd> {
+    const STEP: u64 = 1_000_000_000;
+    let started = std::time::Instant::now();
+    loop {
+        let left = instructions.saturating_sub(board.instructions);
+        let end = board.run(left.min(STEP))?;
+        match end {
+            RunEnd::InstructionLimit if board.instructions < instructions => eprintln!(
+                "[{:>4.0} s] {:.1} × 10⁹ instructions, {} frames read",
+                started.elapsed().as_secs_f64(),
+                board.instructions as f64 / 1e9,
+                board.frames.fed.len()
+            ),
+            end => return Ok(end),
+        }
+    }
 }

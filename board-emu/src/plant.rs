@@ -80,6 +80,7 @@ impl Plant for OpenBridge {
             3 => s.transducer_zero,
             10 => self.bus_volts / s.bus_volts_per_count,
             11 => self.celsius / s.celsius_per_count + s.temperature_zero,
+            // On the ground: no demand (the flight control computer's output off).
             _ => 0.0,
         };
         volts_of_count(count)
@@ -261,9 +262,11 @@ impl Plant for ReferenceOnPins {
                 self.latest = s;
                 self.awaiting_legs = true;
             }
-            // The run is over: the last readings hold, or the next run's first.
+            // The run is over: the last readings hold (the flight control computer's demand
+            // gone with its flight), or the next run's first.
             Err(_) => {
                 self.legs = None;
+                self.latest.demand = None;
                 if let Some((model, scenario)) = self.next.pop_front() {
                     self.begin(model, scenario);
                     self.sample();
@@ -305,6 +308,11 @@ impl Plant for ReferenceOnPins {
             3 => r.user_angle as f32 / s.transducer_rad_per_count + s.transducer_zero,
             10 => r.bus_voltage as f32 / s.bus_volts_per_count,
             11 => r.temperature as f32 / s.celsius_per_count + s.temperature_zero,
+            // The flight control computer's demand; on the ground (or after the flight) its
+            // output is off: the rail.
+            12 => r
+                .demand
+                .map_or(0.0, |d| d as f32 / s.demand_rad_per_count + s.demand_zero),
             _ => 0.0,
         };
         volts_of_count(count)

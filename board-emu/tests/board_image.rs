@@ -134,7 +134,7 @@ fn the_board_configures_what_board_rs_claims_and_takes_every_frame_in_its_period
     assert!(board.latency_at_start >= wait_states_needed(ClockTree::BOARD.hclk));
 
     let bus = board.bus.borrow();
-    // Pins: the bridge's six outputs on TIM1 (AF1), the encoder on TIM3 (AF2), six analog.
+    // Pins: the bridge's six outputs on TIM1 (AF1), the encoder on TIM3 (AF2), seven analog.
     for pin in [8, 9, 10] {
         assert_pin(&bus, 0, pin, 2, 1);
     }
@@ -144,7 +144,7 @@ fn the_board_configures_what_board_rs_claims_and_takes_every_frame_in_its_period
     for pin in [6, 7] {
         assert_pin(&bus, 0, pin, 2, 2);
     }
-    for (port, pin) in [(0, 0), (0, 1), (0, 2), (0, 3), (2, 0), (2, 1)] {
+    for (port, pin) in [(0, 0), (0, 1), (0, 2), (0, 3), (2, 0), (2, 1), (2, 2)] {
         assert_pin(&bus, port, pin, 3, 0);
     }
 
@@ -164,10 +164,10 @@ fn the_board_configures_what_board_rs_claims_and_takes_every_frame_in_its_period
     assert!(bus.tim3.encoder_mode());
     assert_eq!(bus.tim3.trigger_source(), 0);
     assert_eq!(bus.tim3.raw(timers::CCMR2) & 3, 3);
-    // The converters: ADC1 the three phases and the transducer, ADC2 bus and thermistor,
-    // 15 cycles each, on TIM1's TRGO.
+    // The converters: ADC1 the three phases and the transducer, ADC2 bus, thermistor and
+    // the flight control computer's demand, 15 cycles each, on TIM1's TRGO.
     assert_eq!(bus.adc1.injected_channels(), [0, 1, 2, 3]);
-    assert_eq!(bus.adc2.injected_channels(), [10, 11]);
+    assert_eq!(bus.adc2.injected_channels(), [10, 11, 12]);
     for ch in [0, 1, 2, 3] {
         assert_eq!(bus.adc1.sample_cycles(ch), 15);
     }
@@ -548,4 +548,145 @@ fn a_test_a_gust_spoiled_is_run_again_and_read_in_still_air() {
     .unwrap();
     let e_tot = shared::metrics::total_error(&found, &truth);
     assert!(e_tot <= 2.0, "e_tot {e_tot} % ({result})");
+}
+
+/// The value of `key=` in the log line starting with `prefix`.
+fn field<'a>(log: &'a str, prefix: &str, key: &str) -> &'a str {
+    let line = log
+        .lines()
+        .find(|l| l.starts_with(prefix))
+        .unwrap_or_else(|| panic!("no line starting with {prefix:?} in:\n{log}"));
+    let start = line
+        .find(&format!("{key}="))
+        .unwrap_or_else(|| panic!("no {key}= in {line:?}"))
+        + key.len()
+        + 1;
+    let rest = &line[start..];
+    let end = if rest.starts_with('[') {
+        rest.find(']').expect("closing bracket") + 1
+    } else {
+        rest.find(' ').unwrap_or(rest.len())
+    };
+    &rest[..end]
+}
+
+fn hex_list(values: &[f32]) -> String {
+    let hex: Vec<String> = values
+        .iter()
+        .map(|v| format!("{:08x}", v.to_bits()))
+        .collect();
+    format!("[{}]", hex.join(", "))
+}
+
+/// A preflight, then a flight on the approach that follows at once: the board follows the
+/// flight control computer's demand on its demand input, plays a window's chirp on it and
+/// reads the window in the control loop's idle time, one slice per control period, the rest
+/// on the ground after the flight's three seconds. The window it read is the host's
+/// (`host-sim identify W --preflight P`'s code) on the frames it was fed and the command its
+/// flight followed, bit for bit; no slice is over 30 % of a control period; every frame's
+/// duties are written before its update, in flight too.
+#[test]
+fn the_board_flies_reads_a_window_in_slices_with_the_hosts_bits() {
+    use host_sim::plant::aero::{FlightPhase, FlightWindow, Turbulence};
+    let actuator = Actuator::reference();
+    let record = actuator.record_for(&actuator.record.test).unwrap();
+    let p = record.params;
+    let faults = FaultVector::new([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]).unwrap();
+    let settings = actuator.reference_settings().unwrap();
+    let ground = ReferenceModel::new(settings).with_test(record.test);
+    let flight_seconds = 3.0;
+    let approach = ground
+        .with_test(record.test.chirp_only())
+        .with_flight(Some(FlightWindow {
+            phase: FlightPhase::Approach,
+            turbulence: Turbulence::Light,
+        }))
+        .with_flight_periods(Some(
+            (flight_seconds / f64::from(p.control_period)) as usize,
+        ));
+    let day = |seed| Scenario {
+        seed,
+        ..Scenario::new(faults)
+    };
+    let plant = ReferenceOnPins::new(ground, day(3)).then(approach, day(103));
+    let mut board = Board::new(board_elf(), flash_with_record(), Box::new(plant)).unwrap();
+    let end = board.run(8_000_000_000).unwrap();
+    assert!(matches!(end, RunEnd::Asleep { .. }), "{end:?}");
+    let log = decoded(&board.log);
+    assert!(log.contains("flight over: Landed"), "{log}");
+
+    // The host: the preflight the board measured, read; the window, read holding it.
+    let frames = TestSequencer::new(record.test, p.control_period).samples();
+    let pre = board_emu::feed::fed_trace(&board.frames.fed, &record, frames).unwrap();
+    let measured = pre.measured(&p).unwrap();
+    let host_pre = host_sim::fdi::identify::identify_for(&measured, &record, 1, false).unwrap();
+    let within =
+        host_pre.domain(&pre.domain_monitor(&p), &record.domain) == shared::domain::Domain::Within;
+    assert!(within, "{log}");
+    let held = host_sim::fdi::window::held_from(&host_pre, within);
+    let windows = board_emu::feed::windows_in_log(&log);
+    assert_eq!(windows.len(), 1, "{log}");
+    let (n, first, frames) = windows[0];
+    assert_eq!(
+        frames,
+        TestSequencer::new(record.test.chirp_only(), p.control_period).samples()
+    );
+    let w = board_emu::feed::window_trace(&board.frames.fed, &record, first, frames).unwrap();
+    // The flashed record with its test's chirp alone, as `identify --actuator unit.rec` reads
+    // a window (the built-in actuator's host reading calibrates for the chirp alone).
+    let w_record = ActuatorRecord {
+        test: record.test.chirp_only(),
+        ..record
+    };
+    let w_measured = w.measured(&w_record.params).unwrap();
+    let host = host_sim::fdi::window::identify_window(&w, &w_measured, &w_record, held, 1).unwrap();
+    let prefix = format!("window_bits n={n} ");
+    assert_eq!(
+        field(&log, &prefix, "faults"),
+        hex_list(host.faults.as_array()),
+        "{log}"
+    );
+    assert_eq!(
+        field(&log, &prefix, "fitness"),
+        format!("{:08x}", host.fitness.to_bits())
+    );
+    let std = host
+        .uncertainty
+        .as_ref()
+        .map_or([f32::from_bits(u32::MAX); 9], |(u, _)| u.std);
+    assert_eq!(field(&log, &prefix, "std"), hex_list(&std));
+
+    // Its slices: each within 30 % of the 100 µs period at 168 MHz; hundreds of thousands.
+    let line = format!("window n={n} ");
+    let worst: u64 = field(&log, &line, "worst_slice_instructions")
+        .parse()
+        .unwrap();
+    let slices: u64 = field(&log, &line, "slices").parse().unwrap();
+    eprintln!("window: {slices} slices, the worst {worst} instructions");
+    assert!(worst > 0 && worst <= 5_040, "{worst}");
+    assert!(slices > 100_000, "{slices}");
+    // Every frame read, in flight too, and its duties written before its update.
+    let flown: u64 = log
+        .lines()
+        .find_map(|l| l.strip_prefix("flight over: Landed after "))
+        .and_then(|t| t.split(' ').next())
+        .and_then(|t| t.parse().ok())
+        .expect("the flight's frames");
+    assert!(flown as f64 >= flight_seconds / f64::from(p.control_period));
+    assert_eq!(
+        board.frames.fed.len() as u64,
+        frames_of_preflight(&record) + flown
+    );
+    let worst_duties = board
+        .frames
+        .to_duties
+        .iter()
+        .max()
+        .copied()
+        .unwrap_or(u64::MAX);
+    assert!(worst_duties < PERIOD_INSTRUCTIONS, "{worst_duties}");
+}
+
+fn frames_of_preflight(record: &ActuatorRecord) -> u64 {
+    TestSequencer::new(record.test, record.params.control_period).samples() as u64
 }

@@ -19,6 +19,8 @@ pub struct Counts {
     pub currents_and_transducer: [u16; 4],
     /// ADC2 injected ranks: the bus divider, then the winding thermistor's amplifier.
     pub bus_and_temperature: [u16; 2],
+    /// ADC2's third injected rank: the flight control computer's analogue position demand.
+    pub demand: u16,
     /// The encoder timer's count, captured by the same trigger.
     pub encoder: u16,
 }
@@ -40,6 +42,12 @@ pub struct SensorScaling {
     pub temperature_zero: f32,
     /// [rad per encoder count] of the motor shaft (2π over four times the lines).
     pub motor_rad_per_count: f32,
+    /// [rad per count] of the flight control computer's position demand and its count at
+    /// 0 rad; a count outside `demand_valid` (a rail: the computer's output off, on the
+    /// ground) is no demand.
+    pub demand_rad_per_count: f32,
+    pub demand_zero: f32,
+    pub demand_valid: (u16, u16),
 }
 
 impl SensorScaling {
@@ -56,7 +64,20 @@ impl SensorScaling {
         celsius_per_count: 250.0 / 4096.0,
         temperature_zero: 819.2,
         motor_rad_per_count: core::f32::consts::TAU / 8192.0,
+        // The demand as the transducer (±0.5 rad over the range), within 2 % of each rail.
+        demand_rad_per_count: 1.0 / 4096.0,
+        demand_zero: 2048.0,
+        demand_valid: (82, 4013),
     };
+
+    /// The position demand of `count` [rad], or `None` when the count sits on a rail (no
+    /// demand: the flight control computer's output is off). O(1).
+    pub fn demand(&self, count: u16) -> Option<f32> {
+        let (low, high) = self.demand_valid;
+        (low..=high)
+            .contains(&count)
+            .then(|| (f32::from(count) - self.demand_zero) * self.demand_rad_per_count)
+    }
 }
 
 /// The encoder's 16-bit count continued across its wraps: the motor turns far less than
@@ -166,6 +187,7 @@ mod tests {
         let counts = Counts {
             currents_and_transducer: [2048, 2048 + 512, 2048 - 512, 2048],
             bus_and_temperature: [3_047, 819 + 410],
+            demand: 0,
             encoder: 100,
         };
         let (frame, feedback) = c.convert(&counts);
@@ -194,5 +216,16 @@ mod tests {
                 missed: u32::MAX - 1
             }
         );
+    }
+
+    #[test]
+    fn a_demand_on_a_rail_is_no_demand() {
+        let s = SensorScaling::REFERENCE_BOARD;
+        assert_eq!(s.demand(2048), Some(0.0));
+        assert_eq!(s.demand(2048 + 41), Some(41.0 / 4096.0));
+        assert_eq!(s.demand(0), None);
+        assert_eq!(s.demand(4095), None);
+        assert!(s.demand(81).is_none() && s.demand(82).is_some());
+        assert!(s.demand(4013).is_some() && s.demand(4014).is_none());
     }
 }

@@ -46,31 +46,52 @@ use embassy_stm32::timer::{Ch1, Ch2, Ch3, Channel};
 use embassy_stm32::Config;
 use static_cell::{ConstStaticCell, StaticCell};
 
+use core::future::Future;
+use core::pin::{pin, Pin};
+
 use firmware::acquisition::{pace, Converter, Counts, Pace, SensorScaling};
 use firmware::bridge::{BridgeDrive, BridgeTiming, Leg, Legs};
 use firmware::cooperate::yield_now;
-use firmware::health::record_preflight;
+use firmware::flight::{
+    print_window_bits, read_window, CommandedSource, FlightCommand, KeptCommand, Scratch, Slices,
+    WindowAcquisition, WindowOutcome, WindowRead, MAX_WINDOWS,
+};
+use firmware::health::{record_entry, record_preflight};
 use firmware::position_loop::Sensing;
 use firmware::sequencer::{Sequenced, TestSequencer};
 use firmware::storage::{AbStore, StorageLayout};
-use firmware::{Acquired, CurrentSource, Preflight, PreflightSettings, Progress, Reruns};
+use firmware::{Acquired, CurrentSource, Preflight, PreflightSettings, Progress, Report, Reruns};
 use shared::actuator::{ActuatorRecord, RECORD_BYTES};
+use shared::domain::Domain;
 use shared::fdi::OnboardMeasured;
-use shared::fitness::CurvatureRun;
-use shared::health::{RamStore, RecordedDay, ONBOARD_RECORDS};
+use shared::fusion::{WindowFusion, FLIGHT_MAX_FRICTION_STD};
+use shared::health::{HealthRecord, RamStore, RecordedDay, ONBOARD_RECORDS};
 use shared::prognosis::TrendSettings;
+use shared::window::HeldComponents;
 use shared::LowPass;
 
 /// The bridge timer's clock [Hz] (APB2 × 2).
 const TIMER_HZ: u32 = 168_000_000;
 
 static MEASURED: ConstStaticCell<OnboardMeasured> = ConstStaticCell::new(OnboardMeasured::ZEROED);
-static CURVATURE: ConstStaticCell<CurvatureRun> = ConstStaticCell::new(CurvatureRun::IDLE);
+/// The preflight's uncertainty runs, then a window's kept command: never both at once.
+static SCRATCH: ConstStaticCell<Scratch> = ConstStaticCell::new(Scratch::IDLE);
 static HEALTH_STORE: ConstStaticCell<RamStore<ONBOARD_RECORDS>> =
     ConstStaticCell::new(RamStore::ZEROED);
 
 /// Heartbeat task runs (the flight software's share of the CPU).
 static BEATS: AtomicU32 = AtomicU32::new(0);
+
+/// Frames read since power-up (each trigger's conversions the image took): a window's first
+/// frame is reported by this count.
+static FRAMES_READ: AtomicU32 = AtomicU32::new(0);
+
+/// Frames the board waits after its preflight for the flight control computer's demand
+/// (0.1 s): a flight that follows at once is flown; otherwise the image is done.
+const FLIGHT_WAIT_FRAMES: u32 = 1_000;
+
+/// Frames the position loop follows the demand before a flight's first window (0.5 s).
+const SETTLE_FRAMES: u32 = 5_000;
 
 /// The board's flash (blocking: the F405's single bank stalls code fetch while it writes).
 type BoardFlash = Flash<'static, embassy_stm32::flash::Blocking>;
@@ -82,6 +103,8 @@ enum BoardError {
     Overrun { missed: u32 },
     /// The first update event did not come at the counter's top.
     TriggerPhase,
+    /// The demand went (the flight ended) during a window's frames.
+    Landed,
 }
 
 /// The bridge's legs in TIM1: a duty in CCRx with both outputs enabled, or both disabled
@@ -148,8 +171,10 @@ impl<'a> BoardSource<'a> {
         let counts = Counts {
             currents_and_transducer: core::array::from_fn(|i| adc1.jdr(i).read().jdata()),
             bus_and_temperature: core::array::from_fn(|i| adc2.jdr(i).read().jdata()),
+            demand: adc2.jdr(2).read().jdata(),
             encoder: pac::TIM3.ccr(2).read().ccr(),
         };
+        FRAMES_READ.fetch_add(1, Ordering::Relaxed);
         for adc in [adc1, adc2] {
             adc.sr().modify(|w| {
                 w.set_jeoc(false);
@@ -187,6 +212,27 @@ impl CurrentSource for BoardSource<'_> {
         self.frames += 1;
         Ok(Acquired::Frame(frame))
     }
+}
+
+/// Waits for the next trigger and clears the converters' end-of-conversion flags while its
+/// conversions run (5 µs): a flag left from a trigger no frame was taken for (the preflight's
+/// identification, the health step) would have the next frame read a conversion early, and
+/// every frame after it one period stale against its encoder capture. Returns the trigger's
+/// count: its frame is the first to take. At most one control period.
+fn fresh_trigger() -> u32 {
+    let tim2 = pac::TIM2;
+    let before = tim2.cnt().read();
+    let mut now = before;
+    while now == before {
+        now = tim2.cnt().read();
+    }
+    for adc in [pac::ADC1, pac::ADC2] {
+        adc.sr().modify(|w| {
+            w.set_jeoc(false);
+            w.set_jstrt(false);
+        });
+    }
+    now
 }
 
 /// Peripherals set up for the test.
@@ -228,6 +274,10 @@ fn clocks() -> Config {
 /// starts the carrier.
 fn start() -> Result<(ActuatorRecord, BridgeTiming, Hardware), Stop> {
     let p = embassy_stm32::init(clocks());
+    // The core's cycle counter times the flight's slices.
+    let mut core = cortex_m::Peripherals::take().ok_or(Stop::StartUp)?;
+    core.DCB.enable_trace();
+    core.DWT.enable_cycle_counter();
     let mut flash = Flash::new_blocking(p.FLASH);
     let (a, b) = StorageLayout::pair(&StorageLayout::STM32F405.record);
     let record = {
@@ -243,7 +293,8 @@ fn start() -> Result<(ActuatorRecord, BridgeTiming, Hardware), Stop> {
         .map_err(Stop::Bridge)?;
 
     converters_on();
-    // ADC1: the phase currents and the transducer; ADC2: bus and temperature; both on TRGO.
+    // ADC1: the phase currents and the transducer; ADC2: bus, temperature and the flight
+    // control computer's demand; both on TRGO.
     // Through the PAC: the HAL's ADC start-up links 1 kB of 64-bit division for a delay.
     for mut pin in [
         Flex::new(p.PA0),
@@ -252,13 +303,14 @@ fn start() -> Result<(ActuatorRecord, BridgeTiming, Hardware), Stop> {
         Flex::new(p.PA3),
         Flex::new(p.PC0),
         Flex::new(p.PC1),
+        Flex::new(p.PC2),
     ] {
         pin.set_as_analog();
         // Analog from here on; dropping the handle would disconnect the pin.
         core::mem::forget(pin);
     }
     injected_ranks(pac::ADC1, &[0, 1, 2, 3]);
-    injected_ranks(pac::ADC2, &[10, 11]);
+    injected_ranks(pac::ADC2, &[10, 11, 12]);
 
     // Encoder on TIM3, its count captured on channel 3 from TRC = ITR0 (TIM1 TRGO).
     let encoder = Qei::new(p.TIM3, p.PA6, p.PA7, Default::default());
@@ -425,14 +477,15 @@ enum Stop {
 }
 
 async fn preflight(spawner: Spawner) -> Result<(), Stop> {
-    let (Some(measured), Some(curvature), Some(store)) = (
+    let (Some(measured), Some(scratch), Some(store)) = (
         MEASURED.try_take(),
-        CURVATURE.try_take(),
+        SCRATCH.try_take(),
         HEALTH_STORE.try_take(),
     ) else {
         return Err(Stop::StartUp);
     };
     let (record, timing, mut hw) = start()?;
+    let curvature = scratch.curvature().ok_or(Stop::StartUp)?;
     let layout = StorageLayout::STM32F405;
     let params = record.params;
     let settings = PreflightSettings::ONBOARD.for_actuator(&record);
@@ -503,29 +556,447 @@ async fn preflight(spawner: Spawner) -> Result<(), Stop> {
 
     // The health log: its image from the pair, this preflight appended, the image back.
     let (a, b) = StorageLayout::pair(&layout.health);
-    let mut pair = AbStore::new(&mut hw.flash, a, b).map_err(|_| Stop::Flash)?;
-    // Nothing stored: a new log. A pair that cannot be read is left as it is (no record
-    // appended) rather than replaced by a log of one.
-    store.erase();
-    // A log kept before record version 4 is shorter: carried over in place.
-    if let Some(len) = pair.read(store.as_bytes_mut()).map_err(|_| Stop::Flash)? {
-        store.upgrade_read(len);
-    }
-    let update = match record_preflight(store, None, &report, day, &TrendSettings::DEFAULT) {
+    let flight = {
+        let mut pair = AbStore::new(&mut hw.flash, a, b).map_err(|_| Stop::Flash)?;
+        // Nothing stored: a new log. A pair that cannot be read is left as it is (no record
+        // appended) rather than replaced by a log of one.
+        store.erase();
+        // A log kept before record version 4 is shorter: carried over in place.
+        if let Some(len) = pair.read(store.as_bytes_mut()).map_err(|_| Stop::Flash)? {
+            store.upgrade_read(len);
+        }
+        let update = match record_preflight(store, None, &report, day, &TrendSettings::DEFAULT) {
+            Ok(u) => u,
+            Err(e) => {
+                defmt::error!("health record not appended: {}", e);
+                return Err(Stop::Health);
+            }
+        };
+        pair.write(store.as_bytes()).map_err(|_| Stop::Flash)?;
+        defmt::println!(
+            "health flight={=u32} records={=u32} beats={=u32}",
+            update.record.flight,
+            update.records,
+            BEATS.load(Ordering::Relaxed)
+        );
+        update.record.flight
+    };
+
+    // The flight that follows: its windows read in the control loop's idle time, its reading
+    // logged after it as the same flight's in-flight entry.
+    let drive = BridgeDrive::new(
+        TimerLegs,
+        timing,
+        settings.actuator.drive,
+        &settings.actuator.params,
+        Sensing::BOARD,
+    );
+    let mut control = FlightControl::new(drive, &mut converter, &settings.actuator);
+    let kept = scratch.command().ok_or(Stop::StartUp)?;
+    let Some(flown) = fly(&mut control, &settings, &report, measured, kept).await else {
+        defmt::println!("no in-flight entry");
+        return Ok(());
+    };
+    bridge_off();
+    let entry = |_| {
+        HealthRecord::of_flight_reading(
+            flight,
+            &flown.reading,
+            flown.fitness_sum,
+            flown.entered,
+            flown.day,
+        )
+    };
+    let update = match record_entry(store, entry, &TrendSettings::DEFAULT) {
         Ok(u) => u,
         Err(e) => {
-            defmt::error!("health record not appended: {}", e);
+            defmt::error!("in-flight health record not appended: {}", e);
             return Err(Stop::Health);
         }
     };
-    pair.write(store.as_bytes()).map_err(|_| Stop::Flash)?;
+    AbStore::new(&mut hw.flash, a, b)
+        .and_then(|mut pair| pair.write(store.as_bytes()))
+        .map_err(|_| Stop::Flash)?;
     defmt::println!(
-        "health flight={=u32} records={=u32} beats={=u32}",
+        "health flight={=u32} kind=in-flight records={=u32} beats={=u32}",
         update.record.flight,
         update.records,
         BEATS.load(Ordering::Relaxed)
     );
     Ok(())
+}
+
+/// Where the flight stands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]
+enum Flying {
+    /// Waiting for the demand, `frames` more frames at most; the bridge off.
+    Waiting {
+        frames: u32,
+    },
+    Flying,
+    /// The demand went: the flight is over, the bridge off.
+    Landed,
+    /// The control loop stopped (an overrun): the bridge off.
+    Stopped(BoardError),
+}
+
+/// The flight on the board: each control period's frame (paced from the flight's first
+/// trigger), the demand followed through the position loop, a window's chirp superimposed
+/// ([`FlightCommand`]), a window's frames handed to its acquisition ([`CommandedSource`]).
+/// O(1) per frame: one conversion, one position-loop step.
+struct FlightControl<'a> {
+    drive: BridgeDrive<TimerLegs>,
+    converter: &'a mut Converter,
+    command: FlightCommand,
+    scaling: SensorScaling,
+    test: shared::test_design::PreflightTest,
+    period: f32,
+    state: Flying,
+    frames: u32,
+    /// TIM2's trigger count when the flight control began.
+    start: u32,
+    /// The command acting in the last frame's period [rad].
+    acting: f32,
+    /// A window's frames taken, and its length.
+    window: Option<(u32, u32)>,
+}
+
+impl<'a> FlightControl<'a> {
+    /// From the next trigger on, waiting for the demand.
+    fn new(
+        drive: BridgeDrive<TimerLegs>,
+        converter: &'a mut Converter,
+        record: &ActuatorRecord,
+    ) -> Self {
+        Self {
+            drive,
+            converter,
+            command: FlightCommand::follow(record.params.control_period),
+            scaling: SensorScaling::REFERENCE_BOARD,
+            test: record.test.chirp_only(),
+            period: record.params.control_period,
+            state: Flying::Waiting {
+                frames: FLIGHT_WAIT_FRAMES,
+            },
+            frames: 0,
+            start: fresh_trigger().wrapping_sub(1),
+            acting: 0.0,
+            window: None,
+        }
+    }
+
+    /// The frame due, if one is, with the command acting in its period; in flight the next
+    /// period commanded. O(1).
+    fn take(&mut self) -> Result<Option<shared::AdcFrame>, BoardError> {
+        if matches!(self.state, Flying::Landed | Flying::Stopped(_)) {
+            return Ok(None);
+        }
+        match pace(pac::TIM2.cnt().read().wrapping_sub(self.start), self.frames) {
+            Pace::Wait => return Ok(None),
+            Pace::Overrun { missed } => {
+                bridge_off();
+                self.state = Flying::Stopped(BoardError::Overrun { missed });
+                return Err(BoardError::Overrun { missed });
+            }
+            Pace::Due => {}
+        }
+        if !(pac::ADC1.sr().read().jeoc() && pac::ADC2.sr().read().jeoc()) {
+            return Ok(None);
+        }
+        let counts = BoardSource::counts();
+        self.frames = self.frames.wrapping_add(1);
+        let (frame, feedback) = self.converter.convert(&counts);
+        let demand = self.scaling.demand(counts.demand);
+        match (self.state, demand) {
+            (Flying::Waiting { frames }, None) => {
+                self.state = match frames.checked_sub(1) {
+                    Some(0) | None => Flying::Landed,
+                    Some(left) => Flying::Waiting { frames: left },
+                };
+                Ok(None)
+            }
+            (_, None) => {
+                bridge_off();
+                self.state = Flying::Landed;
+                Ok(None)
+            }
+            (_, Some(demand)) => {
+                if self.state != Flying::Flying {
+                    TimerLegs.set([Leg::Off; 3]);
+                    pac::TIM1.bdtr().modify(|w| w.set_moe(true));
+                    self.state = Flying::Flying;
+                }
+                self.drive.measured(feedback);
+                self.acting = self.command.tick(demand, &mut self.drive);
+                Ok(Some(frame))
+            }
+        }
+    }
+
+    /// Outside a window: the frame due taken and followed, nothing kept. O(1).
+    fn serve(&mut self) {
+        if self.window.is_none() {
+            // An overrun is kept in the state (the bridge off) and reported at the end.
+            let _ = self.take();
+        }
+    }
+
+    fn flying(&self) -> bool {
+        self.state == Flying::Flying
+    }
+
+    fn waiting(&self) -> bool {
+        matches!(self.state, Flying::Waiting { .. })
+    }
+
+    /// A window's chirp from the next frame on, its frames for its acquisition.
+    fn begin_window(&mut self) {
+        self.command.begin_window(self.test, self.period);
+        let samples = TestSequencer::new(self.test, self.period).samples();
+        self.window = Some((0, u32::try_from(samples).unwrap_or(u32::MAX)));
+    }
+}
+
+impl CurrentSource for FlightControl<'_> {
+    type Error = BoardError;
+
+    fn next_frame(&mut self) -> Result<Acquired, BoardError> {
+        let Some((taken, samples)) = self.window else {
+            return Ok(Acquired::EndOfTest);
+        };
+        if taken >= samples {
+            self.window = None;
+            return Ok(Acquired::EndOfTest);
+        }
+        match self.take() {
+            Ok(Some(frame)) => {
+                self.window = Some((taken.saturating_add(1), samples));
+                Ok(Acquired::Frame(frame))
+            }
+            Ok(None) if self.flying() => Ok(Acquired::NotYet),
+            Ok(None) => {
+                self.window = None;
+                Err(BoardError::Landed)
+            }
+            Err(e) => {
+                self.window = None;
+                Err(e)
+            }
+        }
+    }
+}
+
+impl CommandedSource for FlightControl<'_> {
+    /// The command acting in the last frame's period as a trace of the window holds it: the
+    /// host reads the same window from the trace written of it.
+    fn command(&self) -> f32 {
+        shared::trace::command_as_traced(self.acting)
+    }
+
+    fn is_window(&self) -> bool {
+        self.window.is_some()
+    }
+}
+
+/// A window's reading in the control loop's idle time: one poll per slice, timed by the
+/// core's cycle counter, and the control period due served after each.
+struct FlightSlices<'c, 'a> {
+    control: &'c mut FlightControl<'a>,
+    slices: u32,
+    /// The longest slice [core cycles; instructions under the board emulator].
+    worst: u32,
+}
+
+impl Slices for FlightSlices<'_, '_> {
+    async fn run<F: Future>(&mut self, mut future: Pin<&mut F>) -> F::Output {
+        core::future::poll_fn(|cx| {
+            let start = cortex_m::peripheral::DWT::cycle_count();
+            let poll = future.as_mut().poll(cx);
+            let took = cortex_m::peripheral::DWT::cycle_count().wrapping_sub(start);
+            self.worst = self.worst.max(took);
+            self.slices = self.slices.saturating_add(1);
+            self.control.serve();
+            poll
+        })
+        .await
+    }
+}
+
+/// What a flight's windows read.
+struct Flown {
+    reading: shared::fusion::FlightReading,
+    fitness_sum: f32,
+    entered: u32,
+    day: RecordedDay,
+}
+
+/// The flight that follows the preflight, if its demand comes within
+/// [`FLIGHT_WAIT_FRAMES`]: the demand followed, [`SETTLE_FRAMES`] of it, then up to
+/// [`MAX_WINDOWS`] windows, each played, acquired and read in the control loop's idle time
+/// holding what the preflight read; the demand followed until it goes (the flight's end).
+/// `None`: no flight, or no reading (logged).
+async fn fly(
+    control: &mut FlightControl<'_>,
+    settings: &PreflightSettings,
+    report: &Report,
+    measured: &mut OnboardMeasured,
+    kept: &mut KeptCommand,
+) -> Option<Flown> {
+    while control.waiting() || (control.flying() && control.frames < SETTLE_FRAMES) {
+        control.serve();
+        yield_now().await;
+    }
+    if !control.flying() {
+        return None;
+    }
+    defmt::println!(
+        "flight begins at frame {=u32}",
+        FRAMES_READ.load(Ordering::Relaxed)
+    );
+    let held = if report.domain == Domain::Within {
+        report.held
+    } else {
+        HeldComponents::NONE
+    };
+    let record = ActuatorRecord {
+        test: settings.actuator.test.chirp_only(),
+        ..settings.actuator
+    };
+    let mut fusion = WindowFusion::EMPTY;
+    let (mut read, mut entered, mut fitness_sum, mut first_day) = (0u32, 0u32, 0.0f32, None);
+    let (mut slices, mut worst) = (0u32, 0u32);
+    for n in 1..=MAX_WINDOWS as u32 {
+        if !control.flying() {
+            break;
+        }
+        control.begin_window();
+        let first_frame = FRAMES_READ.load(Ordering::Relaxed);
+        let acquired = match WindowAcquisition::start(
+            &*control,
+            record.test,
+            record.params.pole_pairs,
+            measured,
+            kept,
+        ) {
+            Ok(mut acquisition) => loop {
+                match acquisition.poll(control, measured, kept, 1) {
+                    Ok(false) => yield_now().await,
+                    Ok(true) => break Ok(acquisition.frames()),
+                    Err(e) => break Err(e),
+                }
+            },
+            Err(e) => Err(e),
+        };
+        let frames = match acquired {
+            Ok(f) => f,
+            Err(e) => {
+                defmt::println!("window n={=u32} not acquired: {}", n, e);
+                break;
+            }
+        };
+        let mut window = FlightSlices {
+            control: &mut *control,
+            slices: 0,
+            worst: 0,
+        };
+        if let Err(e) = window.run(pin!(measured.finish_stepwise())).await {
+            defmt::println!("window n={=u32} not conditioned: {}", n, e);
+            continue;
+        }
+        let outcome = read_window(
+            &mut window,
+            measured,
+            kept.as_slice(),
+            &record,
+            &held,
+            settings.seed,
+            &mut fusion,
+        )
+        .await;
+        slices = slices.saturating_add(window.slices);
+        worst = worst.max(window.worst);
+        let WindowRead {
+            reading,
+            conditions,
+            fused,
+        } = match outcome {
+            Ok(r) => r,
+            Err(e) => {
+                defmt::println!("window n={=u32} cannot be read: {}", n, e);
+                continue;
+            }
+        };
+        read += 1;
+        if fused {
+            entered += 1;
+            fitness_sum += reading.fit.error;
+            first_day.get_or_insert(RecordedDay::of(&conditions));
+        }
+        defmt::println!(
+            "window n={=u32} first_frame={=u32} frames={=u32} verdict={} outcome={} evaluations={=u32} slices={=u32} worst_slice_instructions={=u32} flying={=bool}",
+            n,
+            first_frame,
+            frames,
+            reading.verdict,
+            WindowOutcome::of(&reading.verdict, &held, fused),
+            reading.evaluations,
+            window.slices,
+            window.worst,
+            control.flying()
+        );
+        print_window_bits(n, &reading);
+    }
+    let mut finish = FlightSlices {
+        control: &mut *control,
+        slices: 0,
+        worst: 0,
+    };
+    let flight = finish
+        .run(pin!(fusion.final_reading_stepwise(FLIGHT_MAX_FRICTION_STD)))
+        .await;
+    slices = slices.saturating_add(finish.slices);
+    worst = worst.max(finish.worst);
+    // The flight goes on until its demand goes.
+    while control.flying() {
+        control.serve();
+        yield_now().await;
+    }
+    defmt::println!(
+        "flight over: {} after {=u32} frames",
+        control.state,
+        control.frames
+    );
+    match flight {
+        Ok(f) => {
+            defmt::println!(
+                "flight windows={=u32} entered={=u32} verdict={} faults={} worst_slice_instructions={=u32} slices={=u32}",
+                read,
+                entered,
+                f.verdict,
+                f.faults.as_array(),
+                worst,
+                slices
+            );
+            firmware::flight::print_flight_bits(&f);
+            Some(Flown {
+                reading: f,
+                fitness_sum,
+                entered,
+                day: first_day.unwrap_or(RecordedDay::UNKNOWN),
+            })
+        }
+        Err(e) => {
+            defmt::println!(
+                "flight windows={=u32} entered={=u32} verdict=none reason={} worst_slice_instructions={=u32} slices={=u32}",
+                read,
+                entered,
+                e,
+                worst,
+                slices
+            );
+            None
+        }
+    }
 }
 
 #[panic_handler]

@@ -30,7 +30,7 @@ const PATHS_BYTES: usize = 512;
 const CMDLINE_BYTES: usize = 1024;
 
 /// Windows of flight one run reads at most (`--window`, repeatable): a flight of eight.
-pub const MAX_WINDOWS: usize = 8;
+pub use firmware::flight::MAX_WINDOWS;
 
 /// What the command line asked for.
 pub struct Command {

@@ -16,26 +16,23 @@ use core::pin::pin;
 
 use firmware::cooperate::yield_now;
 use firmware::flight::{
-    Scratch, WindowAcquireError, WindowAcquisition, WindowOutcome, WINDOW_FRAMES_PER_POLL,
+    print_flight_bits, print_window_bits, read_window, Scratch, Slices, WindowAcquireError,
+    WindowAcquisition, WindowOutcome, WindowRead, WindowReadError, WindowStage,
+    WINDOW_FRAMES_PER_POLL,
 };
 use firmware::health::{preflight_entry, record_entry};
 use firmware::{Preflight, PreflightSettings, Progress, Report, Stage, TraceSource};
 use shared::conditions::TestConditions;
 use shared::domain::Domain;
-use shared::fault::FAULT_COUNT;
 use shared::fault::FAULT_NAMES;
 use shared::fdi::OnboardMeasured;
-use shared::fdi::POPULATION;
 use shared::fitness::CurvatureRun;
 use shared::fusion::{WindowFusion, FLIGHT_MAX_FRICTION_STD};
 use shared::health::{
     HealthRecord, Newest, RamStore, RecordedDay, FLIGHT_READING, ONBOARD_RECORDS,
 };
 use shared::prognosis::TrendSettings;
-use shared::window::{
-    fusable, identify_stepwise, window_ga, HeldComponents, WindowLimits, WindowLoad, WindowProblem,
-    WINDOW_INFLATION,
-};
+use shared::window::HeldComponents;
 use shared::LowPass;
 
 use crate::clock::{cycles, instructions_under_icount, start_cycle_clock, PollTimer};
@@ -441,54 +438,33 @@ async fn fly_windows(
                 return status::BAD_TRACE;
             }
         };
-        let guess = WindowLoad::spring(record.params.aero_stiffness, 0.0);
-        // The window's problem is built in place, here (≈ 1.9 kB not moved through futures).
-        let mut built = None;
-        let set_up = window_polls
-            .run(pin!(WindowProblem::of_record_into_stepwise(
-                &mut built,
-                measured,
-                kept.as_slice(),
-                &record,
-                guess,
-            )))
-            .await;
-        let (problem, conditions) = match (set_up, built.as_mut()) {
-            (Ok(c), Some(p)) => (p, c),
-            (Err(e), _) => {
+        let mut slices = WindowPolls::new(window_polls);
+        let window = read_window(
+            &mut slices,
+            measured,
+            kept.as_slice(),
+            &record,
+            &held,
+            settings.seed,
+            &mut fusion,
+        )
+        .await;
+        let window_polls = slices.window();
+        let WindowRead {
+            reading,
+            conditions,
+            fused,
+        } = match window {
+            Ok(r) => r,
+            Err(WindowReadError::SetUp(e)) => {
                 defmt::error!("window {=[u8]:a} cannot be read: {}", name, e);
                 return status::BAD_TRACE;
             }
-            (Ok(_), None) => return status::START_UP,
+            Err(WindowReadError::Search(_)) => {
+                defmt::error!("window {=[u8]:a}: GA settings refused", name);
+                return status::PREFLIGHT_FAILED;
+            }
         };
-        problem.hold(held);
-        let started = cycles();
-        let mut identify_polls = PollTimer::default();
-        let reading = identify_polls
-            .run(pin!(identify_stepwise::<_, POPULATION>(
-                problem,
-                window_ga(&record.ga),
-                settings.seed,
-                &WindowLimits::REFERENCE,
-            )))
-            .await;
-        let window_cycles = cycles().saturating_sub(started);
-        window_polls.absorb(&identify_polls);
-        let Ok(reading) = reading else {
-            defmt::error!("window {=[u8]:a}: GA settings refused", name);
-            return status::PREFLIGHT_FAILED;
-        };
-        let fused = fusable(&reading.verdict)
-            && window_polls
-                .run(pin!(fusion.add_holding_stepwise(
-                    &reading.faults,
-                    &reading.curvature,
-                    &WINDOW_INFLATION,
-                    &held,
-                    &reading.coupling,
-                )))
-                .await
-                .is_ok();
         flight_polls.absorb(&window_polls);
         let outcome = WindowOutcome::of(&reading.verdict, &held, fused);
         read += 1;
@@ -504,20 +480,11 @@ async fn fly_windows(
             reading.verdict,
             outcome,
             reading.evaluations,
-            identify_polls.polls,
+            slices.identify.polls,
             window_polls.longest_instructions(),
-            instructions_under_icount(window_cycles)
+            instructions_under_icount(slices.identify_cycles)
         );
-        defmt::println!(
-            "window_bits n={=u32} faults={:08x} fitness={=u32:08x} std={:08x}",
-            n,
-            reading.faults.as_array().map(f32::to_bits),
-            reading.fit.error.to_bits(),
-            reading
-                .uncertainty
-                .as_ref()
-                .map_or([u32::MAX; FAULT_COUNT], |(u, _)| u.std.map(f32::to_bits))
-        );
+        print_window_bits(n, &reading);
     }
     let flight = flight_polls
         .run(pin!(fusion.final_reading_stepwise(FLIGHT_MAX_FRICTION_STD)))
@@ -534,11 +501,7 @@ async fn fly_windows(
                 flight_polls.polls,
                 stack_peak()
             );
-            defmt::println!(
-                "flight_bits faults={:08x} std={:08x}",
-                f.faults.as_array().map(f32::to_bits),
-                f.uncertainty.0.std.map(f32::to_bits)
-            );
+            print_flight_bits(&f);
             if let Some((path, store, flight)) = log {
                 let day = first_day.unwrap_or(RecordedDay::UNKNOWN);
                 let entry =
@@ -559,6 +522,55 @@ async fn fly_windows(
         ),
     }
     status::SUCCESS
+}
+
+/// A window's reading under emulation: each poll timed, the identification's also on its own
+/// with its cycles from its first poll to its last.
+struct WindowPolls {
+    window: PollTimer,
+    identify: PollTimer,
+    stage: WindowStage,
+    identify_from: u64,
+    identify_cycles: u64,
+}
+
+impl WindowPolls {
+    /// After the window's acquisition, timed in `window`.
+    fn new(window: PollTimer) -> Self {
+        Self {
+            window,
+            identify: PollTimer::default(),
+            stage: WindowStage::SetUp,
+            identify_from: 0,
+            identify_cycles: 0,
+        }
+    }
+
+    /// Every poll of the window: acquisition, set-up, identification, fusion.
+    fn window(&self) -> PollTimer {
+        let mut all = self.window;
+        all.absorb(&self.identify);
+        all
+    }
+}
+
+impl Slices for WindowPolls {
+    async fn run<F: core::future::Future>(&mut self, future: core::pin::Pin<&mut F>) -> F::Output {
+        let timer = match self.stage {
+            WindowStage::Identify => &mut self.identify,
+            _ => &mut self.window,
+        };
+        timer.run(future).await
+    }
+
+    fn stage(&mut self, stage: WindowStage) {
+        match stage {
+            WindowStage::Identify => self.identify_from = cycles(),
+            WindowStage::Fuse => self.identify_cycles = cycles().saturating_sub(self.identify_from),
+            WindowStage::SetUp => {}
+        }
+        self.stage = stage;
+    }
 }
 
 /// The preflight's settings, written into `settings`: the actuator record's (`--actuator`;

@@ -285,6 +285,9 @@ pub struct AnalogSensors {
     pub user_angle: f64,
     pub bus_voltage: f64,
     pub temperature: f64,
+    /// The flight control computer's position demand [rad]: `None` on the ground (its
+    /// output off).
+    pub demand: Option<f64>,
 }
 
 /// A controller outside the reference model driving its bridge (a board image under
@@ -440,6 +443,7 @@ pub struct ReferenceModel {
     demagnetization: Demagnetization,
     wind: Option<GroundWind>,
     flight: Option<FlightWindow>,
+    flight_periods: Option<usize>,
 }
 
 /// Irreversible loss of the rotor magnets' flux (SPEC §10, issue 35): after over-temperature
@@ -547,7 +551,18 @@ impl ReferenceModel {
             demagnetization: Demagnetization::None,
             wind: None,
             flight: None,
+            flight_periods: None,
         }
+    }
+
+    /// In flight, a run of `periods` control periods after the hold instead of the test's:
+    /// a flight that goes on past the test (its command zero after its last sample), for a
+    /// controller outside the model that plays its own windows on the demand
+    /// ([`AnalogSensors::demand`], [`simulate_driven`](Self::simulate_driven)). `None`: the
+    /// test's length.
+    pub fn with_flight_periods(mut self, periods: Option<usize>) -> Self {
+        self.flight_periods = periods;
+        self
     }
 
     /// The same actuator in flight (issue 36): the flight control computer's command added to
@@ -723,7 +738,11 @@ impl ReferenceModel {
         let dt = s.step;
         let ts = f64::from(p.control_period);
         let steps_per_tick = (ts / dt).round().max(1.0) as usize;
-        let samples = self.test_samples();
+        let test_samples = self.test_samples();
+        let samples = match (self.flight, self.flight_periods) {
+            (Some(_), Some(periods)) => periods,
+            _ => test_samples,
+        };
         let hold = if self.wind.is_some() || self.flight.is_some() {
             s.pre_roll.max(WIND_SETTLE)
         } else {
@@ -894,9 +913,11 @@ impl ReferenceModel {
                 theta_u + s.user_offset + s.user_noise * sensor_rng.next() + user_slip;
             let user_sensed = quantise(user_analogue, user_lsb, s.user_full_scale);
             // The command samples are the monitor model's, bit for bit (same f32 time).
-            let drive = tick.map_or(Drive::Position(0.0), |k| {
-                self.test.drive(k, p.control_period)
-            });
+            let drive = tick
+                .filter(|&k| k < test_samples)
+                .map_or(Drive::Position(0.0), |k| {
+                    self.test.drive(k, p.control_period)
+                });
             let (command, pair_drive) = match drive {
                 Drive::Position(x) => (
                     f64::from(x) + flight_command.get(n).copied().unwrap_or(0.0),
@@ -981,6 +1002,7 @@ impl ReferenceModel {
                     user_angle: user_analogue,
                     bus_voltage: bus_sensed,
                     temperature: temperature_sensed,
+                    demand: self.flight.and(flight_command.get(n).copied()),
                 };
                 let Some(legs) = ext.period(&sensed) else {
                     break;
