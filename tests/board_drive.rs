@@ -225,7 +225,7 @@ fn the_board_flies_the_demand_with_a_windows_chirp_superimposed() {
     use host_sim::plant::reference::{AnalogSensors, ExternalDrive};
 
     struct Flight {
-        board: BridgeDrive<Latched>,
+        board: BridgeDrive<&'static mut Latched>,
         command: FlightCommand,
         counts: f32,
         scaling: SensorScaling,
@@ -233,14 +233,6 @@ fn the_board_flies_the_demand_with_a_windows_chirp_superimposed() {
         frames: usize,
         window_from: usize,
         window: Vec<(f32, f32)>,
-    }
-    impl Legs for Latched {
-        fn set(&mut self, legs: [Leg; 3]) {
-            self.0 = legs.map(|l| match l {
-                Leg::Off => None,
-                Leg::Duty(d) => Some(d),
-            });
-        }
     }
     impl ExternalDrive for Flight {
         fn period(&mut self, s: &AnalogSensors) -> Option<[Option<f64>; 3]> {
@@ -282,7 +274,7 @@ fn the_board_flies_the_demand_with_a_windows_chirp_superimposed() {
         .with_flight(Some(cruise))
         .with_flight_periods(Some(12_000));
     let mut flight = Flight {
-        board: BridgeDrive::new(Latched::default(), timing, drive, &p, Sensing::BOARD),
+        board: BridgeDrive::new(Box::leak(Box::default()), timing, drive, &p, Sensing::BOARD),
         command: FlightCommand::follow(ActuatorParams::REFERENCE.control_period),
         counts: f32::from(timing.counts),
         scaling: SensorScaling::REFERENCE_BOARD,

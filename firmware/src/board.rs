@@ -628,7 +628,7 @@ async fn preflight(spawner: Spawner) -> Result<(), Stop> {
 
 /// Where the flight stands.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]
-enum Flying {
+enum FlightState {
     /// Waiting for the demand, `frames` more frames at most; the bridge off.
     Waiting {
         frames: u32,
@@ -651,7 +651,7 @@ struct FlightControl<'a> {
     scaling: SensorScaling,
     test: shared::test_design::PreflightTest,
     period: f32,
-    state: Flying,
+    state: FlightState,
     frames: u32,
     /// TIM2's trigger count when the flight control began.
     start: u32,
@@ -675,7 +675,7 @@ impl<'a> FlightControl<'a> {
             scaling: SensorScaling::REFERENCE_BOARD,
             test: record.test.chirp_only(),
             period: record.params.control_period,
-            state: Flying::Waiting {
+            state: FlightState::Waiting {
                 frames: FLIGHT_WAIT_FRAMES,
             },
             frames: 0,
@@ -688,14 +688,14 @@ impl<'a> FlightControl<'a> {
     /// The frame due, if one is, with the command acting in its period; in flight the next
     /// period commanded. O(1).
     fn take(&mut self) -> Result<Option<shared::AdcFrame>, BoardError> {
-        if matches!(self.state, Flying::Landed | Flying::Stopped(_)) {
+        if matches!(self.state, FlightState::Landed | FlightState::Stopped(_)) {
             return Ok(None);
         }
         match pace(pac::TIM2.cnt().read().wrapping_sub(self.start), self.frames) {
             Pace::Wait => return Ok(None),
             Pace::Overrun { missed } => {
                 bridge_off();
-                self.state = Flying::Stopped(BoardError::Overrun { missed });
+                self.state = FlightState::Stopped(BoardError::Overrun { missed });
                 return Err(BoardError::Overrun { missed });
             }
             Pace::Due => {}
@@ -708,23 +708,23 @@ impl<'a> FlightControl<'a> {
         let (frame, feedback) = self.converter.convert(&counts);
         let demand = self.scaling.demand(counts.demand);
         match (self.state, demand) {
-            (Flying::Waiting { frames }, None) => {
+            (FlightState::Waiting { frames }, None) => {
                 self.state = match frames.checked_sub(1) {
-                    Some(0) | None => Flying::Landed,
-                    Some(left) => Flying::Waiting { frames: left },
+                    Some(0) | None => FlightState::Landed,
+                    Some(left) => FlightState::Waiting { frames: left },
                 };
                 Ok(None)
             }
             (_, None) => {
                 bridge_off();
-                self.state = Flying::Landed;
+                self.state = FlightState::Landed;
                 Ok(None)
             }
             (_, Some(demand)) => {
-                if self.state != Flying::Flying {
+                if self.state != FlightState::Flying {
                     TimerLegs.set([Leg::Off; 3]);
                     pac::TIM1.bdtr().modify(|w| w.set_moe(true));
-                    self.state = Flying::Flying;
+                    self.state = FlightState::Flying;
                 }
                 self.drive.measured(feedback);
                 self.acting = self.command.tick(demand, &mut self.drive);
@@ -742,11 +742,11 @@ impl<'a> FlightControl<'a> {
     }
 
     fn flying(&self) -> bool {
-        self.state == Flying::Flying
+        self.state == FlightState::Flying
     }
 
     fn waiting(&self) -> bool {
-        matches!(self.state, Flying::Waiting { .. })
+        matches!(self.state, FlightState::Waiting { .. })
     }
 
     /// A window's chirp from the next frame on, its frames for its acquisition.

@@ -559,8 +559,8 @@ mod tests {
         // The window's first period acts the demand given before it; then each frame's
         // demand with the chirp's next sample.
         assert_eq!(acting[0], demand(1));
-        for k in 1..samples {
-            assert_eq!(acting[k], chirp(k) + demand(1 + k), "frame {k}");
+        for (k, &a) in acting.iter().enumerate().skip(1) {
+            assert_eq!(a, chirp(k) + demand(1 + k), "frame {k}");
         }
         assert!(chirp(samples / 2) != 0.0);
         // Its last frame holds the last sample; then the demand alone again.
