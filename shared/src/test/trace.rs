@@ -382,7 +382,7 @@ impl Default for Crc32 {
     }
 }
 
-/// A command [rad] as a trace's row holds it and a reader takes it back (`I4F28`, 2⁻²⁸ rad,
+/// A command \[rad\] as a trace's row holds it and a reader takes it back (`I4F28`, 2⁻²⁸ rad,
 /// then `f32`): what a controller keeps of the command it followed in a window of flight, so
 /// that the window it recorded and the trace written of it read the same bits. Idempotent;
 /// NaN reads 0. O(1).
