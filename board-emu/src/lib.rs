@@ -4,7 +4,8 @@
 //! sectors ([`flash`]), TIM1/TIM2/TIM3 ([`timers`]), ADC1/ADC2's injected group ([`adc`]),
 //! GPIO and the core's private registers ([`bus`]) — with a [`plant`] on the pins and the
 //! RTT log read from RAM ([`rtt`]); what it fed the image, as a trace ([`feed`]); known faults read through the board beside the
-//! actuator's own controller ([`campaign`]). A test tool: never linked into `firmware` or
+//! actuator's own controller ([`campaign`]); what the board's drive and sensors cost a window
+//! of flight, on the host ([`sensing`]). A test tool: never linked into `firmware` or
 //! `host-sim` (unicorn-engine is GPL-2.0).
 //!
 //! Time: one core cycle per instruction (QEMU `-icount`'s convention), the peripherals
@@ -20,6 +21,7 @@ pub mod feed;
 pub mod flash;
 pub mod plant;
 pub mod rtt;
+pub mod sensing;
 pub mod timers;
 
 pub use board::{Board, RunEnd};

@@ -100,6 +100,14 @@ struct Args {
     /// 1), with the command its flight followed, for `host-sim identify`.
     #[arg(long, value_name = "PREFIX")]
     window_out: Option<PathBuf>,
+    /// Instead of running the image: what the board's drive and sensors cost a window of
+    /// flight, on the host (no emulation, ≈ 1 s per row). The board's flight drive flies the
+    /// reference model with `--faults` and `--seed` through climb, cruise and approach (or
+    /// `--flight`), reading its encoder and transducer at the board's resolution and at the
+    /// actuator's own, and each window is read with the same seed's preflight held: a
+    /// Markdown table (`--out`).
+    #[arg(long)]
+    window_sensors: bool,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -111,6 +119,9 @@ enum PlantKind {
 
 fn main() -> Result<()> {
     let args = Args::parse();
+    if args.window_sensors {
+        return window_sensors(&args);
+    }
     let elf = std::fs::read(&args.elf).with_context(|| {
         format!(
             "reading {} (build it with `cargo board-build`)",
@@ -144,13 +155,7 @@ fn main() -> Result<()> {
             args.celsius,
         )),
         PlantKind::Reference => {
-            let faults: [f32; shared::FAULT_COUNT] = args
-                .faults
-                .as_slice()
-                .try_into()
-                .with_context(|| format!("--faults takes {} values", shared::FAULT_COUNT))?;
-            let faults =
-                shared::FaultVector::new(faults).map_err(|e| anyhow::anyhow!("--faults: {e:?}"))?;
+            let faults = parse_faults(&args.faults)?;
             let still = ReferenceModel::new(actuator.reference_settings()?).with_test(record.test);
             let wind = match args.wind.as_slice() {
                 [] => None,
@@ -287,6 +292,38 @@ fn distribution(instructions: &[u64]) -> String {
         100.0 * worst as f64 / 16_800.0,
         histogram.join(" ")
     )
+}
+
+/// `--faults` as a fault vector.
+fn parse_faults(values: &[f32]) -> Result<shared::FaultVector> {
+    let faults: [f32; shared::FAULT_COUNT] = values
+        .try_into()
+        .with_context(|| format!("--faults takes {} values", shared::FAULT_COUNT))?;
+    shared::FaultVector::new(faults).map_err(|e| anyhow::anyhow!("--faults: {e:?}"))
+}
+
+/// `--window-sensors`: the study's table, printed and written to `--out`.
+fn window_sensors(args: &Args) -> Result<()> {
+    use host_sim::plant::aero::FlightPhase;
+    let actuator = host_sim::files::actuator::Actuator::from_option(args.actuator.as_deref())?;
+    let faults = parse_faults(&args.faults)?;
+    let phases = match args.flight {
+        Some(phase) => vec![phase],
+        None => vec![
+            FlightPhase::Climb,
+            FlightPhase::Cruise,
+            FlightPhase::Approach,
+        ],
+    };
+    let table = board_emu::sensing::table(&actuator, &phases, faults, args.seed, |row| {
+        eprintln!("flying: {row}");
+    })?;
+    print!("{table}");
+    if let Some(out) = &args.out {
+        std::fs::write(out, &table).with_context(|| format!("writing {}", out.display()))?;
+        eprintln!("wrote {}", out.display());
+    }
+    Ok(())
 }
 
 /// `--table`: every case's runs through the board and under the actuator's own controller,
