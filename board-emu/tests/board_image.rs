@@ -548,6 +548,24 @@ fn a_test_a_gust_spoiled_is_run_again_and_read_in_still_air() {
     .unwrap();
     let e_tot = shared::metrics::total_error(&found, &truth);
     assert!(e_tot <= 2.0, "e_tot {e_tot} % ({result})");
+
+    // The re-run read what the emulator fed it from its first frame on: the host reads the
+    // same bits from the re-run's frames (a converter flag left over from the first test's
+    // identification would have every frame read a conversion early).
+    let frames = TestSequencer::new(record.test, record.params.control_period).samples();
+    let fed = &board.frames.fed;
+    // Then the frames the board waited for a flight's demand.
+    assert!(fed.len() >= 2 * frames, "{} frames fed", fed.len());
+    let trace = board_emu::feed::fed_trace(&fed[frames..], &record, frames).unwrap();
+    let measured = trace.measured(&record.params).expect("conditioned");
+    let host = host_sim::fdi::identify::identify_for(&measured, &record, 1, false).unwrap();
+    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(
+        bits(found.as_array()),
+        bits(host.result.faults.as_array()),
+        "board {result}; host {:?}",
+        host.result.faults
+    );
 }
 
 /// The value of `key=` in the log line starting with `prefix`.

@@ -148,7 +148,10 @@ struct BoardSource<'a> {
 }
 
 impl<'a> BoardSource<'a> {
-    /// A test from the next trigger on, the bridge's outputs enabled, every leg off.
+    /// A test from the next trigger on, the bridge's outputs enabled, every leg off; the
+    /// converters' flags left from before (a re-run's: the first test's identification ran
+    /// under the triggers) cleared while that trigger's conversions run ([`fresh_trigger`]).
+    /// At most one control period.
     fn begin(
         sequencer: TestSequencer,
         drive: BridgeDrive<TimerLegs>,
@@ -161,7 +164,7 @@ impl<'a> BoardSource<'a> {
             drive,
             converter,
             frames: 0,
-            start: pac::TIM2.cnt().read(),
+            start: fresh_trigger().wrapping_sub(1),
         }
     }
 
