@@ -71,7 +71,7 @@ struct Args {
     /// under the actuator's own controller. Run r: reference-model seed r, GA seed 1 + r.
     #[arg(long, value_name = "1|2")]
     table: Option<u8>,
-    /// Runs per case of `--table`.
+    /// Runs per case of `--table`, and seeds of `--window-sensors`.
     #[arg(long, default_value_t = 3)]
     runs: u64,
     /// The actuator (a description, TOML): its record is flashed (unless `--flash`), the
@@ -105,7 +105,7 @@ struct Args {
     /// reference model with `--faults` and `--seed` through climb, cruise and approach (or
     /// `--flight`), reading its encoder and transducer at the board's resolution and at the
     /// actuator's own, and each window is read with the same seed's preflight held: a
-    /// Markdown table (`--out`).
+    /// Markdown table (`--out`), over `--runs` seeds from `--seed`.
     #[arg(long)]
     window_sensors: bool,
 }
@@ -315,7 +315,8 @@ fn window_sensors(args: &Args) -> Result<()> {
             FlightPhase::Approach,
         ],
     };
-    let table = board_emu::sensing::table(&actuator, &phases, faults, args.seed, |row| {
+    let seeds = args.seed..args.seed + args.runs.max(1);
+    let table = board_emu::sensing::table(&actuator, &phases, faults, seeds, |row| {
         eprintln!("flying: {row}");
     })?;
     print!("{table}");
