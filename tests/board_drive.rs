@@ -7,7 +7,7 @@
 //! conducting legs and their signs per sector, the floating leg off, the pair segment's legs.
 //! A sign error anywhere makes the loop run away or the pair's current flow backwards.
 
-use firmware::bridge::{BridgeDrive, BridgeTiming, Leg, Legs};
+use firmware::bridge::{BridgeDrive, BridgeTiming, LatchedLegs};
 use firmware::position_loop::Sensing;
 use firmware::sequencer::{Sequenced, TestSequencer};
 use host_sim::plant::pair_motor::PairMotor;
@@ -16,18 +16,6 @@ use shared::drive::DriveSettings;
 use shared::params::ActuatorParams;
 use shared::test_design::{Drive as Command, PreflightTest, PAIR_SIGNS};
 use shared::FaultVector;
-
-#[derive(Default)]
-struct Latched([Option<u16>; 3]);
-
-impl Legs for &mut Latched {
-    fn set(&mut self, legs: [Leg; 3]) {
-        self.0 = legs.map(|l| match l {
-            Leg::Off => None,
-            Leg::Duty(d) => Some(d),
-        });
-    }
-}
 
 /// The reference actuator's drive on a 168 MHz timer, without dead-time compensation (the
 /// motor here has no dead time).
@@ -45,7 +33,7 @@ fn reference_drive() -> (ActuatorParams, DriveSettings, BridgeTiming) {
 fn the_board_drive_plays_the_test_in_closed_loop() {
     let (p, drive, timing) = reference_drive();
     let test = PreflightTest::INJECTION;
-    let mut latched = Latched::default();
+    let mut latched = LatchedLegs::default();
     let mut board = BridgeDrive::new(&mut latched, timing, drive, &p, Sensing::DIRECT);
     let mut plant = PairMotor::new(p, p.dc_bus_voltage);
     let counts = f32::from(timing.counts);
@@ -154,7 +142,7 @@ struct Chirp {
 fn chirp_on_motor(sensing: Sensing, board_like: bool) -> Chirp {
     let (p, drive, timing) = reference_drive();
     let test = PreflightTest::INJECTION;
-    let mut latched = Latched::default();
+    let mut latched = LatchedLegs::default();
     let mut board = BridgeDrive::new(&mut latched, timing, drive, &p, sensing);
     let mut plant = PairMotor::new(p, p.dc_bus_voltage);
     let counts = f32::from(timing.counts);
@@ -225,7 +213,7 @@ fn the_board_flies_the_demand_with_a_windows_chirp_superimposed() {
     use host_sim::plant::reference::{AnalogSensors, ExternalDrive};
 
     struct Flight {
-        board: BridgeDrive<&'static mut Latched>,
+        board: BridgeDrive<&'static mut LatchedLegs>,
         command: FlightCommand,
         counts: f32,
         scaling: SensorScaling,

@@ -12,7 +12,7 @@
 
 use anyhow::{Context, Result};
 use firmware::acquisition::SensorScaling;
-use firmware::bridge::{BridgeDrive, BridgeTiming, Leg, Legs};
+use firmware::bridge::{BridgeDrive, BridgeTiming, LatchedLegs};
 use firmware::flight::FlightCommand;
 use firmware::position_loop::{Feedback, Sensing};
 use host_sim::files::actuator::Actuator;
@@ -116,22 +116,9 @@ pub struct WindowRow {
     pub tracking: f32,
 }
 
-/// Duties latched by the drive, as fractions of the carrier when the reference model asks.
-#[derive(Default)]
-struct Latched([Option<u16>; 3]);
-
-impl Legs for &mut Latched {
-    fn set(&mut self, legs: [Leg; 3]) {
-        self.0 = legs.map(|l| match l {
-            Leg::Off => None,
-            Leg::Duty(d) => Some(d),
-        });
-    }
-}
-
 /// The board's flight drive on the reference model's pins: one period per call.
 struct FlightDrive<'a> {
-    drive: BridgeDrive<&'a mut Latched>,
+    drive: BridgeDrive<&'a mut LatchedLegs>,
     command: FlightCommand,
     record: ActuatorRecord,
     case: DriveCase,
@@ -238,7 +225,7 @@ pub fn fly_case(
     let drive_settings = actuator.record.drive;
     let timing = BridgeTiming::new(&drive_settings, 168_000_000, p.control_period)
         .map_err(|e| anyhow::anyhow!("the board's timer: {e:?}"))?;
-    let mut latched = Latched::default();
+    let mut latched = LatchedLegs::default();
     let mut flight = FlightDrive {
         drive: BridgeDrive::new(&mut latched, timing, drive_settings, &p, case.sensing),
         command: FlightCommand::follow(p.control_period),

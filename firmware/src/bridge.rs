@@ -147,6 +147,20 @@ pub trait Legs {
     fn set(&mut self, legs: [Leg; 3]);
 }
 
+/// Legs that keep what they were last set to, for a plant on the host that reads them each
+/// control period: each leg's duty in timer counts, `None` for a leg off. O(1).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LatchedLegs(pub [Option<u16>; 3]);
+
+impl Legs for &mut LatchedLegs {
+    fn set(&mut self, legs: [Leg; 3]) {
+        self.0 = legs.map(|l| match l {
+            Leg::Off => None,
+            Leg::Duty(d) => Some(d),
+        });
+    }
+}
+
 /// The sequencer's [`Drive`] on a real bridge: position commands through the position loop,
 /// pair voltages and pauses as leg states. Feed it each frame's measurements
 /// ([`BridgeDrive::measured`]) before the sequencer ticks it.
