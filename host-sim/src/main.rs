@@ -408,6 +408,12 @@ enum Command {
         /// minutes with 10 seeds). Runs on `--actuator`'s file too.
         #[arg(long, conflicts_with_all = ["bias", "day", "grease"])]
         demagnetization: bool,
+        /// Instead of the designs: one weak magnet against an eccentricity — the flown FDI's
+        /// reading beside the best weak magnet the monitor model's rotor picture finds on the
+        /// same fitness (healthy, one magnet at 10–100 %, two eccentricities; ≈ 1 min with
+        /// 10 seeds). Runs on `--actuator`'s file too.
+        #[arg(long, conflicts_with_all = ["bias", "day", "grease", "demagnetization"])]
+        weak_magnet: bool,
         /// Weights of the standstill segment to compare with --bias (comma-separated).
         #[arg(long, value_delimiter = ',', default_value = "100")]
         weights: Vec<f64>,
@@ -860,6 +866,12 @@ fn main() -> ExitCode {
             out,
             ..
         } => demagnetization_study_command(&actuator, seeds, out.as_deref()),
+        Command::Identifiability {
+            seeds,
+            weak_magnet: true,
+            out,
+            ..
+        } => weak_magnet_study_command(&actuator, seeds, out.as_deref()),
         Command::Identifiability {
             designs,
             seeds,

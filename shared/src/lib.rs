@@ -43,7 +43,7 @@ pub mod test;
 pub use base::{capacity, math, random, steps};
 pub use flight::{fusion, pinned, window};
 pub use model::{calibration, conditions, domain, monitor};
-pub use physics::{drive, fault, grease, params};
+pub use physics::{drive, fault, grease, magnets, params};
 pub use preflight::{actuator, fdi, metrics};
 pub use prognostics::{health, prognosis};
 pub use solver::{fitness, ga, polish, uncertainty};

@@ -229,6 +229,37 @@ pub(crate) fn demagnetization_study_command(
     Ok(())
 }
 
+pub(crate) fn weak_magnet_study_command(
+    actuator: &Actuator,
+    seeds: u64,
+    out: Option<&Path>,
+) -> Result<()> {
+    use host_sim::studies::grease::Bench;
+    use host_sim::studies::weak_magnet::{weak_magnet_markdown, weak_magnet_study, CASES};
+    let test = actuator.record.test;
+    let bench = Bench {
+        settings: actuator.reference_settings()?,
+        test,
+    };
+    let record = actuator.record_for(&test)?;
+    let bar = host_sim::progress_bar(
+        CASES.len() as u64,
+        "{elapsed_precise} [{bar:40}] {pos}/{len} cases {msg}",
+        std::io::stderr().is_terminal(),
+    );
+    let rows = weak_magnet_study(&bench, &record, seeds, |what| {
+        bar.set_message(what.to_string());
+        bar.inc(1);
+    })?;
+    bar.finish_and_clear();
+    let text = weak_magnet_markdown(&actuator.name, &rows, seeds);
+    print!("{text}");
+    if let Some(path) = out {
+        std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(())
+}
+
 pub(crate) fn separability_command(a: &FaultVector, b: &FaultVector, seeds: u64) -> Result<()> {
     let s = host_sim::studies::separability::separability(a, b, seeds)?;
     println!("A: {:?}", a.as_array());

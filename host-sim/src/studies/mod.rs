@@ -11,6 +11,8 @@
 //! * [`prognostics`] — simulated degradations, trend and RUL reports and their evaluation.
 //! * [`wind`] — the preflight on a parked surface in wind (issue 36).
 //! * [`flight`] — today's FDI on windows of flight (issue 36).
+//! * [`weak_magnet`] — one weak magnet against an eccentricity on the monitor model that
+//!   carries the rotor's magnets (issue 69).
 //! * [`physics`] — a family of nuisance physics for the reference model, drawn per seed
 //!   (issue 68).
 
@@ -25,4 +27,5 @@ pub mod physics;
 pub mod prognostics;
 pub mod separability;
 pub mod stopping;
+pub mod weak_magnet;
 pub mod wind;

@@ -37,6 +37,7 @@ use crate::model::calibration::Calibration;
 use crate::model::conditions::TestConditions;
 use crate::physics::fault::FaultEffects;
 use crate::physics::fault::FaultVector;
+use crate::physics::magnets::{EvenMagnets, RotorMagnets};
 use crate::physics::params::ActuatorParams;
 use crate::test::command::{ChirpCommand, ChirpSampler, CommandSource};
 use crate::test::conditioning::ShaftAngles;
@@ -475,6 +476,21 @@ impl MonitorModel {
         start: ShaftAngles,
         samples: usize,
         command: &impl CommandSource,
+        sink: impl SampleSink,
+    ) -> usize {
+        self.run_with_magnets(k, EvenMagnets, start, samples, command, sink)
+    }
+
+    /// [`run_with`](Self::run_with) on a rotor whose magnets are `magnets` (one weak magnet:
+    /// [`WeakMagnet`](crate::magnets::WeakMagnet)) beside the fault vector's uniform loss.
+    /// With [`EvenMagnets`], the same code and bits as `run_with`. O(`samples`) work.
+    pub fn run_with_magnets(
+        &self,
+        k: &FaultVector,
+        magnets: impl RotorMagnets,
+        start: ShaftAngles,
+        samples: usize,
+        command: &impl CommandSource,
         mut sink: impl SampleSink,
     ) -> usize {
         let f = self.faulted(k);
@@ -489,7 +505,7 @@ impl MonitorModel {
         };
         for i in 0..samples.saturating_sub(lead) {
             let time = i as f32 * self.dt;
-            let sample = self.step(&f, &mut state, time, command.position_at(i));
+            let sample = self.step(&f, &mut state, time, command.position_at(i), magnets);
             if sink.take(&sample).is_break() {
                 return lead + i + 1;
             }
@@ -724,6 +740,7 @@ impl MonitorModel {
         s: &mut MonitorState,
         time: f32,
         command: f32,
+        magnets: impl RotorMagnets,
     ) -> MonitorSample {
         let p = &self.params;
         let dt = self.dt;
@@ -760,7 +777,8 @@ impl MonitorModel {
             .bin_torque_constant
             .get(bin)
             .copied()
-            .unwrap_or(self.torque_constant);
+            .unwrap_or(self.torque_constant)
+            * magnets.pair_factor(s.previous_motor_angle, (bin / BINS_PER_SECTOR) % 3);
         let back_emf = kt * s.motor_speed;
         let sampled = (s.current, s.motor_angle, s.user_angle + s.user_offset);
         let voltage = r * s.current + back_emf + self.l_over_dt * (current_ref - s.current);
@@ -949,7 +967,7 @@ impl MonitorRun {
         }
         let j = i.saturating_sub(lead);
         let time = j as f32 * m.dt;
-        m.step(&self.f, &mut self.state, time, command)
+        m.step(&self.f, &mut self.state, time, command, EvenMagnets)
     }
 }
 
@@ -968,7 +986,7 @@ impl RunSteps<'_> {
     pub fn next_motion_sample(&mut self, m: &MonitorModel, command: f32) -> MonitorSample {
         let time = self.index as f32 * m.dt;
         self.index = self.index.saturating_add(1);
-        m.step(self.f, &mut self.state, time, command)
+        m.step(self.f, &mut self.state, time, command, EvenMagnets)
     }
 
     /// As [`MonitorRun::push_surface`]. O(1).
