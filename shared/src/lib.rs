@@ -46,7 +46,7 @@ pub use model::{calibration, conditions, domain, monitor};
 pub use physics::{drive, fault, grease, magnets, params};
 pub use preflight::{actuator, fdi, metrics};
 pub use prognostics::{health, prognosis};
-pub use solver::{fitness, ga, polish, uncertainty};
+pub use solver::{fitness, ga, polish, uncertainty, weak_magnet};
 pub use test::{command, conditioning, test_design, trace};
 
 pub use calibration::Calibration;

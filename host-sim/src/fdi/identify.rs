@@ -276,7 +276,8 @@ pub fn identify_checkpointed(
         }
     }
     let mut run = Box::new(shared::fitness::CurvatureRun::IDLE);
-    let result = id.polished(polish, &mut run);
+    let polished = id.polished(polish, &mut run);
+    let result = id.with_weak_magnet(polished, polish, &mut run);
     let seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
     let curvature = id.problem().curvature_in(&mut run, &result.faults);

@@ -37,7 +37,7 @@ use crate::model::calibration::Calibration;
 use crate::model::conditions::TestConditions;
 use crate::physics::fault::FaultEffects;
 use crate::physics::fault::FaultVector;
-use crate::physics::magnets::{EvenMagnets, RotorMagnets};
+use crate::physics::magnets::WeakMagnet;
 use crate::physics::params::ActuatorParams;
 use crate::test::command::{ChirpCommand, ChirpSampler, CommandSource};
 use crate::test::conditioning::ShaftAngles;
@@ -183,6 +183,9 @@ pub struct MonitorModel {
     /// The lowest healthy friction the solver may read, against the day's estimate
     /// ([`Self::with_friction_floor`]; 1: none below it).
     friction_floor: f32,
+    /// One weak magnet on the rotor beside the fault vector's uniform loss
+    /// ([`Self::with_magnets`]; [`WeakMagnet::NONE`]: even magnets).
+    magnets: WeakMagnet,
 }
 
 impl MonitorModel {
@@ -211,6 +214,7 @@ impl MonitorModel {
             standstill: None,
             delay_share: calibration.delay_share(params.control_period),
             friction_floor: 1.0,
+            magnets: WeakMagnet::NONE,
         }
     }
 
@@ -234,6 +238,21 @@ impl MonitorModel {
             self.motor_drag_keep = clamp(1.0 - self.dt_over_motor_inertia * drag, 0.0, 2.0);
         }
         self
+    }
+
+    /// The same model with one weak magnet on its rotor ([`WeakMagnet`]; the fault vector's
+    /// uniform loss still scales every pole): each step's gain times the conducting pair's
+    /// share at the previous sample's mechanical angle. With [`WeakMagnet::NONE`] the model
+    /// plays the same bits as without. O(1); a weak magnet costs each step two phase shares.
+    #[must_use]
+    pub fn with_magnets(mut self, magnets: WeakMagnet) -> Self {
+        self.magnets = magnets;
+        self
+    }
+
+    /// The weak magnet this model plays ([`WeakMagnet::NONE`]: even magnets).
+    pub fn magnets(&self) -> WeakMagnet {
+        self.magnets
     }
 
     /// The same model with the day's healthy friction a nuisance the solver estimates with
@@ -476,21 +495,6 @@ impl MonitorModel {
         start: ShaftAngles,
         samples: usize,
         command: &impl CommandSource,
-        sink: impl SampleSink,
-    ) -> usize {
-        self.run_with_magnets(k, EvenMagnets, start, samples, command, sink)
-    }
-
-    /// [`run_with`](Self::run_with) on a rotor whose magnets are `magnets` (one weak magnet:
-    /// [`WeakMagnet`](crate::magnets::WeakMagnet)) beside the fault vector's uniform loss.
-    /// With [`EvenMagnets`], the same code and bits as `run_with`. O(`samples`) work.
-    pub fn run_with_magnets(
-        &self,
-        k: &FaultVector,
-        magnets: impl RotorMagnets,
-        start: ShaftAngles,
-        samples: usize,
-        command: &impl CommandSource,
         mut sink: impl SampleSink,
     ) -> usize {
         let f = self.faulted(k);
@@ -505,7 +509,7 @@ impl MonitorModel {
         };
         for i in 0..samples.saturating_sub(lead) {
             let time = i as f32 * self.dt;
-            let sample = self.step(&f, &mut state, time, command.position_at(i), magnets);
+            let sample = self.step(&f, &mut state, time, command.position_at(i));
             if sink.take(&sample).is_break() {
                 return lead + i + 1;
             }
@@ -740,7 +744,6 @@ impl MonitorModel {
         s: &mut MonitorState,
         time: f32,
         command: f32,
-        magnets: impl RotorMagnets,
     ) -> MonitorSample {
         let p = &self.params;
         let dt = self.dt;
@@ -777,8 +780,18 @@ impl MonitorModel {
             .bin_torque_constant
             .get(bin)
             .copied()
-            .unwrap_or(self.torque_constant)
-            * magnets.pair_factor(s.previous_motor_angle, (bin / BINS_PER_SECTOR) % 3);
+            .unwrap_or(self.torque_constant);
+        // One weak magnet: the pair's share over the mechanical angle (even magnets: none,
+        // the same bits).
+        let kt = if self.magnets.is_none() {
+            kt
+        } else {
+            kt * self.magnets.pair_factor(
+                p,
+                s.previous_motor_angle,
+                (bin / BINS_PER_SECTOR) % 3,
+            )
+        };
         let back_emf = kt * s.motor_speed;
         let sampled = (s.current, s.motor_angle, s.user_angle + s.user_offset);
         let voltage = r * s.current + back_emf + self.l_over_dt * (current_ref - s.current);
@@ -967,7 +980,7 @@ impl MonitorRun {
         }
         let j = i.saturating_sub(lead);
         let time = j as f32 * m.dt;
-        m.step(&self.f, &mut self.state, time, command, EvenMagnets)
+        m.step(&self.f, &mut self.state, time, command)
     }
 }
 
@@ -986,7 +999,7 @@ impl RunSteps<'_> {
     pub fn next_motion_sample(&mut self, m: &MonitorModel, command: f32) -> MonitorSample {
         let time = self.index as f32 * m.dt;
         self.index = self.index.saturating_add(1);
-        m.step(self.f, &mut self.state, time, command, EvenMagnets)
+        m.step(self.f, &mut self.state, time, command)
     }
 
     /// As [`MonitorRun::push_surface`]. O(1).

@@ -9,7 +9,9 @@ use crate::model::calibration::Calibration;
 use crate::model::monitor::MonitorModel;
 use crate::physics::fault::FaultVector;
 use crate::physics::params::ActuatorParams;
+use crate::physics::magnets::WeakMagnet;
 use crate::solver::fitness::{CurvatureRun, FitnessError, FitnessProblem};
+use crate::solver::weak_magnet::{MagnetAsk, MagnetReading, WeakMagnetSearch};
 use crate::solver::ga::{GaError, GaSettings, RecordError, Status, SteadyStateGa, StopReason};
 use crate::solver::polish::{Polish, PolishAsk, PolishSettings};
 use crate::solver::uncertainty::{Curvature, SystematicError, Uncertainty, UncertaintyError};
@@ -41,6 +43,9 @@ pub struct IdentificationResult {
     pub stop_reason: StopReason,
     /// Gauss–Newton sums the polish computed (ten monitor-model runs each: the point and one per component; 0 before it).
     pub curvatures: u32,
+    /// One weak magnet read by the search after the polish ([`WeakMagnetSearch`];
+    /// [`WeakMagnet::NONE`] before it, or when an eccentricity explains the current better).
+    pub magnets: WeakMagnet,
 }
 
 /// A reading's uncertainty and the correlations between its components
@@ -246,7 +251,59 @@ impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
     pub fn run(&mut self) -> IdentificationResult {
         self.ga.run(&mut self.problem);
         let mut curvature = CurvatureRun::IDLE;
-        self.polished(PolishSettings::FDI, &mut curvature)
+        let polished = self.polished(PolishSettings::FDI, &mut curvature);
+        self.with_weak_magnet(polished, PolishSettings::FDI, &mut curvature)
+    }
+
+    /// The weak-magnet search from the polished `result` with whole model runs and polishes
+    /// (`settings`, curvatures in `run`): the host's executor (the firmware polls the same
+    /// [`WeakMagnetSearch`] in slices). Leaves the problem's model playing the magnets read,
+    /// so that the curvature and the uncertainty after it are the reading's. Work: at most
+    /// [`WeakMagnetSearch::max_evaluations`] model runs and
+    /// [`MAX_POLISHES`](crate::solver::weak_magnet::MAX_POLISHES) polishes.
+    pub fn with_weak_magnet(
+        &mut self,
+        result: IdentificationResult,
+        settings: PolishSettings,
+        run: &mut CurvatureRun,
+    ) -> IdentificationResult {
+        let params = *self.problem.model().params();
+        let mut search = WeakMagnetSearch::new(&params, result.faults, result.fitness);
+        let mut out = result;
+        loop {
+            match search.ask() {
+                MagnetAsk::Fitness { k, magnets, bound } => {
+                    self.problem.set_magnets(magnets);
+                    out.evaluations = out.evaluations.saturating_add(1);
+                    search.tell(self.problem.error_below(&k, bound));
+                }
+                MagnetAsk::Polish(start) => {
+                    self.problem.set_magnets(start.magnets);
+                    let from = IdentificationResult {
+                        faults: start.faults,
+                        fitness: start.fitness,
+                        magnets: start.magnets,
+                        ..out
+                    };
+                    let polished = self.polished_from(from, settings, run);
+                    (out.evaluations, out.curvatures) = (polished.evaluations, polished.curvatures);
+                    search.tell_polished(MagnetReading {
+                        faults: polished.faults,
+                        magnets: start.magnets,
+                        fitness: polished.fitness,
+                    });
+                }
+                MagnetAsk::Done(reading) => {
+                    self.problem.set_magnets(reading.magnets);
+                    return IdentificationResult {
+                        faults: reading.faults,
+                        fitness: reading.fitness,
+                        magnets: reading.magnets,
+                        ..out
+                    };
+                }
+            }
+        }
     }
 
     pub fn ga(&self) -> &SteadyStateGa<P> {
@@ -269,6 +326,7 @@ impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
                 Status::Running => StopReason::EvaluationBudget,
             },
             curvatures: 0,
+            magnets: WeakMagnet::NONE,
         }
     }
 
@@ -281,9 +339,19 @@ impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
         settings: PolishSettings,
         run: &mut CurvatureRun,
     ) -> IdentificationResult {
-        let ga = self.result_so_far();
-        let mut polish = Polish::new(settings, ga.faults, ga.fitness);
-        let mut out = ga;
+        self.polished_from(self.result_so_far(), settings, run)
+    }
+
+    /// [`polished`](Self::polished) from `start` instead of the GA's best (a weak magnet's
+    /// reading, polished with its magnet held). The same work bound.
+    pub fn polished_from(
+        &self,
+        start: IdentificationResult,
+        settings: PolishSettings,
+        run: &mut CurvatureRun,
+    ) -> IdentificationResult {
+        let mut polish = Polish::new(settings, start.faults, start.fitness);
+        let mut out = start;
         loop {
             match polish.ask() {
                 PolishAsk::Curvature(k) => {

@@ -2,11 +2,13 @@
 //!
 //! `e_i = |k_i,identified − k_i,true|` in percent of the `[0, 1]` range, `e_7` on the circle;
 //! `e_tot = √((Σ_{i≠7} e_i² + k6_true · e_7²) / 8)` [%], over the paper's eight components
-//! for every comparison with its tables; [`total_error_all`] is the same mean over all nine.
+//! for every comparison with its tables; [`total_error_all`] is the same mean over all nine,
+//! [`total_error_with_magnets`] over the nine and the weak magnet's depth.
 //! O(9).
 
 use crate::base::math::sqrt;
 use crate::physics::fault::{FaultVector, CIRCULAR, FAULT_COUNT, PAPER_FAULT_COUNT};
+use crate::physics::magnets::WeakMagnet;
 
 /// Per-component errors `e_i` [%].
 pub fn component_errors(identified: &FaultVector, truth: &FaultVector) -> [f32; FAULT_COUNT] {
@@ -30,6 +32,19 @@ pub fn total_error(identified: &FaultVector, truth: &FaultVector) -> f32 {
 /// Eq. (4)'s root mean square over all [`FAULT_COUNT`] components, demagnetization included.
 pub fn total_error_all(identified: &FaultVector, truth: &FaultVector) -> f32 {
     mean_error(identified, truth, FAULT_COUNT)
+}
+
+/// Eq. (4)'s root mean square over all [`FAULT_COUNT`] components and the weak magnet's depth
+/// (`read` against `played`; its centre is scored apart, as a pole right or wrong).
+pub fn total_error_with_magnets(
+    identified: &FaultVector,
+    read: &WeakMagnet,
+    truth: &FaultVector,
+    played: &WeakMagnet,
+) -> f32 {
+    let all = mean_error(identified, truth, FAULT_COUNT);
+    let depth = 100.0 * (read.depth - played.depth);
+    sqrt((all * all * FAULT_COUNT as f32 + depth * depth) / (FAULT_COUNT + 1) as f32)
 }
 
 fn mean_error(identified: &FaultVector, truth: &FaultVector, count: usize) -> f32 {
@@ -56,6 +71,19 @@ mod tests {
 
     fn k(v: [f32; 8]) -> FaultVector {
         FaultVector::from_paper(v).unwrap()
+    }
+
+    #[test]
+    fn the_weak_magnets_depth_is_a_tenth_term() {
+        let t = FaultVector::NOMINAL;
+        let none = WeakMagnet::NONE;
+        let half = WeakMagnet::new(0.5, 1.0);
+        assert_eq!(total_error_with_magnets(&t, &none, &t, &none), 0.0);
+        let e = total_error_with_magnets(&t, &none, &t, &half);
+        assert!((e - 50.0 / 10f32.sqrt()).abs() < 1e-3, "{e}");
+        let i = k([0.1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
+        let e = total_error_with_magnets(&i, &half, &t, &half);
+        assert!((e - 10.0 / 10f32.sqrt()).abs() < 1e-3, "{e}");
     }
 
     #[test]

@@ -21,7 +21,7 @@ use crate::model::calibration::Calibration;
 use crate::model::conditions::TestConditions;
 use crate::model::monitor::{MonitorModel, MonitorRun, MonitorSample, SampleSink};
 use crate::physics::fault::{FaultVector, FAULT_COUNT};
-use crate::physics::magnets::{EvenMagnets, RotorMagnets};
+use crate::physics::magnets::WeakMagnet;
 use crate::physics::params::ActuatorParams;
 use crate::solver::ga::Problem;
 use crate::solver::uncertainty::{Curvature, SystematicError, Uncertainty, UncertaintyError, STEP};
@@ -141,6 +141,12 @@ impl<'a, const N: usize> FitnessProblem<'a, N> {
         self
     }
 
+    /// Sets the weak magnet the problem's model plays ([`MonitorModel::with_magnets`]): the
+    /// weak-magnet search evaluates its candidates so. O(1).
+    pub fn set_magnets(&mut self, magnets: WeakMagnet) {
+        self.model = self.model.with_magnets(magnets);
+    }
+
     /// The same problem with another standstill weight (for studies of the weight).
     pub fn with_standstill_weight(mut self, weight: f32) -> Self {
         self.standstill_weight = weight;
@@ -179,24 +185,13 @@ impl<'a, const N: usize> FitnessProblem<'a, N> {
         self.raw_error_until(k, bound) - self.nominal_residual
     }
 
-    /// [`error`](Self::error) of a model whose rotor has `magnets` (one weak magnet beside
-    /// the fault vector's uniform loss, [`crate::magnets::WeakMagnet`]) [A²·s]. O(samples).
-    pub fn error_with_magnets(&self, k: &FaultVector, magnets: impl RotorMagnets) -> f32 {
-        #[cfg(feature = "command-table")]
-        if let Some(table) = self.command_table {
-            return self.raw_error_with(k, f32::INFINITY, table, magnets) - self.nominal_residual;
-        }
-        self.raw_error_with(k, f32::INFINITY, &self.model.sampler(), magnets)
-            - self.nominal_residual
-    }
-
     /// The raw error, stopping once `partial·dt − residual ≥ bound`.
     fn raw_error_until(&self, k: &FaultVector, bound: f32) -> f32 {
         #[cfg(feature = "command-table")]
         if let Some(table) = self.command_table {
-            return self.raw_error_with(k, bound, table, EvenMagnets);
+            return self.raw_error_with(k, bound, table);
         }
-        self.raw_error_with(k, bound, &self.model.sampler(), EvenMagnets)
+        self.raw_error_with(k, bound, &self.model.sampler())
     }
 
     /// The commanded user angle of chirp sample `index` at `time` [rad], from the table if
@@ -213,13 +208,7 @@ impl<'a, const N: usize> FitnessProblem<'a, N> {
     /// instance per command source, each with its own sink closure called from one place, so
     /// that the compiler inlines the sink into the model's loop even when optimising for size.
     #[inline(always)]
-    fn raw_error_with(
-        &self,
-        k: &FaultVector,
-        bound: f32,
-        command: &impl CommandSource,
-        magnets: impl RotorMagnets,
-    ) -> f32 {
+    fn raw_error_with(&self, k: &FaultVector, bound: f32, command: &impl CommandSource) -> f32 {
         let reference = self.measured.samples();
         let dt = self.model.params().control_period;
         let mut sum = EquationThreeSum {
@@ -241,7 +230,7 @@ impl<'a, const N: usize> FitnessProblem<'a, N> {
         };
         let start = self.measured.initial_angles();
         self.model
-            .run_with_magnets(k, magnets, start, reference.len(), command, &mut sum);
+            .run_with(k, start, reference.len(), command, &mut sum);
         let err = sum.sum * dt;
         if err.is_finite() {
             err
