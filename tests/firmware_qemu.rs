@@ -237,9 +237,13 @@ fn firmware_under_qemu_gives_the_hosts_bits() {
     // configured number of evaluations.
     let polls = number(&run.output, "heartbeat ", "identify_polls");
     let per_tick = u64::from(firmware::PreflightSettings::ONBOARD.evaluations_per_poll);
-    // The GA's evaluations ran in Identify's ticks; the polish's in its own stage.
-    let polish = shared::polish::PolishSettings::FDI.max_evaluations();
-    assert!(polls * per_tick + u64::from(polish) >= u64::from(host.evaluations));
+    // The GA's evaluations ran in Identify's ticks; the polish's and the weak-magnet
+    // search's (with its own polishes) in their own stages.
+    let (after_ga, _) = shared::weak_magnet::WeakMagnetSearch::work_after_ga(
+        &ActuatorParams::default(),
+        &shared::polish::PolishSettings::FDI,
+    );
+    assert!(polls * per_tick + u64::from(after_ga) >= u64::from(host.evaluations));
     assert_eq!(
         number(&run.output, "heartbeat ", "polls_without_beat"),
         0,
@@ -258,6 +262,42 @@ fn firmware_under_qemu_gives_the_hosts_bits() {
     // The stack was painted and scanned: something was used, not everything.
     let stack = number(&run.output, "footprint ", "stack_peak");
     assert!(stack > 0 && stack < number(&run.output, "footprint ", "stack_size"));
+}
+
+/// One magnet at half its flux (pole 3 of the reference actuator's eight) on an otherwise
+/// healthy actuator: the firmware's weak-magnet search must read it at its pole, with no
+/// eccentricity standing in for it, and with the host's bits for the vector and the magnet.
+#[test]
+fn a_weak_magnet_under_qemu_is_read_at_its_pole_with_the_hosts_bits() {
+    use host_sim::plant::reference::Demagnetization;
+    let rm = ReferenceModel::new(ReferenceSettings::REFERENCE)
+        .with_demagnetization(Demagnetization::Partial { loss: 0.5, pole: 3 });
+    let mut scenario = Scenario::new(FaultVector::NOMINAL);
+    scenario.seed = 4;
+    let bytes = rm.simulate(&scenario).trace.to_bin().expect("encodable");
+    let path = temp_trace("weak-magnet.bin", &bytes);
+    let run = run_firmware(&[path.to_str().expect("UTF-8 temp path")]);
+    assert_eq!(run.status, 0, "firmware failed:\n{}", run.output);
+
+    let (_, host) = host_identification(&bytes);
+    assert_eq!(result_bits(&run.output), host_bits(&host), "{}", run.output);
+    let bits: Vec<u32> = field(&run.output, "magnets ", "bits")
+        .split(',')
+        .map(|x| u32::from_str_radix(x, 16).expect("hex bits"))
+        .collect();
+    assert_eq!(
+        bits,
+        [host.magnets.depth.to_bits(), host.magnets.centre.to_bits()],
+        "{}",
+        run.output
+    );
+    assert_eq!(number(&run.output, "magnets ", "pole"), 3, "{}", run.output);
+    assert!(
+        (host.magnets.depth - 0.5).abs() <= 0.1,
+        "{:?}",
+        host.magnets
+    );
+    assert!(host.faults.eccentricity() < 0.05, "{:?}", host.faults);
 }
 
 #[test]
@@ -564,9 +604,10 @@ fn firmware_with_an_actuator_record_gives_the_hosts_bits_for_both_actuators() {
         let host = host_sim::fdi::identify::identify_for(&measured, &record, 1, false)
             .expect("host identification")
             .result;
-        let polish = shared::polish::PolishSettings::FDI.max_evaluations();
+        let (after_ga, _) =
+            shared::weak_magnet::WeakMagnetSearch::work_after_ga(&record.params, &record.polish);
         assert!(
-            (300..=300 + polish).contains(&host.evaluations),
+            (300..=300 + after_ga).contains(&host.evaluations),
             "{}",
             host.evaluations
         );

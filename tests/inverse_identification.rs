@@ -68,7 +68,11 @@ fn single_fault_short_circuit_is_identified() {
     assert!(
         evaluations
             <= GaSettings::FDI.max_evaluations
-                + shared::polish::PolishSettings::FDI.max_evaluations()
+                + shared::weak_magnet::WeakMagnetSearch::work_after_ga(
+                    &shared::ActuatorParams::default(),
+                    &shared::polish::PolishSettings::FDI
+                )
+                .0
     );
 }
 

@@ -556,6 +556,12 @@ async fn preflight(spawner: Spawner) -> Result<(), Stop> {
         report.domain
     );
     defmt::println!("verdicts={}", report.verdicts);
+    defmt::println!(
+        "magnets depth={=f32} centre={=f32} pole={=u32}",
+        r.magnets.depth,
+        r.magnets.centre,
+        r.magnets.pole(&settings.actuator.params)
+    );
 
     // The health log: its image from the pair, this preflight appended, the image back.
     let (a, b) = StorageLayout::pair(&layout.health);

@@ -1,10 +1,13 @@
-//! The preflight self-test: Acquire → Condition → Identify → Report, one bounded slice of
-//! work per [`Preflight::poll`] so that the executor can run other tasks in between.
+//! The preflight self-test: Acquire → Condition → Identify → Polish → Magnets → Uncertainty
+//! → Report, one bounded slice of work per [`Preflight::poll`] so that the executor can run
+//! other tasks in between.
 //!
 //! Work bounds per poll: Acquire ≤ [`PreflightSettings::frames_per_poll`] frames (O(1) each);
 //! Condition one O(`TEST_SAMPLES`) pass; Identify ≤
 //! [`PreflightSettings::evaluations_per_poll`] monitor-model evaluations (each one whole test,
-//! ≤ 0.552 s of model time at the control period); Uncertainty ≤
+//! ≤ 0.552 s of model time at the control period); Polish one fitness evaluation or one
+//! slice of its sums; Magnets one fitness evaluation (the weak-magnet search,
+//! [`shared::weak_magnet`]; a polish it asks for runs in Polish); Uncertainty ≤
 //! [`PreflightSettings::uncertainty_samples_per_poll`] samples of 10 lockstep runs, the last
 //! poll also the 9 × 9 inversion and the verdicts (O(9³)); Report O(1), including the domain verdict
 //! ([`shared::domain`], its statistics gathered frame by frame during Acquire). Time is
@@ -25,6 +28,7 @@ use shared::ga::RecordError;
 use shared::polish::{Polish, PolishAsk, PolishSettings};
 use shared::test_design::PreflightTest;
 use shared::uncertainty::{Assessment, Uncertainty};
+use shared::weak_magnet::{MagnetAsk, MagnetReading, WeakMagnetSearch};
 use shared::window::HeldComponents;
 use shared::{Calibration, FaultVector, Status, Verdict, FAULT_COUNT};
 
@@ -85,6 +89,8 @@ pub enum Stage {
     Identify,
     /// Gauss–Newton steps from the GA's best and from the probes ([`shared::polish`]).
     Polish,
+    /// One weak magnet against the eccentricity read ([`shared::weak_magnet`]).
+    Magnets,
     /// A standard deviation and a 90 % interval per component ([`shared::uncertainty`]).
     Uncertainty,
     Report,
@@ -215,6 +221,15 @@ enum State<'m> {
     /// moving the identification between the two costs no copy code.
     Polish {
         result: IdentificationResult,
+        /// The weak-magnet search this polish was asked by (`None`: the polish after the
+        /// GA).
+        search: Option<WeakMagnetSearch>,
+    },
+    /// The weak-magnet search after the polish: one fitness evaluation (a model run) per
+    /// poll; a polish it asks for runs in `Polish` and comes back here.
+    Magnets {
+        result: IdentificationResult,
+        search: WeakMagnetSearch,
     },
     /// The runs themselves stay in place in [`Preflight::curvature`] (≈ 3 kB, not moved
     /// from poll to poll).
@@ -267,18 +282,13 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
     }
 
     /// The most work the settings allow the identification: fitness evaluations (the GA's
-    /// budget and the polish's) and Gauss–Newton sums (nine monitor-model runs each). With
-    /// the measured cost of each, the preflight's worst case (BENCHMARKS.md §1).
+    /// budget, the polish's, the weak-magnet search's and its polishes') and Gauss–Newton
+    /// sums (nine monitor-model runs each). With the measured cost of each, the preflight's
+    /// worst case (BENCHMARKS.md §1).
     pub fn work_bound(&self) -> (u32, u32) {
-        let p = &self.settings.actuator.polish;
-        (
-            self.settings
-                .actuator
-                .ga
-                .max_evaluations
-                .saturating_add(p.max_evaluations()),
-            p.max_curvatures(),
-        )
+        let a = &self.settings.actuator;
+        let (evaluations, curvatures) = WeakMagnetSearch::work_after_ga(&a.params, &a.polish);
+        (a.ga.max_evaluations.saturating_add(evaluations), curvatures)
     }
 
     /// A self-test that fills `measured` (cleared first) from `source`.
@@ -316,6 +326,7 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
             State::Condition { .. } => Stage::Condition,
             State::Identify { .. } => Stage::Identify,
             State::Polish { .. } => Stage::Polish,
+            State::Magnets { .. } => Stage::Magnets,
             State::Uncertainty { .. } => Stage::Uncertainty,
             State::Report { .. } => Stage::Report,
             State::Done(_) | State::Failed => Stage::Done,
@@ -328,7 +339,7 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
             State::Identify | State::Uncertainty { .. } => {
                 self.id.as_ref().map_or(0, |id| id.ga().evaluations())
             }
-            State::Polish { result, .. } => result.evaluations,
+            State::Polish { result, .. } | State::Magnets { result, .. } => result.evaluations,
             State::Report { result, .. } => result.evaluations,
             State::Done(report) => report.result.evaluations,
             _ => 0,
@@ -399,6 +410,51 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
         }
     }
 
+    /// One step of the weak-magnet search: a fitness evaluation, or the start of a polish it
+    /// asks for, or its reading (then the uncertainty's runs start). Out of line: the
+    /// search's code once in the image.
+    #[inline(never)]
+    fn search_magnets(
+        &mut self,
+        mut result: IdentificationResult,
+        mut search: WeakMagnetSearch,
+    ) -> Result<State<'m>, PreflightError<S::Error>> {
+        let Some(id) = self.id.as_mut() else {
+            return Err(PreflightError::AlreadyFailed);
+        };
+        match search.ask() {
+            MagnetAsk::Fitness { k, magnets, bound } => {
+                id.set_magnets(magnets);
+                result.evaluations = result.evaluations.saturating_add(1);
+                search.tell(id.problem().error_below(&k, bound));
+                Ok(State::Magnets { result, search })
+            }
+            MagnetAsk::Polish(start) => {
+                id.set_magnets(start.magnets);
+                result.faults = start.faults;
+                result.fitness = start.fitness;
+                result.magnets = start.magnets;
+                self.polish =
+                    Polish::new(self.settings.actuator.polish, start.faults, start.fitness);
+                self.summing = false;
+                Ok(State::Polish {
+                    result,
+                    search: Some(search),
+                })
+            }
+            MagnetAsk::Done(reading) => {
+                id.set_magnets(reading.magnets);
+                result.faults = reading.faults;
+                result.fitness = reading.fitness;
+                result.magnets = reading.magnets;
+                if let Some(run) = self.curvature.as_deref_mut() {
+                    id.problem().restart_curvature(run, &result.faults);
+                }
+                Ok(State::Uncertainty { result })
+            }
+        }
+    }
+
     fn advance(&mut self, state: State<'m>) -> Result<State<'m>, PreflightError<S::Error>> {
         match state {
             State::Acquire { measured } => {
@@ -463,20 +519,24 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                                     result.fitness,
                                 );
                                 self.summing = false;
-                                State::Polish { result }
+                                State::Polish {
+                                    result,
+                                    search: None,
+                                }
                             }
                             None => State::Report {
                                 result,
                                 uncertainty: None,
                                 assessments: self.assess(&result, None),
                                 load_offset: f32::NAN,
-                                held: HeldComponents::of_preflight(&result.faults),
+                                held: HeldComponents::of_preflight(&result.faults)
+                                    .with_magnets(result.magnets),
                             },
                         }
                     }
                 })
             }
-            State::Polish { mut result } => {
+            State::Polish { mut result, search } => {
                 let Some(id) = self.id.as_ref() else {
                     return Err(PreflightError::AlreadyFailed);
                 };
@@ -486,7 +546,8 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                         uncertainty: None,
                         assessments: self.assess(&result, None),
                         load_offset: f32::NAN,
-                        held: HeldComponents::of_preflight(&result.faults),
+                        held: HeldComponents::of_preflight(&result.faults)
+                            .with_magnets(result.magnets),
                     });
                 };
                 let polish = &mut self.polish;
@@ -510,12 +571,26 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                     PolishAsk::Done { k, fitness } => {
                         result.faults = k;
                         result.fitness = fitness;
-                        id.problem().restart_curvature(run, &result.faults);
-                        return Ok(State::Uncertainty { result });
+                        let search = match search {
+                            // Back to the search that asked for this polish.
+                            Some(mut search) => {
+                                search.tell_polished(MagnetReading {
+                                    faults: k,
+                                    magnets: result.magnets,
+                                    fitness,
+                                });
+                                search
+                            }
+                            None => {
+                                WeakMagnetSearch::new(&self.settings.actuator.params, k, fitness)
+                            }
+                        };
+                        return Ok(State::Magnets { result, search });
                     }
                 }
-                Ok(State::Polish { result })
+                Ok(State::Polish { result, search })
             }
+            State::Magnets { result, search } => self.search_magnets(result, search),
             State::Uncertainty { result } => {
                 let Some(id) = self.id.as_ref() else {
                     return Err(PreflightError::AlreadyFailed);
@@ -540,7 +615,8 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                                 true,
                                 uncertainty.as_ref().map(|(u, c)| (&u.std, c)),
                                 nuisance,
-                            ),
+                            )
+                            .with_magnets(result.magnets),
                             assessments: self.assess(&result, uncertainty.as_ref()),
                             uncertainty: uncertainty.map(|(u, _)| u),
                             load_offset: self

@@ -39,6 +39,7 @@ use crate::clock::{cycles, instructions_under_icount, start_cycle_clock, PollTim
 use crate::emulation::{read_record_file, write_record_file, Command, Crash, HostFile};
 use shared::actuator::{ActuatorRecord, RECORD_BYTES};
 use shared::fdi::OnboardRecord;
+use shared::params::ActuatorParams;
 use shared::test_design::PreflightTest;
 
 /// Exit statuses (semihosting SYS_EXIT_EXTENDED, QEMU's own exit status).
@@ -221,7 +222,7 @@ async fn preflight(spawner: Spawner) -> i32 {
             Ok(done) => done,
             Err(status) => return status,
         };
-    print_report(&report, &observed, total_cycles);
+    print_report(&report, &settings.actuator.params, &observed, total_cycles);
     // The health log (a flash sector on the controller; the --health file here): this
     // preflight's record, then, after the flight's windows, their reading.
     let mut log = None;
@@ -772,7 +773,7 @@ fn record_health(
     Ok(update.record.flight)
 }
 
-fn print_report(report: &Report, observed: &Observed, total_cycles: u64) {
+fn print_report(report: &Report, params: &ActuatorParams, observed: &Observed, total_cycles: u64) {
     let r = &report.result;
     let faults = r.faults.as_array();
     defmt::println!(
@@ -786,6 +787,15 @@ fn print_report(report: &Report, observed: &Observed, total_cycles: u64) {
         "bits faults={:08x} fitness={=u32:08x}",
         faults.map(f32::to_bits),
         r.fitness.to_bits()
+    );
+    // One weak magnet ([`shared::weak_magnet`]): depth 0 when none was read.
+    defmt::println!(
+        "magnets depth={=f32} centre={=f32} pole={=u32} bits={=u32:08x},{=u32:08x}",
+        r.magnets.depth,
+        r.magnets.centre,
+        r.magnets.pole(params),
+        r.magnets.depth.to_bits(),
+        r.magnets.centre.to_bits()
     );
     match report.domain {
         Domain::Within => defmt::println!("domain within"),

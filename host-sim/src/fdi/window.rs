@@ -221,7 +221,7 @@ pub fn window_series(
 
 /// What a flight's windows hold of its preflight `pre` (its reading and calibrated
 /// uncertainty): the shorts, the eccentricity and the demagnetization with their
-/// covariance when the preflight was `within`, else nothing. The friction's deviation
+/// covariance, and its weak magnet, when the preflight was `within`, else nothing. The friction's deviation
 /// without the day's healthy friction's share: a window of the same day plays the same
 /// healthy friction, so what it holds is the product the preflight measured.
 pub fn held_from(pre: &crate::fdi::identify::Identified, within: bool) -> HeldComponents {
@@ -231,6 +231,7 @@ pub fn held_from(pre: &crate::fdi::identify::Identified, within: bool) -> HeldCo
         pre.uncertainty.as_ref().map(|(u, c)| (&u.std, c)),
         pre.friction_nuisance,
     )
+    .with_magnets(pre.result.magnets)
 }
 
 /// The GA a window's identification runs twice: its evaluations at most and its

@@ -42,6 +42,7 @@ use crate::base::math::{abs, invert_stepwise};
 use crate::base::steps::{pause, run_to_end};
 use crate::model::monitor::{MonitorModel, MonitorRun, RunRigging, RunSteps};
 use crate::physics::fault::{FaultVector, DEMAGNETIZATION_INDEX, FAULT_COUNT};
+use crate::physics::magnets::WeakMagnet;
 use crate::solver::ga::Problem;
 use crate::solver::uncertainty::{Curvature, STEP};
 use crate::test::command::CommandSource;
@@ -324,6 +325,9 @@ pub struct HeldComponents {
     /// The held values' covariance (the preflight's, between held components; zero when
     /// not given) [fault-vector units²].
     covariance: [[f32; FAULT_COUNT]; FAULT_COUNT],
+    /// The weak magnet the preflight read, which the window's model plays
+    /// ([`Self::with_magnets`]; [`WeakMagnet::NONE`]: even magnets).
+    magnets: WeakMagnet,
 }
 
 /// How a window's free components lean on its held ones: the window curvature's normal
@@ -348,6 +352,7 @@ impl HeldComponents {
         held: [false; FAULT_COUNT],
         values: [0.0; FAULT_COUNT],
         covariance: [[0.0; FAULT_COUNT]; FAULT_COUNT],
+        magnets: WeakMagnet::NONE,
     };
 
     /// The three stator shorts (k3, k4, k5), the eccentricity and its phase (k6, k7) and the
@@ -360,7 +365,24 @@ impl HeldComponents {
             held,
             values: *preflight.as_array(),
             covariance: [[0.0; FAULT_COUNT]; FAULT_COUNT],
+            magnets: WeakMagnet::NONE,
         }
+    }
+
+    /// These held components with the weak magnet the preflight read, which the window's
+    /// model then plays like the rest of the rotor (a magnet is fixed to it, the same all
+    /// flight). Holding nothing (an untrusted preflight), it holds no magnet either. O(1).
+    #[must_use]
+    pub fn with_magnets(mut self, magnets: WeakMagnet) -> Self {
+        if self.held.iter().any(|&h| h) {
+            self.magnets = magnets;
+        }
+        self
+    }
+
+    /// The weak magnet held ([`WeakMagnet::NONE`]: even magnets).
+    pub fn magnets(&self) -> WeakMagnet {
+        self.magnets
     }
 
     /// These held values with the preflight's standard deviations `std` and correlations

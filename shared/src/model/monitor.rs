@@ -786,11 +786,9 @@ impl MonitorModel {
         let kt = if self.magnets.is_none() {
             kt
         } else {
-            kt * self.magnets.pair_factor(
-                p,
-                s.previous_motor_angle,
-                (bin / BINS_PER_SECTOR) % 3,
-            )
+            kt * self
+                .magnets
+                .pair_factor(p, s.previous_motor_angle, (bin / BINS_PER_SECTOR) % 3)
         };
         let back_emf = kt * s.motor_speed;
         let sampled = (s.current, s.motor_angle, s.user_angle + s.user_offset);

@@ -81,7 +81,11 @@ impl WeakMagnet {
 
     /// The share phase `phase` of `params` keeps at `theta_m` [rad]. O(1).
     fn phase_factor(&self, params: &ActuatorParams, pitch: f32, theta_m: f32, phase: usize) -> f32 {
-        let group = params.winding_group_angle.get(phase).copied().unwrap_or(0.0);
+        let group = params
+            .winding_group_angle
+            .get(phase)
+            .copied()
+            .unwrap_or(0.0);
         let start = group - pitch;
         let mut under = 0.0;
         for edge in [self.centre - 0.5 * pitch, self.centre + 0.5 * pitch] {
@@ -141,7 +145,10 @@ mod tests {
                 .map(|i| weak.phase_factor(&p, pitch, TAU * i as f32 / n as f32, phase))
                 .sum::<f32>()
                 / n as f32;
-            assert!((mean - weak.mean_kept(&p)).abs() < 1e-3, "phase {phase}: {mean}");
+            assert!(
+                (mean - weak.mean_kept(&p)).abs() < 1e-3,
+                "phase {phase}: {mean}"
+            );
         }
     }
 

@@ -8,13 +8,13 @@
 use crate::model::calibration::Calibration;
 use crate::model::monitor::MonitorModel;
 use crate::physics::fault::FaultVector;
-use crate::physics::params::ActuatorParams;
 use crate::physics::magnets::WeakMagnet;
+use crate::physics::params::ActuatorParams;
 use crate::solver::fitness::{CurvatureRun, FitnessError, FitnessProblem};
-use crate::solver::weak_magnet::{MagnetAsk, MagnetReading, WeakMagnetSearch};
 use crate::solver::ga::{GaError, GaSettings, RecordError, Status, SteadyStateGa, StopReason};
 use crate::solver::polish::{Polish, PolishAsk, PolishSettings};
 use crate::solver::uncertainty::{Curvature, SystematicError, Uncertainty, UncertaintyError};
+use crate::solver::weak_magnet::{MagnetAsk, MagnetReading, WeakMagnetSearch};
 #[cfg(feature = "command-table")]
 use crate::test::command::CommandTable;
 use crate::test::conditioning::{commutation_signs, AdcFrame, MeasuredCurrent};
@@ -273,7 +273,7 @@ impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
         loop {
             match search.ask() {
                 MagnetAsk::Fitness { k, magnets, bound } => {
-                    self.problem.set_magnets(magnets);
+                    self.set_magnets(magnets);
                     out.evaluations = out.evaluations.saturating_add(1);
                     search.tell(self.problem.error_below(&k, bound));
                 }
@@ -308,6 +308,12 @@ impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
 
     pub fn ga(&self) -> &SteadyStateGa<P> {
         &self.ga
+    }
+
+    /// Sets the weak magnet the problem's model plays (the weak-magnet search's executor,
+    /// [`FitnessProblem::set_magnets`]). O(1).
+    pub fn set_magnets(&mut self, magnets: WeakMagnet) {
+        self.problem.set_magnets(magnets);
     }
 
     pub fn problem(&self) -> &FitnessProblem<'a, N> {

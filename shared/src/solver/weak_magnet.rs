@@ -29,6 +29,7 @@ use crate::physics::fault::{
     FaultVector, DEMAGNETIZATION_INDEX, DEMAGNETIZATION_LOSS_MAX, FAULT_COUNT,
 };
 use crate::physics::params::ActuatorParams;
+use crate::solver::polish::PolishSettings;
 
 /// Candidate centres per pole pitch in the first pass.
 pub const CENTRES_PER_POLE: u32 = 4;
@@ -86,7 +87,10 @@ enum Phase {
     /// The polish of the best reading.
     Polish,
     /// Depth move `i` from the polished reading `from`.
-    Refine { i: u32, from: MagnetReading },
+    Refine {
+        i: u32,
+        from: MagnetReading,
+    },
     Done,
 }
 
@@ -294,6 +298,20 @@ impl WeakMagnetSearch {
     pub fn max_evaluations(&self) -> u32 {
         self.centres + DEPTHS.len() as u32 + MAX_POLISHES * DEPTH_STEPS.len() as u32
     }
+
+    /// The most work after the GA on the rotor of `params` with polishes `polish`: the
+    /// polish, this search and its polishes, as (fitness evaluations, Gauss–Newton sums).
+    pub fn work_after_ga(params: &ActuatorParams, polish: &PolishSettings) -> (u32, u32) {
+        let search = Self::new(params, FaultVector::NOMINAL, 0.0).max_evaluations();
+        let polishes = 1 + MAX_POLISHES;
+        (
+            polish
+                .max_evaluations()
+                .saturating_mul(polishes)
+                .saturating_add(search),
+            polish.max_curvatures().saturating_mul(polishes),
+        )
+    }
 }
 
 #[cfg(test)]
@@ -360,7 +378,10 @@ mod tests {
         assert!(r.magnets.is_none());
         assert_eq!(r.faults, k);
         assert_eq!(r.fitness, 0.4);
-        assert_eq!((n, polishes), (8 * CENTRES_PER_POLE + DEPTHS.len() as u32, 0));
+        assert_eq!(
+            (n, polishes),
+            (8 * CENTRES_PER_POLE + DEPTHS.len() as u32, 0)
+        );
     }
 
     #[test]
@@ -410,8 +431,7 @@ mod tests {
         let k = FaultVector::new([0.0, 0.0, 0.0, 0.0, 0.0, 0.1, 0.5, 0.5, 0.2]).unwrap();
         let moved = with_depth(&k, 0.3, 0.5, 4.0);
         let flux = |k: &FaultVector, d: f32| {
-            (1.0 - DEMAGNETIZATION_LOSS_MAX * k.as_array()[DEMAGNETIZATION_INDEX])
-                * (1.0 - d / 8.0)
+            (1.0 - DEMAGNETIZATION_LOSS_MAX * k.as_array()[DEMAGNETIZATION_INDEX]) * (1.0 - d / 8.0)
         };
         assert!((flux(&k, 0.3) - flux(&moved, 0.5)).abs() < 1e-6);
         assert_eq!(moved.as_array()[ECCENTRICITY_INDEX], 0.1);

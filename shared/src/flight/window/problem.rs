@@ -198,15 +198,18 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         self
     }
 
-    /// The same problem with `held` components held ([`HeldComponents`]).
+    /// The same problem with `held` components held ([`HeldComponents`]), its model playing
+    /// their weak magnet.
     pub fn with_held(mut self, held: HeldComponents) -> Self {
-        self.held = held;
+        self.hold(held);
         self
     }
 
-    /// Holds `held` components ([`HeldComponents`]), in place.
+    /// Holds `held` components ([`HeldComponents`]), in place, its model playing their weak
+    /// magnet.
     pub fn hold(&mut self, held: HeldComponents) {
         self.held = held;
+        self.model = self.model.with_magnets(held.magnets());
     }
 
     /// The components held at values from outside the window.
