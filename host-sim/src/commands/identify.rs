@@ -83,13 +83,32 @@ pub(crate) fn assessment_text(a: Assessment) -> String {
     }
 }
 
+/// The weak magnet of a reading on the rotor of `params`, as the reports write it.
+pub(crate) fn weak_magnet_text(
+    magnets: &shared::magnets::WeakMagnet,
+    params: &ActuatorParams,
+) -> String {
+    if magnets.is_none() {
+        return "none (the magnets read alike)".to_string();
+    }
+    format!(
+        "pole {} of {} (centre {:.1}° from the encoder's zero), {:.2} of its flux lost",
+        magnets.pole(params),
+        shared::magnets::poles(params),
+        magnets.centre.to_degrees().rem_euclid(360.0),
+        magnets.depth
+    )
+}
+
 pub(crate) fn report(
     id: &Identified,
+    params: &ActuatorParams,
     truth: Option<&FaultVector>,
     heading: &[(String, String)],
     json: bool,
     threshold: f32,
 ) {
+    let magnets = id.result.magnets;
     let found = id.result.faults;
     let verdicts = found.verdicts_at(threshold);
     let assessments = id.assessments_at(threshold);
@@ -103,6 +122,12 @@ pub(crate) fn report(
             "stop_reason": format!("{:?}", id.result.stop_reason),
             "verdicts": assessments.iter().map(|&a| assessment_text(a)).collect::<Vec<_>>(),
             "threshold_verdicts": verdicts.iter().map(|&v| verdict_text(v)).collect::<Vec<_>>(),
+            "weak_magnet": (!magnets.is_none()).then(|| json!({
+                "depth": magnets.depth,
+                "centre_rad": magnets.centre,
+                "pole": magnets.pole(params),
+                "poles": shared::magnets::poles(params),
+            })),
         });
         if let Some(u) = uncertainty {
             // NaN (undetermined) is written as null.
@@ -175,6 +200,7 @@ pub(crate) fn report(
     }
     let phase_deg = -180.0 + 360.0 * f64::from(found.eccentricity_phase());
     println!("(eccentricity phase {phase_deg:.0}° from phase A; a location, read only with an eccentricity fault)");
+    println!("weak magnet   {}", weak_magnet_text(&magnets, params));
     if let Some(u) = uncertainty {
         println!(
             "(FAULT: the whole 90 % interval is beyond the {} detection threshold; suspect: the \
@@ -454,6 +480,7 @@ pub(crate) fn identify_command(
     }
     report(
         &id,
+        &record.params,
         truth.as_ref(),
         &heading,
         json,

@@ -45,7 +45,10 @@ impl RowFigures {
                 .map(|c| {
                     let truth = shared::FaultVector::new(c.case.faults)
                         .unwrap_or(shared::FaultVector::NOMINAL);
-                    c.runs.iter().filter(|r| r.false_alarm(&truth)).count()
+                    c.runs
+                        .iter()
+                        .filter(|r| r.false_alarm(&truth, false))
+                        .count()
                 })
                 .sum(),
             outside: runs().filter(|r| !r.within).count(),

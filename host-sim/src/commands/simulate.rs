@@ -184,6 +184,7 @@ pub(crate) fn preflight(
     heading.push(line);
     report(
         &id,
+        &record.params,
         Some(&truth),
         &heading,
         json,
