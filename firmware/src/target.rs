@@ -284,10 +284,10 @@ async fn run_preflight(
                             next_checkpoint =
                                 preflight.evaluations().saturating_add(CHECKPOINT_EVERY);
                         }
-                    } else if matches!(stage, Stage::Identify | Stage::Polish)
-                        && !matches!(next, Stage::Identify | Stage::Polish)
+                    } else if matches!(stage, Stage::Identify | Stage::Polish | Stage::Magnets)
+                        && !matches!(next, Stage::Identify | Stage::Polish | Stage::Magnets)
                     {
-                        // The identification: the GA and its polish.
+                        // The identification: the GA, its polish and the weak-magnet search.
                         observed.identify_cycles =
                             now.saturating_sub(observed.identify_start_cycles);
                     }
@@ -322,7 +322,7 @@ async fn run_preflight(
         // rounds, so one yield can hand the CPU straight back to this task.
         yield_now().await;
         yield_now().await;
-        if matches!(stage, Stage::Identify | Stage::Polish) {
+        if matches!(stage, Stage::Identify | Stage::Polish | Stage::Magnets) {
             let beats = BEATS.load(Ordering::Relaxed).wrapping_sub(beats_after_poll);
             observed.beats_during_identify = observed.beats_during_identify.saturating_add(beats);
             if beats == 0 {
