@@ -76,6 +76,7 @@ pub fn preflight_entry(
             .map_or([f32::NAN; FAULT_COUNT], |u| u.std),
     )
     .with_day(day)
+    .with_magnet(&report.result.magnets)
 }
 
 /// Appends the record `entry` makes of the store's newest record (a preflight, or a flight's

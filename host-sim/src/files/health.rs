@@ -118,7 +118,7 @@ fn versions() -> impl Iterator<Item = (u8, usize)> {
         .filter_map(|v| record_len(v).map(|len| (v, len)))
 }
 
-/// The slot size of a health-log image: 84 (version 4), 76 (version 3), 68 (version 2) or 52
+/// The slot size of a health-log image: 84 (versions 4 and 5), 76 (version 3), 68 (version 2) or 52
 /// (version 1).
 /// An image several divide is taken as the one whose slots decode the most sound records
 /// (the newest version on a tie).
@@ -176,7 +176,8 @@ impl<'a> ImageStore<'a> {
         })
     }
 
-    /// The record version of its slots (1 … 4).
+    /// The record version of its slots (1 … 5; 84-byte slots read as the newest, 5, whose
+    /// decoder reads version 4 too).
     pub fn version(&self) -> u8 {
         versions()
             .find(|(_, size)| *size == self.slot_bytes)

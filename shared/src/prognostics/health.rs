@@ -68,9 +68,10 @@ use crate::model::domain::{Domain, OutsideReason};
 use crate::physics::fault::{
     FaultVector, Verdict, DEMAGNETIZATION_INDEX, FAULT_COUNT, PAPER_FAULT_COUNT,
 };
+use crate::physics::magnets::WeakMagnet;
 use crate::test::trace::Crc32;
 
-/// Bytes of one encoded record (version 4), and of one store slot.
+/// Bytes of one encoded record (versions 4 and 5), and of one store slot.
 pub const RECORD_BYTES: usize = 84;
 
 /// Bytes of a version-3 record (eight components).
@@ -84,7 +85,7 @@ pub const RECORD_V1_BYTES: usize = 52;
 
 /// The record format's magic and version.
 pub const RECORD_MAGIC: [u8; 4] = *b"EMAH";
-pub const RECORD_VERSION: u8 = 4;
+pub const RECORD_VERSION: u8 = 5;
 
 /// Bytes of a record of `version` (the byte after the magic), if it is one this code reads.
 pub fn record_len(version: u8) -> Option<usize> {
@@ -92,7 +93,7 @@ pub fn record_len(version: u8) -> Option<usize> {
         1 => Some(RECORD_V1_BYTES),
         2 => Some(RECORD_V2_BYTES),
         3 => Some(RECORD_V3_BYTES),
-        RECORD_VERSION => Some(RECORD_BYTES),
+        4 | RECORD_VERSION => Some(RECORD_BYTES),
         _ => None,
     }
 }
@@ -136,6 +137,52 @@ pub struct HealthRecord {
     /// A flight's reading ([`FLIGHT_READING`]): the windows fused into it; 0 for any other
     /// test.
     pub fused: u8,
+    /// The weak magnet the test read, as stored ([`RecordedMagnet::NONE`]: none, or a
+    /// record before version 5).
+    pub magnet: RecordedMagnet,
+}
+
+/// One weak magnet as a record stores it (version 5, bytes 78–79): its depth in 255ths of
+/// the magnet's flux (0: none read) and its centre in 256ths of a revolution from the
+/// encoder's zero (1.4°; a pole pitch is 45° on four pole pairs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RecordedMagnet {
+    depth: u8,
+    centre: u8,
+}
+
+impl RecordedMagnet {
+    /// No weak magnet read.
+    pub const NONE: Self = Self {
+        depth: 0,
+        centre: 0,
+    };
+
+    /// `magnets` rounded to 1/255 of its flux (a depth that rounds to 0 is stored as 1/255:
+    /// it was read) and 1/256 of a revolution. O(1).
+    pub fn of(magnets: &WeakMagnet) -> Self {
+        if magnets.is_none() {
+            return Self::NONE;
+        }
+        let turns = magnets.centre / crate::base::math::TAU;
+        let turns = turns - crate::base::math::floor(turns);
+        Self {
+            depth: ((magnets.depth * 255.0 + 0.5) as u8).max(1),
+            centre: ((turns * 256.0 + 0.5) as u32 % 256) as u8,
+        }
+    }
+
+    /// The weak magnet as stored ([`WeakMagnet::NONE`]: none read).
+    pub fn magnets(&self) -> WeakMagnet {
+        if self.depth == 0 {
+            return WeakMagnet::NONE;
+        }
+        WeakMagnet::new(
+            f32::from(self.depth) / 255.0,
+            crate::base::math::TAU * f32::from(self.centre) / 256.0,
+        )
+    }
 }
 
 /// [`HealthRecord::window`] of a flight's reading from its windows.
@@ -426,7 +473,15 @@ impl HealthRecord {
             day: RecordedDay::UNKNOWN,
             window: 0,
             fused: 0,
+            magnet: RecordedMagnet::NONE,
         }
+    }
+
+    /// The same record with the weak magnet its test read.
+    #[must_use]
+    pub fn with_magnet(mut self, magnets: &WeakMagnet) -> Self {
+        self.magnet = RecordedMagnet::of(magnets);
+        self
     }
 
     /// Where the record sits in a log: by flight, then by test (the preflight, its windows in
@@ -523,7 +578,7 @@ impl HealthRecord {
         for c in ninth_std {
             w.put(&c.to_le_bytes());
         }
-        w.put(&[0, 0]);
+        w.put(&[self.magnet.depth, self.magnet.centre]);
         let mut crc = Crc32::new();
         crc.update(w.out.get(..RECORD_BYTES - 4).unwrap_or(&[]));
         let sum = crc.finish().to_le_bytes();
@@ -531,7 +586,8 @@ impl HealthRecord {
         out
     }
 
-    /// The record in `bytes`: version 4 ([`RECORD_BYTES`]), version 3 ([`RECORD_V3_BYTES`];
+    /// The record in `bytes`: version 5 ([`RECORD_BYTES`]), version 4 (the same bytes, no
+    /// weak magnet), version 3 ([`RECORD_V3_BYTES`];
     /// eight components, no demagnetization), version 2 ([`RECORD_V2_BYTES`]; no day either)
     /// or version 1 ([`RECORD_V1_BYTES`]; no standard deviation either). Bytes beyond the
     /// record are ignored.
@@ -594,11 +650,24 @@ impl HealthRecord {
             (RecordedDay::UNKNOWN, 0)
         };
         // Byte 7 was reserved before version 4; now it holds the detected bits past eight.
-        let reserved = if ninth {
-            u16::from_le_bytes(half(78)) | u16::from(detected_high >> 1)
-        } else {
-            u16::from(detected_high)
+        // Bytes 78–79 were reserved in version 4; version 5 keeps the weak magnet there.
+        let magnet_bytes = half(78);
+        let (reserved, magnet) = match version {
+            5.. => (
+                u16::from(detected_high >> 1),
+                RecordedMagnet {
+                    depth: magnet_bytes[0],
+                    centre: magnet_bytes[1],
+                },
+            ),
+            4 => (
+                u16::from_le_bytes(magnet_bytes) | u16::from(detected_high >> 1),
+                RecordedMagnet::NONE,
+            ),
+            _ => (u16::from(detected_high), RecordedMagnet::NONE),
         };
+        // No magnet read: its centre byte is 0.
+        let centre_reserved = magnet_bytes[0] == 0 && magnet_bytes[1] != 0 && version >= 5;
         match (
             DomainCode::from_byte(domain),
             FaultVector::new(k),
@@ -606,7 +675,7 @@ impl HealthRecord {
                 reserved,
                 window_reserved as u8 == FLIGHT_READING || window_reserved >> 8 == 0,
             ),
-            fitness.is_finite(),
+            fitness.is_finite() && !centre_reserved,
         ) {
             (Some(domain), Ok(faults), (0, true), true) => Ok(Self {
                 flight: u32::from_le_bytes(word(8)),
@@ -618,6 +687,7 @@ impl HealthRecord {
                 day,
                 window: window_reserved as u8,
                 fused: (window_reserved >> 8) as u8,
+                magnet,
             }),
             _ => Err(HealthRecordError::BadField),
         }
@@ -641,8 +711,18 @@ impl HealthRecord {
         self.encode_older(3)
     }
 
+    /// Version-4 bytes of this record (its weak magnet is dropped): what a controller before
+    /// version 5 wrote. For tests and tools that make old logs.
+    pub fn encode_v4(&self) -> EncodedRecord {
+        Self {
+            magnet: RecordedMagnet::NONE,
+            ..*self
+        }
+        .encode_older(4)
+    }
+
     /// The first `N − 4` bytes of the current encoding as `version` (byte 7, the detected
-    /// bits past eight, 0 as it was reserved), then their CRC-32.
+    /// bits past eight, 0 before version 4, as it was reserved), then their CRC-32.
     fn encode_older<const N: usize>(&self, version: u8) -> [u8; N] {
         let mut out = [0u8; N];
         let current = self.encode();
@@ -652,8 +732,10 @@ impl HealthRecord {
         if let Some(v) = out.get_mut(4) {
             *v = version;
         }
-        if let Some(v) = out.get_mut(7) {
-            *v = 0;
+        if version < 4 {
+            if let Some(v) = out.get_mut(7) {
+                *v = 0;
+            }
         }
         let mut crc = Crc32::new();
         crc.update(out.get(..N - 4).unwrap_or(&[]));

@@ -33,6 +33,42 @@ fn record_round_trips_and_every_byte_is_covered() {
 }
 
 #[test]
+fn a_weak_magnet_is_stored_and_a_version_4_record_still_reads() {
+    use crate::magnets::WeakMagnet;
+    let magnets = WeakMagnet::new(0.5, 3.0 * core::f32::consts::PI / 4.0);
+    let r = record(9, 0.2).with_magnet(&magnets);
+    let bytes = r.encode();
+    assert_eq!(bytes[4], RECORD_VERSION);
+    let back = HealthRecord::decode(&bytes).unwrap();
+    assert_eq!(back, r);
+    let read = back.magnet.magnets();
+    assert!((read.depth - 0.5).abs() <= 1.0 / 255.0, "{read:?}");
+    assert!((read.centre - magnets.centre).abs() <= core::f32::consts::PI / 256.0);
+    assert_eq!(read.pole(&crate::ActuatorParams::default()), 3);
+    // Every byte still counts, the magnet's two among them.
+    for i in 0..RECORD_BYTES {
+        let mut b = bytes;
+        b[i] ^= 0x10;
+        assert!(HealthRecord::decode(&b).is_err(), "byte {i} damage accepted");
+    }
+    // What a controller before version 5 wrote: the same record, no magnet.
+    let v4 = r.encode_v4();
+    assert_eq!(v4[4], 4);
+    let old = HealthRecord::decode(&v4).unwrap();
+    assert_eq!(old.magnet, RecordedMagnet::NONE);
+    assert_eq!(HealthRecord { magnet: r.magnet, ..old }, r);
+    // A version-4 record never had bytes 78–79: set, it is refused.
+    let mut forged = v4;
+    forged[78] = 1;
+    let mut crc = crate::trace::Crc32::new();
+    crc.update(&forged[..RECORD_BYTES - 4]);
+    forged[RECORD_BYTES - 4..].copy_from_slice(&crc.finish().to_le_bytes());
+    assert_eq!(HealthRecord::decode(&forged), Err(HealthRecordError::BadField));
+    // No magnet read: none stored, whatever its centre was.
+    assert_eq!(RecordedMagnet::of(&WeakMagnet::NONE), RecordedMagnet::NONE);
+}
+
+#[test]
 fn every_domain_reason_is_stored_by_its_own_code_and_name() {
     use OutsideReason as R;
     let reasons = [
@@ -180,7 +216,7 @@ fn version_2_keeps_the_standard_deviations_and_version_1_is_still_read() {
     assert_eq!(r.std.get(3), Some(0.0));
     assert_eq!(r.std.get(4), Some(65_534.0 / 65_536.0));
     assert_eq!(r.std.get(7), None);
-    let v4 = r.encode();
+    let v4 = r.encode_v4();
     assert_eq!(v4[4], 4);
     assert_eq!(HealthRecord::decode(&v4), Ok(r));
     let v3 = r.encode_v3();
@@ -201,11 +237,11 @@ fn version_2_keeps_the_standard_deviations_and_version_1_is_still_read() {
     slot[..RECORD_V1_BYTES].copy_from_slice(&v1);
     assert_eq!(HealthRecord::decode(&slot), Ok(old));
     // An unknown version is named, not mistaken for damage.
-    let mut v5 = v4;
-    v5[4] = 5;
+    let mut v6 = v4;
+    v6[4] = RECORD_VERSION + 1;
     assert_eq!(
-        HealthRecord::decode(&v5),
-        Err(HealthRecordError::UnsupportedVersion(5))
+        HealthRecord::decode(&v6),
+        Err(HealthRecordError::UnsupportedVersion(RECORD_VERSION + 1))
     );
     // A version-1 record cut short fails its checksum.
     assert_eq!(
@@ -247,7 +283,7 @@ fn version_4_keeps_the_demagnetization_and_version_3_reads_none() {
         Err(HealthRecordError::BadField)
     );
     // In version 4 it holds one detected bit; the rest and bytes 78..80 stay 0.
-    let v4 = r.encode();
+    let v4 = r.encode_v4();
     assert_eq!(v4[7], 1);
     for (at, value) in [(7, 2), (78, 1), (79, 0x80)] {
         assert_eq!(
