@@ -179,6 +179,35 @@ pub(crate) fn grease_study_command(
     Ok(())
 }
 
+/// The bench the magnet studies run `actuator` on (its reference settings and test) and its
+/// record for that test.
+fn magnet_bench(actuator: &Actuator) -> Result<(host_sim::studies::grease::Bench, ActuatorRecord)> {
+    let test = actuator.record.test;
+    let bench = host_sim::studies::grease::Bench {
+        settings: actuator.reference_settings()?,
+        test,
+    };
+    Ok((bench, actuator.record_for(&test)?))
+}
+
+/// Runs `study` with a progress bar over `cases` cases, told each case as it starts.
+fn with_case_bar<T>(
+    cases: usize,
+    study: impl FnOnce(&mut dyn FnMut(&str)) -> Result<T>,
+) -> Result<T> {
+    let bar = host_sim::progress_bar(
+        cases as u64,
+        "{elapsed_precise} [{bar:40}] {pos}/{len} cases {msg}",
+        std::io::stderr().is_terminal(),
+    );
+    let out = study(&mut |what: &str| {
+        bar.set_message(what.to_string());
+        bar.inc(1);
+    });
+    bar.finish_and_clear();
+    out
+}
+
 pub(crate) fn demagnetization_study_command(
     actuator: &Actuator,
     seeds: u64,
@@ -187,23 +216,10 @@ pub(crate) fn demagnetization_study_command(
     use host_sim::studies::demagnetization::{
         demagnetization_markdown, demagnetization_study, CASES,
     };
-    use host_sim::studies::grease::Bench;
-    let test = actuator.record.test;
-    let bench = Bench {
-        settings: actuator.reference_settings()?,
-        test,
-    };
-    let record = actuator.record_for(&test)?;
-    let bar = host_sim::progress_bar(
-        CASES.len() as u64,
-        "{elapsed_precise} [{bar:40}] {pos}/{len} cases {msg}",
-        std::io::stderr().is_terminal(),
-    );
-    let rows = demagnetization_study(&bench, &record, seeds, |what| {
-        bar.set_message(what.to_string());
-        bar.inc(1);
+    let (bench, record) = magnet_bench(actuator)?;
+    let rows = with_case_bar(CASES.len(), |progress| {
+        demagnetization_study(&bench, &record, seeds, progress)
     })?;
-    bar.finish_and_clear();
     let cosines = host_sim::studies::demagnetization::flux_cosines(&record);
     let mut text = demagnetization_markdown(&actuator.name, &rows, &cosines, seeds);
     let poles = 2 * bench.settings.params.pole_pairs as u32;
@@ -234,24 +250,11 @@ pub(crate) fn weak_magnet_study_command(
     seeds: u64,
     out: Option<&Path>,
 ) -> Result<()> {
-    use host_sim::studies::grease::Bench;
     use host_sim::studies::weak_magnet::{weak_magnet_markdown, weak_magnet_study, CASES};
-    let test = actuator.record.test;
-    let bench = Bench {
-        settings: actuator.reference_settings()?,
-        test,
-    };
-    let record = actuator.record_for(&test)?;
-    let bar = host_sim::progress_bar(
-        CASES.len() as u64,
-        "{elapsed_precise} [{bar:40}] {pos}/{len} cases {msg}",
-        std::io::stderr().is_terminal(),
-    );
-    let rows = weak_magnet_study(&bench, &record, seeds, |what| {
-        bar.set_message(what.to_string());
-        bar.inc(1);
+    let (bench, record) = magnet_bench(actuator)?;
+    let rows = with_case_bar(CASES.len(), |progress| {
+        weak_magnet_study(&bench, &record, seeds, progress)
     })?;
-    bar.finish_and_clear();
     let text = weak_magnet_markdown(&actuator.name, &rows, seeds);
     print!("{text}");
     if let Some(path) = out {

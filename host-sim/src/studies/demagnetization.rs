@@ -43,10 +43,12 @@ pub struct DemagnetizationCase {
     pub winding_rise: f64,
 }
 
-const HEALTHY: [f32; FAULT_COUNT] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0];
+/// The healthy actuator's fault vector.
+pub(crate) const HEALTHY: [f32; FAULT_COUNT] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0];
 const NONE: Demagnetization = Demagnetization::None;
 
-const fn case(
+/// A case named `name`: the reference model's `faults`, its magnets and its winding's rise.
+pub(crate) const fn case(
     name: &'static str,
     faults: [f32; FAULT_COUNT],
     demagnetization: Demagnetization,
@@ -64,7 +66,8 @@ const fn uniform(loss: f64) -> Demagnetization {
     Demagnetization::Uniform { loss }
 }
 
-const fn one_magnet(loss: f64, pole: u32) -> Demagnetization {
+/// One magnet, pole `pole`, that lost `loss` of its flux.
+pub(crate) const fn one_magnet(loss: f64, pole: u32) -> Demagnetization {
     Demagnetization::Partial { loss, pole }
 }
 
@@ -104,6 +107,23 @@ pub const CASES: [DemagnetizationCase; 10] = [
         0.0,
     ),
 ];
+
+/// The reference model `case` plays on `bench` (its winding's day, its magnets) and its
+/// fault vector.
+pub(crate) fn case_model(
+    bench: &Bench,
+    case: &DemagnetizationCase,
+) -> Result<(ReferenceModel, FaultVector)> {
+    let mut settings: ReferenceSettings = bench.settings;
+    settings.conditions = settings
+        .conditions
+        .at_temperature(bench.day() + case.winding_rise);
+    let rm = ReferenceModel::new(settings)
+        .with_test(bench.test)
+        .with_demagnetization(case.demagnetization);
+    let truth = FaultVector::new(case.faults).map_err(|e| anyhow!("case {}: {e:?}", case.name))?;
+    Ok((rm, truth))
+}
 
 /// What the FDI read on one case, over its seeds.
 #[derive(Clone, Debug, PartialEq)]
@@ -147,15 +167,8 @@ pub fn demagnetization_study(
     let mut rows = Vec::new();
     for case in CASES {
         progress(case.name);
-        let mut settings: ReferenceSettings = bench.settings;
-        settings.conditions = settings
-            .conditions
-            .at_temperature(bench.day() + case.winding_rise);
-        let rm = ReferenceModel::new(settings)
-            .with_test(bench.test)
-            .with_demagnetization(case.demagnetization);
-        let truth =
-            FaultVector::new(case.faults).map_err(|e| anyhow!("case {}: {e:?}", case.name))?;
+        let (rm, truth) = case_model(bench, &case)?;
+        let settings = *rm.settings();
         let pole_pairs = settings.params.pole_pairs as u32;
         let lost = case.demagnetization.truth(&truth, pole_pairs);
         let flux_left = case

@@ -11,54 +11,30 @@
 //!
 //! Cost: one identification per run (≈ 0.2 s on one core).
 
-use anyhow::{anyhow, Result};
+use anyhow::Result;
 use rayon::prelude::*;
 use shared::actuator::ActuatorRecord;
 use shared::magnets::WeakMagnet;
 use shared::metrics::total_error_with_magnets;
-use shared::{FaultVector, FAULT_COUNT};
+use shared::FAULT_COUNT;
 
 use crate::fdi::identify::identify_for;
-use crate::plant::reference::{Demagnetization, ReferenceModel, Scenario};
+use crate::plant::reference::{Demagnetization, Scenario};
+use crate::studies::demagnetization::{case, case_model, one_magnet, DemagnetizationCase, HEALTHY};
 use crate::studies::grease::Bench;
 
 /// The eccentricity's index in the fault vector (k6) and the uniform loss's (k9).
 const ECCENTRICITY: usize = 5;
 const UNIFORM_LOSS: usize = 8;
 
-/// One case: the RM's faults, its magnets and its winding's temperature.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct WeakMagnetCase {
-    pub name: &'static str,
-    pub faults: [f32; FAULT_COUNT],
-    pub demagnetization: Demagnetization,
-    /// Winding (and magnet) temperature above the calibration day's [K].
-    pub winding_rise: f64,
-}
+/// One case: the RM's faults, its magnets and its winding's temperature (the
+/// demagnetization study's case).
+pub type WeakMagnetCase = DemagnetizationCase;
 
-const HEALTHY: [f32; FAULT_COUNT] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0];
 const EVEN: Demagnetization = Demagnetization::None;
-
-const fn case(
-    name: &'static str,
-    faults: [f32; FAULT_COUNT],
-    demagnetization: Demagnetization,
-    winding_rise: f64,
-) -> WeakMagnetCase {
-    WeakMagnetCase {
-        name,
-        faults,
-        demagnetization,
-        winding_rise,
-    }
-}
 
 const fn eccentric(z: f32, phase: f32) -> [f32; FAULT_COUNT] {
     [0.0, 0.0, 0.0, 0.0, 0.0, z, phase, 0.5, 0.0]
-}
-
-const fn one_magnet(loss: f64, pole: u32) -> Demagnetization {
-    Demagnetization::Partial { loss, pole }
 }
 
 /// The cases: healthy, one magnet at four depths and four poles, at the day's temperature
@@ -190,15 +166,7 @@ pub fn weak_magnet_study(
     let mut rows = Vec::new();
     for case in CASES {
         progress(case.name);
-        let mut settings = bench.settings;
-        settings.conditions = settings
-            .conditions
-            .at_temperature(bench.day() + case.winding_rise);
-        let rm = ReferenceModel::new(settings)
-            .with_test(bench.test)
-            .with_demagnetization(case.demagnetization);
-        let truth =
-            FaultVector::new(case.faults).map_err(|e| anyhow!("case {}: {e:?}", case.name))?;
+        let (rm, truth) = case_model(bench, &case)?;
         let played = match case.demagnetization {
             Demagnetization::Partial { loss, pole } => {
                 WeakMagnet::new(loss as f32, pitch * pole as f32)

@@ -22,8 +22,13 @@ fn record_round_trips_and_every_byte_is_covered() {
     let bytes = r.encode();
     assert_eq!(&bytes[..4], b"EMAH");
     assert_eq!(HealthRecord::decode(&bytes), Ok(r));
+    every_byte_counts(&bytes);
+}
+
+/// Damage to any byte of `bytes` is refused.
+fn every_byte_counts(bytes: &EncodedRecord) {
     for i in 0..RECORD_BYTES {
-        let mut b = bytes;
+        let mut b = *bytes;
         b[i] ^= 0x10;
         assert!(
             HealthRecord::decode(&b).is_err(),
@@ -46,24 +51,29 @@ fn a_weak_magnet_is_stored_and_a_version_4_record_still_reads() {
     assert!((read.centre - magnets.centre).abs() <= core::f32::consts::PI / 256.0);
     assert_eq!(read.pole(&crate::ActuatorParams::default()), 3);
     // Every byte still counts, the magnet's two among them.
-    for i in 0..RECORD_BYTES {
-        let mut b = bytes;
-        b[i] ^= 0x10;
-        assert!(HealthRecord::decode(&b).is_err(), "byte {i} damage accepted");
-    }
+    every_byte_counts(&bytes);
     // What a controller before version 5 wrote: the same record, no magnet.
     let v4 = r.encode_v4();
     assert_eq!(v4[4], 4);
     let old = HealthRecord::decode(&v4).unwrap();
     assert_eq!(old.magnet, RecordedMagnet::NONE);
-    assert_eq!(HealthRecord { magnet: r.magnet, ..old }, r);
+    assert_eq!(
+        HealthRecord {
+            magnet: r.magnet,
+            ..old
+        },
+        r
+    );
     // A version-4 record never had bytes 78–79: set, it is refused.
     let mut forged = v4;
     forged[78] = 1;
     let mut crc = crate::trace::Crc32::new();
     crc.update(&forged[..RECORD_BYTES - 4]);
     forged[RECORD_BYTES - 4..].copy_from_slice(&crc.finish().to_le_bytes());
-    assert_eq!(HealthRecord::decode(&forged), Err(HealthRecordError::BadField));
+    assert_eq!(
+        HealthRecord::decode(&forged),
+        Err(HealthRecordError::BadField)
+    );
     // No magnet read: none stored, whatever its centre was.
     assert_eq!(RecordedMagnet::of(&WeakMagnet::NONE), RecordedMagnet::NONE);
 }
