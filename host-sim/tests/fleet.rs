@@ -59,19 +59,19 @@ fn ingesting_twice_adds_nothing_and_overlapping_downloads_add_only_new_flights()
     let (ok, out) = ingest(&db, &[&first], &[]);
     assert!(ok, "{out}");
     assert!(
-        out.contains("10 v4 records, 10 new, 6 empty slots"),
+        out.contains("10 v5 records, 10 new, 6 empty slots"),
         "{out}"
     );
     assert_eq!(stored(&db), 10);
     let (ok, out) = ingest(&db, &[&first], &[]);
-    assert!(ok && out.contains("10 v4 records, 0 new"), "{out}");
+    assert!(ok && out.contains("10 v5 records, 0 new"), "{out}");
     assert_eq!(stored(&db), 10);
     // The next download of the same ring: flights 4..20 (the oldest overwritten).
     let later = dir.path().join("later").join("ACT-1.bin");
     std::fs::create_dir(later.parent().unwrap()).unwrap();
     std::fs::write(&later, log_image(16, 0..20, 0.1)).unwrap();
     let (ok, out) = ingest(&db, &[later.parent().unwrap()], &[]);
-    assert!(ok && out.contains("16 v4 records, 10 new"), "{out}");
+    assert!(ok && out.contains("16 v5 records, 10 new"), "{out}");
     assert_eq!(stored(&db), 20);
     // Another actuator's log under its own serial.
     let other = dir.path().join("renamed.bin");
@@ -120,12 +120,12 @@ fn damaged_unknown_and_contradicting_logs_are_refused_whole_and_the_store_keeps_
     assert_eq!(stored(&db), 11);
 
     // A record version this tool does not read: refused by name.
-    let mut v5 = log_image(8, 12..14, 0.1);
-    v5[(12 % 8) * RECORD_BYTES + 4] = 5;
-    let v5_path = dir.path().join("ACT-8.bin");
-    std::fs::write(&v5_path, &v5).unwrap();
-    let (ok, out) = ingest(&db, &[&v5_path], &[]);
-    assert!(!ok && out.contains("version-5 record"), "{out}");
+    let mut v6 = log_image(8, 12..14, 0.1);
+    v6[(12 % 8) * RECORD_BYTES + 4] = 6;
+    let v6_path = dir.path().join("ACT-8.bin");
+    std::fs::write(&v6_path, &v6).unwrap();
+    let (ok, out) = ingest(&db, &[&v6_path], &[]);
+    assert!(!ok && out.contains("version-6 record"), "{out}");
     assert_eq!(stored(&db), 11);
 
     // Flight 3 of ACT-7 again, with other contents: refused, the stored one kept.

@@ -16,14 +16,14 @@
 use crate::base::math::{floor, TAU};
 use crate::physics::params::ActuatorParams;
 
-/// One magnet that lost `depth` of its flux, centred `centre` [rad] mechanical ahead of the
+/// One magnet that lost `depth` of its flux, centred `centre` \[rad\] mechanical ahead of the
 /// encoder's zero; [`WeakMagnet::NONE`]: every magnet alike.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct WeakMagnet {
     /// Share of the magnet's flux lost (0 … 1).
     pub depth: f32,
-    /// The magnet's centre [rad], mechanical, from the encoder's zero.
+    /// The magnet's centre \[rad\], mechanical, from the encoder's zero.
     pub centre: f32,
 }
 
@@ -43,7 +43,7 @@ pub fn poles(params: &ActuatorParams) -> u32 {
     (2.0 * p + 0.5) as u32
 }
 
-/// One pole pitch of `params`, π/P [rad].
+/// One pole pitch of `params`, π/P \[rad\].
 pub fn pole_pitch(params: &ActuatorParams) -> f32 {
     core::f32::consts::PI / pole_pairs(params)
 }
@@ -55,7 +55,7 @@ impl WeakMagnet {
         centre: 0.0,
     };
 
-    /// `depth` clamped to 0 … 1 (NaN: none) at `centre` [rad]. O(1).
+    /// `depth` clamped to 0 … 1 (NaN: none) at `centre` \[rad\]. O(1).
     pub fn new(depth: f32, centre: f32) -> Self {
         let depth = if depth > 0.0 { depth.min(1.0) } else { 0.0 };
         Self { depth, centre }
@@ -79,7 +79,7 @@ impl WeakMagnet {
         1.0 - self.depth / (2.0 * pole_pairs(params))
     }
 
-    /// The share phase `phase` of `params` keeps at `theta_m` [rad]. O(1).
+    /// The share phase `phase` of `params` keeps at `theta_m` \[rad\]. O(1).
     fn phase_factor(&self, params: &ActuatorParams, pitch: f32, theta_m: f32, phase: usize) -> f32 {
         let group = params
             .winding_group_angle
@@ -98,7 +98,7 @@ impl WeakMagnet {
     }
 
     /// The share of its gain the conducting pair of `params` keeps whose floating phase is
-    /// `floating` (0, 1, 2 for A, B, C) at mechanical angle `theta_m` [rad]. O(1).
+    /// `floating` (0, 1, 2 for A, B, C) at mechanical angle `theta_m` \[rad\]. O(1).
     #[cold]
     #[inline(never)]
     pub fn pair_factor(&self, params: &ActuatorParams, theta_m: f32, floating: usize) -> f32 {
