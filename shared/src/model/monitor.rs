@@ -16,7 +16,9 @@
 //!    short circuit, eq. (1), scales resistance and torque/back-EMF gain by the mean healthy
 //!    fraction of the two phases conducting in the current 60° sector; eccentricity, eq. (2),
 //!    modulates torque/back-EMF gain with rotor angle; demagnetization scales it in every
-//!    bin (the magnets' flux), apart from the day's reversible flux.
+//!    bin (the magnets' flux), apart from the day's reversible flux; one weak magnet
+//!    ([`MonitorModel::with_magnets`]) scales it over the mechanical angle (two phase
+//!    shares a step when there is one, a test of its depth when there is none).
 //! 3. **Mechanics** — motor inertia (with lumped stick-slip dry friction: a velocity-level
 //!    friction impulse that can stop, but never reverse, the motor within one step) coupled to
 //!    the user inertia by a compliant gear train whose play is a dead zone (a contact that
