@@ -28,7 +28,7 @@ pub struct WeakMagnet {
 }
 
 /// The pole pairs of `params`, at least 1.
-fn pole_pairs(params: &ActuatorParams) -> f32 {
+pub fn pole_pairs(params: &ActuatorParams) -> f32 {
     if params.pole_pairs >= 1.0 {
         params.pole_pairs
     } else {

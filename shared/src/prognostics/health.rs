@@ -651,23 +651,23 @@ impl HealthRecord {
         };
         // Byte 7 was reserved before version 4; now it holds the detected bits past eight.
         // Bytes 78–79 were reserved in version 4; version 5 keeps the weak magnet there.
-        let magnet_bytes = half(78);
+        let [magnet_depth, magnet_centre] = half(78);
         let (reserved, magnet) = match version {
             5.. => (
                 u16::from(detected_high >> 1),
                 RecordedMagnet {
-                    depth: magnet_bytes[0],
-                    centre: magnet_bytes[1],
+                    depth: magnet_depth,
+                    centre: magnet_centre,
                 },
             ),
             4 => (
-                u16::from_le_bytes(magnet_bytes) | u16::from(detected_high >> 1),
+                u16::from_le_bytes([magnet_depth, magnet_centre]) | u16::from(detected_high >> 1),
                 RecordedMagnet::NONE,
             ),
             _ => (u16::from(detected_high), RecordedMagnet::NONE),
         };
         // No magnet read: its centre byte is 0.
-        let centre_reserved = magnet_bytes[0] == 0 && magnet_bytes[1] != 0 && version >= 5;
+        let centre_reserved = magnet_depth == 0 && magnet_centre != 0 && version >= 5;
         match (
             DomainCode::from_byte(domain),
             FaultVector::new(k),

@@ -24,7 +24,7 @@
 //! and `MAX_POLISHES·DEPTH_STEPS.len()` evaluations; O(1) besides them. State: a few dozen
 //! bytes.
 
-use crate::magnets::{pole_pitch, poles, WeakMagnet};
+use crate::magnets::{pole_pairs, poles, WeakMagnet};
 use crate::physics::fault::{
     FaultVector, DEMAGNETIZATION_INDEX, DEMAGNETIZATION_LOSS_MAX, FAULT_COUNT,
 };
@@ -99,7 +99,6 @@ enum Phase {
 pub struct WeakMagnetSearch {
     polished: MagnetReading,
     pole_pairs: f32,
-    pitch: f32,
     centres: u32,
     phase: Phase,
     polishes: u32,
@@ -114,12 +113,8 @@ pub fn without_eccentricity(k: &FaultVector, depth: f32, pole_pairs: f32) -> Fau
     if let Some(z) = a.get_mut(ECCENTRICITY_INDEX) {
         *z = 0.0;
     }
-    if let Some(k9) = a.get_mut(DEMAGNETIZATION_INDEX) {
-        let flux = 1.0 - DEMAGNETIZATION_LOSS_MAX * *k9;
-        let mean_kept = 1.0 - depth / (2.0 * pole_pairs);
-        *k9 = (1.0 - flux / mean_kept) / DEMAGNETIZATION_LOSS_MAX;
-    }
-    FaultVector::saturating(a)
+    // The polished vector's k9 is the rotor's whole mean loss: a magnet of depth 0.
+    with_depth(&FaultVector::saturating(a), 0.0, depth, pole_pairs)
 }
 
 /// `k`, read with a weak magnet of depth `from`, moved to depth `to` with the rotor's mean
@@ -145,15 +140,9 @@ impl WeakMagnetSearch {
             magnets: WeakMagnet::NONE,
             fitness,
         };
-        let pole_pairs = if params.pole_pairs >= 1.0 {
-            params.pole_pairs
-        } else {
-            1.0
-        };
         Self {
             polished,
-            pole_pairs,
-            pitch: pole_pitch(params),
+            pole_pairs: pole_pairs(params),
             centres: poles(params).min(MAX_POLES) * CENTRES_PER_POLE,
             phase: Phase::Grid(0),
             polishes: 0,
@@ -165,7 +154,8 @@ impl WeakMagnetSearch {
     /// Grid candidate `i`'s vector and magnets (`None` past the last). O(1).
     fn grid(&self, i: u32) -> Option<(FaultVector, WeakMagnet)> {
         let (depth, centre) = if i < self.centres {
-            let centre = self.pitch * i as f32 / CENTRES_PER_POLE as f32;
+            let pitch = core::f32::consts::PI / self.pole_pairs;
+            let centre = pitch * i as f32 / CENTRES_PER_POLE as f32;
             (CENTRE_DEPTH, centre)
         } else {
             let j = (i - self.centres) as usize;
@@ -317,6 +307,7 @@ impl WeakMagnetSearch {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::magnets::pole_pitch;
 
     /// A made-up fitness: lowest for a magnet of depth 0.33 centred at pole 5 with no
     /// eccentricity.
