@@ -276,81 +276,144 @@ pub async fn invert_stepwise<const N: usize>(m: &[[f64; N]; N]) -> Option<[[f64;
 }
 
 /// Gauss–Jordan elimination under way: the matrix being reduced and the inverse being
-/// built, in pieces that [`invert`] and [`invert_stepwise`] share.
+/// built, in pieces that [`invert`] and [`invert_stepwise`] share. Each piece works on the
+/// two matrices as flat row-major slices of any order (one copy of the code for every
+/// size the firmware inverts).
 struct GaussJordan<const N: usize> {
     a: [[f64; N]; N],
     inv: [[f64; N]; N],
 }
 
-#[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // fixed N×N bounds, checked
 impl<const N: usize> GaussJordan<N> {
     fn start(m: &[[f64; N]; N]) -> Self {
         let mut inv = [[0.0f64; N]; N];
         for (i, row) in inv.iter_mut().enumerate() {
-            row[i] = 1.0;
+            if let Some(x) = row.get_mut(i) {
+                *x = 1.0;
+            }
         }
         Self { a: *m, inv }
     }
 
     /// Column `col`'s pivot (partial pivoting) swapped into row `col`, and its value; `None`
     /// if singular (or `col` is not a column).
-    #[inline(never)]
     fn pivot(&mut self, col: usize) -> Option<f64> {
-        if col >= N {
-            return None;
-        }
-        let a = &mut self.a;
-        let inv = &mut self.inv;
-        let mut pivot = col;
-        for r in col + 1..N {
-            if a[r][col].abs() > a[pivot][col].abs() {
-                pivot = r;
-            }
-        }
-        if a[pivot][col].abs() < 1e-300 {
-            return None;
-        }
-        // Element by element: a whole-row `swap` links a 1.6 kB `memmove` into the firmware.
-        for c in 0..N {
-            let t = a[col][c];
-            a[col][c] = a[pivot][c];
-            a[pivot][c] = t;
-            let t = inv[col][c];
-            inv[col][c] = inv[pivot][c];
-            inv[pivot][c] = t;
-        }
-        Some(a[col][col])
+        pivot_rows(
+            self.a.as_flattened_mut(),
+            self.inv.as_flattened_mut(),
+            N,
+            col,
+        )
     }
 
     /// The pivot row's entries `columns` of both matrices divided by `d` (the pivot, read
     /// before the first division: the row's own pivot entry becomes 1 on the way).
-    #[inline(never)]
     fn divide(&mut self, col: usize, d: f64, columns: core::ops::Range<usize>) {
-        if col >= N {
-            return;
-        }
-        for c in columns.start.min(N)..columns.end.min(N) {
-            self.a[col][c] /= d;
-            self.inv[col][c] /= d;
-        }
+        divide_row(
+            self.a.as_flattened_mut(),
+            self.inv.as_flattened_mut(),
+            N,
+            col,
+            d,
+            columns,
+        );
     }
 
     /// Row `r` (not the pivot's) cleared in column `col`. Whether it did any work.
-    #[inline(never)]
     fn eliminate(&mut self, col: usize, r: usize) -> bool {
-        if col >= N || r >= N || r == col {
-            return false;
-        }
-        let f = self.a[r][col];
-        if f == 0.0 {
-            return false;
-        }
-        for c in 0..N {
-            self.a[r][c] -= f * self.a[col][c];
-            self.inv[r][c] -= f * self.inv[col][c];
-        }
-        true
+        eliminate_row(
+            self.a.as_flattened_mut(),
+            self.inv.as_flattened_mut(),
+            N,
+            col,
+            r,
+        )
     }
+}
+
+/// Row `i` of the flat row-major `n`-column matrix `m`. O(1).
+fn row_mut(m: &mut [f64], n: usize, i: usize) -> Option<&mut [f64]> {
+    m.get_mut(i.checked_mul(n)?..i.checked_add(1)?.checked_mul(n)?)
+}
+
+/// Rows `i` and `j` (`i ≠ j`) of the flat row-major `n`-column matrix `m`. O(1).
+fn two_rows_mut(m: &mut [f64], n: usize, i: usize, j: usize) -> Option<(&mut [f64], &mut [f64])> {
+    let (lo, hi) = (i.min(j), i.max(j));
+    if lo == hi {
+        return None;
+    }
+    let (head, tail) = m.split_at_mut_checked(hi.checked_mul(n)?)?;
+    let low = head.get_mut(lo.checked_mul(n)?..lo.checked_add(1)?.checked_mul(n)?)?;
+    let high = tail.get_mut(..n)?;
+    Some(if i < j { (low, high) } else { (high, low) })
+}
+
+/// [`GaussJordan::pivot`] on the flat `n`×`n` matrices `a` and `inv`. O(n).
+#[inline(never)]
+fn pivot_rows(a: &mut [f64], inv: &mut [f64], n: usize, col: usize) -> Option<f64> {
+    if col >= n {
+        return None;
+    }
+    let at = |a: &[f64], r: usize| a.get(r * n + col).map_or(f64::NAN, |x| x.abs());
+    let mut pivot = col;
+    for r in col + 1..n {
+        if at(a, r) > at(a, pivot) {
+            pivot = r;
+        }
+    }
+    if at(a, pivot) < 1e-300 {
+        return None;
+    }
+    // Element by element: a whole-row `swap` links a 1.6 kB `memmove` into the firmware.
+    for m in [&mut *a, &mut *inv] {
+        if let Some((top, other)) = two_rows_mut(m, n, col, pivot) {
+            for (x, y) in top.iter_mut().zip(other) {
+                core::mem::swap(x, y);
+            }
+        }
+    }
+    // `None` too for matrices shorter than n².
+    a.get(col * n + col).copied()
+}
+
+/// [`GaussJordan::divide`] on the flat `n`×`n` matrices `a` and `inv`. O(n).
+#[inline(never)]
+fn divide_row(
+    a: &mut [f64],
+    inv: &mut [f64],
+    n: usize,
+    col: usize,
+    d: f64,
+    columns: core::ops::Range<usize>,
+) {
+    let columns = columns.start.min(n)..columns.end.min(n);
+    for m in [a, inv] {
+        if let Some(row) = row_mut(m, n, col).and_then(|r| r.get_mut(columns.clone())) {
+            for x in row {
+                *x /= d;
+            }
+        }
+    }
+}
+
+/// [`GaussJordan::eliminate`] on the flat `n`×`n` matrices `a` and `inv`. O(n).
+#[inline(never)]
+fn eliminate_row(a: &mut [f64], inv: &mut [f64], n: usize, col: usize, r: usize) -> bool {
+    if col >= n || r >= n || r == col {
+        return false;
+    }
+    let f = a.get(r * n + col).copied().unwrap_or(0.0);
+    if f == 0.0 {
+        return false;
+    }
+    for m in [a, inv] {
+        if let Some((row, pivot)) = two_rows_mut(m, n, r, col) {
+            for (x, p) in row.iter_mut().zip(pivot.iter()) {
+                *x -= f * *p;
+            }
+        }
+    }
+    true
 }
 
 #[cfg(test)]
