@@ -66,6 +66,7 @@ use shared::domain::Domain;
 use shared::fdi::OnboardMeasured;
 use shared::fusion::{WindowFusion, FLIGHT_MAX_FRICTION_STD};
 use shared::health::{HealthRecord, RamStore, RecordedDay, ONBOARD_RECORDS};
+use shared::magnets::WeakMagnet;
 use shared::prognosis::TrendSettings;
 use shared::window::HeldComponents;
 use shared::LowPass;
@@ -614,6 +615,7 @@ async fn preflight(spawner: Spawner) -> Result<(), Stop> {
             flown.fitness_sum,
             flown.entered,
             flown.day,
+            &flown.magnets,
         )
     };
     let update = match record_entry(store, entry, &TrendSettings::DEFAULT) {
@@ -837,6 +839,8 @@ struct Flown {
     fitness_sum: f32,
     entered: u32,
     day: RecordedDay,
+    /// The weak magnet the windows held (the preflight's).
+    magnets: WeakMagnet,
 }
 
 /// The flight that follows the preflight, if its demand comes within
@@ -992,6 +996,7 @@ async fn fly(
                 fitness_sum,
                 entered,
                 day: first_day.unwrap_or(RecordedDay::UNKNOWN),
+                magnets: held.magnets(),
             })
         }
         Err(e) => {

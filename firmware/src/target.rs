@@ -506,7 +506,16 @@ async fn fly_windows(
             if let Some((path, store, flight)) = log {
                 let day = first_day.unwrap_or(RecordedDay::UNKNOWN);
                 let entry =
-                    |_| HealthRecord::of_flight_reading(flight, &f, fitness_sum, entered, day);
+                    |_| {
+                    HealthRecord::of_flight_reading(
+                        flight,
+                        &f,
+                        fitness_sum,
+                        entered,
+                        day,
+                        &held.magnets(),
+                    )
+                };
                 if let Err(status) = record_health(path, store, &entry) {
                     return status;
                 }

@@ -132,6 +132,9 @@ pub(crate) fn prognose_command(
             }
         );
         print!("{}", prognostics::report_text(&estimates, settings));
+        if let Some(seen) = prognostics::weak_magnet_seen(&rows) {
+            print!("{}", prognostics::weak_magnet_text(&seen));
+        }
         println!(
             "RUL in flights after the newest; \"beyond\" = no crossing within {} flights.",
             settings.horizon

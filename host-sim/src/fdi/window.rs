@@ -22,6 +22,7 @@ use shared::domain::Domain;
 use shared::fdi::{OnboardMeasured, POPULATION};
 use shared::fusion::{FlightReading, WindowFusion};
 use shared::health::{HealthRecord, RecordedDay};
+use shared::magnets::WeakMagnet;
 use shared::pinned::{identify_pinned, PinnedLimits, PINNED_INFLATION};
 use shared::uncertainty::{Assessment, Uncertainty};
 use shared::window::{
@@ -112,6 +113,7 @@ impl WindowIdentified {
                     .map_or([f32::NAN; FAULT_COUNT], |(u, _)| u.std),
             )
             .with_day(RecordedDay::of(&self.conditions))
+            .with_magnet(&self.held.magnets())
             .in_flight(window.max(1));
         record.domain = self.verdict.into();
         record
@@ -159,7 +161,17 @@ pub fn flight_entry(
     let day = entered
         .first()
         .map_or(RecordedDay::UNKNOWN, |w| RecordedDay::of(&w.conditions));
-    HealthRecord::of_flight_reading(flight, reading, fitness_sum, entered.len() as u32, day)
+    let held = entered
+        .first()
+        .map_or(WeakMagnet::NONE, |w| w.held.magnets());
+    HealthRecord::of_flight_reading(
+        flight,
+        reading,
+        fitness_sum,
+        entered.len() as u32,
+        day,
+        &held,
+    )
 }
 
 /// The commanded angle of `trace` [rad] as the controller keeps it over a window: every

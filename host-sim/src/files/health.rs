@@ -8,7 +8,7 @@
 //! History CSV, one row per preflight, readable by `pandas.read_csv` as is:
 //!
 //! ```text
-//! flight,friction,backlash,short_a,short_b,short_c,eccentricity,ecc_phase,gain_drift,demagnetization,fitness,domain[,std_friction,…,std_demagnetization][,v_bus,temp,winding_rise][,true_friction,…,true_demagnetization]
+//! flight,friction,backlash,short_a,short_b,short_c,eccentricity,ecc_phase,gain_drift,demagnetization,fitness,domain[,std_friction,…,std_demagnetization][,v_bus,temp,winding_rise][,magnet_depth,magnet_centre][,true_friction,…,true_demagnetization]
 //! ```
 //!
 //! A history written before the ninth fault (no `demagnetization`, `std_demagnetization` or
@@ -17,7 +17,10 @@
 //!
 //! `std_*` (empty where not determined) are the identification's standard deviations, as a
 //! record keeps them; `v_bus` [V], `temp` [°C] and `winding_rise` [K] the test's day as a
-//! version-3 record keeps it (empty where not measured).
+//! version-3 record keeps it (empty where not measured); `magnet_depth` (the share of its
+//! flux lost) and `magnet_centre` [° of the rotor from the encoder's zero] the weak magnet
+//! the test read, or the preflight's that a flight's windows held, as a version-5 record
+//! keeps it (both empty where none was read; written when a row has one).
 //!
 //! `domain` is `within` or the reason (`no_motion`, `open_phase`, `command_mismatch`,
 //! `fitness_floor`, `segment_carried_nothing`, `bus_out_of_range`,
@@ -33,7 +36,7 @@ use anyhow::{bail, Context, Result};
 use shared::fault::{FAULT_COUNT, FAULT_NAMES, PAPER_FAULT_COUNT};
 use shared::health::{
     record_len, ComponentStd, DomainCode, EncodedRecord, HealthLog, HealthRecord, HealthStore,
-    LoadSummary, RecordedDay, FLIGHT_READING, RECORD_BYTES, RECORD_VERSION,
+    LoadSummary, RecordedDay, RecordedMagnet, FLIGHT_READING, RECORD_BYTES, RECORD_VERSION,
 };
 use shared::FaultVector;
 
@@ -261,6 +264,7 @@ pub fn history_csv(rows: &[HistoryRow]) -> String {
     let with_day = rows.iter().any(|r| r.record.day != RecordedDay::UNKNOWN);
     let with_window = rows.iter().any(|r| r.record.window != 0);
     let with_fused = rows.iter().any(|r| r.record.window == FLIGHT_READING);
+    let with_magnet = rows.iter().any(|r| r.record.magnet != RecordedMagnet::NONE);
     let mut out = String::from("flight");
     if with_window {
         out += ",window";
@@ -279,6 +283,9 @@ pub fn history_csv(rows: &[HistoryRow]) -> String {
     }
     if with_day {
         out += ",v_bus,temp,winding_rise";
+    }
+    if with_magnet {
+        out += ",magnet_depth,magnet_centre";
     }
     if with_truth {
         for n in FAULT_NAMES {
@@ -317,6 +324,14 @@ pub fn history_csv(rows: &[HistoryRow]) -> String {
                 if let Some(v) = v {
                     out += &v.to_string();
                 }
+            }
+        }
+        if with_magnet {
+            let m = r.record.magnet.magnets();
+            if m.is_none() {
+                out += ",,";
+            } else {
+                out += &format!(",{},{}", m.depth, m.centre.to_degrees());
             }
         }
         if let (true, Some(t)) = (with_truth, r.truth) {
@@ -407,6 +422,11 @@ fn parse_history_csv(text: &str) -> Result<Vec<HistoryRow>> {
     let domain_col = column("domain");
     let intrusion_col = column("intrusion");
     let day_cols = [column("v_bus"), column("temp"), column("winding_rise")];
+    let magnet_cols = match (column("magnet_depth"), column("magnet_centre")) {
+        (Some(d), Some(c)) => Some((d, c)),
+        (None, None) => None,
+        _ => bail!("\"magnet_depth\" and \"magnet_centre\" come together or not at all"),
+    };
     let std_cols = complete(columns("std_"));
     let truth_cols = complete(columns("true_"));
     let mut rows: Vec<HistoryRow> = Vec::new();
@@ -521,6 +541,25 @@ fn parse_history_csv(text: &str) -> Result<Vec<HistoryRow>> {
             Some(_) => c.map(&number).transpose(),
         });
         record = record.with_day(RecordedDay::new(bus?, temp?, rise?));
+        if let Some((d, c)) = magnet_cols {
+            match (cell(d), cell(c)) {
+                ("", "") => {}
+                ("", _) | (_, "") => {
+                    bail!("line {line_no}: a weak magnet needs both its depth and its centre")
+                }
+                _ => {
+                    let depth = number(d)?;
+                    if !(depth > 0.0 && depth <= 1.0) {
+                        bail!(
+                            "line {line_no}, column \"magnet_depth\": {depth} is not a share \
+                             of the magnet's flux in (0, 1]"
+                        );
+                    }
+                    let centre = number(c)?.to_radians();
+                    record = record.with_magnet(&shared::magnets::WeakMagnet::new(depth, centre));
+                }
+            }
+        }
         let truth = match &truth_cols {
             Some(cols) => Some(vector(cols)?),
             None => None,
@@ -586,6 +625,30 @@ mod tests {
         assert!(
             format!("{:#}", parse_history_csv(&swapped).unwrap_err()).contains("does not follow")
         );
+    }
+
+    #[test]
+    fn a_weak_magnet_round_trips_and_needs_both_its_cells() {
+        let mut read = row(3, 0.1, Domain::Within);
+        read.record = read
+            .record
+            .with_magnet(&shared::magnets::WeakMagnet::new(0.5, 2.4));
+        let rows = vec![row(2, 0.09, Domain::Within), read];
+        let text = history_csv(&rows);
+        assert!(text.contains(",magnet_depth,magnet_centre,"), "{text}");
+        assert_eq!(parse_history_csv(&text).unwrap(), rows);
+        let m = read.record.magnet.magnets();
+        let cells = format!(",{},{},", m.depth, m.centre.to_degrees());
+        assert!(text.contains(&cells), "{text}");
+        // Flight 2 read none: both cells empty.
+        assert!(text.lines().nth(1).unwrap().contains(",,,"), "{text}");
+        let e = parse_history_csv(&text.replace(&cells, ",,137.8125,")).unwrap_err();
+        assert!(
+            format!("{e:#}").contains("both its depth and its centre"),
+            "{e:#}"
+        );
+        let e = parse_history_csv(&text.replace(&cells, ",1.5,137.8125,")).unwrap_err();
+        assert!(format!("{e:#}").contains("magnet_depth"), "{e:#}");
     }
 
     #[test]

@@ -256,7 +256,8 @@ const REPEAT_STREAM: u64 = 0x9e37_79b9_7f4a_7c15;
 /// One record of a preflight whose test was played `readings.len()` times: the mean of the
 /// `within` readings' vectors (the eccentricity's phase the first's) and fitnesses, their
 /// deviations' root mean square over the root of their number (independent noise), the
-/// first reading's flight and day; `within` if any reading was, else the first's verdict.
+/// first reading's flight and day, the first `within` reading's weak magnet; `within` if any
+/// reading was, else the first's verdict.
 pub fn repeated_reading(readings: &[HealthRecord]) -> HealthRecord {
     let Some(first) = readings.first() else {
         return HealthRecord::new(0, FaultVector::NOMINAL, 0.0, shared::domain::Domain::Within);
@@ -287,6 +288,7 @@ pub fn repeated_reading(readings: &[HealthRecord]) -> HealthRecord {
     )
     .with_std(std)
     .with_day(first.day)
+    .with_magnet(&kept[0].magnet.magnets())
 }
 
 /// Simulates the preflight of every flight of `path` (RM trace with I_ref noise `noise`,
@@ -343,7 +345,8 @@ pub fn degrade(
                         id.uncertainty
                             .map_or([f32::NAN; FAULT_COUNT], |(u, _)| u.std),
                     )
-                    .with_day(RecordedDay::of(&id.conditions));
+                    .with_day(RecordedDay::of(&id.conditions))
+                    .with_magnet(&id.result.magnets);
                 Ok((id, domain, record))
             };
             let (id, domain, mut record) = test(&model, rm_seed)?;
@@ -522,6 +525,56 @@ pub fn report_text(
 /// The JSON object `prognose --json` prints: per fault its trend and a `rul` entry
 /// (`{"flights", "lower", "upper"}`, `null` = beyond the horizon; `rul` itself `null` when the
 /// fault has no threshold).
+/// The weak magnet over a history's trusted preflights: how many read one, the first flight
+/// that did, and the newest preflight's reading (none: it read even magnets).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WeakMagnetSeen {
+    pub read: usize,
+    pub of: usize,
+    pub first_flight: u32,
+    pub newest_flight: u32,
+    pub newest: shared::magnets::WeakMagnet,
+}
+
+/// [`WeakMagnetSeen`] of `rows` (`None`: no trusted preflight read a weak magnet). O(rows).
+pub fn weak_magnet_seen(rows: &[HistoryRow]) -> Option<WeakMagnetSeen> {
+    let preflights = rows
+        .iter()
+        .filter(|r| r.record.window == 0 && r.record.is_trusted());
+    let read = || {
+        preflights
+            .clone()
+            .filter(|r| !r.record.magnet.magnets().is_none())
+    };
+    let first = read().next()?;
+    let newest = preflights.clone().next_back()?;
+    Some(WeakMagnetSeen {
+        read: read().count(),
+        of: preflights.clone().count(),
+        first_flight: first.record.flight,
+        newest_flight: newest.record.flight,
+        newest: newest.record.magnet.magnets(),
+    })
+}
+
+/// One line of [`WeakMagnetSeen`] for a report.
+pub fn weak_magnet_text(seen: &WeakMagnetSeen) -> String {
+    let newest = if seen.newest.is_none() {
+        "none read".to_string()
+    } else {
+        format!(
+            "{:.2} of its flux lost, centred {:.1}° from the encoder's zero",
+            seen.newest.depth,
+            seen.newest.centre.to_degrees()
+        )
+    };
+    format!(
+        "weak magnet: read by {} of {} trusted preflights, first at flight {}; flight {} (the \
+         newest): {newest} (no trend or RUL is kept for it)\n",
+        seen.read, seen.of, seen.first_flight, seen.newest_flight
+    )
+}
+
 pub fn report_json(
     rows: &[HistoryRow],
     trend: &HealthTrend,
@@ -555,6 +608,14 @@ pub fn report_json(
         "newest_flight": rows.last().map(|r| r.record.flight),
         "horizon": settings.horizon,
         "faults": faults,
+        "weak_magnet": weak_magnet_seen(rows).map(|w| serde_json::json!({
+            "preflights_read": w.read,
+            "preflights": w.of,
+            "first_flight": w.first_flight,
+            "newest_flight": w.newest_flight,
+            "newest_depth": (!w.newest.is_none()).then_some(w.newest.depth),
+            "newest_centre_deg": (!w.newest.is_none()).then_some(w.newest.centre.to_degrees()),
+        })),
     })
 }
 
@@ -1876,6 +1937,44 @@ mod tests {
         assert!(r.is_trusted());
         assert_eq!(repeated_reading(&[outside, outside]), outside);
     }
+    #[test]
+    fn the_weak_magnet_is_summed_over_the_trusted_preflights_alone() {
+        use shared::domain::{Domain, OutsideReason};
+        use shared::magnets::WeakMagnet;
+        let row = |flight: u32, depth: f32, domain: Domain| {
+            let m = if depth > 0.0 {
+                WeakMagnet::new(depth, 1.0)
+            } else {
+                WeakMagnet::NONE
+            };
+            HistoryRow {
+                record: HealthRecord::new(flight, FaultVector::NOMINAL, 0.01, domain)
+                    .with_magnet(&m),
+                truth: None,
+                intrusion: None,
+            }
+        };
+        let outside = Domain::Outside(OutsideReason::FitnessFloor { fitness: 0.5 });
+        let mut window = row(4, 0.9, Domain::Within);
+        window.record = window.record.in_flight(1);
+        let rows = [
+            row(1, 0.0, Domain::Within),
+            row(2, 0.8, outside),
+            row(3, 0.3, Domain::Within),
+            window,
+            row(5, 0.4, Domain::Within),
+        ];
+        let seen = weak_magnet_seen(&rows).unwrap();
+        assert_eq!((seen.read, seen.of), (2, 3));
+        assert_eq!((seen.first_flight, seen.newest_flight), (3, 5));
+        assert!((seen.newest.depth - 0.4).abs() < 0.003, "{seen:?}");
+        assert!(weak_magnet_text(&seen).contains("2 of 3 trusted preflights, first at flight 3"));
+        assert_eq!(weak_magnet_seen(&rows[..2]), None);
+        // A repeated test keeps its first trusted reading's magnet.
+        let r = repeated_reading(&[rows[1].record, rows[2].record, rows[4].record]);
+        assert_eq!(r.magnet, rows[2].record.magnet);
+    }
+
     use shared::prognosis::RulEstimate;
 
     fn path(shape: PathShape) -> DegradationPath {

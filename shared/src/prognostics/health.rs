@@ -508,18 +508,21 @@ impl HealthRecord {
     /// [`crate::flight::fusion::WindowFusion::final_reading`]): its vector, deviations and
     /// verdict, as a [`FLIGHT_READING`] entry of `reading.windows` windows; its fitness the
     /// mean of the `entered` windows' (`fitness_sum` their sum, in the order they entered),
-    /// its day the first entered window's. The host's and the controller's entry alike. O(1).
+    /// its day the first entered window's; its weak magnet `held`, the preflight's that the
+    /// windows held. The host's and the controller's entry alike. O(1).
     pub fn of_flight_reading(
         flight: u32,
         reading: &crate::flight::fusion::FlightReading,
         fitness_sum: f32,
         entered: u32,
         day: RecordedDay,
+        held: &WeakMagnet,
     ) -> Self {
         let fitness = fitness_sum / entered.max(1) as f32;
         let mut record = Self::new(flight, reading.faults, fitness, Domain::Within)
             .with_std(reading.uncertainty.0.std)
             .with_day(day)
+            .with_magnet(held)
             .flight_reading(u8::try_from(reading.windows).unwrap_or(u8::MAX));
         record.domain = reading.verdict.into();
         record

@@ -492,8 +492,11 @@ fn a_flights_reading_is_logged_as_an_in_flight_entry() {
         friction_held: false,
     };
     let day = RecordedDay::new(Some(271.0), Some(5.0), None);
-    let r = HealthRecord::of_flight_reading(12, &reading, 0.006, 3, day);
+    let held = WeakMagnet::new(0.4, 1.0);
+    let r = HealthRecord::of_flight_reading(12, &reading, 0.006, 3, day, &held);
     assert_eq!((r.flight, r.window, r.fused), (12, FLIGHT_READING, 7));
+    assert_eq!(r.magnet, RecordedMagnet::of(&held));
+    assert!(!r.magnet.magnets().is_none());
     assert_eq!(r.faults, reading.faults);
     assert_eq!(r.fitness, 0.002);
     assert_eq!(r.day, day);
@@ -503,10 +506,10 @@ fn a_flights_reading_is_logged_as_an_in_flight_entry() {
         verdict: Err(WindowReason::TurbulenceTooHigh { friction_std: 0.05 }),
         ..reading
     };
-    assert!(!HealthRecord::of_flight_reading(12, &loose, 0.006, 3, day).is_trusted());
+    assert!(!HealthRecord::of_flight_reading(12, &loose, 0.006, 3, day, &held).is_trusted());
     // No window entered: the fitness is the sum's, not a division by zero.
     assert_eq!(
-        HealthRecord::of_flight_reading(12, &reading, 0.0, 0, day).fitness,
+        HealthRecord::of_flight_reading(12, &reading, 0.0, 0, day, &held).fitness,
         0.0
     );
 }
