@@ -473,9 +473,10 @@ pub(crate) fn conditions_campaign_command(
          then the same readings of the healthy components beside the faults of Table I and II; \
          then the runs the domain check put outside; then the largest disagreement of the \
          injection's winding temperature with the thermistor's over the row's runs (beyond \
-         `shared::conditions::MAX_WINDING_DISAGREEMENT` a run is outside).\n\n\
-         | conditions | Table I median | Table I worst case (mean) | low | medium | high | medium + noise | healthy: largest | healthy: FAULT / suspect | Table I+II healthy components FAULT / suspect | outside the domain | injection − thermistor, largest [K] |\n\
-         | --- | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n",
+         `shared::conditions::MAX_WINDING_DISAGREEMENT` a run is outside); last, the runs that \
+         read a weak magnet (no case plays one).\n\n\
+         | conditions | Table I median | Table I worst case (mean) | low | medium | high | medium + noise | healthy: largest | healthy: FAULT / suspect | Table I+II healthy components FAULT / suspect | outside the domain | injection − thermistor, largest [K] | weak magnet read |\n\
+         | --- | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n",
         actuator.name,
         actuator.record.test.kind_name(),
         actuator.record.calibration.temperature
@@ -565,8 +566,12 @@ pub(crate) fn conditions_campaign_command(
                     .map(|r| f64::from(r.winding_disagreement).abs())
             })
             .fold(0.0, f64::max);
+        let weak: usize = summaries
+            .iter()
+            .map(|c| c.runs.iter().filter(|r| r.weak_magnet.is_some()).count())
+            .sum();
         text += &format!(
-            "| {} | {median:.2} | {worst} | {} | {} | {} | {} | {largest:.3} | {hf} / {hs} | {f} / {su} of {of} | {outside_text} | {disagreement:.1} |\n",
+            "| {} | {median:.2} | {worst} | {} | {} | {} | {} | {largest:.3} | {hf} / {hs} | {f} / {su} of {of} | {outside_text} | {disagreement:.1} | {weak} of {total} |\n",
             point.label,
             mean_of("low"),
             mean_of("medium"),
