@@ -1,5 +1,5 @@
-//! `host-sim fleet ingest` and `fleet report`: the store is keyed by serial and flight,
-//! idempotent, refuses damaged, unknown-version and contradicting logs whole without losing
+//! `host-sim fleet ingest` and `fleet report`: the store is keyed by serial, flight and
+//! test (a preflight and its flight's in-flight entries side by side), idempotent, refuses damaged, unknown-version and contradicting logs whole without losing
 //! what it held, and the report ranks, flags and draws what the records say.
 
 mod common;
@@ -133,7 +133,10 @@ fn damaged_unknown_and_contradicting_logs_are_refused_whole_and_the_store_keeps_
     std::fs::create_dir(contradicting.parent().unwrap()).unwrap();
     std::fs::write(&contradicting, log_image(8, 0..4, 0.3)).unwrap();
     let (ok, out) = ingest(&db, &[&contradicting], &[]);
-    assert!(!ok && out.contains("flight 0 is already stored"), "{out}");
+    assert!(
+        !ok && out.contains("flight 0's preflight is already stored"),
+        "{out}"
+    );
     assert_eq!(stored(&db), 11);
 
     // Not a log at all, and a good log in the same call: the good one is stored.
@@ -204,7 +207,7 @@ fn a_schema_1_store_of_eight_component_records_is_migrated_in_place() {
     let (ok, out) = ingest(&db, &[&path], &[]);
     assert!(ok, "{out}");
     assert!(
-        out.contains("migrated from schema 1 to 2 (6 records"),
+        out.contains("migrated from schema 1 to 3 (6 records"),
         "{out}"
     );
     assert!(out.contains("6 v3 records, 0 new"), "{out}");
@@ -214,7 +217,7 @@ fn a_schema_1_store_of_eight_component_records_is_migrated_in_place() {
             r.get(0)
         })
         .unwrap();
-    assert_eq!(schema, 2);
+    assert_eq!(schema, 3);
     let mut q = c
         .prepare("SELECT flight, version, bytes FROM records ORDER BY flight")
         .unwrap();
@@ -234,6 +237,122 @@ fn a_schema_1_store_of_eight_component_records_is_migrated_in_place() {
     // Opening it again migrates nothing.
     let (ok, out) = ingest(&db, &[&path], &[]);
     assert!(ok && !out.contains("migrated"), "{out}");
+}
+
+/// A ring of flights 0..6, each a preflight (friction growing, flight 5's with a weak
+/// magnet), its first window (its own verdict a fitness floor) and the flight's reading.
+fn log_with_flights() -> Vec<u8> {
+    use shared::health::FLIGHT_READING;
+    use shared::magnets::WeakMagnet;
+    let mut records = Vec::new();
+    for f in 0..6u32 {
+        let mut pre = record(f, 0.1 + 0.01 * f as f32, Domain::Within);
+        if f == 5 {
+            pre = pre.with_magnet(&WeakMagnet::new(0.5, 2.4));
+        }
+        let mut window = record(f, 0.3, Domain::Within).in_flight(1);
+        window.domain = shared::health::DomainCode::from_name("fitness_floor").unwrap();
+        let reading = record(f, 0.1 + 0.01 * f as f32, Domain::Within).flight_reading(1);
+        assert_eq!(reading.window, FLIGHT_READING);
+        records.extend([pre, window, reading]);
+    }
+    let mut image = vec![0xFF; 32 * RECORD_BYTES];
+    for (slot, r) in records.iter().enumerate() {
+        image[slot * RECORD_BYTES..(slot + 1) * RECORD_BYTES].copy_from_slice(&r.encode());
+    }
+    image
+}
+
+#[test]
+fn a_log_with_in_flight_entries_is_stored_whole_and_its_window_verdicts_flag_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("fleet.sqlite");
+    let log = dir.path().join("ACT-7.bin");
+    std::fs::write(&log, log_with_flights()).unwrap();
+    let (ok, out) = ingest(&db, &[&log], &[]);
+    assert!(ok && out.contains("18 new"), "{out}");
+    let (ok, out) = ingest(&db, &[&log], &[]);
+    assert!(ok && out.contains("0 new"), "{out}");
+    assert_eq!(stored(&db), 18);
+    // Another window 1 of flight 3 contradicts the stored one.
+    let mut other = log_with_flights();
+    let changed = record(3, 0.9, Domain::Within).in_flight(1);
+    other[10 * RECORD_BYTES..11 * RECORD_BYTES].copy_from_slice(&changed.encode());
+    let bad = dir.path().join("ACT-7-again.bin");
+    std::fs::write(&bad, other).unwrap();
+    let (ok, out) = ingest(&db, &[&bad], &["--serial", "ACT-7"]);
+    assert!(
+        !ok && out.contains("flight 3's window 1 is already stored"),
+        "{out}"
+    );
+    assert_eq!(stored(&db), 18);
+    let page = dir.path().join("report.html");
+    let o = host_sim(&["fleet", "report", "--db", s(&db), "--out", s(&page)]);
+    assert!(o.status.success(), "{}", text(&o));
+    let html = std::fs::read_to_string(&page).unwrap();
+    assert!(
+        html.contains("ten): <b>0</b>"),
+        "a window's fitness floor flags nothing"
+    );
+    assert!(
+        html.contains("newest trusted preflight: <b>1</b>"),
+        "{html}"
+    );
+    assert!(
+        html.contains("0.50 of its flux lost at 138° (flight 5)"),
+        "{html}"
+    );
+}
+
+#[test]
+fn a_schema_2_store_is_migrated_with_its_records_under_their_tests() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("fleet.sqlite");
+    let image = log_image(8, 0..5, 0.1);
+    {
+        let c = rusqlite::Connection::open(&db).unwrap();
+        c.execute_batch(
+            "CREATE TABLE meta (key TEXT PRIMARY KEY, value INTEGER NOT NULL);
+             CREATE TABLE records (serial TEXT NOT NULL, flight INTEGER NOT NULL,
+                 version INTEGER NOT NULL, bytes BLOB NOT NULL,
+                 PRIMARY KEY (serial, flight)) WITHOUT ROWID;
+             CREATE TABLE ingests (id INTEGER PRIMARY KEY, source TEXT NOT NULL,
+                 serial TEXT NOT NULL, records INTEGER NOT NULL, added INTEGER NOT NULL);
+             INSERT INTO meta VALUES ('schema', 2);",
+        )
+        .unwrap();
+        for f in 0..5u32 {
+            let at = f as usize * RECORD_BYTES;
+            c.execute(
+                "INSERT INTO records VALUES ('ACT-2', ?1, 5, ?2)",
+                rusqlite::params![f, &image[at..at + RECORD_BYTES]],
+            )
+            .unwrap();
+        }
+    }
+    let log = dir.path().join("ACT-2.bin");
+    std::fs::write(&log, log_with_flights()).unwrap();
+    let (ok, out) = ingest(&db, &[&log], &[]);
+    assert!(
+        ok && out.contains("migrated from schema 2 to 3 (5 records"),
+        "{out}"
+    );
+    // The five stored preflights are the log's own: its other thirteen records are added.
+    assert!(out.contains("18 v5 records, 13 new"), "{out}");
+    let c = rusqlite::Connection::open(&db).unwrap();
+    let rows: Vec<(u32, u8, Vec<u8>)> = c
+        .prepare("SELECT flight, test, bytes FROM records WHERE test = 0 ORDER BY flight")
+        .unwrap()
+        .query_map([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))
+        .unwrap()
+        .map(Result::unwrap)
+        .collect();
+    assert_eq!(rows.len(), 6);
+    for (f, test, bytes) in rows.into_iter().take(5) {
+        assert_eq!(test, 0);
+        let at = f as usize * RECORD_BYTES;
+        assert_eq!(bytes, &image[at..at + RECORD_BYTES], "kept as stored");
+    }
 }
 
 #[test]

@@ -4,15 +4,18 @@
 //!
 //! ## Store
 //!
-//! One file, no server (bundled SQLite). Table `records (serial, flight, version, bytes)`,
-//! primary key `(serial, flight)`: `bytes` is the record exactly as the controller wrote it
-//! (version 1 … 4, its checksum included), decoded again by `shared::health` when read.
+//! One file, no server (bundled SQLite). Table `records (serial, flight, test, version,
+//! bytes)`, primary key `(serial, flight, test)`: `test` is the record's place in its flight
+//! (0 the preflight, n its n-th window of flight, 255 the flight's reading from its windows:
+//! `HealthRecord::window`), `bytes` the record exactly as the controller wrote it (version
+//! 1 … 5, its checksum included), decoded again by `shared::health` when read.
 //!
-//! Schema 2 (the ninth fault): every record is of version 4 or was ingested as sent. A
-//! schema-1 store (records of eight components, versions 1–3) is migrated in place when
-//! opened, in one transaction: each stored record is re-encoded as version 4 (k9 = 0, its
-//! standard deviation not determined) and the schema set to 2, so that a host-sim of
-//! schema 1 refuses the store rather than misread a record it does not know.
+//! Schema 3 (in-flight entries beside their preflight). Older stores are migrated in place
+//! when opened, in one transaction, and the schema set to 3, so that an older host-sim
+//! refuses the store rather than misread it: a schema-2 store's records are kept as they
+//! are, each under its own test; a schema-1 store's (records of eight components, versions
+//! 1–3) are re-encoded as the current version (k9 = 0, its standard deviation not
+//! determined).
 //! Each log is ingested in one transaction:
 //!
 //! * a record already stored with the same bytes adds nothing (ingesting a log twice, or two
@@ -25,9 +28,10 @@
 //!
 //! Each actuator's whole stored history feeds `shared::prognosis` (the controller's trend,
 //! over every flight instead of its 32-record ring). Actuators are ranked by the soonest
-//! lower bound of the 90 % RUL interval over their faults; those whose newest test was
-//! outside the monitor model's domain, or with out-of-domain tests among their last ten, are
-//! flagged. The page holds the ranking and, for the first actuators, one SVG per fault
+//! lower bound of the 90 % RUL interval over their faults; those whose newest preflight was
+//! outside the monitor model's domain, or with out-of-domain preflights among their last ten,
+//! are flagged (an in-flight entry's own verdict flags nothing), and the weak magnet the
+//! newest trusted preflight read is shown. The page holds the ranking and, for the first actuators, one SVG per fault
 //! heading for its threshold: identified levels, fit, 90 % cone and RUL interval.
 //!
 //! Work: ingest O(records) statements; report O(records · faults · shapes) trend updates
@@ -41,15 +45,27 @@ use anyhow::{bail, Context, Result};
 use rusqlite::{params, Connection, OptionalExtension};
 use shared::fault::{FAULT_COUNT, FAULT_NAMES};
 use shared::health::{
-    is_blank, record_len, DomainCode, HealthRecord, HealthRecordError, RECORD_BYTES, RECORD_VERSION,
+    is_blank, record_len, DomainCode, HealthRecord, HealthRecordError, FLIGHT_READING,
+    RECORD_BYTES, RECORD_VERSION,
 };
+use shared::magnets::WeakMagnet;
 use shared::prognosis::{HealthTrend, TrendEstimate, TrendSettings};
 
 use crate::files::health::ImageStore;
 use crate::studies::prognostics::growth_name;
 
 /// The store's schema version (table `meta`).
-const SCHEMA: i64 = 2;
+const SCHEMA: i64 = 3;
+
+/// The records table of [`SCHEMA`].
+const RECORDS_TABLE: &str = "CREATE TABLE records (
+    serial TEXT NOT NULL,
+    flight INTEGER NOT NULL,
+    test INTEGER NOT NULL,
+    version INTEGER NOT NULL,
+    bytes BLOB NOT NULL,
+    PRIMARY KEY (serial, flight, test)
+) WITHOUT ROWID;";
 
 /// The fleet store: one SQLite file.
 pub struct FleetStore {
@@ -68,7 +84,7 @@ pub struct Ingested {
     pub empty: usize,
     /// Damaged slots skipped (only with `skip_damaged`).
     pub skipped_damaged: usize,
-    /// The log's record version (1 or 2).
+    /// The log's record version (1 … 5).
     pub version: u8,
 }
 
@@ -81,8 +97,8 @@ pub enum Refusal {
     UnknownVersion { slot: usize, version: u8 },
     /// Slots whose record fails its checksum or field checks.
     Damaged { slots: Vec<usize> },
-    /// A stored record of the same serial and flight differs.
-    Conflict { flight: u32 },
+    /// A stored record of the same serial, flight and test (`HealthRecord::window`) differs.
+    Conflict { flight: u32, test: u8 },
     /// The log holds no record at all.
     Empty,
 }
@@ -94,17 +110,18 @@ impl std::fmt::Display for Refusal {
             Self::UnknownVersion { slot, version } => write!(
                 f,
                 "slot {slot} holds a version-{version} record; this host-sim reads versions 1 \
-                 and 2 (update host-sim)"
+                 to {RECORD_VERSION} (update host-sim)"
             ),
             Self::Damaged { slots } => write!(
                 f,
                 "damaged slot(s) {slots:?} (checksum or field); nothing stored \
                  (--skip-damaged stores the sound records)"
             ),
-            Self::Conflict { flight } => write!(
+            Self::Conflict { flight, test } => write!(
                 f,
-                "flight {flight} is already stored for this serial with other contents \
-                 (wrong serial, or a controller whose flight counter went back); nothing stored"
+                "flight {flight}'s {} is already stored for this serial with other contents \
+                 (wrong serial, or a controller whose flight counter went back); nothing stored",
+                test_name(*test)
             ),
             Self::Empty => write!(f, "no record in the log"),
         }
@@ -129,27 +146,46 @@ pub fn check_serial(serial: &str) -> Result<()> {
     Ok(())
 }
 
-/// Re-encodes every record of a schema-1 store as the current version and sets the schema,
-/// in one transaction (a store that fails is left as it was). Returns the records rewritten.
-fn migrate_schema_1(conn: &Connection) -> Result<usize> {
+/// What a record's test is called in messages: `preflight`, `window n`, `flight reading`.
+fn test_name(test: u8) -> String {
+    match test {
+        0 => "preflight".into(),
+        FLIGHT_READING => "flight reading".into(),
+        n => format!("window {n}"),
+    }
+}
+
+/// Moves the records of a store of schema `from` (1 or 2, keyed by serial and flight) into
+/// the records table of [`SCHEMA`], each under its own test, a schema-1 store's re-encoded as
+/// the current version, and sets the schema, in one transaction (a store that fails is left
+/// as it was). Returns the records moved.
+fn migrate(conn: &Connection, from: i64) -> Result<usize> {
     let tx = conn.unchecked_transaction()?;
-    let rows: Vec<(String, i64, Vec<u8>)> = {
-        let mut all = tx.prepare("SELECT serial, flight, bytes FROM records")?;
-        let rows = all.query_map([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))?;
+    let rows: Vec<(String, i64, i64, Vec<u8>)> = {
+        let mut all = tx.prepare("SELECT serial, flight, version, bytes FROM records")?;
+        let rows = all.query_map([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?)))?;
         rows.collect::<rusqlite::Result<_>>()?
     };
-    let mut put = tx
-        .prepare("UPDATE records SET version = ?3, bytes = ?4 WHERE serial = ?1 AND flight = ?2")?;
-    for (serial, flight, bytes) in &rows {
+    tx.execute_batch(&format!("DROP TABLE records; {RECORDS_TABLE}"))?;
+    let mut put = tx.prepare(
+        "INSERT INTO records (serial, flight, test, version, bytes) VALUES (?1, ?2, ?3, ?4, ?5)",
+    )?;
+    for (serial, flight, version, bytes) in &rows {
         let record = HealthRecord::decode(bytes).map_err(|e| {
             anyhow::anyhow!("record of {serial}, flight {flight} does not decode: {e:?}")
         })?;
-        put.execute(params![
-            serial,
-            flight,
-            RECORD_VERSION,
-            record.encode().as_slice()
-        ])?;
+        if from == 1 {
+            let bytes = record.encode();
+            put.execute(params![
+                serial,
+                flight,
+                record.window,
+                RECORD_VERSION,
+                bytes.as_slice()
+            ])?;
+        } else {
+            put.execute(params![serial, flight, record.window, version, bytes])?;
+        }
     }
     drop(put);
     tx.execute("UPDATE meta SET value = ?1 WHERE key = 'schema'", [SCHEMA])?;
@@ -164,13 +200,6 @@ impl FleetStore {
             .with_context(|| format!("opening fleet store {}", path.display()))?;
         conn.execute_batch(
             "CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value INTEGER NOT NULL);
-             CREATE TABLE IF NOT EXISTS records (
-                 serial TEXT NOT NULL,
-                 flight INTEGER NOT NULL,
-                 version INTEGER NOT NULL,
-                 bytes BLOB NOT NULL,
-                 PRIMARY KEY (serial, flight)
-             ) WITHOUT ROWID;
              CREATE TABLE IF NOT EXISTS ingests (
                  id INTEGER PRIMARY KEY,
                  source TEXT NOT NULL,
@@ -187,15 +216,23 @@ impl FleetStore {
             .optional()?;
         match schema {
             None => {
+                conn.execute_batch(RECORDS_TABLE)
+                    .with_context(|| format!("{}: not a fleet store", path.display()))?;
                 conn.execute("INSERT INTO meta VALUES ('schema', ?1)", [SCHEMA])?;
             }
             Some(SCHEMA) => {}
-            Some(1) => {
-                let n = migrate_schema_1(&conn)
-                    .with_context(|| format!("{}: migrating schema 1 to 2", path.display()))?;
+            Some(from @ (1 | 2)) => {
+                let n = migrate(&conn, from).with_context(|| {
+                    format!("{}: migrating schema {from} to {SCHEMA}", path.display())
+                })?;
+                let how = if from == 1 {
+                    format!(", re-encoded as version {RECORD_VERSION}")
+                } else {
+                    String::new()
+                };
                 eprintln!(
-                    "{}: fleet store migrated from schema 1 to {SCHEMA} ({n} records of \
-                     eight components re-encoded as version {RECORD_VERSION})",
+                    "{}: fleet store migrated from schema {from} to {SCHEMA} ({n} records, each \
+                     under its test in its flight{how})",
                     path.display()
                 );
             }
@@ -239,14 +276,16 @@ impl FleetStore {
         if found.is_empty() {
             return Err(Refusal::Empty.into());
         }
-        found.sort_by_key(|(r, _)| r.flight);
+        found.sort_by_key(|(r, _)| r.order());
         let tx = self.conn.transaction()?;
         let mut added = 0;
         {
-            let mut get =
-                tx.prepare_cached("SELECT bytes FROM records WHERE serial = ?1 AND flight = ?2")?;
+            let mut get = tx.prepare_cached(
+                "SELECT bytes FROM records WHERE serial = ?1 AND flight = ?2 AND test = ?3",
+            )?;
             let mut put = tx.prepare_cached(
-                "INSERT INTO records (serial, flight, version, bytes) VALUES (?1, ?2, ?3, ?4)",
+                "INSERT INTO records (serial, flight, test, version, bytes) \
+                 VALUES (?1, ?2, ?3, ?4, ?5)",
             )?;
             for (r, bytes) in &found {
                 // The record without the slot's erased tail (a decoded record's version is
@@ -257,7 +296,7 @@ impl FleetStore {
                     .unwrap_or(bytes.len());
                 let bytes = bytes.get(..len).unwrap_or(bytes);
                 let stored: Option<Vec<u8>> = get
-                    .query_row(params![serial, r.flight], |row| row.get(0))
+                    .query_row(params![serial, r.flight, r.window], |row| row.get(0))
                     .optional()?;
                 match stored {
                     Some(s) if s == bytes => {}
@@ -266,16 +305,27 @@ impl FleetStore {
                         // controller) is the same record.
                         let same = HealthRecord::decode(&s).is_ok_and(|old| {
                             old.flight == r.flight
+                                && old.window == r.window
                                 && old.faults == r.faults
                                 && old.fitness.to_bits() == r.fitness.to_bits()
                                 && old.domain == r.domain
                         });
                         if !same {
-                            return Err(Refusal::Conflict { flight: r.flight }.into());
+                            return Err(Refusal::Conflict {
+                                flight: r.flight,
+                                test: r.window,
+                            }
+                            .into());
                         }
                     }
                     None => {
-                        put.execute(params![serial, r.flight, bytes.get(4).copied(), bytes])?;
+                        put.execute(params![
+                            serial,
+                            r.flight,
+                            r.window,
+                            bytes.get(4).copied(),
+                            bytes
+                        ])?;
                         added += 1;
                     }
                 }
@@ -310,7 +360,7 @@ impl FleetStore {
         let mut out: BTreeMap<String, Vec<HealthRecord>> = BTreeMap::new();
         let mut q = self
             .conn
-            .prepare("SELECT serial, flight, bytes FROM records ORDER BY serial, flight")?;
+            .prepare("SELECT serial, flight, bytes FROM records ORDER BY serial, flight, test")?;
         let mut rows = q.query([])?;
         while let Some(row) = rows.next()? {
             let serial: String = row.get(0)?;
@@ -365,10 +415,14 @@ pub struct ActuatorStatus {
     /// The fault whose RUL lower bound is soonest, and that bound (`None`: beyond the
     /// horizon).
     pub limiting: Option<(usize, Option<f32>)>,
-    /// The newest test's verdict when it was outside the domain.
+    /// The newest preflight's verdict when it was outside the domain.
     pub newest_outside: Option<DomainCode>,
-    /// Out-of-domain tests among the last ten.
+    /// Out-of-domain preflights among the last ten (an in-flight entry's verdict — a
+    /// window's turbulence, an unconfirmed flight reading — flags nothing).
     pub recent_outside: usize,
+    /// The newest trusted preflight's weak magnet, and its flight (`None`: it read even
+    /// magnets, or no preflight was trusted).
+    pub weak_magnet: Option<(u32, WeakMagnet)>,
 }
 
 impl ActuatorStatus {
@@ -389,6 +443,8 @@ impl ActuatorStatus {
             }
         }
         let newest = records.last();
+        let preflights = || records.iter().rev().filter(|r| r.window == 0);
+        let trusted = preflights().find(|r| r.is_trusted());
         Self {
             serial: serial.to_string(),
             records: records.len(),
@@ -396,13 +452,14 @@ impl ActuatorStatus {
             trend,
             estimates,
             limiting,
-            newest_outside: newest.filter(|r| !r.is_trusted()).map(|r| r.domain),
-            recent_outside: records
-                .iter()
-                .rev()
-                .take(10)
+            newest_outside: preflights()
+                .next()
                 .filter(|r| !r.is_trusted())
-                .count(),
+                .map(|r| r.domain),
+            recent_outside: preflights().take(10).filter(|r| !r.is_trusted()).count(),
+            weak_magnet: trusted
+                .map(|r| (r.flight, r.magnet.magnets()))
+                .filter(|(_, m)| !m.is_none()),
         }
     }
 
@@ -485,10 +542,12 @@ pub fn report_html(
         h,
         "<p id=\"summary\">{} actuators, {records} health records. RUL lower bound (5 % point \
          of the end-of-life distribution) within 10 flights: <b>{}</b>; within 50: <b>{}</b>. \
-         Outside the monitor model's domain (newest test, or any of the last ten): <b>{flagged}</b>.</p>",
+         Outside the monitor model's domain (newest preflight, or any of the last ten): \
+         <b>{flagged}</b>. A weak magnet read by the newest trusted preflight: <b>{}</b>.</p>",
         statuses.len(),
         statuses.iter().filter(|s| within(s, 10.0)).count(),
         statuses.iter().filter(|s| within(s, 50.0)).count(),
+        statuses.iter().filter(|s| s.weak_magnet.is_some()).count(),
     );
     let _ = writeln!(
         h,
@@ -506,7 +565,7 @@ pub fn report_html(
     h += "<table id=\"ranking\"><tr><th>rank</th><th class=\"l\">serial</th><th>records</th>\
           <th>newest flight</th><th class=\"l\">limiting fault</th><th>level</th>\
           <th>RUL lower</th><th>RUL median</th><th>RUL upper</th><th class=\"l\">growth</th>\
-          <th class=\"l\">domain</th></tr>\n";
+          <th class=\"l\">domain</th><th class=\"l\">weak magnet</th></tr>\n";
     for (rank, s) in statuses.iter().enumerate() {
         let (fault, level, lo, mid, hi, growth) = match s.limiting {
             Some((i, _)) => {
@@ -532,6 +591,13 @@ pub fn report_html(
                 "-".into(),
             ),
         };
+        let magnet = s.weak_magnet.map_or("-".into(), |(flight, m)| {
+            format!(
+                "{:.2} of its flux lost at {:.0}° (flight {flight})",
+                m.depth,
+                m.centre.to_degrees()
+            )
+        });
         let domain = match (s.newest_outside, s.recent_outside) {
             (Some(code), n) => format!("newest test outside ({}); {n} of last 10", code.name()),
             (None, 0) => "within".into(),
@@ -551,7 +617,7 @@ pub fn report_html(
             h,
             "<tr{}><td>{}</td><td class=\"l\">{link}</td><td>{}</td><td>{}</td><td class=\"l\">{fault}</td>\
              <td>{level}</td><td{soon}>{lo}</td><td>{mid}</td><td>{hi}</td><td class=\"l\">{growth}</td>\
-             <td class=\"l\">{domain}</td></tr>",
+             <td class=\"l\">{domain}</td><td class=\"l\">{magnet}</td></tr>",
             if s.flagged() { " class=\"flag\"" } else { "" },
             rank + 1,
             s.records,
