@@ -169,6 +169,31 @@ fn a_version_1_log_is_ingested() {
 /// A store of schema 1 (records of eight components, as the tool wrote before the ninth
 /// fault) is migrated in place when opened: every record re-encoded as the current version,
 /// nothing lost, and the old log ingested again adds nothing.
+/// A store of schema `schema` (1 or 2: keyed by serial and flight) holding the first
+/// `flights` slots of `image` (`len` bytes each) of `serial` as they were sent.
+fn old_store(db: &Path, schema: i64, serial: &str, image: &[u8], len: usize, flights: u32) {
+    let c = rusqlite::Connection::open(db).unwrap();
+    c.execute_batch(
+        "CREATE TABLE meta (key TEXT PRIMARY KEY, value INTEGER NOT NULL);
+         CREATE TABLE records (serial TEXT NOT NULL, flight INTEGER NOT NULL,
+             version INTEGER NOT NULL, bytes BLOB NOT NULL,
+             PRIMARY KEY (serial, flight)) WITHOUT ROWID;
+         CREATE TABLE ingests (id INTEGER PRIMARY KEY, source TEXT NOT NULL,
+             serial TEXT NOT NULL, records INTEGER NOT NULL, added INTEGER NOT NULL);",
+    )
+    .unwrap();
+    c.execute("INSERT INTO meta VALUES ('schema', ?1)", [schema])
+        .unwrap();
+    for f in 0..flights {
+        let bytes = &image[f as usize * len..(f as usize + 1) * len];
+        c.execute(
+            "INSERT INTO records VALUES (?1, ?2, ?3, ?4)",
+            rusqlite::params![serial, f, bytes[4], bytes],
+        )
+        .unwrap();
+    }
+}
+
 #[test]
 fn a_schema_1_store_of_eight_component_records_is_migrated_in_place() {
     use shared::health::{RECORD_V3_BYTES, RECORD_VERSION};
@@ -183,27 +208,7 @@ fn a_schema_1_store_of_eight_component_records_is_migrated_in_place() {
     let path = dir.path().join("OLD-3.bin");
     std::fs::write(&path, &image).unwrap();
     // What the schema-1 tool kept: the version-3 bytes as sent, schema 1.
-    {
-        let c = rusqlite::Connection::open(&db).unwrap();
-        c.execute_batch(
-            "CREATE TABLE meta (key TEXT PRIMARY KEY, value INTEGER NOT NULL);
-             CREATE TABLE records (serial TEXT NOT NULL, flight INTEGER NOT NULL,
-                 version INTEGER NOT NULL, bytes BLOB NOT NULL,
-                 PRIMARY KEY (serial, flight)) WITHOUT ROWID;
-             CREATE TABLE ingests (id INTEGER PRIMARY KEY, source TEXT NOT NULL,
-                 serial TEXT NOT NULL, records INTEGER NOT NULL, added INTEGER NOT NULL);
-             INSERT INTO meta VALUES ('schema', 1);",
-        )
-        .unwrap();
-        for f in 0..6u32 {
-            let at = f as usize * RECORD_V3_BYTES;
-            c.execute(
-                "INSERT INTO records VALUES ('OLD-3', ?1, 3, ?2)",
-                rusqlite::params![f, &image[at..at + RECORD_V3_BYTES]],
-            )
-            .unwrap();
-        }
-    }
+    old_store(&db, 1, "OLD-3", &image, RECORD_V3_BYTES, 6);
     let (ok, out) = ingest(&db, &[&path], &[]);
     assert!(ok, "{out}");
     assert!(
@@ -309,27 +314,7 @@ fn a_schema_2_store_is_migrated_with_its_records_under_their_tests() {
     let dir = tempfile::tempdir().unwrap();
     let db = dir.path().join("fleet.sqlite");
     let image = log_image(8, 0..5, 0.1);
-    {
-        let c = rusqlite::Connection::open(&db).unwrap();
-        c.execute_batch(
-            "CREATE TABLE meta (key TEXT PRIMARY KEY, value INTEGER NOT NULL);
-             CREATE TABLE records (serial TEXT NOT NULL, flight INTEGER NOT NULL,
-                 version INTEGER NOT NULL, bytes BLOB NOT NULL,
-                 PRIMARY KEY (serial, flight)) WITHOUT ROWID;
-             CREATE TABLE ingests (id INTEGER PRIMARY KEY, source TEXT NOT NULL,
-                 serial TEXT NOT NULL, records INTEGER NOT NULL, added INTEGER NOT NULL);
-             INSERT INTO meta VALUES ('schema', 2);",
-        )
-        .unwrap();
-        for f in 0..5u32 {
-            let at = f as usize * RECORD_BYTES;
-            c.execute(
-                "INSERT INTO records VALUES ('ACT-2', ?1, 5, ?2)",
-                rusqlite::params![f, &image[at..at + RECORD_BYTES]],
-            )
-            .unwrap();
-        }
-    }
+    old_store(&db, 2, "ACT-2", &image, RECORD_BYTES, 5);
     let log = dir.path().join("ACT-2.bin");
     std::fs::write(&log, log_with_flights()).unwrap();
     let (ok, out) = ingest(&db, &[&log], &[]);
