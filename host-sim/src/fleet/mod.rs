@@ -31,8 +31,9 @@
 //! lower bound of the 90 % RUL interval over their faults; those whose newest preflight was
 //! outside the monitor model's domain, or with out-of-domain preflights among their last ten,
 //! are flagged (an in-flight entry's own verdict flags nothing), and the weak magnet the
-//! newest trusted preflight read is shown. The page holds the ranking and, for the first actuators, one SVG per fault
-//! heading for its threshold: identified levels, fit, 90 % cone and RUL interval.
+//! newest trusted preflight read is shown. The page holds the ranking and, for the first
+//! actuators, one SVG per fault heading for its threshold: identified levels, fit, 90 % cone
+//! and RUL interval.
 //!
 //! Work: ingest O(records) statements; report O(records · faults · shapes) trend updates
 //! plus one estimate per actuator and fault.
