@@ -335,7 +335,7 @@ pub(crate) fn held_from_preflight_trace(
             "shorts, eccentricity and demagnetization held at the preflight's ({name}), their \
              error carried into the deviations: shorts A {:.3} ± {:.3}, B {:.3} ± {:.3}, \
              C {:.3} ± {:.3}; eccentricity {:.3} ± {:.3} at phase {:.3} ± {:.3}; \
-             demagnetization {:.3} ± {:.3} (1 σ)",
+             demagnetization {:.3} ± {:.3} (1 σ); weak magnet held: {}",
             k[2],
             s(2),
             k[3],
@@ -347,7 +347,8 @@ pub(crate) fn held_from_preflight_trace(
             k[phase],
             s(phase),
             k[demag],
-            s(demag)
+            s(demag),
+            weak_magnet_text(&held.magnets(), &record.params)
         ),
     ))
 }
