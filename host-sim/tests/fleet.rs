@@ -450,7 +450,7 @@ fn the_report_ranks_by_the_rul_lower_bound_draws_the_trends_and_flags_the_domain
         "{healthy_row}"
     );
     assert!(
-        healthy_row.contains("newest test outside (no_motion)"),
+        healthy_row.contains("newest preflight outside (no_motion)"),
         "{healthy_row}"
     );
     assert_eq!(

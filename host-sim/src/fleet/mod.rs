@@ -600,9 +600,11 @@ pub fn report_html(
             )
         });
         let domain = match (s.newest_outside, s.recent_outside) {
-            (Some(code), n) => format!("newest test outside ({}); {n} of last 10", code.name()),
+            (Some(code), n) => {
+                format!("newest preflight outside ({}); {n} of last 10", code.name())
+            }
             (None, 0) => "within".into(),
-            (None, n) => format!("{n} of last 10 outside"),
+            (None, n) => format!("{n} of last 10 preflights outside"),
         };
         let soon = if s.key() <= 10.0 {
             " class=\"soon\""
