@@ -175,18 +175,13 @@ fn migrate(conn: &Connection, from: i64) -> Result<usize> {
         let record = HealthRecord::decode(bytes).map_err(|e| {
             anyhow::anyhow!("record of {serial}, flight {flight} does not decode: {e:?}")
         })?;
-        if from == 1 {
-            let bytes = record.encode();
-            put.execute(params![
-                serial,
-                flight,
-                record.window,
-                RECORD_VERSION,
-                bytes.as_slice()
-            ])?;
+        // A schema-1 record is re-encoded; a schema-2 one kept as it was sent.
+        let (version, bytes) = if from == 1 {
+            (i64::from(RECORD_VERSION), record.encode().to_vec())
         } else {
-            put.execute(params![serial, flight, record.window, version, bytes])?;
-        }
+            (*version, bytes.clone())
+        };
+        put.execute(params![serial, flight, record.window, version, bytes])?;
     }
     drop(put);
     tx.execute("UPDATE meta SET value = ?1 WHERE key = 'schema'", [SCHEMA])?;
