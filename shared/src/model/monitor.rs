@@ -43,7 +43,7 @@ use crate::physics::magnets::WeakMagnet;
 use crate::physics::params::ActuatorParams;
 use crate::test::command::{ChirpCommand, ChirpSampler, CommandSource};
 use crate::test::conditioning::ShaftAngles;
-use crate::test::test_design::{PreflightTest, StandstillSegment, PAIR_SIGNS};
+use crate::test::test_design::{PairDrive, PreflightTest, StandstillSegment, PAIR_SIGNS};
 
 /// What the monitor model exposes at each sample: the state at `time`, before the step's
 /// update, plus the controller's output for the coming period.
@@ -691,10 +691,29 @@ impl MonitorModel {
         let mut current = pair_current_after_switch(state.start_currents, pair);
         // The previous period's volts, which hold for `delay_share` of each period.
         let mut commanded = 0.0f32;
-        for i in 0..lead.min(samples) {
-            let Some(drive) = segment.at(i) else {
-                break;
+        // `segment.at(i)` kept by counting, not dividing: the settle on pair 0 at 0 V, then
+        // each pair's `on_samples` (the tone's index `within`) and its `off_samples`.
+        let settle = usize::from(segment.settle_samples);
+        let on_samples = usize::from(segment.on_samples);
+        let per_pair = on_samples + usize::from(segment.off_samples);
+        let end = if per_pair == 0 { 0 } else { lead.min(samples) };
+        let (mut drive_pair, mut within) = (0usize, 0usize);
+        for i in 0..end {
+            let fitted = i >= settle;
+            let on = fitted && within < on_samples;
+            let drive = PairDrive {
+                pair: drive_pair,
+                volts: if on { segment.volts } else { 0.0 },
+                frequency: segment.frequency,
+                on_index: if on { within as u16 } else { 0 },
             };
+            if fitted {
+                within += 1;
+                if within == per_pair {
+                    within = 0;
+                    drive_pair += 1;
+                }
+            }
             if drive.pair != pair {
                 let signs = PAIR_SIGNS.get(pair).copied().unwrap_or([0; 3]);
                 current =
@@ -715,7 +734,7 @@ impl MonitorModel {
             // Held through the settle (not fitted: the rotor may still move, and its
             // back-EMF drives the shorted pair), then from the measured current on.
             let volts = drive.voltage(self.dt);
-            if segment.fitted(i) {
+            if fitted {
                 let decay = f.pair_decay.get(pair).copied().unwrap_or(0.0);
                 let gain = f.pair_gain.get(pair).copied().unwrap_or(0.0);
                 current = decay * current + gain * (volts + self.delay_share * (commanded - volts));
@@ -948,7 +967,7 @@ impl MonitorRun {
         if let (Some(segment), true) = (m.standstill, i < lead) {
             let drive = segment
                 .at(i)
-                .unwrap_or(crate::test::test_design::PairDrive {
+                .unwrap_or(PairDrive {
                     pair: self.pair,
                     volts: 0.0,
                     frequency: 0.0,

@@ -79,7 +79,10 @@ impl WeakMagnet {
         1.0 - self.depth / (2.0 * pole_pairs(params))
     }
 
-    /// The share phase `phase` of `params` keeps at `theta_m` \[rad\]. O(1).
+    /// The share phase `phase` of `params` keeps at `theta_m` \[rad\]: `1 − depth/4` for
+    /// each of the magnet's two edges under its coils. O(1): two angle reductions, unrolled
+    /// (the monitor model calls it twice a step while it plays a weak magnet).
+    #[inline(always)]
     fn phase_factor(&self, params: &ActuatorParams, pitch: f32, theta_m: f32, phase: usize) -> f32 {
         let group = params
             .winding_group_angle
@@ -87,23 +90,33 @@ impl WeakMagnet {
             .copied()
             .unwrap_or(0.0);
         let start = group - pitch;
-        let mut under = 0.0;
-        for edge in [self.centre - 0.5 * pitch, self.centre + 0.5 * pitch] {
+        let span = 2.0 * pitch;
+        // An edge is under the phase's two coils when its angle from their start, reduced
+        // to one revolution, is within two pitches.
+        let under = |edge: f32| {
             let x = theta_m + edge - start;
-            if x - TAU * floor(x / TAU) < 2.0 * pitch {
-                under += 1.0;
+            if x - TAU * floor(x / TAU) < span {
+                1.0
+            } else {
+                0.0
             }
-        }
+        };
+        let under = under(self.centre - 0.5 * pitch) + under(self.centre + 0.5 * pitch);
         1.0 - 0.25 * self.depth * under
     }
 
     /// The share of its gain the conducting pair of `params` keeps whose floating phase is
-    /// `floating` (0, 1, 2 for A, B, C) at mechanical angle `theta_m` \[rad\]. O(1).
+    /// `floating` (0, 1, 2 for A, B, C; taken mod 3) at mechanical angle `theta_m` \[rad\].
+    /// O(1): four angle reductions. Out of line: a model without a weak magnet never calls it.
     #[cold]
     #[inline(never)]
     pub fn pair_factor(&self, params: &ActuatorParams, theta_m: f32, floating: usize) -> f32 {
         let pitch = pole_pitch(params);
-        let (y, z) = ((floating + 1) % 3, (floating + 2) % 3);
+        let (y, z) = match floating % 3 {
+            0 => (1, 2),
+            1 => (2, 0),
+            _ => (0, 1),
+        };
         0.5 * (self.phase_factor(params, pitch, theta_m, y)
             + self.phase_factor(params, pitch, theta_m, z))
     }

@@ -218,7 +218,11 @@ impl<'a, const N: usize> FitnessProblem<'a, N> {
             previous: 0.0,
             sum: 0.0,
             until_check: BOUND_CHECK_INTERVAL,
-            standstill: self.measured.test().standstill,
+            fitted: self
+                .measured
+                .test()
+                .standstill
+                .map_or((0, 0), |s| (s.settle_samples as usize, s.samples())),
             lead: self.measured.lead_samples(),
             index: 0,
             standstill_weight: self.standstill_weight,
@@ -251,7 +255,9 @@ struct EquationThreeSum<'r> {
     previous: f32,
     sum: f32,
     until_check: u32,
-    standstill: Option<crate::test::test_design::StandstillSegment>,
+    /// The standstill segment's fitted samples, `fitted.0 ≤ index < fitted.1` (empty
+    /// without a segment): its `fitted` as two compares.
+    fitted: (usize, usize),
     lead: usize,
     index: usize,
     standstill_weight: f32,
@@ -268,10 +274,7 @@ impl SampleSink for &mut EquationThreeSum<'_> {
         if let Some(&r) = self.reference.next() {
             let e = r - modelled;
             if self.index < self.lead {
-                if self
-                    .standstill
-                    .is_some_and(|segment| segment.fitted(self.index))
-                {
+                if self.index >= self.fitted.0 && self.index < self.fitted.1 {
                     self.sum += self.standstill_weight * e * e;
                 }
                 self.index += 1;
