@@ -965,14 +965,12 @@ impl MonitorRun {
         let i = self.index;
         self.index = self.index.saturating_add(1);
         if let (Some(segment), true) = (m.standstill, i < lead) {
-            let drive = segment
-                .at(i)
-                .unwrap_or(PairDrive {
-                    pair: self.pair,
-                    volts: 0.0,
-                    frequency: 0.0,
-                    on_index: 0,
-                });
+            let drive = segment.at(i).unwrap_or(PairDrive {
+                pair: self.pair,
+                volts: 0.0,
+                frequency: 0.0,
+                on_index: 0,
+            });
             if drive.pair != self.pair {
                 let signs = PAIR_SIGNS.get(self.pair).copied().unwrap_or([0; 3]);
                 self.pair_current = pair_current_after_switch(

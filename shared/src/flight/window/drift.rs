@@ -59,8 +59,17 @@ pub const DRIFT_BLOCK: usize = 16;
 
 /// `Σ a·b` over the drift's terms.
 #[inline(always)]
+#[allow(clippy::indexing_slicing)] // n < DRIFT_TERMS on fixed arrays
 pub(super) fn dot(a: &[f32; DRIFT_TERMS], b: &[f32; DRIFT_TERMS]) -> f32 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
+    // `Iterator::sum`'s fold from −0.0, in the same order: the same bits, in the caller's
+    // loop rather than a call.
+    let mut sum = -0.0f32;
+    let mut n = 0;
+    while n < DRIFT_TERMS {
+        sum += a[n] * b[n];
+        n += 1;
+    }
+    sum
 }
 
 /// The drift's polynomials, their first and second derivatives at a block's centre: over
@@ -79,21 +88,14 @@ impl TaylorBlock {
         bend: [0.0; DRIFT_TERMS],
     };
 
-    /// At `x`: Bonnet's recurrence for the values, `P′(n+1) = P′(n−1) + (2n+1)·P(n)` and
-    /// the same for `P″` from `P′`.
-    #[allow(clippy::indexing_slicing)] // n < DRIFT_TERMS on fixed arrays
+    /// The block at `x`, as a window's sums open it ([`ResidualSums::next_block`]: Bonnet's
+    /// recurrence for the values, `P′(n+1) = P′(n−1) + (2n+1)·P(n)` and the same for `P″`
+    /// from `P′`).
+    #[cfg(test)]
     pub(super) fn at(x: f32) -> Self {
-        let mut b = Self::ZERO;
-        b.value = legendre(x);
-        b.slope[1] = 1.0;
-        let mut n = 1;
-        while n + 1 < DRIFT_TERMS {
-            let f = (2 * n + 1) as f32;
-            b.slope[n + 1] = b.slope[n - 1] + f * b.value[n];
-            b.bend[n + 1] = b.bend[n - 1] + f * b.slope[n];
-            n += 1;
-        }
-        b
+        let mut sums = ResidualSums::new(&[0.0; DRIFT_TERMS]);
+        sums.next_block((0.0, 0.0, 0.0), x, &[0.0; DRIFT_TERMS]);
+        sums.block
     }
 
     /// Adds a block's sums `(Σ w·e, Σ w·e·u, Σ w·e·u²)` to the projections `Σ w·e·P`.
@@ -124,13 +126,13 @@ pub(super) struct ResidualSums {
     /// The next sample's index.
     next: usize,
     /// The trend's value at the window's start (its moments are relative to it).
-    at_start: f32,
-    block: TaylorBlock,
+    pub(super) at_start: f32,
+    pub(super) block: TaylorBlock,
     /// The trend's expansion over the block: value, slope, half the bend.
     moment: (f32, f32, f32),
     /// Σ w·e, Σ w·e·u, Σ w·e·u² over the block, u the distance from its centre.
     sums: (f32, f32, f32),
-    projections: [f32; DRIFT_TERMS],
+    pub(super) projections: [f32; DRIFT_TERMS],
     previous: f32,
     squares: f32,
     in_block: usize,
@@ -183,14 +185,8 @@ impl ResidualSums {
                 continue;
             }
             if in_block == 0 {
-                self.block.add_to(&mut self.projections, sums);
+                moment = self.next_block(sums, axis(i, total) + half * step, trend);
                 sums = (0.0, 0.0, 0.0);
-                self.block = TaylorBlock::at(axis(i, total) + half * step);
-                moment = (
-                    dot(trend, &self.block.value) - self.at_start,
-                    dot(trend, &self.block.slope),
-                    0.5 * dot(trend, &self.block.bend),
-                );
             }
             let u = (in_block as f32 - half) * step;
             in_block = if in_block + 1 == DRIFT_BLOCK {
@@ -218,6 +214,51 @@ impl ResidualSums {
         self.in_block = in_block;
         self.next = end;
         end == total
+    }
+
+    /// Closes the block whose sums are `sums` into the projections and opens the next, centred
+    /// at `x` on the drift's axis: the trend's moment over it (value, slope, half the bend).
+    /// One pass over the terms does what [`TaylorBlock::add_to`], [`TaylorBlock::set_at`] and
+    /// three [`dot`]s do, each sum in their order (the same bits). Out of line: once per
+    /// [`DRIFT_BLOCK`] samples, its registers not the sample loop's. O(`DRIFT_TERMS`).
+    #[inline(never)]
+    #[allow(clippy::indexing_slicing)] // n < DRIFT_TERMS on fixed arrays
+    pub(super) fn next_block(
+        &mut self,
+        sums: (f32, f32, f32),
+        x: f32,
+        trend: &[f32; DRIFT_TERMS],
+    ) -> (f32, f32, f32) {
+        let b = &mut self.block;
+        let mut moment = (-0.0f32, -0.0f32, -0.0f32);
+        let mut n = 0;
+        while n < DRIFT_TERMS {
+            // The old block's term n into its projection.
+            self.projections[n] +=
+                b.value[n] * sums.0 + b.slope[n] * sums.1 + 0.5 * b.bend[n] * sums.2;
+            // The new block's term n from its terms n − 1 and n − 2, already new.
+            let (value, slope, bend) = if n >= 2 {
+                let (p, q) = BONNET[n - 2];
+                let f = (2 * n - 1) as f32;
+                (
+                    p * x * b.value[n - 1] - q * b.value[n - 2],
+                    b.slope[n - 2] + f * b.value[n - 1],
+                    b.bend[n - 2] + f * b.slope[n - 1],
+                )
+            } else if n == 1 {
+                (x, 1.0, 0.0)
+            } else {
+                (1.0, 0.0, 0.0)
+            };
+            b.value[n] = value;
+            b.slope[n] = slope;
+            b.bend[n] = bend;
+            moment.0 += trend[n] * value;
+            moment.1 += trend[n] * slope;
+            moment.2 += trend[n] * bend;
+            n += 1;
+        }
+        (moment.0 - self.at_start, moment.1, 0.5 * moment.2)
     }
 
     /// [`advance`](Self::advance) in a function of its own, for a stepwise evaluation: its

@@ -254,6 +254,48 @@ fn a_blocks_expansion_gives_the_polynomials() {
     );
 }
 
+/// A block closed and the next opened in one pass gives, bit for bit, what the projections'
+/// sums, the polynomials' recurrences and the trend's three dot products give taken apart.
+#[test]
+fn opening_a_block_in_one_pass_keeps_the_bits_of_its_parts() {
+    let trend = [0.3, -1.7, 0.02, 4.0, -0.6, 0.0, 2.5e-3, -8.0, 0.9, 1.1];
+    let sums = (0.31, -2.4e-3, 7.7e-5);
+    let mut one_pass = ResidualSums::new(&trend);
+    for (k, x) in [-0.991f32, -0.62, 0.0, 0.37, 0.9973]
+        .into_iter()
+        .enumerate()
+    {
+        let closed = one_pass.block;
+        let mut projections = one_pass.projections;
+        let moment = one_pass.next_block(sums, x, &trend);
+
+        closed.add_to(&mut projections, sums);
+        let value = legendre(x);
+        let (mut slope, mut bend) = ([0.0f32; DRIFT_TERMS], [0.0f32; DRIFT_TERMS]);
+        slope[1] = 1.0;
+        for n in 1..DRIFT_TERMS - 1 {
+            let f = (2 * n + 1) as f32;
+            slope[n + 1] = slope[n - 1] + f * value[n];
+            bend[n + 1] = bend[n - 1] + f * slope[n];
+        }
+        let parts = (
+            dot(&trend, &value) - one_pass.at_start,
+            dot(&trend, &slope),
+            0.5 * dot(&trend, &bend),
+        );
+        let bits = |a: &[f32]| a.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&one_pass.projections), bits(&projections), "block {k}");
+        assert_eq!(bits(&one_pass.block.value), bits(&value), "block {k}");
+        assert_eq!(bits(&one_pass.block.slope), bits(&slope), "block {k}");
+        assert_eq!(bits(&one_pass.block.bend), bits(&bend), "block {k}");
+        assert_eq!(
+            bits(&[moment.0, moment.1, moment.2]),
+            bits(&[parts.0, parts.1, parts.2]),
+            "block {k}"
+        );
+    }
+}
+
 #[test]
 fn golden_finds_a_parabolas_minimum() {
     let mut search = GoldenSearch::new((-3.0, 5.0));
