@@ -34,9 +34,9 @@
 //! model run's [`EVALUATION_SLICE`] samples, a curvature's [`CURVATURE_RUNS_PER_POLL`] runs
 //! of one sample, a row of its soft-f64 algebra (≤ 5 040 instructions on the Cortex-M4F, 30 %
 //! of a 100 µs period). No allocation, no panic. Run by the host on every window and by the
-//! emulation image; on the Cortex-M4F one identification is 2.10 × 10⁹ instructions in
+//! emulation image; on the Cortex-M4F one identification is 1.99 × 10⁹ instructions in
 //! ≈ 593 000 polls on the bench's model-made window (`cargo window-bench`, both GAs at their
-//! cap), 1.92 × 10⁹ on a real cruise window (docs/in-flight.md).
+//! cap), 1.84 × 10⁹ on a real cruise window (docs/in-flight.md).
 
 use crate::base::math::{abs, invert_stepwise};
 use crate::base::steps::{pause, run_to_end};
