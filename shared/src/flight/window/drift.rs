@@ -218,8 +218,9 @@ impl ResidualSums {
 
     /// Closes the block whose sums are `sums` into the projections and opens the next, centred
     /// at `x` on the drift's axis: the trend's moment over it (value, slope, half the bend).
-    /// One pass over the terms does what [`TaylorBlock::add_to`], [`TaylorBlock::set_at`] and
-    /// three [`dot`]s do, each sum in their order (the same bits). Out of line: once per
+    /// One pass over the terms does what [`TaylorBlock::add_to`], the polynomials' recurrences
+    /// ([`legendre`] and its derivatives') and three [`dot`]s do, each sum in their order (the
+    /// same bits). Out of line: once per
     /// [`DRIFT_BLOCK`] samples, its registers not the sample loop's. O(`DRIFT_TERMS`).
     #[inline(never)]
     #[allow(clippy::indexing_slicing)] // n < DRIFT_TERMS on fixed arrays
