@@ -691,29 +691,14 @@ impl MonitorModel {
         let mut current = pair_current_after_switch(state.start_currents, pair);
         // The previous period's volts, which hold for `delay_share` of each period.
         let mut commanded = 0.0f32;
-        // `segment.at(i)` kept by counting, not dividing: the settle on pair 0 at 0 V, then
-        // each pair's `on_samples` (the tone's index `within`) and its `off_samples`.
+        // Every sample the drives give is inside the segment: fitted is past the settle.
         let settle = usize::from(segment.settle_samples);
-        let on_samples = usize::from(segment.on_samples);
-        let per_pair = on_samples + usize::from(segment.off_samples);
-        let end = if per_pair == 0 { 0 } else { lead.min(samples) };
-        let (mut drive_pair, mut within) = (0usize, 0usize);
-        for i in 0..end {
-            let fitted = i >= settle;
-            let on = fitted && within < on_samples;
-            let drive = PairDrive {
-                pair: drive_pair,
-                volts: if on { segment.volts } else { 0.0 },
-                frequency: segment.frequency,
-                on_index: if on { within as u16 } else { 0 },
+        let mut drives = segment.drives();
+        for i in 0..lead.min(samples) {
+            let Some(drive) = drives.next() else {
+                break;
             };
-            if fitted {
-                within += 1;
-                if within == per_pair {
-                    within = 0;
-                    drive_pair += 1;
-                }
-            }
+            let fitted = i >= settle;
             if drive.pair != pair {
                 let signs = PAIR_SIGNS.get(pair).copied().unwrap_or([0; 3]);
                 current =

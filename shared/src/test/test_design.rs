@@ -155,6 +155,71 @@ impl StandstillSegment {
             on_index: if on { within as u16 } else { 0 },
         })
     }
+
+    /// The drives of samples `0, 1, …` in order, [`at`](Self::at)'s for each, kept by
+    /// counting rather than dividing: O(1) a sample, for a model run's loop.
+    pub fn drives(&self) -> StandstillDrives {
+        let on_samples = usize::from(self.on_samples);
+        let per_pair = on_samples + usize::from(self.off_samples);
+        StandstillDrives {
+            volts: self.volts,
+            frequency: self.frequency,
+            settle: usize::from(self.settle_samples),
+            on_samples,
+            per_pair,
+            end: if per_pair == 0 { 0 } else { self.samples() },
+            index: 0,
+            pair: 0,
+            within: 0,
+        }
+    }
+}
+
+/// The drives of a [`StandstillSegment`]'s samples in order ([`StandstillSegment::drives`]):
+/// the segment's counts taken once, then the next sample's index, its pair and its place in
+/// that pair's on and off periods.
+#[derive(Clone, Debug)]
+pub struct StandstillDrives {
+    volts: f32,
+    frequency: f32,
+    settle: usize,
+    on_samples: usize,
+    per_pair: usize,
+    /// Samples in the segment (none when its pairs have no periods, as `at` has it).
+    end: usize,
+    index: usize,
+    pair: usize,
+    within: usize,
+}
+
+impl Iterator for StandstillDrives {
+    type Item = PairDrive;
+
+    /// The settle on pair 0 at 0 V, then each pair's `on_samples` (the tone's index counts
+    /// them) and its `off_samples`; `None` past the segment's end. O(1).
+    #[inline]
+    fn next(&mut self) -> Option<PairDrive> {
+        if self.index >= self.end {
+            return None;
+        }
+        let fitted = self.index >= self.settle;
+        let on = fitted && self.within < self.on_samples;
+        let drive = PairDrive {
+            pair: self.pair,
+            volts: if on { self.volts } else { 0.0 },
+            frequency: self.frequency,
+            on_index: if on { self.within as u16 } else { 0 },
+        };
+        if fitted {
+            self.within += 1;
+            if self.within == self.per_pair {
+                self.within = 0;
+                self.pair += 1;
+            }
+        }
+        self.index += 1;
+        Some(drive)
+    }
 }
 
 /// Smooth position moves before the chirp: 0 → +A → −A → 0, raised-cosine ramps, plateaus
@@ -408,6 +473,27 @@ impl Default for PreflightTest {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The counted drives are `at`'s, sample by sample, to the segment's end and no further.
+    #[test]
+    fn the_counted_drives_are_the_indexed_ones() {
+        let no_pairs = StandstillSegment {
+            on_samples: 0,
+            off_samples: 0,
+            ..StandstillSegment::DEFAULT
+        };
+        for s in [
+            StandstillSegment::DEFAULT,
+            StandstillSegment::INJECTION,
+            no_pairs,
+        ] {
+            let counted: Vec<_> = s.drives().collect();
+            let indexed: Vec<_> = (0..s.samples() + 5).map_while(|i| s.at(i)).collect();
+            assert_eq!(counted, indexed, "{s:?}");
+        }
+        assert_eq!(StandstillSegment::INJECTION.drives().count(), 460);
+        assert_eq!(no_pairs.drives().count(), 0);
+    }
 
     #[test]
     fn standstill_steps_each_pair_then_freewheels() {
