@@ -266,7 +266,8 @@ fn firmware_under_qemu_gives_the_hosts_bits() {
 
 /// One magnet at half its flux (pole 3 of the reference actuator's eight) on an otherwise
 /// healthy actuator: the firmware's weak-magnet search must read it at its pole, with no
-/// eccentricity standing in for it, and with the host's bits for the vector and the magnet.
+/// eccentricity standing in for it, and with the host's bits for the vector, the magnet and
+/// its depth's deviation; its verdict `FAULT`, its 90 % interval holding the truth.
 #[test]
 fn a_weak_magnet_under_qemu_is_read_at_its_pole_with_the_hosts_bits() {
     use host_sim::plant::reference::Demagnetization;
@@ -279,15 +280,31 @@ fn a_weak_magnet_under_qemu_is_read_at_its_pole_with_the_hosts_bits() {
     let run = run_firmware(&[path.to_str().expect("UTF-8 temp path")]);
     assert_eq!(run.status, 0, "firmware failed:\n{}", run.output);
 
-    let (_, host) = host_identification(&bytes);
+    let (_, identified) = host_identified(&bytes);
+    let host = identified.result;
     assert_eq!(result_bits(&run.output), host_bits(&host), "{}", run.output);
     let bits: Vec<u32> = field(&run.output, "magnets ", "bits")
         .split(',')
         .map(|x| u32::from_str_radix(x, 16).expect("hex bits"))
         .collect();
+    let std = identified.magnet_std();
     assert_eq!(
         bits,
-        [host.magnets.depth.to_bits(), host.magnets.centre.to_bits()],
+        [
+            host.magnets.depth.to_bits(),
+            host.magnets.centre.to_bits(),
+            std.to_bits()
+        ],
+        "{}",
+        run.output
+    );
+    assert!(
+        std.is_finite() && (host.magnets.depth - 0.5).abs() <= shared::uncertainty::Z90 * std,
+        "depth {} ± {std}",
+        host.magnets.depth
+    );
+    assert!(
+        run.output.contains("assessment weak_magnet Faulty"),
         "{}",
         run.output
     );

@@ -558,10 +558,11 @@ async fn preflight(spawner: Spawner) -> Result<(), Stop> {
     );
     defmt::println!("verdicts={}", report.verdicts);
     defmt::println!(
-        "magnets depth={=f32} centre={=f32} pole={=u32}",
+        "magnets depth={=f32} centre={=f32} pole={=u32} assessment={}",
         r.magnets.depth,
         r.magnets.centre,
-        r.magnets.pole(&settings.actuator.params)
+        r.magnets.pole(&settings.actuator.params),
+        report.magnet
     );
 
     // The health log: its image from the pair, this preflight appended, the image back.

@@ -123,6 +123,8 @@ pub struct Report {
     /// Verdicts that use the uncertainty: `Faulty` only when the interval clears the
     /// detection threshold.
     pub assessments: [Assessment; FAULT_COUNT],
+    /// The weak magnet's verdict by the same rule (`shared::uncertainty::assess_magnet`).
+    pub magnet: Assessment,
     /// Whether the monitor model explains this actuator at all; when `Outside`, the fault
     /// vector and the verdicts must not be acted on.
     pub domain: Domain,
@@ -447,6 +449,7 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
                 result.faults = reading.faults;
                 result.fitness = reading.fitness;
                 result.magnets = reading.magnets;
+                result.depth_curvature = search.depth_curvature();
                 if let Some(run) = self.curvature.as_deref_mut() {
                     id.problem().restart_curvature(run, &result.faults);
                 }
@@ -636,6 +639,11 @@ impl<'m, S: CurrentSource> Preflight<'m, S> {
             } => Ok(State::Done(Report {
                 held,
                 result,
+                magnet: shared::uncertainty::assess_magnet(
+                    result.magnets.depth,
+                    uncertainty.map_or(f32::NAN, |u| u.magnet_std),
+                    self.settings.actuator.detection_threshold,
+                ),
                 uncertainty,
                 assessments,
                 domain: {

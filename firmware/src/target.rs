@@ -797,14 +797,21 @@ fn print_report(report: &Report, params: &ActuatorParams, observed: &Observed, t
         faults.map(f32::to_bits),
         r.fitness.to_bits()
     );
-    // One weak magnet ([`shared::weak_magnet`]): depth 0 when none was read.
+    // One weak magnet ([`shared::weak_magnet`]): depth 0 when none was read; its depth's
+    // deviation (NaN without one), its verdict among the assessments below.
+    let magnet_std = report
+        .uncertainty
+        .as_ref()
+        .map_or(f32::NAN, |u| u.magnet_std);
     defmt::println!(
-        "magnets depth={=f32} centre={=f32} pole={=u32} bits={=u32:08x},{=u32:08x}",
+        "magnets depth={=f32} centre={=f32} pole={=u32} std={=f32} bits={=u32:08x},{=u32:08x},{=u32:08x}",
         r.magnets.depth,
         r.magnets.centre,
         r.magnets.pole(params),
+        magnet_std,
         r.magnets.depth.to_bits(),
-        r.magnets.centre.to_bits()
+        r.magnets.centre.to_bits(),
+        magnet_std.to_bits()
     );
     match report.domain {
         Domain::Within => defmt::println!("domain within"),
@@ -827,7 +834,14 @@ fn print_report(report: &Report, params: &ActuatorParams, observed: &Observed, t
         }
         None => defmt::println!("uncertainty none"),
     }
-    for (name, a) in FAULT_NAMES.iter().zip(report.assessments.iter()) {
+    // The weak magnet's verdict after the nine's, in the same line.
+    let magnet = ("weak_magnet", &report.magnet);
+    for (name, a) in FAULT_NAMES
+        .iter()
+        .copied()
+        .zip(report.assessments.iter())
+        .chain([magnet])
+    {
         defmt::println!("assessment {=str} {}", name, a);
     }
     defmt::println!("stop_reason {}", r.stop_reason);

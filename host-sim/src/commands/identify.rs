@@ -100,6 +100,27 @@ pub(crate) fn weak_magnet_text(
     )
 }
 
+/// A read weak magnet's deviation, 90 % interval and verdict, as the reports write them
+/// (empty without a magnet).
+fn weak_magnet_uncertainty_text(depth: f32, std: f32, verdict: Assessment) -> String {
+    if depth <= 0.0 {
+        return String::new();
+    }
+    let interval = if std.is_finite() {
+        let (lo, hi) = magnet_interval(depth, std);
+        format!("± {std:.3} (1 σ), 90 % [{lo:.3}, {hi:.3}], ")
+    } else {
+        "deviation unknown, ".to_string()
+    };
+    format!("; {interval}{}", assessment_text(verdict))
+}
+
+/// A weak magnet's 90 % interval from its depth and deviation, clamped to [0, 1].
+fn magnet_interval(depth: f32, std: f32) -> (f32, f32) {
+    let half = shared::uncertainty::Z90 * std;
+    ((depth - half).max(0.0), (depth + half).min(1.0))
+}
+
 pub(crate) fn report(
     id: &Identified,
     params: &ActuatorParams,
@@ -112,6 +133,8 @@ pub(crate) fn report(
     let found = id.result.faults;
     let verdicts = found.verdicts_at(threshold);
     let assessments = id.assessments_at(threshold);
+    let magnet_verdict = id.magnet_assessment_at(threshold);
+    let magnet_std = id.magnet_std();
     let uncertainty = id.uncertainty.as_ref().map(|(u, _)| u);
     if json {
         let mut obj = json!({
@@ -127,6 +150,12 @@ pub(crate) fn report(
                 "centre_rad": magnets.centre,
                 "pole": magnets.pole(params),
                 "poles": shared::magnets::poles(params),
+                "std": magnet_std.is_finite().then_some(magnet_std),
+                "interval90": magnet_std.is_finite().then(|| {
+                    let (lo, hi) = magnet_interval(magnets.depth, magnet_std);
+                    [lo, hi]
+                }),
+                "verdict": assessment_text(magnet_verdict),
             })),
         });
         if let Some(u) = uncertainty {
@@ -200,7 +229,11 @@ pub(crate) fn report(
     }
     let phase_deg = -180.0 + 360.0 * f64::from(found.eccentricity_phase());
     println!("(eccentricity phase {phase_deg:.0}° from phase A; a location, read only with an eccentricity fault)");
-    println!("weak magnet   {}", weak_magnet_text(&magnets, params));
+    println!(
+        "weak magnet   {}{}",
+        weak_magnet_text(&magnets, params),
+        weak_magnet_uncertainty_text(magnets.depth, magnet_std, magnet_verdict)
+    );
     if let Some(u) = uncertainty {
         println!(
             "(FAULT: the whole 90 % interval is beyond the {} detection threshold; suspect: the \

@@ -75,6 +75,22 @@ impl Identified {
     }
 }
 
+impl Identified {
+    /// The weak magnet's standard deviation (`shared::uncertainty::depth_deviation`; NaN
+    /// without a magnet or an uncertainty).
+    pub fn magnet_std(&self) -> f32 {
+        self.uncertainty
+            .as_ref()
+            .map_or(f32::NAN, |(u, _)| u.magnet_std)
+    }
+
+    /// The weak magnet's verdict against `threshold`, by the firmware's rule
+    /// (`shared::uncertainty::assess_magnet`).
+    pub fn magnet_assessment_at(&self, threshold: f32) -> Assessment {
+        shared::uncertainty::assess_magnet(self.result.magnets.depth, self.magnet_std(), threshold)
+    }
+}
+
 /// Verdicts without an uncertainty: the plain threshold, a value beyond it only `Suspect`.
 pub fn plain_assessments(k: &shared::FaultVector, threshold: f32) -> [Assessment; FAULT_COUNT] {
     k.verdicts_at(threshold).map(|v| match v {

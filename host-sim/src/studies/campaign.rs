@@ -383,6 +383,9 @@ pub struct RunResult {
     pub outside: Option<shared::health::DomainCode>,
     /// The weak magnet read and the pole nearest its centre (`None`: none read).
     pub weak_magnet: Option<(WeakMagnet, u32)>,
+    /// The weak magnet's verdict (`shared::uncertainty::assess_magnet`; `Healthy` when none
+    /// is read).
+    pub weak_magnet_verdict: Assessment,
     /// The rotor's whole mean flux lost as k9 (the uniform loss and a weak magnet's mean):
     /// what a one-magnet case's truth k9 is scored against.
     pub k9_mean: f32,
@@ -409,13 +412,13 @@ impl RunResult {
         })
     }
 
-    /// Whether a truly healthy component reads `Faulty`, or a weak magnet is read on a rotor
-    /// whose magnets are alike (`weak_played`: the case plays one).
+    /// Whether a truly healthy component reads `Faulty`, or a weak magnet reads `Faulty` on
+    /// a rotor whose magnets are alike (`weak_played`: the case plays one).
     pub fn false_alarm(&self, truth: &FaultVector, weak_played: bool) -> bool {
         let component = truth.deviations().iter().enumerate().any(|(i, d)| {
             d.is_some_and(|d| d <= DETECTION_THRESHOLD) && self.assessments[i] == Assessment::Faulty
         });
-        component || (self.weak_magnet.is_some() && !weak_played)
+        component || (self.weak_magnet_verdict == Assessment::Faulty && !weak_played)
     }
 
     /// (inside, determined) component counts of the 90 % intervals against the truth.
@@ -619,12 +622,13 @@ impl CaseSummary {
     pub fn detection(&self) -> (usize, usize, usize) {
         let truth = FaultVector::saturating(self.case.faults);
         let weak = self.case.magnets == MagnetForm::OneMagnet;
-        // A one-magnet case's k9 is that magnet: detected when a weak magnet is read (and
-        // every other true fault reads `FAULT`).
+        // A one-magnet case's k9 is that magnet: detected when a weak magnet reads `FAULT`
+        // (and every other true fault does).
         let uniform = self.component_truth();
+        let magnet = |r: &RunResult| r.weak_magnet_verdict == Assessment::Faulty;
         let detected = |r: &RunResult| match r.detected(&uniform) {
-            Some(hit) => Some(hit && (!weak || r.weak_magnet.is_some())),
-            None if weak => Some(r.weak_magnet.is_some()),
+            Some(hit) => Some(hit && (!weak || magnet(r))),
+            None if weak => Some(magnet(r)),
             None => None,
         };
         self.runs
@@ -752,6 +756,7 @@ pub fn run_once(
         e_tot: f64::from(total_error(&found, &truth)),
         e_tot_all: f64::from(total_error_all(&mean, &truth)),
         weak_magnet: (!magnets.is_none()).then(|| (magnets, magnets.pole(&params))),
+        weak_magnet_verdict: id.magnet_assessment_at(shared::fault::DETECTION_THRESHOLD),
         k9_mean: mean.demagnetization(),
         largest_component,
         fitness: id.result.fitness,

@@ -16,6 +16,7 @@ use rayon::prelude::*;
 use shared::actuator::ActuatorRecord;
 use shared::magnets::WeakMagnet;
 use shared::metrics::total_error_with_magnets;
+use shared::uncertainty::Assessment;
 use shared::FAULT_COUNT;
 
 use crate::fdi::identify::identify_for;
@@ -119,6 +120,47 @@ pub struct WeakMagnetRun {
     pub e_tot: f32,
     /// The reading's fitness [A²·s].
     pub fitness: f32,
+    /// The depth's standard deviation (`shared::uncertainty::depth_deviation`; NaN without
+    /// a magnet) and the magnet's verdict against the record's threshold.
+    pub std: f32,
+    pub verdict: Assessment,
+}
+
+impl WeakMagnetRun {
+    /// The least inflation of the depth's Gauss–Newton deviation
+    /// (`shared::uncertainty::DEPTH_INFLATION`, the grid's deviation beside it as it is) with
+    /// which this read's 90 % interval holds the truth (as [`Self::covers`] takes it); `None`
+    /// where [`Self::covers`] is.
+    pub fn inflation_needed(&self, played: Option<(f32, u32)>) -> Option<f64> {
+        if self.magnets.is_none() || !self.std.is_finite() {
+            return None;
+        }
+        let truth = match played {
+            Some((loss, pole)) if pole == self.pole => loss,
+            _ => 0.0,
+        };
+        let q2 = f64::from(shared::uncertainty::DEPTH_QUANTIZATION).powi(2);
+        let gauss_newton = (f64::from(self.std).powi(2) - q2).max(0.0).sqrt()
+            / f64::from(shared::uncertainty::DEPTH_INFLATION);
+        let half =
+            f64::from(self.magnets.depth - truth).abs() / f64::from(shared::uncertainty::Z90);
+        Some(((half * half - q2).max(0.0)).sqrt() / gauss_newton)
+    }
+
+    /// Whether the depth's 90 % interval holds the truth: `played` where the pole is right,
+    /// 0 elsewhere (a magnet read where none is weak). `None` without a magnet read or a
+    /// deviation.
+    pub fn covers(&self, played: Option<(f32, u32)>) -> Option<bool> {
+        if self.magnets.is_none() || !self.std.is_finite() {
+            return None;
+        }
+        let truth = match played {
+            Some((loss, pole)) if pole == self.pole => loss,
+            _ => 0.0,
+        };
+        let half = shared::uncertainty::Z90 * self.std;
+        Some((self.magnets.depth - half).max(0.0) <= truth && truth <= self.magnets.depth + half)
+    }
 }
 
 /// One case's runs.
@@ -190,6 +232,8 @@ pub fn weak_magnet_study(
                     uniform_loss: k[UNIFORM_LOSS],
                     e_tot: total_error_with_magnets(&r.faults, &r.magnets, &truth, &played),
                     fitness: r.fitness,
+                    std: id.magnet_std(),
+                    verdict: id.magnet_assessment_at(record.detection_threshold),
                 })
             })
             .collect::<Result<Vec<_>>>()?;
@@ -206,9 +250,13 @@ pub fn weak_magnet_markdown(name: &str, rows: &[WeakMagnetRow], seeds: u64) -> S
          {seeds} seeds per case. `read`: runs that read a weak magnet; `pole right`: of those, \
          at the reference model's pole; `depth`: mean depth read (over the runs that read one); \
          `eccentricity`, `uniform loss` (k6, k9): mean read; `e_tot`: over the nine components \
-         and the depth, mean and worst [%].\n\n\
-         | case | read | pole right | depth | eccentricity | uniform loss | e_tot mean / worst [%] |\n\
-         | --- | ---: | ---: | ---: | ---: | ---: | ---: |\n"
+         and the depth, mean and worst [%]; `verdict`: the magnet's, FAULT / suspect of the \
+         runs (the rest healthy: none read, or the depth within the threshold); `σ`: the \
+         depth's mean standard deviation; `interval`: the runs whose 90 % interval of the \
+         depth holds the truth (the played loss at its pole, 0 elsewhere), of those that read \
+         a magnet.\n\n\
+         | case | read | pole right | depth | eccentricity | uniform loss | e_tot mean / worst [%] | verdict FAULT / suspect | σ | interval |\n\
+         | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n"
     );
     for row in rows {
         let n = row.runs.len().max(1) as f32;
@@ -230,15 +278,68 @@ pub fn weak_magnet_markdown(name: &str, rows: &[WeakMagnetRow], seeds: u64) -> S
             None => "–".to_string(),
         };
         let worst = row.runs.iter().map(|r| r.e_tot).fold(0.0f32, f32::max);
+        let verdicts = |a: Assessment| row.runs.iter().filter(|r| r.verdict == a).count();
+        let stated: Vec<f32> = row
+            .runs
+            .iter()
+            .map(|r| r.std)
+            .filter(|s| s.is_finite())
+            .collect();
+        let sigma = if stated.is_empty() {
+            "–".to_string()
+        } else {
+            format!("{:.3}", stated.iter().sum::<f32>() / stated.len() as f32)
+        };
+        let covers: Vec<bool> = row
+            .runs
+            .iter()
+            .filter_map(|r| r.covers(row.played()))
+            .collect();
+        let interval = if covers.is_empty() {
+            "–".to_string()
+        } else {
+            format!(
+                "{} of {}",
+                covers.iter().filter(|&&c| c).count(),
+                covers.len()
+            )
+        };
         text.push_str(&format!(
-            "| {} | {read} of {} | {pole} | {depth} | {:.3} | {:.3} | {:.2} / {:.2} |\n",
+            "| {} | {read} of {} | {pole} | {depth} | {:.3} | {:.3} | {:.2} / {:.2} | {} / {} | {sigma} | {interval} |\n",
             row.case.name,
             row.runs.len(),
             mean(&|r| r.eccentricity),
             mean(&|r| r.uniform_loss),
             mean(&|r| r.e_tot),
             worst,
+            verdicts(Assessment::Faulty),
+            verdicts(Assessment::Suspect),
         ));
     }
+    let needed = |rows: &[WeakMagnetRow]| {
+        let mut z: Vec<f64> = rows
+            .iter()
+            .flat_map(|row| {
+                row.runs
+                    .iter()
+                    .filter_map(|r| r.inflation_needed(row.played()))
+            })
+            .collect();
+        z.sort_by(f64::total_cmp);
+        let at = ((z.len() as f64 * 0.9).ceil() as usize).saturating_sub(1);
+        (z.get(at).copied().unwrap_or(f64::NAN), z.len())
+    };
+    let split = rows.len().saturating_sub(HELD_OUT);
+    let (chosen, n_chosen) = needed(rows.get(..split).unwrap_or_default());
+    let (held, n_held) = needed(rows.get(split..).unwrap_or_default());
+    text.push_str(&format!(
+        "\nThe depth's deviation is its curvature's taken {} times \
+         (`shared::uncertainty::DEPTH_INFLATION`) with the search's grid's {:.4} in quadrature. \
+         The inflation with which 90 % of the depth's intervals would hold the truth: \
+         {chosen:.2} over the {n_chosen} reads of the cases above the held-out ones, \
+         {held:.2} over the {n_held} held-out reads.\n",
+        shared::uncertainty::DEPTH_INFLATION,
+        shared::uncertainty::DEPTH_QUANTIZATION,
+    ));
     text
 }

@@ -46,6 +46,10 @@ pub struct IdentificationResult {
     /// One weak magnet read by the search after the polish ([`WeakMagnetSearch`];
     /// [`WeakMagnet::NONE`] before it, or when an eccentricity explains the current better).
     pub magnets: WeakMagnet,
+    /// The fitness's curvature along that magnet's depth
+    /// ([`WeakMagnetSearch::depth_curvature`]; NaN without one) [A²·s per unit²]: its
+    /// deviation in the uncertainty ([`Uncertainty::with_magnet`]).
+    pub depth_curvature: f32,
 }
 
 /// A reading's uncertainty and the correlations between its components
@@ -203,9 +207,13 @@ impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
                 let excess = result.fitness.max(0.0);
                 let share = excess / (excess + self.problem.nominal_residual().max(0.0));
                 let (faults, u) = u.with_free_phase_corrected(&read.faults, share);
+                let dt = self.problem.model().params().control_period;
                 (
                     IdentificationResult { faults, ..read },
-                    Some((u, correlation)),
+                    Some((
+                        u.with_magnet(curvature, result.depth_curvature, dt),
+                        correlation,
+                    )),
                 )
             }
             Err(_) => (read, None),
@@ -299,6 +307,7 @@ impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
                         faults: reading.faults,
                         fitness: reading.fitness,
                         magnets: reading.magnets,
+                        depth_curvature: search.depth_curvature(),
                         ..out
                     };
                 }
@@ -333,6 +342,7 @@ impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
             },
             curvatures: 0,
             magnets: WeakMagnet::NONE,
+            depth_curvature: f32::NAN,
         }
     }
 

@@ -22,11 +22,22 @@
 use crate::base::math::{invert_stepwise, sqrt64, INVERT_N};
 use crate::base::steps::{pause, run_to_end};
 use crate::physics::fault::{FaultVector, CIRCULAR, DETECTION_THRESHOLD, FAULT_COUNT};
+use crate::solver::weak_magnet::DEPTH_RESOLUTION;
 
 const _: () = assert!(FAULT_COUNT == INVERT_N);
 
 /// Shift of each component for the finite differences [fault-vector units].
 pub const STEP: f32 = 0.01;
+
+/// Ratio of a weak magnet's depth's real scatter to its white-noise Gauss–Newton deviation
+/// ([`depth_deviation`]), as [`INFLATION`] is the nine components'.
+pub const DEPTH_INFLATION: f32 = 2.5;
+
+/// The deviation of a depth read on the weak-magnet search's grid: its moves are
+/// [`DEPTH_RESOLUTION`] apart and the polish holds the depth, so a loss between two of them
+/// reads at one, uniformly within half a move: `DEPTH_RESOLUTION/√12` [share of the
+/// magnet's flux]. Added to [`depth_deviation`] in quadrature.
+pub const DEPTH_QUANTIZATION: f32 = DEPTH_RESOLUTION * 0.288_675_13;
 
 /// Two-sided 90 % quantile of the normal distribution.
 pub const Z90: f32 = 1.644_854;
@@ -230,6 +241,9 @@ pub struct Uncertainty {
     pub worst_pair: (u8, u8),
     /// Residual standard deviation per fitted sample \[A\] (before inflation).
     pub residual_std: f32,
+    /// The weak magnet's depth: its standard deviation ([`depth_deviation`]; NaN where no
+    /// magnet is read or its profile has no curvature) [share of the magnet's flux].
+    pub magnet_std: f32,
 }
 
 /// The reading of one component with its uncertainty.
@@ -409,12 +423,8 @@ impl Uncertainty {
             } else {
                 0.0
             };
-            if d <= threshold.max(floor) {
-                *slot = Assessment::Healthy;
-                continue;
-            }
-            if !s.is_nan() && d - Z90 * s > threshold {
-                *slot = Assessment::Faulty;
+            if let Some(proven) = against_threshold(d, s, threshold.max(floor), threshold) {
+                *slot = proven;
                 continue;
             }
             // Not proven on its own: is it entangled with another fault component?
@@ -436,6 +446,61 @@ impl Uncertainty {
         }
         out
     }
+
+    /// This reading's uncertainty with the weak magnet's depth deviation
+    /// ([`depth_deviation`]) from the fitness's curvature along the read depth
+    /// (`shared::weak_magnet::WeakMagnetSearch::depth_curvature`) and the reading's
+    /// `curvature`, on a model stepped every `dt` \[s\]. O(1).
+    #[must_use]
+    pub fn with_magnet(mut self, curvature: &Curvature, depth_curvature: f32, dt: f32) -> Self {
+        self.magnet_std = depth_deviation(curvature, depth_curvature, dt);
+        self
+    }
+}
+
+/// The verdict on a weak magnet read at `depth` (0: none) with standard deviation `std`
+/// ([`Uncertainty::magnet_std`]; NaN: unknown) against `threshold`, by the nine components'
+/// rule ([`Uncertainty::assess_at`]): `Healthy` at or below it, `Faulty` when the depth's
+/// 90 % interval clears it, `Suspect` otherwise. No `Ambiguous`: the depth's deviation is its
+/// profile's, with no correlation to read. O(1).
+pub fn assess_magnet(depth: f32, std: f32, threshold: f32) -> Assessment {
+    against_threshold(depth, std, threshold, threshold).unwrap_or(Assessment::Suspect)
+}
+
+/// The verdict a deviation `d` from nominal with standard deviation `s` proves on its own:
+/// `Healthy` at or below `healthy_below`, `Faulty` when its 90 % interval clears `threshold`
+/// (never with a NaN `s`); `None`: not proven either way. O(1).
+#[inline(always)]
+fn against_threshold(d: f32, s: f32, healthy_below: f32, threshold: f32) -> Option<Assessment> {
+    if d <= healthy_below {
+        Some(Assessment::Healthy)
+    } else if !s.is_nan() && d - Z90 * s > threshold {
+        Some(Assessment::Faulty)
+    } else {
+        None
+    }
+}
+
+/// The standard deviation of a weak magnet's read depth [share of its flux]: Gauss–Newton
+/// along the depth alone, the rotor's mean flux kept (the other components held where they
+/// were read, so a deviation conditional on them: narrower than a joint one would be). The
+/// fitness `F = dt·Σwe² − F_nom` bends along the depth by `2·dt·J_dᵀWJ_d`, so with the
+/// fitness's `depth_curvature` [A²·s per unit²], the reading's `curvature` (its residual sum
+/// and fitted samples) and the model's step `dt` \[s\]: `c·√(s² / J_dᵀWJ_d)`, `s²` the
+/// residual's variance over the samples left by the nine components, the depth and the
+/// centre, `c` [`DEPTH_INFLATION`]; then the grid's own [`DEPTH_QUANTIZATION`] added in
+/// quadrature. NaN where the curvature is not a positive number or too few samples are
+/// fitted. O(1).
+pub fn depth_deviation(curvature: &Curvature, depth_curvature: f32, dt: f32) -> f32 {
+    // In f32 (no soft f64 on the Cortex-M4F): a few operations on sums of ≈ 10² A².
+    let left = curvature.fitted.saturating_sub(FAULT_COUNT as u32 + 2);
+    let normal = depth_curvature / (2.0 * dt);
+    if normal.is_nan() || normal <= 0.0 || left == 0 {
+        return f32::NAN;
+    }
+    let s2 = curvature.rss as f32 / left as f32;
+    let gauss_newton = DEPTH_INFLATION * DEPTH_INFLATION * s2 / normal;
+    crate::base::math::sqrt(gauss_newton + DEPTH_QUANTIZATION * DEPTH_QUANTIZATION)
 }
 
 /// The Gauss–Newton sums of one test ([`FitnessProblem::uncertainty`] fills them).
@@ -674,6 +739,7 @@ impl UncertaintyDraft {
                 worst_correlation: 0.0,
                 worst_pair: (0, 0),
                 residual_std: f32::NAN,
+                magnet_std: f32::NAN,
             },
             correlation: [[0.0f32; FAULT_COUNT]; FAULT_COUNT],
         })
@@ -780,6 +846,7 @@ mod tests {
             worst_correlation: 0.3,
             worst_pair: (0, 7),
             residual_std: 0.5,
+            magnet_std: f32::NAN,
         };
         let k = FaultVector::new([0.1, 0.0, 0.9, 0.0, 0.0, 0.0, 0.95, 0.5, 0.0]).unwrap();
         let mut factors = [1.0; FAULT_COUNT];
@@ -1076,6 +1143,7 @@ mod tests {
             worst_correlation: 0.0,
             worst_pair: (0, 1),
             residual_std: 0.0,
+            magnet_std: f32::NAN,
         };
         let (read, v) = u.with_free_phase_corrected(&k, 1.0);
         let z = (0.05f32 * 0.05 - 2.0 * 0.02 * 0.02).sqrt();
@@ -1121,6 +1189,7 @@ mod tests {
             worst_correlation: 0.0,
             worst_pair: (0, 1),
             residual_std: 0.0,
+            magnet_std: f32::NAN,
         };
         let v = noisy.assess(&k, &corr);
         assert_eq!(v[5], Assessment::Healthy);
@@ -1137,5 +1206,57 @@ mod tests {
             ..noisy
         };
         assert_eq!(unknown.assess(&k, &corr)[5], Assessment::Suspect);
+    }
+
+    #[test]
+    fn a_magnets_depth_deviation_is_its_curvatures_inflated_with_the_grids_beside_it() {
+        // s² = 100 A² over 10 011 − 11 samples = 0.01; a curvature of 0.04 A²·s per unit² at
+        // a 100 µs step is J_dᵀWJ_d = 200: Gauss–Newton std √(0.01/200) ≈ 0.00707.
+        let c = Curvature {
+            rss: 100.0,
+            fitted: 10_011,
+            ..Curvature::EMPTY
+        };
+        let s = depth_deviation(&c, 0.04, 1.0e-4);
+        let gauss_newton = DEPTH_INFLATION * (0.01f32 / 200.0).sqrt();
+        let expected =
+            (gauss_newton * gauss_newton + DEPTH_QUANTIZATION * DEPTH_QUANTIZATION).sqrt();
+        assert!((s - expected).abs() < 1e-6, "{s} against {expected}");
+        // A flatter profile states a wider depth; the grid's deviation is the floor.
+        assert!(depth_deviation(&c, 0.01, 1.0e-4) > s);
+        assert!(depth_deviation(&c, 1.0e6, 1.0e-4) >= DEPTH_QUANTIZATION);
+        // No curvature (none read, a profile bent the wrong way), or no samples: unknown.
+        for bad in [f32::NAN, 0.0, -0.04] {
+            assert!(depth_deviation(&c, bad, 1.0e-4).is_nan(), "{bad}");
+        }
+        let empty = Curvature { fitted: 11, ..c };
+        assert!(depth_deviation(&empty, 0.04, 1.0e-4).is_nan());
+    }
+
+    #[test]
+    fn a_magnets_verdict_follows_the_components_rule() {
+        let t = DETECTION_THRESHOLD;
+        // None read, or within the threshold: healthy, whatever its deviation.
+        assert_eq!(assess_magnet(0.0, f32::NAN, t), Assessment::Healthy);
+        assert_eq!(assess_magnet(t, 0.5, t), Assessment::Healthy);
+        // Its 90 % interval clear of the threshold: FAULT; not clear, or unknown: suspect.
+        assert_eq!(assess_magnet(0.5, 0.03, t), Assessment::Faulty);
+        assert_eq!(assess_magnet(0.1, 0.035, t), Assessment::Suspect);
+        assert_eq!(assess_magnet(0.5, f32::NAN, t), Assessment::Suspect);
+        // The same rule as a component's.
+        let k = FaultVector::new([0.1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.5]).unwrap();
+        let u = Uncertainty {
+            std: [0.035; FAULT_COUNT],
+            lower: [0.0; FAULT_COUNT],
+            upper: [1.0; FAULT_COUNT],
+            worst_correlation: 0.0,
+            worst_pair: (0, 1),
+            residual_std: 0.0,
+            magnet_std: f32::NAN,
+        };
+        let corr = [[0.0; FAULT_COUNT]; FAULT_COUNT];
+        let v = u.assess(&k, &corr);
+        assert_eq!(v[0], assess_magnet(0.1, 0.035, t));
+        assert_eq!(v[8], assess_magnet(0.5, 0.035, t));
     }
 }

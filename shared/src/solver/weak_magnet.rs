@@ -13,7 +13,11 @@
 //! 3. when one of them explains the current better than the polished vector, the polish
 //!    again from it with the magnet held (the problem's model plays it), then the depth moved
 //!    by each of [`DEPTH_STEPS`] with the rotor's mean flux kept ([`with_depth`]), and the
-//!    polish again from a better one, at most [`MAX_POLISHES`] polishes in all.
+//!    polish again from a better one, at most [`MAX_POLISHES`] polishes in all. The moves
+//!    run uncut: the last polish's first two with the polish's own fitness make the
+//!    fitness's curvature along the depth ([`WeakMagnetSearch::depth_curvature`]), from
+//!    which the uncertainty states the depth's deviation and verdict
+//!    (`shared::uncertainty::depth_deviation`).
 //!
 //! Otherwise the polished vector stands and the magnets are read even. Ask/tell like the
 //! polish: the executor sets the model's magnets and computes each fitness (one model run,
@@ -49,6 +53,10 @@ const ECCENTRICITY_INDEX: usize = 5;
 
 /// The depth moves tried after each polish of a weak magnet's reading.
 pub const DEPTH_STEPS: [f32; 4] = [-0.05, 0.05, -0.1, 0.1];
+
+/// The finest step between two depths the search reads ([`DEPTHS`] and [`DEPTH_STEPS`]; the
+/// polish holds the depth) [share of the magnet's flux].
+pub const DEPTH_RESOLUTION: f32 = 0.05;
 
 /// The most polishes a weak magnet's reading gets.
 pub const MAX_POLISHES: u32 = 3;
@@ -104,6 +112,9 @@ pub struct WeakMagnetSearch {
     polishes: u32,
     best_centre: (f32, f32),
     best: MagnetReading,
+    /// The last polish's fitness and its first two depth moves' (move, fitness): the
+    /// profile along the depth (NaN until measured).
+    profile: (f32, [(f32, f32); 2]),
 }
 
 /// `k` with its eccentricity off and its uniform loss lowered by what a weak magnet of
@@ -148,6 +159,7 @@ impl WeakMagnetSearch {
             polishes: 0,
             best_centre: (0.0, f32::INFINITY),
             best: polished,
+            profile: (f32::NAN, [(f32::NAN, f32::NAN); 2]),
         }
     }
 
@@ -198,11 +210,13 @@ impl WeakMagnetSearch {
                 None => MagnetAsk::Done(self.best),
             },
             Phase::Polish => MagnetAsk::Polish(self.best),
+            // Uncut: the profile needs the moves' fitness (a cut one is still at or above
+            // the best, so no choice moves).
             Phase::Refine { i, from } => match self.refine(i, &from) {
                 Some((_, k, magnets)) => MagnetAsk::Fitness {
                     k,
                     magnets,
-                    bound: self.best.fitness,
+                    bound: f32::INFINITY,
                 },
                 None => MagnetAsk::Done(self.best),
             },
@@ -241,6 +255,10 @@ impl WeakMagnetSearch {
                 let Some((j, k, magnets)) = self.refine(i, &from) else {
                     return;
                 };
+                let step = magnets.depth - from.magnets.depth;
+                if let Some(slot) = self.profile.1.iter_mut().find(|(s, _)| s.is_nan()) {
+                    *slot = (step, fitness);
+                }
                 if fitness < self.best.fitness {
                     self.best = MagnetReading {
                         faults: k,
@@ -269,6 +287,7 @@ impl WeakMagnetSearch {
             self.best = polished;
         }
         let from = self.best;
+        self.profile = (from.fitness, [(f32::NAN, f32::NAN); 2]);
         self.phase = match self.refine(0, &from) {
             Some((i, ..)) => Phase::Refine { i, from },
             None => Phase::Done,
@@ -282,6 +301,15 @@ impl WeakMagnetSearch {
         } else {
             Phase::Done
         }
+    }
+
+    /// The curvature of the fitness along the read magnet's depth, the rotor's mean flux
+    /// kept [A²·s per unit of depth²]: the second difference through the last polish's
+    /// reading and its first two depth moves (either side of it, or both on one side at the
+    /// depth's ends), at or within a move of the reading. NaN when no magnet is read. O(1).
+    pub fn depth_curvature(&self) -> f32 {
+        let (f0, [(a, fa), (b, fb)]) = self.profile;
+        2.0 * ((fa - f0) / a - (fb - f0) / b) / (a - b)
     }
 
     /// The most fitness evaluations this search asks for, beside its polishes.
@@ -351,6 +379,10 @@ mod tests {
         // is better; a polish; no move from 0.35 is better (0.3, 0.4, 0.25, 0.45).
         assert_eq!(n, 8 * CENTRES_PER_POLE + DEPTHS.len() as u32 + 4 + 4);
         assert_eq!(polishes, 2);
+        // Through 0.30, 0.35 and 0.40: the made-up fitness's second derivative along the
+        // depth, 2.
+        let c = search.depth_curvature();
+        assert!((c - 2.0).abs() < 1e-3, "{c}");
         assert_eq!(r.magnets.pole(&p), 5);
         assert!((r.magnets.depth - 0.35).abs() < 1e-6, "{}", r.magnets.depth);
         assert_eq!(r.faults.as_array()[ECCENTRICITY_INDEX], 0.0);
@@ -358,6 +390,44 @@ mod tests {
         let k9 = r.faults.as_array()[DEMAGNETIZATION_INDEX];
         let expected = (1.0 - 0.95 / (1.0 - 0.35 / 8.0)) / DEMAGNETIZATION_LOSS_MAX;
         assert!((k9 - expected).abs() < 1e-5, "{k9} against {expected}");
+    }
+
+    #[test]
+    fn a_whole_magnets_profile_lies_below_it() {
+        // Lowest past a whole magnet (3·(depth − 1.2)²): the grid reads 1.0, no move from it
+        // is better, and its profile runs through the moves down (0.95, 0.9).
+        let p = ActuatorParams::default();
+        let k = FaultVector::new([0.0, 0.0, 0.0, 0.0, 0.0, 0.2, 0.5, 0.5, 0.3]).unwrap();
+        let mut search = WeakMagnetSearch::new(&p, k, 10.0);
+        let f = |m: &WeakMagnet| 3.0 * (m.depth - 1.2) * (m.depth - 1.2);
+        let r = loop {
+            match search.ask() {
+                MagnetAsk::Fitness { magnets, bound, .. } => {
+                    // A depth move runs uncut.
+                    if search.polishes > 0 {
+                        assert_eq!(bound, f32::INFINITY);
+                    }
+                    search.tell(f(&magnets));
+                }
+                MagnetAsk::Polish(start) => search.tell_polished(start),
+                MagnetAsk::Done(r) => break r,
+            }
+        };
+        assert_eq!(search.polishes, 1);
+        assert_eq!(r.magnets.depth, 1.0);
+        let c = search.depth_curvature();
+        assert!((c - 6.0).abs() < 1e-2, "{c}");
+    }
+
+    #[test]
+    fn no_magnet_no_curvature() {
+        let p = ActuatorParams::default();
+        let k = FaultVector::new([0.1, 0.0, 0.0, 0.0, 0.0, 0.2, 0.5, 0.5, 0.0]).unwrap();
+        let mut search = WeakMagnetSearch::new(&p, k, 0.4);
+        while let MagnetAsk::Fitness { .. } = search.ask() {
+            search.tell(1.0);
+        }
+        assert!(search.depth_curvature().is_nan());
     }
 
     #[test]

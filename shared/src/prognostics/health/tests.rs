@@ -483,6 +483,7 @@ fn a_flights_reading_is_logged_as_an_in_flight_entry() {
                 worst_correlation: 0.0,
                 worst_pair: (0, 0),
                 residual_std: 0.0,
+                magnet_std: f32::NAN,
             },
             [[0.0; FAULT_COUNT]; FAULT_COUNT],
         ),
