@@ -474,8 +474,9 @@ pub(crate) fn conditions_campaign_command(
          then the runs the domain check put outside; then the largest disagreement of the \
          injection's winding temperature with the thermistor's over the row's runs (beyond \
          `shared::conditions::MAX_WINDING_DISAGREEMENT` a run is outside); last, the runs that \
-         read a weak magnet (no case plays one), and of them those whose verdict is `FAULT` \
-         (its depth's 90 % interval beyond the threshold).\n\n\
+         read a weak magnet (no case plays one), of them those whose verdict is `FAULT` (its \
+         depth's 90 % interval beyond the threshold), and of those the runs the domain check \
+         found `within` (a reading a user would act on).\n\n\
          | conditions | Table I median | Table I worst case (mean) | low | medium | high | medium + noise | healthy: largest | healthy: FAULT / suspect | Table I+II healthy components FAULT / suspect | outside the domain | injection − thermistor, largest [K] | weak magnet read |\n\
          | --- | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n",
         actuator.name,
@@ -571,17 +572,23 @@ pub(crate) fn conditions_campaign_command(
             .iter()
             .map(|c| c.runs.iter().filter(|r| r.weak_magnet.is_some()).count())
             .sum();
-        let weak_faulty: usize = summaries
-            .iter()
-            .map(|c| {
-                c.runs
-                    .iter()
-                    .filter(|r| r.weak_magnet_verdict == Assessment::Faulty)
-                    .count()
-            })
-            .sum();
+        let weak_faulty = |within_only: bool| -> usize {
+            summaries
+                .iter()
+                .map(|c| {
+                    c.runs
+                        .iter()
+                        .filter(|r| {
+                            r.weak_magnet_verdict == Assessment::Faulty
+                                && (r.within || !within_only)
+                        })
+                        .count()
+                })
+                .sum()
+        };
+        let (weak_faulty, weak_acted) = (weak_faulty(false), weak_faulty(true));
         text += &format!(
-            "| {} | {median:.2} | {worst} | {} | {} | {} | {} | {largest:.3} | {hf} / {hs} | {f} / {su} of {of} | {outside_text} | {disagreement:.1} | {weak} of {total} ({weak_faulty} `FAULT`) |\n",
+            "| {} | {median:.2} | {worst} | {} | {} | {} | {} | {largest:.3} | {hf} / {hs} | {f} / {su} of {of} | {outside_text} | {disagreement:.1} | {weak} of {total} ({weak_faulty} `FAULT`, {weak_acted} of them `within`) |\n",
             point.label,
             mean_of("low"),
             mean_of("medium"),

@@ -107,18 +107,12 @@ fn weak_magnet_uncertainty_text(depth: f32, std: f32, verdict: Assessment) -> St
         return String::new();
     }
     let interval = if std.is_finite() {
-        let (lo, hi) = magnet_interval(depth, std);
+        let (lo, hi) = shared::uncertainty::magnet_interval(depth, std);
         format!("± {std:.3} (1 σ), 90 % [{lo:.3}, {hi:.3}], ")
     } else {
         "deviation unknown, ".to_string()
     };
     format!("; {interval}{}", assessment_text(verdict))
-}
-
-/// A weak magnet's 90 % interval from its depth and deviation, clamped to [0, 1].
-fn magnet_interval(depth: f32, std: f32) -> (f32, f32) {
-    let half = shared::uncertainty::Z90 * std;
-    ((depth - half).max(0.0), (depth + half).min(1.0))
 }
 
 pub(crate) fn report(
@@ -152,7 +146,7 @@ pub(crate) fn report(
                 "poles": shared::magnets::poles(params),
                 "std": magnet_std.is_finite().then_some(magnet_std),
                 "interval90": magnet_std.is_finite().then(|| {
-                    let (lo, hi) = magnet_interval(magnets.depth, magnet_std);
+                    let (lo, hi) = shared::uncertainty::magnet_interval(magnets.depth, magnet_std);
                     [lo, hi]
                 }),
                 "verdict": assessment_text(magnet_verdict),

@@ -129,16 +129,10 @@ pub struct WeakMagnetRun {
 impl WeakMagnetRun {
     /// The least inflation of the depth's Gauss–Newton deviation
     /// (`shared::uncertainty::DEPTH_INFLATION`, the grid's deviation beside it as it is) with
-    /// which this read's 90 % interval holds the truth (as [`Self::covers`] takes it); `None`
-    /// where [`Self::covers`] is.
+    /// which this read's 90 % interval holds the truth ([`Self::truth`]); `None` where there
+    /// is none.
     pub fn inflation_needed(&self, played: Option<(f32, u32)>) -> Option<f64> {
-        if self.magnets.is_none() || !self.std.is_finite() {
-            return None;
-        }
-        let truth = match played {
-            Some((loss, pole)) if pole == self.pole => loss,
-            _ => 0.0,
-        };
+        let truth = self.truth(played)?;
         let q2 = f64::from(shared::uncertainty::DEPTH_QUANTIZATION).powi(2);
         let gauss_newton = (f64::from(self.std).powi(2) - q2).max(0.0).sqrt()
             / f64::from(shared::uncertainty::DEPTH_INFLATION);
@@ -147,19 +141,25 @@ impl WeakMagnetRun {
         Some(((half * half - q2).max(0.0)).sqrt() / gauss_newton)
     }
 
-    /// Whether the depth's 90 % interval holds the truth: `played` where the pole is right,
-    /// 0 elsewhere (a magnet read where none is weak). `None` without a magnet read or a
+    /// The depth this read is scored against: the `played` loss where the pole is right, 0
+    /// elsewhere (a magnet read where none is weak). `None` without a magnet read or a
     /// deviation.
-    pub fn covers(&self, played: Option<(f32, u32)>) -> Option<bool> {
+    fn truth(&self, played: Option<(f32, u32)>) -> Option<f32> {
         if self.magnets.is_none() || !self.std.is_finite() {
             return None;
         }
-        let truth = match played {
+        Some(match played {
             Some((loss, pole)) if pole == self.pole => loss,
             _ => 0.0,
-        };
-        let half = shared::uncertainty::Z90 * self.std;
-        Some((self.magnets.depth - half).max(0.0) <= truth && truth <= self.magnets.depth + half)
+        })
+    }
+
+    /// Whether the depth's 90 % interval holds the truth ([`Self::truth`]); `None` where
+    /// there is none.
+    pub fn covers(&self, played: Option<(f32, u32)>) -> Option<bool> {
+        let truth = self.truth(played)?;
+        let (lo, hi) = shared::uncertainty::magnet_interval(self.magnets.depth, self.std);
+        Some(lo <= truth && truth <= hi)
     }
 }
 
