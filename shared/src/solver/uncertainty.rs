@@ -1148,15 +1148,7 @@ mod tests {
         let k = FaultVector::new([0.2, 0.1, 0.0, 0.0, 0.0, 0.05, 0.5, 0.5, 0.0]).unwrap();
         let mut std = [0.01; FAULT_COUNT];
         std[ECCENTRICITY] = 0.02 * INFLATION;
-        let u = Uncertainty {
-            std,
-            lower: [0.0; FAULT_COUNT],
-            upper: [1.0; FAULT_COUNT],
-            worst_correlation: 0.0,
-            worst_pair: (0, 1),
-            residual_std: 0.0,
-            magnet_std: f32::NAN,
-        };
+        let u = stated(std);
         let (read, v) = u.with_free_phase_corrected(&k, 1.0);
         let z = (0.05f32 * 0.05 - 2.0 * 0.02 * 0.02).sqrt();
         for i in 0..FAULT_COUNT {
@@ -1194,15 +1186,7 @@ mod tests {
         let corr = [[0.0; FAULT_COUNT]; FAULT_COUNT];
         // White-noise std 0.03 (0.24 inflated): a 0.07 amplitude is below the Rayleigh
         // floor 3.03 × 0.03 = 0.091, a 0.07 friction is not an amplitude.
-        let noisy = Uncertainty {
-            std: [0.03 * INFLATION; FAULT_COUNT],
-            lower: [0.0; FAULT_COUNT],
-            upper: [1.0; FAULT_COUNT],
-            worst_correlation: 0.0,
-            worst_pair: (0, 1),
-            residual_std: 0.0,
-            magnet_std: f32::NAN,
-        };
+        let noisy = stated([0.03 * INFLATION; FAULT_COUNT]);
         let v = noisy.assess(&k, &corr);
         assert_eq!(v[5], Assessment::Healthy);
         assert_eq!(v[0], Assessment::Suspect);
@@ -1218,6 +1202,19 @@ mod tests {
             ..noisy
         };
         assert_eq!(unknown.assess(&k, &corr)[5], Assessment::Suspect);
+    }
+
+    /// Deviations `std` with intervals spanning [0, 1] and nothing else stated.
+    fn stated(std: [f32; FAULT_COUNT]) -> Uncertainty {
+        Uncertainty {
+            std,
+            lower: [0.0; FAULT_COUNT],
+            upper: [1.0; FAULT_COUNT],
+            worst_correlation: 0.0,
+            worst_pair: (0, 1),
+            residual_std: 0.0,
+            magnet_std: f32::NAN,
+        }
     }
 
     #[test]
@@ -1257,15 +1254,7 @@ mod tests {
         assert_eq!(assess_magnet(0.5, f32::NAN, t), Assessment::Suspect);
         // The same rule as a component's.
         let k = FaultVector::new([0.1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.5]).unwrap();
-        let u = Uncertainty {
-            std: [0.035; FAULT_COUNT],
-            lower: [0.0; FAULT_COUNT],
-            upper: [1.0; FAULT_COUNT],
-            worst_correlation: 0.0,
-            worst_pair: (0, 1),
-            residual_std: 0.0,
-            magnet_std: f32::NAN,
-        };
+        let u = stated([0.035; FAULT_COUNT]);
         let corr = [[0.0; FAULT_COUNT]; FAULT_COUNT];
         let v = u.assess(&k, &corr);
         assert_eq!(v[0], assess_magnet(0.1, 0.035, t));
