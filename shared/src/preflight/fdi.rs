@@ -47,7 +47,7 @@ pub struct IdentificationResult {
     /// [`WeakMagnet::NONE`] before it, or when an eccentricity explains the current better).
     pub magnets: WeakMagnet,
     /// The fitness's curvature along that magnet's depth
-    /// ([`WeakMagnetSearch::depth_curvature`]; NaN without one) [A²·s per unit²]: its
+    /// ([`WeakMagnetSearch::depth_curvature`]; 0 without one) [A²·s per unit²]: its
     /// deviation in the uncertainty ([`Uncertainty::with_magnet`]).
     pub depth_curvature: f32,
 }
@@ -342,7 +342,7 @@ impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
             },
             curvatures: 0,
             magnets: WeakMagnet::NONE,
-            depth_curvature: f32::NAN,
+            depth_curvature: 0.0,
         }
     }
 

@@ -306,10 +306,17 @@ impl WeakMagnetSearch {
     /// The curvature of the fitness along the read magnet's depth, the rotor's mean flux
     /// kept [A²·s per unit of depth²]: the second difference through the last polish's
     /// reading and its first two depth moves (either side of it, or both on one side at the
-    /// depth's ends), at or within a move of the reading. NaN when no magnet is read. O(1).
+    /// depth's ends), at or within a move of the reading. 0 when no magnet is read or the
+    /// difference is not a number (no deviation follows from it; 0, not NaN, so that two
+    /// equal readings compare equal). O(1).
     pub fn depth_curvature(&self) -> f32 {
         let (f0, [(a, fa), (b, fb)]) = self.profile;
-        2.0 * ((fa - f0) / a - (fb - f0) / b) / (a - b)
+        let c = 2.0 * ((fa - f0) / a - (fb - f0) / b) / (a - b);
+        if c.is_finite() {
+            c
+        } else {
+            0.0
+        }
     }
 
     /// The most fitness evaluations this search asks for, beside its polishes.
@@ -427,7 +434,7 @@ mod tests {
         while let MagnetAsk::Fitness { .. } = search.ask() {
             search.tell(1.0);
         }
-        assert!(search.depth_curvature().is_nan());
+        assert_eq!(search.depth_curvature(), 0.0);
     }
 
     #[test]
