@@ -15,7 +15,10 @@
 //! scale cannot carry for every component (the actuator record's [`SystematicError`], in
 //! quadrature; [`Curvature::preflight_uncertainty`]); a window of flight's take their own
 //! factors. A preflight's eccentricity is reported with its free phase's noise bias taken
-//! off ([`free_phase_corrected`]). Units: the fault vector's [0, 1] range.
+//! off ([`free_phase_corrected`]). A weak magnet's depth takes its deviation from the
+//! fitness's curvature along it (no model run of its own: [`depth_deviation`]) and its
+//! verdict by the components' rule ([`assess_magnet`]). O(1) each. Units: the fault vector's
+//! [0, 1] range; a depth is a share of its magnet's flux.
 //!
 //! [`FitnessProblem::uncertainty`]: crate::solver::fitness::FitnessProblem::uncertainty
 
