@@ -25,9 +25,21 @@
 //!   (the current loop saturated; `applied_voltages` of the reference model's truth) and the
 //!   two after each given no weight.
 //!
+//! * a hysteresis drive's slew shortfall, in closed form from the reference model's truth:
+//!   each period's step `Δ` of the current reference is reached after `L·|Δ|/(V ∓ E)`, the
+//!   period's mean current falls short of it by `Δ·t_s/(2T)`, and the loops are taken to make
+//!   that up in full with sampled current (the noisy test's shortfall less the quiet test's,
+//!   filtered); its least-squares move.
+//!
+//! `NOISE_BIAS_MODEL=measured` identifies with the monitor model playing that shortfall
+//! (`MonitorModel::with_reference_steps`) at the step power read from the test itself (the
+//! unfiltered equivalent current's mean square step over the chirp); `=truth` at the
+//! reference model's own (the noisy reference's less the quiet one's).
+//!
 //! Studies of the mechanism, not results: `NOISE_BIAS_BUS=V` plays another bus voltage,
-//! `NOISE_BIAS_BRIDGE=ideal` an ideal bridge (both off the calibration's: their `as read`
-//! rows carry that mismatch).
+//! `NOISE_BIAS_BRIDGE=ideal` an ideal bridge, `NOISE_BIAS_BAND=A` another hysteresis band
+//! (all off the calibration's: their `as read` rows carry that mismatch).
+//! `NOISE_BIAS_ACTUATOR=FILE.toml` runs another actuator's description.
 //!
 //! `cargo run --release -p host-sim --example noise_bias [SEEDS [NOISE]]` (12 seeds and the
 //! paper's 0.5 by default; ≈ 0.4 s per seed and case on one core).
@@ -209,10 +221,13 @@ struct Run {
     noise_variance: f64,
     /// The noisy test's filtered current less the quiet test's, sample by sample.
     noise_current: Vec<f64>,
+    /// A hysteresis drive's predicted slew shortfall, noisy less quiet, filtered.
+    predicted: Vec<f64>,
     /// The periods at the bus's full voltage across two legs.
     saturated: Vec<bool>,
     measured: Box<shared::fdi::OnboardMeasured>,
     seed: u64,
+    model_noise: f32,
 }
 
 /// Box's bias at the run's vector for covariance `c` over its free components, on the
@@ -271,19 +286,87 @@ fn identify_seed(
             hi - lo >= 0.98 * bus
         })
         .collect();
-    let quiet = rm
-        .simulate(&Scenario {
-            current_ref_noise: 0.0,
-            ..Scenario {
-                faults: truth,
-                current_ref_noise: noise,
-                seed,
-            }
-        })
+    let quiet_sim = rm.simulate(&Scenario {
+        faults: truth,
+        current_ref_noise: 0.0,
+        seed,
+    });
+    let quiet = quiet_sim.trace.measured(&params)?;
+    // What a hysteresis drive's slew predicts: each period's step of the reference is
+    // reached after `L·|Δ|/(V ∓ E)` (slower against the back-EMF), the period's mean current
+    // falls short of the new reference by `Δ·t_s/(2T)`, and the loops make that torque up
+    // with sampled current. The noisy test's shortfall less the quiet test's, through the
+    // conditioning's filter, from the chirp's first sample.
+    let lead = measured.lead_samples();
+    let shortfall = |truth: &[host_sim::plant::reference::TruthSample]| -> Vec<f64> {
+        let l = 2.0 * f64::from(params.phase_inductance);
+        let period = f64::from(params.control_period);
+        let kt = f64::from(params.torque_constant());
+        let mut previous = 0.0;
+        truth
+            .iter()
+            .enumerate()
+            .map(|(n, t)| {
+                let step = t.current_ref - previous;
+                previous = t.current_ref;
+                if n < lead {
+                    return 0.0;
+                }
+                let emf = kt * t.motor_speed;
+                let available = (bus - step.signum() * emf).max(1.0);
+                let slew = (l * step.abs() / available).min(period);
+                step * slew / (2.0 * period)
+            })
+            .collect()
+    };
+    let predicted = {
+        let filter = measured.filter();
+        let mut state = shared::conditioning::LowPassState::default();
+        shortfall(&sim.truth)
+            .iter()
+            .zip(shortfall(&quiet_sim.truth))
+            .map(|(a, b)| f64::from(filter.apply(&mut state, (a - b) as f32)))
+            .collect()
+    };
+    let step_variance = |truth: &[host_sim::plant::reference::TruthSample]| -> f64 {
+        let steps: Vec<f64> = truth[lead..]
+            .windows(2)
+            .map(|w| w[1].current_ref - w[0].current_ref)
+            .collect();
+        steps.iter().map(|d| d * d).sum::<f64>() / steps.len() as f64
+    };
+    // The measured equivalent current's mean square step over the chirp, unfiltered.
+    let pole_pairs = params.pole_pairs;
+    let raw: Vec<f64> = sim
         .trace
-        .measured(&params)?;
+        .samples()
+        .iter()
+        .map(|t| {
+            let signs = shared::conditioning::commutation_signs(t.motor_angle as f32 * pole_pairs);
+            0.5 * t
+                .phase_currents
+                .iter()
+                .zip(signs)
+                .map(|(i, s)| f64::from(s) * i)
+                .sum::<f64>()
+        })
+        .collect();
+    let measured_steps = raw[lead..]
+        .windows(2)
+        .map(|w| (w[1] - w[0]).powi(2))
+        .sum::<f64>()
+        / (raw.len() - lead - 1) as f64;
+    let model_noise = match std::env::var("NOISE_BIAS_MODEL").as_deref() {
+        Ok("truth") => {
+            (step_variance(&sim.truth) - step_variance(&quiet_sim.truth)).max(0.0) as f32
+        }
+        Ok("measured") => measured_steps as f32,
+        Ok(other) => anyhow::bail!("NOISE_BIAS_MODEL takes `truth` or `measured`, not `{other}`"),
+        Err(_) => 0.0,
+    };
     let table = command_table(&measured, record);
-    let mut id = onboard_identification(&measured, record, record.ga, 1 + seed, &table)?;
+    let mut id = onboard_identification(&measured, record, record.ga, 1 + seed, &table)?
+        .with_reference_steps(model_noise);
     while !matches!(id.step(SLICE), Status::Done(_)) {}
     let mut cr = Box::new(CurvatureRun::IDLE);
     let polished = id.polished(record.polish, &mut cr);
@@ -343,18 +426,21 @@ fn identify_seed(
         weights,
         noise_variance,
         noise_current,
+        predicted,
         saturated,
         measured,
         seed,
+        model_noise,
     })
 }
 
-const WAYS: [&str; 5] = [
+const WAYS: [&str; 6] = [
     "as read",
     "Box's bias off, C the reading's own",
     "Box's bias off, C over the seeds (oracle)",
     "the noise's current alone: its least-squares move",
     "the same, the saturated periods and the two after each unweighted",
+    "a hysteresis drive's slew shortfall (closed form): its least-squares move",
 ];
 
 fn main() -> Result<()> {
@@ -369,7 +455,10 @@ fn main() -> Result<()> {
         (0.0..=1.0).contains(&noise),
         "NOISE is a fraction of the nominal I_ref RMS, 0 … 1"
     );
-    let actuator = Actuator::reference();
+    let actuator = match std::env::var("NOISE_BIAS_ACTUATOR") {
+        Ok(path) => Actuator::load(std::path::Path::new(&path))?,
+        Err(_) => Actuator::reference(),
+    };
     let record = actuator.record;
     let mut settings = actuator.reference_settings()?;
     if let Ok(v) = std::env::var("NOISE_BIAS_BRIDGE") {
@@ -379,13 +468,23 @@ fn main() -> Result<()> {
     if let Ok(v) = std::env::var("NOISE_BIAS_BUS") {
         settings.conditions.bus_voltage = Some(v.parse()?);
     }
+    if let Ok(v) = std::env::var("NOISE_BIAS_BAND") {
+        settings.hysteresis_band = v.parse()?;
+    }
     let bus = settings
         .conditions
         .bus_voltage
         .unwrap_or(f64::from(record.params.dc_bus_voltage));
     let rm = ReferenceModel::new(settings).with_test(record.test);
+    if let Ok(v) = std::env::var("NOISE_BIAS_MODEL") {
+        println!(
+            "the monitor model plays the drive's slew shortfall (`with_reference_steps`) at the \
+             reference's step power from the {v} currents"
+        );
+    }
     println!(
-        "I_ref noise {noise}, {seeds} seeds per case, the reference actuator's preflight, bus {bus} V{}",
+        "I_ref noise {noise}, {seeds} seeds per case, {}'s preflight, bus {bus} V{}",
+        actuator.name,
         if settings.bridge == host_sim::plant::bridge::BridgeSettings::IDEAL {
             ", an ideal bridge"
         } else {
@@ -414,7 +513,8 @@ fn main() -> Result<()> {
             // The problem again (the same: a fresh identification's), for the sigma points.
             let table = command_table(&run.measured, &record);
             let id =
-                onboard_identification(&run.measured, &record, record.ga, 1 + run.seed, &table)?;
+                onboard_identification(&run.measured, &record, record.ga, 1 + run.seed, &table)?
+                    .with_reference_steps(run.model_noise);
             let problem = id.problem();
             let nope = || anyhow::anyhow!("seed {}: a matrix not positive definite", run.seed);
             let own_inv = inverse(&normal(&run.jacobian, &run.weights)).ok_or_else(nope)?;
@@ -449,6 +549,7 @@ fn main() -> Result<()> {
                 error(&bias(run, problem, &over_seeds).ok_or_else(nope)?),
                 first_order(run, &run.weights, &run.noise_current).ok_or_else(nope)?,
                 first_order(run, &unsaturated, &run.noise_current).ok_or_else(nope)?,
+                first_order(run, &run.weights, &run.predicted).ok_or_else(nope)?,
             ]);
         }
         println!();

@@ -264,3 +264,47 @@ fn the_healthy_friction_below_the_days_estimate_is_a_nuisance_not_a_fault() {
     assert!((m.healthy_friction_read(&low) - 0.6).abs() < 1e-6);
     assert!((m.reading_scale() - 1.2).abs() < 1e-6);
 }
+
+/// A drive that slews to its current reference's steps (`with_reference_steps`) draws more
+/// current in the direction of motion, the less the higher its bus (a drag `∝ power/V²`),
+/// and none without steps.
+#[test]
+fn reference_steps_draw_current_in_the_direction_of_motion_less_on_a_higher_bus() {
+    let excess = |params: ActuatorParams, power: f32| -> f32 {
+        let base = MonitorModel::new(params, &Calibration::IDENTITY);
+        let k = FaultVector::NOMINAL;
+        let mut quiet = Vec::with_capacity(N);
+        base.run(&k, N, |s| quiet.push(*s));
+        let mut stepped = Vec::with_capacity(N);
+        base.with_reference_steps(power)
+            .run(&k, N, |s| stepped.push(*s));
+        // The current's excess, signed by the motor's direction, averaged.
+        quiet
+            .windows(2)
+            .zip(&stepped[1..])
+            .map(|(q, s)| {
+                (s.current - q[1].current) * (q[1].motor_angle - q[0].motor_angle).signum()
+            })
+            .sum::<f32>()
+            / (N - 1) as f32
+    };
+    let nominal = ActuatorParams::REFERENCE;
+    let doubled = ActuatorParams {
+        dc_bus_voltage: 2.0 * nominal.dc_bus_voltage,
+        ..nominal
+    };
+    let at_nominal = excess(nominal, 2.0);
+    let at_doubled = excess(doubled, 2.0);
+    assert!(
+        at_nominal > 0.0,
+        "excess in the direction of motion {at_nominal} A"
+    );
+    // A quarter of it at twice the bus: the loops answer a small drag linearly.
+    let ratio = at_doubled / at_nominal;
+    assert!(
+        (0.15..0.35).contains(&ratio),
+        "twice the bus: {ratio} of the excess"
+    );
+    let model = model();
+    assert_eq!(model.with_reference_steps(0.0), model);
+}

@@ -257,6 +257,31 @@ impl MonitorModel {
         self.magnets
     }
 
+    /// The same model on a drive that slews to each step of its current reference at the
+    /// bus's voltage (hysteresis current control), under reference steps of mean square
+    /// `power` [A² per control period]: a step `Δ` is reached after `L·|Δ|/(V ∓ E)`, later
+    /// against the back-EMF `E` than with it, so the period's mean current falls short of the
+    /// new reference by `Δ·t_s/(2T)` and, over zero-mean steps, by
+    /// `(L/2T)·power·E/(V² − E²)` in the direction of motion. To first order in `E/V` that
+    /// is a viscous drag `k_t²·(L/2T)·power/V²` on the motor, played as the grease's drag is
+    /// (no work per step; `power` 0 plays the same bits). What a noisy current reference
+    /// does to the current the loops must draw (docs/prognostics.md, "What the lean is");
+    /// a study's option: the identification does not set it. O(1).
+    #[must_use]
+    pub fn with_reference_steps(mut self, power: f32) -> Self {
+        if power > 0.0 {
+            let v = self.params.dc_bus_voltage;
+            let drag = self.torque_constant * self.torque_constant * 0.5 * self.l_over_dt * power
+                / (v * v);
+            self.motor_drag_keep = clamp(
+                self.motor_drag_keep - self.dt_over_motor_inertia * drag,
+                0.0,
+                2.0,
+            );
+        }
+        self
+    }
+
     /// The same model with the day's healthy friction a nuisance the solver estimates with
     /// the faults, down to `floor` (0.05 … 1) times the day's estimate: the solver's first
     /// component then spans the friction torque `floor … 3` times the day's healthy one

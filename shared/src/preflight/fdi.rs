@@ -248,6 +248,16 @@ impl<'a, const N: usize, const P: usize> Identification<'a, N, P> {
         Ok(self)
     }
 
+    /// The same identification with its model on a drive that slews to its current
+    /// reference's steps of mean square `power` \[A²\] ([`FitnessProblem::set_reference_steps`];
+    /// for studies of the noise's lean: the flown identification does not set it). Before
+    /// the first step. O(1).
+    #[must_use]
+    pub fn with_reference_steps(mut self, power: f32) -> Self {
+        self.problem.set_reference_steps(power);
+        self
+    }
+
     /// At most `budget` monitor-model evaluations, then returns.
     pub fn step(&mut self, budget: u32) -> Status {
         self.ga.step(&mut self.problem, budget)

@@ -147,6 +147,13 @@ impl<'a, const N: usize> FitnessProblem<'a, N> {
         self.model = self.model.with_magnets(magnets);
     }
 
+    /// The problem's model on a drive that slews to its current reference's steps of mean
+    /// square `power` \[A²\] ([`MonitorModel::with_reference_steps`]; for studies of the
+    /// noise's lean). O(1).
+    pub fn set_reference_steps(&mut self, power: f32) {
+        self.model = self.model.with_reference_steps(power);
+    }
+
     /// The same problem with another standstill weight (for studies of the weight).
     pub fn with_standstill_weight(mut self, weight: f32) -> Self {
         self.standstill_weight = weight;
