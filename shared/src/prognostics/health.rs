@@ -18,12 +18,12 @@
 //! `flight mod slots` (before flights' readings were logged) is the same ring and reads
 //! unchanged.
 //!
-//! ## Record (version 4: 84 bytes, little-endian)
+//! ## Record (version 5: 84 bytes, little-endian)
 //!
 //! | bytes | field |
 //! | --- | --- |
 //! | 0..4 | magic `EMAH` |
-//! | 4 | version (4) |
+//! | 4 | version (5) |
 //! | 5 | domain: 0 within, 1 no motion, 2 open phase, 3 command mismatch, 4 fitness floor, 5 segment carried nothing, 6 bus out of range, 7 temperature out of range, …, 17–19 a window of flight's own (current saturated, manoeuvre too large, play unseen) ([`DomainCode`]) |
 //! | 6..8 | detected faults (u16): bit i set when component i is beyond the detection threshold |
 //! | 8..12 | flight index (u32) |
@@ -37,12 +37,15 @@
 //! | 71 | a flight's reading: the windows fused into it ([`HealthRecord::fused`]); any other test: 0 |
 //! | 72..76 | k9, demagnetization (f32) |
 //! | 76..78 | its standard deviation (u16, as above) |
-//! | 78..80 | reserved, 0 |
+//! | 78 | the weak magnet the test read ([`RecordedMagnet`]; for a window's entry and a flight's reading, the preflight's that the windows held): its depth in 255ths of its flux; 0: none |
+//! | 79 | its centre in 256ths of a revolution from the encoder's zero |
 //! | 80..84 | CRC-32 of bytes 0..80 |
 //!
 //! Each older version is a prefix of this layout with its own CRC-32, and is still read
 //! ([`HealthRecord::decode`] takes any; [`RamStore::upgrade`] rewrites a store of older slots
-//! as version 4 in place); they carry eight components (k9 reads 0: no demagnetization, its
+//! as the current version in place). Version 4 is the same 84 bytes with bytes 78–79 zero:
+//! it reads as no weak magnet, and a reader of version 4 refuses a version-5 record. Versions
+//! 1–3 carry eight components (k9 reads 0: no demagnetization, its
 //! standard deviation not determined) and byte 7 is 0: version 3 (76 bytes: bytes 0..72,
 //! then their CRC-32); version 2 (68 bytes: bytes 0..64, then their CRC-32) carries no day;
 //! version 1 (52 bytes: bytes 0..48, then their CRC-32) no standard deviation either.
