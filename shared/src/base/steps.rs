@@ -64,21 +64,22 @@ pub fn last_pause() -> Option<&'static Location<'static>> {
     None
 }
 
-/// `Σ term(i)` for `i` in `0..n`, summed in order from −0 (as `Iterator::sum` of `f64`:
+/// `Σ a[i]·b[i]` for `i` in `0..N`, summed in order from −0 (as `Iterator::sum` of `f64`:
 /// the same bits), pausing after every [`TERMS_PER_POLL`] terms: a sum of soft-f64 products
-/// on the Cortex-M4F in polls of a few thousand instructions.
-pub async fn sum_stepwise(n: usize, term: impl Fn(usize) -> f64) -> f64 {
+/// on the Cortex-M4F in polls of a few thousand instructions. Walks both by iterator: no
+/// bounds check (no panic path on the flight's code).
+pub async fn dot_stepwise<const N: usize>(a: &[f64; N], b: &[f64; N]) -> f64 {
     let mut sum = -0.0f64;
-    for i in 0..n {
-        sum += term(i);
-        if (i + 1) % TERMS_PER_POLL == 0 && i + 1 < n {
+    for (i, (x, y)) in a.iter().zip(b).enumerate() {
+        sum += x * y;
+        if (i + 1) % TERMS_PER_POLL == 0 && i + 1 < N {
             pause().await;
         }
     }
     sum
 }
 
-/// Terms of a [`sum_stepwise`] between two pauses.
+/// Terms of a [`dot_stepwise`] between two pauses.
 pub const TERMS_PER_POLL: usize = 6;
 
 /// Polls `future` until it is ready, without an executor (a no-op waker): the stepwise work

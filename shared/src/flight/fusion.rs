@@ -454,12 +454,12 @@ impl WindowFusion {
         if !(scale > 0.0 && scale.is_finite()) {
             return Err(UncertaintyError::Undetermined);
         }
-        let f = |i: usize| f64::from(factors[i]);
+        let f = |i: usize| f64::from(factors.get(i).copied().unwrap_or(0.0));
         // The window's covariance over its determined non-circular components, the others
         // an identity row and column (so the inverse of this block is the block's own).
-        let added = |i: usize| determined[i] && !CIRCULAR[i];
+        let added = |i: usize| flag(&determined, i) && !flag(&CIRCULAR, i);
         let covariance = padded_stepwise(&core::array::from_fn(added), |i, j| {
-            scale * f(i) * f(j) * inverse[i][j]
+            scale * f(i) * f(j) * at(&inverse, i, j)
         })
         .await;
         let information = invert_stepwise(&covariance)
@@ -469,10 +469,12 @@ impl WindowFusion {
         let mut point = [0.0f64; FAULT_COUNT];
         for i in 0..FAULT_COUNT {
             let step: f64 = (0..FAULT_COUNT)
-                .filter(|&j| determined[j])
-                .map(|j| inverse[i][j] * curvature.gradient[j])
+                .filter(|&j| flag(&determined, j))
+                .map(|j| at(&inverse, i, j) * at1(&curvature.gradient, j))
                 .sum();
-            point[i] = f64::from(k.as_array()[i]) + step;
+            if let (Some(slot), Some(&ki)) = (point.get_mut(i), k.as_array().get(i)) {
+                *slot = f64::from(ki) + step;
+            }
             pause().await;
         }
         let sensitivity = HeldComponents::sensitivity_stepwise(curvature, coupling)
@@ -486,12 +488,19 @@ impl WindowFusion {
         pause().await;
         for i in (0..FAULT_COUNT).filter(|&i| added(i)) {
             for j in (0..FAULT_COUNT).filter(|&j| added(j)) {
-                sum[i][j] += information[i][j];
-                linear[i] += information[i][j] * point[j];
-                square += point[i] * information[i][j] * point[j];
+                let information_ij = at(&information, i, j);
+                if let Some(x) = at_mut(&mut sum, i, j) {
+                    *x += information_ij;
+                }
+                if let Some(x) = linear.get_mut(i) {
+                    *x += information_ij * at1(&point, j);
+                }
+                square += at1(&point, i) * information_ij * at1(&point, j);
                 pause().await;
                 for h in 0..FAULT_COUNT {
-                    leaning[i][h] += information[i][j] * sensitivity[j][h];
+                    if let Some(x) = at_mut(&mut leaning, i, h) {
+                        *x += at(&information, i, j) * at(&sensitivity, j, h);
+                    }
                     if h + 1 == FAULT_COUNT / 2 {
                         pause().await;
                     }
@@ -517,8 +526,12 @@ impl WindowFusion {
             };
             for i in (0..FAULT_COUNT).filter(|&i| added(i)) {
                 for j in (0..FAULT_COUNT).filter(|&j| added(j)) {
-                    closest.information[i][j] = information[i][j];
-                    closest.linear[i] += information[i][j] * point[j];
+                    if let Some(x) = at_mut(&mut closest.information, i, j) {
+                        *x = at(&information, i, j);
+                    }
+                    if let Some(x) = closest.linear.get_mut(i) {
+                        *x += at(&information, i, j) * at1(&point, j);
+                    }
                 }
                 pause().await;
             }
@@ -620,12 +633,26 @@ impl WindowFusion {
             k[0] = f;
         }
         for _ in 0..FUSION_SWEEPS {
-            for i in (0..FAULT_COUNT).filter(|&i| free[i]) {
-                let coupled: f64 = (0..FAULT_COUNT)
-                    .filter(|&j| j != i && counted[j])
-                    .map(|j| self.information[i][j] * k[j])
+            // Entries by `get`, not by an index the pauses would keep: no bounds check.
+            for i in 0..FAULT_COUNT {
+                let (Some(true), Some(row), Some(&linear)) = (
+                    free.get(i).copied(),
+                    self.information.get(i),
+                    self.linear.get(i),
+                ) else {
+                    continue;
+                };
+                let coupled: f64 = row
+                    .iter()
+                    .zip(&k)
+                    .zip(&counted)
+                    .enumerate()
+                    .filter(|&(j, (_, &counts))| j != i && counts)
+                    .map(|(_, ((&information, &kj), _))| information * kj)
                     .sum();
-                k[i] = ((self.linear[i] - coupled) / self.information[i][i]).clamp(0.0, 1.0);
+                if let (Some(&diagonal), Some(slot)) = (row.get(i), k.get_mut(i)) {
+                    *slot = ((linear - coupled) / diagonal).clamp(0.0, 1.0);
+                }
                 pause().await;
             }
         }
@@ -662,19 +689,23 @@ impl WindowFusion {
         // fixed, also −(Σ I)⁻¹ · (Σ I)·e₀ per unit of its error.
         let mut moved = [[0.0f64; FAULT_COUNT]; FAULT_COUNT];
         if let Some((inverse, determined)) = summed.inverse_stepwise(0.0).await {
-            for i in (0..FAULT_COUNT).filter(|&i| determined[i] && !CIRCULAR[i]) {
+            let counted = |i: usize| flag(&determined, i) && !flag(&CIRCULAR, i);
+            for i in (0..FAULT_COUNT).filter(|&i| counted(i)) {
                 for h in 0..FAULT_COUNT {
-                    moved[i][h] = (0..FAULT_COUNT)
-                        .filter(|&j| determined[j] && !CIRCULAR[j])
+                    let value = (0..FAULT_COUNT)
+                        .filter(|&j| counted(j))
                         .map(|j| {
                             let fixed = if h == 0 && friction.is_some() {
-                                self.information[j][0]
+                                at(&self.information, j, 0)
                             } else {
                                 0.0
                             };
-                            inverse[i][j] * (self.leaning[j][h] - fixed)
+                            at(&inverse, i, j) * (at(&self.leaning, j, h) - fixed)
                         })
                         .sum();
+                    if let Some(x) = at_mut(&mut moved, i, h) {
+                        *x = value;
+                    }
                     pause().await;
                 }
             }
@@ -737,10 +768,10 @@ impl WindowFusion {
         free: &[bool; FAULT_COUNT],
     ) -> f32 {
         let mut chi2 = self.square;
-        for i in (0..FAULT_COUNT).filter(|&i| counted[i]) {
-            chi2 -= 2.0 * k[i] * self.linear[i];
-            for j in (0..FAULT_COUNT).filter(|&j| counted[j]) {
-                chi2 += k[i] * self.information[i][j] * k[j];
+        for i in (0..FAULT_COUNT).filter(|&i| flag(counted, i)) {
+            chi2 -= 2.0 * at1(k, i) * at1(&self.linear, i);
+            for j in (0..FAULT_COUNT).filter(|&j| flag(counted, j)) {
+                chi2 += at1(k, i) * at(&self.information, i, j) * at1(k, j);
             }
             pause().await;
         }
@@ -781,7 +812,7 @@ impl WindowFusion {
             return None;
         }
         let rest = padded_stepwise(&kept, |i, j| {
-            self.information[i][j] - self.closest.information[i][j]
+            at(&self.information, i, j) - at(&self.closest.information, i, j)
         })
         .await;
         let linear: [f64; FAULT_COUNT] = core::array::from_fn(|i| {
@@ -804,6 +835,31 @@ impl WindowFusion {
         let ratio = (point - others) * (point - others) / spread / CHI2_1_99;
         (spread > 0.0 && ratio.is_finite()).then_some(ratio as f32)
     }
+}
+
+/// `m[i][j]` by `get` (0 outside, which no index below [`FAULT_COUNT`] is): an index a pause
+/// keeps needs no bounds check, so the flight's code has no panic path.
+#[inline(always)]
+fn at(m: &[[f64; FAULT_COUNT]; FAULT_COUNT], i: usize, j: usize) -> f64 {
+    m.get(i).and_then(|r| r.get(j)).copied().unwrap_or(0.0)
+}
+
+/// `m[i][j]` to write, by `get` ([`at`]).
+#[inline(always)]
+fn at_mut(m: &mut [[f64; FAULT_COUNT]; FAULT_COUNT], i: usize, j: usize) -> Option<&mut f64> {
+    m.get_mut(i).and_then(|r| r.get_mut(j))
+}
+
+/// `v[i]` by `get` ([`at`]).
+#[inline(always)]
+fn at1(v: &[f64; FAULT_COUNT], i: usize) -> f64 {
+    v.get(i).copied().unwrap_or(0.0)
+}
+
+/// `v[i]` by `get` ([`at`]; false outside).
+#[inline(always)]
+fn flag(v: &[bool; FAULT_COUNT], i: usize) -> bool {
+    v.get(i).copied().unwrap_or(false)
 }
 
 /// A 9 × 9 matrix of `value(i, j)` over the `kept` components, an identity row and column

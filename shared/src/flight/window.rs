@@ -438,7 +438,6 @@ impl HeldComponents {
 
     /// [`sensitivity`](Self::sensitivity) in steps: the inverse stepwise, then a pause
     /// after each entry. The same bits.
-    #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // i, j < FAULT_COUNT on fixed 9×9 arrays
     pub async fn sensitivity_stepwise(
         curvature: &Curvature,
         coupling: &HeldCoupling,
@@ -446,11 +445,19 @@ impl HeldComponents {
         let (inverse, determined) = curvature.inverse_stepwise(0.0).await?;
         pause().await;
         let mut a = [[0.0f64; FAULT_COUNT]; FAULT_COUNT];
-        for i in (0..FAULT_COUNT).filter(|&i| determined[i]) {
-            for h in 0..FAULT_COUNT {
-                a[i][h] = (0..FAULT_COUNT)
-                    .filter(|&j| determined[j])
-                    .map(|j| inverse[i][j] * coupling.normal[j][h])
+        // Rows by iterator, the column by `get`, not by indices the pauses would keep: no
+        // bounds check.
+        for ((row, inverse_row), &free) in a.iter_mut().zip(&inverse).zip(&determined) {
+            if !free {
+                continue;
+            }
+            for (h, slot) in row.iter_mut().enumerate() {
+                *slot = inverse_row
+                    .iter()
+                    .zip(&coupling.normal)
+                    .zip(&determined)
+                    .filter(|&(_, &d)| d)
+                    .map(|((&inv, normal), _)| inv * normal.get(h).copied().unwrap_or(0.0))
                     .sum();
                 pause().await;
             }
@@ -570,17 +577,17 @@ pub fn propagated_std(
 
 /// [`propagated_std`] in steps: a pause after each row of `Σ` a component's sum takes
 /// (nine soft-f64 multiply-adds). The same bits.
-#[allow(clippy::indexing_slicing)] // i, h, g < FAULT_COUNT on fixed 9×9 arrays
 pub async fn propagated_std_stepwise(
     sensitivity: &[[f64; FAULT_COUNT]; FAULT_COUNT],
     covariance: &[[f32; FAULT_COUNT]; FAULT_COUNT],
 ) -> [f32; FAULT_COUNT] {
     let mut out = [0.0f32; FAULT_COUNT];
-    for (i, slot) in out.iter_mut().enumerate() {
+    // Rows by iterator, not by an index the pauses would keep: no bounds check.
+    for (slot, row) in out.iter_mut().zip(sensitivity) {
         let mut v = 0.0f64;
-        for h in 0..FAULT_COUNT {
-            for g in 0..FAULT_COUNT {
-                v += sensitivity[i][h] * f64::from(covariance[h][g]) * sensitivity[i][g];
+        for (&s_h, covariance_h) in row.iter().zip(covariance) {
+            for (&c, &s_g) in covariance_h.iter().zip(row) {
+                v += s_h * f64::from(c) * s_g;
             }
             pause().await;
         }

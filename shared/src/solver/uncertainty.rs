@@ -611,7 +611,6 @@ impl Curvature {
 
     /// [`gauss_newton_step`](Self::gauss_newton_step) in steps: the inverse stepwise, then
     /// a pause after each component's step. The same bits.
-    #[allow(clippy::indexing_slicing)] // i, j < FAULT_COUNT on fixed 9×9 arrays
     pub async fn gauss_newton_step_stepwise(
         &self,
         k: &FaultVector,
@@ -619,18 +618,21 @@ impl Curvature {
     ) -> Option<FaultVector> {
         let (inverse, determined) = self.inverse_stepwise(damping).await?;
         let mut out = *k.as_array();
-        for i in 0..FAULT_COUNT {
-            if !determined[i] {
+        // Rows by iterator, not by an index the pauses would keep: no bounds check.
+        for (((slot, row), &free), &circular) in
+            out.iter_mut().zip(&inverse).zip(&determined).zip(&CIRCULAR)
+        {
+            if !free {
                 continue;
             }
             let mut d = 0.0;
-            for j in 0..FAULT_COUNT {
-                if determined[j] {
-                    d += inverse[i][j] * self.gradient[j];
+            for ((&inv, &g), &free_j) in row.iter().zip(&self.gradient).zip(&determined) {
+                if free_j {
+                    d += inv * g;
                 }
             }
-            let x = out[i] + d as f32;
-            out[i] = if CIRCULAR[i] {
+            let x = *slot + d as f32;
+            *slot = if circular {
                 crate::solver::ga::wrap_unit(x)
             } else {
                 x.clamp(0.0, 1.0)

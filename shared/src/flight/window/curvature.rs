@@ -4,7 +4,7 @@
 //! f64.
 
 use super::*;
-use crate::base::steps::sum_stepwise;
+use crate::base::steps::dot_stepwise;
 
 impl<'a, const N: usize> WindowProblem<'a, N> {
     /// The Gauss–Newton sums at `k` under the problem's load ([`Curvature`]): one base run,
@@ -225,18 +225,28 @@ impl<'a, const N: usize> WindowProblem<'a, N> {
         if let Some(qi) = invert_stepwise(&q).await {
             pause().await;
             let qr = solve_stepwise(&qi, q_residual).await;
-            *rss -= sum_stepwise(NUISANCES, |t| qr[t] * q_residual[t]).await;
+            *rss -= dot_stepwise(&qr, q_residual).await;
             response.at_zero = [qr[DRIFT_TERMS], qr[DRIFT_TERMS + 1]];
-            for a in 0..FAULT_COUNT {
-                let column: [f64; NUISANCES] = core::array::from_fn(|u| cross[u][a]);
+            // Rows by iterator, columns by `get`, not by indices the pauses would keep: no
+            // bounds check.
+            let entry = |t: usize, c: usize| cross.get(t).and_then(|r| r.get(c)).copied();
+            for (a, (gradient_a, normal_a)) in
+                gradient.iter_mut().zip(normal.iter_mut()).enumerate()
+            {
+                let column: [f64; NUISANCES] = core::array::from_fn(|u| entry(u, a).unwrap_or(0.0));
                 let qa = solve_stepwise(&qi, &column).await;
-                response.per_fault[0][a] = -qa[DRIFT_TERMS];
-                response.per_fault[1][a] = -qa[DRIFT_TERMS + 1];
+                for (per_fault, term) in response.per_fault.iter_mut().zip(DRIFT_TERMS..) {
+                    if let (Some(slot), Some(&q)) = (per_fault.get_mut(a), qa.get(term)) {
+                        *slot = -q;
+                    }
+                }
                 pause().await;
-                gradient[a] -= sum_stepwise(NUISANCES, |t| qa[t] * q_residual[t]).await;
+                *gradient_a -= dot_stepwise(&qa, q_residual).await;
                 pause().await;
-                for c in 0..FAULT_COUNT {
-                    normal[a][c] -= sum_stepwise(NUISANCES, |t| qa[t] * cross[t][c]).await;
+                for (c, n) in normal_a.iter_mut().enumerate() {
+                    let column: [f64; NUISANCES] =
+                        core::array::from_fn(|t| entry(t, c).unwrap_or(0.0));
+                    *n -= dot_stepwise(&qa, &column).await;
                     pause().await;
                 }
             }
@@ -301,15 +311,16 @@ const IDLE_LOCKSTEP_RUN: (RunRigging, crate::model::monitor::MonitorRun, LowPass
     LowPassState::ZERO,
 );
 
-/// `Q⁻¹·v` from the inverse `qi`, each row's sum stepwise ([`sum_stepwise`]).
+/// `Q⁻¹·v` from the inverse `qi`, each row's sum stepwise ([`dot_stepwise`]).
 #[allow(clippy::indexing_slicing)] // t, u < NUISANCES on fixed arrays
 async fn solve_stepwise(
     qi: &[[f64; NUISANCES]; NUISANCES],
     v: &[f64; NUISANCES],
 ) -> [f64; NUISANCES] {
     let mut out = [0.0f64; NUISANCES];
-    for (t, slot) in out.iter_mut().enumerate() {
-        *slot = sum_stepwise(NUISANCES, |u| qi[t][u] * v[u]).await;
+    // Rows by iterator, not by an index the pauses would keep: no bounds check.
+    for (slot, row) in out.iter_mut().zip(qi) {
+        *slot = dot_stepwise(row, v).await;
         pause().await;
     }
     out
