@@ -277,7 +277,13 @@ fn a_weak_magnet_under_qemu_is_read_at_its_pole_with_the_hosts_bits() {
     scenario.seed = 4;
     let bytes = rm.simulate(&scenario).trace.to_bin().expect("encodable");
     let path = temp_trace("weak-magnet.bin", &bytes);
-    let run = run_firmware(&[path.to_str().expect("UTF-8 temp path")]);
+    let log_path = temp_trace("weak-magnet-health.bin", &[]);
+    std::fs::remove_file(&log_path).expect("fresh log");
+    let run = run_firmware(&[
+        path.to_str().expect("UTF-8 temp path"),
+        "--health",
+        log_path.to_str().expect("UTF-8 temp path"),
+    ]);
     assert_eq!(run.status, 0, "firmware failed:\n{}", run.output);
 
     let (_, identified) = host_identified(&bytes);
@@ -315,6 +321,24 @@ fn a_weak_magnet_under_qemu_is_read_at_its_pole_with_the_hosts_bits() {
         host.magnets
     );
     assert!(host.faults.eccentricity() < 0.05, "{:?}", host.faults);
+    // The health log keeps the magnet, its centre and its depth's deviation (rounded up to
+    // 1/512), as the host's record of the same reading.
+    let image = std::fs::read(&log_path).expect("health log written");
+    let kept = shared::health::HealthRecord::decode(&image).expect("a record in slot 0");
+    let expected = shared::health::HealthRecord::new(
+        0,
+        host.faults,
+        host.fitness,
+        shared::domain::Domain::Within,
+    )
+    .with_magnet(&host.magnets)
+    .with_magnet_std(std);
+    assert_eq!(kept.magnet, expected.magnet);
+    let kept_std = kept.magnet.std().expect("a deviation kept");
+    assert!(
+        kept_std >= std && kept_std - std < 1.0 / 512.0,
+        "{kept_std} against {std}"
+    );
 }
 
 #[test]

@@ -77,6 +77,7 @@ pub fn preflight_entry(
     )
     .with_day(day)
     .with_magnet(&report.result.magnets)
+    .with_magnet_std(report.uncertainty.map_or(f32::NAN, |u| u.magnet_std))
 }
 
 /// Appends the record `entry` makes of the store's newest record (a preflight, or a flight's

@@ -59,19 +59,19 @@ fn ingesting_twice_adds_nothing_and_overlapping_downloads_add_only_new_flights()
     let (ok, out) = ingest(&db, &[&first], &[]);
     assert!(ok, "{out}");
     assert!(
-        out.contains("10 v5 records, 10 new, 6 empty slots"),
+        out.contains("10 v6 records, 10 new, 6 empty slots"),
         "{out}"
     );
     assert_eq!(stored(&db), 10);
     let (ok, out) = ingest(&db, &[&first], &[]);
-    assert!(ok && out.contains("10 v5 records, 0 new"), "{out}");
+    assert!(ok && out.contains("10 v6 records, 0 new"), "{out}");
     assert_eq!(stored(&db), 10);
     // The next download of the same ring: flights 4..20 (the oldest overwritten).
     let later = dir.path().join("later").join("ACT-1.bin");
     std::fs::create_dir(later.parent().unwrap()).unwrap();
     std::fs::write(&later, log_image(16, 0..20, 0.1)).unwrap();
     let (ok, out) = ingest(&db, &[later.parent().unwrap()], &[]);
-    assert!(ok && out.contains("16 v5 records, 10 new"), "{out}");
+    assert!(ok && out.contains("16 v6 records, 10 new"), "{out}");
     assert_eq!(stored(&db), 20);
     // Another actuator's log under its own serial.
     let other = dir.path().join("renamed.bin");
@@ -120,12 +120,12 @@ fn damaged_unknown_and_contradicting_logs_are_refused_whole_and_the_store_keeps_
     assert_eq!(stored(&db), 11);
 
     // A record version this tool does not read: refused by name.
-    let mut v6 = log_image(8, 12..14, 0.1);
-    v6[(12 % 8) * RECORD_BYTES + 4] = 6;
-    let v6_path = dir.path().join("ACT-8.bin");
-    std::fs::write(&v6_path, &v6).unwrap();
-    let (ok, out) = ingest(&db, &[&v6_path], &[]);
-    assert!(!ok && out.contains("version-6 record"), "{out}");
+    let mut v7 = log_image(8, 12..14, 0.1);
+    v7[(12 % 8) * RECORD_BYTES + 4] = 7;
+    let v7_path = dir.path().join("ACT-8.bin");
+    std::fs::write(&v7_path, &v7).unwrap();
+    let (ok, out) = ingest(&db, &[&v7_path], &[]);
+    assert!(!ok && out.contains("version-7 record"), "{out}");
     assert_eq!(stored(&db), 11);
 
     // Flight 3 of ACT-7 again, with other contents: refused, the stored one kept.
@@ -253,7 +253,9 @@ fn log_with_flights() -> Vec<u8> {
     for f in 0..6u32 {
         let mut pre = record(f, 0.1 + 0.01 * f as f32, Domain::Within);
         if f == 5 {
-            pre = pre.with_magnet(&WeakMagnet::new(0.5, 2.4));
+            pre = pre
+                .with_magnet(&WeakMagnet::new(0.5, 2.4))
+                .with_magnet_std(0.03);
         }
         let mut window = record(f, 0.3, Domain::Within).in_flight(1);
         window.domain = shared::health::DomainCode::from_name("fitness_floor").unwrap();
@@ -304,7 +306,7 @@ fn a_log_with_in_flight_entries_is_stored_whole_and_its_window_verdicts_flag_not
         "{html}"
     );
     assert!(
-        html.contains("0.50 of its flux lost at 138° (flight 5)"),
+        html.contains("0.50 of its flux lost at 138° (flight 5), ± 0.031, FAULT"),
         "{html}"
     );
 }
@@ -323,7 +325,7 @@ fn a_schema_2_store_is_migrated_with_its_records_under_their_tests() {
         "{out}"
     );
     // The five stored preflights are the log's own: its other thirteen records are added.
-    assert!(out.contains("18 v5 records, 13 new"), "{out}");
+    assert!(out.contains("18 v6 records, 13 new"), "{out}");
     let c = rusqlite::Connection::open(&db).unwrap();
     let rows: Vec<(u32, u8, Vec<u8>)> = c
         .prepare("SELECT flight, test, bytes FROM records WHERE test = 0 ORDER BY flight")

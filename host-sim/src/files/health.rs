@@ -8,7 +8,7 @@
 //! History CSV, one row per preflight, readable by `pandas.read_csv` as is:
 //!
 //! ```text
-//! flight,friction,backlash,short_a,short_b,short_c,eccentricity,ecc_phase,gain_drift,demagnetization,fitness,domain[,std_friction,…,std_demagnetization][,v_bus,temp,winding_rise][,magnet_depth,magnet_centre][,true_friction,…,true_demagnetization]
+//! flight,friction,backlash,short_a,short_b,short_c,eccentricity,ecc_phase,gain_drift,demagnetization,fitness,domain[,std_friction,…,std_demagnetization][,v_bus,temp,winding_rise][,magnet_depth,magnet_centre[,magnet_std]][,true_friction,…,true_demagnetization]
 //! ```
 //!
 //! A history written before the ninth fault (no `demagnetization`, `std_demagnetization` or
@@ -20,7 +20,9 @@
 //! version-3 record keeps it (empty where not measured); `magnet_depth` (the share of its
 //! flux lost) and `magnet_centre` [° of the rotor from the encoder's zero] the weak magnet
 //! the test read, or the preflight's that a flight's windows held, as a version-5 record
-//! keeps it (both empty where none was read; written when a row has one).
+//! keeps it (both empty where none was read; written when a row has one), and `magnet_std`
+//! its depth's standard deviation as a version-6 record keeps it (in 512ths of the flux,
+//! rounded up; empty where not determined; a file without the column reads none).
 //!
 //! `domain` is `within` or the reason (`no_motion`, `open_phase`, `command_mismatch`,
 //! `fitness_floor`, `segment_carried_nothing`, `bus_out_of_range`,
@@ -285,7 +287,7 @@ pub fn history_csv(rows: &[HistoryRow]) -> String {
         out += ",v_bus,temp,winding_rise";
     }
     if with_magnet {
-        out += ",magnet_depth,magnet_centre";
+        out += ",magnet_depth,magnet_centre,magnet_std";
     }
     if with_truth {
         for n in FAULT_NAMES {
@@ -329,9 +331,12 @@ pub fn history_csv(rows: &[HistoryRow]) -> String {
         if with_magnet {
             let m = r.record.magnet.magnets();
             if m.is_none() {
-                out += ",,";
+                out += ",,,";
             } else {
-                out += &format!(",{},{}", m.depth, m.centre.to_degrees());
+                out += &format!(",{},{},", m.depth, m.centre.to_degrees());
+                if let Some(sd) = r.record.magnet.std() {
+                    out += &sd.to_string();
+                }
             }
         }
         if let (true, Some(t)) = (with_truth, r.truth) {
@@ -427,6 +432,10 @@ fn parse_history_csv(text: &str) -> Result<Vec<HistoryRow>> {
         (None, None) => None,
         _ => bail!("\"magnet_depth\" and \"magnet_centre\" come together or not at all"),
     };
+    let magnet_std_col = column("magnet_std");
+    if magnet_std_col.is_some() && magnet_cols.is_none() {
+        bail!("\"magnet_std\" needs \"magnet_depth\" and \"magnet_centre\"");
+    }
     let std_cols = complete(columns("std_"));
     let truth_cols = complete(columns("true_"));
     let mut rows: Vec<HistoryRow> = Vec::new();
@@ -557,6 +566,16 @@ fn parse_history_csv(text: &str) -> Result<Vec<HistoryRow>> {
                     }
                     let centre = number(c)?.to_radians();
                     record = record.with_magnet(&shared::magnets::WeakMagnet::new(depth, centre));
+                    if let Some(s) = magnet_std_col.filter(|&s| !cell(s).is_empty()) {
+                        let sd = number(s)?;
+                        if !(sd.is_finite() && sd >= 0.0) {
+                            bail!(
+                                "line {line_no}, column \"magnet_std\": {sd} is not a \
+                                 standard deviation"
+                            );
+                        }
+                        record = record.with_magnet_std(sd);
+                    }
                 }
             }
         }
@@ -632,16 +651,44 @@ mod tests {
         let mut read = row(3, 0.1, Domain::Within);
         read.record = read
             .record
-            .with_magnet(&shared::magnets::WeakMagnet::new(0.5, 2.4));
+            .with_magnet(&shared::magnets::WeakMagnet::new(0.5, 2.4))
+            .with_magnet_std(0.032);
         let rows = vec![row(2, 0.09, Domain::Within), read];
         let text = history_csv(&rows);
-        assert!(text.contains(",magnet_depth,magnet_centre,"), "{text}");
+        assert!(
+            text.contains(",magnet_depth,magnet_centre,magnet_std"),
+            "{text}"
+        );
         assert_eq!(parse_history_csv(&text).unwrap(), rows);
         let m = read.record.magnet.magnets();
         let cells = format!(",{},{},", m.depth, m.centre.to_degrees());
         assert!(text.contains(&cells), "{text}");
-        // Flight 2 read none: both cells empty.
+        // Its deviation as stored (17/512, rounded up from 0.032), which reads back as itself.
+        assert!(
+            text.contains(&format!("{cells}{}", 17.0f32 / 512.0)),
+            "{text}"
+        );
+        // Flight 2 read none: all three cells empty.
         assert!(text.lines().nth(1).unwrap().contains(",,,"), "{text}");
+        // Without the deviation's column: the magnet, no deviation.
+        let at = text
+            .lines()
+            .next()
+            .unwrap()
+            .split(',')
+            .position(|c| c == "magnet_std")
+            .unwrap();
+        let without: Vec<String> = text
+            .lines()
+            .map(|l| {
+                let mut cells: Vec<&str> = l.split(',').collect();
+                cells.remove(at);
+                cells.join(",")
+            })
+            .collect();
+        let old = parse_history_csv(&(without.join("\n") + "\n")).unwrap();
+        assert_eq!(old[1].record.magnet.std(), None);
+        assert_eq!(old[1].record.magnet.magnets(), m);
         let e = parse_history_csv(&text.replace(&cells, ",,137.8125,")).unwrap_err();
         assert!(
             format!("{e:#}").contains("both its depth and its centre"),

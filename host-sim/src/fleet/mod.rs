@@ -53,7 +53,7 @@ use shared::magnets::WeakMagnet;
 use shared::prognosis::{HealthTrend, TrendEstimate, TrendSettings};
 
 use crate::files::health::ImageStore;
-use crate::studies::prognostics::growth_name;
+use crate::studies::prognostics::{growth_name, stored_magnet_verdict};
 
 /// The store's schema version (table `meta`).
 const SCHEMA: i64 = 3;
@@ -416,9 +416,9 @@ pub struct ActuatorStatus {
     /// Out-of-domain preflights among the last ten (an in-flight entry's verdict — a
     /// window's turbulence, an unconfirmed flight reading — flags nothing).
     pub recent_outside: usize,
-    /// The newest trusted preflight's weak magnet, and its flight (`None`: it read even
-    /// magnets, or no preflight was trusted).
-    pub weak_magnet: Option<(u32, WeakMagnet)>,
+    /// The newest trusted preflight's flight, its weak magnet and that magnet's deviation as
+    /// kept (`None`: it read even magnets, or no preflight was trusted).
+    pub weak_magnet: Option<(u32, WeakMagnet, Option<f32>)>,
 }
 
 impl ActuatorStatus {
@@ -454,8 +454,8 @@ impl ActuatorStatus {
                 .map(|r| r.domain),
             recent_outside: preflights().take(10).filter(|r| !r.is_trusted()).count(),
             weak_magnet: trusted
-                .map(|r| (r.flight, r.magnet.magnets()))
-                .filter(|(_, m)| !m.is_none()),
+                .map(|r| (r.flight, r.magnet.magnets(), r.magnet.std()))
+                .filter(|(_, m, _)| !m.is_none()),
         }
     }
 
@@ -587,9 +587,12 @@ pub fn report_html(
                 "-".into(),
             ),
         };
-        let magnet = s.weak_magnet.map_or("-".into(), |(flight, m)| {
+        let magnet = s.weak_magnet.map_or("-".into(), |(flight, m, std)| {
+            let verdict = stored_magnet_verdict(&m, std).map_or(String::new(), |(_, v)| {
+                format!(", ± {:.3}, {v}", std.unwrap_or(f32::NAN))
+            });
             format!(
-                "{:.2} of its flux lost at {:.0}° (flight {flight})",
+                "{:.2} of its flux lost at {:.0}° (flight {flight}){verdict}",
                 m.depth,
                 m.centre.to_degrees()
             )

@@ -289,6 +289,7 @@ pub fn repeated_reading(readings: &[HealthRecord]) -> HealthRecord {
     .with_std(std)
     .with_day(first.day)
     .with_magnet(&kept[0].magnet.magnets())
+    .with_magnet_std(kept[0].magnet.std().unwrap_or(f32::NAN))
 }
 
 /// Simulates the preflight of every flight of `path` (RM trace with I_ref noise `noise`,
@@ -346,7 +347,8 @@ pub fn degrade(
                             .map_or([f32::NAN; FAULT_COUNT], |(u, _)| u.std),
                     )
                     .with_day(RecordedDay::of(&id.conditions))
-                    .with_magnet(&id.result.magnets);
+                    .with_magnet(&id.result.magnets)
+                    .with_magnet_std(id.magnet_std());
                 Ok((id, domain, record))
             };
             let (id, domain, mut record) = test(&model, rm_seed)?;
@@ -534,6 +536,28 @@ pub struct WeakMagnetSeen {
     pub first_flight: u32,
     pub newest_flight: u32,
     pub newest: shared::magnets::WeakMagnet,
+    /// The newest's depth's standard deviation as its record keeps it (`None`: not kept).
+    pub newest_std: Option<f32>,
+}
+
+/// A stored weak magnet's verdict against the detection threshold: its depth's 90 %
+/// interval from the record's deviation and `shared::uncertainty::assess_magnet`'s rule —
+/// `FAULT`, `suspect` or `healthy`; `None` without a magnet or a deviation (a record before
+/// version 6). The record's deviation is rounded up: its verdict is never bolder than the
+/// test's own. O(1).
+pub fn stored_magnet_verdict(
+    magnets: &shared::magnets::WeakMagnet,
+    std: Option<f32>,
+) -> Option<((f32, f32), &'static str)> {
+    use shared::fault::DETECTION_THRESHOLD;
+    use shared::uncertainty::{assess_magnet, magnet_interval, Assessment};
+    let std = std.filter(|_| !magnets.is_none())?;
+    let verdict = match assess_magnet(magnets.depth, std, DETECTION_THRESHOLD) {
+        Assessment::Faulty => "FAULT",
+        Assessment::Healthy => "healthy",
+        _ => "suspect",
+    };
+    Some((magnet_interval(magnets.depth, std), verdict))
 }
 
 /// [`WeakMagnetSeen`] of `rows` (`None`: no trusted preflight read a weak magnet). O(rows).
@@ -554,6 +578,7 @@ pub fn weak_magnet_seen(rows: &[HistoryRow]) -> Option<WeakMagnetSeen> {
         first_flight: first.record.flight,
         newest_flight: newest.record.flight,
         newest: newest.record.magnet.magnets(),
+        newest_std: newest.record.magnet.std(),
     })
 }
 
@@ -562,8 +587,17 @@ pub fn weak_magnet_text(seen: &WeakMagnetSeen) -> String {
     let newest = if seen.newest.is_none() {
         "none read".to_string()
     } else {
+        let verdict = match (
+            seen.newest_std,
+            stored_magnet_verdict(&seen.newest, seen.newest_std),
+        ) {
+            (Some(sd), Some(((lo, hi), v))) => {
+                format!(", ± {sd:.3} (1 σ, as stored), 90 % [{lo:.3}, {hi:.3}], {v}")
+            }
+            _ => ", its deviation not kept".to_string(),
+        };
         format!(
-            "{:.2} of its flux lost, centred {:.1}° from the encoder's zero",
+            "{:.2} of its flux lost, centred {:.1}° from the encoder's zero{verdict}",
             seen.newest.depth,
             seen.newest.centre.to_degrees()
         )
@@ -615,6 +649,9 @@ pub fn report_json(
             "newest_flight": w.newest_flight,
             "newest_depth": (!w.newest.is_none()).then_some(w.newest.depth),
             "newest_centre_deg": (!w.newest.is_none()).then_some(w.newest.centre.to_degrees()),
+            "newest_std": w.newest_std,
+            "newest_interval90": stored_magnet_verdict(&w.newest, w.newest_std).map(|(i, _)| [i.0, i.1]),
+            "newest_verdict": stored_magnet_verdict(&w.newest, w.newest_std).map(|(_, v)| v),
         })),
     })
 }
@@ -1949,7 +1986,8 @@ mod tests {
             };
             HistoryRow {
                 record: HealthRecord::new(flight, FaultVector::NOMINAL, 0.01, domain)
-                    .with_magnet(&m),
+                    .with_magnet(&m)
+                    .with_magnet_std(0.03),
                 truth: None,
                 intrusion: None,
             }
@@ -1968,7 +2006,26 @@ mod tests {
         assert_eq!((seen.read, seen.of), (2, 3));
         assert_eq!((seen.first_flight, seen.newest_flight), (3, 5));
         assert!((seen.newest.depth - 0.4).abs() < 0.003, "{seen:?}");
-        assert!(weak_magnet_text(&seen).contains("2 of 3 trusted preflights, first at flight 3"));
+        let text = weak_magnet_text(&seen);
+        assert!(
+            text.contains("2 of 3 trusted preflights, first at flight 3"),
+            "{text}"
+        );
+        // 0.03 kept as 16/512: the interval 0.4 ± 1.645·0.03125 clears 0.05.
+        assert_eq!(seen.newest_std, Some(16.0 / 512.0));
+        assert!(
+            text.contains("± 0.031 (1 σ, as stored), 90 % [0.34"),
+            "{text}"
+        );
+        assert!(text.contains("0.451], FAULT (no trend"), "{text}");
+        // A shallow magnet whose interval reaches below the threshold is `suspect`; one
+        // without a kept deviation has no verdict.
+        let shallow = WeakMagnet::new(0.06, 1.0);
+        assert_eq!(
+            stored_magnet_verdict(&shallow, Some(0.03)).unwrap().1,
+            "suspect"
+        );
+        assert_eq!(stored_magnet_verdict(&shallow, None), None);
         assert_eq!(weak_magnet_seen(&rows[..2]), None);
         // A repeated test keeps its first trusted reading's magnet.
         let r = repeated_reading(&[rows[1].record, rows[2].record, rows[4].record]);

@@ -18,14 +18,14 @@
 //! `flight mod slots` (before flights' readings were logged) is the same ring and reads
 //! unchanged.
 //!
-//! ## Record (version 5: 84 bytes, little-endian)
+//! ## Record (version 6: 84 bytes, little-endian)
 //!
 //! | bytes | field |
 //! | --- | --- |
 //! | 0..4 | magic `EMAH` |
-//! | 4 | version (5) |
+//! | 4 | version (6) |
 //! | 5 | domain: 0 within, 1 no motion, 2 open phase, 3 command mismatch, 4 fitness floor, 5 segment carried nothing, 6 bus out of range, 7 temperature out of range, …, 17–19 a window of flight's own (current saturated, manoeuvre too large, play unseen) ([`DomainCode`]) |
-//! | 6..8 | detected faults (u16): bit i set when component i is beyond the detection threshold |
+//! | 6..8 | detected faults (u16): bit i set when component i is beyond the detection threshold (bits 0–8); bits 9–15: the weak magnet's depth's standard deviation in 512ths of its flux, rounded up (1–127; 0: not determined, or no magnet) |
 //! | 8..12 | flight index (u32) |
 //! | 12..44 | the paper's eight components k1 … k8, 8 × f32 |
 //! | 44..48 | best fitness (f32) |
@@ -43,8 +43,9 @@
 //!
 //! Each older version is a prefix of this layout with its own CRC-32, and is still read
 //! ([`HealthRecord::decode`] takes any; [`RamStore::upgrade`] rewrites a store of older slots
-//! as the current version in place). Version 4 is the same 84 bytes with bytes 78–79 zero:
-//! it reads as no weak magnet, and a reader of version 4 refuses a version-5 record. Versions
+//! as the current version in place). Version 5 is the same 84 bytes with bits 9–15 zero: its
+//! weak magnet reads without a deviation; version 4 also has bytes 78–79 zero: it reads as no
+//! weak magnet. A reader of an older version refuses a newer record. Versions
 //! 1–3 carry eight components (k9 reads 0: no demagnetization, its
 //! standard deviation not determined) and byte 7 is 0: version 3 (76 bytes: bytes 0..72,
 //! then their CRC-32); version 2 (68 bytes: bytes 0..64, then their CRC-32) carries no day;
@@ -88,7 +89,7 @@ pub const RECORD_V1_BYTES: usize = 52;
 
 /// The record format's magic and version.
 pub const RECORD_MAGIC: [u8; 4] = *b"EMAH";
-pub const RECORD_VERSION: u8 = 5;
+pub const RECORD_VERSION: u8 = 6;
 
 /// Bytes of a record of `version` (the byte after the magic), if it is one this code reads.
 pub fn record_len(version: u8) -> Option<usize> {
@@ -96,7 +97,7 @@ pub fn record_len(version: u8) -> Option<usize> {
         1 => Some(RECORD_V1_BYTES),
         2 => Some(RECORD_V2_BYTES),
         3 => Some(RECORD_V3_BYTES),
-        4 | RECORD_VERSION => Some(RECORD_BYTES),
+        4 | 5 | RECORD_VERSION => Some(RECORD_BYTES),
         _ => None,
     }
 }
@@ -147,12 +148,15 @@ pub struct HealthRecord {
 
 /// One weak magnet as a record stores it (version 5, bytes 78–79): its depth in 255ths of
 /// the magnet's flux (0: none read) and its centre in 256ths of a revolution from the
-/// encoder's zero (1.4°; a pole pitch is 45° on four pole pairs).
+/// encoder's zero (1.4°; a pole pitch is 45° on four pole pairs); from version 6 also its
+/// depth's standard deviation in 512ths of the flux, rounded up (byte 7's bits 1–7: 1–127,
+/// the largest 0.248; 0: not determined, or no magnet).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct RecordedMagnet {
     depth: u8,
     centre: u8,
+    std: u8,
 }
 
 impl RecordedMagnet {
@@ -160,7 +164,29 @@ impl RecordedMagnet {
     pub const NONE: Self = Self {
         depth: 0,
         centre: 0,
+        std: 0,
     };
+
+    /// The same magnet with its depth's standard deviation `std` (share of its flux), rounded
+    /// up to 1/512 and capped at 127/512; no deviation without a magnet or for a `std` that
+    /// is not a finite non-negative number. O(1).
+    #[must_use]
+    pub fn with_std(mut self, std: f32) -> Self {
+        self.std = if self.depth != 0 && std.is_finite() && std >= 0.0 {
+            // Rounded up: −⌊−x⌋.
+            let code = -crate::base::math::floor(-std * 512.0) as u32;
+            code.clamp(1, 127) as u8
+        } else {
+            0
+        };
+        self
+    }
+
+    /// The depth's standard deviation as stored (share of the magnet's flux), `None` where
+    /// none was (no magnet, not determined, or a record before version 6).
+    pub fn std(&self) -> Option<f32> {
+        (self.std != 0).then(|| f32::from(self.std) / 512.0)
+    }
 
     /// `magnets` rounded to 1/255 of its flux (a depth that rounds to 0 is stored as 1/255:
     /// it was read) and 1/256 of a revolution. O(1).
@@ -173,6 +199,7 @@ impl RecordedMagnet {
         Self {
             depth: ((magnets.depth * 255.0 + 0.5) as u8).max(1),
             centre: ((turns * 256.0 + 0.5) as u32 % 256) as u8,
+            std: 0,
         }
     }
 
@@ -487,6 +514,14 @@ impl HealthRecord {
         self
     }
 
+    /// The same record with its weak magnet's depth's standard deviation
+    /// ([`RecordedMagnet::with_std`]; nothing without a magnet).
+    #[must_use]
+    pub fn with_magnet_std(mut self, std: f32) -> Self {
+        self.magnet = self.magnet.with_std(std);
+        self
+    }
+
     /// Where the record sits in a log: by flight, then by test (the preflight, its windows in
     /// turn, then the flight's reading). Strictly increasing in a log and a store. O(1).
     pub fn order(&self) -> u64 {
@@ -562,7 +597,9 @@ impl HealthRecord {
         };
         w.put(&RECORD_MAGIC);
         w.put(&[RECORD_VERSION, self.domain as u8]);
-        w.put(&self.detected.to_le_bytes());
+        // Byte 7: the detected bit of k9, then the weak magnet's deviation.
+        let [detected, detected_high] = self.detected.to_le_bytes();
+        w.put(&[detected, (detected_high & 1) | (self.magnet.std << 1)]);
         w.put(&self.flight.to_le_bytes());
         let (paper, ninth) = self.faults.as_array().split_at(PAPER_FAULT_COUNT);
         for k in paper {
@@ -592,8 +629,8 @@ impl HealthRecord {
         out
     }
 
-    /// The record in `bytes`: version 5 ([`RECORD_BYTES`]), version 4 (the same bytes, no
-    /// weak magnet), version 3 ([`RECORD_V3_BYTES`];
+    /// The record in `bytes`: version 6 ([`RECORD_BYTES`]), version 5 (the same bytes, no
+    /// weak magnet's deviation), version 4 (no weak magnet), version 3 ([`RECORD_V3_BYTES`];
     /// eight components, no demagnetization), version 2 ([`RECORD_V2_BYTES`]; no day either)
     /// or version 1 ([`RECORD_V1_BYTES`]; no standard deviation either). Bytes beyond the
     /// record are ignored.
@@ -655,15 +692,25 @@ impl HealthRecord {
         } else {
             (RecordedDay::UNKNOWN, 0)
         };
-        // Byte 7 was reserved before version 4; now it holds the detected bits past eight.
+        // Byte 7 was reserved before version 4; now it holds the detected bits past eight,
+        // and from version 6 the weak magnet's deviation above them.
         // Bytes 78–79 were reserved in version 4; version 5 keeps the weak magnet there.
         let [magnet_depth, magnet_centre] = half(78);
         let (reserved, magnet) = match version {
-            5.. => (
+            6.. => (
+                0,
+                RecordedMagnet {
+                    depth: magnet_depth,
+                    centre: magnet_centre,
+                    std: detected_high >> 1,
+                },
+            ),
+            5 => (
                 u16::from(detected_high >> 1),
                 RecordedMagnet {
                     depth: magnet_depth,
                     centre: magnet_centre,
+                    std: 0,
                 },
             ),
             4 => (
@@ -672,8 +719,9 @@ impl HealthRecord {
             ),
             _ => (u16::from(detected_high), RecordedMagnet::NONE),
         };
-        // No magnet read: its centre byte is 0.
-        let centre_reserved = magnet_depth == 0 && magnet_centre != 0 && version >= 5;
+        // No magnet read: its centre and its deviation are 0.
+        let centre_reserved =
+            magnet_depth == 0 && version >= 5 && (magnet_centre != 0 || magnet.std != 0);
         match (
             DomainCode::from_byte(domain),
             FaultVector::new(k),
@@ -688,7 +736,7 @@ impl HealthRecord {
                 faults,
                 fitness,
                 domain,
-                detected: u16::from_le_bytes([detected, if ninth { detected_high } else { 0 }]),
+                detected: u16::from_le_bytes([detected, if ninth { detected_high & 1 } else { 0 }]),
                 std,
                 day,
                 window: window_reserved as u8,
@@ -725,6 +773,16 @@ impl HealthRecord {
             ..*self
         }
         .encode_older(4)
+    }
+
+    /// Version-5 bytes of this record (its weak magnet's deviation is dropped): what a
+    /// controller before version 6 wrote. For tests and tools that make old logs.
+    pub fn encode_v5(&self) -> EncodedRecord {
+        Self {
+            magnet: self.magnet.with_std(f32::NAN),
+            ..*self
+        }
+        .encode_older(5)
     }
 
     /// The first `N − 4` bytes of the current encoding as `version` (byte 7, the detected

@@ -78,6 +78,66 @@ fn a_weak_magnet_is_stored_and_a_version_4_record_still_reads() {
     assert_eq!(RecordedMagnet::of(&WeakMagnet::NONE), RecordedMagnet::NONE);
 }
 
+/// Re-seals `bytes` with the CRC of their first `RECORD_BYTES − 4`.
+fn resealed(mut bytes: EncodedRecord) -> EncodedRecord {
+    let mut crc = crate::trace::Crc32::new();
+    crc.update(&bytes[..RECORD_BYTES - 4]);
+    bytes[RECORD_BYTES - 4..].copy_from_slice(&crc.finish().to_le_bytes());
+    bytes
+}
+
+#[test]
+fn a_weak_magnets_deviation_is_stored_rounded_up_and_a_version_5_record_still_reads() {
+    use crate::magnets::WeakMagnet;
+    let magnets = WeakMagnet::new(0.5, 1.0);
+    // Demagnetization set too: its detected bit shares byte 7 with the deviation.
+    let mut k = *FaultVector::NOMINAL.as_array();
+    k[DEMAGNETIZATION_INDEX] = 0.3;
+    let r = HealthRecord::new(4, FaultVector::new(k).unwrap(), 0.01, Domain::Within)
+        .with_magnet(&magnets)
+        .with_magnet_std(0.0322);
+    assert_eq!(r.detected, 1 << DEMAGNETIZATION_INDEX);
+    let bytes = r.encode();
+    let back = HealthRecord::decode(&bytes).unwrap();
+    assert_eq!(back, r);
+    // 0.0322·512 = 16.49: 17/512, never below the deviation.
+    let std = back.magnet.std().unwrap();
+    assert_eq!(std, 17.0 / 512.0);
+    assert!(std >= 0.0322);
+    assert_eq!(back.detected, 1 << DEMAGNETIZATION_INDEX);
+    every_byte_counts(&bytes);
+    // The scale's ends: a tiny deviation is 1/512, a large one 127/512; none that is not a
+    // number, and none without a magnet.
+    assert_eq!(r.with_magnet_std(1e-6).magnet.std(), Some(1.0 / 512.0));
+    assert_eq!(r.with_magnet_std(0.9).magnet.std(), Some(127.0 / 512.0));
+    assert_eq!(r.with_magnet_std(f32::NAN).magnet.std(), None);
+    assert_eq!(
+        record(1, 0.0).with_magnet_std(0.03).magnet,
+        RecordedMagnet::NONE
+    );
+    // What a controller before version 6 wrote: the magnet without its deviation.
+    let v5 = r.encode_v5();
+    assert_eq!(v5[4], 5);
+    let old = HealthRecord::decode(&v5).unwrap();
+    assert_eq!(old.magnet.std(), None);
+    assert_eq!(old.magnet.magnets(), r.magnet.magnets());
+    assert_eq!(old.detected, r.detected);
+    // A version-5 record never had byte 7's upper bits: set, it is refused.
+    let mut forged = v5;
+    forged[7] |= 0x40;
+    assert_eq!(
+        HealthRecord::decode(&resealed(forged)),
+        Err(HealthRecordError::BadField)
+    );
+    // A deviation without a magnet is refused.
+    let mut forged = record(2, 0.1).encode();
+    forged[7] |= 0x10;
+    assert_eq!(
+        HealthRecord::decode(&resealed(forged)),
+        Err(HealthRecordError::BadField)
+    );
+}
+
 #[test]
 fn every_domain_reason_is_stored_by_its_own_code_and_name() {
     use OutsideReason as R;
