@@ -58,21 +58,8 @@ use shared::fitness::{CurvatureRun, STANDSTILL_WEIGHT};
 use shared::monitor::MonitorSample;
 use shared::{FaultVector, Status};
 
-const CASES: [(&str, [f32; 9]); 4] = [
-    ("healthy", [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]),
-    (
-        "friction 0.2",
-        [0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0],
-    ),
-    (
-        "friction 0.2, eccentricity 0.2",
-        [0.2, 0.0, 0.0, 0.0, 0.0, 0.2, 0.5, 0.5, 0.0],
-    ),
-    (
-        "Table II medium",
-        [0.4, 0.4, 0.2, 0.1, 0.05, 0.2, 0.75, 0.6, 0.0],
-    ),
-];
+mod noise_cases;
+use noise_cases::{equivalent, CASES};
 
 /// The components printed: friction, backlash, short A, eccentricity, gain drift.
 const SHOWN: [(usize, &str); 5] = [
@@ -341,15 +328,7 @@ fn identify_seed(
         .trace
         .samples()
         .iter()
-        .map(|t| {
-            let signs = shared::conditioning::commutation_signs(t.motor_angle as f32 * pole_pairs);
-            0.5 * t
-                .phase_currents
-                .iter()
-                .zip(signs)
-                .map(|(i, s)| f64::from(s) * i)
-                .sum::<f64>()
-        })
+        .map(|t| equivalent(t, pole_pairs))
         .collect();
     let measured_steps = raw[lead..]
         .windows(2)

@@ -32,39 +32,13 @@ use host_sim::files::trace::Trace;
 use host_sim::plant::noise::Gaussian;
 use host_sim::plant::reference::{ReferenceModel, Scenario};
 use shared::conditioning::commutation_signs;
+
+mod noise_cases;
+use noise_cases::{equivalent, CASES};
 use shared::metrics::total_error;
 use shared::{ActuatorParams, FaultVector};
 
-/// The cases: (name, fault vector).
-const CASES: [(&str, [f32; 9]); 4] = [
-    ("healthy", [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]),
-    (
-        "friction 0.2",
-        [0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0],
-    ),
-    // The same friction with the eccentricity away from its bound at 0.
-    (
-        "friction 0.2, eccentricity 0.2",
-        [0.2, 0.0, 0.0, 0.0, 0.0, 0.2, 0.5, 0.5, 0.0],
-    ),
-    (
-        "Table II medium",
-        [0.4, 0.4, 0.2, 0.1, 0.05, 0.2, 0.75, 0.6, 0.0],
-    ),
-];
-
 const WAYS: [&str; 4] = ["iref", "quiet", "transplant", "white"];
-
-/// The equivalent current of one sample as the conditioning forms it (½·Σ s_x·i_x).
-fn equivalent(s: &host_sim::files::trace::TraceSample, pole_pairs: f32) -> f64 {
-    let signs = commutation_signs(s.motor_angle as f32 * pole_pairs);
-    0.5 * s
-        .phase_currents
-        .iter()
-        .zip(signs)
-        .map(|(i, sign)| f64::from(sign) * i)
-        .sum::<f64>()
-}
 
 /// `quiet` with `added[n]` on sample `n`'s equivalent current, through its conducting phases.
 fn with_current(quiet: &Trace, added: &[f64], pole_pairs: f32) -> Trace {
