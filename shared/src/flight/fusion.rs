@@ -689,11 +689,11 @@ impl WindowFusion {
         // fixed, also −(Σ I)⁻¹ · (Σ I)·e₀ per unit of its error.
         let mut moved = [[0.0f64; FAULT_COUNT]; FAULT_COUNT];
         if let Some((inverse, determined)) = summed.inverse_stepwise(0.0).await {
-            let counted = |i: usize| flag(&determined, i) && !flag(&CIRCULAR, i);
-            for i in (0..FAULT_COUNT).filter(|&i| counted(i)) {
+            let moves = |i: usize| flag(&determined, i) && !flag(&CIRCULAR, i);
+            for i in (0..FAULT_COUNT).filter(|&i| moves(i)) {
                 for h in 0..FAULT_COUNT {
                     let value = (0..FAULT_COUNT)
-                        .filter(|&j| counted(j))
+                        .filter(|&j| moves(j))
                         .map(|j| {
                             let fixed = if h == 0 && friction.is_some() {
                                 at(&self.information, j, 0)
