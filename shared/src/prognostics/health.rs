@@ -75,6 +75,9 @@ use crate::physics::fault::{
 use crate::physics::magnets::WeakMagnet;
 use crate::test::trace::Crc32;
 
+mod magnet;
+pub use magnet::RecordedMagnet;
+
 /// Bytes of one encoded record (versions 4 and 5), and of one store slot.
 pub const RECORD_BYTES: usize = 84;
 
@@ -144,75 +147,6 @@ pub struct HealthRecord {
     /// The weak magnet the test read, as stored ([`RecordedMagnet::NONE`]: none, or a
     /// record before version 5).
     pub magnet: RecordedMagnet,
-}
-
-/// One weak magnet as a record stores it (version 5, bytes 78–79): its depth in 255ths of
-/// the magnet's flux (0: none read) and its centre in 256ths of a revolution from the
-/// encoder's zero (1.4°; a pole pitch is 45° on four pole pairs); from version 6 also its
-/// depth's standard deviation in 512ths of the flux, rounded up (byte 7's bits 1–7: 1–127,
-/// the largest 0.248; 0: not determined, or no magnet).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct RecordedMagnet {
-    depth: u8,
-    centre: u8,
-    std: u8,
-}
-
-impl RecordedMagnet {
-    /// No weak magnet read.
-    pub const NONE: Self = Self {
-        depth: 0,
-        centre: 0,
-        std: 0,
-    };
-
-    /// The same magnet with its depth's standard deviation `std` (share of its flux), rounded
-    /// up to 1/512 and capped at 127/512; no deviation without a magnet or for a `std` that
-    /// is not a finite non-negative number. O(1).
-    #[must_use]
-    pub fn with_std(mut self, std: f32) -> Self {
-        self.std = if self.depth != 0 && std.is_finite() && std >= 0.0 {
-            // Rounded up: −⌊−x⌋.
-            let code = -crate::base::math::floor(-std * 512.0) as u32;
-            code.clamp(1, 127) as u8
-        } else {
-            0
-        };
-        self
-    }
-
-    /// The depth's standard deviation as stored (share of the magnet's flux), `None` where
-    /// none was (no magnet, not determined, or a record before version 6).
-    pub fn std(&self) -> Option<f32> {
-        (self.std != 0).then(|| f32::from(self.std) / 512.0)
-    }
-
-    /// `magnets` rounded to 1/255 of its flux (a depth that rounds to 0 is stored as 1/255:
-    /// it was read) and 1/256 of a revolution. O(1).
-    pub fn of(magnets: &WeakMagnet) -> Self {
-        if magnets.is_none() {
-            return Self::NONE;
-        }
-        let turns = magnets.centre / crate::base::math::TAU;
-        let turns = turns - crate::base::math::floor(turns);
-        Self {
-            depth: ((magnets.depth * 255.0 + 0.5) as u8).max(1),
-            centre: ((turns * 256.0 + 0.5) as u32 % 256) as u8,
-            std: 0,
-        }
-    }
-
-    /// The weak magnet as stored ([`WeakMagnet::NONE`]: none read).
-    pub fn magnets(&self) -> WeakMagnet {
-        if self.depth == 0 {
-            return WeakMagnet::NONE;
-        }
-        WeakMagnet::new(
-            f32::from(self.depth) / 255.0,
-            crate::base::math::TAU * f32::from(self.centre) / 256.0,
-        )
-    }
 }
 
 /// [`HealthRecord::window`] of a flight's reading from its windows.
