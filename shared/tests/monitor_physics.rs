@@ -307,4 +307,13 @@ fn reference_steps_draw_current_in_the_direction_of_motion_less_on_a_higher_bus(
     );
     let model = model();
     assert_eq!(model.with_reference_steps(0.0), model);
+    // No bus: no shortfall to play, rather than a NaN drag.
+    let unpowered = MonitorModel::new(
+        ActuatorParams {
+            dc_bus_voltage: 0.0,
+            ..nominal
+        },
+        &Calibration::IDENTITY,
+    );
+    assert_eq!(unpowered.with_reference_steps(2.0), unpowered);
 }

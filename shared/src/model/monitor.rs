@@ -269,8 +269,9 @@ impl MonitorModel {
     /// a study's option: the identification does not set it. O(1).
     #[must_use]
     pub fn with_reference_steps(mut self, power: f32) -> Self {
-        if power > 0.0 {
-            let v = self.params.dc_bus_voltage;
+        let v = self.params.dc_bus_voltage;
+        // No bus to slew against (a record that gives none): no shortfall, no NaN drag.
+        if power > 0.0 && v > 0.0 {
             let drag = self.torque_constant * self.torque_constant * 0.5 * self.l_over_dt * power
                 / (v * v);
             self.motor_drag_keep = clamp(
