@@ -257,3 +257,34 @@ fn a_weak_magnet_is_not_an_eccentricity_at_any_phase() {
     );
     assert!(travel > 0.5, "{travel}");
 }
+
+/// The light actuator's magnet of half its flux at pole 0, where a polish at a held depth
+/// short of it plays the rest as an eccentricity and a uniform loss: the search's moves built
+/// as its grid builds them hand the depth back (it read 0.40–0.45 with those stand-ins before
+/// them; `identifiability --weak-magnet --actuator actuators/light-28v.toml`).
+#[test]
+fn the_light_actuators_weak_magnet_at_pole_0_is_read_whole_not_shared_with_an_eccentricity() {
+    use host_sim::fdi::identify::identify_for;
+    use host_sim::files::actuator::Actuator;
+    let light = Actuator::load(std::path::Path::new("../actuators/light-28v.toml")).unwrap();
+    let record = light.record;
+    let model = ReferenceModel::new(light.reference_settings().unwrap())
+        .with_test(record.test)
+        .with_demagnetization(Demagnetization::Partial { loss: 0.5, pole: 0 });
+    for seed in 0..3 {
+        let mut scenario = Scenario::new(FaultVector::NOMINAL);
+        scenario.seed = seed;
+        let measured = model
+            .simulate(&scenario)
+            .trace
+            .measured(&record.params)
+            .unwrap();
+        let r = identify_for(&measured, &record, 1 + seed, false)
+            .unwrap()
+            .result;
+        let k = r.faults.as_array();
+        assert_eq!(r.magnets.pole(&record.params), 0, "seed {seed}: {r:?}");
+        assert!((r.magnets.depth - 0.5).abs() < 0.03, "seed {seed}: {r:?}");
+        assert!(k[5] <= 0.01 && k[8] <= 0.01, "seed {seed}: {r:?}");
+    }
+}
