@@ -250,8 +250,8 @@ pub(crate) struct ActuatorArgs {
     /// Demagnetized rotor magnets (irreversible flux loss, apart from the day's reversible
     /// change): `uniform:LOSS` (every pole lost LOSS of its flux, 0 … 1) or
     /// `partial:LOSS[@POLE]` (one magnet, pole 0 … 2P − 1, default 0), on top of the fault
-    /// vector's ninth component. The FDI identifies the uniform form as k9; one weak magnet
-    /// it reads as an eccentricity (README, known gaps).
+    /// vector's ninth component. The FDI identifies the uniform form as k9, and one weak
+    /// magnet by its depth and pole after the polish (the weak-magnet search; docs/limits.md).
     #[arg(long, value_name = "FORM:LOSS[@POLE]", value_parser = Demagnetization::parse)]
     pub(crate) demagnetization: Option<Demagnetization>,
     /// Mean wind on the parked surface during the test [kt]: its hinge moment from the
