@@ -29,8 +29,9 @@
 //! short of the magnet's, the polish plays the rest as an eccentricity and a uniform loss
 //! (each dips or lowers the coupling the magnet does). A move of the depth alone then adds
 //! to what those already play and reads worse, and the search stopped short: on the light
-//! actuator a magnet of 0.5 at pole 0 read 0.40–0.45 with an eccentricity of 0.01–0.04 and a
-//! uniform loss of 0.02–0.04, where the magnet of 0.5 alone fits better. A move that takes
+//! actuator half a magnet at poles 0 and 7 read 0.40–0.45 with an eccentricity of
+//! 0.025–0.056 and a uniform loss of 0.026–0.039 beside it, where the magnet of 0.5 alone
+//! fits better. A move that takes
 //! them off hands the depth back; the polish after it plays an eccentricity and a uniform
 //! loss again where the rotor has them.
 //!
