@@ -45,7 +45,7 @@
 
 use crate::magnets::{pole_pairs, poles, WeakMagnet};
 use crate::physics::fault::{
-    FaultVector, DEMAGNETIZATION_INDEX, DEMAGNETIZATION_LOSS_MAX, FAULT_COUNT,
+    FaultVector, DEMAGNETIZATION_INDEX, DEMAGNETIZATION_LOSS_MAX, ECCENTRICITY_INDEX, FAULT_COUNT,
 };
 use crate::physics::params::ActuatorParams;
 use crate::solver::polish::PolishSettings;
@@ -62,9 +62,6 @@ pub const CENTRE_DEPTH: f32 = 0.2;
 
 /// The depths the second pass plays at the best centre (a share of the magnet's flux).
 pub const DEPTHS: [f32; 10] = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0];
-
-/// The eccentricity's index in the fault vector (k6).
-const ECCENTRICITY_INDEX: usize = 5;
 
 /// The depth moves tried after each polish of a weak magnet's reading.
 pub const DEPTH_STEPS: [f32; 4] = [-0.05, 0.05, -0.1, 0.1];
@@ -205,11 +202,7 @@ impl WeakMagnetSearch {
     fn refine(&self, i: u32, from: &MagnetReading) -> Option<(u32, FaultVector, WeakMagnet)> {
         let m = from.magnets;
         let steps = DEPTH_STEPS.len();
-        let eccentric = from
-            .faults
-            .as_array()
-            .get(ECCENTRICITY_INDEX)
-            .is_some_and(|&e| e > 0.0);
+        let eccentric = from.faults.eccentricity() > 0.0;
         (i..MOVES).find_map(|j| {
             let alone = j as usize >= steps;
             let step = *DEPTH_STEPS.get(j as usize % steps)?;
