@@ -277,8 +277,10 @@ fn a_weak_magnet_under_qemu_is_read_at_its_pole_with_the_hosts_bits() {
     scenario.seed = 4;
     let bytes = rm.simulate(&scenario).trace.to_bin().expect("encodable");
     let path = temp_trace("weak-magnet.bin", &bytes);
-    let log_path = temp_trace("weak-magnet-health.bin", &[]);
-    std::fs::remove_file(&log_path).expect("fresh log");
+    // Twelve earlier preflights: four that read no weak magnet, then the magnet at pole 3
+    // growing from 0.1 to 0.45 of its flux.
+    let earlier = weak_magnet_log();
+    let log_path = temp_trace("weak-magnet-health.bin", &earlier);
     let run = run_firmware(&[
         path.to_str().expect("UTF-8 temp path"),
         "--health",
@@ -322,11 +324,12 @@ fn a_weak_magnet_under_qemu_is_read_at_its_pole_with_the_hosts_bits() {
     );
     assert!(host.faults.eccentricity() < 0.05, "{:?}", host.faults);
     // The health log keeps the magnet, its centre and its depth's deviation (rounded up to
-    // 1/512), as the host's record of the same reading.
+    // 1/512), as the host's record of the same reading, after the twelve earlier ones.
     let image = std::fs::read(&log_path).expect("health log written");
-    let kept = shared::health::HealthRecord::decode(&image).expect("a record in slot 0");
+    let at = 12 * shared::health::RECORD_BYTES;
+    let kept = shared::health::HealthRecord::decode(&image[at..]).expect("a record in slot 12");
     let expected = shared::health::HealthRecord::new(
-        0,
+        12,
         host.faults,
         host.fitness,
         shared::domain::Domain::Within,
@@ -339,6 +342,56 @@ fn a_weak_magnet_under_qemu_is_read_at_its_pole_with_the_hosts_bits() {
         kept_std >= std && kept_std - std < 1.0 / 512.0,
         "{kept_std} against {std}"
     );
+    // The weak magnet's depth is trended on the controller as on the host: the same RUL and
+    // interval bits over the same log, from its first magnet read (eight preflights and this
+    // one).
+    use shared::prognosis::{HealthTrend, TrendSettings, WEAK_MAGNET_TREND};
+    let settings = TrendSettings::DEFAULT;
+    let (log, _) =
+        host_sim::files::health::load_log::<{ shared::health::ONBOARD_RECORDS }>(&log_path)
+            .expect("the log reads");
+    let e = HealthTrend::from_records(log.iter(), &settings).estimates(&settings)
+        [WEAK_MAGNET_TREND]
+        .expect("the weak magnet has a trend");
+    assert_eq!(e.observations, 9, "from its first magnet read");
+    let r = e.rul.expect("the weak magnet has a threshold");
+    let hex = |v: Option<f32>| format!("{:08x}", v.map_or(u32::MAX, f32::to_bits));
+    let prefix = "trend weak_magnet ";
+    assert_eq!(
+        field(&run.output, prefix, "rul_bits"),
+        hex(r.rul),
+        "{}",
+        run.output
+    );
+    assert_eq!(field(&run.output, prefix, "lower_bits"), hex(r.lower));
+    assert_eq!(field(&run.output, prefix, "upper_bits"), hex(r.upper));
+    assert_eq!(number(&run.output, prefix, "n"), 9);
+    // Reached or within a few flights: 0.45 at flight 11 growing by 0.05 a flight.
+    assert!(r.rul.is_some_and(|f| f < 5.0), "{r:?}");
+}
+
+/// A health log of twelve preflights of a healthy actuator whose magnet at pole 3 starts to
+/// lose its flux at flight 4 (0.1, then 0.05 more each flight), each read `within` with a
+/// depth's deviation of 0.04.
+fn weak_magnet_log() -> Vec<u8> {
+    use shared::domain::Domain;
+    use shared::health::{HealthRecord, ONBOARD_RECORDS, RECORD_BYTES};
+    let params = shared::ActuatorParams::REFERENCE;
+    let centre = 3.0 * shared::magnets::pole_pitch(&params);
+    let mut image = vec![0xFFu8; ONBOARD_RECORDS * RECORD_BYTES];
+    for f in 0..12u32 {
+        let depth = if f < 4 {
+            0.0
+        } else {
+            0.1 + 0.05 * (f - 4) as f32
+        };
+        let record = HealthRecord::new(f, FaultVector::NOMINAL, 0.001, Domain::Within)
+            .with_magnet(&shared::magnets::WeakMagnet::new(depth, centre))
+            .with_magnet_std(0.04);
+        let at = f as usize * RECORD_BYTES;
+        image[at..at + RECORD_BYTES].copy_from_slice(&record.encode());
+    }
+    image
 }
 
 #[test]
@@ -477,7 +530,7 @@ fn health_matches_the_host(
     let estimates = HealthTrend::from_records(log.iter(), &settings).estimates(&settings);
     let bits = |v: Option<f32>| format!("{:08x}", v.map_or(u32::MAX, f32::to_bits));
     let mut compared = 0;
-    for (name, e) in shared::fault::FAULT_NAMES.iter().zip(estimates) {
+    for (name, e) in shared::prognosis::TREND_NAMES.iter().zip(estimates) {
         let Some(e) = e else { continue };
         let prefix = format!("trend {name} ");
         let r = e.rul.expect("every trended fault has a threshold");
@@ -497,7 +550,8 @@ fn health_matches_the_host(
     }
     assert_eq!(
         compared, 8,
-        "eight fault trends: the paper's seven and demagnetization"
+        "eight fault trends: the paper's seven and demagnetization (no weak magnet was read, \
+         so its trend is empty)"
     );
     // Friction grows 0.2/12 per flight: 0.5 is reached near flight 30, ≈ 18 flights on.
     let friction = estimates[0]

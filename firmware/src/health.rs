@@ -14,7 +14,7 @@
 use shared::health::{
     self, HealthLogError, HealthRecord, HealthStore, LoadSummary, Newest, RecordedDay,
 };
-use shared::prognosis::{is_trended, FaultTrend, TrendEstimate, TrendSettings};
+use shared::prognosis::{is_trended, FaultTrend, TrendEstimate, TrendSettings, TREND_COUNT};
 use shared::FAULT_COUNT;
 
 use crate::preflight::Report;
@@ -35,7 +35,7 @@ pub struct HealthUpdate {
     pub skipped: u32,
     /// Every fault's trend and RUL (`None`: the eccentricity phase, or fewer than three
     /// trusted records).
-    pub estimates: [Option<TrendEstimate>; FAULT_COUNT],
+    pub estimates: [Option<TrendEstimate>; TREND_COUNT],
 }
 
 /// Appends `report`, and the test's `day`, as the record of `flight` (default: one after the
@@ -95,7 +95,7 @@ pub fn record_entry<S: HealthStore>(
     let written = health::write_after(store, &record, newest)?;
     // One fault at a time, in one trend; the same bits as a `HealthTrend` over the log. Each
     // replay also counts the records and those outside the domain.
-    let mut estimates = [None; FAULT_COUNT];
+    let mut estimates = [None; TREND_COUNT];
     let mut trend = FaultTrend::new();
     let (mut records, mut skipped) = (0, 0);
     for (i, e) in estimates.iter_mut().enumerate() {

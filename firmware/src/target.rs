@@ -749,7 +749,10 @@ fn record_health(
         update.skipped
     );
     let bits = |v: Option<f32>| v.map_or(u32::MAX, f32::to_bits);
-    for (name, estimate) in FAULT_NAMES.iter().zip(update.estimates.iter()) {
+    for (name, estimate) in shared::prognosis::TREND_NAMES
+        .iter()
+        .zip(update.estimates.iter())
+    {
         let Some(e) = estimate else { continue };
         let rul = e.rul.unwrap_or(shared::prognosis::RulEstimate {
             rul: None,

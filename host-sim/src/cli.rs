@@ -31,7 +31,7 @@ pub(crate) use host_sim::plant::reference::{
     Demagnetization, EccentricityPhysics, ReferenceModel, ReferenceSettings, Scenario, SensorFault,
 };
 pub(crate) use host_sim::studies::optimisers::{self, TraceSource};
-pub(crate) use host_sim::studies::prognostics::{self, DegradationPath, PathShape};
+pub(crate) use host_sim::studies::prognostics::{self, DegradationPath, MagnetLoss, PathShape};
 pub(crate) use serde_json::json;
 pub(crate) use shared::actuator::ActuatorRecord;
 pub(crate) use shared::command::{CommandSource, CommandTable};

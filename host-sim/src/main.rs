@@ -514,6 +514,11 @@ enum Command {
         /// `flight`, the entry the trend takes).
         #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=8))]
         windows: u8,
+        /// One magnet losing its flux along the same path: END@POLE, END the share of its
+        /// flux lost by the last flight (none at the first), POLE 0 … 2P − 1 as
+        /// `preflight --demagnetization partial:LOSS@POLE` counts them.
+        #[arg(long, value_name = "END@POLE", value_parser = MagnetLoss::parse)]
+        weak_magnet: Option<MagnetLoss>,
     },
     /// Trend and remaining useful life (RUL, in flights) of each fault from a history CSV or
     /// a health-log file: the onboard prognosis (shared::prognosis) run on the ground.
@@ -598,6 +603,11 @@ enum Command {
         /// what the identification's lean costs the trend, beside its scatter. Preflights only.
         #[arg(long, conflicts_with_all = ["windows", "ideal_readings"])]
         lean_removed: bool,
+        /// Evaluate one weak magnet instead of the fault families: a magnet losing its flux
+        /// from none to 0.6 along each path shape (its pole the seed's, the reference
+        /// actuator's poles in turn), its depth trended against the 0.5 threshold.
+        #[arg(long, conflicts_with_all = ["ideal_readings", "lean_removed"])]
+        weak_magnet: bool,
         /// Keep each run's history CSV in this folder, and read it from there when present
         /// (re-evaluate the trend without simulating again).
         #[arg(long)]
@@ -903,6 +913,7 @@ fn main() -> ExitCode {
             log,
             out_of_domain,
             windows,
+            weak_magnet,
         } => actuator.built_in_only("degrade").and_then(|()| {
             degrade_command(
                 &DegradationPath {
@@ -910,6 +921,7 @@ fn main() -> ExitCode {
                     end: faults_end,
                     flights,
                     shape,
+                    magnet: weak_magnet,
                 },
                 noise,
                 seed,
@@ -939,6 +951,7 @@ fn main() -> ExitCode {
             repeat,
             ideal_readings,
             lean_removed,
+            weak_magnet,
             histories,
             alpha,
             out,
@@ -978,6 +991,7 @@ fn main() -> ExitCode {
                     settings,
                     histories,
                     alpha,
+                    weak_magnet,
                 },
                 out.as_deref(),
                 plot.as_deref(),

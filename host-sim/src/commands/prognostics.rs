@@ -8,9 +8,10 @@ use host_sim::files::health as health_file;
 pub(crate) struct TrendArgs {
     /// Maintenance threshold on the deviation from nominal: one value for every fault, or
     /// name=value pairs (friction, backlash, short_a, short_b, short_c, eccentricity,
-    /// gain_drift) over the defaults 0.5, 0.5, 0.3, 0.3, 0.3, 0.5, 0.25.
+    /// gain_drift, demagnetization, weak_magnet: one magnet's depth) over the defaults 0.5,
+    /// 0.5, 0.3, 0.3, 0.3, 0.5, 0.25, 0.3, 0.5.
     #[arg(long, value_parser = prognostics::parse_thresholds)]
-    threshold: Option<[f32; FAULT_COUNT]>,
+    threshold: Option<[f32; shared::prognosis::TREND_COUNT]>,
     /// Flights searched ahead for the threshold crossing.
     #[arg(long, default_value_t = 500, value_parser = clap::value_parser!(u32).range(1..=100_000))]
     horizon: u32,
@@ -170,9 +171,20 @@ pub(crate) struct EvalRun {
     pub settings: TrendSettings,
     pub histories: Option<PathBuf>,
     pub alpha: f64,
+    /// The weak magnet's scenarios instead of the fault families'.
+    pub weak_magnet: bool,
 }
 
 impl EvalRun {
+    /// The scenarios evaluated: the fault families', or the weak magnet's.
+    fn scenarios(&self) -> Vec<prognostics::EvalScenario> {
+        if self.weak_magnet {
+            prognostics::weak_magnet_scenarios(&self.noises)
+        } else {
+            prognostics::eval_scenarios(&self.noises)
+        }
+    }
+
     /// The runs to evaluate from `readings`.
     fn runs(&self, readings: prognostics::Readings) -> prognostics::EvalRuns {
         prognostics::EvalRuns {
@@ -201,7 +213,7 @@ pub(crate) fn prognostics_command(
         );
     };
     let start = Instant::now();
-    let scenarios = prognostics::eval_scenarios(&run.noises);
+    let scenarios = run.scenarios();
     let runs = scenarios.len() as u64 * run.seeds;
     let bar = host_sim::progress_bar(
         runs * u64::from(run.flights) * run.readings.len() as u64,
@@ -261,7 +273,7 @@ fn evaluation_command(
     plot_out: Option<&Path>,
 ) -> Result<()> {
     let start = Instant::now();
-    let scenarios = prognostics::eval_scenarios(&run.noises);
+    let scenarios = run.scenarios();
     let total = scenarios.len() as u64 * run.seeds * u64::from(run.flights);
     let bar = host_sim::progress_bar(
         total,
@@ -298,9 +310,20 @@ fn evaluation_command(
     }
     text += &prognostics::eval_markdown(&eval, run.alpha);
     let t = &run.settings.thresholds;
+    let thresholds = if run.weak_magnet {
+        format!(
+            "{} one weak magnet's depth",
+            t[shared::prognosis::WEAK_MAGNET_TREND]
+        )
+    } else {
+        format!(
+            "{} friction and backlash, {} shorts, {} eccentricity, {} gain drift",
+            t[0], t[2], t[5], t[7]
+        )
+    };
     text += &format!(
         "\n{} runs × {} flights (seeds {}–{}; {} simulated, {} read from the history folder); thresholds \
-         {} friction and backlash, {} shorts, {} eccentricity, {} gain drift; systematic error \
+         {thresholds}; systematic error \
          {}; noise floor {}; a flight's reading's σ counted {} times; {} windows of flight per flight; {} test(s) per preflight; {:.0} s.\n",
         scenarios.len() as u64 * run.seeds,
         run.flights,
@@ -308,10 +331,6 @@ fn evaluation_command(
         run.first_seed + run.seeds - 1,
         eval.simulated,
         eval.cached,
-        t[0],
-        t[2],
-        t[5],
-        t[7],
         run.settings.systematic,
         run.settings.noise_floor,
         run.settings.flight_scale,

@@ -44,13 +44,15 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use rusqlite::{params, Connection, OptionalExtension};
-use shared::fault::{FAULT_COUNT, FAULT_NAMES};
+use shared::fault::FAULT_COUNT;
 use shared::health::{
     is_blank, record_len, DomainCode, HealthRecord, HealthRecordError, FLIGHT_READING,
     RECORD_BYTES, RECORD_VERSION,
 };
 use shared::magnets::WeakMagnet;
-use shared::prognosis::{HealthTrend, TrendEstimate, TrendSettings};
+use shared::prognosis::{
+    trended_value, HealthTrend, TrendEstimate, TrendSettings, TREND_COUNT, TREND_NAMES,
+};
 
 use crate::files::health::ImageStore;
 use crate::studies::prognostics::{growth_name, stored_magnet_verdict};
@@ -407,7 +409,7 @@ pub struct ActuatorStatus {
     pub records: usize,
     pub newest: u32,
     pub trend: HealthTrend,
-    pub estimates: [Option<TrendEstimate>; FAULT_COUNT],
+    pub estimates: [Option<TrendEstimate>; TREND_COUNT],
     /// The fault whose RUL lower bound is soonest, and that bound (`None`: beyond the
     /// horizon).
     pub limiting: Option<(usize, Option<f32>)>,
@@ -551,10 +553,10 @@ pub fn report_html(
          faults (flights after its newest record; \"beyond\": no crossing within {} flights). \
          Thresholds: {}. Trends use the tests inside the monitor model's domain only.</p>",
         settings.horizon,
-        (0..FAULT_COUNT)
+        (0..TREND_COUNT)
             .filter_map(|i| settings
                 .threshold(i)
-                .map(|t| format!("{} {t}", FAULT_NAMES[i])))
+                .map(|t| format!("{} {t}", TREND_NAMES[i])))
             .collect::<Vec<_>>()
             .join(", ")
     );
@@ -568,7 +570,7 @@ pub fn report_html(
                 let e = s.estimates[i];
                 let r = e.and_then(|e| e.rul);
                 (
-                    FAULT_NAMES[i].to_string(),
+                    TREND_NAMES[i].to_string(),
                     e.map_or("-".into(), |e| format!("{:.3}", e.level)),
                     flights(r.and_then(|r| r.lower)),
                     flights(r.and_then(|r| r.rul)),
@@ -635,7 +637,7 @@ pub fn report_html(
             s.newest
         );
         let records = histories.get(&s.serial).map_or(&[][..], |r| &r[..]);
-        for i in 0..FAULT_COUNT {
+        for i in 0..TREND_COUNT {
             let (Some(t), Some(e)) = (settings.threshold(i), s.estimates[i]) else {
                 continue;
             };
@@ -681,7 +683,7 @@ fn fault_svg(
     let threshold = f64::from(threshold);
     let y_hi = records
         .iter()
-        .filter_map(|r| r.faults.deviations()[i].map(f64::from))
+        .filter_map(|r| trended_value(r, i).map(f64::from))
         .fold(threshold * 1.2, f64::max)
         .min(1.0);
     let x = |f: f64| L + (f - first) / (x_end - first) * (W - L - 8.0);
@@ -691,9 +693,9 @@ fn fault_svg(
          viewBox=\"0 0 {W} {HT}\" xmlns=\"http://www.w3.org/2000/svg\" font-size=\"11\">\
          <rect x=\"0\" y=\"0\" width=\"{W}\" height=\"{HT}\" fill=\"white\" stroke=\"#ccc\"/>\
          <text x=\"{L}\" y=\"14\" font-weight=\"bold\">{} {}</text>",
-        FAULT_NAMES[i],
+        TREND_NAMES[i],
         escape(&s.serial),
-        FAULT_NAMES[i]
+        TREND_NAMES[i]
     );
     // Axes and labels.
     let _ = write!(
@@ -743,7 +745,7 @@ fn fault_svg(
     );
     // Observations.
     for r in records {
-        let Some(d) = r.faults.deviations()[i] else {
+        let Some(d) = trended_value(r, i) else {
             continue;
         };
         let (px, py) = (x(f64::from(r.flight)), y(f64::from(d)));

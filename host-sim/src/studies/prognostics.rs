@@ -17,14 +17,19 @@ use shared::domain::DomainLimits;
 use shared::fault::{FAULT_COUNT, FAULT_NAMES};
 use shared::fusion::{WindowFusion, FLIGHT_MAX_FRICTION_STD};
 use shared::health::{HealthRecord, RecordedDay};
-use shared::prognosis::{FaultTrend, Growth, HealthTrend, TrendEstimate, TrendSettings};
+use shared::prognosis::{
+    trended_value, FaultTrend, Growth, HealthTrend, TrendEstimate, TrendSettings, TREND_COUNT,
+    TREND_NAMES, WEAK_MAGNET_TREND,
+};
 use shared::{ActuatorParams, Calibration, FaultVector};
 
 use crate::fdi::identify::identify;
 use crate::fdi::window::{flight_entry, held_from, identify_window, WindowIdentified};
 use crate::files::health::{HistoryRow, Intrusion};
 use crate::plant::aero::FlightWindow;
-use crate::plant::reference::{Anomaly, ReferenceModel, ReferenceSettings, Scenario};
+use crate::plant::reference::{
+    Anomaly, Demagnetization, ReferenceModel, ReferenceSettings, Scenario,
+};
 use crate::studies::flight::{flight_record, ALL_WINDOWS};
 
 /// How the faults grow from the start vector to the end vector over the flights.
@@ -59,13 +64,54 @@ const ACCELERATION: f64 = 3.0;
 /// Exponent of [`PathShape::PowerLaw`].
 const POWER: f64 = 2.2;
 
-/// A degradation path: `flights` preflights from `start` (flight 0) to `end` (the last).
+/// A degradation path: `flights` preflights from `start` (flight 0) to `end` (the last), and
+/// optionally one magnet losing its flux along the same shape.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DegradationPath {
     pub start: FaultVector,
     pub end: FaultVector,
     pub flights: u32,
     pub shape: PathShape,
+    /// One weak magnet: its pole, and the share of its flux lost by the last flight (none
+    /// at flight 0).
+    pub magnet: Option<MagnetLoss>,
+}
+
+/// One magnet's flux lost along a [`DegradationPath`]: pole `pole` (0 … 2P − 1, as
+/// `preflight --demagnetization partial:LOSS@POLE` counts them), `end` of its flux lost by
+/// the path's last flight.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MagnetLoss {
+    pub pole: u32,
+    pub end: f64,
+}
+
+impl MagnetLoss {
+    /// `END@POLE` (END the share of the magnet's flux lost by the last flight, 0 … 1).
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let (end, pole) = text
+            .split_once('@')
+            .ok_or_else(|| format!("{text:?}: expected END@POLE, as 0.6@3"))?;
+        let end: f64 = end
+            .trim()
+            .parse()
+            .map_err(|_| format!("loss {end:?} is not a number"))?;
+        if !(0.0..=1.0).contains(&end) {
+            return Err(format!("loss {end} is not a share of the flux (0 … 1)"));
+        }
+        let pole: u32 = pole
+            .trim()
+            .parse()
+            .map_err(|_| format!("pole {pole:?} is not a whole number"))?;
+        let poles = shared::magnets::poles(&ActuatorParams::REFERENCE);
+        if pole >= poles {
+            return Err(format!(
+                "pole {pole}: the actuator has poles 0 … {}",
+                poles - 1
+            ));
+        }
+        Ok(Self { pole, end })
+    }
 }
 
 impl DegradationPath {
@@ -93,11 +139,24 @@ impl DegradationPath {
         FaultVector::saturating(k)
     }
 
-    /// The (fractional) flight at which component `i`'s deviation from nominal reaches
-    /// `threshold`, if it does within the path: the true end of life.
+    /// The weak magnet's true loss at `flight` (`None`: no magnet on this path).
+    pub fn magnet_at(&self, flight: u32) -> Option<MagnetLoss> {
+        self.magnet.map(|m| MagnetLoss {
+            pole: m.pole,
+            end: m.end * self.progress(f64::from(flight)),
+        })
+    }
+
+    /// The (fractional) flight at which trended quantity `i` ([`TREND_NAMES`]: a
+    /// component's deviation from nominal, or the weak magnet's depth) reaches `threshold`,
+    /// if it does within the path: the true end of life.
     pub fn end_of_life(&self, i: usize, threshold: f32) -> Option<f64> {
-        let dev = |v: &FaultVector| v.deviations().get(i).copied().flatten().map(f64::from);
-        let (a, b) = (dev(&self.start)?, dev(&self.end)?);
+        let (a, b) = if i == WEAK_MAGNET_TREND {
+            (0.0, self.magnet?.end)
+        } else {
+            let dev = |v: &FaultVector| v.deviations().get(i).copied().flatten().map(f64::from);
+            (dev(&self.start)?, dev(&self.end)?)
+        };
         let t = f64::from(threshold);
         if a >= t || b < t || b <= a {
             return None;
@@ -316,13 +375,20 @@ pub fn degrade(
     let rm = ReferenceModel::new(ReferenceSettings::REFERENCE);
     let params = ActuatorParams::REFERENCE;
     let window_record = flight_record(&ActuatorRecord::REFERENCE);
-    let flying = rm.with_test(window_record.test);
     let flights: Vec<Vec<HistoryRow>> = (0..path.flights)
         .into_par_iter()
         .map(|flight| -> Result<Vec<HistoryRow>> {
             let truth = path.at(flight);
             let (rm_seed, ga_seed) = flight_seeds(seed, flight);
             let intruded = intrusion(seed, flight, intrusions);
+            let rm = match path.magnet_at(flight) {
+                Some(m) if m.end > 0.0 => rm.with_demagnetization(Demagnetization::Partial {
+                    loss: m.end,
+                    pole: m.pole,
+                }),
+                _ => rm,
+            };
+            let flying = rm.with_test(window_record.test);
             let model = intruded.map_or(rm, |i| intrusion_model(i, rm));
             // One test of the preflight, played by `model` with the I_ref noise of `rm_seed`,
             // identified and judged, and its record.
@@ -410,7 +476,7 @@ pub fn degrade(
 
 /// Parses `--threshold`: one number for every fault, or `name=value` pairs (names as in the
 /// CSV header) over [`TrendSettings::DEFAULT`]'s.
-pub fn parse_thresholds(text: &str) -> Result<[f32; FAULT_COUNT], String> {
+pub fn parse_thresholds(text: &str) -> Result<[f32; TREND_COUNT], String> {
     let mut t = TrendSettings::DEFAULT.thresholds;
     let value = |s: &str| -> Result<f32, String> {
         let v: f32 = s
@@ -436,15 +502,21 @@ pub fn parse_thresholds(text: &str) -> Result<[f32; FAULT_COUNT], String> {
         let (name, v) = pair
             .split_once('=')
             .ok_or_else(|| format!("\"{pair}\" is not name=value"))?;
-        let i = FAULT_NAMES
+        let i = TREND_NAMES
             .iter()
             .position(|n| *n == name.trim())
             .filter(|&i| shared::prognosis::is_trended(i))
             .ok_or_else(|| {
+                let names: Vec<&str> = TREND_NAMES
+                    .iter()
+                    .enumerate()
+                    .filter(|&(i, _)| shared::prognosis::is_trended(i))
+                    .map(|(_, n)| *n)
+                    .collect();
                 format!(
-                    "unknown fault \"{}\" (one of friction, backlash, short_a, short_b, short_c, \
-                     eccentricity, gain_drift)",
-                    name.trim()
+                    "unknown fault \"{}\" (one of {})",
+                    name.trim(),
+                    names.join(", ")
                 )
             })?;
         t[i] = value(v)?;
@@ -480,7 +552,7 @@ fn fmt_flights(v: Option<f32>) -> String {
 
 /// The per-fault table `prognose` prints.
 pub fn report_text(
-    estimates: &[Option<TrendEstimate>; FAULT_COUNT],
+    estimates: &[Option<TrendEstimate>; TREND_COUNT],
     settings: &TrendSettings,
 ) -> String {
     let mut out = format!(
@@ -509,7 +581,7 @@ pub fn report_text(
         };
         out += &format!(
             "{:<13} {:>4} {:>4} {:>7.4} {:>9.5} {:>16} {:>7} {:>9.4} {:>9} {:>19}\n",
-            FAULT_NAMES[i],
+            TREND_NAMES[i],
             e.observations,
             e.outliers,
             e.level,
@@ -604,7 +676,7 @@ pub fn weak_magnet_text(seen: &WeakMagnetSeen) -> String {
     };
     format!(
         "weak magnet: read by {} of {} trusted preflights, first at flight {}; flight {} (the \
-         newest): {newest} (no trend or RUL is kept for it)\n",
+         newest): {newest}; its depth's trend and RUL are the `weak_magnet` row\n",
         seen.read, seen.of, seen.first_flight, seen.newest_flight
     )
 }
@@ -612,7 +684,7 @@ pub fn weak_magnet_text(seen: &WeakMagnetSeen) -> String {
 pub fn report_json(
     rows: &[HistoryRow],
     trend: &HealthTrend,
-    estimates: &[Option<TrendEstimate>; FAULT_COUNT],
+    estimates: &[Option<TrendEstimate>; TREND_COUNT],
     settings: &TrendSettings,
 ) -> serde_json::Value {
     let mut faults = serde_json::Map::new();
@@ -622,7 +694,7 @@ pub fn report_json(
             .rul
             .map(|r| serde_json::json!({"flights": r.rul, "lower": r.lower, "upper": r.upper}));
         faults.insert(
-            FAULT_NAMES[i].to_string(),
+            TREND_NAMES[i].to_string(),
             serde_json::json!({
                 "observations": e.observations,
                 "outliers": e.outliers,
@@ -669,7 +741,7 @@ pub fn history_svg(
     let estimates = trend.estimates(settings);
     // Faults with a threshold and an estimate; of those, the ones detected or heading for
     // their threshold within the horizon (all of them when none is).
-    let candidates: Vec<usize> = (0..FAULT_COUNT)
+    let candidates: Vec<usize> = (0..TREND_COUNT)
         .filter(|&i| settings.threshold(i).is_some() && estimates[i].is_some())
         .collect();
     let active: Vec<usize> = candidates
@@ -715,7 +787,7 @@ pub fn history_svg(
             .iter()
             .filter(|r| !r.record.is_window())
             .filter_map(|r| {
-                let d = r.record.faults.deviations()[i]?;
+                let d = trended_value(&r.record, i)?;
                 Some((
                     f64::from(r.record.flight),
                     f64::from(d),
@@ -743,7 +815,7 @@ pub fn history_svg(
             .fold(threshold * 1.15, f64::max)
             .min(1.0);
         let mut chart = ChartBuilder::on(panel)
-            .caption(FAULT_NAMES[i], ("sans-serif", 16))
+            .caption(TREND_NAMES[i], ("sans-serif", 16))
             .margin(8)
             .x_label_area_size(32)
             .y_label_area_size(50)
@@ -774,7 +846,8 @@ pub fn history_svg(
                 .filter_map(|r| {
                     Some((
                         f64::from(r.record.flight),
-                        f64::from(r.truth?.deviations()[i]?),
+                        // The history keeps no weak magnet's truth.
+                        f64::from(r.truth?.deviations().get(i).copied().flatten()?),
                     ))
                 })
                 .collect();
@@ -864,6 +937,9 @@ pub struct EvalScenario {
     pub family: &'static str,
     pub start: [f32; FAULT_COUNT],
     pub end: [f32; FAULT_COUNT],
+    /// One magnet's flux lost by the last flight (its pole drawn from the run's seed,
+    /// [`magnet_pole`]); `None`: no weak magnet.
+    pub magnet: Option<f64>,
     pub shape: PathShape,
     pub noise: f64,
 }
@@ -935,6 +1011,7 @@ pub fn eval_scenarios(noises: &[f64]) -> Vec<EvalScenario> {
                     family,
                     start: H,
                     end,
+                    magnet: None,
                     shape,
                     noise,
                 });
@@ -942,6 +1019,36 @@ pub fn eval_scenarios(noises: &[f64]) -> Vec<EvalScenario> {
         }
     }
     out
+}
+
+/// The weak magnet's flux lost by the last flight of its evaluation's paths: it crosses
+/// [`TrendSettings::DEFAULT`]'s 0.5 at 80–93 % of the path, as the other families cross
+/// theirs.
+pub const WEAK_MAGNET_END: f64 = 0.6;
+
+/// The weak magnet's scenarios: one magnet losing its flux to [`WEAK_MAGNET_END`], every path
+/// shape, each noise level; the other components nominal.
+pub fn weak_magnet_scenarios(noises: &[f64]) -> Vec<EvalScenario> {
+    let mut out = Vec::new();
+    for &noise in noises {
+        for shape in PathShape::ALL {
+            out.push(EvalScenario {
+                family: "weak magnet",
+                start: H,
+                end: H,
+                magnet: Some(WEAK_MAGNET_END),
+                shape,
+                noise,
+            });
+        }
+    }
+    out
+}
+
+/// The pole of run `seed`'s weak magnet: the reference actuator's poles in turn.
+pub fn magnet_pole(seed: u64) -> u32 {
+    let poles = u64::from(shared::magnets::poles(&ActuatorParams::REFERENCE));
+    (seed % poles) as u32
 }
 
 /// One fault's prognosis along one simulated run.
@@ -1215,6 +1322,47 @@ pub struct Evaluation {
     /// Runs simulated now, and runs read from the cache folder.
     pub simulated: u32,
     pub cached: u32,
+    /// The weak magnet's readings per I_ref noise level, on paths that grow one.
+    pub magnets: Vec<(f64, MagnetReadings)>,
+}
+
+/// A weak magnet's readings along its paths, over trusted preflights: the depth's error
+/// (reading − truth, 0 where none was read) where the truth is at least
+/// [`shared::fault::DETECTION_THRESHOLD`], and its pole where the truth is at least 0.2.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MagnetReadings {
+    pub depth: ReadingErrors,
+    /// Preflights whose magnet was read at its true pole...
+    pub pole_right: u32,
+    /// ...of those whose truth is at least 0.2.
+    pub pole_of: u32,
+}
+
+impl MagnetReadings {
+    /// Adds one run of `path` (`rows` its history).
+    pub fn add_run(&mut self, path: &DegradationPath, rows: &[HistoryRow]) {
+        let params = ActuatorParams::REFERENCE;
+        let mut errors = Vec::new();
+        for r in rows
+            .iter()
+            .filter(|r| r.record.window == 0 && r.record.is_trusted())
+        {
+            let Some(truth) = path.magnet_at(r.record.flight) else {
+                continue;
+            };
+            let read = r.record.magnet.magnets();
+            if truth.end >= f64::from(shared::fault::DETECTION_THRESHOLD) {
+                errors.push(f64::from(read.depth) - truth.end);
+            }
+            if truth.end >= 0.2 {
+                self.pole_of += 1;
+                if !read.is_none() && read.pole(&params) == truth.pole {
+                    self.pole_right += 1;
+                }
+            }
+        }
+        self.depth.add_run(&errors);
+    }
 }
 
 /// The tracks of one simulated run: each fault with a threshold crossed within the path,
@@ -1227,7 +1375,7 @@ pub fn tracks_of(
     settings: &TrendSettings,
 ) -> Vec<Track> {
     let mut out = Vec::new();
-    for i in 0..FAULT_COUNT {
+    for i in 0..TREND_COUNT {
         let Some(threshold) = settings.threshold(i) else {
             continue;
         };
@@ -1315,13 +1463,21 @@ pub fn evaluate(
     } = runs.clone();
     let mut eval = Evaluation::default();
     for sc in scenarios {
-        let path = DegradationPath {
+        let base = DegradationPath {
             start: FaultVector::new(sc.start).map_err(|e| anyhow!("{}: {e:?}", sc.name()))?,
             end: FaultVector::new(sc.end).map_err(|e| anyhow!("{}: {e:?}", sc.name()))?,
             flights,
             shape: sc.shape,
+            magnet: None,
         };
         for seed in seeds.clone() {
+            let path = DegradationPath {
+                magnet: sc.magnet.map(|end| MagnetLoss {
+                    pole: magnet_pole(seed),
+                    end,
+                }),
+                ..base
+            };
             let file =
                 cache.map(|c| c.join(sc.file_name(seed, flights, intrusions, windows, repeat)));
             let rows = match &file {
@@ -1379,6 +1535,16 @@ pub fn evaluate(
                 .copied()
                 .collect();
             eval.intrusions.add(IntrusionCount::of(&preflights));
+            if path.magnet.is_some() {
+                let at = match eval.magnets.iter().position(|(n, _)| *n == sc.noise) {
+                    Some(at) => at,
+                    None => {
+                        eval.magnets.push((sc.noise, MagnetReadings::default()));
+                        eval.magnets.len() - 1
+                    }
+                };
+                eval.magnets[at].1.add_run(&path, &rows);
+            }
             eval.tracks
                 .extend(tracks_of(sc, &path, seed, &rows, settings));
             if preflights.len() < rows.len() {
@@ -1617,6 +1783,30 @@ fn grouped<'t, K: PartialEq + Copy>(
     groups.into_iter().map(|(k, ts)| (name(k), ts)).collect()
 }
 
+fn magnet_readings_markdown(magnets: &[(f64, MagnetReadings)]) -> String {
+    if magnets.is_empty() {
+        return String::new();
+    }
+    let mut out = "\nThe weak magnet's readings, trusted preflights: the depth's error (reading − \
+                   truth, 0 where none was read; truth at least 0.05) as mean (the lean) / \
+                   standard deviation about each run's own mean, and the pole read right where \
+                   the truth is at least 0.2:\n\n| I_ref noise | depth: lean / scatter (readings) \
+                   | pole right |\n| --- | ---: | ---: |\n"
+        .to_string();
+    for (noise, m) in magnets {
+        out += &format!(
+            "| {:.0} % | {:+.4} / {:.4} ({}) | {} of {} |\n",
+            100.0 * noise,
+            m.depth.mean(),
+            m.depth.scatter(),
+            m.depth.readings,
+            m.pole_right,
+            m.pole_of
+        );
+    }
+    out
+}
+
 /// The evaluation report (Markdown): the totals, by family, by path shape and by noise, then
 /// one row per scenario and fault.
 pub fn eval_markdown(eval: &Evaluation, alpha: f64) -> String {
@@ -1651,6 +1841,7 @@ pub fn eval_markdown(eval: &Evaluation, alpha: f64) -> String {
         grouped(tracks, |t| t.noise, |n| format!("{:.0} %", 100.0 * n)),
     );
     out += &reading_errors_markdown(&eval.errors[0], "preflights");
+    out += &magnet_readings_markdown(&eval.magnets);
     out += &reading_errors_markdown(&eval.errors[1], "flights' readings");
     if !eval.preflight_only.is_empty() {
         let (within, flown) = eval.windows;
@@ -1685,7 +1876,7 @@ pub fn eval_markdown(eval: &Evaluation, alpha: f64) -> String {
     let groups = grouped(
         tracks,
         |t| (t.scenario.as_str(), t.fault),
-        |(name, fault)| format!("{name} | {}", FAULT_NAMES[fault]),
+        |(name, fault)| format!("{name} | {}", TREND_NAMES[fault]),
     );
     let pct = |x: f64| format!("{:.0} %", 100.0 * x);
     out += &format!(
@@ -2017,7 +2208,7 @@ mod tests {
             text.contains("± 0.031 (1 σ, as stored), 90 % [0.34"),
             "{text}"
         );
-        assert!(text.contains("0.451], FAULT (no trend"), "{text}");
+        assert!(text.contains("0.451], FAULT; its depth's trend"), "{text}");
         // A shallow magnet whose interval reaches below the threshold is `suspect`; one
         // without a kept deviation has no verdict.
         let shallow = WeakMagnet::new(0.06, 1.0);
@@ -2040,6 +2231,7 @@ mod tests {
             end: FaultVector::new(with(H, 0, 0.6)).unwrap(),
             flights: 40,
             shape,
+            magnet: None,
         }
     }
 
@@ -2062,6 +2254,33 @@ mod tests {
         // The accelerating paths show little in their first half.
         assert!(path(PathShape::Exponential).progress(19.5) < 0.2);
         assert!(path(PathShape::PowerLaw).progress(19.5) < 0.25);
+    }
+
+    #[test]
+    fn a_weak_magnets_path_reaches_its_threshold_at_its_end_of_life() {
+        for shape in PathShape::ALL {
+            let p = DegradationPath {
+                magnet: Some(MagnetLoss::parse("0.6@3").unwrap()),
+                ..path(shape)
+            };
+            let eol = p.end_of_life(WEAK_MAGNET_TREND, 0.5).unwrap();
+            // The same flight as friction's on the same shape, 0 → 0.6 crossing 0.5.
+            assert!(
+                (eol - p.end_of_life(0, 0.5).unwrap()).abs() < 1e-4,
+                "{shape:?}"
+            );
+            let at = |f: u32| p.magnet_at(f).unwrap();
+            assert_eq!((at(0).end, at(0).pole), (0.0, 3));
+            assert!((at(39).end - 0.6).abs() < 1e-9);
+            assert!(at(eol.floor() as u32).end < 0.5 && at(eol.ceil() as u32).end > 0.5);
+            // No magnet on the path: no end of life for it.
+            assert_eq!(path(shape).end_of_life(WEAK_MAGNET_TREND, 0.5), None);
+        }
+        for bad in ["0.6", "1.2@3", "0.6@8", "x@1", "0.6@-1"] {
+            assert!(MagnetLoss::parse(bad).is_err(), "{bad}");
+        }
+        // The evaluation's poles: the reference actuator's eight in turn.
+        assert_eq!((magnet_pole(3), magnet_pole(11)), (3, 3));
     }
 
     #[test]

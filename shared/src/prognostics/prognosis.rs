@@ -5,6 +5,11 @@
 //! window's own entry is not trended: its information is in its flight's reading), fault level in the fault vector's
 //! normalised deviation from nominal ([`crate::physics::fault::FaultVector::deviations`]), RUL in flights.
 //!
+//! Trended quantities ([`TREND_COUNT`]): the fault vector's components but the eccentricity
+//! phase, and the weak magnet's depth ([`WEAK_MAGNET_TREND`]: the share of one magnet's flux
+//! lost, 0 where a preflight read none, wherever the magnet sits; a flight's reading holds its
+//! preflight's magnet and adds nothing to it).
+//!
 //! ## Model
 //!
 //! Each fault's level is `y(t) = a + b·g(t − t₀) + ε`, `t₀` the first flight seen, for each
@@ -55,6 +60,30 @@
 use crate::base::math::{exp64, sqrt64};
 use crate::physics::fault::{CIRCULAR, FAULT_COUNT};
 use crate::prognostics::health::HealthRecord;
+use crate::solver::weak_magnet::DEPTH_RESOLUTION;
+
+/// Quantities trended: the fault vector's [`FAULT_COUNT`] components (the eccentricity
+/// phase's trend stays empty) and the weak magnet's depth.
+pub const TREND_COUNT: usize = FAULT_COUNT + 1;
+
+/// The trended quantity that is the weak magnet's depth
+/// ([`crate::physics::magnets::WeakMagnet::depth`]; 0 where a preflight read no weak magnet).
+pub const WEAK_MAGNET_TREND: usize = FAULT_COUNT;
+
+/// Names of the trended quantities: [`crate::physics::fault::FAULT_NAMES`], then `weak_magnet` (a unit test holds
+/// them to the fault vector's).
+pub const TREND_NAMES: [&str; TREND_COUNT] = [
+    "friction",
+    "backlash",
+    "short_a",
+    "short_b",
+    "short_c",
+    "eccentricity",
+    "ecc_phase",
+    "gain_drift",
+    "demagnetization",
+    "weak_magnet",
+];
 
 /// A growth shape of the trend.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -165,9 +194,10 @@ const NEGLIGIBLE_WEIGHT: f64 = 1.0e-6;
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct TrendSettings {
-    /// Maintenance threshold on each component's deviation from nominal; NaN or ≤ 0: no RUL
-    /// for that component (the eccentricity phase is never trended).
-    pub thresholds: [f32; FAULT_COUNT],
+    /// Maintenance threshold on each trended quantity ([`TREND_NAMES`]): each component's
+    /// deviation from nominal, then the weak magnet's depth; NaN or ≤ 0: no RUL for it (the
+    /// eccentricity phase is never trended).
+    pub thresholds: [f32; TREND_COUNT],
     /// Least standard deviation of one observation, and the one assumed where the record
     /// carries none (version 1).
     pub noise_floor: f64,
@@ -189,9 +219,10 @@ pub struct TrendSettings {
 impl TrendSettings {
     /// Illustrative maintenance thresholds (the actuator maker sets its own): friction 0.5,
     /// backlash 0.5, each short 0.3, eccentricity 0.5, gain drift ±0.25, demagnetization 0.3
-    /// (15 % of the flux lost: the torque constant's share of a typical 20 % torque margin).
+    /// (15 % of the flux lost: the torque constant's share of a typical 20 % torque margin),
+    /// one weak magnet 0.5 (half of its flux lost).
     pub const DEFAULT: Self = Self {
-        thresholds: [0.5, 0.5, 0.3, 0.3, 0.3, 0.5, f32::NAN, 0.25, 0.3],
+        thresholds: [0.5, 0.5, 0.3, 0.3, 0.3, 0.5, f32::NAN, 0.25, 0.3, 0.5],
         // The random part of one test's error. Chosen with `systematic` on the prognostics
         // evaluation's seeds 0–2 (0.004–0.008 against 0.01–0.02: interval coverage 85–95 %)
         // and checked on seeds 3–5 (docs/prognostics.md).
@@ -223,10 +254,27 @@ impl TrendSettings {
     }
 }
 
-/// Whether component `i` has a trend (every fault component; not the eccentricity phase,
-/// which is a location).
+/// Whether quantity `i` ([`TREND_NAMES`]) has a trend: every fault component but the
+/// eccentricity phase, which is a location, and the weak magnet's depth.
 pub fn is_trended(i: usize) -> bool {
-    !CIRCULAR.get(i).copied().unwrap_or(true)
+    i == WEAK_MAGNET_TREND || !CIRCULAR.get(i).copied().unwrap_or(true)
+}
+
+/// The weak magnet's depth's standard deviation in the trend where a preflight read none: the
+/// search reads depths in steps of [`DEPTH_RESOLUTION`] from its first grid depth, so a
+/// magnet shallower than about two steps may read as none. A deviation of one step keeps
+/// such a reading from pinning the trend at 0 while a small magnet grows unread.
+pub const NO_MAGNET_STD: f32 = DEPTH_RESOLUTION;
+
+/// Quantity `i` of `record` as its trend takes it ([`TREND_NAMES`]): a component's deviation
+/// from nominal, or the weak magnet's depth (0 where none was read); `None` for the
+/// eccentricity phase and past the last. O(1).
+pub fn trended_value(record: &HealthRecord, i: usize) -> Option<f32> {
+    if i == WEAK_MAGNET_TREND {
+        Some(record.magnet.magnets().depth)
+    } else {
+        record.faults.deviations().get(i).copied().flatten()
+    }
 }
 
 /// One shape's weighted recursive least-squares state.
@@ -518,24 +566,37 @@ impl FaultTrend {
         }
     }
 
-    /// Adds component `i` of `record` (its deviation from nominal and its standard deviation):
-    /// a preflight, or a flight's reading as an in-flight entry (each component it states a
-    /// deviation for: one it holds at its preflight's is the preflight's); a window's own
-    /// entry is ignored (its flight's reading carries it). Whether the record is trusted is the
-    /// caller's to judge. Returns false when ignored (see [`Self::update`]).
+    /// Adds quantity `i` of `record` ([`TREND_NAMES`]: a component's deviation from nominal,
+    /// or the weak magnet's depth, each with its standard deviation): a preflight, or a
+    /// flight's reading as an in-flight entry (each component it states a deviation for: one
+    /// it holds at its preflight's is the preflight's, as its weak magnet always is); a
+    /// window's own entry is ignored (its flight's reading carries it). Whether the record is
+    /// trusted is the caller's to judge. Returns false when ignored (see [`Self::update`]).
     pub fn add(&mut self, record: &HealthRecord, i: usize, settings: &TrendSettings) -> bool {
         if record.is_window() {
             return false;
         }
-        match record.faults.deviations().get(i) {
-            Some(Some(d)) => self.update(
-                record.flight,
-                record.window != 0,
-                *d,
-                record.std.get(i),
-                settings,
-            ),
-            _ => false,
+        let std = if i == WEAK_MAGNET_TREND {
+            let none = record.magnet.magnets().is_none();
+            // A flight's reading holds its preflight's magnet: it adds nothing. Before the
+            // first weak magnet read, a reading of none says only that the depth is below what
+            // the search reads: the trend starts at the first magnet.
+            if record.window != 0 || (none && self.observations == 0) {
+                return false;
+            }
+            // A preflight that read none after one was read: any depth the search would not
+            // have read is as likely, up to its first steps.
+            if none {
+                Some(NO_MAGNET_STD)
+            } else {
+                record.magnet.std()
+            }
+        } else {
+            record.std.get(i)
+        };
+        match trended_value(record, i) {
+            Some(value) => self.update(record.flight, record.window != 0, value, std, settings),
+            None => false,
         }
     }
 
@@ -759,7 +820,7 @@ impl FaultTrend {
 /// Every fault's trend, fed by trusted health records.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HealthTrend {
-    faults: [FaultTrend; FAULT_COUNT],
+    faults: [FaultTrend; TREND_COUNT],
     /// Records ignored: outside the monitor model's domain, or not newer.
     skipped: u32,
 }
@@ -773,7 +834,7 @@ impl Default for HealthTrend {
 impl HealthTrend {
     pub const fn new() -> Self {
         Self {
-            faults: [FaultTrend::new(); FAULT_COUNT],
+            faults: [FaultTrend::new(); TREND_COUNT],
             skipped: 0,
         }
     }
@@ -793,7 +854,7 @@ impl HealthTrend {
     /// Adds one record: each fault's deviation from nominal feeds its trend with the record's
     /// standard deviation. A record outside the monitor model's domain is counted and
     /// ignored; a window's own entry is ignored (its flight's reading carries it).
-    /// O(FAULT_COUNT · MODEL_COUNT).
+    /// O(TREND_COUNT · MODEL_COUNT).
     pub fn update(&mut self, record: &HealthRecord, settings: &TrendSettings) {
         if record.is_window() {
             return;
@@ -822,8 +883,8 @@ impl HealthTrend {
 
     /// Every component's estimate (`None` for the eccentricity phase and before three
     /// trusted observations).
-    pub fn estimates(&self, settings: &TrendSettings) -> [Option<TrendEstimate>; FAULT_COUNT] {
-        let mut out = [None; FAULT_COUNT];
+    pub fn estimates(&self, settings: &TrendSettings) -> [Option<TrendEstimate>; TREND_COUNT] {
+        let mut out = [None; TREND_COUNT];
         for (i, (o, trend)) in out.iter_mut().zip(self.faults.iter()).enumerate() {
             if is_trended(i) {
                 *o = trend.estimate(settings.threshold(i), settings);

@@ -315,3 +315,53 @@ fn records_outside_the_domain_do_not_feed_the_trend() {
     assert!(e[0].unwrap().rul.unwrap().rul.is_some());
     assert!(e[1].unwrap().rul.unwrap().rul.is_none());
 }
+
+#[test]
+fn a_weak_magnets_depth_is_trended_from_its_first_reading() {
+    use crate::model::domain::Domain;
+    use crate::physics::magnets::WeakMagnet;
+    let s = TrendSettings::DEFAULT;
+    let preflight = |f: u32, depth: f32| {
+        HealthRecord::new(f, FaultVector::NOMINAL, 0.01, Domain::Within)
+            .with_magnet(&WeakMagnet::new(depth, 1.2))
+            .with_magnet_std(0.03)
+    };
+    let mut trend = HealthTrend::new();
+    let depths = |t: &HealthTrend| t.fault(WEAK_MAGNET_TREND).unwrap().observations();
+    // Healthy: nothing read, no trend, no RUL.
+    for f in 0..5 {
+        trend.update(&preflight(f, 0.0), &s);
+    }
+    assert_eq!(depths(&trend), 0);
+    assert!(trend.estimates(&s)[WEAK_MAGNET_TREND].is_none());
+    // The magnet read from flight 5, 0.02 more each flight (0.1 … 0.36 by flight 18); one
+    // preflight in between reads none and counts as 0 ± NO_MAGNET_STD; a flight's reading
+    // holds its preflight's magnet and adds nothing.
+    for f in 5..19 {
+        let depth = if f == 9 {
+            0.0
+        } else {
+            0.1 + 0.02 * (f - 5) as f32
+        };
+        trend.update(&preflight(f, depth), &s);
+        trend.update(&preflight(f, depth).flight_reading(3), &s);
+    }
+    assert_eq!(depths(&trend), 14);
+    let e = trend.estimates(&s)[WEAK_MAGNET_TREND].unwrap();
+    assert!((e.level - 0.36).abs() < 0.02, "{e:?}");
+    // 0.5 is reached at flight 25: 7 flights after the newest.
+    let r = e.rul.unwrap();
+    let (lo, rul, hi) = (r.lower.unwrap(), r.rul.unwrap(), r.upper.unwrap());
+    assert!(
+        (rul - 7.0).abs() < 1.5 && lo <= 7.0 && hi >= 7.0,
+        "{lo} {rul} {hi}"
+    );
+    // The trend's names and thresholds follow the fault vector's, then the magnet's.
+    assert_eq!(TREND_NAMES[WEAK_MAGNET_TREND], "weak_magnet");
+    assert_eq!(
+        TREND_NAMES[..FAULT_COUNT],
+        crate::physics::fault::FAULT_NAMES
+    );
+    assert_eq!(s.threshold(WEAK_MAGNET_TREND), Some(0.5));
+    assert!(is_trended(WEAK_MAGNET_TREND) && !is_trended(TREND_COUNT));
+}
