@@ -43,6 +43,24 @@ fn friction_history(n: u32) -> String {
     history_csv(&rows)
 }
 
+/// `degrade` from a healthy actuator to `end` over `flights` flights into `out`, with `extra`
+/// arguments.
+fn healthy_degrade(out: &Path, end: &str, flights: &str, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "degrade",
+        "--faults-start",
+        "0,0,0,0,0,0,0.5,0.5,0",
+        "--faults-end",
+        end,
+        "--flights",
+        flights,
+        "--out",
+        path_str(out),
+    ];
+    args.extend_from_slice(extra);
+    host_sim(&args)
+}
+
 fn json(o: &Output) -> serde_json::Value {
     assert!(o.status.success(), "{}", text(o));
     serde_json::from_slice(&o.stdout).expect("one JSON object")
@@ -206,17 +224,7 @@ fn degrade_simulates_each_flight_and_writes_history_and_log() {
 fn a_demagnetizing_actuator_gets_its_own_trend_and_rul() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("magnets.csv");
-    let o = host_sim(&[
-        "degrade",
-        "--faults-start",
-        "0,0,0,0,0,0,0.5,0.5,0",
-        "--faults-end",
-        "0,0,0,0,0,0,0.5,0.5,0.24",
-        "--flights",
-        "12",
-        "--out",
-        path_str(&out),
-    ]);
+    let o = healthy_degrade(&out, "0,0,0,0,0,0,0.5,0.5,0.24", "12", &[]);
     assert!(o.status.success(), "{}", text(&o));
     let v = json(&host_sim(&["prognose", path_str(&out), "--json"]));
     let k9 = &v["faults"]["demagnetization"];
@@ -242,6 +250,60 @@ fn a_demagnetizing_actuator_gets_its_own_trend_and_rul() {
             v["faults"][healthy]
         );
     }
+}
+
+#[test]
+fn a_weakening_magnet_gets_its_own_trend_and_rul() {
+    // One magnet at pole 3 from none to 0.45 of its flux over 12 flights (0.041 a flight):
+    // read from about flight 2, 0.5 is reached 1.4 flights after the last.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("weak-magnet.csv");
+    let o = healthy_degrade(
+        &out,
+        "0,0,0,0,0,0,0.5,0.5,0",
+        "12",
+        &["--weak-magnet", "0.45@3"],
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    let v = json(&host_sim(&["prognose", path_str(&out), "--json"]));
+    let m = &v["faults"]["weak_magnet"];
+    let level = m["level"].as_f64().unwrap();
+    assert!((level - 0.45).abs() < 0.05, "{m}");
+    assert_eq!(
+        m["threshold"].as_f64().map(|t| (t * 100.0).round()),
+        Some(50.0)
+    );
+    let n = m["observations"].as_u64().unwrap();
+    assert!((7..=10).contains(&n), "from the first magnet read: {m}");
+    let rul = &m["rul"];
+    let (lower, upper) = (
+        rul["lower"].as_f64().unwrap(),
+        rul["upper"].as_f64().unwrap(),
+    );
+    assert!(lower <= 1.4 && 1.4 <= upper, "{m}");
+    assert_eq!(v["weak_magnet"]["newest_verdict"], "FAULT", "{v}");
+    // Nothing else grows; a threshold of 0.3 for the magnet is reached already.
+    assert!(
+        v["faults"]["eccentricity"]["rul"]["flights"].is_null(),
+        "{v}"
+    );
+    let v = json(&host_sim(&[
+        "prognose",
+        path_str(&out),
+        "--json",
+        "--threshold",
+        "weak_magnet=0.3",
+    ]));
+    assert_eq!(v["faults"]["weak_magnet"]["rul"]["flights"], 0.0, "{v}");
+    // The path's pole and loss are checked as the command line writes them.
+    let o = healthy_degrade(
+        &out,
+        "0,0,0,0,0,0,0.5,0.5,0",
+        "3",
+        &["--weak-magnet", "0.45@8"],
+    );
+    assert!(!o.status.success());
+    assert!(text(&o).contains("poles 0 … 7"), "{}", text(&o));
 }
 
 /// With windows of flight, each flight's history holds its preflight, each window's own

@@ -87,22 +87,18 @@ pub struct MagnetLoss {
 }
 
 impl MagnetLoss {
-    /// `END@POLE` (END the share of the magnet's flux lost by the last flight, 0 … 1).
+    /// `END@POLE` (END the share of the magnet's flux lost by the last flight, 0 … 1; POLE
+    /// one of the reference actuator's), read as `partial:END@POLE` is
+    /// ([`Demagnetization::parse`]).
     pub fn parse(text: &str) -> Result<Self, String> {
-        let (end, pole) = text
-            .split_once('@')
-            .ok_or_else(|| format!("{text:?}: expected END@POLE, as 0.6@3"))?;
-        let end: f64 = end
-            .trim()
-            .parse()
-            .map_err(|_| format!("loss {end:?} is not a number"))?;
-        if !(0.0..=1.0).contains(&end) {
-            return Err(format!("loss {end} is not a share of the flux (0 … 1)"));
+        if !text.contains('@') {
+            return Err(format!("{text:?}: expected END@POLE, as 0.6@3"));
         }
-        let pole: u32 = pole
-            .trim()
-            .parse()
-            .map_err(|_| format!("pole {pole:?} is not a whole number"))?;
+        let Demagnetization::Partial { loss, pole } =
+            Demagnetization::parse(&format!("partial:{text}"))?
+        else {
+            return Err(format!("{text:?}: expected END@POLE, as 0.6@3"));
+        };
         let poles = shared::magnets::poles(&ActuatorParams::REFERENCE);
         if pole >= poles {
             return Err(format!(
@@ -110,7 +106,7 @@ impl MagnetLoss {
                 poles - 1
             ));
         }
-        Ok(Self { pole, end })
+        Ok(Self { pole, end: loss })
     }
 }
 

@@ -58,7 +58,7 @@
 //! [`crate::base::math::sqrt64`]): the same bits on the host and on the controller.
 
 use crate::base::math::{exp64, sqrt64};
-use crate::physics::fault::{CIRCULAR, FAULT_COUNT};
+use crate::physics::fault::{CIRCULAR, FAULT_COUNT, FAULT_NAMES};
 use crate::prognostics::health::HealthRecord;
 use crate::solver::weak_magnet::DEPTH_RESOLUTION;
 
@@ -70,20 +70,18 @@ pub const TREND_COUNT: usize = FAULT_COUNT + 1;
 /// ([`crate::physics::magnets::WeakMagnet::depth`]; 0 where a preflight read no weak magnet).
 pub const WEAK_MAGNET_TREND: usize = FAULT_COUNT;
 
-/// Names of the trended quantities: [`crate::physics::fault::FAULT_NAMES`], then `weak_magnet` (a unit test holds
-/// them to the fault vector's).
-pub const TREND_NAMES: [&str; TREND_COUNT] = [
-    "friction",
-    "backlash",
-    "short_a",
-    "short_b",
-    "short_c",
-    "eccentricity",
-    "ecc_phase",
-    "gain_drift",
-    "demagnetization",
-    "weak_magnet",
-];
+/// Names of the trended quantities: [`FAULT_NAMES`], then `weak_magnet`.
+// Indexing in a constant is checked when it is built: no panic at run time.
+#[allow(clippy::indexing_slicing)]
+pub const TREND_NAMES: [&str; TREND_COUNT] = {
+    let mut names = ["weak_magnet"; TREND_COUNT];
+    let mut i = 0;
+    while i < FAULT_COUNT {
+        names[i] = FAULT_NAMES[i];
+        i += 1;
+    }
+    names
+};
 
 /// A growth shape of the trend.
 #[derive(Clone, Copy, Debug, PartialEq)]
