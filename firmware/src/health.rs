@@ -1,15 +1,16 @@
 //! After each preflight, and after each flight's windows: the controller appends the test's
-//! record (or the flight's reading) to its health log and re-assesses every fault's trend and
-//! remaining useful life (`shared::health`,
+//! record (or the flight's reading) to its health log and re-assesses every trend and
+//! remaining useful life — each fault's and the weak magnet's depth's (`shared::health`,
 //! `shared::prognosis`). Host-tested; the binary keeps the store in RAM under emulation
 //! (loaded from and saved to a semihosting file) and would keep it in flash on hardware.
 //!
 //! Work bound: one survey of the store (a read per slot, `shared::health::ONBOARD_RECORDS`
-//! slots), one slot read and write (`health::write_after`), then per fault one replay of the store (a read and a
-//! trend update per slot, O(slots · shapes)) and one estimate (O(shapes · 136)); measured:
-//! 209.1 M instructions with 32 records (BENCHMARKS.md §1). Stack: one trend (976 B), one
-//! estimate's shared state and one slot's bytes, no copy of the log (12.9 kB peak with the
-//! caller's frames).
+//! slots), one slot read and write (`health::write_after`), then per trended quantity
+//! (`shared::prognosis::TREND_COUNT`) one replay of the store (a read and a trend update per
+//! slot, O(slots · shapes)) and one estimate (O(shapes · 136)); measured: 34.0 M cycles with
+//! 32 records under QEMU (BENCHMARKS.md §1). Stack: one trend (976 B), one estimate's shared
+//! state and one slot's bytes, no copy of the log (the emulation image's painted peak by the
+//! end of the health step, the identification's frames before it included: 20 400 B).
 
 use shared::health::{
     self, HealthLogError, HealthRecord, HealthStore, LoadSummary, Newest, RecordedDay,
@@ -33,8 +34,8 @@ pub struct HealthUpdate {
     pub evicted: Option<HealthRecord>,
     /// Records not used by the trend (outside the monitor model's domain).
     pub skipped: u32,
-    /// Every fault's trend and RUL (`None`: the eccentricity phase, or fewer than three
-    /// trusted records).
+    /// Every trended quantity's trend and RUL (`shared::prognosis::TREND_NAMES`; `None`: the
+    /// eccentricity phase, or fewer than three trusted records).
     pub estimates: [Option<TrendEstimate>; TREND_COUNT],
 }
 
@@ -83,8 +84,8 @@ pub fn preflight_entry(
 /// Appends the record `entry` makes of the store's newest record (a preflight, or a flight's
 /// reading from its windows: `HealthRecord::of_flight_reading`) and assesses the trend over
 /// the store, preflights and flights' readings alike. No copy of the log is made: the store
-/// is surveyed, the record written after the newest, and each fault's trend replays the
-/// store in order (one trend of 976 bytes, reused).
+/// is surveyed, the record written after the newest, and each trended quantity's trend
+/// replays the store in order (one trend of 976 bytes, reused).
 pub fn record_entry<S: HealthStore>(
     store: &mut S,
     entry: impl FnOnce(Option<Newest>) -> HealthRecord,
