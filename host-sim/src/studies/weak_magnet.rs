@@ -41,7 +41,7 @@ const fn eccentric(z: f32, phase: f32) -> [f32; FAULT_COUNT] {
 /// The cases: healthy, one magnet at four depths and four poles, at the day's temperature
 /// and ±60 K, three eccentricities (the search's settings were chosen on these), then
 /// [`HELD_OUT`] more on which no choice was made.
-pub const CASES: [WeakMagnetCase; 19] = [
+pub const CASES: [WeakMagnetCase; 22] = [
     case("healthy", HEALTHY, EVEN, 0.0),
     case("healthy, winding +60 K", HEALTHY, EVEN, 60.0),
     case("healthy, winding −60 K", HEALTHY, EVEN, -60.0),
@@ -102,10 +102,30 @@ pub const CASES: [WeakMagnetCase; 19] = [
         0.0,
     ),
     case("held out: healthy, winding +30 K", HEALTHY, EVEN, 30.0),
+    // Held out, between the search's depth steps (0.05 apart).
+    case(
+        "held out: one magnet, 12 %, pole 6",
+        HEALTHY,
+        one_magnet(0.12, 6),
+        0.0,
+    ),
+    case(
+        "held out: one magnet, 33 %, pole 5",
+        HEALTHY,
+        one_magnet(0.33, 5),
+        0.0,
+    ),
+    case(
+        "held out: one magnet, 62 %, pole 2, −45 K",
+        HEALTHY,
+        one_magnet(0.62, 2),
+        -45.0,
+    ),
 ];
 
-/// The last cases of [`CASES`], run after the search's settings were chosen.
-pub const HELD_OUT: usize = 6;
+/// The last cases of [`CASES`], run after the search's settings were chosen (the last three
+/// between the search's depth steps).
+pub const HELD_OUT: usize = 9;
 
 /// One run: what the FDI read.
 #[derive(Clone, Copy, Debug, PartialEq)]
