@@ -1501,15 +1501,7 @@ pub fn evaluate(
                 Readings::LeanRemoved => lean_removed(&rows),
             };
             for (in_flight, errors) in [false, true].into_iter().zip(eval.errors.iter_mut()) {
-                let at = match errors.iter().position(|(n, _)| *n == sc.noise) {
-                    Some(at) => at,
-                    None => {
-                        errors.push((sc.noise, Default::default()));
-                        errors.len() - 1
-                    }
-                };
-                for (e, run) in errors[at]
-                    .1
+                for (e, run) in at_noise(errors, sc.noise)
                     .iter_mut()
                     .zip(ReadingErrors::of_run(&rows, in_flight))
                 {
@@ -1532,14 +1524,7 @@ pub fn evaluate(
                 .collect();
             eval.intrusions.add(IntrusionCount::of(&preflights));
             if path.magnet.is_some() {
-                let at = match eval.magnets.iter().position(|(n, _)| *n == sc.noise) {
-                    Some(at) => at,
-                    None => {
-                        eval.magnets.push((sc.noise, MagnetReadings::default()));
-                        eval.magnets.len() - 1
-                    }
-                };
-                eval.magnets[at].1.add_run(&path, &rows);
+                at_noise(&mut eval.magnets, sc.noise).add_run(&path, &rows);
             }
             eval.tracks
                 .extend(tracks_of(sc, &path, seed, &rows, settings));
@@ -1565,6 +1550,18 @@ pub fn evaluate(
         }
     }
     Ok(eval)
+}
+
+/// The entry of I_ref noise level `noise` in `by_noise`, added empty when missing. O(levels).
+fn at_noise<T: Default>(by_noise: &mut Vec<(f64, T)>, noise: f64) -> &mut T {
+    let at = match by_noise.iter().position(|(n, _)| *n == noise) {
+        Some(at) => at,
+        None => {
+            by_noise.push((noise, T::default()));
+            by_noise.len() - 1
+        }
+    };
+    &mut by_noise[at].1
 }
 
 /// Where a track's prediction window starts (`t_P` of Saxena et al.'s metrics: the time
