@@ -584,10 +584,11 @@ enum Command {
         /// preflights alone.
         #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=8))]
         windows: u8,
-        /// Tests played per preflight (1–8), the I_ref noise drawn anew each time, and the
-        /// preflight's record their readings' mean (deviations over √N): what a repeated
-        /// test buys the trend where the noise calls for it. Each test costs its drive time
-        /// and its identification on the controller.
+        /// The most tests per preflight (1–8), as an actuator record's `[test] max_tests`: a
+        /// preflight whose first test is trusted plays as many as its noise calls for
+        /// (⌈fitness / the calibration's nominal residual⌉), the I_ref noise drawn anew each
+        /// time, and its record is their readings' mean (deviations over √N), as the
+        /// controller's. Each test costs its drive time and its identification.
         #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=8))]
         repeat: u8,
         /// Replace the FDI's readings by an ideal identification of this standard deviation

@@ -45,7 +45,7 @@ pub use flight::{fusion, pinned, window};
 pub use model::{calibration, conditions, domain, monitor};
 pub use physics::{drive, fault, grease, magnets, params};
 pub use preflight::{actuator, fdi, metrics};
-pub use prognostics::{health, prognosis};
+pub use prognostics::{health, prognosis, repeat};
 pub use solver::{fitness, ga, polish, uncertainty, weak_magnet};
 pub use test::{command, conditioning, test_design, trace};
 

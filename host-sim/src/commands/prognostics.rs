@@ -163,7 +163,7 @@ pub(crate) struct EvalRun {
     pub noises: Vec<f64>,
     pub intrusions: f64,
     pub windows: u8,
-    /// Tests played per preflight, their readings averaged.
+    /// The most tests per preflight; as many as the noise calls for are played.
     pub repeat: u8,
     /// Whose readings the trend takes; more than one: a sweep (each from the same kept
     /// histories, one table row each).

@@ -569,6 +569,7 @@ fn range_text(field: &str) -> &'static str {
             "must be positive, and the whole test must fit the onboard buffer (5520 samples)"
         }
         "installation.encoder_offset" => "must be finite (|offset| ≤ 10⁴ rad)",
+        "test.max_tests" => "must be a whole number from 1 to 8",
         "ga" => "GA settings the flown solver cannot run (rates in [0, 1], sizes ≥ 1)",
         "detection.threshold" => "must be in (0, 1)",
         "domain.bus_voltage" | "domain.temperature" => "must be [low, high] with low ≤ high",
@@ -805,6 +806,10 @@ struct Test {
     chirp_amplitude: f32,
     chirp_end_frequency: f32,
     chirp_duration: f32,
+    /// The most tests one preflight plays where the current's noise calls for them
+    /// (`ActuatorRecord::tests_called_for`); absent: 1, one test.
+    #[serde(default)]
+    max_tests: Option<u32>,
 }
 
 #[derive(Deserialize, Default)]
@@ -1245,6 +1250,7 @@ impl Description {
                 domain,
                 drive: reference.bridge.drive(),
                 detection_threshold: self.detection.threshold,
+                max_tests: self.test.max_tests.unwrap_or(1),
                 systematic: {
                     let (u, r) = (&self.uncertainty, SystematicError::REFERENCE_ACTUATOR);
                     SystematicError {

@@ -265,7 +265,9 @@ pub fn history_csv(rows: &[HistoryRow]) -> String {
     let with_std = rows.iter().any(|r| r.record.std != ComponentStd::UNKNOWN);
     let with_day = rows.iter().any(|r| r.record.day != RecordedDay::UNKNOWN);
     let with_window = rows.iter().any(|r| r.record.window != 0);
-    let with_fused = rows.iter().any(|r| r.record.window == FLIGHT_READING);
+    let with_fused = rows
+        .iter()
+        .any(|r| r.record.window == FLIGHT_READING || r.record.fused > 0);
     let with_magnet = rows.iter().any(|r| r.record.magnet != RecordedMagnet::NONE);
     let mut out = String::from("flight");
     if with_window {
@@ -498,10 +500,16 @@ fn parse_history_csv(text: &str) -> Result<Vec<HistoryRow>> {
                 format!("line {line_no}: fused \"{n}\" is not a whole number 0…255")
             })?,
         };
-        if (window == FLIGHT_READING) != (fused > 0) {
+        let fused_fits = match window {
+            FLIGHT_READING => fused > 0,
+            0 => true,
+            _ => fused == 0,
+        };
+        if !fused_fits {
             bail!(
-                "line {line_no}: fused {fused}: only a flight's reading (window \"flight\") \
-                 has windows fused, and at least one"
+                "line {line_no}: fused {fused}: a flight's reading (window \"flight\") has at \
+                 least one window fused, a preflight the tests it averaged (0 or 1: one), a \
+                 window's own entry none"
             );
         }
         if let Some(last) = rows.last() {
@@ -720,11 +728,20 @@ mod tests {
         assert!(text.contains(",play_unseen,"));
         assert!(text.contains("\n3,flight,2,0.115,"), "{text}");
         assert_eq!(parse_history_csv(&text).unwrap(), rows);
-        // Only a flight's reading has windows fused.
+        // A flight's reading has windows fused, a window's own entry none.
         let e = parse_history_csv(&text.replace("\n3,flight,2,", "\n3,flight,0,")).unwrap_err();
         assert!(format!("{e:#}").contains("line 6"), "{e:#}");
         let e = parse_history_csv(&text.replace("\n3,2,0,", "\n3,2,1,")).unwrap_err();
         assert!(format!("{e:#}").contains("fused 1"), "{e:#}");
+        // A preflight of repeated tests keeps how many it averaged.
+        let mut repeated = rows.clone();
+        repeated[1].record.fused = 4;
+        let text4 = history_csv(&repeated);
+        assert!(text4.contains("\n3,0,4,0.1,"), "{text4}");
+        assert_eq!(parse_history_csv(&text4).unwrap(), repeated);
+        let alone = history_csv(&repeated[..2]);
+        assert!(alone.starts_with("flight,fused,friction,"), "{alone}");
+        assert_eq!(parse_history_csv(&alone).unwrap(), &repeated[..2]);
         let rows = [&rows[..4], &rows[5..]].concat();
         let text = history_csv(&rows);
         assert!(text.starts_with("flight,window,friction,"), "{text}");

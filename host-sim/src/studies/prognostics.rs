@@ -308,43 +308,16 @@ pub fn lean_removed(rows: &[HistoryRow]) -> Vec<HistoryRow> {
 /// The seed step between a flight's repeated tests (`degrade`'s `repeat`).
 const REPEAT_STREAM: u64 = 0x9e37_79b9_7f4a_7c15;
 
-/// One record of a preflight whose test was played `readings.len()` times: the mean of the
-/// `within` readings' vectors (the eccentricity's phase the first's) and fitnesses, their
-/// deviations' root mean square over the root of their number (independent noise), the
-/// first reading's flight and day, the first `within` reading's weak magnet; `within` if any
-/// reading was, else the first's verdict.
+/// One record of a preflight whose test was played `readings.len()` times
+/// (`shared::repeat::RepeatedTests`, the controller's).
 pub fn repeated_reading(readings: &[HealthRecord]) -> HealthRecord {
-    let Some(first) = readings.first() else {
-        return HealthRecord::new(0, FaultVector::NOMINAL, 0.0, shared::domain::Domain::Within);
-    };
-    let kept: Vec<&HealthRecord> = readings.iter().filter(|r| r.is_trusted()).collect();
-    if kept.is_empty() {
-        return *first;
+    let mut tests = shared::repeat::RepeatedTests::NEW;
+    for r in readings {
+        tests.add(r);
     }
-    let n = kept.len() as f32;
-    let mut k = [0.0f32; FAULT_COUNT];
-    let mut std = [0.0f32; FAULT_COUNT];
-    for r in &kept {
-        for i in 0..FAULT_COUNT {
-            k[i] += r.faults.as_array()[i] / n;
-            let s = r.std.get(i).unwrap_or(f32::NAN);
-            std[i] += s * s / n;
-        }
-    }
-    k[shared::fault::ECCENTRICITY_PHASE_INDEX] =
-        kept[0].faults.as_array()[shared::fault::ECCENTRICITY_PHASE_INDEX];
-    let std = std.map(|v| (v / n).sqrt());
-    let fitness = kept.iter().map(|r| r.fitness).sum::<f32>() / n;
-    HealthRecord::new(
-        first.flight,
-        FaultVector::saturating(k),
-        fitness,
-        shared::domain::Domain::Within,
-    )
-    .with_std(std)
-    .with_day(first.day)
-    .with_magnet(&kept[0].magnet.magnets())
-    .with_magnet_std(kept[0].magnet.std().unwrap_or(f32::NAN))
+    tests.reading().unwrap_or_else(|| {
+        HealthRecord::new(0, FaultVector::NOMINAL, 0.0, shared::domain::Domain::Within)
+    })
 }
 
 /// Simulates the preflight of every flight of `path` (RM trace with I_ref noise `noise`,
@@ -355,9 +328,10 @@ pub fn repeated_reading(readings: &[HealthRecord]) -> HealthRecord {
 /// ([`identify_window`]) and kept as an in-flight entry ([`HealthRecord::window`] 1, 2, …;
 /// `Outside` windows with their reason); from two windows on, the flight's reading from
 /// those that enter (`shared::fusion`) follows them ([`flight_entry`], window
-/// `FLIGHT_READING`; none when no window entered). With `repeat` > 1 each preflight plays
-/// its test that many times (the I_ref noise drawn anew each time; an intrusion spoils the
-/// first only) and its record is their readings' mean ([`repeated_reading`]). Rows in
+/// `FLIGHT_READING`; none when no window entered). With `repeat` > 1 a preflight whose
+/// first test is trusted plays as many tests as its noise calls for, at most `repeat`
+/// (`ActuatorRecord::tests_called_for`; the I_ref noise drawn anew each time, an intrusion
+/// spoiling the first only), and its record is their readings' mean ([`repeated_reading`]). Rows in
 /// (flight, window) order. `tick` is called after each flight.
 pub fn degrade(
     path: &DegradationPath,
@@ -414,9 +388,19 @@ pub fn degrade(
                 Ok((id, domain, record))
             };
             let (id, domain, mut record) = test(&model, rm_seed)?;
-            if repeat > 1 && intruded.is_none() {
+            // As the controller: the tests the first one's noise calls for, at most `repeat`.
+            let tests = if record.is_trusted() {
+                ActuatorRecord {
+                    max_tests: u32::from(repeat),
+                    ..ActuatorRecord::REFERENCE
+                }
+                .tests_called_for(record.fitness)
+            } else {
+                1
+            };
+            if tests > 1 {
                 let mut readings = vec![record];
-                for j in 1..u64::from(repeat) {
+                for j in 1..u64::from(tests) {
                     let again = rm_seed.wrapping_add(REPEAT_STREAM.wrapping_mul(j));
                     readings.push(test(&rm, again)?.2);
                 }
@@ -1419,7 +1403,7 @@ pub struct EvalRuns {
     pub flights: u32,
     pub intrusions: f64,
     pub windows: u8,
-    /// Tests played per preflight, their readings averaged (`degrade`'s `repeat`).
+    /// The most tests per preflight, as many as the noise calls for (`degrade`'s `repeat`).
     pub repeat: u8,
     /// Whose readings the trend takes.
     pub readings: Readings,

@@ -6,7 +6,7 @@
 //!
 //! Layout (little endian): `"EMAA"`, version `u16`, body length `u16`, the body as 32-bit
 //! words in the order of [`ActuatorRecord::encode`], CRC-32 of everything before it.
-//! [`RECORD_BYTES`] in all. Encoding and decoding are O(1) (a fixed 488 bytes), allocate
+//! [`RECORD_BYTES`] in all. Encoding and decoding are O(1) (a fixed 492 bytes), allocate
 //! nothing and never panic; a decoded record is range-checked ([`ActuatorRecord::validate`])
 //! before it is handed out.
 
@@ -37,8 +37,9 @@ pub const RECORD_MAGIC: [u8; 4] = *b"EMAA";
 /// before 9 has the preflight's systematic error, which reads as
 /// [`SystematicError::REFERENCE_ACTUATOR`], the values those records were used with; none
 /// before 10 has the gearbox's spread from the thermistor, which reads as 0: the gearbox at
-/// the thermistor's temperature).
-pub const RECORD_VERSION: u16 = 10;
+/// the thermistor's temperature; none before 11 has the most tests a preflight plays, which
+/// reads as 1: one test).
+pub const RECORD_VERSION: u16 = 11;
 /// 32-bit words in the body of version 1.
 const BODY_WORDS_V1: usize = 72;
 /// Words version 2 adds at the end of [`run_words`]: the injection's frequency, the pair
@@ -83,8 +84,13 @@ const BODY_WORDS_V9: usize = BODY_WORDS_V8 + SYSTEMATIC_WORDS;
 /// Words version 10 adds at the end: the gearbox's spread from the thermistor
 /// ([`SystematicError::gear_temperature_spread`]).
 const SPREAD_WORDS: usize = 1;
+/// 32-bit words in the body of version 10.
+const BODY_WORDS_V10: usize = BODY_WORDS_V9 + SPREAD_WORDS;
+/// Words version 11 adds at the end: the most tests one preflight plays
+/// ([`ActuatorRecord::max_tests`]).
+const TESTS_WORDS: usize = 1;
 /// 32-bit words in the body.
-const BODY_WORDS: usize = BODY_WORDS_V9 + SPREAD_WORDS;
+const BODY_WORDS: usize = BODY_WORDS_V10 + TESTS_WORDS;
 /// The body's 32-bit words by version, from 1 (bytes, not a `match`: 36 B less flash).
 #[allow(clippy::indexing_slicing)] // evaluated when compiling: an index out of range fails the build
 const BODY_WORDS_OF_VERSION: [u8; RECORD_VERSION as usize] = {
@@ -98,6 +104,7 @@ const BODY_WORDS_OF_VERSION: [u8; RECORD_VERSION as usize] = {
         BODY_WORDS_V7,
         BODY_WORDS_V8,
         BODY_WORDS_V9,
+        BODY_WORDS_V10,
         BODY_WORDS,
     ];
     let mut out = [0u8; RECORD_VERSION as usize];
@@ -129,6 +136,11 @@ pub const RECORD_BYTES_V7: usize = 8 + 4 * BODY_WORDS_V7 + 4;
 pub const RECORD_BYTES_V8: usize = 8 + 4 * BODY_WORDS_V8 + 4;
 /// Bytes of a version 9 record.
 pub const RECORD_BYTES_V9: usize = 8 + 4 * BODY_WORDS_V9 + 4;
+/// Bytes of a version 10 record.
+pub const RECORD_BYTES_V10: usize = 8 + 4 * BODY_WORDS_V10 + 4;
+
+/// The most tests one preflight may play ([`ActuatorRecord::max_tests`]).
+pub const MAX_TESTS: u32 = 8;
 
 /// Why a record was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -240,6 +252,7 @@ record_fields! {
     UncertaintyGainDriftSystematic => "uncertainty.gain_drift_systematic",
     UncertaintyPlayGainDriftSystematic => "uncertainty.play_gain_drift_systematic",
     UncertaintyGearTemperatureSpread => "uncertainty.gear_temperature_spread",
+    TestMaxTests => "test.max_tests",
 }
 
 /// One actuator, as the FDI needs it. Plain data.
@@ -262,6 +275,9 @@ pub struct ActuatorRecord {
     /// The preflight's systematic error on this actuator, surveyed on its own campaign
     /// (`crate::solver::uncertainty::SystematicError`).
     pub systematic: SystematicError,
+    /// The most tests one preflight plays where the current's noise calls for them
+    /// ([`Self::tests_called_for`]), 1 … [`MAX_TESTS`]: the drive time the maker allows.
+    pub max_tests: u32,
 }
 
 impl ActuatorRecord {
@@ -276,7 +292,41 @@ impl ActuatorRecord {
         drive: DriveSettings::TYPICAL,
         detection_threshold: DETECTION_THRESHOLD,
         systematic: SystematicError::REFERENCE_ACTUATOR,
+        max_tests: 1,
     };
+
+    /// The tests the noise in a trusted reading of fitness `fitness` [A²·s] calls for:
+    /// `⌈fitness / nominal⌉` against the calibration's healthy mismatch (its
+    /// `nominal_residual`, which the reported fitness has already taken off), at least 1 and
+    /// at most [`Self::max_tests`] (taken within 1 … [`MAX_TESTS`]).
+    ///
+    /// Why: `n` tests, each with the noise drawn anew, average one test's scatter by `√n`
+    /// and bring the noise's share of the mean's residual, `fitness / n`, down to the
+    /// model's own mismatch at that `n`; beyond it the mean's error is the model's, which
+    /// more tests do not reduce. A fitness at or below the mismatch calls for one test, a
+    /// calibration without a mismatch (0) for the most; NaN for one. O(1).
+    pub fn tests_called_for(&self, fitness: f32) -> u32 {
+        let max = self.max_tests.clamp(1, MAX_TESTS);
+        let nominal = self.calibration.nominal_residual;
+        if fitness.is_nan() || fitness <= nominal.max(0.0) {
+            return 1;
+        }
+        if nominal <= 0.0 {
+            return max;
+        }
+        let ratio = fitness / nominal;
+        if ratio >= max as f32 {
+            return max;
+        }
+        // 1 < ratio < max here.
+        let whole = ratio as u32;
+        let n = if (whole as f32) < ratio {
+            whole + 1
+        } else {
+            whole
+        };
+        n.clamp(1, max)
+    }
 
     /// The record's bytes. Validate first: encoding does not check ranges.
     pub fn encode(&self) -> [u8; RECORD_BYTES] {
@@ -342,6 +392,7 @@ impl ActuatorRecord {
         w.f32(self.systematic.gain_drift);
         w.f32(self.systematic.play_gain_drift);
         w.f32(self.systematic.gear_temperature_spread);
+        w.u32(self.max_tests);
         let mut crc = Crc32::new();
         crc.update(w.out.get(..RECORD_BYTES - 4).unwrap_or(&[]));
         w.bytes(&crc.finish().to_le_bytes());
@@ -532,6 +583,7 @@ impl ActuatorRecord {
         if version >= 10 {
             systematic.gear_temperature_spread = r.f32();
         }
+        let max_tests = if version >= 11 { r.u32() } else { 1 };
         let ga = GaSettings {
             max_evaluations,
             max_generations,
@@ -566,6 +618,7 @@ impl ActuatorRecord {
             },
             detection_threshold,
             systematic,
+            max_tests,
         };
         record.validate()?;
         Ok(record)
@@ -655,7 +708,11 @@ impl ActuatorRecord {
             n as f32 == p.pole_pairs
         };
         let v = &self.drive;
-        let others: [(bool, RecordField); 22] = [
+        let others: [(bool, RecordField); 23] = [
+            (
+                (1..=MAX_TESTS).contains(&self.max_tests),
+                RecordField::TestMaxTests,
+            ),
             (
                 t.standstill.is_none_or(|s| {
                     s.frequency.is_finite()

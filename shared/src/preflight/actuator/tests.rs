@@ -121,8 +121,10 @@ fn a_version_4_record_reads_with_the_typical_drive() {
     assert_eq!(r.polish, custom.polish);
     // A compensation word other than 0 or 1, re-sealed: refused, not read as "on".
     let mut flag = v6;
-    let at =
-        RECORD_BYTES - 4 - 12 - 4 * (GREASE_WORDS + NINTH_WORDS + SYSTEMATIC_WORDS + SPREAD_WORDS);
+    let at = RECORD_BYTES
+        - 4
+        - 12
+        - 4 * (GREASE_WORDS + NINTH_WORDS + SYSTEMATIC_WORDS + SPREAD_WORDS + TESTS_WORDS);
     flag[at..at + 4].copy_from_slice(&7u32.to_le_bytes());
     let mut crc = Crc32::new();
     crc.update(&flag[..RECORD_BYTES - 4]);
@@ -206,6 +208,71 @@ fn a_version_9_record_reads_with_the_gearbox_at_the_thermistors_temperature() {
             field: RecordField::UncertaintyGearTemperatureSpread
         })
     );
+}
+
+#[test]
+fn a_version_10_record_reads_as_one_test_a_preflight() {
+    let custom = ActuatorRecord {
+        max_tests: 4,
+        ..ActuatorRecord::REFERENCE
+    };
+    let v11 = custom.encode();
+    assert_eq!(ActuatorRecord::decode(&v11), Ok(custom));
+    let v10 = older_record(10, &v11[8..8 + 4 * BODY_WORDS_V10]);
+    assert_eq!(v10.len(), RECORD_BYTES_V10);
+    assert_eq!(ActuatorRecord::decode(&v10), Ok(ActuatorRecord::REFERENCE));
+    for max_tests in [0, MAX_TESTS + 1] {
+        let bad = ActuatorRecord {
+            max_tests,
+            ..custom
+        };
+        assert_eq!(
+            ActuatorRecord::decode(&bad.encode()),
+            Err(ActuatorRecordError::OutOfRange {
+                field: RecordField::TestMaxTests
+            })
+        );
+    }
+}
+
+#[test]
+fn the_noise_calls_for_tests_by_its_share_of_the_residual() {
+    let with = |max_tests, nominal_residual| ActuatorRecord {
+        max_tests,
+        calibration: Calibration {
+            nominal_residual,
+            ..Calibration::REFERENCE_ACTUATOR
+        },
+        ..ActuatorRecord::REFERENCE
+    };
+    let nominal = 0.0139;
+    let four = with(4, nominal);
+    assert_eq!(four.tests_called_for(0.001), 1, "noise-free");
+    assert_eq!(four.tests_called_for(nominal), 1, "at the mismatch");
+    assert_eq!(four.tests_called_for(0.015), 2);
+    assert_eq!(four.tests_called_for(2.0 * nominal), 2, "a whole ratio");
+    assert_eq!(four.tests_called_for(0.03), 3);
+    assert_eq!(four.tests_called_for(0.06), 4, "capped");
+    assert_eq!(four.tests_called_for(f32::NAN), 1);
+    assert_eq!(four.tests_called_for(f32::INFINITY), 4);
+    assert_eq!(with(8, nominal).tests_called_for(0.06), 5);
+    assert_eq!(
+        with(1, nominal).tests_called_for(0.06),
+        1,
+        "one test allowed"
+    );
+    assert_eq!(
+        with(0, nominal).tests_called_for(0.06),
+        1,
+        "0 reads as one test"
+    );
+    assert_eq!(with(100, nominal).tests_called_for(9.0), MAX_TESTS);
+    assert_eq!(
+        with(4, 0.0).tests_called_for(0.01),
+        4,
+        "no mismatch to reach"
+    );
+    assert_eq!(ActuatorRecord::REFERENCE.tests_called_for(0.06), 1);
 }
 
 #[test]
@@ -383,10 +450,10 @@ fn header_errors_are_named() {
         Err(ActuatorRecordError::TooShort { found: 100 })
     );
     let mut other = bytes;
-    other[4] = 11;
+    other[4] = 12;
     assert_eq!(
         ActuatorRecord::decode(&other),
-        Err(ActuatorRecordError::UnsupportedVersion { found: 11 })
+        Err(ActuatorRecordError::UnsupportedVersion { found: 12 })
     );
     let mut other = bytes;
     other[0] = b'X';
