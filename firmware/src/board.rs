@@ -56,7 +56,7 @@ use firmware::flight::{
     print_window_bits, read_window, CommandedSource, FlightCommand, KeptCommand, Scratch, Slices,
     WindowAcquisition, WindowOutcome, WindowRead, MAX_WINDOWS,
 };
-use firmware::health::{record_entry, record_preflight};
+use firmware::health::{preflight_flight, record_entry, test_record};
 use firmware::position_loop::Sensing;
 use firmware::sequencer::{Sequenced, TestSequencer};
 use firmware::storage::{AbStore, StorageLayout};
@@ -489,7 +489,7 @@ async fn preflight(spawner: Spawner) -> Result<(), Stop> {
         return Err(Stop::StartUp);
     };
     let (record, timing, mut hw) = start()?;
-    let curvature = scratch.curvature().ok_or(Stop::StartUp)?;
+    let (curvature, tests) = scratch.curvature().ok_or(Stop::StartUp)?;
     let layout = StorageLayout::STM32F405;
     let params = record.params;
     let settings = PreflightSettings::ONBOARD.for_actuator(&record);
@@ -507,7 +507,10 @@ async fn preflight(spawner: Spawner) -> Result<(), Stop> {
     // No GA checkpoint here: a power cut re-runs the test, and a checkpoint resumes only on
     // the same measured test (its fingerprint), which the board does not keep in flash.
     // A test whose load moved (a gust on the parked surface) is run again, a bounded number
-    // of times (`Reruns`).
+    // of times (`Reruns`). Where the first read test's noise calls for more
+    // (`ActuatorRecord::tests_called_for`, at most the record's `max_tests`), the test is
+    // played again and each reading added to the preflight's record; the flight's windows
+    // hold the last test's reading.
     let mut reruns = Reruns::new();
     let mut converter = Converter::new(SensorScaling::REFERENCE_BOARD);
     let (report, day) = loop {
@@ -539,13 +542,24 @@ async fn preflight(spawner: Spawner) -> Result<(), Stop> {
             // the other tasks' turns must stay short.
             yield_now().await;
         };
-        if !reruns.again(&report) {
-            break (report, RecordedDay::of(preflight.day()));
+        let day = RecordedDay::of(preflight.day());
+        if reruns.again(&report) {
+            defmt::println!(
+                "test {=u8} spoiled: {}; run again",
+                reruns.tests(),
+                report.domain
+            );
+            continue;
+        }
+        tests.add(&test_record(0, &report, day));
+        let (played, called) = (tests.played(), tests.called_for(&settings.actuator));
+        if played >= called {
+            break (report, day);
         }
         defmt::println!(
-            "test {=u8} spoiled: {}; run again",
-            reruns.tests(),
-            report.domain
+            "test {=u32} of {=u32}: the noise calls for more",
+            played,
+            called
         );
     };
 
@@ -576,7 +590,14 @@ async fn preflight(spawner: Spawner) -> Result<(), Stop> {
         if let Some(len) = pair.read(store.as_bytes_mut()).map_err(|_| Stop::Flash)? {
             store.upgrade_read(len);
         }
-        let update = match record_preflight(store, None, &report, day, &TrendSettings::DEFAULT) {
+        let entry = |newest| {
+            let mut r = tests
+                .reading()
+                .unwrap_or_else(|| test_record(0, &report, day));
+            r.flight = preflight_flight(None, newest);
+            r
+        };
+        let update = match record_entry(store, entry, &TrendSettings::DEFAULT) {
             Ok(u) => u,
             Err(e) => {
                 defmt::error!("health record not appended: {}", e);

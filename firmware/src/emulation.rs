@@ -1,15 +1,17 @@
 //! Emulation glue (QEMU with semihosting): the command line and the trace file on the host.
 //!
-//! `cargo fw -- TRACE.bin [--actuator RECORD] [--seed N] [--checkpoint FILE [--stop-after N]]
-//! [--health FILE [--flight N]] [--window W.bin ...]`: the runner (`firmware/qemu-run`) passes the ELF path and these arguments
+//! `cargo fw -- TRACE.bin [--again T.bin ...] [--actuator RECORD] [--seed N] [--checkpoint FILE
+//! [--stop-after N]] [--health FILE [--flight N]] [--window W.bin ...]`: the runner (`firmware/qemu-run`) passes the ELF path and these arguments
 //! through QEMU's semihosting command line; the trace is read with SYS_OPEN / SYS_FLEN /
 //! SYS_READ, one row (24 B) per read. The checkpoint file stands in for the flash page that
 //! keeps the GA record across a power loss; the health file for the flash that keeps the
-//! health log (the RAM store's image, `ONBOARD_RECORDS` × 76 bytes, or × 68 / × 52 for
-//! versions 2 and 1); the actuator file for the flash sector that holds the actuator record
-//! (`host-sim actuator`, 472 bytes); each `--window` file (up to [`MAX_WINDOWS`], a window of
+//! health log (the RAM store's image, `ONBOARD_RECORDS` × 84 bytes, or an older version's
+//! slots); the actuator file for the flash sector that holds the actuator record
+//! (`host-sim actuator`, 492 bytes); each `--window` file (up to [`MAX_WINDOWS`], a window of
 //! flight from `host-sim simulate --flight … --format bin`) for a window the flight's
-//! control loop recorded after this preflight. The command line is split at blanks (QEMU joins its
+//! control loop recorded after this preflight; each `--again` file (up to [`MAX_AGAIN`]) for
+//! the same preflight's test played again, its noise drawn anew, read where the noise calls
+//! for it (`ActuatorRecord::tests_called_for`). The command line is split at blanks (QEMU joins its
 //! `arg=`s with spaces): paths cannot hold one.
 
 use core::ffi::CStr;
@@ -32,6 +34,10 @@ const CMDLINE_BYTES: usize = 1024;
 /// Windows of flight one run reads at most (`--window`, repeatable): a flight of eight.
 pub use firmware::flight::MAX_WINDOWS;
 
+/// Tests played again one run reads at most (`--again`, repeatable): the most tests a
+/// preflight plays, the first one aside.
+pub const MAX_AGAIN: usize = shared::actuator::MAX_TESTS as usize - 1;
+
 /// What the command line asked for.
 pub struct Command {
     paths: Paths,
@@ -41,6 +47,8 @@ pub struct Command {
     actuator: Option<u16>,
     windows: [u16; MAX_WINDOWS],
     window_count: usize,
+    again: [u16; MAX_AGAIN],
+    again_count: usize,
     pub seed: Option<u64>,
     /// `--flight N`: the flight index of this preflight's health record (default: one after
     /// the newest in the log).
@@ -68,7 +76,7 @@ pub enum UsageError {
     PathTooLong,
     /// `--seed` without a number, or an unknown option.
     BadOption,
-    /// More than [`MAX_WINDOWS`] `--window`s.
+    /// More than [`MAX_WINDOWS`] `--window`s, or more than [`MAX_AGAIN`] `--again`s.
     TooManyWindows,
 }
 
@@ -96,6 +104,8 @@ impl Command {
         let mut flight = None;
         let mut windows = [0u16; MAX_WINDOWS];
         let mut window_count = 0;
+        let mut again = [0u16; MAX_AGAIN];
+        let mut again_count = 0;
         while let Some(word) = words.next() {
             let mut value = || option_value(&mut words);
             let number32 = |w: &[u8]| u32::try_from(number(w)?).map_err(|_| UsageError::BadOption);
@@ -106,13 +116,8 @@ impl Command {
                 b"--actuator" => actuator = Some(paths.push(value()?)?),
                 b"--health" => health = Some(paths.push(value()?)?),
                 b"--checkpoint" => checkpoint = Some(paths.push(value()?)?),
-                b"--window" => {
-                    let at = paths.push(value()?)?;
-                    *windows
-                        .get_mut(window_count)
-                        .ok_or(UsageError::TooManyWindows)? = at;
-                    window_count += 1;
-                }
+                b"--window" => append(&mut windows, &mut window_count, paths.push(value()?)?)?,
+                b"--again" => append(&mut again, &mut again_count, paths.push(value()?)?)?,
                 b"--crash" => {
                     crash = match value()? {
                         b"panic" => Some(Crash::Panic),
@@ -144,6 +149,8 @@ impl Command {
             actuator,
             windows,
             window_count,
+            again,
+            again_count,
             seed,
             flight,
             stop_after,
@@ -172,6 +179,14 @@ impl Command {
         self.windows
             .iter()
             .take(self.window_count)
+            .map(|&at| self.paths.get(at))
+    }
+
+    /// The `--again` files (the same test played again), in the order given.
+    pub fn again_paths(&self) -> impl Iterator<Item = &CStr> {
+        self.again
+            .iter()
+            .take(self.again_count)
             .map(|&at| self.paths.get(at))
     }
 
@@ -210,6 +225,13 @@ impl Paths {
             .and_then(|b| CStr::from_bytes_until_nul(b).ok())
             .unwrap_or(c"")
     }
+}
+
+/// Appends the path stored at `at` to `list`, of which `count` are taken.
+fn append(list: &mut [u16], count: &mut usize, at: u16) -> Result<(), UsageError> {
+    *list.get_mut(*count).ok_or(UsageError::TooManyWindows)? = at;
+    *count += 1;
+    Ok(())
 }
 
 /// The word after an option (`--seed N`): missing is a usage error.

@@ -28,6 +28,7 @@ use shared::fdi::{OnboardMeasured, POPULATION, TEST_SAMPLES};
 use shared::fitness::CurvatureRun;
 use shared::fusion::WindowFusion;
 use shared::ga::GaError;
+use shared::repeat::RepeatedTests;
 use shared::test_design::PreflightTest;
 use shared::window::{
     fusable, identify_stepwise, window_ga, HeldComponents, WindowError, WindowLimits, WindowLoad,
@@ -84,38 +85,42 @@ impl KeptCommand {
     }
 }
 
-/// The preflight's uncertainty runs and a window's kept command in one buffer: a flight's
-/// windows are read after its preflight, never during it, so the two share the RAM
-/// (4.5 kB + 5.5 kB in one 5.5 kB buffer).
+/// The preflight's uncertainty runs (with its repeated tests' record, when the noise calls
+/// for more than one test) and a window's kept command in one buffer: a flight's windows are
+/// read after its preflight, never during it, so the two share the RAM (4.5 kB + 5.5 kB in
+/// one 5.5 kB buffer).
 #[allow(clippy::large_enum_variant)] // both are large: the point is that they share
 pub enum Scratch {
-    Curvature(CurvatureRun),
+    Curvature(CurvatureRun, RepeatedTests),
     Command(KeptCommand),
 }
 
 impl Scratch {
-    pub const IDLE: Self = Self::Curvature(CurvatureRun::IDLE);
+    pub const IDLE: Self = Self::Curvature(CurvatureRun::IDLE, RepeatedTests::EMPTY);
 
-    /// The buffer as the preflight's uncertainty runs (idle runs if it held a command).
-    /// Never `None`.
-    pub fn curvature(&mut self) -> Option<&mut CurvatureRun> {
+    /// The buffer as the preflight's uncertainty runs and its tests' record, none yet (idle
+    /// runs if it held a command). Never `None`.
+    pub fn curvature(&mut self) -> Option<(&mut CurvatureRun, &mut RepeatedTests)> {
         if let Self::Command(_) = self {
             *self = Self::IDLE;
         }
         match self {
-            Self::Curvature(c) => Some(c),
+            Self::Curvature(c, tests) => {
+                *tests = RepeatedTests::EMPTY;
+                Some((c, tests))
+            }
             Self::Command(_) => None,
         }
     }
 
     /// The buffer as a window's kept command (empty if it held the runs). Never `None`.
     pub fn command(&mut self) -> Option<&mut KeptCommand> {
-        if let Self::Curvature(_) = self {
+        if let Self::Curvature(..) = self {
             *self = Self::Command(KeptCommand::EMPTY);
         }
         match self {
             Self::Command(k) => Some(k),
-            Self::Curvature(_) => None,
+            Self::Curvature(..) => None,
         }
     }
 }

@@ -64,7 +64,19 @@ pub fn preflight_entry(
     report: &Report,
     day: RecordedDay,
 ) -> HealthRecord {
-    let flight = flight.unwrap_or_else(|| newest.map_or(0, |n| n.flight.saturating_add(1)));
+    test_record(preflight_flight(flight, newest), report, day)
+}
+
+/// The flight a preflight's record is of: `flight`, or one after the store's `newest` (0 for
+/// an empty store). O(1).
+pub fn preflight_flight(flight: Option<u32>, newest: Option<Newest>) -> u32 {
+    flight.unwrap_or_else(|| newest.map_or(0, |n| n.flight.saturating_add(1)))
+}
+
+/// The record of one test's `report` on `day` as flight `flight`: what a preflight of one test
+/// logs, and what each of a repeated preflight's tests adds to its mean
+/// (`shared::repeat::RepeatedTests`). O(1).
+pub fn test_record(flight: u32, report: &Report, day: RecordedDay) -> HealthRecord {
     HealthRecord::new(
         flight,
         report.result.faults,

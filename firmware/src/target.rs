@@ -20,7 +20,7 @@ use firmware::flight::{
     WindowAcquisition, WindowOutcome, WindowRead, WindowReadError, WindowStage,
     WINDOW_FRAMES_PER_POLL,
 };
-use firmware::health::{preflight_entry, record_entry};
+use firmware::health::{preflight_flight, record_entry, test_record};
 use firmware::{Preflight, PreflightSettings, Progress, Report, Stage, TraceSource};
 use shared::conditions::TestConditions;
 use shared::domain::Domain;
@@ -161,20 +161,11 @@ async fn preflight(spawner: Spawner) -> i32 {
     }
     let path = command.trace_path();
     let path_text = path.to_bytes();
-    let file = match HostFile::open(path) {
-        Ok(f) => f,
-        Err(e) => {
-            defmt::error!("cannot read trace {=[u8]:a}: {}", path_text, e);
-            return status::BAD_TRACE;
-        }
-    };
-    let source = match TraceSource::open(file) {
+    let source = match open_trace(path) {
         Ok(s) => s,
-        Err(e) => {
-            defmt::error!("trace {=[u8]:a} refused: {}", path_text, e);
-            return status::BAD_TRACE;
-        }
+        Err(status) => return status,
     };
+    let test = source.header().test;
     // The actuator record (a flash sector on the controller; the --actuator file here), or
     // the built-in reference actuator with the test the trace says it played.
     let mut settings = PreflightSettings::ONBOARD;
@@ -198,7 +189,7 @@ async fn preflight(spawner: Spawner) -> i32 {
         defmt::error!("uncertainty buffer already in use");
         return status::START_UP;
     };
-    let Some(curvature) = scratch.curvature() else {
+    let Some((curvature, tests)) = scratch.curvature() else {
         return status::START_UP;
     };
     match heartbeat() {
@@ -217,12 +208,47 @@ async fn preflight(spawner: Spawner) -> i32 {
         settings.actuator.calibration.temperature
     );
 
-    let (report, observed, total_cycles, day) =
-        match run_preflight(&command, &settings, source, &mut *measured, curvature).await {
-            Ok(done) => done,
+    // The test, and where its noise calls for more (`ActuatorRecord::tests_called_for`) the
+    // same test played again (`--again`), each reading added to the preflight's record. One
+    // call site: the identification's future is polled from one place. The flight's windows
+    // hold the last test's reading (the host's evaluation alike): no earlier report is kept
+    // across a test.
+    let mut again = command.again_paths();
+    let mut source = source;
+    let (report, day) = loop {
+        let checkpoint = command.checkpoint_path().filter(|_| tests.played() == 0);
+        let (report, observed, total_cycles, day) =
+            match run_preflight(&command, checkpoint, &settings, source, measured, curvature).await
+            {
+                Ok(done) => done,
+                Err(status) => return status,
+            };
+        print_report(&report, &settings.actuator.params, &observed, total_cycles);
+        let day = RecordedDay::of(&day);
+        tests.add(&test_record(0, &report, day));
+        let called = tests.called_for(&settings.actuator);
+        let Some(path) = again.next().filter(|_| tests.played() < called) else {
+            break (report, day);
+        };
+        source = match open_trace(path) {
+            Ok(s) if s.header().test == test => s,
+            Ok(_) => {
+                defmt::error!("--again {=[u8]:a}: another test", path.to_bytes());
+                return status::BAD_TRACE;
+            }
             Err(status) => return status,
         };
-    print_report(&report, &settings.actuator.params, &observed, total_cycles);
+    };
+    let called = tests.called_for(&settings.actuator);
+    if called > 1 {
+        defmt::println!(
+            "tests called_for={=u32} played={=u32} averaged={=u32}",
+            called,
+            tests.played(),
+            tests.trusted()
+        );
+    }
+    let reading = tests.reading();
     // The health log (a flash sector on the controller; the --health file here): this
     // preflight's record, then, after the flight's windows, their reading.
     let mut log = None;
@@ -231,8 +257,11 @@ async fn preflight(spawner: Spawner) -> i32 {
             defmt::error!("health store already in use");
             return status::START_UP;
         };
-        let day = RecordedDay::of(&day);
-        let entry = |newest| preflight_entry(command.flight, newest, &report, day);
+        let entry = |newest| {
+            let mut r = reading.unwrap_or_else(|| test_record(0, &report, day));
+            r.flight = preflight_flight(command.flight, newest);
+            r
+        };
         match record_health(path, store, &entry) {
             Ok(flight) => log = Some((path, store, flight)),
             Err(status) => return status,
@@ -250,14 +279,15 @@ async fn preflight(spawner: Spawner) -> i32 {
 /// the same task. `Err` is the exit status.
 async fn run_preflight(
     command: &Command,
+    checkpoint: Option<&CStr>,
     settings: &PreflightSettings,
     source: TraceSource<HostFile>,
     measured: &mut OnboardMeasured,
     curvature: &mut CurvatureRun,
 ) -> Result<(Report, Observed, u64, TestConditions), i32> {
     // The GA record (the flash page on the controller; the --checkpoint file here), read when
-    // the identification starts and written every `CHECKPOINT_EVERY` evaluations.
-    let checkpoint = command.checkpoint_path();
+    // the identification starts and written every `CHECKPOINT_EVERY` evaluations; none for
+    // a test played again.
     let mut next_checkpoint = CHECKPOINT_EVERY;
 
     let started = cycles();
@@ -602,6 +632,20 @@ fn preflight_settings(
         settings.seed = seed;
     }
     Ok(())
+}
+
+/// The trace file at `path`, opened and its header read; `Err` the exit status, the reason
+/// reported.
+fn open_trace(path: &CStr) -> Result<TraceSource<HostFile>, i32> {
+    let name = path.to_bytes();
+    let file = HostFile::open(path).map_err(|e| {
+        defmt::error!("cannot read trace {=[u8]:a}: {}", name, e);
+        status::BAD_TRACE
+    })?;
+    TraceSource::open(file).map_err(|e| {
+        defmt::error!("trace {=[u8]:a} refused: {}", name, e);
+        status::BAD_TRACE
+    })
 }
 
 /// The preflight this image runs: frames from a trace file on the host.

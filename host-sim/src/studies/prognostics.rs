@@ -311,7 +311,7 @@ const REPEAT_STREAM: u64 = 0x9e37_79b9_7f4a_7c15;
 /// One record of a preflight whose test was played `readings.len()` times
 /// (`shared::repeat::RepeatedTests`, the controller's).
 pub fn repeated_reading(readings: &[HealthRecord]) -> HealthRecord {
-    let mut tests = shared::repeat::RepeatedTests::NEW;
+    let mut tests = shared::repeat::RepeatedTests::EMPTY;
     for r in readings {
         tests.add(r);
     }
@@ -389,15 +389,12 @@ pub fn degrade(
             };
             let (id, domain, mut record) = test(&model, rm_seed)?;
             // As the controller: the tests the first one's noise calls for, at most `repeat`.
-            let tests = if record.is_trusted() {
-                ActuatorRecord {
-                    max_tests: u32::from(repeat),
-                    ..ActuatorRecord::REFERENCE
-                }
-                .tests_called_for(record.fitness)
-            } else {
-                1
-            };
+            let mut first = shared::repeat::RepeatedTests::EMPTY;
+            first.add(&record);
+            let tests = first.called_for(&ActuatorRecord {
+                max_tests: u32::from(repeat),
+                ..ActuatorRecord::REFERENCE
+            });
             if tests > 1 {
                 let mut readings = vec![record];
                 for j in 1..u64::from(tests) {

@@ -87,6 +87,10 @@ impl FaultVector {
     /// The healthy actuator (eccentricity phase 0.5 by convention, gain drift 0.5 = no drift).
     pub const NOMINAL: Self = Self([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]);
 
+    /// Every component 0, every byte zero: a buffer's idle state (a gain drift of 0 is not
+    /// the healthy actuator's, see [`Self::NOMINAL`]).
+    pub(crate) const ZEROED: Self = Self([0.0; FAULT_COUNT]);
+
     /// The paper's eight components with no demagnetization (a record of the
     /// eight-component versions). Checked as [`new`](Self::new).
     pub fn from_paper(k: [f32; PAPER_FAULT_COUNT]) -> Result<Self, FaultVectorError> {

@@ -225,7 +225,8 @@ impl ComponentStd {
     pub const UNKNOWN: Self = Self([u16::MAX; FAULT_COUNT]);
 
     /// `std` rounded to what is stored (NaN or negative: not determined; beyond 0.99997:
-    /// 0.99997).
+    /// 0.99997). Out of line (flash).
+    #[inline(never)]
     pub fn new(std: [f32; FAULT_COUNT]) -> Self {
         Self(std.map(|s| {
             if s.is_nan() || s < 0.0 {
@@ -418,8 +419,29 @@ pub enum HealthRecordError {
 }
 
 impl HealthRecord {
+    /// Every byte zero: a buffer's idle state, not a reading (its bus, temperature and
+    /// deviations read 0, not "unknown").
+    pub(crate) const ZEROED: Self = Self {
+        flight: 0,
+        faults: FaultVector::ZEROED,
+        fitness: 0.0,
+        domain: DomainCode::Within,
+        detected: 0,
+        std: ComponentStd([0; FAULT_COUNT]),
+        day: RecordedDay {
+            bus: 0,
+            temperature: 0,
+            winding_rise: 0,
+        },
+        window: 0,
+        fused: 0,
+        magnet: RecordedMagnet::NONE,
+    };
+
     /// The record of one preflight: `detected` follows from the fault vector; no standard
-    /// deviation (see [`Self::with_std`]).
+    /// deviation (see [`Self::with_std`]). Out of line: the controller builds records in
+    /// several places (flash).
+    #[inline(never)]
     pub fn new(flight: u32, faults: FaultVector, fitness: f32, domain: Domain) -> Self {
         let mut detected = 0u16;
         for (i, v) in faults.verdicts().iter().enumerate() {

@@ -11,6 +11,7 @@
 //! and per reading. Host and controller alike, bit for bit.
 
 use crate::physics::fault::{FaultVector, ECCENTRICITY_PHASE_INDEX, FAULT_COUNT};
+use crate::preflight::actuator::ActuatorRecord;
 use crate::prognostics::health::HealthRecord;
 
 /// The records of one preflight's tests, added as they are played, and the one record they
@@ -22,7 +23,9 @@ use crate::prognostics::health::HealthRecord;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RepeatedTests {
     /// The first test's record, then (from the first trusted test) the first trusted one's.
-    first: Option<HealthRecord>,
+    first: HealthRecord,
+    /// Tests added.
+    played: u32,
     /// Trusted tests added.
     trusted: u32,
     /// Sum of the trusted tests' components.
@@ -34,25 +37,28 @@ pub struct RepeatedTests {
 }
 
 impl RepeatedTests {
-    /// No test yet.
-    pub const NEW: Self = Self {
-        first: None,
+    /// No test yet; every byte zero (a buffer of the controller's `.bss`).
+    pub const EMPTY: Self = Self {
+        first: HealthRecord::ZEROED,
+        played: 0,
         trusted: 0,
         sum: [0.0; FAULT_COUNT],
         variance: [0.0; FAULT_COUNT],
         fitness: 0.0,
     };
 
-    /// Adds one test's record (of the same flight). O([`FAULT_COUNT`]).
+    /// Adds one test's record (of the same flight). O([`FAULT_COUNT`]). Out of line.
+    #[inline(never)]
     pub fn add(&mut self, record: &HealthRecord) {
+        if self.played == 0 {
+            self.first = *record;
+        }
+        self.played = self.played.saturating_add(1);
         if !record.is_trusted() {
-            if self.first.is_none() {
-                self.first = Some(*record);
-            }
             return;
         }
         if self.trusted == 0 {
-            self.first = Some(*record);
+            self.first = *record;
         }
         self.trusted = self.trusted.saturating_add(1);
         let k = record.faults.as_array();
@@ -70,20 +76,47 @@ impl RepeatedTests {
         self.fitness += record.fitness;
     }
 
+    /// The tests this preflight's noise calls for, `actuator` its record: its first test's
+    /// call when that test is trusted ([`ActuatorRecord::tests_called_for`]), else one (a
+    /// test outside the monitor model's domain is not repeated). O(1).
+    pub fn called_for(&self, actuator: &ActuatorRecord) -> u32 {
+        if self.trusted == 0 {
+            1
+        } else {
+            actuator.tests_called_for(self.first.fitness)
+        }
+    }
+
+    /// Tests added.
+    pub fn played(&self) -> u32 {
+        self.played
+    }
+
     /// Trusted tests added.
     pub fn trusted(&self) -> u32 {
         self.trusted
     }
 
     /// The preflight's record ([`RepeatedTests`]); `None` before the first test.
-    /// O([`FAULT_COUNT`]).
+    /// O([`FAULT_COUNT`]). Out of line (the controller's flash).
+    #[inline(never)]
     pub fn reading(&self) -> Option<HealthRecord> {
-        let first = self.first?;
+        let first = self.first;
+        if self.played == 0 {
+            return None;
+        }
         if self.trusted <= 1 {
             return Some(first);
         }
         let n = self.trusted as f32;
-        let mut k = self.sum.map(|s| s / n);
+        let mut k = self.sum;
+        let mut std = self.variance;
+        for (k, std) in k.iter_mut().zip(std.iter_mut()) {
+            *k /= n;
+            if !std.is_nan() {
+                *std = crate::base::math::sqrt(*std / n / n);
+            }
+        }
         let phase = first.faults.as_array();
         if let (Some(to), Some(from)) = (
             k.get_mut(ECCENTRICITY_PHASE_INDEX),
@@ -91,13 +124,6 @@ impl RepeatedTests {
         ) {
             *to = *from;
         }
-        let std = self.variance.map(|v| {
-            if v.is_nan() {
-                f32::NAN
-            } else {
-                crate::base::math::sqrt(v / n / n)
-            }
-        });
         let mut record = HealthRecord::new(
             first.flight,
             FaultVector::saturating(k),
@@ -126,13 +152,13 @@ mod tests {
 
     #[test]
     fn repeated_tests_average_the_trusted_readings() {
-        let mut r = RepeatedTests::NEW;
-        assert_eq!(r.reading(), None);
         let outside = record(
             0.9,
             0.01,
             Domain::Outside(OutsideReason::NoMotion { travel: 0.0 }),
         );
+        let mut r = RepeatedTests::EMPTY;
+        assert_eq!(r.reading(), None);
         r.add(&outside);
         assert_eq!(
             r.reading(),
@@ -149,7 +175,7 @@ mod tests {
         let b = record(0.24, 0.02, Domain::Within);
         r.add(&b);
         r.add(&outside);
-        assert_eq!(r.trusted(), 2);
+        assert_eq!((r.played(), r.trusted()), (4, 2));
         let mean = r.reading().expect("a reading");
         assert!((mean.faults.as_array()[0] - 0.22).abs() < 1e-6, "{mean:?}");
         assert_eq!(
