@@ -394,6 +394,110 @@ fn weak_magnet_log() -> Vec<u8> {
     image
 }
 
+/// Friction 0.2 at 50 % I_ref noise, its test played four times (the noise drawn anew each
+/// time), on a record that allows three tests: the first test's noise calls for more than
+/// one (its fitness over the calibration's healthy mismatch), so the firmware reads the
+/// `--again` traces up to the record's three and leaves the fourth. The health log's record
+/// is the host's mean of the same three readings (`shared::repeat`), bit for bit, with byte
+/// 71 the tests averaged.
+#[test]
+fn a_noisy_preflight_under_qemu_plays_the_tests_its_noise_calls_for_with_the_hosts_mean() {
+    use shared::actuator::ActuatorRecord;
+    use shared::domain::DomainLimits;
+    use shared::health::{HealthRecord, RecordedDay};
+    use shared::repeat::RepeatedTests;
+    let record = ActuatorRecord {
+        max_tests: 3,
+        ..ActuatorRecord::REFERENCE
+    };
+    let record_path = temp_trace("repeat.rec", &record.encode());
+    let rm = ReferenceModel::new(ReferenceSettings::REFERENCE);
+    let mut host = RepeatedTests::EMPTY;
+    let mut paths = Vec::new();
+    for (n, seed) in [11u64, 12, 13, 14].into_iter().enumerate() {
+        let mut scenario = Scenario::new(
+            FaultVector::new([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]).expect("valid"),
+        );
+        scenario.seed = seed;
+        scenario.current_ref_noise = 0.5;
+        let trace = rm.simulate(&scenario).trace;
+        let bytes = trace.to_bin().expect("encodable");
+        paths.push(temp_trace(&format!("repeat-{n}.bin"), &bytes));
+        if n < 3 {
+            let measured = trace.measured(&record.params).expect("conditioned");
+            let id = host_sim::fdi::identify::identify_for(&measured, &record, 1, false)
+                .expect("host identification");
+            let domain = id.domain(
+                &trace.domain_monitor(&record.params),
+                &DomainLimits::REFERENCE_ACTUATOR,
+            );
+            host.add(
+                &HealthRecord::new(0, id.result.faults, id.result.fitness, domain)
+                    .with_std(
+                        id.uncertainty
+                            .map_or([f32::NAN; FAULT_COUNT], |(u, _)| u.std),
+                    )
+                    .with_day(RecordedDay::of(&id.conditions))
+                    .with_magnet(&id.result.magnets)
+                    .with_magnet_std(id.magnet_std()),
+            );
+        }
+    }
+    assert_eq!(
+        host.called_for(&record),
+        3,
+        "at 50 % noise the first test calls for more than the three allowed"
+    );
+    assert_eq!(host.trusted(), 3, "every test within");
+    let log_path = temp_trace("repeat-health.bin", &[]);
+    std::fs::remove_file(&log_path).expect("no log yet");
+    let path = |p: &PathBuf| p.to_str().expect("UTF-8 temp path").to_string();
+    let args = [
+        path(&paths[0]),
+        "--actuator".into(),
+        path(&record_path),
+        "--again".into(),
+        path(&paths[1]),
+        "--again".into(),
+        path(&paths[2]),
+        "--again".into(),
+        path(&paths[3]),
+        "--health".into(),
+        path(&log_path),
+    ];
+    let run = run_firmware(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert_eq!(run.status, 0, "firmware failed:\n{}", run.output);
+    assert_eq!(
+        number(&run.output, "tests ", "called_for"),
+        3,
+        "{}",
+        run.output
+    );
+    assert_eq!(
+        number(&run.output, "tests ", "played"),
+        3,
+        "the fourth left"
+    );
+    assert_eq!(number(&run.output, "tests ", "averaged"), 3);
+    assert_eq!(
+        run.output.matches("\nresult faults=").count(),
+        3,
+        "{}",
+        run.output
+    );
+    let image = std::fs::read(&log_path).expect("health log written");
+    let kept = HealthRecord::decode(&image).expect("the preflight's record in slot 0");
+    let mut expected = host.reading().expect("three tests");
+    expected.flight = 0;
+    assert_eq!(kept, expected);
+    assert_eq!(kept.fused, 3);
+    assert!(
+        (kept.faults.friction() - 0.2).abs() < 0.06,
+        "{:?}",
+        kept.faults
+    );
+}
+
 #[test]
 fn a_corrupted_trace_is_refused_with_a_non_zero_exit() {
     let mut bytes = faulty_trace().to_bin().expect("encodable");

@@ -34,7 +34,7 @@
 //! | 66..68 | the temperature it measured (i16, units of 0.01 °C); `8000`: not measured |
 //! | 68..70 | the winding's estimated rise from the calibration's temperature (i16, units of 0.01 K); `8000`: not estimated |
 //! | 70 | the test: 0 the preflight of flight `flight`; 1 ≤ n ≤ 254 the n-th window identified in that flight; 255 ([`FLIGHT_READING`]) the flight's reading from its windows ([`HealthRecord::window`]) |
-//! | 71 | a flight's reading: the windows fused into it ([`HealthRecord::fused`]); any other test: 0 |
+//! | 71 | a flight's reading: the windows fused into it ([`HealthRecord::fused`]); a preflight: the tests averaged into it where its noise called for more than one (`crate::prognostics::repeat`; 0: one test); a window's own entry: 0 |
 //! | 72..76 | k9, demagnetization (f32) |
 //! | 76..78 | its standard deviation (u16, as above) |
 //! | 78 | the weak magnet the test read ([`RecordedMagnet`]; for a window's entry and a flight's reading, the preflight's that the windows held): its depth in 255ths of its flux; 0: none |
@@ -54,7 +54,7 @@
 //! record reads as a preflight; a reader from before refuses an in-flight entry as a bad
 //! field rather than take it for a preflight. Byte 71 was reserved (0) before flights'
 //! readings: a reader from before them refuses one as a bad field rather than take it for a
-//! window.
+//! window, and a reader from before repeated tests refuses a preflight of several tests so.
 //!
 //! ## Slots
 //!
@@ -141,8 +141,9 @@ pub struct HealthRecord {
     /// ([`crate::prognostics::prognosis::FaultTrend::add`]); a window's own entry is kept for the record,
     /// its information is in its flight's reading.
     pub window: u8,
-    /// A flight's reading ([`FLIGHT_READING`]): the windows fused into it; 0 for any other
-    /// test.
+    /// A flight's reading ([`FLIGHT_READING`]): the windows fused into it; a preflight: the
+    /// tests averaged into it ([`crate::prognostics::repeat::RepeatedTests`]; 0: one test);
+    /// 0 for a window's own entry.
     pub fused: u8,
     /// The weak magnet the test read, as stored ([`RecordedMagnet::NONE`]: none, or a
     /// record before version 5).
@@ -683,7 +684,9 @@ impl HealthRecord {
             FaultVector::new(k),
             (
                 reserved,
-                window_reserved as u8 == FLIGHT_READING || window_reserved >> 8 == 0,
+                // Byte 71: a flight's reading's windows, a preflight's tests averaged (0 or 1:
+                // one), never a window's own entry's.
+                matches!(window_reserved as u8, 0 | FLIGHT_READING) || window_reserved >> 8 == 0,
             ),
             fitness.is_finite() && !centre_reserved,
         ) {

@@ -213,7 +213,8 @@ fn an_in_flight_entry_is_kept_in_byte_70_and_an_older_record_reads_as_a_prefligh
     let before = record(9, 0.2).encode();
     assert_eq!(before[70], 0);
     assert_eq!(HealthRecord::decode(&before).map(|r| r.window), Ok(0));
-    // Byte 71 is a flight's reading's only: a window's with it set is refused.
+    // Byte 71 is a flight's reading's and a repeated preflight's: a window's with it set is
+    // refused.
     let resealed = |mut b: EncodedRecord| {
         let mut crc = Crc32::new();
         crc.update(&b[..RECORD_BYTES - 4]);
@@ -226,6 +227,12 @@ fn an_in_flight_entry_is_kept_in_byte_70_and_an_older_record_reads_as_a_prefligh
         HealthRecord::decode(&resealed(b)),
         Err(HealthRecordError::BadField)
     );
+    // A preflight of four tests averaged: byte 70 0, byte 71 4.
+    let mut repeated = record(9, 0.2);
+    repeated.fused = 4;
+    let b = repeated.encode();
+    assert_eq!((b[70], b[71]), (0, 4));
+    assert_eq!(HealthRecord::decode(&b), Ok(repeated));
     // A flight's reading: byte 70 255, byte 71 the windows fused.
     let flight = record(9, 0.2).flight_reading(6);
     let bytes = flight.encode();
@@ -386,8 +393,9 @@ fn version_3_keeps_the_day() {
         (none.bus_voltage(), none.temperature(), none.winding_rise()),
         (None, None, None)
     );
-    // The reserved byte must stay 0 (CRC made good again); byte 70 is the window now.
-    let mut b = r.encode();
+    // Byte 71 must stay 0 on a window's own entry (CRC made good again); byte 70 is the
+    // window now.
+    let mut b = r.in_flight(2).encode();
     b[71] = 1;
     let mut crc = Crc32::new();
     crc.update(&b[..RECORD_BYTES - 4]);
