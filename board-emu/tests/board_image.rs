@@ -568,6 +568,90 @@ fn a_test_a_gust_spoiled_is_run_again_and_read_in_still_air() {
     );
 }
 
+#[test]
+fn where_its_first_reading_calls_for_more_the_board_plays_its_test_again_and_logs_the_hosts_mean() {
+    // Friction 0.4 on three days in still air, a record that allows three tests. The board's
+    // first reading leaves more current unexplained than the calibration's healthy mismatch
+    // (its own coarse sensors, which the reference actuator's calibration does not hold), so
+    // the rule calls for a second test; the mean of the two is logged.
+    use shared::domain::DomainLimits;
+    use shared::health::RecordedDay;
+    use shared::repeat::RepeatedTests;
+    let record = ActuatorRecord {
+        max_tests: 3,
+        ..ActuatorRecord::REFERENCE
+    };
+    let truth = FaultVector::new([0.4, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]).unwrap();
+    let still = ReferenceModel::new(ReferenceSettings::REFERENCE).with_test(record.test);
+    let day = |seed: u64| Scenario {
+        seed,
+        ..Scenario::new(truth)
+    };
+    let plant = ReferenceOnPins::new(still, day(0))
+        .then(still, day(1))
+        .then(still, day(2));
+    let mut flash = FlashInterface::new();
+    flash
+        .load(
+            Store::Record.address(),
+            &pair_image(&record.encode()).expect("a pair image"),
+        )
+        .expect("in the data sectors");
+    let mut board = Board::new(board_elf(), flash, Box::new(plant)).unwrap();
+    let end = board.run(9_000_000_000).unwrap();
+    assert!(matches!(end, RunEnd::Asleep { .. }), "{end:?}");
+    let log = decoded(&board.log);
+    let frames = TestSequencer::new(record.test, record.params.control_period).samples();
+    let fed = &board.frames.fed;
+    // The host's reading of each test the board played, from the frames it was fed.
+    let mut host = RepeatedTests::EMPTY;
+    let mut tests = 0;
+    while host.played() < host.called_for(&record) {
+        let at = tests * frames;
+        assert!(fed.len() >= at + frames, "{} frames fed:\n{log}", fed.len());
+        let trace = board_emu::feed::fed_trace(&fed[at..], &record, frames).unwrap();
+        let measured = trace.measured(&record.params).expect("conditioned");
+        let id = host_sim::fdi::identify::identify_for(&measured, &record, 1, false).unwrap();
+        let domain = id.domain(
+            &trace.domain_monitor(&record.params),
+            &DomainLimits::REFERENCE_ACTUATOR,
+        );
+        host.add(
+            &HealthRecord::new(0, id.result.faults, id.result.fitness, domain)
+                .with_std(
+                    id.uncertainty
+                        .map_or([f32::NAN; shared::FAULT_COUNT], |(u, _)| u.std),
+                )
+                .with_day(RecordedDay::of(&id.conditions))
+                .with_magnet(&id.result.magnets)
+                .with_magnet_std(id.magnet_std()),
+        );
+        tests += 1;
+    }
+    let called = host.called_for(&record);
+    assert!(
+        called >= 2,
+        "the board's first reading calls for {called}:\n{log}"
+    );
+    assert!(
+        log.contains(&format!("test 1 of {called}: the noise calls for more")),
+        "{log}"
+    );
+    let plant = board
+        .plant::<ReferenceOnPins>()
+        .expect("the reference model");
+    assert_eq!(plant.driven, called, "tests the reference model played");
+    // The health log's record is the host's mean of the same tests, bit for bit.
+    let image = newest_item(&health_dump(&board.bus.borrow()))
+        .expect("a pair")
+        .expect("an item");
+    let kept = HealthRecord::decode(&image).expect("the preflight's record in slot 0");
+    let mut expected = host.reading().expect("tests");
+    expected.flight = 0;
+    assert_eq!(kept, expected, "{log}");
+    assert_eq!(u32::from(kept.fused), host.trusted());
+}
+
 /// The value of `key=` in the log line starting with `prefix`.
 fn field<'a>(log: &'a str, prefix: &str, key: &str) -> &'a str {
     let line = log
