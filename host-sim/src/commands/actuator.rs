@@ -22,6 +22,11 @@ pub(crate) fn actuator_command(file: &Path, out: Option<&Path>) -> Result<()> {
         p.control_period
     );
     println!(
+        "tests          at most {} a preflight, as many as its noise calls for (⌈fitness / \
+         the calibration's nominal residual⌉; [test] max_tests)",
+        r.max_tests
+    );
+    println!(
         "calibration    {}",
         if actuator.calibrated {
             format!("{:?}", r.calibration)

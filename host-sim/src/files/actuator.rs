@@ -1400,6 +1400,17 @@ mod tests {
         assert!(e.contains("mechanics.motor_inertia"), "{e}");
         let e = refusal(&reference_text().replace("pole_pairs = 4", "pole_pairs = 4.5"));
         assert!(e.contains("motor.pole_pairs"), "{e}");
+        // The most tests a preflight plays: 1 … 8, absent 1.
+        let with =
+            |n: &str| reference_text().replace("# max_tests = 4", &format!("max_tests = {n}"));
+        let e = refusal(&with("9"));
+        assert!(
+            e.contains("test.max_tests") && e.contains("from 1 to 8"),
+            "{e}"
+        );
+        let four = Actuator::parse(&with("4")).unwrap();
+        assert_eq!(four.record.max_tests, 4);
+        assert_eq!(Actuator::reference().record.max_tests, 1);
     }
 
     #[test]
