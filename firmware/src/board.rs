@@ -513,7 +513,7 @@ async fn preflight(spawner: Spawner) -> Result<(), Stop> {
     // hold the last test's reading.
     let mut reruns = Reruns::new();
     let mut converter = Converter::new(SensorScaling::REFERENCE_BOARD);
-    let (report, day) = loop {
+    let (report, _) = loop {
         let source = BoardSource::begin(
             sequencer,
             BridgeDrive::new(
@@ -591,9 +591,7 @@ async fn preflight(spawner: Spawner) -> Result<(), Stop> {
             store.upgrade_read(len);
         }
         let entry = |newest| {
-            let mut r = tests
-                .reading()
-                .unwrap_or_else(|| test_record(0, &report, day));
+            let mut r = tests.reading();
             r.flight = preflight_flight(None, newest);
             r
         };

@@ -165,7 +165,10 @@ async fn preflight(spawner: Spawner) -> i32 {
         Ok(s) => s,
         Err(status) => return status,
     };
-    let test = source.header().test;
+    // What a test played again must share with this one: its rows, its test design and its
+    // kind (a preflight, not a window of flight).
+    let shape = |h: &shared::trace::TraceHeader| (h.rows, h.test.kind(), h.flight);
+    let first = shape(source.header());
     // The actuator record (a flash sector on the controller; the --actuator file here), or
     // the built-in reference actuator with the test the trace says it played.
     let mut settings = PreflightSettings::ONBOARD;
@@ -215,7 +218,7 @@ async fn preflight(spawner: Spawner) -> i32 {
     // across a test.
     let mut again = command.again_paths();
     let mut source = source;
-    let (report, day) = loop {
+    let (report, called) = loop {
         let checkpoint = command.checkpoint_path().filter(|_| tests.played() == 0);
         let (report, observed, total_cycles, day) =
             match run_preflight(&command, checkpoint, &settings, source, measured, curvature).await
@@ -228,10 +231,10 @@ async fn preflight(spawner: Spawner) -> i32 {
         tests.add(&test_record(0, &report, day));
         let called = tests.called_for(&settings.actuator);
         let Some(path) = again.next().filter(|_| tests.played() < called) else {
-            break (report, day);
+            break (report, called);
         };
         source = match open_trace(path) {
-            Ok(s) if s.header().test == test => s,
+            Ok(s) if shape(s.header()) == first => s,
             Ok(_) => {
                 defmt::error!("--again {=[u8]:a}: another test", path.to_bytes());
                 return status::BAD_TRACE;
@@ -239,7 +242,6 @@ async fn preflight(spawner: Spawner) -> i32 {
             Err(status) => return status,
         };
     };
-    let called = tests.called_for(&settings.actuator);
     if called > 1 {
         defmt::println!(
             "tests called_for={=u32} played={=u32} averaged={=u32}",
@@ -258,7 +260,7 @@ async fn preflight(spawner: Spawner) -> i32 {
             return status::START_UP;
         };
         let entry = |newest| {
-            let mut r = reading.unwrap_or_else(|| test_record(0, &report, day));
+            let mut r = reading;
             r.flight = preflight_flight(command.flight, newest);
             r
         };

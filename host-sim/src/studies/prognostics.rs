@@ -311,13 +311,15 @@ const REPEAT_STREAM: u64 = 0x9e37_79b9_7f4a_7c15;
 /// One record of a preflight whose test was played `readings.len()` times
 /// (`shared::repeat::RepeatedTests`, the controller's).
 pub fn repeated_reading(readings: &[HealthRecord]) -> HealthRecord {
+    let Some(first) = readings.first() else {
+        return HealthRecord::new(0, FaultVector::NOMINAL, 0.0, shared::domain::Domain::Within);
+    };
     let mut tests = shared::repeat::RepeatedTests::EMPTY;
-    for r in readings {
+    tests.add(first);
+    for r in readings.iter().skip(1) {
         tests.add(r);
     }
-    tests.reading().unwrap_or_else(|| {
-        HealthRecord::new(0, FaultVector::NOMINAL, 0.0, shared::domain::Domain::Within)
-    })
+    tests.reading()
 }
 
 /// Simulates the preflight of every flight of `path` (RM trace with I_ref noise `noise`,

@@ -308,24 +308,17 @@ impl ActuatorRecord {
     pub fn tests_called_for(&self, fitness: f32) -> u32 {
         let max = self.max_tests.clamp(1, MAX_TESTS);
         let nominal = self.calibration.nominal_residual;
-        if fitness.is_nan() || fitness <= nominal.max(0.0) {
+        // NaN fails every comparison: one test.
+        if !(fitness > nominal.max(0.0)) {
             return 1;
         }
-        if nominal <= 0.0 {
+        if nominal <= 0.0 || fitness >= max as f32 * nominal {
             return max;
         }
+        // 1 < fitness / nominal < max here: the ratio rounded up.
         let ratio = fitness / nominal;
-        if ratio >= max as f32 {
-            return max;
-        }
-        // 1 < ratio < max here.
         let whole = ratio as u32;
-        let n = if (whole as f32) < ratio {
-            whole + 1
-        } else {
-            whole
-        };
-        n.clamp(1, max)
+        whole + u32::from((whole as f32) < ratio)
     }
 
     /// The record's bytes. Validate first: encoding does not check ranges.

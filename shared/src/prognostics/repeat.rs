@@ -97,16 +97,13 @@ impl RepeatedTests {
         self.trusted
     }
 
-    /// The preflight's record ([`RepeatedTests`]); `None` before the first test.
-    /// O([`FAULT_COUNT`]). Out of line (the controller's flash).
-    #[inline(never)]
-    pub fn reading(&self) -> Option<HealthRecord> {
+    /// The preflight's record ([`RepeatedTests`]); before the first test ([`Self::played`]
+    /// 0) a record of zeros, not a reading. O([`FAULT_COUNT`]). Out of line (the
+    /// controller's flash).
+    pub fn reading(&self) -> HealthRecord {
         let first = self.first;
-        if self.played == 0 {
-            return None;
-        }
         if self.trusted <= 1 {
-            return Some(first);
+            return first;
         }
         let n = self.trusted as f32;
         let mut k = self.sum;
@@ -117,12 +114,10 @@ impl RepeatedTests {
                 *std = crate::base::math::sqrt(*std / n / n);
             }
         }
-        let phase = first.faults.as_array();
-        if let (Some(to), Some(from)) = (
-            k.get_mut(ECCENTRICITY_PHASE_INDEX),
-            phase.get(ECCENTRICITY_PHASE_INDEX),
-        ) {
-            *to = *from;
+        // A constant index within the array, checked when compiling.
+        #[allow(clippy::indexing_slicing)]
+        {
+            k[ECCENTRICITY_PHASE_INDEX] = first.faults.as_array()[ECCENTRICITY_PHASE_INDEX];
         }
         let mut record = HealthRecord::new(
             first.flight,
@@ -134,7 +129,7 @@ impl RepeatedTests {
         .with_day(first.day);
         record.magnet = first.magnet;
         record.fused = u8::try_from(self.trusted).unwrap_or(u8::MAX);
-        Some(record)
+        record
     }
 }
 
@@ -158,25 +153,17 @@ mod tests {
             Domain::Outside(OutsideReason::NoMotion { travel: 0.0 }),
         );
         let mut r = RepeatedTests::EMPTY;
-        assert_eq!(r.reading(), None);
+        assert_eq!((r.played(), r.reading()), (0, HealthRecord::ZEROED));
         r.add(&outside);
-        assert_eq!(
-            r.reading(),
-            Some(outside),
-            "no trusted test: the first as it is"
-        );
+        assert_eq!(r.reading(), outside, "no trusted test: the first as it is");
         let a = record(0.20, 0.02, Domain::Within);
         r.add(&a);
-        assert_eq!(
-            r.reading(),
-            Some(a),
-            "one trusted test: its record as it is"
-        );
+        assert_eq!(r.reading(), a, "one trusted test: its record as it is");
         let b = record(0.24, 0.02, Domain::Within);
         r.add(&b);
         r.add(&outside);
         assert_eq!((r.played(), r.trusted()), (4, 2));
-        let mean = r.reading().expect("a reading");
+        let mean = r.reading();
         assert!((mean.faults.as_array()[0] - 0.22).abs() < 1e-6, "{mean:?}");
         assert_eq!(
             mean.faults.as_array()[ECCENTRICITY_PHASE_INDEX],
