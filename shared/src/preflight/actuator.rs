@@ -308,8 +308,7 @@ impl ActuatorRecord {
     pub fn tests_called_for(&self, fitness: f32) -> u32 {
         let max = self.max_tests.clamp(1, MAX_TESTS);
         let nominal = self.calibration.nominal_residual;
-        // NaN fails every comparison: one test.
-        if !(fitness > nominal.max(0.0)) {
+        if fitness.is_nan() || fitness <= nominal.max(0.0) {
             return 1;
         }
         if nominal <= 0.0 || fitness >= max as f32 * nominal {
