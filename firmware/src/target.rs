@@ -142,7 +142,7 @@ async fn preflight(spawner: Spawner) -> i32 {
         Ok(c) => c,
         Err(e) => {
             defmt::error!(
-                "usage: cargo fw -- TRACE.bin [--actuator RECORD] [--seed N] [--checkpoint FILE [--stop-after N]] [--health FILE [--flight N]] [--window W.bin ...]  (binary trace from `host-sim simulate --format bin`, record from `host-sim actuator`): {}",
+                "usage: cargo fw -- TRACE.bin [--again T.bin ...] [--actuator RECORD] [--seed N] [--checkpoint FILE [--stop-after N]] [--health FILE [--flight N]] [--window W.bin ...]  (binary trace from `host-sim simulate --format bin`, record from `host-sim actuator`): {}",
                 e
             );
             return status::USAGE;
