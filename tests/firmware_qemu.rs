@@ -404,7 +404,7 @@ fn weak_magnet_log() -> Vec<u8> {
 fn a_noisy_preflight_under_qemu_plays_the_tests_its_noise_calls_for_with_the_hosts_mean() {
     use shared::actuator::ActuatorRecord;
     use shared::domain::DomainLimits;
-    use shared::health::{HealthRecord, RecordedDay};
+    use shared::health::HealthRecord;
     use shared::repeat::RepeatedTests;
     let record = ActuatorRecord {
         max_tests: 3,
@@ -431,16 +431,7 @@ fn a_noisy_preflight_under_qemu_plays_the_tests_its_noise_calls_for_with_the_hos
                 &trace.domain_monitor(&record.params),
                 &DomainLimits::REFERENCE_ACTUATOR,
             );
-            host.add(
-                &HealthRecord::new(0, id.result.faults, id.result.fitness, domain)
-                    .with_std(
-                        id.uncertainty
-                            .map_or([f32::NAN; FAULT_COUNT], |(u, _)| u.std),
-                    )
-                    .with_day(RecordedDay::of(&id.conditions))
-                    .with_magnet(&id.result.magnets)
-                    .with_magnet_std(id.magnet_std()),
-            );
+            host.add(&id.health_record(0, domain));
         }
     }
     assert_eq!(

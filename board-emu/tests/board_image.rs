@@ -575,7 +575,6 @@ fn where_its_first_reading_calls_for_more_the_board_plays_its_test_again_and_log
     // (its own coarse sensors, which the reference actuator's calibration does not hold), so
     // the rule calls for a second test; the mean of the two is logged.
     use shared::domain::DomainLimits;
-    use shared::health::RecordedDay;
     use shared::repeat::RepeatedTests;
     let record = ActuatorRecord {
         max_tests: 3,
@@ -616,16 +615,7 @@ fn where_its_first_reading_calls_for_more_the_board_plays_its_test_again_and_log
             &trace.domain_monitor(&record.params),
             &DomainLimits::REFERENCE_ACTUATOR,
         );
-        host.add(
-            &HealthRecord::new(0, id.result.faults, id.result.fitness, domain)
-                .with_std(
-                    id.uncertainty
-                        .map_or([f32::NAN; shared::FAULT_COUNT], |(u, _)| u.std),
-                )
-                .with_day(RecordedDay::of(&id.conditions))
-                .with_magnet(&id.result.magnets)
-                .with_magnet_std(id.magnet_std()),
-        );
+        host.add(&id.health_record(0, domain));
         tests += 1;
     }
     let called = host.called_for(&record);

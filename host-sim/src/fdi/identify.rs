@@ -76,6 +76,25 @@ impl Identified {
 }
 
 impl Identified {
+    /// The health record the controller logs of this reading as flight `flight`, judged
+    /// `domain` (`firmware::health::test_record`'s fields: the vector, fitness, deviations,
+    /// the day, the weak magnet and its deviation).
+    pub fn health_record(
+        &self,
+        flight: u32,
+        domain: shared::domain::Domain,
+    ) -> shared::health::HealthRecord {
+        shared::health::HealthRecord::new(flight, self.result.faults, self.result.fitness, domain)
+            .with_std(
+                self.uncertainty
+                    .as_ref()
+                    .map_or([f32::NAN; FAULT_COUNT], |(u, _)| u.std),
+            )
+            .with_day(shared::health::RecordedDay::of(&self.conditions))
+            .with_magnet(&self.result.magnets)
+            .with_magnet_std(self.magnet_std())
+    }
+
     /// The weak magnet's standard deviation (`shared::uncertainty::depth_deviation`; NaN
     /// without a magnet or an uncertainty).
     pub fn magnet_std(&self) -> f32 {

@@ -16,7 +16,7 @@ use shared::actuator::ActuatorRecord;
 use shared::domain::DomainLimits;
 use shared::fault::{FAULT_COUNT, FAULT_NAMES};
 use shared::fusion::{WindowFusion, FLIGHT_MAX_FRICTION_STD};
-use shared::health::{HealthRecord, RecordedDay};
+use shared::health::HealthRecord;
 use shared::prognosis::{
     trended_value, FaultTrend, Growth, HealthTrend, TrendEstimate, TrendSettings, TREND_COUNT,
     TREND_NAMES, WEAK_MAGNET_TREND,
@@ -379,14 +379,7 @@ pub fn degrade(
                     &trace.domain_monitor(&params),
                     &DomainLimits::REFERENCE_ACTUATOR,
                 );
-                let record = HealthRecord::new(flight, id.result.faults, id.result.fitness, domain)
-                    .with_std(
-                        id.uncertainty
-                            .map_or([f32::NAN; FAULT_COUNT], |(u, _)| u.std),
-                    )
-                    .with_day(RecordedDay::of(&id.conditions))
-                    .with_magnet(&id.result.magnets)
-                    .with_magnet_std(id.magnet_std());
+                let record = id.health_record(flight, domain);
                 Ok((id, domain, record))
             };
             let (id, domain, mut record) = test(&model, rm_seed)?;
@@ -2124,7 +2117,7 @@ mod tests {
             HealthRecord::new(7, FaultVector::new(k).unwrap(), 0.01, domain)
                 .with_std([sd; FAULT_COUNT])
         };
-        let day = RecordedDay::new(Some(270.0), Some(20.0), None);
+        let day = shared::health::RecordedDay::new(Some(270.0), Some(20.0), None);
         let first = reading(0.20, 0.3, 0.02, Domain::Within).with_day(day);
         let outside = reading(
             0.90,
