@@ -161,6 +161,13 @@ enum Command {
         /// docs/in-flight.md). Without it the window reads the shorts itself.
         #[arg(long, value_name = "PREFLIGHT")]
         preflight: Option<PathBuf>,
+        /// With a preflight: the same test played again (its noise drawn anew), repeatable.
+        /// As the controller: read only where the first test's noise calls for more
+        /// (⌈fitness / the calibration's nominal residual⌉, at most the actuator's `[test]
+        /// max_tests`), and the mean of the trusted readings given as the record the
+        /// controller logs (docs/preflight.md, "Repeated tests").
+        #[arg(long, value_name = "TRACE")]
+        again: Vec<PathBuf>,
         /// Calibration file from `calibrate` (default: the built-in calibration against this
         /// project's reference model).
         #[arg(long)]
@@ -739,6 +746,7 @@ fn main() -> ExitCode {
             trace,
             same_flight,
             preflight,
+            again,
             calibration,
             seed,
             truth,
@@ -758,6 +766,7 @@ fn main() -> ExitCode {
                 &FlightFiles {
                     same_flight: &same_flight,
                     preflight: preflight.as_deref(),
+                    again: &again,
                 },
                 calibration.as_deref(),
                 seed,

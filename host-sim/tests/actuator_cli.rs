@@ -127,3 +127,91 @@ fn a_bad_description_is_refused_with_its_key_and_line() {
     ]);
     assert_eq!(o.status.code(), Some(7), "{}", text(&o));
 }
+
+/// A preflight's test played again (`identify --again`), as the controller reads it: only
+/// where the first test's noise calls for more, at most the file's `[test] max_tests`, the
+/// mean of the trusted readings given; a trace of another test is refused.
+#[test]
+fn identify_reads_the_tests_played_again_that_the_noise_calls_for() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    for (seed, name) in [("21", "t0.bin"), ("22", "t1.bin"), ("23", "t2.bin")] {
+        let o = host_sim(&[
+            "simulate",
+            "--faults",
+            "0.2,0,0,0,0,0,0.5,0.5,0",
+            "--noise",
+            "0.5",
+            "--seed",
+            seed,
+            "--format",
+            "bin",
+            "--out",
+            &path(name),
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+    }
+    let reference = std::fs::read_to_string(example("reference.toml")).unwrap();
+    let two = reference.replace("# max_tests = 4", "max_tests = 2");
+    std::fs::write(path("two.toml"), two).unwrap();
+    let identify = |actuator: &str| {
+        let o = host_sim(&[
+            "identify",
+            &path("t0.bin"),
+            "--actuator",
+            actuator,
+            "--again",
+            &path("t1.bin"),
+            "--again",
+            &path("t2.bin"),
+            "--json",
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+        serde_json::from_slice::<serde_json::Value>(&o.stdout).unwrap()
+    };
+    // Two allowed: the noise (fitness ≈ 0.06 over a nominal residual of 0.014) calls for
+    // more, so the second trace is read and the third left.
+    let j = identify(&path("two.toml"));
+    let r = &j["repeated"];
+    assert_eq!(r["called_for"], 2, "{j}");
+    assert_eq!(
+        (r["played"].as_u64(), r["averaged"].as_u64()),
+        (Some(2), Some(2))
+    );
+    let first = j["faults"][0].as_f64().unwrap();
+    let mean = r["faults"][0].as_f64().unwrap();
+    assert_ne!(first, mean, "the mean is not the first test's reading");
+    assert!((mean - 0.2).abs() < 0.06, "{j}");
+    let (sd, mean_sd) = (j["std"][0].as_f64().unwrap(), r["std"][0].as_f64().unwrap());
+    assert!(
+        mean_sd < sd,
+        "two tests' deviation {mean_sd} against one's {sd}"
+    );
+    // The reference actuator's file allows one test: nothing else is read.
+    let j = identify(example("reference.toml").to_str().unwrap());
+    assert_eq!(j["repeated"]["played"], 1, "{j}");
+    // A trace of another test design is refused, named (the actuator's test is the
+    // injection's).
+    let o = host_sim(&[
+        "simulate",
+        "--faults",
+        "0.2,0,0,0,0,0,0.5,0.5,0",
+        "--test",
+        "paper",
+        "--format",
+        "bin",
+        "--out",
+        &path("paper.bin"),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let o = host_sim(&[
+        "identify",
+        &path("t0.bin"),
+        "--actuator",
+        &path("two.toml"),
+        "--again",
+        &path("paper.bin"),
+    ]);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("played the paper test"), "{}", text(&o));
+}

@@ -122,6 +122,7 @@ pub(crate) fn report(
     heading: &[(String, String)],
     json: bool,
     threshold: f32,
+    repeated: Option<&Repeated>,
 ) {
     let magnets = id.result.magnets;
     let found = id.result.faults;
@@ -172,6 +173,19 @@ pub(crate) fn report(
         }
         for (k, v) in heading {
             obj[k.as_str()] = json!(v);
+        }
+        if let Some(r) = repeated {
+            let mean = r.tests.reading();
+            let finite = |x: Option<f32>| x.filter(|v| v.is_finite());
+            obj["repeated"] = json!({
+                "called_for": r.called_for,
+                "played": r.tests.played(),
+                "averaged": r.tests.trusted(),
+                "faults": mean.faults.as_array(),
+                "std": (0..FAULT_COUNT).map(|i| finite(mean.std.get(i))).collect::<Vec<_>>(),
+                "fitness": mean.fitness,
+                "domain": mean.domain.name(),
+            });
         }
         let c = &id.conditions;
         obj["conditions"] = json!({
@@ -266,6 +280,37 @@ pub(crate) fn report(
         id.result.evaluations, id.result.stop_reason
     );
     println!("seconds       {:.3}", id.seconds);
+    if let Some(r) = repeated {
+        repeated_text(r);
+    }
+}
+
+/// The table's lines of a preflight's repeated tests: how many, and their mean record.
+fn repeated_text(r: &Repeated) {
+    let mean = r.tests.reading();
+    println!();
+    println!(
+        "tests         the first's noise calls for {} (⌈fitness / nominal residual⌉, at most \
+         [test] max_tests); {} read, {} within and averaged",
+        r.called_for,
+        r.tests.played(),
+        r.tests.trusted()
+    );
+    if r.tests.trusted() < 2 {
+        return;
+    }
+    println!("{:<15} {:>8} {:>8}", "mean of tests", "value", "std");
+    for (i, name) in FAULT_NAMES.iter().enumerate() {
+        let std = mean
+            .std
+            .get(i)
+            .map_or("-".to_string(), |s| format!("{s:.4}"));
+        println!("{name:<15} {:>8.4} {std:>8}", mean.faults.as_array()[i]);
+    }
+    println!(
+        "(the record the controller logs: deviations over √n; fitness {:.4e})",
+        mean.fitness
+    );
 }
 
 /// The day the FDI estimated, in one line.
@@ -290,10 +335,19 @@ pub(crate) fn conditions_text(c: &shared::conditions::TestConditions) -> String 
     )
 }
 
-/// The other files of a window's flight: further windows, and its preflight.
+/// The other traces of a flight: a window's further windows and its preflight, or a
+/// preflight's test played again.
 pub(crate) struct FlightFiles<'a> {
     pub same_flight: &'a [std::path::PathBuf],
     pub preflight: Option<&'a Path>,
+    pub again: &'a [std::path::PathBuf],
+}
+
+/// A preflight's tests played again where its noise called for them
+/// (`shared::repeat::RepeatedTests`): how many, and the record their mean makes.
+pub(crate) struct Repeated {
+    pub called_for: u32,
+    pub tests: shared::repeat::RepeatedTests,
 }
 
 /// The components the windows of a flight hold: the stator shorts and the demagnetization
@@ -415,6 +469,12 @@ pub(crate) fn identify_command(
                 Ok((path.display().to_string(), other))
             })
             .collect::<Result<Vec<_>>>()?;
+        if !files.again.is_empty() {
+            anyhow::bail!(
+                "--again: {} is a window of flight; only a preflight's test is played again",
+                trace_path.display()
+            );
+        }
         let held = held_from_preflight(actuator, files.preflight, seed)?;
         return window_report(
             actuator,
@@ -477,6 +537,16 @@ pub(crate) fn identify_command(
     let domain = id.domain(&trace.domain_monitor(&record.params), &record.domain);
     let (line, verdict) = domain_heading(domain);
     heading.push(line);
+    let repeated = repeated_tests(
+        actuator,
+        &trace,
+        &id,
+        domain,
+        files.again,
+        &record,
+        seed,
+        json,
+    )?;
     if let Domain::Outside(
         shared::domain::OutsideReason::FitnessFloor { .. }
         | shared::domain::OutsideReason::InstallationChanged { .. },
@@ -513,8 +583,47 @@ pub(crate) fn identify_command(
         &heading,
         json,
         record.detection_threshold,
+        repeated.as_ref(),
     );
     verdict
+}
+
+/// The `--again` traces a preflight's first reading `first` (judged `domain`) calls for, read
+/// as the controller reads them; `None` without `--again`. Each must be the first trace's
+/// test: its rows, design and kind.
+#[allow(clippy::too_many_arguments)]
+fn repeated_tests(
+    actuator: &Actuator,
+    trace: &Trace,
+    first: &Identified,
+    domain: Domain,
+    again: &[std::path::PathBuf],
+    record: &ActuatorRecord,
+    seed: u64,
+    json: bool,
+) -> Result<Option<Repeated>> {
+    if again.is_empty() {
+        return Ok(None);
+    }
+    let mut tests = shared::repeat::RepeatedTests::EMPTY;
+    tests.add(&first.health_record(0, domain));
+    let called_for = tests.called_for(record);
+    let shape = |t: &Trace| (t.samples().len(), t.test().kind(), t.is_flight());
+    for path in again.iter().take(called_for.saturating_sub(1) as usize) {
+        let other = actuator.read_trace(path)?;
+        if shape(&other) != shape(trace) {
+            anyhow::bail!(
+                "--again {}: not the same test as the first trace (its rows, test design or \
+                 kind differ)",
+                path.display()
+            );
+        }
+        let measured = other.measured(&record.params)?;
+        let id = identify_for(&measured, record, seed, progress_wanted(json))?;
+        let domain = id.domain(&other.domain_monitor(&record.params), &record.domain);
+        tests.add(&id.health_record(0, domain));
+    }
+    Ok(Some(Repeated { called_for, tests }))
 }
 
 /// What would bring a flight's reading named `outside` within: for its friction deviation,

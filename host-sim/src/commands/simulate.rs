@@ -189,6 +189,7 @@ pub(crate) fn preflight(
         &heading,
         json,
         record.detection_threshold,
+        None,
     );
     verdict
 }
