@@ -333,7 +333,8 @@ pub fn repeated_reading(readings: &[HealthRecord]) -> HealthRecord {
 /// `FLIGHT_READING`; none when no window entered). With `repeat` > 1 a preflight whose
 /// first test is trusted plays as many tests as its noise calls for, at most `repeat`
 /// (`ActuatorRecord::tests_called_for`; the I_ref noise drawn anew each time, an intrusion
-/// spoiling the first only), and its record is their readings' mean ([`repeated_reading`]). Rows in
+/// spoiling the first only), its record is their readings' mean ([`repeated_reading`]), and
+/// its windows hold the last test's reading. Rows in
 /// (flight, window) order. `tick` is called after each flight.
 pub fn degrade(
     path: &DegradationPath,
@@ -382,7 +383,7 @@ pub fn degrade(
                 let record = id.health_record(flight, domain);
                 Ok((id, domain, record))
             };
-            let (id, domain, mut record) = test(&model, rm_seed)?;
+            let (mut id, mut domain, mut record) = test(&model, rm_seed)?;
             // As the controller: the tests the first one's noise calls for, at most `repeat`.
             let mut first = shared::repeat::RepeatedTests::EMPTY;
             first.add(&record);
@@ -394,7 +395,10 @@ pub fn degrade(
                 let mut readings = vec![record];
                 for j in 1..u64::from(tests) {
                     let again = rm_seed.wrapping_add(REPEAT_STREAM.wrapping_mul(j));
-                    readings.push(test(&rm, again)?.2);
+                    let (last, last_domain, reading) = test(&rm, again)?;
+                    readings.push(reading);
+                    // The windows hold the last test's reading, as the controller's do.
+                    (id, domain) = (last, last_domain);
                 }
                 record = repeated_reading(&readings);
             }
