@@ -20,6 +20,11 @@
 //!   measured test, and the board re-runs the test after a power cut (the 22 kB measurement is
 //!   not kept in flash).
 //!
+//! - Tests: a test a gust spoiled is played again (`Reruns`), and where a trusted first
+//!   test's noise calls for more (`ActuatorRecord::tests_called_for`, at most the record's
+//!   `max_tests`) so is the test, each reading added to the health record's mean
+//!   (`shared::repeat::RepeatedTests`, kept beside the uncertainty runs).
+//!
 //! Work per executor turn: one preflight poll (during the test: the frames due, each O(1)
 //! with one sequencer tick; then ≤ `evaluations_per_poll` evaluations) and one heartbeat.
 //! The test's frames must be taken within one control period of their trigger: an overrun
