@@ -76,9 +76,10 @@ impl RepeatedTests {
         self.fitness += record.fitness;
     }
 
-    /// The tests this preflight's noise calls for, `actuator` its record: its first test's
-    /// call when that test is trusted ([`ActuatorRecord::tests_called_for`]), else one (a
-    /// test outside the monitor model's domain is not repeated). O(1).
+    /// The tests this preflight's noise calls for, `actuator` its record: the call of its
+    /// first trusted test ([`ActuatorRecord::tests_called_for`]), one before any (a first
+    /// test outside the monitor model's domain is not repeated: the controllers stop there).
+    /// O(1).
     pub fn called_for(&self, actuator: &ActuatorRecord) -> u32 {
         if self.trusted == 0 {
             1
@@ -98,8 +99,7 @@ impl RepeatedTests {
     }
 
     /// The preflight's record ([`RepeatedTests`]); before the first test ([`Self::played`]
-    /// 0) a record of zeros, not a reading. O([`FAULT_COUNT`]). Out of line (the
-    /// controller's flash).
+    /// 0) a record of zeros, not a reading. O([`FAULT_COUNT`]).
     pub fn reading(&self) -> HealthRecord {
         let first = self.first;
         if self.trusted <= 1 {
